@@ -1,0 +1,62 @@
+// hapticopt cost: stability and the criteria C_E0, C_E1, C_E2, C_OV at one gain pair.
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include <hapticopt/energy_costs.hpp>
+#include <hapticopt/overshoot.hpp>
+#include <hapticopt/stability.hpp>
+
+#include "cli_output.hpp"
+#include "commands.hpp"
+
+namespace hapticopt::cli {
+
+CommandRunner add_cost_command(CLI::App& app) {
+  struct Args {
+    double alpha = 0, beta = 0, tolerance = 1e-12;
+    PlantOptions plant;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand("cost", "stability and step-response criteria at (alpha, beta)");
+  sub->add_option("--alpha", args->alpha, "normalised wall stiffness K T^2/m")->required();
+  sub->add_option("--beta", args->beta, "normalised wall damping B T/m")->required();
+  args->plant.add_to(*sub);
+  sub->add_option("--overshoot-tol", args->tolerance, "relative overshoot counted as none, (0, 1]")
+      ->capture_default_str();
+  sub->add_flag("--json", args->json, "print one JSON object");
+  return [args]() {
+    const NormalizedPlant plant = args->plant.normalized();
+    const NormalizedGains gains{args->alpha, args->beta};
+    const StabilityReport report = stability(plant, gains);
+    const EnergyCosts costs = energy_costs(plant, gains);
+    OvershootOptions options;
+    options.tolerance = args->tolerance;
+    const OvershootResult ov = overshoot(plant, gains, options);
+    if (args->json) {
+      nlohmann::json out;
+      out["stable"] = report.stable;
+      out["CE0"] = number_or_null(costs.ce0);
+      out["CE1"] = number_or_null(costs.ce1);
+      out["CE2"] = number_or_null(costs.ce2);
+      out["OV"] = number_or_null(ov.value);
+      out["no_overshoot"] = report.stable ? nlohmann::json(ov.within_tolerance) : nlohmann::json(nullptr);
+      out["spectral_radius"] = report.spectral_radius;
+      std::cout << out.dump() << '\n';
+      return int{kOk};
+    }
+    std::printf("alpha %.10g  beta %.10g  gamma %.10g  delta %.10g  d %.10g\n", gains.alpha, gains.beta,
+                plant.gamma, plant.delta, plant.delay);
+    std::printf("stable           %s (spectral radius %.12f)\n", report.stable ? "yes" : "no",
+                report.spectral_radius);
+    if (!report.stable) return int{kOk};
+    std::printf("C_E0             %.12g\nC_E1             %.12g\nC_E2             %.12g\n", costs.ce0, costs.ce1,
+                costs.ce2);
+    std::printf("C_OV             %.6g%s\n", ov.value,
+                ov.within_tolerance ? "  (no overshoot within tolerance)" : "");
+    return int{kOk};
+  };
+}
+
+}  // namespace hapticopt::cli

@@ -1,0 +1,62 @@
+// The optimisation criteria of Tables III and IV (model notes, "Optimal curves and points").
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string_view>
+
+namespace hapticopt {
+
+enum class Criterion {
+  AlphaMax,   ///< "amax": largest stable alpha and its beta
+  Overshoot,  ///< "OV": largest alpha for which some beta gives no overshoot
+  CE0,        ///< "CE0": global minimum of C_E0 (eq. 6)
+  CE1,        ///< "CE1": eq. 7
+  CE2,        ///< "CE2": eq. 8
+  CE0_OV,     ///< "CE0+OV": largest alpha on the C_E0 optimal curve without overshoot
+  CE1_OV,     ///< "CE1+OV"
+  CE2_OV,     ///< "CE2+OV"
+};
+
+inline constexpr std::array<Criterion, 8> kAllCriteria = {
+    Criterion::AlphaMax, Criterion::Overshoot, Criterion::CE0,    Criterion::CE1,
+    Criterion::CE2,      Criterion::CE0_OV,    Criterion::CE1_OV, Criterion::CE2_OV};
+
+inline constexpr std::string_view to_string(Criterion c) {
+  switch (c) {
+    case Criterion::AlphaMax: return "amax";
+    case Criterion::Overshoot: return "OV";
+    case Criterion::CE0: return "CE0";
+    case Criterion::CE1: return "CE1";
+    case Criterion::CE2: return "CE2";
+    case Criterion::CE0_OV: return "CE0+OV";
+    case Criterion::CE1_OV: return "CE1+OV";
+    case Criterion::CE2_OV: return "CE2+OV";
+  }
+  return "?";
+}
+
+/// Parses the names printed by to_string (exact, case-sensitive).
+inline std::optional<Criterion> parse_criterion(std::string_view name) {
+  for (const Criterion c : kAllCriteria) {
+    if (to_string(c) == name) return c;
+  }
+  return std::nullopt;
+}
+
+/// The energy criterion index 0, 1, 2 behind CEx and CEx+OV; nullopt for amax and OV.
+inline constexpr std::optional<int> energy_index(Criterion c) {
+  switch (c) {
+    case Criterion::CE0: case Criterion::CE0_OV: return 0;
+    case Criterion::CE1: case Criterion::CE1_OV: return 1;
+    case Criterion::CE2: case Criterion::CE2_OV: return 2;
+    default: return std::nullopt;
+  }
+}
+
+inline constexpr bool requires_no_overshoot(Criterion c) {
+  return c == Criterion::Overshoot || c == Criterion::CE0_OV || c == Criterion::CE1_OV ||
+         c == Criterion::CE2_OV;
+}
+
+}  // namespace hapticopt

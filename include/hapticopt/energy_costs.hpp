@@ -1,0 +1,104 @@
+// The energy criteria C_E0, C_E1, C_E2 of the unit step response (Hulin et al. 2011, eqs. 4-8),
+// in closed form: exact integrals within each period and exact infinite sums over periods.
+//
+//   E(t) = 1/2 (alpha + gamma) (x(t) - x_inf)^2 + 1/2 x'(t)^2,   E(0) = 1 / (2 (alpha + gamma)),
+//   C_Ep = (1 / E(0)) integral_0^inf t^p E(t) dt   (normalised units, T = 1).
+//
+// Within period j the energy is a quadratic form of the loop state e_j: on segment s (start s0,
+// length h), E(j + s0 + tau) = 1/2 xi^T Qe(tau) xi with xi = R_s e_j, so
+//   integral over period j of (j + tau)^p E = sum_q C(p,q) j^(p-q) e_j^T W_q e_j,
+//   W_q = 1/2 sum_s R_s^T [ sum_r C(q,r) s0^(q-r) Z_r(h) ] R_s      (Z_r: exponential_integrals.hpp).
+// The sums over j >= 0 are traces against G_p = sum_j j^p e_j e_j^T, which solve the Stein equations
+//   G_0 = M G_0 M^T + e_0 e_0^T,   G_1 = M G_1 M^T + M G_0 M^T,   G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T
+// (subtract the shifted sums). They are solved on M's Schur form (stein_equation.hpp), so the
+// result is exact up to rounding: no time-stepping, no truncated horizon.
+//
+// Accuracy (measured against the same algorithm in long double and against time-stepping with
+// quadrature, tests/core/energy_costs_test.cpp): relative error <= 1e-10 for spectral radius
+// rho <= 0.999, and <= 1e-13 / (1 - rho)^2 closer to the boundary. Unstable loops: +infinity.
+// Cost: one complex Schur decomposition of the (ceil(d)+3)-square loop matrix plus three
+// triangular solves, O(N^3).
+#pragma once
+
+#include <limits>
+
+#include "loop_schur_form.hpp"
+
+namespace hapticopt {
+
+template <typename Scalar>
+struct EnergyCostsT {
+  Scalar ce0;  ///< eq. 6
+  Scalar ce1;  ///< eq. 7
+  Scalar ce2;  ///< eq. 8
+};
+using EnergyCosts = EnergyCostsT<double>;
+
+namespace detail {
+
+/// Real part of tr(W Y) for symmetric W and Hermitian Y.
+template <typename Scalar>
+Scalar trace_product(const Matrix3<Scalar>& w, const Eigen::Matrix<std::complex<Scalar>, 3, 3>& y) {
+  return (w.cwiseProduct(y.real().transpose())).sum();
+}
+
+/// The three C_Ep given the loop and its Schur form (the loop must be stable).
+template <typename Scalar>
+EnergyCostsT<Scalar> energy_costs_from_schur(const SampledPlant<Scalar>& plant,
+                                             const ClosedLoop<Scalar>& loop,
+                                             const LoopSchurForm<Scalar>& schur) {
+  using Complex3N = Eigen::Matrix<std::complex<Scalar>, 3, Eigen::Dynamic>;
+  using Complex33 = Eigen::Matrix<std::complex<Scalar>, 3, 3>;
+  const auto& t = schur.t;
+  const auto& u = schur.u;
+  const ComplexVector<Scalar> c = u.adjoint() * loop.initial_state.template cast<std::complex<Scalar>>();
+  const ComplexMatrix<Scalar> x0 = solve_triangular_stein<Scalar>(t, c * c.adjoint());
+  const ComplexMatrix<Scalar> shifted = t * x0 * t.adjoint();
+  const ComplexMatrix<Scalar> x1 = solve_triangular_stein<Scalar>(t, shifted);
+  const ComplexMatrix<Scalar> x2 = solve_triangular_stein<Scalar>(t, Scalar(2) * x1 - shifted);
+
+  Scalar j0 = 0, j1 = 0, j2 = 0;
+  for (int s = 0; s < plant.segment_count(); ++s) {
+    const auto& seg = plant.segment(s);
+    const Complex3N b = loop.segment_map[static_cast<std::size_t>(s)].template cast<std::complex<Scalar>>() * u;
+    const Complex33 y0 = b * x0 * b.adjoint();
+    const Complex33 y1 = b * x1 * b.adjoint();
+    const Complex33 y2 = b * x2 * b.adjoint();
+    std::array<Matrix3<Scalar>, 3> z;  // local-time Gramians of the energy
+    for (std::size_t r = 0; r < 3; ++r) {
+      z[r] = loop.total_stiffness * seg.position_gramian[r] + seg.velocity_gramian[r];
+    }
+    const Scalar s0 = seg.start;
+    const Matrix3<Scalar> w0 = z[0];
+    const Matrix3<Scalar> w1 = z[1] + s0 * z[0];
+    const Matrix3<Scalar> w2 = z[2] + Scalar(2) * s0 * z[1] + s0 * s0 * z[0];
+    j0 += trace_product(w0, y0);
+    j1 += trace_product(w0, y1) + trace_product(w1, y0);
+    j2 += trace_product(w0, y2) + Scalar(2) * trace_product(w1, y1) + trace_product(w2, y0);
+  }
+  // C_Ep = J_p / E(0) with J_p carrying the factor 1/2 of the energy: (1/2) J / (1/(2 k)) = k J.
+  const Scalar k = loop.total_stiffness;
+  return EnergyCostsT<Scalar>{k * j0, k * j1, k * j2};
+}
+
+}  // namespace detail
+
+/// C_E0, C_E1, C_E2 for the precomputed plant and gains (alpha, beta); +infinity when unstable.
+template <typename Scalar>
+EnergyCostsT<Scalar> energy_costs(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
+  const Scalar inf = std::numeric_limits<Scalar>::infinity();
+  if (!loop_is_stable(plant, alpha, beta)) return {inf, inf, inf};
+  const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);
+  const LoopSchurForm<Scalar> schur = loop_schur_form(loop.transition);
+  if (!(schur.spectral_radius < Scalar(1))) return {inf, inf, inf};
+  return detail::energy_costs_from_schur(plant, loop, schur);
+}
+
+/// Convenience: C_E0..2 at (gamma, delta, d) and (alpha, beta). Throws InvalidParameter for NaN or
+/// infinite gains and for invalid plant parameters.
+inline EnergyCosts energy_costs(const NormalizedPlant& plant, const NormalizedGains& gains) {
+  validate(gains, "hapticopt::energy_costs");
+  return energy_costs(SampledPlant<double>(plant), gains.alpha, gains.beta);
+}
+
+}  // namespace hapticopt

@@ -1,0 +1,41 @@
+// The complex Schur form of the loop transition M = U T U^H, shared by the energy costs and
+// the overshoot bound, plus the stability verdict that gates both.
+#pragma once
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+#include "characteristic_polynomial.hpp"
+#include "closed_loop.hpp"
+#include "schur_cohn.hpp"
+#include "stein_equation.hpp"
+
+namespace hapticopt {
+
+template <typename Scalar>
+struct LoopSchurForm {
+  ComplexMatrix<Scalar> t;  ///< upper triangular, eigenvalues of M on the diagonal
+  ComplexMatrix<Scalar> u;  ///< unitary
+  Scalar spectral_radius = 0;
+};
+
+template <typename Scalar>
+LoopSchurForm<Scalar> loop_schur_form(const DynamicMatrix<Scalar>& m) {
+  Eigen::ComplexSchur<DynamicMatrix<Scalar>> schur(m);
+  LoopSchurForm<Scalar> form;
+  form.t = schur.matrixT();
+  form.u = schur.matrixU();
+  form.spectral_radius = form.t.diagonal().cwiseAbs().maxCoeff();
+  return form;
+}
+
+/// Stable iff alpha + gamma > 0, the Schur-Cohn test passes on p(z), and every computed
+/// eigenvalue of M has modulus < 1 (the last guards the closed forms against a rounding
+/// disagreement within ~1e-15 of the boundary).
+template <typename Scalar>
+bool loop_is_stable(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
+  if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return false;
+  return schur_cohn<Scalar>(characteristic_polynomial(plant).at(alpha, beta)).stable;
+}
+
+}  // namespace hapticopt

@@ -1,0 +1,52 @@
+// Schur stability of a real polynomial by the Schur-Cohn (Jury) recursion.
+//
+// For p(z) = sum_i a_i z^i of degree n with a_n != 0, let k = a_0 / a_n (reflection coefficient)
+// and r(z) = (p(z) - k z^n p(1/z)) / z, of degree n - 1. Schur-Cohn theorem: all roots of p lie
+// strictly inside the unit circle iff |k| < 1 and all roots of r do (E. I. Jury, "Theory and
+// Application of the z-Transform Method", 1964; the same recursion as Levinson-Durbin).
+// The verdict is exact for the given coefficients; `margin` = min_i (1 - |k_i|) is zero exactly on
+// the boundary (a root on the unit circle), so it measures how far inside the test decided.
+// Cost: n^2 flops.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <limits>
+
+namespace hapticopt {
+
+template <typename Scalar>
+struct SchurCohnResult {
+  bool stable = false;  ///< every root strictly inside the unit circle
+  Scalar margin = 0;    ///< min (1 - |k_i|) over the recursion; <= 0 when unstable
+};
+
+/// `coefficients` ascending (a_0 first); the leading one must be non-zero.
+template <typename Scalar>
+SchurCohnResult<Scalar> schur_cohn(Eigen::Matrix<Scalar, Eigen::Dynamic, 1> a) {
+  using std::abs;
+  SchurCohnResult<Scalar> result;
+  result.margin = Scalar(1);
+  for (Eigen::Index n = a.size() - 1; n > 0; --n) {
+    const Scalar lead = a(n);
+    if (!(std::isfinite(static_cast<double>(lead))) || lead == Scalar(0)) {
+      result.margin = Scalar(0);
+      return result;  // degenerate: not provably stable
+    }
+    a.head(n + 1) /= lead;
+    const Scalar k = a(0);
+    const Scalar m = Scalar(1) - abs(k);
+    if (!(m > Scalar(0))) {  // also catches NaN
+      result.margin = m == m ? m : Scalar(0);
+      return result;
+    }
+    if (m < result.margin) result.margin = m;
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1> r(n);
+    for (Eigen::Index i = 0; i < n; ++i) r(i) = a(i + 1) - k * a(n - 1 - i);
+    a.head(n) = r;
+  }
+  result.stable = true;
+  return result;
+}
+
+}  // namespace hapticopt

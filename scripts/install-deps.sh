@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Install the Debian 12 packages needed to build and test hapticopt/hapticd.
+# Idempotent: if everything is already installed it returns immediately
+# without touching apt (no `apt-get update`, no network).
+set -euo pipefail
+
+PACKAGES=(
+  build-essential
+  cmake
+  ninja-build
+  pkg-config
+  libeigen3-dev
+  libcli11-dev
+  libgtest-dev
+  libgmock-dev
+  libbenchmark-dev
+  nlohmann-json3-dev
+  libusb-1.0-0-dev
+  libhidapi-dev
+)
+
+missing=()
+for pkg in "${PACKAGES[@]}"; do
+  status=$(dpkg-query -W -f='${db:Status-Status}' "$pkg" 2>/dev/null || true)
+  if [[ "$status" != "installed" ]]; then
+    missing+=("$pkg")
+  fi
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=()
+if [[ $(id -u) -ne 0 ]]; then
+  if ! command -v sudo >/dev/null 2>&1; then
+    echo "install-deps: need root (or sudo) to install: ${missing[*]}" >&2
+    exit 1
+  fi
+  SUDO=(sudo)
+fi
+
+echo "install-deps: installing ${missing[*]}"
+log=$(mktemp "${TMPDIR:-/tmp}/hapticopt-install-deps.XXXXXX.log")
+run() {
+  if ! "${SUDO[@]}" env DEBIAN_FRONTEND=noninteractive "$@" >>"$log" 2>&1; then
+    echo "install-deps: '$*' failed; log follows:" >&2
+    cat "$log" >&2
+    rm -f "$log"
+    exit 1
+  fi
+}
+run apt-get update -qq
+run apt-get install -y -qq --no-install-recommends -o Dpkg::Use-Pty=0 "${missing[@]}"
+rm -f "$log"
+echo "install-deps: done"

@@ -1,0 +1,76 @@
+// Speed of the closed forms and the optimisers (issues 2 and 3). Run:
+//   build/release/tests/benchmarks/hapticopt_benchmarks --benchmark_min_time=0.2
+// Figures go in the README with the machine they were measured on.
+#include <benchmark/benchmark.h>
+
+#include <hapticopt/hapticopt.hpp>
+
+namespace {
+
+using namespace hapticopt;
+
+// Gains near the CE2 optimum of each delay (Table III/IV; 0.6x alpha_max for larger d).
+NormalizedGains gains_for(double d) {
+  if (d == 0) return {0.2474, 0.7445};
+  if (d == 1) return {0.0582, 0.3796};
+  return {0.006, 0.09};  // d = 6: inside the region, alpha_max = 0.01126
+}
+
+void BM_EnergyCosts(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(0));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const NormalizedGains g = gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(energy_costs(plant, g.alpha, g.beta));
+}
+BENCHMARK(BM_EnergyCosts)->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
+
+void BM_EnergyCostsIncludingPlantSetup(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(0));
+  const NormalizedGains g = gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(energy_costs(NormalizedPlant{0.001, 0.02, d}, g));
+}
+BENCHMARK(BM_EnergyCostsIncludingPlantSetup)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+void BM_Overshoot(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(0));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const NormalizedGains g = gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(overshoot(plant, g.alpha, g.beta));
+}
+BENCHMARK(BM_Overshoot)->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
+
+void BM_StabilityTest(benchmark::State& state) {
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, 1});
+  for (auto _ : state) benchmark::DoNotOptimize(loop_is_stable(plant, 0.0582, 0.3796));
+}
+BENCHMARK(BM_StabilityTest)->Unit(benchmark::kMicrosecond);
+
+void BM_Optimum(benchmark::State& state) {
+  const auto c = static_cast<Criterion>(state.range(0));
+  const double d = static_cast<double>(state.range(1));
+  for (auto _ : state) benchmark::DoNotOptimize(optimal_point(c, NormalizedPlant{0, 0, d}));
+}
+BENCHMARK(BM_Optimum)
+    ->Args({static_cast<int>(Criterion::CE2), 1})
+    ->Args({static_cast<int>(Criterion::CE2), 6})
+    ->Args({static_cast<int>(Criterion::CE2_OV), 1})
+    ->Args({static_cast<int>(Criterion::Overshoot), 1})
+    ->Unit(benchmark::kMillisecond);
+
+void BM_AllTableRows(benchmark::State& state) {
+  for (auto _ : state) {
+    for (double d : {0.0, 1.0}) {
+      for (double gamma : {0.0, 0.001}) {
+        for (double delta : {0.0, 0.02}) {
+          const WallOptimizer opt(NormalizedPlant{gamma, delta, d});
+          for (const Criterion c : kAllCriteria) benchmark::DoNotOptimize(opt.optimum(c));
+        }
+      }
+    }
+  }
+}
+BENCHMARK(BM_AllTableRows)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace
+
+BENCHMARK_MAIN();
