@@ -32,9 +32,9 @@ struct ExponentialIntegrals {
   std::array<Matrix3<Scalar>, 3> gramian;  ///< Z_0(h), Z_1(h), Z_2(h)
 };
 
-/// exp(A h) and Z_p(h), p = 0..2, for symmetric Q; h >= 0. Accurate to a few ulps of the
-/// result for ||A|| h up to ~10 (the doubling steps multiply by exp(A h0), whose norm stays
-/// near 1 for the loops analysed here).
+/// exp(A h) and Z_p(h), p = 0..2, for symmetric Q; h >= 0. The end-to-end accuracy of the costs
+/// built on it is measured in tests/core/energy_costs_test.cpp (long double and time-stepping
+/// references); the doubling steps multiply by exp(A h0), whose norm stays near 1 here.
 template <typename Scalar>
 ExponentialIntegrals<Scalar> exponential_integrals(const Matrix3<Scalar>& A,
                                                    const Matrix3<Scalar>& Q, Scalar h) {

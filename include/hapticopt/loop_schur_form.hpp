@@ -29,9 +29,9 @@ LoopSchurForm<Scalar> loop_schur_form(const DynamicMatrix<Scalar>& m) {
   return form;
 }
 
-/// Stable iff alpha + gamma > 0, the Schur-Cohn test passes on p(z), and every computed
-/// eigenvalue of M has modulus < 1 (the last guards the closed forms against a rounding
-/// disagreement within ~1e-15 of the boundary).
+/// Stable iff alpha + gamma > 0 and the Schur-Cohn test passes on p(z). The closed forms
+/// additionally require every computed eigenvalue of M to have modulus < 1 (checked by their
+/// callers), which guards against a rounding disagreement right at the boundary.
 template <typename Scalar>
 bool loop_is_stable(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
   if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return false;

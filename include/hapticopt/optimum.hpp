@@ -17,7 +17,7 @@
 //    overshoot, then bisection to `alpha_tolerance` between it and the previous scan point.
 // The tests check each optimum against a 120 x 120 grid of the stable region (no grid point is
 // better) and the optimal curves against the sign change of dC/dbeta evaluated in long double.
-// Cost: ~2,500 cost evaluations for a CEx point (about 5 ms at d = 1), see the benchmarks.
+// Cost: a few thousand cost evaluations for a CEx point; measured times in the README (benchmarks).
 #pragma once
 
 #include <algorithm>
