@@ -1,14 +1,36 @@
 #!/usr/bin/env bash
-# Install dependencies, configure + build with the `release` preset
-# (build/release) and run the whole test suite.  Exit status = ctest's.
+# The whole test suite (what CI runs through .ci/run):
+#   1. install what is missing (scripts/install-deps.sh);
+#   2. configure + build the `release` preset (build/release) and run ctest: every label
+#      (core, paper, packaging, daemon, devices, identification, beyond, plots, stress, fuzz);
+#   3. the same tests under ASan + UBSan, and the daemon's threaded tests under TSan (scripts/sanitize.sh);
+#   4. each libFuzzer target for a bounded time over its corpus (scripts/fuzz.sh, clang).
+# `--quick` stops after step 2. Exit status: non-zero as soon as a step fails.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+quick=0
+[[ "${1:-}" == --quick ]] && quick=1
 
+step() { printf '\n=== build-and-test: %s (%s) ===\n' "$1" "$(date +%H:%M:%S)"; }
+
+step "dependencies"
 scripts/install-deps.sh
 
+step "release build"
 cmake --preset release
 cmake --build --preset release -j"$(nproc)"
 
-rc=0
-ctest --preset release --output-on-failure -j2 || rc=$?
-exit "$rc"
+step "ctest (release)"
+ctest --preset release --output-on-failure -j2
+
+if [[ $quick -eq 1 ]]; then
+  exit 0
+fi
+
+step "sanitizers"
+scripts/sanitize.sh all
+
+step "fuzzing (bounded)"
+scripts/fuzz.sh "${HAPTICOPT_FUZZ_SECONDS:-15}"
+
+step "all passed"

@@ -17,6 +17,7 @@ PACKAGES=(
   nlohmann-json3-dev
   libusb-1.0-0-dev
   libhidapi-dev
+  chromium  # headless SVG rendering in tests/plots (the test is SKIPPED without it)
 )
 
 missing=()

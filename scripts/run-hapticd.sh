@@ -1,23 +1,13 @@
 #!/usr/bin/env bash
-# Install dependencies, build the `release` preset and start the daemon for a
-# short demo run.  Extra arguments are passed on to hapticd.
+# Install what is missing, build the daemon (release preset, build/release) and run it on the
+# simulated device for 3 s with the CE2-optimal wall. Extra arguments are passed on to hapticd
+# (e.g. `--criterion CE1+OV`, `--duration 10`, `--trace wall.csv`).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 scripts/install-deps.sh
 
 cmake --preset release
-cmake --build --preset release -j"$(nproc)"
+cmake --build --preset release -j"$(nproc)" --target hapticd
 
-hapticd=build/release/apps/hapticd/hapticd
-cli=build/release/apps/hapticopt/hapticopt
-if [[ -x "$hapticd" ]]; then
-  exec "$hapticd" --criterion CE2 --duration 3 "$@"
-elif [[ -x "$cli" ]]; then
-  echo "run-hapticd: $hapticd not built; running the hapticopt CLI instead" >&2
-  # Falcon with a hand on it (Table II: 0.30 kg), 1 kHz, 1 ms loop delay.
-  exec "$cli" optimum --criterion CE2 --mass 0.30 --period 0.001 --time-delay 0.001
-else
-  echo "run-hapticd: neither $hapticd nor $cli was built" >&2
-  exit 1
-fi
+exec build/release/apps/hapticd/hapticd --criterion CE2 --duration 3 "$@"

@@ -13,5 +13,6 @@ CommandRunner add_cost_command(CLI::App& app);
 CommandRunner add_optimum_command(CLI::App& app);
 CommandRunner add_boundary_command(CLI::App& app);
 CommandRunner add_table_command(CLI::App& app);
+CommandRunner add_plot_command(CLI::App& app);  // plot_command.cpp: SVG figures
 
 }  // namespace hapticopt::cli

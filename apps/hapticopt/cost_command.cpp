@@ -1,9 +1,12 @@
 // hapticopt cost: stability and the criteria C_E0, C_E1, C_E2, C_OV at one gain pair.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
 #include <hapticopt/energy_costs.hpp>
+#include <hapticopt/impulse_costs.hpp>
+#include <hapticopt/passivity.hpp>
 #include <hapticopt/overshoot.hpp>
 #include <hapticopt/stability.hpp>
 
@@ -43,6 +46,15 @@ CommandRunner add_cost_command(CLI::App& app) {
       out["OV"] = number_or_null(ov.value);
       out["no_overshoot"] = report.stable ? nlohmann::json(ov.within_tolerance) : nlohmann::json(nullptr);
       out["spectral_radius"] = report.spectral_radius;
+      // Collision criteria and passivity (impulse_costs.hpp, passivity.hpp).
+      const ImpulseCosts ic = impulse_costs(plant, gains);
+      out["CI0"] = number_or_null(ic.ci0);
+      out["CI1"] = number_or_null(ic.ci1);
+      out["CI2"] = number_or_null(ic.ci2);
+      out["penetration"] = number_or_null(report.stable ? penetration(SampledPlant<double>(plant), gains.alpha, gains.beta, 1000000LL).depth : HUGE_VAL);
+      const double margin = passivity_margin(plant, gains);
+      out["passive"] = margin > 0;
+      out["passivity_margin"] = margin;
       std::cout << out.dump() << '\n';
       return int{kOk};
     }
@@ -55,6 +67,11 @@ CommandRunner add_cost_command(CLI::App& app) {
                 costs.ce2);
     std::printf("C_OV             %.6g%s\n", ov.value,
                 ov.within_tolerance ? "  (no overshoot within tolerance)" : "");
+    const ImpulseCosts ic = impulse_costs(plant, gains);
+    std::printf("C_I0             %.12g\nC_I1             %.12g\nC_I2             %.12g\n", ic.ci0, ic.ci1, ic.ci2);
+    std::printf("penetration      %.12g v0 T\n", penetration(SampledPlant<double>(plant), gains.alpha, gains.beta, 1000000LL).depth);
+    const double margin = passivity_margin(plant, gains);
+    std::printf("passive          %s (margin delta - alpha/2 - |beta| = %.6g)\n", margin > 0 ? "yes" : "no", margin);
     return int{kOk};
   };
 }

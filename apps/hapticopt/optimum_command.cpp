@@ -1,75 +1,251 @@
-// hapticopt optimum: the optimal point of one criterion, normalised or physical.
+// hapticopt optimum: the optimal point of one criterion, normalised or physical; the collision
+// criteria CI0..2; the robust optimum over a box of physical parameters (--robust, ranges MIN:MAX);
+// every answer reports the Colgate-Schenkel passivity margin (passivity.hpp).
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
+#include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/optimal_wall.hpp>
+#include <hapticopt/passivity.hpp>
+#include <hapticopt/robust_optimum.hpp>
 
 #include "cli_output.hpp"
 #include "commands.hpp"
 
 namespace hapticopt::cli {
 
+namespace {
+
+bool parse_range(const std::string& text, ParameterRange& out) {
+  auto number = [](const std::string& s, double& v) {
+    if (s.empty()) return false;
+    std::size_t used = 0;
+    try {
+      v = std::stod(s, &used);
+    } catch (const std::exception&) {
+      return false;
+    }
+    return used == s.size();
+  };
+  const std::size_t colon = text.find(':');
+  if (colon == std::string::npos) {
+    double v = 0;
+    if (!number(text, v)) return false;
+    out = {v, v};
+    return true;
+  }
+  return number(text.substr(0, colon), out.min) && number(text.substr(colon + 1), out.max);
+}
+
+/// Prints the passivity fields (normalised margin; physical margin when a plant is known).
+void add_passivity(nlohmann::json& out, double margin) {
+  out["passive"] = margin > 0;
+  out["passivity_margin"] = margin;
+}
+
+int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
+  const auto step = parse_criterion(name);
+  const auto impulse = parse_impulse_criterion(name);
+  RobustOptimum r = impulse ? robust_optimum(*impulse, box) : robust_optimum(*step, box);
+  // Passivity over the box: the smallest normalised margin (T/m)(b - K T/2 - |B|), at b = b_min and
+  // at m_min when negative (m_max when positive).
+  const double phys = box.damping.min - r.gains.stiffness * box.period / 2 - std::abs(r.gains.damping);
+  const double margin = phys * box.period / (phys < 0 ? box.mass.min : box.mass.max);
+  auto where = [](const BoxWorstCase& w) {
+    nlohmann::json o;
+    o["cost"] = number_or_null(w.cost);
+    o["mass"] = w.where.mass;
+    o["damping"] = w.where.damping;
+    o["stiffness"] = w.where.stiffness;
+    o["time_delay"] = w.where.time_delay;
+    return o;
+  };
+  if (json) {
+    nlohmann::json out;
+    out["criterion"] = name;
+    out["robust"] = true;
+    out["K"] = r.gains.stiffness;
+    out["B"] = r.gains.damping;
+    out["worst_case"] = number_or_null(r.worst.cost);
+    out["worst_case_at"] = where(r.worst);
+    out["stable_over_box"] = r.stability.stable;
+    out["mass_segments_certified"] = r.stability.mass_segments_certified;
+    out["K_max"] = r.K_max;
+    add_passivity(out, margin);
+    out["passivity_margin_physical"] = phys;
+    nlohmann::json nominal;
+    nominal["mass"] = r.nominal.mass;
+    nominal["damping"] = r.nominal.damping;
+    nominal["stiffness"] = r.nominal.stiffness;
+    nominal["time_delay"] = r.nominal.time_delay;
+    nominal["K"] = r.nominal_gains.stiffness;
+    nominal["B"] = r.nominal_gains.damping;
+    nominal["worst_case"] = number_or_null(r.nominal_worst.cost);
+    nominal["worst_case_at"] = where(r.nominal_worst);
+    nominal["stable_over_box"] = r.nominal_stability.stable;
+    out["nominal"] = nominal;
+    std::cout << out.dump() << '\n';
+    return int{kOk};
+  }
+  std::printf("criterion  %s (robust over the box)\nK          %.6g N/m\nB          %.6g N s/m\n", name.c_str(),
+              r.gains.stiffness, r.gains.damping);
+  std::printf("worst case %.10g at m = %.6g kg, b = %.6g, k = %.6g, t_d = %.6g s\n", r.worst.cost, r.worst.where.mass,
+              r.worst.where.damping, r.worst.where.stiffness, r.worst.where.time_delay);
+  std::printf("stable over the box: %s (mass segments certified: %s)\n", r.stability.stable ? "yes" : "no",
+              r.stability.mass_segments_certified ? "yes" : "no");
+  std::printf("nominal optimum (box centre) K %.6g, B %.6g: worst case %.10g at m = %.6g kg\n",
+              r.nominal_gains.stiffness, r.nominal_gains.damping, r.nominal_worst.cost, r.nominal_worst.where.mass);
+  std::printf("passive    %s (margin %.4g)\n", margin > 0 ? "yes" : "no", margin);
+  return int{kOk};
+}
+
+}  // namespace
+
 CommandRunner add_optimum_command(CLI::App& app) {
   struct Args {
     std::string criterion;
     PlantOptions plant;
-    double mass = 0, period = 0, time_delay = 0, damping = 0, stiffness = 0;
+    std::string mass, damping = "0", stiffness = "0", time_delay = "0";
+    double period = 0;
     double tolerance = 1e-12;
     bool json = false;
+    bool robust = false;
+    bool passive = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("optimum", "optimal (alpha, beta) of a criterion, and (K, B) with --mass");
-  sub->add_option("--criterion", args->criterion, "amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV")
+  sub->add_option("--criterion", args->criterion,
+                  "amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV; collision: CI0, CI1, CI2")
       ->required()
-      ->check(CLI::IsMember({"amax", "OV", "CE0", "CE1", "CE2", "CE0+OV", "CE1+OV", "CE2+OV"}));
+      ->check(CLI::IsMember({"amax", "OV", "CE0", "CE1", "CE2", "CE0+OV", "CE1+OV", "CE2+OV", "CI0", "CI1", "CI2"}));
   args->plant.add_to(*sub);
-  CLI::Option* mass = sub->add_option("--mass", args->mass, "moving mass m [kg] (device + arm); physical mode");
+  CLI::Option* mass =
+      sub->add_option("--mass", args->mass, "moving mass m [kg] (device + arm); physical mode; MIN:MAX with --robust");
   CLI::Option* period = sub->add_option("--period", args->period, "sampling period T [s]");
-  CLI::Option* time_delay = sub->add_option("--time-delay", args->time_delay, "loop delay t_d [s]");
-  CLI::Option* damping = sub->add_option("--damping", args->damping, "physical damping b [N s/m]");
-  CLI::Option* stiffness = sub->add_option("--stiffness", args->stiffness, "physical stiffness k [N/m]");
+  CLI::Option* time_delay = sub->add_option("--time-delay", args->time_delay, "loop delay t_d [s] (or MIN:MAX)");
+  CLI::Option* damping = sub->add_option("--damping", args->damping, "physical damping b [N s/m] (or MIN:MAX)");
+  CLI::Option* stiffness = sub->add_option("--stiffness", args->stiffness, "physical stiffness k [N/m] (or MIN:MAX)");
   mass->needs(period);
   period->needs(mass);
   for (CLI::Option* o : {time_delay, damping, stiffness}) o->needs(mass);
   for (const char* name : {"--gamma", "--delta", "--delay"}) mass->excludes(sub->get_option(name));
   sub->add_option("--overshoot-tol", args->tolerance, "relative overshoot counted as none, (0, 1]")
       ->capture_default_str();
+  CLI::Option* robust = sub->add_flag("--robust", args->robust,
+                                      "minimise the worst case over the box of --mass/--damping/--stiffness/"
+                                      "--time-delay ranges (MIN:MAX); CE0..2, CI0..2 only");
+  robust->needs(mass);
+  CLI::Option* passive = sub->add_flag(
+      "--passive", args->passive,
+      "best gains within the Colgate-Schenkel passive set delta > alpha/2 + |beta|; CE0..2, CI0..2 only");
+  passive->excludes(robust);
   sub->add_flag("--json", args->json, "print one JSON object");
   return [args, mass]() {
-    const Criterion criterion = *parse_criterion(args->criterion);
+    const bool physical = mass->count() > 0;
+    UncertainPlant box;
+    if (physical) {
+      const std::pair<const char*, std::pair<const std::string*, ParameterRange*>> ranges[] = {
+          {"--mass", {&args->mass, &box.mass}},
+          {"--damping", {&args->damping, &box.damping}},
+          {"--stiffness", {&args->stiffness, &box.stiffness}},
+          {"--time-delay", {&args->time_delay, &box.time_delay}}};
+      for (const auto& [flag, target] : ranges) {
+        if (!parse_range(*target.first, *target.second)) {
+          std::cerr << "hapticopt optimum: " << flag << " = " << *target.first
+                    << " is not a number or a range MIN:MAX\n";
+          return int{kUsage};
+        }
+        if (!args->robust && target.second->min != target.second->max) {
+          std::cerr << "hapticopt optimum: " << flag << " = " << *target.first << " is a range; ranges need --robust\n";
+          return int{kUsage};
+        }
+      }
+      box.period = args->period;
+    }
+    const auto impulse = parse_impulse_criterion(args->criterion);
+    if (args->robust) {
+      const auto step = parse_criterion(args->criterion);
+      if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
+        std::cerr << "hapticopt optimum: --robust supports CE0, CE1, CE2, CI0, CI1, CI2 (not " << args->criterion
+                  << ")\n";
+        return int{kUsage};
+      }
+      return run_robust(args->criterion, box, args->json);
+    }
+    if (args->passive) {
+      const auto step = parse_criterion(args->criterion);
+      if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
+        std::cerr << "hapticopt optimum: --passive supports CE0, CE1, CE2, CI0, CI1, CI2 (not " << args->criterion
+                  << ")\n";
+        return int{kUsage};
+      }
+    }
     OptimumOptions options;
     options.overshoot_tolerance = args->tolerance;
-    const bool physical = mass->count() > 0;
-    nlohmann::json out;
-    double alpha = 0, beta = 0, K = 0, B = 0, alpha_max = 0;
-    std::optional<double> cost;
-    if (physical) {
-      const WallTuning t = optimal_wall(
-          criterion, PhysicalPlant{args->mass, args->damping, args->stiffness, args->period, args->time_delay},
-          options);
-      alpha = t.alpha; beta = t.beta; cost = t.cost; K = t.K; B = t.B; alpha_max = t.alpha_max;
+    const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
+    const NormalizedPlant np = physical ? normalize(plant) : args->plant.normalized();
+    double alpha = 0, beta = 0, alpha_max = 0;
+    std::optional<double> cost, depth;
+    bool on_edge = false;
+    if (args->passive) {
+      const int k = impulse ? energy_index(*impulse) : *energy_index(*parse_criterion(args->criterion));
+      const auto po = impulse ? passive_impulse_optimum(k, np) : passive_optimum(k, np);
+      if (!po) {
+        if (args->json) {
+          nlohmann::json out;
+          out["criterion"] = args->criterion;
+          out["passive_constraint"] = true;
+          out["cost"] = nullptr;
+          out["passive"] = false;
+          out["note"] = "no stable gains satisfy delta > alpha/2 + |beta| (e.g. delta = 0)";
+          std::cout << out.dump() << '\n';
+        } else {
+          std::printf("no stable gains satisfy delta > alpha/2 + |beta| (delta = %g)\n", np.delta);
+        }
+        return int{kOk};
+      }
+      alpha = po->alpha; beta = po->beta; cost = po->cost;
+      alpha_max = StabilityRegion(np).alpha_max();
+    } else if (impulse) {
+      const ImpulseOptimum o = optimal_point(*impulse, np);
+      alpha = o.alpha; beta = o.beta; cost = o.cost; alpha_max = o.alpha_max; depth = o.penetration;
+      on_edge = o.on_region_edge;
     } else {
-      const Optimum o = optimal_point(criterion, args->plant.normalized(), options);
+      const Optimum o = optimal_point(*parse_criterion(args->criterion), np, options);
       alpha = o.alpha; beta = o.beta; cost = o.cost; alpha_max = o.alpha_max;
     }
+    const double margin = passivity_margin(np, NormalizedGains{alpha, beta});
+    WallGains g{0, 0};
+    if (physical) g = to_physical(NormalizedGains{alpha, beta}, plant.mass, plant.period);
     if (args->json) {
+      nlohmann::json out;
       out["criterion"] = args->criterion;
       out["alpha"] = alpha;
       out["beta"] = beta;
       out["cost"] = cost ? nlohmann::json(*cost) : nlohmann::json(nullptr);
       out["alpha_max"] = alpha_max;
+      if (args->passive) out["passive_constraint"] = true;
+      if (depth) {
+        out["penetration"] = *depth;
+        out["on_region_edge"] = on_edge;
+      }
+      add_passivity(out, margin);
       if (physical) {
-        out["K"] = K;
-        out["B"] = B;
+        out["K"] = g.stiffness;
+        out["B"] = g.damping;
+        out["passivity_margin_physical"] = passivity_margin(plant, g);
       }
       std::cout << out.dump() << '\n';
       return int{kOk};
     }
     std::printf("criterion  %s\nalpha      %.10f\nbeta       %.10f\n", args->criterion.c_str(), alpha, beta);
     if (cost) std::printf("cost       %.10g\n", *cost);
+    if (depth) std::printf("penetration %.10g v0 T\n", *depth);
+    if (on_edge) std::printf("note       the infimum lies on the region's edge alpha -> -gamma (pure damper)\n");
     std::printf("alpha/alpha_max  %.4f\n", alpha / alpha_max);
-    if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", K, B);
+    std::printf("passive    %s (margin delta - alpha/2 - |beta| = %.6g)\n", margin > 0 ? "yes" : "no", margin);
+    if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
     return int{kOk};
   };
 }

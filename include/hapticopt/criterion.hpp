@@ -59,4 +59,38 @@ inline constexpr bool requires_no_overshoot(Criterion c) {
          c == Criterion::CE2_OV;
 }
 
+/// The collision (impulse-response) criteria C_I0, C_I1, C_I2 (impulse_costs.hpp): a separate enum
+/// so that the eight step criteria of Tables III and IV (kAllCriteria, the switches in optimum.hpp,
+/// the CLI and the daemon) stay exactly as they are.
+enum class ImpulseCriterion {
+  CI0,  ///< "CI0": global minimum of C_I0 (impulse_costs.hpp)
+  CI1,  ///< "CI1"
+  CI2,  ///< "CI2"
+};
+
+inline constexpr std::array<ImpulseCriterion, 3> kAllImpulseCriteria = {
+    ImpulseCriterion::CI0, ImpulseCriterion::CI1, ImpulseCriterion::CI2};
+
+inline constexpr std::string_view to_string(ImpulseCriterion c) {
+  switch (c) {
+    case ImpulseCriterion::CI0: return "CI0";
+    case ImpulseCriterion::CI1: return "CI1";
+    case ImpulseCriterion::CI2: return "CI2";
+  }
+  return "?";
+}
+
+/// Parses "CI0", "CI1", "CI2" (exact, case-sensitive).
+inline std::optional<ImpulseCriterion> parse_impulse_criterion(std::string_view name) {
+  for (const ImpulseCriterion c : kAllImpulseCriteria) {
+    if (to_string(c) == name) return c;
+  }
+  return std::nullopt;
+}
+
+/// The energy index 0, 1, 2 of C_I0..2.
+inline constexpr int energy_index(ImpulseCriterion c) {
+  return c == ImpulseCriterion::CI0 ? 0 : c == ImpulseCriterion::CI1 ? 1 : 2;
+}
+
 }  // namespace hapticopt

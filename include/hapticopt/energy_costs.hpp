@@ -10,16 +10,24 @@
 //   W_q = 1/2 sum_s R_s^T [ sum_r C(q,r) s0^(q-r) Z_r(h) ] R_s      (Z_r: exponential_integrals.hpp).
 // The sums over j >= 0 are traces against G_p = sum_j j^p e_j e_j^T, which solve the Stein equations
 //   G_0 = M G_0 M^T + e_0 e_0^T,   G_1 = M G_1 M^T + M G_0 M^T,   G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T
-// (subtract the shifted sums). They are solved on M's Schur form (stein_equation.hpp), so the
-// result is exact up to rounding: no time-stepping, no truncated horizon.
+// (subtract the shifted sums). They are solved by ShiftSteinSolver (stein_equation.hpp), which uses
+// the shift structure of M (two dense rows) to reduce each equation to a (2N - 1)-square linear
+// system with one LU shared by the three solves; so the result is exact up to rounding: no
+// time-stepping, no truncated horizon, no eigen-decomposition.
 //
 // Accuracy (measured against the same algorithm in long double and against time-stepping with
-// quadrature, tests/core/energy_costs_test.cpp): relative error <= 1e-10 for spectral radius
-// rho <= 0.999, and <= 1e-13 / (1 - rho)^2 closer to the boundary. Unstable loops: +infinity.
-// Cost: one complex Schur decomposition of the (ceil(d)+3)-square loop matrix plus three
-// triangular solves, O(N^3).
+// quadrature, tests/core/energy_costs_test.cpp; and against the former complex-Schur method,
+// energy_costs_complex_schur, kept as a cross-check): relative error <= 1e-10 for spectral radius
+// rho <= 0.999, and <= 1e-13 / (1 - rho)^2 closer to the boundary (measured worst: 3% of that
+// bound, d = 0 .. 50). Unstable loops (Schur-Cohn), and non-positive or non-finite sums from
+// rounding right at the boundary: +infinity.
+// Cost: O(N^2) assembly + one LU of size 2N - 1 ((2/3)(2N-1)^3 flops) + O(N^2) per Stein solve;
+// for N <= 16 (d <= 13) the loop and solver storage is fixed-capacity (no heap allocation). energy_cost() for one
+// index solves only the equations it needs. Measured times: README "Speed".
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <limits>
 
 #include "loop_schur_form.hpp"
@@ -81,11 +89,96 @@ EnergyCostsT<Scalar> energy_costs_from_schur(const SampledPlant<Scalar>& plant,
   return EnergyCostsT<Scalar>{k * j0, k * j1, k * j2};
 }
 
+/// E-weights of segment s for the local-time moments: w_q = sum_r C(q,r) s0^(q-r) Z_r (energy Gramians).
+template <typename Scalar>
+std::array<Matrix3<Scalar>, 3> segment_weights(const PlantSegment<Scalar>& seg, Scalar total_stiffness) {
+  std::array<Matrix3<Scalar>, 3> z;
+  for (std::size_t r = 0; r < 3; ++r) {
+    z[r] = total_stiffness * seg.position_gramian[r] + seg.velocity_gramian[r];
+  }
+  const Scalar s0 = seg.start;
+  return {z[0], z[1] + s0 * z[0], z[2] + Scalar(2) * s0 * z[1] + s0 * s0 * z[0]};
+}
+
+/// C_E0 .. C_E<highest> by the shift-structured Stein solver (stein_equation.hpp); the entries above
+/// `highest` are left NaN. The loop must be stable (Schur-Cohn); returns +inf if the solver's pivots
+/// or the sums reveal otherwise (rounding right at the boundary).
+template <typename Scalar, int MaxN>
+EnergyCostsT<Scalar> energy_costs_structured(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta,
+                                             int highest) {
+  const Scalar inf = std::numeric_limits<Scalar>::infinity();
+  const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN();
+  const auto loop = make_compact_closed_loop<Scalar, MaxN>(plant, alpha, beta);
+  const ShiftSteinSolver<Scalar, MaxN> stein(loop.top);
+  if (!stein.ok()) return {inf, inf, inf};
+  using Square = typename ShiftSteinSolver<Scalar, MaxN>::Square;
+  using Matrix3N = Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, MaxN>;
+  // G_0 = M G_0 M^T + e_0 e_0^T,  G_1 = M G_1 M^T + M G_0 M^T,  G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T.
+  std::array<Square, 3> g;
+  g[0] = stein.solve(loop.initial_state * loop.initial_state.transpose());
+  if (highest >= 1) {
+    const Square shifted = stein.propagate(g[0]);
+    g[1] = stein.solve(shifted);
+    if (highest >= 2) g[2] = stein.solve(Scalar(2) * g[1] - shifted);
+  }
+  std::array<Scalar, 3> j{0, 0, 0};
+  for (int s = 0; s < plant.segment_count(); ++s) {
+    const auto& r = loop.segment_map[static_cast<std::size_t>(s)];
+    const auto w = segment_weights(plant.segment(s), loop.total_stiffness);
+    std::array<Matrix3<Scalar>, 3> y;
+    for (std::size_t q = 0; q <= static_cast<std::size_t>(highest); ++q) {
+      const Matrix3N rg = r * g[q];
+      y[q] = rg * r.transpose();
+    }
+    auto tr = [](const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) { return a.cwiseProduct(b).sum(); };
+    j[0] += tr(w[0], y[0]);
+    if (highest >= 1) j[1] += tr(w[0], y[1]) + tr(w[1], y[0]);
+    if (highest >= 2) j[2] += tr(w[0], y[2]) + Scalar(2) * tr(w[1], y[1]) + tr(w[2], y[0]);
+  }
+  // C_Ep = J_p / E(0) with J_p carrying the factor 1/2 of the energy: (1/2) J / (1/(2 k)) = k J.
+  const Scalar k = loop.total_stiffness;
+  EnergyCostsT<Scalar> out{nan, nan, nan};
+  Scalar* fields[3] = {&out.ce0, &out.ce1, &out.ce2};
+  for (int p = 0; p <= highest; ++p) {
+    const Scalar c = k * j[static_cast<std::size_t>(p)];
+    // Every C_Ep of a stable loop is a positive finite integral; anything else is the rounding of a
+    // loop at the stability boundary.
+    if (!(c > Scalar(0)) || !std::isfinite(static_cast<double>(c))) return {inf, inf, inf};
+    *fields[p] = c;
+  }
+  return out;
+}
+
+template <typename Scalar>
+EnergyCostsT<Scalar> energy_costs_up_to(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta,
+                                        int highest) {
+  const Scalar inf = std::numeric_limits<Scalar>::infinity();
+  if (!loop_is_stable(plant, alpha, beta)) return {inf, inf, inf};
+  if (plant.state_dimension() <= kStackStateDimension) {
+    return energy_costs_structured<Scalar, kStackStateDimension>(plant, alpha, beta, highest);
+  }
+  return energy_costs_structured<Scalar, Eigen::Dynamic>(plant, alpha, beta, highest);
+}
+
 }  // namespace detail
 
 /// C_E0, C_E1, C_E2 for the precomputed plant and gains (alpha, beta); +infinity when unstable.
 template <typename Scalar>
 EnergyCostsT<Scalar> energy_costs(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
+  return detail::energy_costs_up_to(plant, alpha, beta, 2);
+}
+
+/// C_E<index> alone (index 0, 1, 2): solves only index + 1 of the three Stein equations.
+template <typename Scalar>
+Scalar energy_cost(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta, int index) {
+  const EnergyCostsT<Scalar> c = detail::energy_costs_up_to(plant, alpha, beta, index);
+  return index <= 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+}
+
+/// The previous method, kept as an independent cross-check in the tests: complex Schur form of M
+/// and three triangular Stein solves (O(N^3), ~25 N^3 for the Schur form).
+template <typename Scalar>
+EnergyCostsT<Scalar> energy_costs_complex_schur(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
   if (!loop_is_stable(plant, alpha, beta)) return {inf, inf, inf};
   const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);

@@ -1,5 +1,8 @@
-// The complex Schur form of the loop transition M = U T U^H, shared by the energy costs and
-// the overshoot bound, plus the stability verdict that gates both.
+// The complex Schur form of the loop transition M = U T U^H (Eigen::ComplexSchur: Hessenberg
+// reduction + shifted QR, ~25 N^3 flops), plus the stability verdict (Schur-Cohn) that gates the
+// closed forms. The Schur form gives the spectral radius of StabilityReport and the complex-Schur
+// cross-check energy_costs_complex_schur; the energy costs and the overshoot bound themselves use
+// the cheaper shift-structured Stein solver (stein_equation.hpp).
 #pragma once
 
 #include <Eigen/Eigenvalues>

@@ -62,10 +62,9 @@ class WallOptimizer {
   const StabilityRegion& region() const { return region_; }
   const SampledPlant<double>& sampled_plant() const { return sampled_; }
 
-  /// C_E<index>(alpha, beta), +inf when unstable.
+  /// C_E<index>(alpha, beta), +inf when unstable (solves only the index + 1 Stein equations needed).
   double energy_cost(int index, double alpha, double beta) const {
-    const EnergyCosts c = energy_costs(sampled_, alpha, beta);
-    return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+    return hapticopt::energy_cost(sampled_, alpha, beta, index);
   }
 
   /// C_OV(alpha, beta) with the configured tolerance, +inf when unstable.

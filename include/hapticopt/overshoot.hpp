@@ -9,7 +9,8 @@
 // safeguarded Newton on the Taylor series of x(tau) (exact to rounding: the series is summed to
 // machine precision) and evaluated there. Elsewhere the maximum is at a piece end.
 //
-// Proven stop. With P solving M^T P M = P - I (P >= I, on M's Schur form), V_j = e_j^T P e_j is
+// Proven stop. With P solving M^T P M = P - I (P >= I; ShiftSteinSolver::observability_gramian,
+// stein_equation.hpp: O(N^3) for a (2N-1)-square LU, no eigen-decomposition), V_j = e_j^T P e_j is
 // non-increasing, and for every t after period j
 //   |x(t) - x_inf| <= kappa sqrt(V_j),  kappa = max_s sum_k h_s^k/k! ||e1^T A^k R_s||_2 (+ tail),
 // so the search stops as soon as kappa sqrt(V_j) <= max(current maximum, tol x_inf): later times
@@ -20,7 +21,8 @@
 // is positive but tiny, 1e-35 ... 1e-12, because a complex pole pair overtakes a slower real
 // pole). Values below ~1e-15 are not resolved in double precision and count as zero; choose a
 // physically meaningful tol (1e-6, 1e-3) when that is what the application needs.
-// Cost: one Schur form + one Stein solve, then O(N^2) per period until the stop.
+// Cost: one LU of size 2N - 1 (the Stein solve for P), then O(N^2) per period until the stop (the
+// period loop allocates nothing).
 #pragma once
 
 #include <cmath>
@@ -58,10 +60,11 @@ std::pair<Scalar, Scalar> interior_maximum(const Matrix3<Scalar>& a, const Eigen
   Eigen::Matrix<Scalar, 3, 1> w = xi;
   int count = 0;
   Scalar scale = 0;
-  for (int k = 0; k < kMax; ++k) {
+  Scalar hk = 1;  // h^k
+  for (int k = 0; k < kMax; ++k, hk *= h) {
     c[static_cast<std::size_t>(k)] = w(0);
     count = k + 1;
-    const Scalar size = w.cwiseAbs().maxCoeff() * std::pow(h, Scalar(k));
+    const Scalar size = w.cwiseAbs().maxCoeff() * hk;
     scale = std::max(scale, size);
     if (k > 3 && size <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3) * scale) break;
     w = a * w / Scalar(k + 1);
@@ -134,16 +137,18 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     return result;
   }
   const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);
-  const LoopSchurForm<Scalar> schur = loop_schur_form(loop.transition);
-  if (!(schur.spectral_radius < Scalar(1))) {
+  const Eigen::Index n = loop.transition.rows();
+  // Lyapunov matrix P = sum_k (M^T)^k M^k (P = M^T P M + I) by the shift-structured solver.
+  DynamicMatrix<Scalar> p;
+  {
+    const ShiftSteinSolver<Scalar> stein(loop.transition.topRows(2));
+    if (stein.ok()) p = stein.observability_gramian();
+  }
+  // P >= I for a Schur-stable M; anything else is rounding at the stability boundary.
+  if (p.size() == 0 || !p.allFinite() || !(p.diagonal().minCoeff() >= Scalar(1) - Scalar(1e-9))) {
     result.value = std::numeric_limits<Scalar>::infinity();
     return result;
   }
-  // Lyapunov matrix P = U Y U^H with Y = T^H Y T + I, solved through the flipped (upper) form.
-  const Eigen::Index n = loop.transition.rows();
-  const ComplexMatrix<Scalar> flipped = solve_triangular_stein<Scalar>(
-      flip<Scalar>(ComplexMatrix<Scalar>(schur.t.adjoint())), ComplexMatrix<Scalar>::Identity(n, n));
-  const DynamicMatrix<Scalar> p = (schur.u * flip<Scalar>(flipped) * schur.u.adjoint()).real();
 
   const Matrix3<Scalar>& a = plant.augmented_matrix();
   Scalar kappa = 0;
@@ -160,6 +165,7 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
   Scalar best_time = 0;
   DynamicVector<Scalar> e = loop.initial_state;
   DynamicVector<Scalar> next(n);
+  DynamicVector<Scalar> pe(n);  // P e_j, preallocated: the loop below allocates nothing
   using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
   for (long long j = 0; j < options.max_periods; ++j) {
     for (int s = 0; s < plant.segment_count(); ++s) {
@@ -186,7 +192,8 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     next.noalias() = loop.transition * e;
     e.swap(next);
     result.periods = j + 1;
-    const Scalar v = e.dot(p * e);
+    pe.noalias() = p * e;
+    const Scalar v = e.dot(pe);
     const Scalar bound = kappa * std::sqrt(std::max(v, Scalar(0)));
     if (bound <= std::max(best, floor)) {
       result.converged = true;

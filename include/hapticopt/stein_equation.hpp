@@ -6,11 +6,28 @@
 // Schur-stable M (spectral radius rho < 1) it is X = sum_j M^j C M^jT. The back substitution divides
 // by 1 - conj(t_kk) t_ii, so its relative error grows like eps / (1 - rho^2).
 // Cost: O(N^3) per equation once the Schur form is known (the Schur form itself ~ 25 N^3).
+//
+// ShiftSteinSolver (used by the energy costs): the loop matrix M has only two dense rows; its rows
+// k >= 2 are unit rows that shift the position history (closed_loop.hpp). Then X = M X M^T + C gives
+//   X[k, l] = X[s(k), s(l)] + C[k, l]   for k, l >= 2   (s = shift_source),
+// so every entry of X is one entry of its first two rows plus a known sum of C along a diagonal.
+// Substituting this into the remaining equations (rows 0 and 1) leaves a dense linear system in the
+// 2N - 1 entries X[0, :], X[1, 1:], solved by Gaussian elimination with partial pivoting. The
+// system matrix depends on M only, so one LU serves any number of right-hand sides.
+// Exact elimination, no eigen-decomposition: its error is that of the LU of the reduced system,
+// bounded like the Schur method's by eps times the condition of the Stein operator, which grows
+// like 1 / (1 - rho^2); measured against long double in tests/core/energy_costs_test.cpp.
+// Cost: O(N^2) assembly + (2/3)(2N - 1)^3 flops for the LU, O(N^2) per right-hand side.
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
 #include <complex>
+#include <utility>
+
+#include "closed_loop.hpp"
 
 namespace hapticopt {
 
@@ -51,5 +68,174 @@ template <typename Scalar>
 ComplexMatrix<Scalar> flip(const ComplexMatrix<Scalar>& x) {
   return x.reverse();
 }
+
+/// Solver of X = M X M^T + C (C symmetric) for M with the shift structure of the loop: rows 0, 1 of
+/// M given as `top` (2 x N), row k >= 2 the unit row e_{shift_source(k)}^T. Storage of at most MaxN
+/// states (Eigen::Dynamic: heap). See the header comment for the method.
+template <typename Scalar, int MaxN = Eigen::Dynamic>
+class ShiftSteinSolver {
+ public:
+  static constexpr int kMaxUnknowns = MaxN == Eigen::Dynamic ? Eigen::Dynamic : 2 * MaxN - 1;
+  using Square = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
+  using Top = Eigen::Matrix<Scalar, 2, Eigen::Dynamic, 0, 2, MaxN>;
+
+  /// Assembles and factorises the reduced system. `ok()` is false if a pivot vanished (M has an
+  /// eigenvalue pair with lambda_i lambda_k = 1, i.e. M is not Schur-stable).
+  explicit ShiftSteinSolver(const Top& top) : top_(top), n_(static_cast<int>(top.cols())) {
+    const int n = n_;
+    const int u = 2 * n - 1;
+    ref_.resize(n, n);
+    for (int k = 0; k < n; ++k) {
+      for (int l = 0; l < n; ++l) {
+        ref_(k, l) = (k < 2 || l < 2) ? basic(std::min(k, l), std::max(k, l))
+                                      : ref_(shift_source(k), shift_source(l));
+      }
+    }
+    lu_.setZero(u, u);
+    for (int b = 0; b < n; ++b) {
+      for (int a = 0; a <= std::min(1, b); ++a) {
+        const int eq = basic(a, b);
+        lu_(eq, eq) += Scalar(1);
+        if (b >= 2) {
+          const int sb = shift_source(b);
+          for (int m = 0; m < n; ++m) lu_(eq, ref_(m, sb)) -= top_(a, m);
+        } else {
+          for (int m = 0; m < n; ++m) {
+            for (int l = 0; l < n; ++l) lu_(eq, ref_(m, l)) -= top_(a, m) * top_(b, l);
+          }
+        }
+      }
+    }
+    // In-place LU with partial pivoting (row permutation in pivot_).
+    using std::abs;
+    pivot_.resize(u);
+    for (int j = 0; j < u; ++j) {
+      int p = j;
+      for (int i = j + 1; i < u; ++i) {
+        if (abs(lu_(i, j)) > abs(lu_(p, j))) p = i;
+      }
+      pivot_(j) = p;
+      if (p != j) lu_.row(p).swap(lu_.row(j));
+      const Scalar d = lu_(j, j);
+      if (!(d != Scalar(0)) || !std::isfinite(static_cast<double>(d))) {
+        ok_ = false;
+        return;
+      }
+      for (int i = j + 1; i < u; ++i) {
+        const Scalar f = lu_(i, j) / d;
+        lu_(i, j) = f;
+        if (f != Scalar(0)) {
+          lu_.row(i).tail(u - j - 1) -= f * lu_.row(j).tail(u - j - 1);
+        }
+      }
+    }
+  }
+
+  bool ok() const { return ok_; }
+  int size() const { return n_; }
+
+  /// X with X = M X M^T + c (c symmetric; only valid when ok()).
+  Square solve(const Square& c) const {
+    const int n = n_;
+    const int u = 2 * n - 1;
+    Square offset(n, n);  // X[k, l] = offset[k, l] + unknown[ref[k, l]]
+    for (int k = 0; k < n; ++k) {
+      for (int l = 0; l < n; ++l) {
+        offset(k, l) = (k < 2 || l < 2) ? Scalar(0) : offset(shift_source(k), shift_source(l)) + c(k, l);
+      }
+    }
+    const Top p = top_ * offset;
+    Vector rhs(u);
+    for (int b = 0; b < n; ++b) {
+      for (int a = 0; a <= std::min(1, b); ++a) {
+        rhs(basic(a, b)) = c(a, b) + (b >= 2 ? p(a, shift_source(b)) : p.row(a).dot(top_.row(b)));
+      }
+    }
+    for (int j = 0; j < u; ++j) {
+      if (pivot_(j) != j) std::swap(rhs(j), rhs(pivot_(j)));
+    }
+    for (int i = 1; i < u; ++i) rhs(i) -= lu_.row(i).head(i).dot(rhs.head(i));
+    for (int i = u - 1; i >= 0; --i) {
+      rhs(i) = (rhs(i) - lu_.row(i).tail(u - i - 1).dot(rhs.tail(u - i - 1))) / lu_(i, i);
+    }
+    Square x(n, n);
+    for (int k = 0; k < n; ++k) {
+      for (int l = 0; l < n; ++l) x(k, l) = offset(k, l) + rhs(ref_(k, l));
+    }
+    return x;
+  }
+
+  /// P = sum_k (M^T)^k M^k, the solution of P = M^T P M + I (only valid when ok()). Since
+  /// tr X(C) = <P, C> for the solution X(C) of X = M X M^T + C, P is the gradient of that linear
+  /// function of C: one solve with the transposed LU, then the reverse of solve()'s substitutions.
+  /// Cost O(N^2) after the factorisation.
+  Square observability_gramian() const {
+    const int n = n_;
+    const int u = 2 * n - 1;
+    Vector lambda = Vector::Zero(u);  // K^-T (d tr X / d unknowns)
+    for (int k = 0; k < n; ++k) lambda(ref_(k, k)) += Scalar(1);
+    for (int i = 0; i < u; ++i) {  // U^T y = w
+      lambda(i) = (lambda(i) - lu_.col(i).head(i).dot(lambda.head(i))) / lu_(i, i);
+    }
+    for (int i = u - 2; i >= 0; --i) {  // L^T z = y
+      lambda(i) -= lu_.col(i).tail(u - i - 1).dot(lambda.tail(u - i - 1));
+    }
+    for (int j = u - 1; j >= 0; --j) {
+      if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
+    }
+    // d tr X / d offset: the diagonal, plus lambda_eq times the offsets' weights in equation eq.
+    Square phi = Square::Identity(n, n);
+    for (int b = 0; b < n; ++b) {
+      for (int a = 0; a <= std::min(1, b); ++a) {
+        const Scalar l = lambda(basic(a, b));
+        if (b >= 2) {
+          phi.col(shift_source(b)) += l * top_.row(a).transpose();
+        } else {
+          phi.noalias() += l * top_.row(a).transpose() * top_.row(b);
+        }
+      }
+    }
+    // offset[k, l] = offset[s(k), s(l)] + C[k, l]: accumulate along the chains, children first.
+    Square g = Square::Zero(n, n);
+    for (int k = n - 1; k >= 2; --k) {
+      for (int l = n - 1; l >= 2; --l) {
+        g(k, l) += phi(k, l);
+        const int sk = shift_source(k), sl = shift_source(l);
+        if (sk >= 2 && sl >= 2) g(sk, sl) += g(k, l);
+      }
+    }
+    for (int b = 0; b < n; ++b) {
+      for (int a = 0; a <= std::min(1, b); ++a) g(a, b) = lambda(basic(a, b));
+    }
+    return (g + g.transpose()) / Scalar(2);
+  }
+
+  /// M X M^T for symmetric X, using the shift structure: O(N^2).
+  Square propagate(const Square& x) const {
+    const int n = n_;
+    const Top p = top_ * x;  // rows 0, 1 of M X
+    Square y(n, n);
+    y.template topLeftCorner<2, 2>() = p * top_.transpose();
+    for (int l = 2; l < n; ++l) {
+      const int sl = shift_source(l);
+      y(0, l) = y(l, 0) = p(0, sl);
+      y(1, l) = y(l, 1) = p(1, sl);
+      for (int k = 2; k < n; ++k) y(k, l) = x(shift_source(k), sl);
+    }
+    return y;
+  }
+
+ private:
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1>;
+  /// Index of the unknown X[a, b], a in {0, 1}, a <= b.
+  int basic(int a, int b) const { return a == 0 ? b : n_ + b - 1; }
+
+  Top top_;
+  int n_;
+  bool ok_ = true;
+  Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN> ref_;
+  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, kMaxUnknowns, kMaxUnknowns> lu_;
+  Eigen::Matrix<int, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1> pivot_;
+};
 
 }  // namespace hapticopt

@@ -24,6 +24,26 @@ void BM_EnergyCosts(benchmark::State& state) {
 }
 BENCHMARK(BM_EnergyCosts)->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
+// C_E<k> alone (what the CEk optimiser evaluates): C_E0 needs one Stein solve, C_E2 all three.
+void BM_EnergyCostSingleIndex(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(0));
+  const int k = static_cast<int>(state.range(1));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const NormalizedGains g = gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(energy_cost(plant, g.alpha, g.beta, k));
+}
+BENCHMARK(BM_EnergyCostSingleIndex)->Args({1, 0})->Args({1, 2})->Args({6, 0})->Args({6, 2})
+    ->Unit(benchmark::kMicrosecond);
+
+// The former method (complex Schur form + triangular Stein solves), kept as a cross-check.
+void BM_EnergyCostsComplexSchur(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(0));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const NormalizedGains g = gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(energy_costs_complex_schur(plant, g.alpha, g.beta));
+}
+BENCHMARK(BM_EnergyCostsComplexSchur)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
+
 void BM_EnergyCostsIncludingPlantSetup(benchmark::State& state) {
   const double d = static_cast<double>(state.range(0));
   const NormalizedGains g = gains_for(d);

@@ -136,5 +136,47 @@ TEST(EnergyCosts, CostsArePositiveAndFiniteInsideTheRegion) {
   }
 }
 
+TEST(EnergyCosts, StructuredSolverAgreesWithTheComplexSchurMethod) {
+  // Two independent ways to the same sums: the shift-structured Stein solver (energy_costs) and the
+  // complex Schur form with triangular Stein solves (energy_costs_complex_schur). Each is within the
+  // stated accuracy, so they agree within twice it; also beyond the fixed-capacity size (d > 13).
+  for (const NormalizedPlant p : {NormalizedPlant{0, 0, 0}, NormalizedPlant{0.001, 0.02, 1},
+                                  NormalizedPlant{0.0005, 0.01, 2.5}, NormalizedPlant{0, 0.01, 6},
+                                  NormalizedPlant{0.0001, 0.002, 20}}) {
+    const SampledPlant<double> sampled(p);
+    for (const auto& [g, rho] : random_stable_points(p, 20, 0.9999, 11)) {
+      const EnergyCosts a = energy_costs(sampled, g.alpha, g.beta);
+      const EnergyCosts b = energy_costs_complex_schur(sampled, g.alpha, g.beta);
+      const double bound = 2 * (rho <= 0.999 ? 1e-10 : 1e-13 / ((1 - rho) * (1 - rho)));
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LE(std::abs(ce(a, k) / ce(b, k) - 1), bound) << "d=" << p.delay << " rho=" << rho << " k=" << k;
+        EXPECT_EQ(energy_cost(sampled, g.alpha, g.beta, k), ce(a, k)) << "single index k=" << k;
+      }
+    }
+  }
+}
+
+TEST(EnergyCosts, ShiftSteinSolverSolvesBothLyapunovEquations) {
+  // X = M X M^T + C and P = M^T P M + I, checked by their residuals against the dense M.
+  for (const NormalizedPlant p : {NormalizedPlant{0, 0, 0}, NormalizedPlant{0.001, 0.02, 1.5},
+                                  NormalizedPlant{0, 0, 6}, NormalizedPlant{0.0001, 0.002, 20}}) {
+    const SampledPlant<double> sampled(p);
+    for (const auto& [g, rho] : random_stable_points(p, 5, 0.99, 5)) {
+      const ClosedLoop<double> loop = make_closed_loop(sampled, g.alpha, g.beta);
+      const DynamicMatrix<double>& m = loop.transition;
+      const ShiftSteinSolver<double> solver(m.topRows(2));
+      ASSERT_TRUE(solver.ok());
+      const DynamicMatrix<double> c = loop.initial_state * loop.initial_state.transpose();
+      const DynamicMatrix<double> x = solver.solve(c);
+      EXPECT_LE((m * x * m.transpose() + c - x).norm(), 1e-13 * x.norm() / (1 - rho)) << "d=" << p.delay;
+      EXPECT_LE((solver.propagate(x) - m * x * m.transpose()).norm(), 1e-14 * x.norm()) << "d=" << p.delay;
+      const DynamicMatrix<double> q = solver.observability_gramian();
+      const DynamicMatrix<double> identity = DynamicMatrix<double>::Identity(m.rows(), m.cols());
+      EXPECT_LE((m.transpose() * q * m + identity - q).norm(), 1e-13 * q.norm() / (1 - rho)) << "d=" << p.delay;
+      EXPECT_NEAR(q.cwiseProduct(c).sum() / x.trace(), 1.0, 1e-12) << "<P, C> = tr X, d=" << p.delay;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hapticopt

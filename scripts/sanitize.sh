@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The test suite under sanitizers (issue 6): every test executable built with ASan + UBSan
+# (build/asan) and run with ctest; then the daemon's threaded code (the loop, the SPSC trace ring and its
+# writer thread, the daemon as a process) built with TSan (build/tsan) and run with ctest -L daemon.
+# Any sanitizer report aborts the test that triggered it (-fno-sanitize-recover=all), so ctest fails.
+# The packaging tests (compile-only) and the benchmarks are left out: they run nothing a sanitizer sees.
+# Usage: scripts/sanitize.sh [asan|tsan|all]   (default all; dependencies are assumed installed)
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+what="${1:-all}"
+jobs="$(nproc)"
+common=(-G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -g1"
+        -DHAPTICOPT_BUILD_BENCHMARKS=OFF -DHAPTICOPT_BUILD_PACKAGING_TESTS=OFF)
+# Address-space randomisation off (setarch -R): the sanitizers' fixed shadow layout then never collides
+# with a randomised mapping on kernels with high mmap entropy.
+norandom=(setarch "$(uname -m)" -R)
+
+if [[ "$what" == asan || "$what" == all ]]; then
+  cmake -S . -B build/asan "${common[@]}" -DHAPTICOPT_SANITIZE=address,undefined
+  cmake --build build/asan -j"$jobs"
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
+  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2
+fi
+if [[ "$what" == tsan || "$what" == all ]]; then
+  cmake -S . -B build/tsan "${common[@]}" -DHAPTICOPT_SANITIZE=thread
+  cmake --build build/tsan -j"$jobs" --target hapticd hapticd_unit_tests hapticd_analysis_tests hapticd_process_tests
+  TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
+    "${norandom[@]}" ctest --test-dir build/tsan --output-on-failure -j2 -L daemon
+fi

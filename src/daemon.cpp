@@ -1,0 +1,77 @@
+#include "daemon.hpp"
+
+#include <limits>
+
+namespace hapticd {
+
+Daemon::Daemon(Device& device, Scene& scene, TraceWriter* trace, const DaemonConfig& config)
+    : device_(device),
+      scene_(scene),
+      trace_(trace),
+      config_(config),
+      loop_(config.loop),
+      delay_(config.delay_samples),
+      watchdog_(config.watchdog) {}
+
+RunResult Daemon::run() noexcept {
+    result_.counters = loop_.run([this](const TickInput& in) { return tick(in); });
+    return result_;
+}
+
+TickOutput Daemon::tick(const TickInput& in) noexcept {
+    AxisVector position{};
+    AxisVector force{};
+    const bool last = config_.max_ticks != 0 && in.tick + 1 >= config_.max_ticks;
+    const bool stop = stop_requested();
+    if (stop && !result_.stopped_by_signal) {
+        result_.stopped_by_signal = true;
+        result_.signal = stop_signal();
+    }
+
+    DeviceStatus status = device_.read_position(position);
+    if (status != DeviceStatus::Ok && result_.fault == Fault::None) {
+        result_.fault = Fault::Device;
+        result_.device_status = status;
+        result_.fault_tick = in.tick;
+    }
+    if (result_.fault == Fault::None && config_.watchdog_enabled &&
+        watchdog_.check(in.consecutive_overruns, in.skipped_periods)) {
+        result_.fault = Fault::Watchdog;
+        result_.fault_tick = in.tick;
+    }
+    if (result_.fault == Fault::None) {
+        const SceneFault sf = scene_.evaluate(position, force);
+        if (sf != SceneFault::None) {
+            result_.fault = Fault::NonFinite;
+            result_.scene_fault = sf;
+            result_.fault_tick = in.tick;
+        }
+    }
+    // The delay buffer keeps its timing whatever happens; its output is applied only while all is well.
+    const AxisVector delayed = delay_.push_pop(force);
+    const bool zero = result_.fault != Fault::None || stop || last;
+    const AxisVector applied = zero ? AxisVector{} : delayed;
+
+    status = device_.write_force(applied);
+    if (status != DeviceStatus::Ok && result_.fault == Fault::None) {
+        result_.fault = Fault::Device;
+        result_.device_status = status;
+        result_.fault_tick = in.tick;
+    }
+
+    if (trace_ != nullptr) {
+        AxisVector external{};
+        const bool known = device_.read_external_force(external) == DeviceStatus::Ok;
+        TraceRecord r;
+        r.tick = in.tick;
+        r.time_s = in.time_s;
+        r.position_m = position[config_.trace_axis];
+        r.wall_force_N = applied[config_.trace_axis];
+        r.external_force_N = known ? external[config_.trace_axis] : std::numeric_limits<double>::quiet_NaN();
+        r.wake_latency_us = static_cast<double>(in.wake_latency_ns) * 1e-3;
+        trace_->push(r);
+    }
+    return TickOutput{.stop = zero || result_.fault != Fault::None};
+}
+
+}  // namespace hapticd

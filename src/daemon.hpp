@@ -1,0 +1,60 @@
+// One run of the wall: per tick read the device position, compute the scene's force, delay it by the
+// delay buffer, write it to the device, trace. Every path out of the loop ends with a tick that writes
+// zero force: the last tick of --duration, the tick after SIGINT/SIGTERM, and the tick of a fault
+// (device error, non-finite value, watchdog), after which the loop stops.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "delay_ring.hpp"
+#include "devices/device.hpp"
+#include "realtime_loop.hpp"
+#include "safety.hpp"
+#include "scene.hpp"
+#include "trace.hpp"
+
+namespace hapticd {
+
+struct DaemonConfig {
+    LoopConfig loop;
+    std::uint64_t max_ticks = 0;   // 0: until stopped
+    std::size_t delay_samples = 0; // the delay buffer N
+    WatchdogConfig watchdog;
+    bool watchdog_enabled = true;  // off in lockstep (no deadlines)
+    std::size_t trace_axis = 0;
+};
+
+struct RunResult {
+    LoopCounters counters;
+    Fault fault = Fault::None;
+    SceneFault scene_fault = SceneFault::None;
+    DeviceStatus device_status = DeviceStatus::Ok;
+    std::uint64_t fault_tick = 0;
+    bool stopped_by_signal = false;
+    int signal = 0;
+};
+
+class Daemon {
+public:
+    // Device, scene and trace (may be null) must outlive the daemon. The device must be open and homed.
+    Daemon(Device& device, Scene& scene, TraceWriter* trace, const DaemonConfig& config);
+
+    RunResult run() noexcept;
+
+    [[nodiscard]] const RealtimeLoop& loop() const noexcept { return loop_; }
+
+private:
+    TickOutput tick(const TickInput& in) noexcept;
+
+    Device& device_;
+    Scene& scene_;
+    TraceWriter* trace_;
+    DaemonConfig config_;
+    RealtimeLoop loop_;
+    DelayRing<AxisVector> delay_;
+    Watchdog watchdog_;
+    RunResult result_;
+};
+
+}  // namespace hapticd

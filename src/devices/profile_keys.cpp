@@ -1,0 +1,89 @@
+#include "devices/profile_keys.hpp"
+
+#include <cmath>
+
+#include <CLI/CLI.hpp>
+
+#include "options.hpp"
+
+namespace hapticd {
+
+void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
+    app.add_option("--firmware", k.firmware);
+    app.add_option("--homing_timeout", k.homing_timeout);
+    app.add_option("--origin", k.origin);
+    app.add_option("--device_index", k.device_index);
+    app.add_option("--usb_vid", k.usb_vid);
+    app.add_option("--usb_pid", k.usb_pid);
+    app.add_option("--input_report_id", k.input_report_id);
+    app.add_option("--position_offset", k.position_offset);
+    app.add_option("--position_bytes", k.position_bytes);
+    app.add_option("--position_signed", k.position_signed);
+    app.add_option("--position_scale", k.position_scale);
+    app.add_option("--position_zero", k.position_zero);
+    app.add_option("--set_effect_report_id", k.set_effect_report_id);
+    app.add_option("--constant_force_report_id", k.constant_force_report_id);
+    app.add_option("--effect_operation_report_id", k.effect_operation_report_id);
+    app.add_option("--block_free_report_id", k.block_free_report_id);
+    app.add_option("--device_control_report_id", k.device_control_report_id);
+    app.add_option("--create_effect_report_id", k.create_effect_report_id);
+    app.add_option("--block_load_report_id", k.block_load_report_id);
+    app.add_option("--force_scale", k.force_scale);
+    app.add_option("--force_max_counts", k.force_max_counts);
+}
+
+namespace {
+
+[[noreturn]] void invalid(const std::string& where, const std::string& key, const std::string& value, const std::string& range) {
+    throw StartupError(kExitInvalidParameter, where + key + " = " + value + " is invalid; accepted range: " + range);
+}
+
+void check_int(const std::string& where, const std::string& key, long long v, long long lo, long long hi) {
+    if (v < lo || v > hi) invalid(where, key, std::to_string(v), std::to_string(lo) + " .. " + std::to_string(hi));
+}
+
+void check_real(const std::string& where, const std::string& key, double v, double lo, double hi, bool nonzero) {
+    if (!std::isfinite(v) || v < lo || v > hi || (nonzero && v == 0.0)) {
+        invalid(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
+                                                   std::to_string(lo) + " .. " + std::to_string(hi));
+    }
+}
+
+}  // namespace
+
+void validate_real_device_keys(const std::string& where, const std::string& driver, const RealDeviceKeys& k) {
+    check_real(where, "homing_timeout", k.homing_timeout, 0.001, 3600.0, false);
+    check_int(where, "device_index", k.device_index, 0, 127);
+    if (!k.origin.empty() && k.origin.size() != 3) {
+        invalid(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
+    }
+    for (double v : k.origin) check_real(where, "origin", v, -1.0, 1.0, false);
+    if (driver == "hid") {
+        if (k.usb_vid < 0 || k.usb_pid < 0) {
+            throw StartupError(kExitBadConfig, where + "driver = \"hid\" needs usb_vid and usb_pid");
+        }
+        check_int(where, "usb_vid", k.usb_vid, 0, 0xFFFF);
+        check_int(where, "usb_pid", k.usb_pid, 0, 0xFFFF);
+    }
+    check_int(where, "input_report_id", k.input_report_id, 0, 255);
+    check_int(where, "position_offset", k.position_offset, 1, 63);
+    if (k.position_bytes != 1 && k.position_bytes != 2 && k.position_bytes != 4) {
+        invalid(where, "position_bytes", std::to_string(k.position_bytes), "1, 2 or 4");
+    }
+    check_int(where, "position_offset + position_bytes", k.position_offset + k.position_bytes, 2, 64);
+    check_real(where, "position_scale", k.position_scale, -1e6, 1e6, true);
+    check_real(where, "position_zero", k.position_zero, -4.3e9, 4.3e9, false);
+    for (auto [key, v] : {std::pair{"set_effect_report_id", k.set_effect_report_id},
+                          std::pair{"constant_force_report_id", k.constant_force_report_id},
+                          std::pair{"effect_operation_report_id", k.effect_operation_report_id},
+                          std::pair{"block_free_report_id", k.block_free_report_id},
+                          std::pair{"device_control_report_id", k.device_control_report_id},
+                          std::pair{"create_effect_report_id", k.create_effect_report_id},
+                          std::pair{"block_load_report_id", k.block_load_report_id}}) {
+        check_int(where, key, v, 1, 255);
+    }
+    check_real(where, "force_scale", k.force_scale, -1e9, 1e9, true);
+    check_int(where, "force_max_counts", k.force_max_counts, 1, 32767);
+}
+
+}  // namespace hapticd

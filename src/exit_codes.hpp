@@ -1,0 +1,22 @@
+// Process exit codes of hapticd (documented in docs/hapticd.md and in the --help footer).
+#pragma once
+
+namespace hapticd {
+
+enum ExitCode : int {
+    kExitOk = 0,                // normal end, including SIGINT/SIGTERM
+    kExitInternal = 1,          // unexpected internal error (a bug)
+    kExitUsage = 2,             // bad command line: unknown option, wrong type, bad choice
+    kExitBadConfig = 3,         // bad config or device profile file: missing, malformed, unknown key, wrong type
+    kExitInvalidParameter = 4,  // a physical or numeric parameter outside its accepted range (incl. NaN/inf)
+    kExitUnstableGains = 5,     // explicit --stiffness/--damping outside the stability region
+    kExitDeviceError = 6,       // the device could not be opened/homed or failed during the run
+    kExitRunFault = 7,          // fault during the run: watchdog or non-finite value
+};
+
+inline constexpr const char* kExitCodeHelp =
+    "Exit codes: 0 ok (also after SIGINT/SIGTERM), 1 internal error, 2 usage error, 3 bad config/profile file,\n"
+    "4 invalid physical parameter, 5 unstable explicit gains, 6 device error, 7 fault during run\n"
+    "(watchdog or non-finite value).";
+
+}  // namespace hapticd

@@ -1,0 +1,323 @@
+#include "hapticd_main.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon.hpp"
+#include "devices/device_factory.hpp"
+#include "devices/device_list.hpp"
+#include "identification_run.hpp"
+#include "options.hpp"
+#include "realtime_setup.hpp"
+#include "report.hpp"
+#include "safety.hpp"
+#include "scene.hpp"
+#include "trace.hpp"
+#include "tuning.hpp"
+
+namespace hapticd {
+
+namespace {
+
+struct ResolvedWall {
+    WallSpec spec;
+    WallGeometry geometry;
+    TuningResult tuning;
+};
+
+// Closes the device on every path out (close() leaves zero force).
+struct DeviceCloser {
+    Device* device = nullptr;
+    ~DeviceCloser() {
+        if (device != nullptr) device->close();
+    }
+};
+
+std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p, const TuningPlant& plant) {
+    const int code = o.walls_from_command_line ? kExitUsage : kExitBadConfig;
+    const std::string origin = o.walls_from_command_line ? "--wall" : "config file '" + o.config_path + "': wall";
+    std::vector<ResolvedWall> walls;
+    std::map<std::string, TuningResult> tuned;  // each criterion the scene uses, computed once
+    for (const auto& text : o.walls) {
+        std::string error;
+        const auto spec = parse_wall_spec(text, error);
+        if (!spec) throw StartupError(code, origin + ": " + error);
+        if (spec->axis >= static_cast<std::size_t>(p.axes)) {
+            throw StartupError(code, origin + " '" + text + "': axis = " + std::to_string(spec->axis) +
+                                         " is invalid; accepted range: 0 .. " + std::to_string(p.axes - 1) +
+                                         " (device '" + p.name + "' has " + std::to_string(p.axes) + " axes)");
+        }
+        ResolvedWall w;
+        w.spec = *spec;
+        w.geometry.axis = spec->axis;
+        w.geometry.position = spec->position;
+        w.geometry.direction = spec->direction;
+        w.geometry.mode = spec->mode.value_or(o.bilateral ? WallMode::Bilateral : WallMode::Unilateral);
+        const std::string criterion = spec->criterion.value_or(o.criterion);
+        if (!is_accepted_criterion(criterion)) {
+            throw StartupError(code, origin + " '" + text + "': criterion = " + criterion +
+                                         " is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV");
+        }
+        if (o.gains_set) {
+            auto it = tuned.find("explicit");
+            if (it == tuned.end()) {
+                it = tuned.emplace("explicit", check_explicit_gains(o.stiffness, o.damping, o.criterion, plant)).first;
+            }
+            w.tuning = it->second;
+        } else {
+            auto it = tuned.find(criterion);
+            if (it == tuned.end()) it = tuned.emplace(criterion, tune_wall(criterion, plant)).first;
+            w.tuning = it->second;
+        }
+        walls.push_back(w);
+    }
+    return walls;
+}
+
+int run_main(int argc, const char* const* argv) {
+    const Options o = parse_options(argc, argv);
+    validate_options(o);
+    if (o.list_devices) return list_devices(std::cout, o);
+    const DeviceProfile profile = load_device_profile(o);
+    std::ostream& out = std::cout;
+
+    const double period = 1.0 / o.rate;
+    const double delay = profile.inherent_delay + static_cast<double>(o.delay_buffer) / o.rate;
+    const TuningPlant configured_plant{profile.mass, profile.damping, profile.stiffness, period, delay};
+    // --identify / --identification-file: tune from the identified plant (identification_run.hpp).
+    const std::optional<IdentificationStage> ident = run_identification_stage(o, profile, period, std::cout, std::cerr);
+    std::optional<TuningResult> configured_tuning;
+    std::optional<IdentifiedTuning> ident_tuning;
+    if (ident && !o.gains_set) {
+        configured_tuning = tune_wall(o.criterion, configured_plant);
+        ident_tuning = tune_identified(o.criterion, ident->result, period, static_cast<double>(o.delay_buffer) / o.rate);
+    }
+    const TuningPlant plant = !ident ? configured_plant
+                              : ident_tuning ? ident_tuning->plant
+                                             : TuningPlant{ident->result.mass, std::max(0.0, ident->result.damping),
+                                                           std::max(0.0, ident->result.stiffness), period,
+                                                           ident->result.delay_periods * period +
+                                                               static_cast<double>(o.delay_buffer) / o.rate};
+    const std::vector<ResolvedWall> walls = resolve_walls(o, profile, plant);
+
+    const std::int64_t period_ns = std::llround(1e9 / o.rate);
+    std::uint64_t max_ticks = 0;
+    if (o.duration_set) {
+        max_ticks = static_cast<std::uint64_t>(std::ceil(o.duration * o.rate - 1e-9));
+        if (max_ticks == 0) max_ticks = 1;
+    }
+
+    RunReport report;
+    report.options = &o;
+    report.profile = &profile;
+    report.period = period;
+    report.delay = delay;
+    for (const auto& w : walls) {
+        WallSpec canonical = w.spec;
+        canonical.mode = w.geometry.mode;
+        report.walls.push_back({to_string(canonical), w.tuning});
+    }
+
+    if (!o.quiet) {
+        out << "hapticd: device '" << profile.name << "' (" << profile.path << ")" << (o.simulate || profile.driver == "sim" ? ", simulated" : "")
+            << ": mass " << profile.mass << (profile.rotary ? " kg m^2" : " kg") << ", damping " << profile.damping
+            << ", stiffness " << profile.stiffness << "; rate " << o.rate << " Hz (T = " << period * 1e3
+            << " ms), delay " << delay * 1e3 << " ms = " << delay / period << " periods (device " << profile.inherent_delay * 1e3
+            << " ms + buffer " << o.delay_buffer << ")\n";
+        if (std::abs(static_cast<double>(period_ns) - 1e9 / o.rate) > 1e-6) {
+            out << "hapticd: note: the scheduler period is " << period_ns << " ns (1e9/rate rounded to whole ns); "
+                << "the wall and the tuning use T = 1/rate exactly\n";
+        }
+        if (walls.empty()) out << "hapticd: no walls in the scene: nothing to tune, zero force\n";
+        if (ident) {
+            out << identification_text(*ident, profile, period) << "\n";
+            if (configured_tuning && ident_tuning) {
+                out << "hapticd: tuned from the identified plant: K = " << ident_tuning->tuning.K << " +- " << ident_tuning->K_stderr
+                    << ", B = " << ident_tuning->tuning.B << " +- " << ident_tuning->B_stderr << " (from the profile: K = "
+                    << configured_tuning->K << ", B = " << configured_tuning->B << ")\n";
+            }
+        }
+        for (const auto& r : report.walls) {
+            out << "hapticd: wall " << r.spec << ": " << tuning_line(r.tuning, profile.rotary) << "\n";
+        }
+        if (o.gains_set) {
+            for (const auto& w : walls) {
+                if (w.spec.criterion) out << "hapticd: note: explicit gains override the wall's criterion=" << *w.spec.criterion << "\n";
+            }
+        }
+    }
+
+    SimScenario scenario;
+    scenario.kind = o.scenario == "push" ? Scenario::Push : o.scenario == "hold" ? Scenario::Hold : Scenario::Step;
+    if (!walls.empty()) {
+        scenario.axis = walls.front().geometry.axis;
+        scenario.surface = walls.front().geometry.position;
+        scenario.direction = walls.front().geometry.direction;
+    }
+    scenario.step_force = o.step_force;
+    scenario.push_speed = o.push_speed;
+    scenario.push_distance = o.push_distance;
+    scenario.push_force = o.push_force;
+    scenario.hold_force = o.hold_force;
+    scenario.hold_distance = o.hold_distance;
+
+    std::ofstream summary;
+    if (!o.summary_json.empty()) {
+        summary.open(o.summary_json);
+        if (!summary) throw StartupError(kExitUsage, "summary-json = '" + o.summary_json + "': cannot open for writing");
+    }
+    auto write_summary = [&](int code) {
+        report.exit_code = code;
+        if (summary.is_open()) {
+            nlohmann::json j = summary_json(report);
+            if (ident) {
+                j["identified"] = identification_summary_json(*ident, profile, period, configured_tuning ? &*configured_tuning : nullptr,
+                                                              ident_tuning ? &*ident_tuning : nullptr);
+            }
+            summary << j.dump(2) << "\n";
+            summary.close();
+            if (!summary) std::cerr << "hapticd: error: writing summary-json '" << o.summary_json << "' failed\n";
+        }
+    };
+    if (o.dry_run) {  // tuning only: no device needed
+        write_summary(kExitOk);
+        return kExitOk;
+    }
+    std::unique_ptr<Device> device = make_device(profile, o, scenario, period);
+
+    std::vector<VirtualWall> scene_walls;
+    for (const auto& w : walls) {
+        try {
+            scene_walls.emplace_back(w.geometry, w.tuning.K, w.tuning.B, period);
+        } catch (const std::invalid_argument& e) {
+            throw StartupError(kExitInvalidParameter, e.what());
+        }
+    }
+    Scene scene(std::move(scene_walls), static_cast<std::size_t>(profile.axes), profile.max_force);
+
+    install_stop_signal_handlers();
+    std::unique_ptr<TraceWriter> trace;
+    if (!o.trace.empty()) {
+        try {
+            trace = std::make_unique<TraceWriter>(o.trace, static_cast<std::size_t>(o.trace_capacity), o.lockstep);
+        } catch (const std::exception& e) {
+            throw StartupError(kExitUsage, e.what());
+        }
+    }
+
+    DeviceCloser closer;
+    if (const DeviceStatus s = device->open(); s != DeviceStatus::Ok) {
+        throw StartupError(kExitDeviceError, "device '" + profile.name + "': open failed: " + device->last_error());
+    }
+    closer.device = device.get();
+    if (const DeviceStatus s = device->home(); s != DeviceStatus::Ok) {
+        throw StartupError(kExitDeviceError, "device '" + profile.name + "': homing failed: " + device->last_error());
+    }
+
+    DaemonConfig cfg;
+    cfg.loop.period_ns = period_ns;
+    cfg.loop.lockstep = o.lockstep;
+    cfg.max_ticks = max_ticks;
+    cfg.delay_samples = static_cast<std::size_t>(o.delay_buffer);
+    cfg.watchdog.max_consecutive_overruns = static_cast<std::uint32_t>(o.watchdog_overruns);
+    cfg.watchdog.max_skipped_periods = static_cast<std::uint64_t>(o.watchdog_stall_periods);
+    cfg.watchdog_enabled = !o.lockstep;
+    cfg.trace_axis = walls.empty() ? 0 : walls.front().geometry.axis;
+    auto daemon = std::make_unique<Daemon>(*device, scene, trace.get(), cfg);
+
+    if (!o.lockstep) {
+        report.realtime_requested = true;
+        report.realtime = apply_realtime(RealtimeRequest{o.rt_priority, o.mlock, o.cpu});
+        if (!o.quiet) {
+            out << "hapticd: real-time: SCHED_FIFO " << (report.realtime.fifo ? "priority " + std::to_string(o.rt_priority) : std::string("off"))
+                << ", memory " << (report.realtime.memory_locked ? "locked" : "not locked") << ", CPU "
+                << (report.realtime.pinned ? std::to_string(o.cpu) : std::string("not pinned")) << "\n";
+        }
+        if (!report.realtime.failures.empty()) {
+            std::cerr << "hapticd: warning: real-time setup did not take effect: " << report.realtime.failures
+                      << "; running with normal scheduling (see docs/hapticd.md, 'Running without root')\n";
+        }
+    }
+    if (!o.quiet) {
+        out << "hapticd: running" << (o.lockstep ? " in lockstep" : "")
+            << (max_ticks ? " for " + std::to_string(max_ticks) + " ticks" : std::string(" until SIGINT/SIGTERM"))
+            << ", scenario " << o.scenario << std::endl;
+    }
+
+    report.run = daemon->run();
+    report.ran = true;
+    report.loop = &daemon->loop();
+    if (report.run.fault == Fault::Device) report.device_error = device->last_error();
+    device->close();  // zero force (the last tick already wrote zero when the device still listened)
+    closer.device = nullptr;
+    if (trace) {
+        report.trace_error = !trace->close();
+        report.trace_dropped = trace->dropped();
+        report.trace_written = trace->written();
+        if (report.trace_error) std::cerr << "hapticd: error: writing trace '" << o.trace << "' failed\n";
+        if (report.trace_dropped > 0) {
+            std::cerr << "hapticd: warning: " << report.trace_dropped << " trace records dropped (trace ring full; "
+                      << "raise --trace-capacity)\n";
+        }
+    }
+    report.saturated_ticks = scene.stats().saturated_ticks;
+    if (const DeviceCounters c = device->counters(); c.packets_malformed + c.packets_short + c.garbage_bytes > 0 && !o.quiet) {
+        std::cerr << "hapticd: warning: device '" << profile.name << "': " << c.packets_malformed << " malformed and "
+                  << c.packets_short << " short packets dropped, " << c.garbage_bytes << " bytes skipped while resynchronising ("
+                  << c.packets_ok << " good packets)\n";
+    }
+
+    int code = kExitOk;
+    switch (report.run.fault) {
+        case Fault::None: break;
+        case Fault::Device:
+            code = kExitDeviceError;
+            std::cerr << "hapticd: error: device '" << profile.name << "' failed at tick " << report.run.fault_tick << ": "
+                      << report.device_error << "; zero force, loop stopped\n";
+            break;
+        case Fault::NonFinite:
+            code = kExitRunFault;
+            std::cerr << "hapticd: error: fault at tick " << report.run.fault_tick << ": " << to_string(report.run.scene_fault)
+                      << "; zero force, loop stopped\n";
+            break;
+        case Fault::Watchdog:
+            code = kExitRunFault;
+            std::cerr << "hapticd: error: watchdog fault at tick " << report.run.fault_tick << ": more than "
+                      << o.watchdog_overruns << " consecutive overruns or a stall of more than " << o.watchdog_stall_periods
+                      << " periods; zero force, loop stopped\n";
+            break;
+    }
+    if (!o.quiet) {
+        if (report.run.stopped_by_signal) out << "hapticd: stopped by signal " << report.run.signal << "\n";
+        out << statistics_text(report);
+    }
+    write_summary(code);
+    return code;
+}
+
+}  // namespace
+
+int hapticd_main(int argc, const char* const* argv) noexcept {
+    clear_stop_request();
+    try {
+        return run_main(argc, argv);
+    } catch (const StartupError& e) {
+        if (e.what()[0] != '\0') std::cerr << "hapticd: error: " << e.what() << "\n";
+        return e.code();
+    } catch (const std::exception& e) {
+        std::cerr << "hapticd: internal error: " << e.what() << "\n";
+        return kExitInternal;
+    } catch (...) {
+        std::cerr << "hapticd: internal error (unknown exception)\n";
+        return kExitInternal;
+    }
+}
+
+}  // namespace hapticd

@@ -1,0 +1,349 @@
+#include "options.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <regex>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+
+#include "config_file.hpp"
+
+#ifndef HAPTICD_CONFIG_DIR
+#error "HAPTICD_CONFIG_DIR must be defined (the repository's config/ directory)"
+#endif
+
+namespace hapticd {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kVersion = "hapticd 0.1.0";
+
+const std::vector<std::string> kCriteria{"CE0", "CE1", "CE2", "OV", "CE0+OV", "CE1+OV", "CE2+OV"};
+const std::vector<std::string> kScenarios{"step", "push", "hold"};
+
+struct Handles {
+    CLI::Option* duration = nullptr;
+    CLI::Option* stiffness = nullptr;
+    CLI::Option* damping = nullptr;
+    CLI::Option* wall = nullptr;
+};
+
+// Which of the options that need it were given (the CLI::App owning the handles is gone by then).
+struct Given {
+    bool duration = false;
+    bool stiffness = false;
+    bool damping = false;
+    bool wall = false;
+    static Given of(const Handles& h) {
+        return {h.duration->count() > 0, h.stiffness->count() > 0, h.damping->count() > 0, h.wall->count() > 0};
+    }
+};
+
+// The options that may appear both on the command line and in the config file (key = long name).
+void define_common(CLI::App& app, Options& o, Handles& h) {
+    app.add_option("--criterion", o.criterion, "Tuning criterion of the wall (default CE2)")
+        ->check(CLI::IsMember(kCriteria));
+    app.add_option("--device", o.device,
+                   "Device profile: a name in <config dir>/devices/<name>.toml, or a path to a .toml file (default sim)");
+    app.add_option("--rate", o.rate, "Loop rate in Hz (default 1000)");
+    app.add_option("--delay-buffer", o.delay_buffer,
+                   "Extra delay of the wall force in samples, N >= 0 (total delay = device delay + N/rate)");
+    h.duration = app.add_option("--duration", o.duration, "Run time in s (default: until SIGINT/SIGTERM)");
+    app.add_option("--trace", o.trace, "Write a per-tick CSV trace to FILE");
+    app.add_option("--summary-json", o.summary_json, "Write the tuning and loop statistics as JSON to FILE at exit");
+    app.add_flag("--lockstep", o.lockstep, "No sleeping: run ticks back to back (simulated device, tests)");
+    app.add_option("--scenario", o.scenario, "Simulated device scenario: step, push, hold (default step)")
+        ->check(CLI::IsMember(kScenarios));
+    app.add_flag("--bilateral", o.bilateral, "Walls without a mode render bilaterally (as analysed in the paper)");
+    app.add_flag("--simulate", o.simulate, "Simulate the profile's physics even if its driver is a real device");
+    h.stiffness = app.add_option("--stiffness", o.stiffness, "Explicit wall stiffness K in N/m (needs --damping)");
+    h.damping = app.add_option("--damping", o.damping, "Explicit wall damping B in N s/m (needs --stiffness)");
+    h.wall = app.add_option("--wall", o.walls,
+                            "Wall 'axis=0 position=0.0 direction=+1 [mode=unilateral|bilateral] [criterion=..]' "
+                            "(repeatable; replaces the configured walls)");
+    app.add_option("--rt-priority", o.rt_priority, "SCHED_FIFO priority 1..99, 0: do not ask (default 80)");
+    app.add_option("--cpu", o.cpu, "Pin the loop thread to this CPU (default -1: no pinning)");
+    app.add_option("--mlock", o.mlock, "Lock memory with mlockall (default true)");
+    app.add_option("--watchdog-overruns", o.watchdog_overruns,
+                   "Fault after more than this many consecutive overruns (default 50)");
+    app.add_option("--watchdog-stall-periods", o.watchdog_stall_periods,
+                   "Fault when one late tick skips more than this many periods (default 100)");
+    app.add_option("--trace-capacity", o.trace_capacity, "Trace ring capacity in records (default 65536)");
+    app.add_option("--step-force", o.step_force, "step scenario: external force step, N (default 1)");
+    app.add_option("--push-speed", o.push_speed, "push scenario: approach speed, m/s (default 0.1)");
+    app.add_option("--push-distance", o.push_distance, "push scenario: start distance from the wall, m (default 0.002)");
+    app.add_option("--push-force", o.push_force, "push scenario: external force while pushing, N (default 0)");
+    app.add_option("--hold-force", o.hold_force, "hold scenario: constant human force, N (default 2)");
+    app.add_option("--hold-distance", o.hold_distance, "hold scenario: start distance from the wall, m (default 0.001)");
+    app.add_flag("--quiet", o.quiet, "Print only warnings and errors");
+    app.add_flag("--identify", o.identify,
+                 "Identify mass, damping, stiffness and delay by a short excitation before rendering; tune from them");
+    app.add_option("--identification-file", o.identification_file,
+                   "Identification results (JSON): written after --identify, reused without it");
+    app.add_option("--identify-force", o.identify_force, "Excitation force limit in N (default 0: 25 % of max_force)");
+    app.add_option("--identify-distance", o.identify_distance,
+                   "Excitation position limit in m from the start (default 0: 5 mm, 0.05 rad rotary)");
+    app.add_option("--identify-duration", o.identify_duration, "Excitation time in s (default 2)");
+    app.add_option("--falcon-firmware", o.falcon_firmware,
+                   "Novint Falcon firmware image to upload at start (user-supplied; overrides the profile's firmware)");
+}
+
+std::string config_error_message(const std::string& path, const CLI::Error& e) {
+    std::string what = e.what();
+    const std::string extras = "INI was not able to parse ";
+    if (what.rfind(extras, 0) == 0) {
+        what = "unknown key '" + what.substr(extras.size()) + "'";
+    }
+    return "config file '" + path + "': " + what;
+}
+
+void lint_or_throw(const std::string& kind, const std::string& path) {
+    const auto issues = check_config_file(path);
+    if (issues.empty()) return;
+    std::ostringstream msg;
+    msg << kind << " '" << path << "' is malformed:";
+    for (const auto& issue : issues) {
+        msg << "\n  line " << issue.line << ": " << issue.message;
+    }
+    throw StartupError(kExitBadConfig, msg.str());
+}
+
+Given load_config_file(const std::string& path, Options& o) {
+    Handles h;
+    lint_or_throw("config file", path);
+    CLI::App file_app{"hapticd config file"};
+    file_app.set_help_flag();
+    file_app.allow_config_extras(CLI::config_extras_mode::error);
+    define_common(file_app, o, h);
+    file_app.set_config("--hapticd-config-file", path, "", true);
+    try {
+        file_app.parse(std::vector<std::string>{});
+    } catch (const CLI::Error& e) {
+        throw StartupError(kExitBadConfig, config_error_message(path, e));
+    }
+    return Given::of(h);
+}
+
+// Shortest text that reads back as the same double ("-0.3", not "-0.29999999999999999").
+std::string fmt(double v) {
+    char buf[64];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
+}
+
+[[noreturn]] void invalid(const std::string& where, const std::string& name, const std::string& value,
+                          const std::string& range) {
+    throw StartupError(kExitInvalidParameter,
+                       where + name + " = " + value + " is invalid; accepted range: " + range);
+}
+
+void check_range(const std::string& where, const std::string& name, double v, double lo, double hi, bool lo_open,
+                 const std::string& range) {
+    if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) invalid(where, name, fmt(v), range);
+}
+
+}  // namespace
+
+std::string default_config_dir() { return HAPTICD_CONFIG_DIR; }
+
+Options parse_options(int argc, const char* const* argv) {
+    // Pass 1: the command line alone (usage errors, --help, where the config file is).
+    std::string config_arg;
+    bool config_given = false;
+    {
+        Options scratch;
+        Handles h;
+        CLI::App app{"hapticd: a virtual wall at a fixed rate, with K and B tuned optimally for the device's mass, "
+                     "period and delay (Hulin et al., IROS 2011)",
+                     "hapticd"};
+        app.footer(std::string("Config: ") + default_config_dir() + "/hapticd.toml unless --config FILE; keys are "
+                   "the long option names.\n" + kExitCodeHelp);
+        app.set_version_flag("--version", kVersion);
+        define_common(app, scratch, h);
+        auto* cfg = app.add_option("--config", config_arg, "Config file (TOML; default <config dir>/hapticd.toml)");
+        app.add_flag("--dry-run", scratch.dry_run, "Tune, print and exit without running the loop");
+        app.add_flag("--list-devices", scratch.list_devices, "List the USB/HID devices hapticd can drive and exit");
+        try {
+            app.parse(argc, argv);
+        } catch (const CLI::CallForHelp&) {
+            std::cout << app.help();
+            throw StartupError(kExitOk, "");
+        } catch (const CLI::CallForAllHelp&) {
+            std::cout << app.help("", CLI::AppFormatMode::All);
+            throw StartupError(kExitOk, "");
+        } catch (const CLI::CallForVersion&) {
+            std::cout << kVersion << "\n";
+            throw StartupError(kExitOk, "");
+        } catch (const CLI::ParseError& e) {
+            throw StartupError(kExitUsage, std::string(e.what()) + " (see hapticd --help)");
+        }
+        config_given = cfg->count() > 0;
+    }
+
+    Options o;
+    Given from_file;
+    Given from_cli;
+    std::string config_path = config_given ? config_arg : default_config_dir() + "/hapticd.toml";
+    if (config_given && config_path.empty()) {
+        // --config "" : no config file at all, built-in defaults only.
+    } else if (config_given || fs::exists(config_path)) {
+        if (!fs::is_regular_file(config_path)) {
+            throw StartupError(kExitBadConfig, "config file '" + config_path + "' does not exist or is not a file");
+        }
+        from_file = load_config_file(config_path, o);
+        o.config_path = config_path;
+    }
+
+    // Pass 2: the command line over the config file's values.
+    {
+        CLI::App app{"hapticd", "hapticd"};
+        app.set_version_flag("--version", kVersion);
+        Handles cli_h;
+        define_common(app, o, cli_h);
+        std::string ignored;
+        app.add_option("--config", ignored);
+        app.add_flag("--dry-run", o.dry_run);
+        app.add_flag("--list-devices", o.list_devices);
+        try {
+            app.parse(argc, argv);
+        } catch (const CLI::ParseError& e) {
+            throw StartupError(kExitUsage, std::string(e.what()) + " (see hapticd --help)");
+        }
+        from_cli = Given::of(cli_h);
+    }
+    o.duration_set = from_file.duration || from_cli.duration;
+    const bool k_set = from_file.stiffness || from_cli.stiffness;
+    const bool b_set = from_file.damping || from_cli.damping;
+    if (k_set != b_set) {
+        throw StartupError(kExitUsage, std::string("explicit gains need both --stiffness and --damping; only ") +
+                                           (k_set ? "--stiffness" : "--damping") + " was given");
+    }
+    o.gains_set = k_set;
+    o.walls_from_command_line = from_cli.wall;
+    return o;
+}
+
+void validate_options(const Options& o) {
+    const std::string w;
+    check_range(w, "rate", o.rate, 1.0, 100000.0, false, "1 .. 100000 Hz");
+    if (o.delay_buffer < 0 || o.delay_buffer > 100000) {
+        invalid(w, "delay-buffer", std::to_string(o.delay_buffer), "0 .. 100000 samples");
+    }
+    if (o.duration_set) {
+        check_range(w, "duration", o.duration, 0.0, 1e7, true, "> 0 s and <= 1e7 s (omit it to run until stopped)");
+    }
+    if (o.gains_set) {
+        check_range(w, "stiffness", o.stiffness, 0.0, 1e12, false, "finite, >= 0 N/m");
+        check_range(w, "damping", o.damping, 0.0, 1e12, false, "finite, >= 0 N s/m");
+    }
+    if (o.rt_priority < 0 || o.rt_priority > 99) invalid(w, "rt-priority", std::to_string(o.rt_priority), "0 .. 99");
+    if (o.cpu < -1 || o.cpu >= 1024) invalid(w, "cpu", std::to_string(o.cpu), "-1 (no pinning) .. 1023");
+    if (o.watchdog_overruns < 0 || o.watchdog_overruns > 1000000000) {
+        invalid(w, "watchdog-overruns", std::to_string(o.watchdog_overruns), "0 .. 1e9");
+    }
+    if (o.watchdog_stall_periods < 0 || o.watchdog_stall_periods > 1000000000) {
+        invalid(w, "watchdog-stall-periods", std::to_string(o.watchdog_stall_periods), "0 .. 1e9");
+    }
+    if (o.trace_capacity < 2 || o.trace_capacity > (1LL << 24)) {
+        invalid(w, "trace-capacity", std::to_string(o.trace_capacity), "2 .. 16777216 records");
+    }
+    check_range(w, "step-force", o.step_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
+    check_range(w, "push-speed", o.push_speed, 0.0, 1e3, false, "0 .. 1000 m/s");
+    check_range(w, "push-distance", o.push_distance, 0.0, 1e3, false, "0 .. 1000 m");
+    check_range(w, "push-force", o.push_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
+    check_range(w, "hold-force", o.hold_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
+    check_range(w, "hold-distance", o.hold_distance, 0.0, 1e3, false, "0 .. 1000 m");
+    check_range(w, "identify-force", o.identify_force, 0.0, 1e6, false, "0 (auto) .. 1e6 N");
+    check_range(w, "identify-distance", o.identify_distance, 0.0, 1e3, false, "0 (auto) .. 1000 m");
+    check_range(w, "identify-duration", o.identify_duration, 0.1, 600.0, false, "0.1 .. 600 s");
+}
+
+std::string resolve_device_profile_path(const Options& o) {
+    const std::string& d = o.device;
+    if (d.find('/') != std::string::npos || (d.size() > 5 && d.substr(d.size() - 5) == ".toml")) {
+        return d;
+    }
+    static const std::regex name_re(R"([A-Za-z0-9_-]+)");
+    if (!std::regex_match(d, name_re)) {
+        throw StartupError(kExitUsage, "device = '" + d +
+                                           "' is invalid; accepted: a profile name ([A-Za-z0-9_-]+) or a path to a .toml file");
+    }
+    // Profiles next to the config file in use, else in the built-in config dir.
+    if (!o.config_path.empty()) {
+        const fs::path candidate = fs::path(o.config_path).parent_path() / "devices" / (d + ".toml");
+        if (fs::exists(candidate)) return candidate.string();
+    }
+    return default_config_dir() + "/devices/" + d + ".toml";
+}
+
+DeviceProfile load_device_profile(const Options& o) {
+    DeviceProfile p;
+    p.path = resolve_device_profile_path(o);
+    if (!fs::is_regular_file(p.path)) {
+        throw StartupError(kExitBadConfig, "device profile '" + p.path + "' (device = '" + o.device +
+                                               "') does not exist or is not a file");
+    }
+    lint_or_throw("device profile", p.path);
+    CLI::App app{"hapticd device profile"};
+    app.set_help_flag();
+    app.allow_config_extras(CLI::config_extras_mode::error);
+    app.add_option("--name", p.name);
+    app.add_option("--description", p.description);
+    app.add_option("--driver", p.driver)->check(CLI::IsMember({"sim", "falcon", "hid", "lwr"}));
+    auto* mass = app.add_option("--mass", p.mass);
+    app.add_option("--damping", p.damping);
+    app.add_option("--stiffness", p.stiffness);
+    app.add_option("--inherent_delay", p.inherent_delay);
+    auto* max_force = app.add_option("--max_force", p.max_force);
+    app.add_option("--axes", p.axes);
+    app.add_option("--workspace_min", p.workspace_min);
+    app.add_option("--workspace_max", p.workspace_max);
+    app.add_option("--rotary", p.rotary);
+    app.add_option("--position_noise", p.position_noise);
+    app.add_option("--position_resolution", p.position_resolution);
+    app.add_option("--noise_seed", p.noise_seed);
+    app.add_option("--fail_at_tick", p.fail_at_tick);
+    add_real_device_keys(app, p.real);
+    app.set_config("--hapticd-profile-file", p.path, "", true);
+    try {
+        app.parse(std::vector<std::string>{});
+    } catch (const CLI::Error& e) {
+        std::string what = config_error_message(p.path, e);
+        throw StartupError(kExitBadConfig, "device profile" + what.substr(std::string("config file").size()));
+    }
+    for (auto [opt, key] : {std::pair{mass, "mass"}, std::pair{max_force, "max_force"}}) {
+        if (opt->count() == 0) {
+            throw StartupError(kExitBadConfig, "device profile '" + p.path + "': missing key '" + key + "'");
+        }
+    }
+    if (p.name.empty()) p.name = fs::path(p.path).stem().string();
+    const std::string where = "device profile '" + p.path + "': ";
+    check_range(where, "mass", p.mass, 0.0, 1e6, true, "finite, > 0 kg (kg m^2 for rotary devices)");
+    check_range(where, "damping", p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m");
+    check_range(where, "stiffness", p.stiffness, 0.0, 1e12, false, "finite, >= 0 N/m");
+    check_range(where, "inherent_delay", p.inherent_delay, 0.0, 1.0, false, "0 .. 1 s");
+    check_range(where, "max_force", p.max_force, 0.0, 1e6, true, "finite, > 0 N (N m)");
+    if (p.axes < 1 || p.axes > 3) invalid(where, "axes", std::to_string(p.axes), "1 .. 3");
+    const auto axes = static_cast<std::size_t>(p.axes);
+    for (auto* ws : {&p.workspace_min, &p.workspace_max}) {
+        if (!ws->empty() && ws->size() != axes) {
+            invalid(where, ws == &p.workspace_min ? "workspace_min" : "workspace_max",
+                    std::to_string(ws->size()) + " values", "one value per axis (" + std::to_string(axes) + ")");
+        }
+        for (double v : *ws) {
+            check_range(where, ws == &p.workspace_min ? "workspace_min" : "workspace_max", v, -1e3, 1e3, false,
+                        "finite, |x| <= 1000 m");
+        }
+    }
+    check_range(where, "position_noise", p.position_noise, 0.0, 1.0, false, "0 .. 1 m");
+    check_range(where, "position_resolution", p.position_resolution, 0.0, 1.0, false, "0 .. 1 m");
+    validate_real_device_keys(where, p.driver, p.real);
+    return p;
+}
+
+}  // namespace hapticd

@@ -1,0 +1,101 @@
+// hapticd's options: command line (CLI11) over the config file (TOML through CLI11's config support)
+// over built-in defaults; and the device profile (a TOML file of its own).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "devices/profile_keys.hpp"
+#include "exit_codes.hpp"
+
+namespace hapticd {
+
+struct Options {
+    std::string criterion = "CE2";
+    std::string config_path;          // the config file actually used ("" when none)
+    std::string device = "sim";
+    double rate = 1000.0;             // Hz
+    long long delay_buffer = 0;       // samples
+    bool duration_set = false;
+    double duration = 0.0;            // s; unset: run until stopped
+    std::string trace;                // CSV path ("" : no trace)
+    std::string summary_json;         // JSON path ("" : none)
+    bool lockstep = false;
+    std::string scenario = "step";
+    bool bilateral = false;
+    bool simulate = false;            // simulate the profile's physics even when its driver is a real device
+    bool gains_set = false;
+    double stiffness = 0.0;           // explicit K, N/m
+    double damping = 0.0;             // explicit B, N s/m
+    std::vector<std::string> walls{"axis=0 position=0.0 direction=+1"};
+    bool walls_from_command_line = false;
+    bool dry_run = false;             // tune, print and exit without running the loop
+    int rt_priority = 80;
+    int cpu = -1;
+    bool mlock = true;
+    long long watchdog_overruns = 50;
+    long long watchdog_stall_periods = 100;
+    long long trace_capacity = 65536;
+    double step_force = 1.0;
+    double push_speed = 0.1;
+    double push_distance = 0.002;
+    double push_force = 0.0;
+    double hold_force = 2.0;
+    double hold_distance = 0.001;
+    bool quiet = false;
+    std::string falcon_firmware;      // Novint Falcon firmware image (overrides the profile's `firmware`)
+    bool list_devices = false;        // list the USB/HID devices hapticd can drive and exit
+    bool identify = false;            // identify mass, damping, stiffness and delay at start-up (identification_run.hpp)
+    std::string identification_file;  // JSON: written after --identify, reused without it ("" : none)
+    double identify_force = 0.0;      // excitation force limit, N (0: 25 % of the profile's max_force)
+    double identify_distance = 0.0;   // excitation position limit, m (0: 5 mm, 0.05 rad for rotary devices)
+    double identify_duration = 2.0;   // s of excitation (plus 0.3 s of zero force)
+};
+
+struct DeviceProfile {
+    std::string path;
+    std::string name;
+    std::string driver = "sim";
+    std::string description;
+    double mass = 0.0;            // kg (kg m^2), device + expected arm
+    double damping = 0.0;         // N s/m
+    double stiffness = 0.0;       // N/m
+    double inherent_delay = 0.0;  // s
+    double max_force = 0.0;       // N (N m)
+    long long axes = 1;
+    std::vector<double> workspace_min;
+    std::vector<double> workspace_max;
+    bool rotary = false;
+    double position_noise = 0.0;
+    double position_resolution = 0.0;
+    long long noise_seed = 1;
+    long long fail_at_tick = -1;
+    RealDeviceKeys real;              // keys of the falcon / hid drivers (devices/profile_keys.hpp)
+};
+
+// An error that ends the program with `code` after printing what().
+class StartupError : public std::runtime_error {
+public:
+    StartupError(int code, const std::string& message) : std::runtime_error(message), code_(code) {}
+    [[nodiscard]] int code() const noexcept { return code_; }
+
+private:
+    int code_;
+};
+
+// Parses argv (and the config file it selects). Throws StartupError (codes 2, 3, 4). When --help or
+// --version was requested, prints it to stdout and throws StartupError(0, "").
+Options parse_options(int argc, const char* const* argv);
+
+// Loads and validates the device profile named by options.device. Throws StartupError (3, 4).
+DeviceProfile load_device_profile(const Options& options);
+
+// Range checks of the options (code 4, message naming parameter, value and accepted range).
+void validate_options(const Options& options);
+
+[[nodiscard]] std::string default_config_dir();
+[[nodiscard]] std::string resolve_device_profile_path(const Options& options);
+
+}  // namespace hapticd

@@ -1,0 +1,131 @@
+#include "report.hpp"
+
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+
+namespace hapticd {
+
+std::string tuning_line(const TuningResult& t, bool rotary) {
+    char buf[512];
+    const char* ku = rotary ? "N m/rad" : "N/m";
+    const char* bu = rotary ? "N m s/rad" : "N s/m";
+    std::string cost = "n/a";
+    if (t.cost) {
+        char c[64];
+        std::snprintf(c, sizeof c, "%.6g", *t.cost);
+        cost = c;
+    }
+    std::snprintf(buf, sizeof buf,
+                  "%s: K = %.6g %s, B = %.6g %s, alpha = %.6g, beta = %.6g, predicted %s = %s, "
+                  "alpha/alpha_max = %.4f (alpha_max = %.6g)",
+                  t.explicit_gains ? "explicit gains" : ("tuned for " + t.criterion).c_str(), t.K, ku, t.B, bu, t.alpha,
+                  t.beta, t.criterion.c_str(), cost.c_str(), t.stability_margin(), t.alpha_max);
+    return buf;
+}
+
+std::string statistics_text(const RunReport& r) {
+    std::string s;
+    char buf[512];
+    const auto& c = r.run.counters;
+    std::snprintf(buf, sizeof buf, "ticks %llu, overruns %llu (skipped periods %llu, longest run %u), trace drops %llu\n",
+                  static_cast<unsigned long long>(c.ticks), static_cast<unsigned long long>(c.overruns),
+                  static_cast<unsigned long long>(c.skipped_periods), c.max_consecutive_overruns,
+                  static_cast<unsigned long long>(r.trace_dropped));
+    s += buf;
+    if (r.loop != nullptr) {
+        s += "wake latency: " + r.loop->wake_latency().summary_line() + "\n";
+        s += "compute time: " + r.loop->compute_time().summary_line() + "\n";
+        s += "wake latency histogram (us):";
+        for (const auto& bin : r.loop->wake_latency().coarse_histogram()) {
+            if (bin.count == 0) continue;
+            std::snprintf(buf, sizeof buf, " <%g: %llu", bin.upper_us, static_cast<unsigned long long>(bin.count));
+            s += buf;
+        }
+        s += "\n";
+    }
+    return s;
+}
+
+namespace {
+
+// The keys of one wall's tuning (shared by the headline and the per-wall list).
+nlohmann::json tuning_json(const TuningResult& t) {
+    nlohmann::json j;
+    j["criterion"] = t.criterion;
+    j["explicit_gains"] = t.explicit_gains;
+    j["K"] = t.K;
+    j["B"] = t.B;
+    j["alpha"] = t.alpha;
+    j["beta"] = t.beta;
+    j["predicted_cost"] = t.cost ? nlohmann::json(*t.cost) : nlohmann::json(nullptr);
+    j["alpha_max"] = t.alpha_max;
+    j["stability_margin"] = t.stability_margin();
+    return j;
+}
+
+}  // namespace
+
+nlohmann::json summary_json(const RunReport& r) {
+    nlohmann::json j;
+    const Options& o = *r.options;
+    const DeviceProfile& p = *r.profile;
+    // The first wall's tuning is the headline (the one --criterion chose for walls without their own);
+    // with no walls the tuning keys are null.
+    if (r.walls.empty()) {
+        j["criterion"] = o.criterion;
+        j["explicit_gains"] = false;
+        for (const char* key : {"K", "B", "alpha", "beta", "predicted_cost", "alpha_max", "stability_margin"}) {
+            j[key] = nullptr;
+        }
+    } else {
+        j.update(tuning_json(r.walls.front().tuning));
+    }
+    j["mass"] = p.mass;
+    j["damping"] = p.damping;
+    j["stiffness"] = p.stiffness;
+    j["period"] = r.period;
+    j["rate"] = o.rate;
+    j["delay"] = r.delay;
+    j["inherent_delay"] = p.inherent_delay;
+    j["delay_buffer"] = o.delay_buffer;
+    j["device"] = p.name;
+    j["device_profile"] = p.path;
+    j["scenario"] = o.scenario;
+    j["lockstep"] = o.lockstep;
+    nlohmann::json walls = nlohmann::json::array();
+    for (const auto& w : r.walls) {
+        nlohmann::json wj = tuning_json(w.tuning);
+        wj["spec"] = w.spec;
+        walls.push_back(wj);
+    }
+    j["walls"] = walls;
+    const auto& c = r.run.counters;
+    j["ran"] = r.ran;
+    j["ticks"] = c.ticks;
+    j["overruns"] = c.overruns;
+    j["skipped_periods"] = c.skipped_periods;
+    j["max_consecutive_overruns"] = c.max_consecutive_overruns;
+    j["saturated_ticks"] = r.saturated_ticks;
+    if (r.loop != nullptr) {
+        j["wake_latency"] = r.loop->wake_latency().to_json();
+        j["compute_time"] = r.loop->compute_time().to_json();
+    }
+    j["trace_drops"] = r.trace_dropped;
+    j["trace_records"] = r.trace_written;
+    j["trace_write_error"] = r.trace_error;
+    j["fault"] = std::string(to_string(r.run.fault));
+    j["fault_tick"] = r.run.fault != Fault::None ? nlohmann::json(r.run.fault_tick) : nlohmann::json(nullptr);
+    if (r.run.fault == Fault::NonFinite) j["fault_detail"] = std::string(to_string(r.run.scene_fault));
+    if (r.run.fault == Fault::Device) j["fault_detail"] = r.device_error;
+    j["stopped_by_signal"] = r.run.stopped_by_signal;
+    j["realtime"] = {{"requested", r.realtime_requested},
+                     {"sched_fifo", r.realtime.fifo},
+                     {"mlockall", r.realtime.memory_locked},
+                     {"cpu_pinned", r.realtime.pinned},
+                     {"failures", r.realtime.failures}};
+    j["exit_code"] = r.exit_code;
+    return j;
+}
+
+}  // namespace hapticd

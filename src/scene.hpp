@@ -1,0 +1,62 @@
+// The scene: the walls of the configuration and what one tick of wall rendering does with them.
+// Each tick: check the sampled position, let every wall add its force on its axis (a unilateral wall
+// out of contact costs one subtraction and a comparison), saturate per axis to the device maximum and
+// check the result is finite. A non-finite position or force latches the fault state: zero force from
+// that tick on, until reset().
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "devices/device.hpp"
+#include "wall.hpp"
+
+namespace hapticd {
+
+// One wall as written in the configuration, e.g. "axis=0 position=0.0 direction=+1 mode=bilateral
+// criterion=CE1". Keys: axis (0..2), position (m), direction (+1|-1), mode (unilateral|bilateral;
+// unset: the global --bilateral), criterion (unset: the global --criterion).
+struct WallSpec {
+    std::size_t axis = 0;
+    double position = 0.0;
+    double direction = 1.0;
+    std::optional<WallMode> mode;
+    std::optional<std::string> criterion;  // validated by the tuning (names of hapticopt::Criterion)
+};
+
+// Parses one wall specification. On error returns std::nullopt and sets `error` to a message naming the
+// key, its value and the accepted range.
+std::optional<WallSpec> parse_wall_spec(const std::string& text, std::string& error);
+std::string to_string(const WallSpec& spec);
+
+enum class SceneFault : std::uint8_t { None, NonFinitePosition, NonFiniteForce };
+std::string_view to_string(SceneFault fault) noexcept;
+
+struct SceneStats {
+    std::uint64_t saturated_ticks = 0;
+};
+
+class Scene {
+public:
+    Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force);
+
+    // Force on the device for the sampled position. Real-time safe (no allocation, no exceptions).
+    SceneFault evaluate(const AxisVector& position, AxisVector& force) noexcept;
+
+    [[nodiscard]] SceneFault fault() const noexcept { return fault_; }
+    [[nodiscard]] const SceneStats& stats() const noexcept { return stats_; }
+    [[nodiscard]] const std::vector<VirtualWall>& walls() const noexcept { return walls_; }
+    [[nodiscard]] double max_force() const noexcept { return max_force_; }
+    void reset() noexcept;
+
+private:
+    std::vector<VirtualWall> walls_;
+    std::size_t axes_;
+    double max_force_;
+    SceneFault fault_ = SceneFault::None;
+    SceneStats stats_;
+};
+
+}  // namespace hapticd

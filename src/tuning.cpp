@@ -1,0 +1,110 @@
+#include "tuning.hpp"
+
+#include <algorithm>
+#include <sstream>
+
+#include <hapticopt/hapticopt.hpp>
+
+#include "options.hpp"
+
+namespace hapticd {
+
+namespace {
+
+hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& p) {
+    hapticopt::PhysicalPlant plant{};
+    plant.mass = p.mass;
+    plant.damping = p.damping;
+    plant.stiffness = p.stiffness;
+    plant.period = p.period;
+    plant.time_delay = p.time_delay;
+    return plant;
+}
+
+hapticopt::Criterion parse(const std::string& name) {
+    const auto c = hapticopt::parse_criterion(name);
+    if (!c || !is_accepted_criterion(name)) {
+        throw StartupError(kExitUsage, "criterion = " + name + " is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, "
+                                                               "CE1+OV, CE2+OV");
+    }
+    return *c;
+}
+
+std::string g(double v) {
+    std::ostringstream s;
+    s.precision(6);
+    s << v;
+    return s.str();
+}
+
+}  // namespace
+
+const std::vector<std::string>& accepted_criteria() {
+    static const std::vector<std::string> names{"CE0", "CE1", "CE2", "OV", "CE0+OV", "CE1+OV", "CE2+OV"};
+    return names;
+}
+
+bool is_accepted_criterion(const std::string& name) {
+    const auto& all = accepted_criteria();
+    return std::find(all.begin(), all.end(), name) != all.end();
+}
+
+TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
+    const hapticopt::Criterion c = parse(criterion);
+    try {
+        const hapticopt::WallTuning t = hapticopt::optimal_wall(c, to_hapticopt(plant));
+        TuningResult r;
+        r.criterion = criterion;
+        r.K = t.K;
+        r.B = t.B;
+        r.alpha = t.alpha;
+        r.beta = t.beta;
+        r.cost = t.cost;
+        r.alpha_max = t.alpha_max;
+        return r;
+    } catch (const hapticopt::InvalidParameter& e) {
+        throw StartupError(kExitInvalidParameter, std::string("tuning: ") + e.what());
+    }
+}
+
+TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant) {
+    const hapticopt::Criterion c = parse(criterion);
+    TuningResult r;
+    r.criterion = criterion;
+    r.explicit_gains = true;
+    r.K = K;
+    r.B = B;
+    try {
+        const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
+        const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
+        const hapticopt::NormalizedGains gains = hapticopt::normalize(hapticopt::WallGains{K, B}, plant.mass, plant.period);
+        r.alpha = gains.alpha;
+        r.beta = gains.beta;
+        r.alpha_max = hapticopt::StabilityRegion(normalized).alpha_max();
+        if (!hapticopt::is_stable(normalized, gains)) {
+            throw StartupError(
+                kExitUnstableGains,
+                "explicit gains stiffness K = " + g(K) + " N/m, damping B = " + g(B) + " N s/m (alpha = " + g(gains.alpha) +
+                    ", beta = " + g(gains.beta) + ") are outside the stability region for mass = " + g(plant.mass) +
+                    ", period = " + g(plant.period) + " s, delay = " + g(plant.time_delay) +
+                    " s; accepted: a stable (K, B), which needs alpha < alpha_max = " + g(r.alpha_max) +
+                    " (K < " + g(r.alpha_max * plant.mass / (plant.period * plant.period)) +
+                    " N/m) and a matching B; omit --stiffness/--damping to use the optimal gains");
+        }
+        switch (c) {
+            case hapticopt::Criterion::CE0:
+            case hapticopt::Criterion::CE0_OV: r.cost = hapticopt::energy_costs(normalized, gains).ce0; break;
+            case hapticopt::Criterion::CE1:
+            case hapticopt::Criterion::CE1_OV: r.cost = hapticopt::energy_costs(normalized, gains).ce1; break;
+            case hapticopt::Criterion::CE2:
+            case hapticopt::Criterion::CE2_OV: r.cost = hapticopt::energy_costs(normalized, gains).ce2; break;
+            case hapticopt::Criterion::Overshoot: r.cost = hapticopt::overshoot(normalized, gains).value; break;
+            default: break;
+        }
+    } catch (const hapticopt::InvalidParameter& e) {
+        throw StartupError(kExitInvalidParameter, std::string("explicit gains: ") + e.what());
+    }
+    return r;
+}
+
+}  // namespace hapticd

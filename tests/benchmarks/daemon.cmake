@@ -1,0 +1,11 @@
+# hapticd benchmarks; included by tests/benchmarks/CMakeLists.txt when the daemon is built:
+#   include("${CMAKE_CURRENT_LIST_DIR}/daemon.cmake")
+# Target: hapticd_benchmarks (Google Benchmark). Run it with
+#   <build>/tests/benchmarks/hapticd_benchmarks --benchmark_counters_tabular=true
+if(TARGET hapticd_core)
+  if(NOT TARGET benchmark::benchmark)
+    find_package(benchmark REQUIRED)
+  endif()
+  add_executable(hapticd_benchmarks "${CMAKE_CURRENT_LIST_DIR}/daemon_tick.cpp")
+  target_link_libraries(hapticd_benchmarks PRIVATE hapticd_core benchmark::benchmark benchmark::benchmark_main)
+endif()

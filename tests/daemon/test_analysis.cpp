@@ -1,0 +1,266 @@
+// The daemon against the analysis: hapticd in lockstep on the simulated device, step scenario,
+// bilateral wall, must reproduce hapticopt's step response and energy costs.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <hapticopt/hapticopt.hpp>
+#include <nlohmann/json.hpp>
+
+#include "devices/zoh_plant.hpp"
+#include "hapticd_main.hpp"
+
+namespace hapticd {
+namespace {
+
+struct Row {
+    double x, wall, external;
+};
+
+struct Case {
+    const char* name;
+    double mass, damping, stiffness;  // physical plant
+    double inherent_delay_periods;    // simulated device delay
+    int buffer;                       // --delay-buffer
+    std::vector<std::string> gains;   // e.g. {"--criterion", "CE2"} or {"--stiffness", .., "--damping", ..}
+    double duration_s;
+};
+
+struct RunOutput {
+    std::vector<Row> rows;
+    nlohmann::json summary;
+};
+
+std::filesystem::path dir() {
+    auto d = std::filesystem::temp_directory_path() / ("hapticd_analysis_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+RunOutput run_daemon(const Case& c) {
+    const double T = 1e-3;
+    const auto profile = dir() / (std::string(c.name) + "_device.toml");
+    {
+        std::ofstream p(profile);
+        p.precision(17);
+        p << "mass = " << c.mass << "\ndamping = " << c.damping << "\nstiffness = " << c.stiffness
+          << "\ninherent_delay = " << c.inherent_delay_periods * T << "\nmax_force = 1000.0\n";
+    }
+    const std::string trace = (dir() / (std::string(c.name) + ".csv")).string();
+    const std::string summary = (dir() / (std::string(c.name) + ".json")).string();
+    std::vector<std::string> args{"hapticd", "--config", "", "--device", profile.string(), "--lockstep", "--quiet",
+                                  "--scenario", "step", "--bilateral", "--rate", "1000",
+                                  "--delay-buffer", std::to_string(c.buffer), "--duration", std::to_string(c.duration_s),
+                                  "--trace", trace, "--summary-json", summary};
+    args.insert(args.end(), c.gains.begin(), c.gains.end());
+    std::vector<const char*> argv;
+    for (const auto& a : args) argv.push_back(a.c_str());
+    const int code = hapticd_main(static_cast<int>(argv.size()), argv.data());
+    EXPECT_EQ(code, 0);
+    RunOutput out;
+    std::ifstream in(trace);
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+        unsigned long long tick = 0;
+        double t = 0, lat = 0;
+        Row r{};
+        if (std::sscanf(line.c_str(), "%llu,%lf,%lf,%lf,%lf,%lf", &tick, &t, &r.x, &r.wall, &r.external, &lat) != 6) {
+            ADD_FAILURE() << line;
+            break;
+        }
+        EXPECT_EQ(tick, out.rows.size());
+        out.rows.push_back(r);
+    }
+    out.summary = nlohmann::json::parse(std::ifstream(summary));
+    return out;
+}
+
+// Sampled positions: both sides are exact zero-order-hold discretisations of the same continuous loop
+// (the daemon's in physical units through Eigen's matrix exponential, hapticopt's in normalised units),
+// so they differ only by rounding, ~1e-16 per operation, accumulated over a few thousand stable steps:
+// relative 1e-9 of the response's scale (x_inf; a pointwise relative error is meaningless at zero
+// crossings) leaves a margin of about 1e4 over the observed differences.
+void expect_step_response(const Case& c, const RunOutput& out) {
+    const double T = 1e-3;
+    const double F = 1.0;
+    const auto& s = out.summary;
+    const hapticopt::NormalizedPlant plant{c.stiffness * T * T / c.mass, c.damping * T / c.mass,
+                                           c.inherent_delay_periods + c.buffer};
+    const hapticopt::NormalizedGains gains{s["alpha"].get<double>(), s["beta"].get<double>()};
+    const auto x = hapticopt::sampled_step_response(plant, gains, out.rows.size());
+    const double scale = F / (c.stiffness + s["K"].get<double>());
+    double worst = 0.0;
+    for (std::size_t j = 0; j < out.rows.size(); ++j) {
+        const double expected = x[j] * F * T * T / c.mass;
+        worst = std::max(worst, std::abs(out.rows[j].x - expected) / scale);
+    }
+    EXPECT_LE(worst, 1e-9) << c.name;
+    std::printf("[ %s ] alpha %.6g beta %.6g: max |x_daemon - x_analysis| / x_inf = %.3g over %zu samples\n", c.name,
+                gains.alpha, gains.beta, worst, out.rows.size());
+    EXPECT_EQ(out.rows.back().wall, 0.0);  // the last tick writes zero force
+}
+
+// Gauss-Legendre nodes/weights on [0, 1].
+std::vector<std::array<double, 2>> gauss_legendre(int n) {
+    std::vector<std::array<double, 2>> nw;
+    for (int i = 1; i <= n; ++i) {
+        double z = std::cos(M_PI * (i - 0.25) / (n + 0.5));
+        double dp = 0.0;
+        for (int it = 0; it < 100; ++it) {
+            double p0 = 1.0, p1 = z;
+            for (int k = 2; k <= n; ++k) {
+                const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = n * (z * p1 - p0) / (z * z - 1.0);
+            const double dz = p1 / dp;
+            z -= dz;
+            if (std::abs(dz) < 1e-16) break;
+        }
+        nw.push_back({0.5 * (1.0 - z), 1.0 / ((1.0 - z * z) * dp * dp)});
+    }
+    return nw;
+}
+
+// C_E0..2 from the trace: the continuous motion between samples is reconstructed exactly (the forces
+// acting in each period are in the trace, the plant is known, the device starts at rest), and
+// E(t) t^p is integrated with an n-point Gauss-Legendre rule on every piece of constant force. E is
+// analytic on each piece, so the rule converges like (omega h)^(2n) / (2n)!; with omega h < 1 rad per
+// period the 8-point rule is exact to rounding. The tolerance is the larger of 1e-9 relative and ten
+// times the difference between the 4- and 8-point results (the quadrature's own error estimate).
+std::array<double, 3> energy_costs_from_trace(const Case& c, const RunOutput& out, int nodes) {
+    const double T = 1e-3;
+    const double F = 1.0;
+    const double K = out.summary["K"].get<double>();
+    const PlantParameters plant{c.mass, c.damping, c.stiffness};
+    const double x_inf = F / (c.stiffness + K);
+    const double e0 = F * F / (2.0 * (c.stiffness + K));
+    const int n_int = static_cast<int>(std::floor(c.inherent_delay_periods + 1e-12));
+    const double phi = c.inherent_delay_periods - n_int;
+    struct Segment {
+        double start, length;
+        int force_age;
+        ZohStep whole;
+        std::vector<ZohStep> to_node;
+        std::vector<double> node_offset, weight;
+    };
+    std::vector<Segment> segments;
+    auto add = [&](double start, double length, int age) {
+        Segment s{start, length, age, discretize(plant, length), {}, {}, {}};
+        for (const auto& [z, w] : gauss_legendre(nodes)) {
+            s.to_node.push_back(discretize(plant, z * length));
+            s.node_offset.push_back(z * length);
+            s.weight.push_back(w * length);
+        }
+        segments.push_back(std::move(s));
+    };
+    if (phi > 1e-12) {
+        add(0.0, phi * T, n_int + 1);
+        add(phi * T, (1.0 - phi) * T, n_int);
+    } else {
+        add(0.0, T, n_int);
+    }
+    auto wall = [&](long j) { return j < 0 ? 0.0 : out.rows[static_cast<std::size_t>(j)].wall; };
+    double x = out.rows[0].x;
+    double v = 0.0;
+    std::array<double, 3> integral{0.0, 0.0, 0.0};
+    for (std::size_t j = 0; j + 1 < out.rows.size(); ++j) {
+        for (const auto& s : segments) {
+            const double u = out.rows[j].external + wall(static_cast<long>(j) - s.force_age);
+            for (std::size_t i = 0; i < s.to_node.size(); ++i) {
+                double xn = x, vn = v;
+                s.to_node[i].apply(xn, vn, u);
+                const double t = static_cast<double>(j) * T + s.start + s.node_offset[i];
+                const double e = 0.5 * (c.stiffness + K) * (xn - x_inf) * (xn - x_inf) + 0.5 * c.mass * vn * vn;
+                integral[0] += s.weight[i] * e;
+                integral[1] += s.weight[i] * e * t;
+                integral[2] += s.weight[i] * e * t * t;
+            }
+            s.whole.apply(x, v, u);
+        }
+        EXPECT_NEAR(x, out.rows[j + 1].x, 1e-9 * x_inf) << "reconstruction drifted at " << j;
+    }
+    const double end_energy = 0.5 * (c.stiffness + K) * (x - x_inf) * (x - x_inf) + 0.5 * c.mass * v * v;
+    EXPECT_LT(end_energy / e0, 1e-20) << c.name << ": run not long enough for the integrals to converge";
+    return {integral[0] / (T * e0), integral[1] / (T * T * e0), integral[2] / (T * T * T * e0)};
+}
+
+void expect_energy_costs(const Case& c, const RunOutput& out) {
+    const double T = 1e-3;
+    const hapticopt::NormalizedPlant plant{c.stiffness * T * T / c.mass, c.damping * T / c.mass,
+                                           c.inherent_delay_periods + c.buffer};
+    const hapticopt::NormalizedGains gains{out.summary["alpha"].get<double>(), out.summary["beta"].get<double>()};
+    const auto analysis = hapticopt::energy_costs(plant, gains);
+    const auto c4 = energy_costs_from_trace(c, out, 4);
+    const auto c8 = energy_costs_from_trace(c, out, 8);
+    const double expected[3] = {analysis.ce0, analysis.ce1, analysis.ce2};
+    for (int p = 0; p < 3; ++p) {
+        const double quadrature_error = std::abs(c8[p] - c4[p]);
+        const double tol = std::max(1e-9 * expected[p], 10.0 * quadrature_error);
+        EXPECT_NEAR(c8[p], expected[p], tol) << c.name << " C_E" << p;
+        std::printf("[ %s ] C_E%d trace %.12g analysis %.12g (GL4-GL8 %.2g)\n", c.name, p, c8[p], expected[p],
+                    quadrature_error);
+    }
+    if (out.summary["predicted_cost"].is_number() && out.summary["criterion"] == "CE2") {
+        EXPECT_NEAR(out.summary["predicted_cost"].get<double>(), analysis.ce2, 1e-9 * analysis.ce2);
+    }
+}
+
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
+class DaemonMatchesAnalysis : public ::testing::TestWithParam<Case> {};
+
+TEST_P(DaemonMatchesAnalysis, StepResponseAndEnergyCosts) {
+    const Case& c = GetParam();
+    const RunOutput out = run_daemon(c);
+    ASSERT_GT(out.rows.size(), 100U);
+    EXPECT_EQ(out.summary["fault"], "none");
+    EXPECT_DOUBLE_EQ(out.summary["delay"].get<double>(), (c.inherent_delay_periods + c.buffer) * 1e-3);
+    expect_step_response(c, out);
+    expect_energy_costs(c, out);
+}
+
+// (gamma, delta) = (0, 0) and (0.001, 0.02) (the paper's range at 1 kHz for m = 0.3 kg: k = 300 N/m,
+// b = 6 N s/m).
+INSTANTIATE_TEST_SUITE_P(
+    Cases, DaemonMatchesAnalysis,
+    ::testing::Values(
+        Case{"d0_CE2", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE2"}, 2.0},
+        Case{"d1_CE2_human_arm", 0.3, 6.0, 300.0, 0.0, 1, {"--criterion", "CE2"}, 3.0},
+        Case{"d4_buffer_CE1", 0.3, 0.0, 0.0, 0.0, 4, {"--criterion", "CE1"}, 8.0},
+        Case{"d3_device1_buffer2_CE0", 0.065, 0.0, 0.0, 1.0, 2, {"--criterion", "CE0"}, 6.0},
+        Case{"d1p5_fractional_device_delay", 0.22, 0.0, 0.0, 0.5, 1, {"--criterion", "CE2"}, 4.0},
+        // The paper's C_E0 point for d = 0 as explicit gains: alpha 0.3220, beta 0.9800 (cost 2.583).
+        Case{"d0_paper_CE0_point", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE0", "--stiffness", "96600", "--damping", "294"},
+             2.0}),
+    [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
+
+TEST(DaemonMatchesAnalysis, PaperCE0PointCost) {
+    // alpha = 96600 * 1e-6 / 0.3 = 0.322, beta = 294 * 1e-3 / 0.3 = 0.98: Table III, C_E0 = 2.583.
+    const Case c{"paper_ce0", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE0", "--stiffness", "96600", "--damping", "294"}, 2.0};
+    const RunOutput out = run_daemon(c);
+    const auto costs = energy_costs_from_trace(c, out, 8);
+    EXPECT_NEAR(costs[0], 2.583, 0.0005);
+    EXPECT_NEAR(out.summary["predicted_cost"].get<double>(), 2.583, 0.0005);
+}
+
+// Removes this process's scratch files at the end.
+class ScratchCleanup : public ::testing::Environment {
+public:
+    void TearDown() override {
+        std::error_code ec;
+        std::filesystem::remove_all(dir(), ec);
+    }
+};
+[[maybe_unused]] ::testing::Environment* const kScratchCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
+}  // namespace
+}  // namespace hapticd

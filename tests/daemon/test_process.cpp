@@ -1,0 +1,194 @@
+// hapticd as a process: SIGTERM, bad configuration, bad parameters, exit codes.
+#include <fcntl.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "exit_codes.hpp"
+#include "process_runner.hpp"
+
+namespace hapticd {
+namespace {
+
+using test::Process;
+using test::run;
+using test::write_file;
+
+// A config with the defaults but no reliance on the installed one.
+const std::vector<std::string> kNoConfig{"--config", ""};
+
+std::vector<std::string> args(std::initializer_list<std::string> extra) {
+    std::vector<std::string> a = kNoConfig;
+    a.insert(a.end(), extra);
+    return a;
+}
+
+struct Row {
+    unsigned long long tick;
+    double time, position, force, external, latency;
+};
+
+std::vector<Row> read_trace(const std::string& path) {
+    std::vector<Row> rows;
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+        Row r{};
+        if (std::sscanf(line.c_str(), "%llu,%lf,%lf,%lf,%lf,%lf", &r.tick, &r.time, &r.position, &r.force, &r.external,
+                        &r.latency) == 6) {
+            rows.push_back(r);
+        } else {
+            ADD_FAILURE() << "malformed trace line: " << line;
+        }
+    }
+    return rows;
+}
+
+TEST(HapticdProcess, HelpListsExitCodes) {
+    const auto r = run({"--help"}, "help");
+    EXPECT_EQ(r.code, 0);
+    EXPECT_NE(r.out.find("Exit codes"), std::string::npos);
+    EXPECT_NE(r.out.find("--criterion"), std::string::npos);
+}
+
+TEST(HapticdProcess, SigtermStopsWithZeroForceAndCompleteTrace) {
+    const std::string trace = (test::scratch_dir() / "sigterm.csv").string();
+    const std::string summary = (test::scratch_dir() / "sigterm.json").string();
+    // Stiffness/damping explicit so that start-up does not depend on the optimiser's run time; the wall
+    // pushes back during the run (unit force step into a bilateral wall).
+    Process p(args({"--stiffness", "3000", "--damping", "10", "--bilateral", "--trace", trace, "--summary-json", summary,
+                    "--rt-priority", "0", "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000"}),
+              "sigterm");
+    ASSERT_GT(p.pid(), 0);
+    // Wait until the loop is running (the trace has data), then stop it.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < deadline) {
+        if (std::filesystem::exists(trace) && std::filesystem::file_size(trace) > 4000) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ASSERT_EQ(::kill(p.pid(), SIGTERM), 0);
+    const int code = p.wait(std::chrono::milliseconds(5000));
+    ASSERT_EQ(code, 0) << p.err();
+    const auto rows = read_trace(trace);
+    ASSERT_GT(rows.size(), 10U);
+    for (std::size_t i = 0; i < rows.size(); ++i) ASSERT_EQ(rows[i].tick, i) << "gap in the trace";
+    EXPECT_EQ(rows.back().force, 0.0);
+    bool pushed = false;
+    for (const auto& r : rows) pushed = pushed || r.force != 0.0;
+    EXPECT_TRUE(pushed) << "the wall never pushed";
+    const auto j = nlohmann::json::parse(test::read_file(summary));
+    EXPECT_EQ(j["ticks"].get<std::size_t>(), rows.size());
+    EXPECT_EQ(j["trace_drops"], 0);
+    EXPECT_EQ(j["stopped_by_signal"], true);
+    EXPECT_EQ(j["fault"], "none");
+    EXPECT_NE(p.out().find("stopped by signal 15"), std::string::npos) << p.out();
+}
+
+TEST(HapticdProcess, LockstepDurationWritesSummary) {
+    const std::string summary = (test::scratch_dir() / "lockstep.json").string();
+    const auto r = run(args({"--lockstep", "--duration", "0.5", "--stiffness", "2000", "--damping", "5",
+                             "--summary-json", summary}),
+                       "lockstep");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto j = nlohmann::json::parse(test::read_file(summary));
+    for (const char* key : {"criterion", "K", "B", "alpha", "beta", "mass", "damping", "stiffness", "period", "delay",
+                            "ticks", "overruns", "predicted_cost", "alpha_max", "stability_margin", "wake_latency",
+                            "compute_time", "trace_drops", "fault"}) {
+        EXPECT_TRUE(j.contains(key)) << key;
+    }
+    EXPECT_EQ(j["ticks"], 500);
+    EXPECT_EQ(j["K"], 2000.0);
+    EXPECT_DOUBLE_EQ(j["alpha"].get<double>(), 2000.0 * 1e-6 / 0.3);
+}
+
+struct BadCase {
+    const char* name;
+    std::string config;           // hapticd.toml contents ("" : none)
+    std::string profile;          // device profile contents ("" : the shipped sim)
+    std::vector<std::string> extra;
+    int code;
+    std::vector<std::string> message_parts;
+};
+
+void PrintTo(const BadCase& c, std::ostream* os) { *os << c.name; }
+
+class HapticdBadInput : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(HapticdBadInput, ClearMessageAndDistinctExitCode) {
+    const BadCase& c = GetParam();
+    std::vector<std::string> a;
+    if (!c.config.empty()) {
+        a = {"--config", write_file(std::string(c.name) + ".toml", c.config)};
+    } else if (std::find(c.extra.begin(), c.extra.end(), "--config") == c.extra.end()) {
+        a = kNoConfig;
+    }
+    if (!c.profile.empty()) {
+        a.push_back("--device");
+        a.push_back(write_file(std::string(c.name) + "_device.toml", c.profile));
+    }
+    a.insert(a.end(), c.extra.begin(), c.extra.end());
+    a.push_back("--lockstep");
+    if (std::find(c.extra.begin(), c.extra.end(), "--duration") == c.extra.end()) {
+        a.push_back("--duration");
+        a.push_back("0.01");
+    }
+    const auto r = run(a, c.name);
+    EXPECT_EQ(r.code, c.code) << r.err;
+    for (const auto& part : c.message_parts) {
+        EXPECT_NE(r.err.find(part), std::string::npos) << "missing '" << part << "' in: " << r.err;
+    }
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+}
+
+const std::string kProfileOk = "mass = 0.3\nmax_force = 10.0\n";
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, HapticdBadInput,
+    ::testing::Values(
+        BadCase{"unknown_key", "rate = 1000.0\nstiffnes = 3.0\n", "", {}, kExitBadConfig, {"unknown key", "stiffnes"}},
+        BadCase{"wrong_type", "rate = \"fast\"\n", "", {}, kExitBadConfig, {"rate", "fast"}},
+        BadCase{"wrong_type_int", "delay-buffer = 1.5\n", "", {}, kExitBadConfig, {"delay-buffer", "1.5"}},
+        BadCase{"malformed_toml", "rate = 1000.0\nmass = 0.3.2\n", "", {}, kExitBadConfig, {"line 2", "mass"}},
+        BadCase{"malformed_section", "[loop]\nrate = 1000.0\n", "", {}, kExitBadConfig, {"line 1", "[loop]"}},
+        BadCase{"bad_choice_in_config", "criterion = \"CE9\"\n", "", {}, kExitBadConfig, {"criterion", "CE9"}},
+        BadCase{"missing_config", "", "", {"--config", "/nonexistent/hapticd.toml"}, kExitBadConfig,
+                {"/nonexistent/hapticd.toml"}},
+        BadCase{"negative_mass", "", "mass = -0.3\nmax_force = 10.0\n", {}, kExitInvalidParameter,
+                {"mass = -0.3", "accepted range"}},
+        BadCase{"profile_unknown_key", "", "mass = 0.3\nmax_force = 10.0\nmas = 1\n", {}, kExitBadConfig,
+                {"unknown key", "mas"}},
+        BadCase{"profile_missing_mass", "", "max_force = 10.0\n", {}, kExitBadConfig, {"missing key 'mass'"}},
+        BadCase{"nan_rate", "", "", {"--rate", "nan"}, kExitInvalidParameter, {"rate = nan", "accepted range"}},
+        BadCase{"inf_duration", "", "", {"--duration", "inf"}, kExitInvalidParameter, {"duration = inf"}},
+        BadCase{"nan_stiffness", "", "", {"--stiffness", "nan", "--damping", "1"}, kExitInvalidParameter,
+                {"stiffness = nan"}},
+        BadCase{"negative_delay_buffer", "", "", {"--delay-buffer", "-2"}, kExitInvalidParameter,
+                {"delay-buffer = -2", "accepted range"}},
+        BadCase{"unstable_gains", "", "", {"--stiffness", "1e6", "--damping", "0"}, kExitUnstableGains,
+                {"K = 1e+06", "B = 0", "alpha_max"}},
+        BadCase{"only_stiffness", "", "", {"--stiffness", "100"}, kExitUsage, {"--damping"}},
+        BadCase{"unknown_option", "", "", {"--stifness", "100"}, kExitUsage, {"--stifness"}},
+        BadCase{"bad_criterion", "", "", {"--criterion", "CE3"}, kExitUsage, {"CE3"}},
+        BadCase{"bad_wall", "", "", {"--wall", "axis=1 position=0"}, kExitUsage, {"axis = 1"}},
+        BadCase{"real_driver", "", "driver = \"falcon\"\nmass = 0.3\nmax_force = 9.0\n", {}, kExitDeviceError,
+                {"falcon", "--simulate"}},
+        BadCase{"device_fails_during_run", "", "mass = 0.3\nmax_force = 10.0\nfail_at_tick = 5\n",
+                {"--stiffness", "1000", "--damping", "1"}, kExitDeviceError, {"failed at tick 5", "disconnected"}}),
+    [](const ::testing::TestParamInfo<BadCase>& info) { return std::string(info.param.name); });
+
+// Removes this process's scratch files at the end.
+class ScratchCleanup : public ::testing::Environment {
+public:
+    void TearDown() override {
+        std::error_code ec;
+        std::filesystem::remove_all(test::scratch_dir(), ec);
+    }
+};
+[[maybe_unused]] ::testing::Environment* const kScratchCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
+}  // namespace
+}  // namespace hapticd

@@ -1,0 +1,165 @@
+// The wall law, the delay ring and the scene (saturation, finiteness, fault latch).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "delay_ring.hpp"
+#include "scene.hpp"
+#include "wall.hpp"
+
+namespace hapticd {
+namespace {
+
+constexpr double kT = 1e-3;
+
+TEST(Wall, BilateralIsTheAnalysedLaw) {
+    VirtualWall wall({0, 0.0, 1.0, WallMode::Bilateral}, 2000.0, 5.0, kT);
+    const double xs[] = {0.0, 0.001, 0.0015, 0.0012, -0.0005};
+    double prev = 0.0;
+    for (double x : xs) {
+        const double expected = 2000.0 * x + 5.0 * (x - prev) / kT;
+        EXPECT_DOUBLE_EQ(wall.normal_force(x), expected);
+        prev = x;
+    }
+}
+
+TEST(Wall, FirstSampleHasNoVelocityEstimate) {
+    VirtualWall wall({0, 0.0, 1.0, WallMode::Bilateral}, 1000.0, 10.0, kT);
+    EXPECT_DOUBLE_EQ(wall.normal_force(0.002), 2.0);  // x_{-1} = x_0
+}
+
+TEST(Wall, UnilateralOnlyPushesOutAndOnlyInContact) {
+    VirtualWall wall({0, 0.0, 1.0, WallMode::Unilateral}, 1000.0, 10.0, kT);
+    EXPECT_EQ(wall.normal_force(-0.001), 0.0);             // outside
+    EXPECT_DOUBLE_EQ(wall.normal_force(0.0005), 0.5 + 10.0 * 0.0015 / kT);  // entering: the law
+    EXPECT_EQ(wall.normal_force(0.0001), 0.0);             // leaving fast: law < 0 -> 0 (no pulling)
+    EXPECT_EQ(wall.normal_force(-0.002), 0.0);
+}
+
+TEST(Wall, DirectionAndPositionDefinePenetration) {
+    VirtualWall wall({1, 0.01, -1.0, WallMode::Bilateral}, 1000.0, 0.0, kT);
+    AxisVector p{0.0, 0.008, 0.0};  // 2 mm below a wall solid below 0.01
+    EXPECT_NEAR(wall.penetration(p), 0.002, 1e-15);
+    EXPECT_NEAR(wall.device_force(p), 2.0, 1e-12);  // pushes in +axis, out of the wall
+}
+
+TEST(Wall, RejectsInvalidGains) {
+    EXPECT_THROW(VirtualWall({0, 0.0, 1.0, WallMode::Bilateral}, -1.0, 0.0, kT), std::invalid_argument);
+    EXPECT_THROW(VirtualWall({0, 0.0, 1.0, WallMode::Bilateral}, std::nan(""), 0.0, kT), std::invalid_argument);
+    EXPECT_THROW(VirtualWall({0, 0.0, 1.0, WallMode::Bilateral}, 1.0, 0.0, 0.0), std::invalid_argument);
+    EXPECT_THROW(VirtualWall({0, 0.0, 0.5, WallMode::Bilateral}, 1.0, 0.0, kT), std::invalid_argument);
+}
+
+TEST(DelayRing, DelaysByExactlyNSamples) {
+    for (std::size_t n : {0U, 1U, 4U}) {
+        DelayRing<double> ring(n);
+        for (int j = 0; j < 20; ++j) {
+            const double out = ring.push_pop(static_cast<double>(j + 1));
+            const double expected = j < static_cast<int>(n) ? 0.0 : static_cast<double>(j + 1 - static_cast<int>(n));
+            EXPECT_EQ(out, expected) << "n=" << n << " j=" << j;
+        }
+    }
+}
+
+TEST(WallSpec, ParsesAndRejectsWithNamedKeys) {
+    std::string err;
+    auto s = parse_wall_spec("axis=1 position=-0.5 direction=-1 mode=bilateral criterion=CE1", err);
+    ASSERT_TRUE(s) << err;
+    EXPECT_EQ(s->axis, 1U);
+    EXPECT_EQ(s->position, -0.5);
+    EXPECT_EQ(s->direction, -1.0);
+    EXPECT_EQ(*s->mode, WallMode::Bilateral);
+    EXPECT_EQ(*s->criterion, "CE1");
+    EXPECT_FALSE(parse_wall_spec("axis=3", err));
+    EXPECT_NE(err.find("axis = 3"), std::string::npos) << err;
+    EXPECT_FALSE(parse_wall_spec("position=nan", err));
+    EXPECT_NE(err.find("position"), std::string::npos) << err;
+    EXPECT_FALSE(parse_wall_spec("stiff=3", err));
+    EXPECT_NE(err.find("unknown key 'stiff'"), std::string::npos) << err;
+    EXPECT_FALSE(parse_wall_spec("", err));
+}
+
+// Property: whatever the position sequence, the scene's force is finite and within the saturation;
+// a non-finite position (or a force that would overflow) gives zero force and latches the fault.
+TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
+    const double fmax = 7.5;
+    std::mt19937_64 rng(12345);
+    std::uniform_real_distribution<double> small(-0.05, 0.05);
+    std::uniform_real_distribution<double> exponent(-300.0, 300.0);
+    const double specials[] = {0.0, -0.0, 1e308, -1e308, std::numeric_limits<double>::max(),
+                               std::numeric_limits<double>::denorm_min(), 1e-320};
+    for (int trial = 0; trial < 200; ++trial) {
+        std::vector<VirtualWall> walls;
+        walls.emplace_back(WallGeometry{0, 0.0, 1.0, trial % 2 ? WallMode::Bilateral : WallMode::Unilateral}, 3e4, 30.0, kT);
+        walls.emplace_back(WallGeometry{0, 0.01, -1.0, WallMode::Unilateral}, 1e5, 100.0, kT);
+        walls.emplace_back(WallGeometry{2, 0.0, 1.0, WallMode::Bilateral}, 1e9, 1e6, kT);
+        Scene scene(std::move(walls), 3, fmax);
+        for (int j = 0; j < 500; ++j) {
+            AxisVector p{};
+            for (auto& v : p) {
+                switch (rng() % 4) {
+                    case 0: v = small(rng); break;
+                    case 1: v = std::copysign(std::pow(10.0, exponent(rng)), small(rng)); break;
+                    case 2: v = specials[rng() % std::size(specials)]; break;
+                    default: v = (j % 2 ? 1.0 : -1.0) * 0.02; break;  // adversarial alternation
+                }
+            }
+            AxisVector f{1.0, 1.0, 1.0};
+            const SceneFault fault = scene.evaluate(p, f);
+            for (double v : f) {
+                ASSERT_TRUE(std::isfinite(v));
+                ASSERT_LE(std::abs(v), fmax);
+            }
+            if (fault != SceneFault::None) {
+                for (double v : f) ASSERT_EQ(v, 0.0);
+            }
+        }
+    }
+}
+
+TEST(SceneProperty, NonFinitePositionZeroForceAndLatchedFault) {
+    for (double bad : {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}) {
+        std::vector<VirtualWall> walls;
+        walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1000.0, 1.0, kT);
+        Scene scene(std::move(walls), 2, 10.0);
+        AxisVector f{};
+        EXPECT_EQ(scene.evaluate({0.001, 0.0, 0.0}, f), SceneFault::None);
+        EXPECT_GT(std::abs(f[0]), 0.0);
+        EXPECT_EQ(scene.evaluate({0.001, bad, 0.0}, f), SceneFault::NonFinitePosition);  // any active axis
+        EXPECT_EQ(f, AxisVector{});
+        EXPECT_EQ(scene.evaluate({0.001, 0.0, 0.0}, f), SceneFault::NonFinitePosition);  // latched
+        EXPECT_EQ(f, AxisVector{});
+        scene.reset();
+        EXPECT_EQ(scene.evaluate({0.001, 0.0, 0.0}, f), SceneFault::None);
+    }
+}
+
+TEST(SceneProperty, OverflowingForceIsAFault) {
+    std::vector<VirtualWall> walls;
+    walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1e12, 1e12, kT);
+    Scene scene(std::move(walls), 1, 10.0);
+    AxisVector f{};
+    EXPECT_EQ(scene.evaluate({1e300, 0.0, 0.0}, f), SceneFault::NonFiniteForce);
+    EXPECT_EQ(f, AxisVector{});
+}
+
+TEST(SceneProperty, SaturationIsCounted) {
+    std::vector<VirtualWall> walls;
+    walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1e4, 0.0, kT);
+    Scene scene(std::move(walls), 1, 5.0);
+    AxisVector f{};
+    scene.evaluate({0.01, 0.0, 0.0}, f);  // 100 N -> -5 N
+    EXPECT_EQ(f[0], -5.0);
+    EXPECT_EQ(scene.stats().saturated_ticks, 1U);
+}
+
+TEST(Scene, RejectsWallOnMissingAxis) {
+    std::vector<VirtualWall> walls;
+    walls.emplace_back(WallGeometry{2, 0.0, 1.0, WallMode::Bilateral}, 1.0, 0.0, kT);
+    EXPECT_THROW(Scene(std::move(walls), 1, 5.0), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace hapticd

@@ -1,0 +1,98 @@
+// A scripted Novint Falcon for tests, behind ScriptedTransport: the loader (handshake, echo at the
+// bootloader baud rate) and, after a complete firmware upload and the switch to normal mode, the
+// firmware answering every 16-byte command with a status packet. Behaviour from libnifalcon
+// (FalconCommLibUSB.cpp setFirmwareMode(), FalconFirmware.cpp loadFirmware(), FalconFirmwareNovintSDK).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "devices/falcon_device.hpp"
+#include "devices/falcon_protocol.hpp"
+#include "devices/ftdi_protocol.hpp"
+#include "devices/transport_scripted.hpp"
+
+namespace hapticd::test {
+
+struct FakeFalcon {
+    // Loader behaviour
+    bool firmware_running = false;
+    std::size_t firmware_size = 0;     // bytes the loader expects before it starts the firmware
+    bool answer_handshake = true;
+    bool leading_zero = false;          // the "Apple" variant of the handshake answer
+    int corrupt_echo_attempts = 0;      // the first N upload attempts get one corrupted echo byte
+    // Firmware behaviour
+    falcon::Status status;              // what the firmware reports
+    int packets_until_homed = 0;        // homing-mode packets before the homed flags are set (-1: never)
+    std::function<void(ScriptedTransport&, const falcon::Packet&)> after_status;  // e.g. inject garbage
+
+    // Observations
+    std::vector<falcon::Command> commands;  // decoded commands received in normal mode
+    int upload_attempts = 0;
+    ScriptedTransport* transport = nullptr;
+
+    std::uint16_t baud = 0;
+    std::size_t uploaded = 0;
+    int homing_packets = 0;
+
+    OpenedTransport open() {
+        auto t = std::make_unique<ScriptedTransport>();
+        transport = t.get();
+        t->on_write = [this](ScriptedTransport& tr, std::span<const std::uint8_t> data) { on_write(tr, data); };
+        OpenedTransport o;
+        o.transport = std::move(t);
+        o.status = TransportStatus::Ok;
+        return o;
+    }
+
+    void on_write(ScriptedTransport& tr, std::span<const std::uint8_t> data) {
+        // Track the baud rate from the latest control requests.
+        for (const auto& c : tr.controls) {
+            if (c.request == ftdi::kRequestBaudRate) baud = c.value;
+        }
+        if (firmware_running && baud == ftdi::kBaudNormal) {
+            if (data.size() != falcon::kPacketSize || data[0] != falcon::kStart) return;
+            falcon::Command c;
+            c.homing_mode = (data[13] - falcon::kNibbleBase) & falcon::kHomingModeBit;
+            c.leds = static_cast<std::uint8_t>((data[13] - falcon::kNibbleBase) & 0x0E);
+            for (std::size_t a = 0; a < 3; ++a) {
+                std::uint16_t bits = 0;
+                for (int n = 0; n < 4; ++n) bits = static_cast<std::uint16_t>(bits | ((data[1 + 4 * a + n] - 0x41) & 0xF) << (4 * n));
+                c.torque[a] = static_cast<std::int16_t>(bits);
+            }
+            commands.push_back(c);
+            if (c.homing_mode && packets_until_homed >= 0 && ++homing_packets > packets_until_homed) {
+                status.homed_mask = 7;
+            }
+            const falcon::Packet p = falcon::encode_status(status);
+            tr.push_rx(p);
+            if (after_status) after_status(tr, p);
+            return;
+        }
+        if (firmware_running) return;  // wrong baud: the answer would be line noise; nothing useful
+        static constexpr std::uint8_t kQuery[3] = {0x0A, 0x43, 0x0D};
+        if (data.size() == 3 && std::equal(data.begin(), data.end(), kQuery)) {
+            if (!answer_handshake) return;
+            if (leading_zero) tr.rx.push_back(0x00);
+            for (std::uint8_t b : {0x0A, 0x44, 0x2C, 0x0D}) tr.rx.push_back(b);
+            uploaded = 0;
+            ++upload_attempts;
+            return;
+        }
+        if (baud != ftdi::kBaudBootloader) return;
+        if (data.size() == 1 && data[0] == 0x41 && uploaded == 0) {
+            tr.rx.push_back(0x41);
+            return;
+        }
+        for (std::size_t i = 0; i < data.size(); ++i) {
+            std::uint8_t echo = data[i];
+            if (upload_attempts <= corrupt_echo_attempts && uploaded + i == 70) echo ^= 0x5A;
+            tr.rx.push_back(echo);
+        }
+        uploaded += data.size();
+        if (firmware_size != 0 && uploaded >= firmware_size) firmware_running = true;
+    }
+};
+
+}  // namespace hapticd::test
