@@ -40,7 +40,8 @@ struct DeviceCloser {
     }
 };
 
-std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p, const TuningPlant& plant) {
+std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p, const TuningPlant& plant,
+                                        const std::optional<TuningBox>& box) {
     const int code = o.walls_from_command_line ? kExitUsage : kExitBadConfig;
     const std::string origin = o.walls_from_command_line ? "--wall" : "config file '" + o.config_path + "': wall";
     std::vector<ResolvedWall> walls;
@@ -73,12 +74,52 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             w.tuning = it->second;
         } else {
             auto it = tuned.find(criterion);
-            if (it == tuned.end()) it = tuned.emplace(criterion, tune_wall(criterion, plant)).first;
+            if (it == tuned.end()) {
+                it = tuned.emplace(criterion, box ? tune_wall_robust(criterion, *box) : tune_wall(criterion, plant)).first;
+            }
             w.tuning = it->second;
         }
         walls.push_back(w);
     }
     return walls;
+}
+
+// The box of --robust: the identified values +- 3 standard errors after an identification, else the profile's
+// *_range keys (a missing key: the nominal value, exact). Physical bounds are kept (mass > 0, b, k, delay >= 0).
+TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::optional<IdentificationStage>& ident,
+                     double period) {
+    const double buffer = static_cast<double>(o.delay_buffer) / o.rate;
+    TuningBox b;
+    b.period = period;
+    if (ident) {
+        const IdentificationResult& r = ident->result;
+        constexpr double k = 3.0;  // +- 3 standard errors
+        b.mass_min = std::max(0.5 * r.mass, r.mass - k * r.mass_stderr);
+        b.mass_max = r.mass + k * r.mass_stderr;
+        b.damping_min = std::max(0.0, r.damping - k * r.damping_stderr);
+        b.damping_max = std::max(0.0, r.damping + k * r.damping_stderr);
+        b.stiffness_min = std::max(0.0, r.stiffness - k * r.stiffness_stderr);
+        b.stiffness_max = std::max(0.0, r.stiffness + k * r.stiffness_stderr);
+        b.delay_min = std::max(0.0, r.delay_periods - k * r.delay_stderr) * period + buffer;
+        b.delay_max = (r.delay_periods + k * r.delay_stderr) * period + buffer;
+        return b;
+    }
+    if (p.mass_range.empty() && p.damping_range.empty() && p.stiffness_range.empty() && p.inherent_delay_range.empty()) {
+        throw StartupError(kExitBadConfig, "device profile '" + p.path +
+                                               "': --robust needs at least one of the keys mass_range, damping_range, "
+                                               "stiffness_range, inherent_delay_range ([min, max]), or --identify");
+    }
+    auto lo = [](const std::vector<double>& r, double nominal) { return r.empty() ? nominal : r[0]; };
+    auto hi = [](const std::vector<double>& r, double nominal) { return r.empty() ? nominal : r[1]; };
+    b.mass_min = lo(p.mass_range, p.mass);
+    b.mass_max = hi(p.mass_range, p.mass);
+    b.damping_min = lo(p.damping_range, p.damping);
+    b.damping_max = hi(p.damping_range, p.damping);
+    b.stiffness_min = lo(p.stiffness_range, p.stiffness);
+    b.stiffness_max = hi(p.stiffness_range, p.stiffness);
+    b.delay_min = lo(p.inherent_delay_range, p.inherent_delay) + buffer;
+    b.delay_max = hi(p.inherent_delay_range, p.inherent_delay) + buffer;
+    return b;
 }
 
 int run_main(int argc, const char* const* argv) {
@@ -105,7 +146,9 @@ int run_main(int argc, const char* const* argv) {
                                                            std::max(0.0, ident->result.stiffness), period,
                                                            ident->result.delay_periods * period +
                                                                static_cast<double>(o.delay_buffer) / o.rate};
-    const std::vector<ResolvedWall> walls = resolve_walls(o, profile, plant);
+    const std::optional<TuningBox> box = o.robust && !o.gains_set ? std::optional<TuningBox>(robust_box(o, profile, ident, period))
+                                                                   : std::nullopt;
+    const std::vector<ResolvedWall> walls = resolve_walls(o, profile, plant, box);
 
     const std::int64_t period_ns = std::llround(1e9 / o.rate);
     std::uint64_t max_ticks = 0;

@@ -89,6 +89,9 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--identify-distance", o.identify_distance,
                    "Excitation position limit in m from the start (default 0: 5 mm, 0.05 rad rotary)");
     app.add_option("--identify-duration", o.identify_duration, "Excitation time in s (default 2)");
+    app.add_flag("--robust", o.robust,
+                 "Tune CE0/CE1/CE2 for the worst case over the profile's mass_range, damping_range, stiffness_range "
+                 "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
     app.add_option("--falcon-firmware", o.falcon_firmware,
                    "Novint Falcon firmware image to upload at start (user-supplied; overrides the profile's firmware)");
 }
@@ -308,6 +311,10 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--position_resolution", p.position_resolution);
     app.add_option("--noise_seed", p.noise_seed);
     app.add_option("--fail_at_tick", p.fail_at_tick);
+    app.add_option("--mass_range", p.mass_range);
+    app.add_option("--damping_range", p.damping_range);
+    app.add_option("--stiffness_range", p.stiffness_range);
+    app.add_option("--inherent_delay_range", p.inherent_delay_range);
     add_real_device_keys(app, p.real);
     app.set_config("--hapticd-profile-file", p.path, "", true);
     try {
@@ -343,6 +350,30 @@ DeviceProfile load_device_profile(const Options& o) {
     check_range(where, "position_noise", p.position_noise, 0.0, 1.0, false, "0 .. 1 m");
     check_range(where, "position_resolution", p.position_resolution, 0.0, 1.0, false, "0 .. 1 m");
     validate_real_device_keys(where, p.driver, p.real);
+    struct RangeKey {
+        const char* key;
+        const std::vector<double>* range;
+        double nominal;
+        double lo;
+        double hi;
+        bool lo_open;
+        const char* accepted;
+    };
+    for (const RangeKey& r : {RangeKey{"mass_range", &p.mass_range, p.mass, 0.0, 1e6, true, "finite, > 0 kg"},
+                              RangeKey{"damping_range", &p.damping_range, p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m"},
+                              RangeKey{"stiffness_range", &p.stiffness_range, p.stiffness, 0.0, 1e12, false,
+                                       "finite, >= 0 N/m"},
+                              RangeKey{"inherent_delay_range", &p.inherent_delay_range, p.inherent_delay, 0.0, 1.0,
+                                       false, "0 .. 1 s"}}) {
+        const std::vector<double>& v = *r.range;
+        if (v.empty()) continue;
+        if (v.size() != 2) invalid(where, r.key, std::to_string(v.size()) + " values", "[min, max]");
+        for (double x : v) check_range(where, r.key, x, r.lo, r.hi, r.lo_open, r.accepted);
+        if (!(v[0] <= r.nominal && r.nominal <= v[1])) {
+            invalid(where, r.key, "[" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + "]",
+                    "min <= nominal value (" + std::to_string(r.nominal) + ") <= max");
+        }
+    }
     return p;
 }
 

@@ -52,6 +52,7 @@ struct Options {
     double identify_force = 0.0;      // excitation force limit, N (0: 25 % of the profile's max_force)
     double identify_distance = 0.0;   // excitation position limit, m (0: 5 mm, 0.05 rad for rotary devices)
     double identify_duration = 2.0;   // s of excitation (plus 0.3 s of zero force)
+    bool robust = false;              // tune for the worst case over the profile's parameter ranges (tuning.hpp)
 };
 
 struct DeviceProfile {
@@ -73,6 +74,11 @@ struct DeviceProfile {
     long long noise_seed = 1;
     long long fail_at_tick = -1;
     RealDeviceKeys real;              // keys of the falcon / hid drivers (devices/profile_keys.hpp)
+    // Uncertainty of the plant for --robust: [min, max] each, empty = the nominal value is exact.
+    std::vector<double> mass_range;
+    std::vector<double> damping_range;
+    std::vector<double> stiffness_range;
+    std::vector<double> inherent_delay_range;
 };
 
 // An error that ends the program with `code` after printing what().

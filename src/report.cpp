@@ -1,5 +1,6 @@
 #include "report.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 #include <nlohmann/json.hpp>
@@ -7,7 +8,7 @@
 namespace hapticd {
 
 std::string tuning_line(const TuningResult& t, bool rotary) {
-    char buf[512];
+    char buf[1024];
     const char* ku = rotary ? "N m/rad" : "N/m";
     const char* bu = rotary ? "N m s/rad" : "N s/m";
     std::string cost = "n/a";
@@ -21,7 +22,21 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                   "alpha/alpha_max = %.4f (alpha_max = %.6g)",
                   t.explicit_gains ? "explicit gains" : ("tuned for " + t.criterion).c_str(), t.K, ku, t.B, bu, t.alpha,
                   t.beta, t.criterion.c_str(), cost.c_str(), t.stability_margin(), t.alpha_max);
-    return buf;
+    std::string line = buf;
+    if (t.robust) {
+        const RobustSummary& r = *t.robust;
+        std::snprintf(buf, sizeof buf,
+                      "; robust over mass %.6g..%.6g, damping %.6g..%.6g, stiffness %.6g..%.6g, delay %.6g..%.6g ms: "
+                      "worst %s = %.6g at mass %.6g, damping %.6g, stiffness %.6g, delay %.6g ms (the nominal "
+                      "optimum's worst case: %.6g); stability over the mass range %s; alpha, beta, alpha_max of the "
+                      "box centre",
+                      r.box.mass_min, r.box.mass_max, r.box.damping_min, r.box.damping_max, r.box.stiffness_min,
+                      r.box.stiffness_max, r.box.delay_min * 1e3, r.box.delay_max * 1e3, t.criterion.c_str(),
+                      r.worst_case, r.worst_mass, r.worst_damping, r.worst_stiffness, r.worst_delay * 1e3,
+                      r.nominal_worst_case, r.mass_certified ? "proven" : "checked on a grid");
+        line += buf;
+    }
+    return line;
 }
 
 std::string statistics_text(const RunReport& r) {
@@ -61,6 +76,19 @@ nlohmann::json tuning_json(const TuningResult& t) {
     j["predicted_cost"] = t.cost ? nlohmann::json(*t.cost) : nlohmann::json(nullptr);
     j["alpha_max"] = t.alpha_max;
     j["stability_margin"] = t.stability_margin();
+    if (t.robust) {
+        const RobustSummary& r = *t.robust;
+        auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+        j["robust"] = {{"mass", {r.box.mass_min, r.box.mass_max}},
+                       {"damping", {r.box.damping_min, r.box.damping_max}},
+                       {"stiffness", {r.box.stiffness_min, r.box.stiffness_max}},
+                       {"delay", {r.box.delay_min, r.box.delay_max}},
+                       {"worst_case", r.worst_case},
+                       {"worst_at", {{"mass", r.worst_mass}, {"damping", r.worst_damping},
+                                     {"stiffness", r.worst_stiffness}, {"delay", r.worst_delay}}},
+                       {"nominal_worst_case", finite_or_null(r.nominal_worst_case)},
+                       {"mass_stability_certified", r.mass_certified}};
+    }
     return j;
 }
 

@@ -1,6 +1,7 @@
 #include "tuning.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include <hapticopt/hapticopt.hpp>
@@ -64,6 +65,53 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         return r;
     } catch (const hapticopt::InvalidParameter& e) {
         throw StartupError(kExitInvalidParameter, std::string("tuning: ") + e.what());
+    }
+}
+
+TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
+    const hapticopt::Criterion c = parse(criterion);
+    if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
+        throw StartupError(kExitUsage, "criterion = " + criterion + " is invalid with --robust; accepted: CE0, CE1, CE2 "
+                                                                    "(a robust OV or CEx+OV optimum is not defined)");
+    }
+    hapticopt::UncertainPlant u;
+    u.mass = {box.mass_min, box.mass_max};
+    u.damping = {box.damping_min, box.damping_max};
+    u.stiffness = {box.stiffness_min, box.stiffness_max};
+    u.time_delay = {box.delay_min, box.delay_max};
+    u.period = box.period;
+    try {
+        const hapticopt::RobustOptimum r = hapticopt::robust_optimum(c, u);
+        if (!r.stability.stable || !std::isfinite(r.worst.cost)) {
+            throw StartupError(kExitInvalidParameter,
+                               "robust tuning: no wall gains are stable over the whole parameter box (mass " +
+                                   g(box.mass_min) + " .. " + g(box.mass_max) + ", delay " + g(box.delay_min) + " .. " +
+                                   g(box.delay_max) + " s); accepted: a box that some (K, B) stabilises, e.g. "
+                                                      "narrower ranges or a shorter delay");
+        }
+        const hapticopt::NormalizedPlant nominal = hapticopt::normalize(r.nominal);
+        const hapticopt::NormalizedGains gains = hapticopt::normalize(r.gains, r.nominal.mass, r.nominal.period);
+        TuningResult t;
+        t.criterion = criterion;
+        t.K = r.gains.stiffness;
+        t.B = r.gains.damping;
+        t.alpha = gains.alpha;
+        t.beta = gains.beta;
+        t.cost = r.worst.cost;
+        t.alpha_max = hapticopt::StabilityRegion(nominal).alpha_max();
+        RobustSummary s;
+        s.box = box;
+        s.worst_case = r.worst.cost;
+        s.worst_mass = r.worst.where.mass;
+        s.worst_damping = r.worst.where.damping;
+        s.worst_stiffness = r.worst.where.stiffness;
+        s.worst_delay = r.worst.where.time_delay;
+        s.nominal_worst_case = r.nominal_worst.cost;
+        s.mass_certified = r.stability.mass_segments_certified;
+        t.robust = s;
+        return t;
+    } catch (const hapticopt::InvalidParameter& e) {
+        throw StartupError(kExitInvalidParameter, std::string("robust tuning: ") + e.what());
     }
 }
 

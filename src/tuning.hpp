@@ -16,6 +16,25 @@ struct TuningPlant {
     double time_delay = 0.0;  // s, total: device's inherent delay + delay buffer
 };
 
+// A box of uncertain plant parameters for --robust, physical units (min == max: the value is exact).
+struct TuningBox {
+    double mass_min = 0.0, mass_max = 0.0;            // kg (kg m^2)
+    double damping_min = 0.0, damping_max = 0.0;      // N s/m
+    double stiffness_min = 0.0, stiffness_max = 0.0;  // N/m
+    double delay_min = 0.0, delay_max = 0.0;          // s, total loop delay (device + buffer)
+    double period = 1e-3;                             // s
+};
+
+// What --robust adds to a tuning: the box, the worst case of the gains over it and where it occurs, and
+// the worst case of the nominal optimum (the box centre's) for comparison.
+struct RobustSummary {
+    TuningBox box;
+    double worst_case = 0.0;
+    double worst_mass = 0.0, worst_damping = 0.0, worst_stiffness = 0.0, worst_delay = 0.0;
+    double nominal_worst_case = 0.0;                  // +inf: the nominal optimum is unstable somewhere in the box
+    bool mass_certified = false;                      // stability over the mass range proven (not only sampled)
+};
+
 struct TuningResult {
     std::string criterion;          // "CE2", ...
     bool explicit_gains = false;    // K, B given by the user (then `criterion` only names the reported cost)
@@ -25,6 +44,7 @@ struct TuningResult {
     double beta = 0.0;              // B T / m
     std::optional<double> cost;     // predicted cost of `criterion` at (alpha, beta)
     double alpha_max = 0.0;         // largest stable alpha of the plant
+    std::optional<RobustSummary> robust;  // --robust: alpha, beta, alpha_max of the box centre; cost = worst case
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
@@ -35,6 +55,11 @@ const std::vector<std::string>& accepted_criteria();
 // Optimal gains for the criterion (computes only that criterion). Throws StartupError
 // (kExitInvalidParameter) when hapticopt rejects a parameter.
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
+
+// Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
+// box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: kExitUsage for
+// another criterion, kExitInvalidParameter for a bad box or when no gains are stable over the whole box.
+TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box);
 
 // Explicit gains: accepted when inside the stability region (cost of `criterion` predicted when it is an
 // energy or overshoot criterion); refused with StartupError(kExitUnstableGains) naming K, B, alpha, beta

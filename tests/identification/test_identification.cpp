@@ -428,6 +428,27 @@ TEST(HapticdIdentify, WritesReusesAndWarnsOnChange) {
     EXPECT_EQ(s["identified"]["source"], "file");
     EXPECT_EQ(s["K"].get<double>(), K_first);
 
+    // --robust after an identification: the box is the identified values +- 3 standard errors (issue 9,
+    // item 2); its bounds are checked against the identified values in the file (relative 1e-12: the same
+    // doubles, one multiply-add).
+    args = common;
+    args.insert(args.end(), {"--robust", "--dry-run"});
+    c = run_hapticd(args);
+    ASSERT_EQ(c.code, 0) << c.err;
+    s = read_json(summary);
+    ASSERT_TRUE(s.contains("robust")) << s.dump(2);
+    {
+        const nlohmann::json f = read_json(file);
+        const double m = f["mass"].get<double>(), sm = f["mass_stderr"].get<double>();
+        ASSERT_GT(sm, 0.0);
+        EXPECT_NEAR(s["robust"]["mass"][0].get<double>(), m - 3 * sm, 1e-12 * m);
+        EXPECT_NEAR(s["robust"]["mass"][1].get<double>(), m + 3 * sm, 1e-12 * m);
+        const double d = f["delay_periods"].get<double>() * 1e-3;
+        EXPECT_LT(s["robust"]["delay"][0].get<double>(), d);
+        EXPECT_GT(s["robust"]["delay"][1].get<double>(), d);
+        EXPECT_LE(s["robust"]["worst_case"].get<double>(), s["robust"]["nominal_worst_case"].get<double>() * (1 + 1e-12));
+    }
+
     // The device got 10 % heavier: --identify warns and rewrites the file.
     write_profile(profile, 0.33);
     args = common;
