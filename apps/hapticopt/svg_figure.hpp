@@ -1,7 +1,7 @@
 // Shared pieces of the `hapticopt plot` figures: the plant and output options, normalised or physical
 // axes, the standard panel layout, the exact stability boundary as a closed curve, and the
 // registration of the four plot subcommands (plot_region.cpp, plot_costs.cpp, plot_step.cpp,
-// plot_overshoot.cpp; plot_command.cpp groups them under `hapticopt plot`).
+// plot_overshoot.cpp, plot_collision.cpp; plot_command.cpp groups them under `hapticopt plot`).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -76,5 +76,6 @@ CommandRunner add_plot_region(CLI::App& plot);
 CommandRunner add_plot_costs(CLI::App& plot);
 CommandRunner add_plot_step(CLI::App& plot);
 CommandRunner add_plot_overshoot(CLI::App& plot);
+CommandRunner add_plot_collision(CLI::App& plot);
 
 }  // namespace hapticopt::cli

@@ -11,12 +11,14 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <set>
 
 #include <sys/wait.h>
 
 #include <hapticopt/energy_costs.hpp>
+#include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/optimum.hpp>
 #include <hapticopt/overshoot.hpp>
 #include <hapticopt/stability_region.hpp>
@@ -280,6 +282,35 @@ TEST(PlotOvershoot, OptimaOfFigure6AreMarkedWhereTheLibraryPutsThem) {
   }
   EXPECT_GT(checked, 10);
   EXPECT_EQ(elements(f.main, "polyline", "optimal-curve").size(), 3u);
+}
+
+TEST(PlotCollision, StepAndCollisionOptimaAndCurvesMatchTheLibrary) {
+  const NormalizedPlant plant{0, 0, 1};
+  const Figure f = figure("plot collision --index 2 --delay 1", "collision_d1.svg");
+  const hapticopt::WallOptimizer step(plant);
+  const hapticopt::ImpulseOptimizer hit(plant);
+  const auto step_best = step.optimum(Criterion::CE2);
+  const auto hit_best = hit.optimum(hapticopt::ImpulseCriterion::CI2);
+  expect_marker_at(f, "step-optimum", "CE2 optimum", step_best.alpha, step_best.beta);
+  expect_marker_at(f, "collision-optimum", "CI2 optimum", hit_best.alpha, hit_best.beta);
+  // The collision optimum is softer than the step optimum (docs/beyond-the-paper.md: 0.0361 vs 0.0582).
+  EXPECT_LT(hit_best.alpha, step_best.alpha);
+  // Each curve's vertices are beta_opt(alpha) of their criterion (alpha read back from the pixel; the
+  // curves' slopes add under 0.02 px, as for the costs figure).
+  for (const auto& [css, beta_opt] :
+       {std::pair<std::string, std::function<double(double)>>{"step-curve", [&](double a) { return step.optimal_beta(2, a); }},
+        std::pair<std::string, std::function<double(double)>>{"collision-curve",
+                                                               [&](double a) { return hit.optimal_beta(2, a); }}}) {
+    const auto curve = elements(f.main, "polyline", css);
+    ASSERT_EQ(curve.size(), 1u) << css;
+    std::size_t checked = 0;
+    for (const auto& p : points(curve[0].attr("points"))) {
+      if (p.first < f.x.pixel(0.0) + 1) continue;  // alpha within a pixel of alpha_min = 0 (steep there)
+      EXPECT_NEAR(p.second, f.y.pixel(beta_opt(f.x.value(p.first))), 2 * kPixelTolerance) << css;
+      ++checked;
+    }
+    EXPECT_GE(checked, 50u) << css;
+  }
 }
 
 TEST(PlotCli, UsageErrors) {
