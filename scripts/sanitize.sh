@@ -9,8 +9,10 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 what="${1:-all}"
 jobs="$(nproc)"
+# Warnings stay on but are not errors here: the instrumented -O1 code makes GCC 12 report false
+# -Wmaybe-uninitialized inside libstdc++ (std::regex, std::function). The release build is the -Werror gate.
 common=(-G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -g1"
-        -DHAPTICOPT_BUILD_BENCHMARKS=OFF -DHAPTICOPT_BUILD_PACKAGING_TESTS=OFF)
+        -DHAPTICOPT_BUILD_BENCHMARKS=OFF -DHAPTICOPT_BUILD_PACKAGING_TESTS=OFF -DHAPTICOPT_WARNINGS_AS_ERRORS=OFF)
 # Address-space randomisation off (setarch -R): the sanitizers' fixed shadow layout then never collides
 # with a randomised mapping on kernels with high mmap entropy.
 norandom=(setarch "$(uname -m)" -R)
