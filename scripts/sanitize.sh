@@ -20,16 +20,14 @@ norandom=(setarch "$(uname -m)" -R)
 if [[ "$what" == asan || "$what" == all ]]; then
   cmake -S . -B build/asan "${common[@]}" -DHAPTICOPT_SANITIZE=address,undefined
   cmake --build build/asan -j"$jobs"
-  # A 512 MiB stack: libstdc++'s std::regex matcher recurses once per character, and with ASan's larger
-  # frames the tests' SVG readers (regexes over whole figures) overflow the default 8 MiB.
-  ( ulimit -s 524288
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
-    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2 )
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
+  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2
 fi
 if [[ "$what" == tsan || "$what" == all ]]; then
   cmake -S . -B build/tsan "${common[@]}" -DHAPTICOPT_SANITIZE=thread
-  cmake --build build/tsan -j"$jobs" --target hapticd hapticd_unit_tests hapticd_analysis_tests hapticd_process_tests
+  cmake --build build/tsan -j"$jobs" --target hapticd hapticd_unit_tests hapticd_analysis_tests hapticd_process_tests \
+    hapticd_experiment_tests
   TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
     "${norandom[@]}" ctest --test-dir build/tsan --output-on-failure -j2 -L daemon
 fi

@@ -7,12 +7,14 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
 #include "daemon.hpp"
 #include "devices/device_factory.hpp"
 #include "devices/device_list.hpp"
+#include "experiment/experiment_main.hpp"
 #include "identification_run.hpp"
 #include "options.hpp"
 #include "realtime_setup.hpp"
@@ -348,6 +350,8 @@ int run_main(int argc, const char* const* argv) {
 }  // namespace
 
 int hapticd_main(int argc, const char* const* argv) noexcept {
+    // `hapticd experiment boundary|optimal ...`: the Sect. V experiments (docs/experiments.md).
+    if (argc > 1 && std::string_view(argv[1]) == "experiment") return experiment_main(argc - 1, argv + 1);
     clear_stop_request();
     try {
         return run_main(argc, argv);

@@ -24,9 +24,7 @@ CommandRunner add_plot_collision(CLI::App& plot) {
   CLI::App* sub = plot.add_subcommand("collision", "step (CEx) against collision (CIx) optimal curves and points");
   args->fig.add_to(*sub);
   sub->add_option("--index", args->index, "x of CEx and CIx: 0, 1 or 2")->capture_default_str()->check(CLI::Range(0, 2));
-  sub->add_option("--curve-points", args->curve_points, "points on each optimal curve")
-      ->capture_default_str()
-      ->check(CLI::Range(4, 10000));
+  add_curve_points_option(*sub, args->curve_points);
   return [args]() {
     const auto start = std::chrono::steady_clock::now();
     const FigureOptions& o = args->fig;

@@ -36,9 +36,7 @@ CommandRunner add_plot_costs(CLI::App& plot) {
   sub->add_option("--levels", args->levels, "contour levels C_min 2^(k/2), k = 1..levels")
       ->capture_default_str()
       ->check(CLI::Range(1, 60));
-  sub->add_option("--curve-points", args->curve_points, "points on the optimal curve")
-      ->capture_default_str()
-      ->check(CLI::Range(4, 10000));
+  add_curve_points_option(*sub, args->curve_points);
   return [args]() {
     const auto start = std::chrono::steady_clock::now();
     const FigureOptions& o = args->fig;

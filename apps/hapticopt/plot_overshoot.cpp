@@ -36,9 +36,7 @@ CommandRunner add_plot_overshoot(CLI::App& plot) {
       ->capture_default_str()
       ->check(CLI::Range(4, 100000));
   sub->add_option("--betas", args->betas, "grid betas per stiffness")->capture_default_str()->check(CLI::Range(4, 100000));
-  sub->add_option("--curve-points", args->curve_points, "points on each optimal curve")
-      ->capture_default_str()
-      ->check(CLI::Range(4, 10000));
+  add_curve_points_option(*sub, args->curve_points);
   return [args]() {
     const auto start = std::chrono::steady_clock::now();
     const FigureOptions& o = args->fig;

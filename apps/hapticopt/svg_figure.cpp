@@ -11,6 +11,12 @@
 
 namespace hapticopt::cli {
 
+void add_curve_points_option(CLI::App& app, int& points) {
+  app.add_option("--curve-points", points, "points sampled on each optimal curve")
+      ->capture_default_str()
+      ->check(CLI::Range(4, 10000));
+}
+
 void FigureOptions::add_to(CLI::App& app, bool corner_lists, double default_height) {
   height = default_height;
   app.add_option("--out,-o", out, "SVG file to write")->required();

@@ -50,6 +50,9 @@ struct FigureOptions {
   std::string corner_label(const NormalizedPlant& p) const;
 };
 
+/// --curve-points (4..10000, default shown): points sampled on each optimal curve of a figure.
+void add_curve_points_option(CLI::App& app, int& points);
+
 /// Number formatting for labels: %.4g.
 std::string short_number(double value);
 

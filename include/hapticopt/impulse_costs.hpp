@@ -148,38 +148,11 @@ PenetrationResultT<Scalar> penetration(const SampledPlant<Scalar>& plant, Scalar
   const ComplexMatrix<Scalar> flipped = solve_triangular_stein<Scalar>(
       flip<Scalar>(ComplexMatrix<Scalar>(schur.t.adjoint())), ComplexMatrix<Scalar>::Identity(n, n));
   const DynamicMatrix<Scalar> p = (schur.u * flip<Scalar>(flipped) * schur.u.adjoint()).real();
-  const Matrix3<Scalar>& a = plant.augmented_matrix();
-  Scalar kappa = 0;
-  for (int s = 0; s < plant.segment_count(); ++s) {
-    kappa = std::max(kappa, detail::deviation_gain(a, loop.segment_map[static_cast<std::size_t>(s)],
-                                                   plant.segment(s).length));
-  }
-  kappa *= Scalar(1) + Scalar(1e-6);
-  using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
-  Scalar best = 0, best_time = 0;
-  DynamicVector<Scalar> e = loop.initial_state, next(n);
-  for (long long j = 0; j < max_periods; ++j) {
-    for (int s = 0; s < plant.segment_count(); ++s) {
-      const auto& seg = plant.segment(s);
-      Vec3 xi = loop.segment_map[static_cast<std::size_t>(s)] * e;
-      const Scalar piece = seg.length / Scalar(seg.pieces);
-      for (int q = 0; q < seg.pieces; ++q) {
-        const Vec3 end = seg.piece_exp * xi;
-        const Scalar t0 = Scalar(j) + seg.start + Scalar(q) * piece;
-        if (end(0) > best) { best = end(0); best_time = t0 + piece; }
-        if (xi(1) > 0 && end(1) < 0) {
-          const auto [tau, x] = detail::interior_maximum(a, xi, piece);
-          if (x > best) { best = x; best_time = t0 + tau; }
-        }
-        xi = end;
-      }
-    }
-    next.noalias() = loop.transition * e;
-    e.swap(next);
-    result.periods = j + 1;
-    const Scalar v = e.dot(p * e);
-    if (kappa * std::sqrt(std::max(v, Scalar(0))) <= best) { result.converged = true; break; }
-  }
+  const detail::ContinuousMaximum<Scalar> scan =
+      detail::continuous_maximum(plant, loop, p, Scalar(0), Scalar(0), max_periods);
+  result.periods = scan.periods;
+  result.converged = scan.converged;
+  const Scalar best = scan.value, best_time = scan.time;
   result.depth = best;
   result.time = best_time;
   return result;

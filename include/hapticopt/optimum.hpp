@@ -12,7 +12,8 @@
 //    best point's neighbours, then Newton steps on central differences (h = 1e-5 beta) that take
 //    beta from Brent's sqrt(eps) flatness limit to ~1e-10;
 //  - CEx: `alpha_grid` alphas across (-gamma, alpha_max), each with the coarse beta grid, then
-//    Brent over alpha on the best grid alpha's neighbours with beta_opt(alpha) inside;
+//    Brent over alpha (to `alpha_tolerance`) on the best grid alpha's neighbours with beta_opt(alpha)
+//    inside;
 //  - OV and CEx+OV: a scan down from alpha_max in `alpha_grid` steps to the first alpha without
 //    overshoot, then bisection to `alpha_tolerance` between it and the previous scan point.
 // The tests check each optimum against a 120 x 120 grid of the stable region (no grid point is
@@ -34,7 +35,9 @@ struct OptimumOptions {
   double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
   int alpha_grid = 24;                 ///< coarse alphas across the stable region, >= 4
   int beta_grid = 16;                  ///< coarse betas across the stable interval, >= 4
-  double alpha_tolerance = 1e-10;      ///< bisection tolerance of the OV and CEx+OV points
+  double alpha_tolerance = 1e-10;      ///< bisection tolerance of the OV and CEx+OV points, and Brent's
+                                       ///< tolerance over alpha for the CEx points (time against
+                                       ///< error: docs/accuracy.md)
 };
 
 struct Optimum {
@@ -185,7 +188,7 @@ class WallOptimizer {
     const double center = a0 + (best + 0.5) * step;
     auto c = [&](double a) { return curve_point(index, a, false).value; };
     const auto m = detail::minimize_scalar(c, std::max(a0 + 1e-12, center - step), std::min(a1, center + step),
-                                           1e-10);
+                                           options_.alpha_tolerance);
     return {m.x, m.value};
   }
 

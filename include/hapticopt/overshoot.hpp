@@ -122,6 +122,73 @@ Scalar deviation_gain(const Matrix3<Scalar>& a, const DynamicMatrix<Scalar>& r, 
   return sum * Scalar(2);  // not reached for pieces with ||A|| h <= 2
 }
 
+template <typename Scalar>
+struct ContinuousMaximum {
+  Scalar value = 0;          ///< largest x(t) found (the start value when nothing exceeds it)
+  Scalar time = 0;           ///< where, in periods (0 when nothing exceeds the start value)
+  long long periods = 0;     ///< periods scanned
+  bool converged = false;    ///< the Lyapunov bound proved no later x(t) can exceed the maximum
+};
+
+/// The exact maximum over t >= 0 of x(t) for the loop started from loop.initial_state: each ZOH
+/// piece is checked at its end and, where the velocity changes sign from + to -, at its interior
+/// maximum (interior_maximum). After period j the bound |x(t)| <= kappa sqrt(e_j^T P e_j) for all
+/// later t (P = M^T P M + I, the observability Gramian; kappa = max_s deviation_gain, +1e-6 for
+/// rounding) stops the scan once it is <= max(value, floor). Allocates three N-vectors, then nothing.
+template <typename Scalar>
+ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop,
+                                             const DynamicMatrix<Scalar>& p, Scalar start_value, Scalar floor,
+                                             long long max_periods) {
+  const Matrix3<Scalar>& a = plant.augmented_matrix();
+  Scalar kappa = 0;
+  for (int s = 0; s < plant.segment_count(); ++s) {
+    kappa = std::max(kappa, deviation_gain(a, loop.segment_map[static_cast<std::size_t>(s)],
+                                           plant.segment(s).length));
+  }
+  kappa *= Scalar(1) + Scalar(1e-6);  // rounding in P and in the series
+
+  ContinuousMaximum<Scalar> result;
+  result.value = start_value;
+  const Eigen::Index n = loop.transition.rows();
+  DynamicVector<Scalar> e = loop.initial_state;
+  DynamicVector<Scalar> next(n);
+  DynamicVector<Scalar> pe(n);
+  using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
+  for (long long j = 0; j < max_periods; ++j) {
+    for (int s = 0; s < plant.segment_count(); ++s) {
+      const auto& seg = plant.segment(s);
+      Vec3 xi = loop.segment_map[static_cast<std::size_t>(s)] * e;
+      const Scalar piece = seg.length / Scalar(seg.pieces);
+      for (int q = 0; q < seg.pieces; ++q) {
+        const Vec3 end = seg.piece_exp * xi;
+        const Scalar t0 = Scalar(j) + seg.start + Scalar(q) * piece;
+        if (end(0) > result.value) {
+          result.value = end(0);
+          result.time = t0 + piece;
+        }
+        if (xi(1) > 0 && end(1) < 0) {
+          const auto [tau, x] = interior_maximum(a, xi, piece);
+          if (x > result.value) {
+            result.value = x;
+            result.time = t0 + tau;
+          }
+        }
+        xi = end;
+      }
+    }
+    next.noalias() = loop.transition * e;
+    e.swap(next);
+    result.periods = j + 1;
+    pe.noalias() = p * e;
+    const Scalar bound = kappa * std::sqrt(std::max(e.dot(pe), Scalar(0)));
+    if (bound <= std::max(result.value, floor)) {
+      result.converged = true;
+      break;
+    }
+  }
+  return result;
+}
+
 }  // namespace detail
 
 /// C_OV of the loop (plant, alpha, beta). Throws InvalidParameter for a tolerance outside (0, 1].
@@ -137,7 +204,6 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     return result;
   }
   const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);
-  const Eigen::Index n = loop.transition.rows();
   // Lyapunov matrix P = sum_k (M^T)^k M^k (P = M^T P M + I) by the shift-structured solver.
   DynamicMatrix<Scalar> p;
   {
@@ -150,56 +216,14 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     return result;
   }
 
-  const Matrix3<Scalar>& a = plant.augmented_matrix();
-  Scalar kappa = 0;
-  for (int s = 0; s < plant.segment_count(); ++s) {
-    const auto& seg = plant.segment(s);
-    kappa = std::max(kappa, detail::deviation_gain(a, loop.segment_map[static_cast<std::size_t>(s)],
-                                                   seg.length));
-  }
-  kappa *= Scalar(1) + Scalar(1e-6);  // rounding in P and in the series
-
   const Scalar x_inf = loop.final_position;
-  const Scalar floor = Scalar(options.tolerance) * x_inf;
-  Scalar best = -x_inf;  // x - x_inf at t = 0
-  Scalar best_time = 0;
-  DynamicVector<Scalar> e = loop.initial_state;
-  DynamicVector<Scalar> next(n);
-  DynamicVector<Scalar> pe(n);  // P e_j, preallocated: the loop below allocates nothing
-  using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
-  for (long long j = 0; j < options.max_periods; ++j) {
-    for (int s = 0; s < plant.segment_count(); ++s) {
-      const auto& seg = plant.segment(s);
-      Vec3 xi = loop.segment_map[static_cast<std::size_t>(s)] * e;
-      const Scalar piece = seg.length / Scalar(seg.pieces);
-      for (int q = 0; q < seg.pieces; ++q) {
-        const Vec3 end = seg.piece_exp * xi;
-        const Scalar t0 = Scalar(j) + seg.start + Scalar(q) * piece;
-        if (end(0) > best) {
-          best = end(0);
-          best_time = t0 + piece;
-        }
-        if (xi(1) > 0 && end(1) < 0) {
-          const auto [tau, x] = detail::interior_maximum(a, xi, piece);
-          if (x > best) {
-            best = x;
-            best_time = t0 + tau;
-          }
-        }
-        xi = end;
-      }
-    }
-    next.noalias() = loop.transition * e;
-    e.swap(next);
-    result.periods = j + 1;
-    pe.noalias() = p * e;
-    const Scalar v = e.dot(pe);
-    const Scalar bound = kappa * std::sqrt(std::max(v, Scalar(0)));
-    if (bound <= std::max(best, floor)) {
-      result.converged = true;
-      break;
-    }
-  }
+  // x - x_inf starts at -x_inf (t = 0); the scan stops once the bound is below the tolerance floor.
+  const detail::ContinuousMaximum<Scalar> scan = detail::continuous_maximum(
+      plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
+  result.periods = scan.periods;
+  result.converged = scan.converged;
+  const Scalar best = scan.value;
+  const Scalar best_time = scan.time;
   result.value = best > 0 ? best / x_inf : Scalar(0);
   if (result.value > 0) result.time = best_time;
   result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);

@@ -4,8 +4,11 @@
 // and r(z) = (p(z) - k z^n p(1/z)) / z, of degree n - 1. Schur-Cohn theorem: all roots of p lie
 // strictly inside the unit circle iff |k| < 1 and all roots of r do (E. I. Jury, "Theory and
 // Application of the z-Transform Method", 1964; the same recursion as Levinson-Durbin).
-// The verdict is exact for the given coefficients; `margin` = min_i (1 - |k_i|) is zero exactly on
-// the boundary (a root on the unit circle), so it measures how far inside the test decided.
+// In exact arithmetic the verdict is exact for the given coefficients; in floating point the k_i carry
+// rounding, so a verdict can be wrong only where some |k_i| is within rounding of 1. `margin` =
+// min_i (1 - |k_i|) (or the failing 1 - |k_i| <= 0 when unstable) is zero exactly on the boundary (a
+// root on the unit circle), so it measures how far from a decision change the test was; loop_verdict
+// (loop_schur_form.hpp) uses it to recompute near-boundary verdicts in long double.
 // Cost: n^2 flops.
 #pragma once
 

@@ -2,7 +2,8 @@
 // 10, 100, 1000 steps per period (plain composite Simpson, and Richardson-extrapolated from N and 2N
 // steps), and the exact continuous overshoot against sample-based maxima, for d = 0, 1, 6
 // (tests/data/accuracy_cases.hpp). Errors are measured against tests/data/accuracy_reference.csv
-// (long double, tests/data/make_accuracy_reference.cpp) and reported as counters:
+// (long double, tests/data/make_accuracy_reference.cpp) and reported as counters (the optimum search's
+// tolerance against time is the last benchmark, BM_OptimumSearch, with its own reference):
 //   err_ce = max over C_E0..2 of the relative error, err_ov = |C_OV - reference| (C_OV is already
 //   relative to x_inf, so this is the error of the maximum in units of x_inf).
 // Time-stepping is tests/core/reference_simulation.hpp (exact ZOH sub-steps, Simpson), run for enough
@@ -135,6 +136,47 @@ void BM_OvershootExact(benchmark::State& state) {
   state.counters["err_ov"] = std::fabs(r.value - references()[i].overshoot);
 }
 BENCHMARK(BM_OvershootExact)->ArgName("d")->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
+
+// Optimum search: OptimumOptions::alpha_tolerance (Brent over alpha for CE2, bisection for CE2+OV)
+// against time, for the paper's first plant rows (gamma = delta = 0) at d = 0, 1, 6. Error: relative
+// error of alpha and of the cost C_E2 against the same search run with alpha_tolerance 1e-13 and a 4x
+// denser coarse grid (96 x 64). That reference's own accuracy is what the optimum tests check (no
+// point of a 120 x 120 grid is better; optimal curves at the long double sign change of dC/dbeta;
+// the 64 paper rows to their printed digits), so these errors are self-convergence, not absolute.
+const hapticopt::Optimum& optimum_reference(int d, hapticopt::Criterion criterion) {
+  static std::array<std::array<hapticopt::Optimum, 2>, 3> cache{};
+  static std::array<std::array<bool, 2>, 3> done{};
+  const std::size_t i = case_index(static_cast<double>(d));
+  const std::size_t k = criterion == hapticopt::Criterion::CE2 ? 0 : 1;
+  if (!done[i][k]) {
+    hapticopt::OptimumOptions fine;
+    fine.alpha_tolerance = 1e-13;
+    fine.alpha_grid = 96;
+    fine.beta_grid = 64;
+    cache[i][k] = hapticopt::WallOptimizer({0.0, 0.0, static_cast<double>(d)}, fine).optimum(criterion);
+    done[i][k] = true;
+  }
+  return cache[i][k];
+}
+
+void BM_OptimumSearch(benchmark::State& state) {
+  const int d = static_cast<int>(state.range(0));
+  const auto criterion = state.range(1) == 0 ? hapticopt::Criterion::CE2 : hapticopt::Criterion::CE2_OV;
+  hapticopt::OptimumOptions options;
+  options.alpha_tolerance = std::pow(10.0, -static_cast<double>(state.range(2)));
+  const hapticopt::Optimum& ref = optimum_reference(d, criterion);
+  hapticopt::Optimum got;
+  for (auto _ : state) {
+    got = hapticopt::WallOptimizer({0.0, 0.0, static_cast<double>(d)}, options).optimum(criterion);
+    benchmark::DoNotOptimize(got);
+  }
+  state.counters["err_opt_alpha"] = std::fabs(got.alpha - ref.alpha) / ref.alpha;
+  state.counters["err_opt_cost"] = std::fabs(*got.cost - *ref.cost) / *ref.cost;
+}
+BENCHMARK(BM_OptimumSearch)
+    ->ArgNames({"d", "ov", "tol_exp"})
+    ->ArgsProduct({{0, 1, 6}, {0, 1}, {4, 6, 8, 10, 12}})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -1,15 +1,17 @@
 // A minimal reader for the SVG files written by `hapticopt plot` (see apps/hapticopt/svg_writer.hpp
 // for the conventions it relies on): well-formedness, elements with their attributes and text, panel
-// extraction, and the axis scales recovered from the tick marks and their labels.
+// extraction, and the axis scales recovered from the tick marks and their labels. Plain scanning, no
+// std::regex (libstdc++'s recurses once per character, which overflows the stack under ASan on the
+// long path attributes).
 #pragma once
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <optional>
-#include <regex>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -24,6 +26,34 @@ inline std::string read_text(const std::string& path) {
   return s.str();
 }
 
+/// "&amp;", "&lt;", "&gt;", "&quot;", "&apos;", "&#123;" or "&#x1F;".
+inline bool is_entity(const std::string& e) {
+  if (e == "&amp;" || e == "&lt;" || e == "&gt;" || e == "&quot;" || e == "&apos;") return true;
+  if (e.size() < 4 || e.compare(0, 2, "&#") != 0 || e.back() != ';') return false;
+  const bool hex = e[2] == 'x';
+  const std::string digits = e.substr(hex ? 3 : 2, e.size() - (hex ? 4 : 3));
+  if (digits.empty()) return false;
+  for (const char c : digits) {
+    if (!(hex ? std::isxdigit(static_cast<unsigned char>(c)) : std::isdigit(static_cast<unsigned char>(c)))) return false;
+  }
+  return true;
+}
+
+/// The name="value" pairs of a start tag's text (names: letters, digits, '-', '_', ':', '.').
+inline std::map<std::string, std::string> attributes_of(const std::string& head) {
+  std::map<std::string, std::string> out;
+  auto name_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == ':' || c == '.'; };
+  for (std::size_t eq = head.find("=\""); eq != std::string::npos; eq = head.find("=\"", eq + 1)) {
+    std::size_t begin = eq;
+    while (begin > 0 && name_char(head[begin - 1])) --begin;
+    const std::size_t close = head.find('"', eq + 2);
+    if (close == std::string::npos) break;
+    if (begin < eq) out[head.substr(begin, eq - begin)] = head.substr(eq + 2, close - eq - 2);
+    eq = close;
+  }
+  return out;
+}
+
 /// Empty when the document is well-formed XML as far as tags go (every start tag closed in order,
 /// one root, no stray '<' or '&' in text); otherwise a description of the first problem.
 inline std::string xml_problem(const std::string& doc) {
@@ -34,7 +64,7 @@ inline std::string xml_problem(const std::string& doc) {
     if (doc[i] == '&') {
       const std::size_t semi = doc.find(';', i);
       const std::string entity = semi == std::string::npos ? "" : doc.substr(i, semi - i + 1);
-      if (!std::regex_match(entity, std::regex("&(amp|lt|gt|quot|apos|#[0-9]+|#x[0-9a-fA-F]+);"))) {
+      if (!is_entity(entity)) {
         return "bad entity at " + std::to_string(i);
       }
       i = semi + 1;
@@ -85,15 +115,12 @@ struct Element {
 /// All <tag ...> elements of `doc` carrying CSS class `css_class` (any class when empty).
 inline std::vector<Element> elements(const std::string& doc, const std::string& tag, const std::string& css_class = {}) {
   std::vector<Element> out;
-  const std::regex attribute(R"re(([A-Za-z_:][-A-Za-z0-9_:.]*)="([^"]*)")re");
   const std::string open = "<" + tag + " ";
   for (std::size_t i = doc.find(open); i != std::string::npos; i = doc.find(open, i + 1)) {
     const std::size_t end = doc.find('>', i);
     const std::string head = doc.substr(i, end - i);
     Element e;
-    for (std::sregex_iterator it(head.begin(), head.end(), attribute), last; it != last; ++it) {
-      e.attributes[(*it)[1]] = (*it)[2];
-    }
+    e.attributes = attributes_of(head);
     if (head.back() != '/') e.text = doc.substr(end + 1, doc.find('<', end) - end - 1);
     if (css_class.empty() || e.has_class(css_class)) out.push_back(std::move(e));
   }

@@ -1,0 +1,83 @@
+// Shared pieces of the experiment tests: simulated devices for a plant, a device wrapper that remembers the
+// last force command, and the standard setup of the experiments.
+#pragma once
+
+#include <memory>
+
+#include "devices/sim_device.hpp"
+#include "experiment/experiment_procedures.hpp"
+
+namespace hapticd::experiment::test {
+
+struct Plant {
+    double mass = 0.3, damping = 0.0, stiffness = 0.0;
+    double inherent_delay_periods = 0.0;  // the device's own delay
+    std::size_t buffer = 0;               // the experiment's delay buffer
+    double period = 1e-3;
+    [[nodiscard]] TheoryPlant theory() const {
+        return {mass, damping, stiffness, period, (inherent_delay_periods + static_cast<double>(buffer)) * period};
+    }
+};
+
+inline std::unique_ptr<SimDevice> make_sim(const Plant& p, std::int64_t fail_at_tick = -1) {
+    SimDeviceConfig c;
+    c.capabilities.axes = 1;
+    c.capabilities.max_force = 10.0;
+    c.capabilities.inherent_delay = p.inherent_delay_periods * p.period;
+    c.plant = PlantParameters{p.mass, p.damping, p.stiffness};
+    c.period = p.period;
+    c.fail_at_tick = fail_at_tick;
+    c.scenario.step_force = 0.0;  // no external force: the step goes through the actuator
+    auto d = std::make_unique<SimDevice>(c);
+    d->open();
+    d->home();
+    return d;
+}
+
+// Forwards to a device and remembers every force command (the last one must be zero after any abort).
+class RecordingDevice final : public Device {
+public:
+    explicit RecordingDevice(Device& inner) : inner_(inner) {}
+    DeviceStatus open() override { return inner_.open(); }
+    DeviceStatus home() override { return inner_.home(); }
+    void close() noexcept override { inner_.close(); }
+    DeviceStatus read_position(AxisVector& p) noexcept override { return inner_.read_position(p); }
+    DeviceStatus write_force(const AxisVector& f) noexcept override {
+        last_force = f;
+        ++writes;
+        return inner_.write_force(f);
+    }
+    [[nodiscard]] const DeviceCapabilities& capabilities() const noexcept override { return inner_.capabilities(); }
+    [[nodiscard]] std::string_view name() const noexcept override { return "recording"; }
+    [[nodiscard]] std::string last_error() const override { return inner_.last_error(); }
+    AxisVector last_force{};
+    std::size_t writes = 0;
+
+private:
+    Device& inner_;
+};
+
+inline ExperimentSetup make_setup(const Plant& p, const Theory& theory, std::size_t trial_ticks) {
+    ExperimentSetup s;
+    s.trial.period = p.period;
+    s.trial.delay_buffer = p.buffer;
+    s.trial.mass = p.mass;
+    s.trial.stiffness = p.stiffness;
+    s.trial.step_force = 0.5;
+    s.trial.ticks = trial_ticks;
+    s.trial.force_cap = 5.0;
+    s.trial.position_limit = 0.01;
+    const auto [K, B] = theory.ce2_optimum();
+    s.settle.period = p.period;
+    s.settle.delay_buffer = p.buffer;
+    s.settle.K = K;
+    s.settle.B = B;
+    s.settle.ticks = 400;
+    s.settle.zero_ticks = 100;
+    s.settle.force_cap = 5.0;
+    s.settle.position_limit = 0.02;
+    s.model = CostModel{p.mass, p.damping, p.stiffness, p.period, p.inherent_delay_periods * p.period};
+    return s;
+}
+
+}  // namespace hapticd::experiment::test
