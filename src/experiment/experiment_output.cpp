@@ -50,20 +50,27 @@ void trial_columns(std::ofstream& o, const TrialRow& r) {
       << num(r.max_growth) << "," << num(r.max_abs_force) << "," << num(r.max_abs_position);
 }
 
-// The panel: K across, B up, domain covering the theory boundary and every measured point.
-svg::Axes& figure_axes(svg::Document& doc, const svg::Polyline& boundary, const std::vector<std::pair<double, double>>& extra,
+const svg::Style kBoundaryStyle{"#000000", 1.5, "", "none", 1};
+
+// The panel: K across, B up, domain covering the analysed boundary and every measured point; the analysed
+// boundary drawn with its legend entry.
+svg::Axes& figure_axes(svg::Document& doc, const Theory& theory, const std::vector<std::pair<double, double>>& measured,
                        const std::string& title) {
+    const svg::Polyline boundary = theory.boundary_polyline();
     double x1 = 0, y1 = 0;
     for (const auto& [k, b] : boundary) { x1 = std::max(x1, k); y1 = std::max(y1, b); }
-    for (const auto& [k, b] : extra) {
+    for (const auto& [k, b] : measured) {
         if (std::isfinite(k)) x1 = std::max(x1, k);
         if (std::isfinite(b)) y1 = std::max(y1, b);
     }
     hapticopt::cli::FigureOptions o;
     o.width = 800;
     o.height = 600;
-    return hapticopt::cli::main_axes(doc, o, {0.0, x1 * 1.05}, {0.0, y1 * 1.05}, "stiffness K [N/m]",
-                                     "damping B [N s/m]", title);
+    svg::Axes& ax = hapticopt::cli::main_axes(doc, o, {0.0, x1 * 1.05}, {0.0, y1 * 1.05}, "stiffness K [N/m]",
+                                              "damping B [N s/m]", title);
+    ax.polyline(boundary, kBoundaryStyle, "boundary", "analysis");
+    ax.legend_line("stability boundary (analysis)", kBoundaryStyle);
+    return ax;
 }
 
 std::filesystem::path prepare(const std::string& dir) {
@@ -75,7 +82,6 @@ std::filesystem::path prepare(const std::string& dir) {
 
 void save(const svg::Document& doc, const std::string& path) { doc.save(path); }
 
-const svg::Style kBoundaryStyle{"#000000", 1.5, "", "none", 1};
 
 }  // namespace
 
@@ -102,13 +108,10 @@ std::vector<std::string> write_boundary_outputs(const std::string& dir, const Bo
         f.close();
         written.push_back((base / "boundary.csv").string());
     }
-    const svg::Polyline boundary = theory.boundary_polyline();
     std::vector<std::pair<double, double>> measured;
     for (const auto& p : result.points) measured.emplace_back(p.K_boundary, p.B);
     svg::Document doc(800, 600, "Measured stability boundary, " + caption.text);
-    svg::Axes& ax = figure_axes(doc, boundary, measured, "Stability boundary: measured vs analysis, " + caption.text);
-    ax.polyline(boundary, kBoundaryStyle, "boundary", "analysis");
-    ax.legend_line("stability boundary (analysis)", kBoundaryStyle);
+    svg::Axes& ax = figure_axes(doc, theory, measured, "Stability boundary: measured vs analysis, " + caption.text);
     const svg::Style marker{"#d62728", 1.5, "", "none", 1};
     for (const auto& p : result.points) {
         if (std::isnan(p.K_boundary)) continue;
@@ -149,13 +152,10 @@ std::vector<std::string> write_optimal_outputs(const std::string& dir, const Opt
         f.close();
         written.push_back((base / "optimal.csv").string());
     }
-    const svg::Polyline boundary = theory.boundary_polyline();
     std::vector<std::pair<double, double>> measured;
     for (const auto& p : result.points) measured.emplace_back(p.K, p.B_refined);
     svg::Document doc(800, 600, "Measured optimal curves, " + caption.text);
-    svg::Axes& ax = figure_axes(doc, boundary, measured, "Optimal B per K: measured vs analysis, " + caption.text);
-    ax.polyline(boundary, kBoundaryStyle, "boundary", "analysis");
-    ax.legend_line("stability boundary (analysis)", kBoundaryStyle);
+    svg::Axes& ax = figure_axes(doc, theory, measured, "Optimal B per K: measured vs analysis, " + caption.text);
     // Theory curves over the K range of the grid (the optimal curve is defined inside the region).
     double k_lo = HUGE_VAL, k_hi = 0;
     for (const double K : settings.k_values) { k_lo = std::min(k_lo, K); k_hi = std::max(k_hi, K); }

@@ -220,6 +220,9 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
         case TrialOutcome::Stopped:
             std::cerr << "hapticd experiment: " << abort.detail << "; partial results written\n";
             return kExitOk;
+        case TrialOutcome::DeviceFault:  // as the daemon: a device error during the run is exit 6
+            std::cerr << "hapticd experiment: error: " << abort.detail << "; partial results written\n";
+            return kExitDeviceError;
         default:
             std::cerr << "hapticd experiment: error: " << abort.detail << "; partial results written\n";
             return kExitRunFault;

@@ -106,13 +106,14 @@ TEST(ExperimentProcess, OptimalOnTheSimulatedDeviceEndToEnd) {
     }
 }
 
-TEST(ExperimentProcess, DeviceFaultMidRunExitsSevenAndWritesThePartialResults) {
+// A device error during the run is exit 6, as for the daemon's run (exit_codes.hpp).
+TEST(ExperimentProcess, DeviceFaultMidRunExitsSixAndWritesThePartialResults) {
     const std::string profile = hapticd::test::write_file(
         "failing_sim.toml", "name = \"failing\"\ndriver = \"sim\"\nmass = 0.3\nmax_force = 10.0\nfail_at_tick = 5000\n");
     const std::string dir = out_dir("fault");
     const auto r = hapticd::test::run({"experiment", "boundary", "--device", profile, "--b-values", "200", "--out-dir", dir, "--quiet"},
                                       "fault");
-    EXPECT_EQ(r.code, kExitRunFault) << r.err;
+    EXPECT_EQ(r.code, kExitDeviceError) << r.err;
     EXPECT_NE(r.err.find("device error"), std::string::npos) << r.err;
     EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(dir) / "boundary_trials.csv"));
 }
