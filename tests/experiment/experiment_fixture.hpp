@@ -3,9 +3,13 @@
 #pragma once
 
 #include <memory>
+#include <sstream>
+#include <utility>
+#include <vector>
 
 #include "devices/sim_device.hpp"
 #include "experiment/experiment_procedures.hpp"
+#include "experiment/experiment_progress.hpp"
 
 namespace hapticd::experiment::test {
 
@@ -78,6 +82,26 @@ inline ExperimentSetup make_setup(const Plant& p, const Theory& theory, std::siz
     s.settle.position_limit = 0.02;
     s.model = CostModel{p.mass, p.damping, p.stiffness, p.period, p.inherent_delay_periods * p.period};
     return s;
+}
+
+// The boundary experiment's K sweep: from K_max / steps in steps of K_max / steps up to 2 K_max, the last
+// interval bisected to 1 / refine of a step (K_max analysed).
+inline BoundarySettings k_sweep(const Theory& theory, std::vector<double> b_values, double steps, double refine) {
+    BoundarySettings s;
+    s.b_values = std::move(b_values);
+    s.k_step = theory.max_stiffness() / steps;
+    s.k_min = s.k_step;
+    s.k_max = 2.0 * theory.max_stiffness();
+    s.k_resolution = s.k_step / refine;
+    return s;
+}
+
+// run_boundary with the progress display going nowhere.
+inline BoundaryResult run_boundary_quietly(TrialRunner& runner, const ExperimentSetup& setup, const BoundarySettings& s,
+                                           const Theory& theory) {
+    std::ostringstream sink;
+    Progress progress(sink, false, true);
+    return run_boundary(runner, setup, s, theory, progress);
 }
 
 }  // namespace hapticd::experiment::test

@@ -58,15 +58,8 @@ TEST(ExperimentSafety, DeviceFaultMidTrialStopsTheExperimentWithZeroForce) {
     TrialRunner runner(dev, 1'000'000, true);
     ExperimentSetup setup = make_setup(kDefault, theory, 2000);
     setup.settle.home = 0.0;
-    BoundarySettings s;
-    s.b_values = {200.0};
-    s.k_step = theory.max_stiffness() / 20.0;
-    s.k_min = s.k_step;
-    s.k_max = 2.0 * theory.max_stiffness();
-    s.k_resolution = s.k_step / 8.0;
-    std::ostringstream sink;
-    Progress progress(sink, false, true);
-    const BoundaryResult r = run_boundary(runner, setup, s, theory, progress);
+    const BoundarySettings s = k_sweep(theory, {200.0}, 20.0, 8.0);
+    const BoundaryResult r = run_boundary_quietly(runner, setup, s, theory);
     EXPECT_EQ(r.abort.outcome, TrialOutcome::DeviceFault);
     EXPECT_NE(r.abort.detail.find("device error"), std::string::npos) << r.abort.detail;
     ASSERT_EQ(r.trials.size(), 2U);

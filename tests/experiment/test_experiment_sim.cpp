@@ -37,16 +37,11 @@ TEST_P(BoundaryOnSim, MeasuredBoundaryMatchesAnalysisWithinResolutionAndDetectio
     TrialRunner runner(*sim, 1'000'000, true);
     ExperimentSetup setup = make_setup(plant, theory, 2000);
     setup.settle.home = runner.read_position(0);
-    BoundarySettings s;
     const auto [b_lo, b_hi] = theory.damping_extent();
-    for (int i = 0; i < 5; ++i) s.b_values.push_back(b_lo + (b_hi - b_lo) * (0.1 + 0.2 * i));
-    s.k_step = theory.max_stiffness() / 20.0;
-    s.k_min = s.k_step;
-    s.k_max = 2.0 * theory.max_stiffness();
-    s.k_resolution = s.k_step / 64.0;
-    std::ostringstream sink;
-    Progress progress(sink, false, true);
-    const BoundaryResult r = run_boundary(runner, setup, s, theory, progress);
+    std::vector<double> b_values;
+    for (int i = 0; i < 5; ++i) b_values.push_back(b_lo + (b_hi - b_lo) * (0.1 + 0.2 * i));
+    const BoundarySettings s = k_sweep(theory, b_values, 20.0, 64.0);
+    const BoundaryResult r = run_boundary_quietly(runner, setup, s, theory);
     ASSERT_EQ(r.abort.outcome, TrialOutcome::Stable) << r.abort.detail;
     ASSERT_EQ(r.points.size(), s.b_values.size());
     // Window energy ratio of the dominant mode: rho^(2W); detected when > g: rho_detect = g^(1/(2W)).

@@ -81,16 +81,9 @@ TEST(ExperimentSvg, MarkersAtTheCsvValuesAndTheTheoryPathOnTheLibraryBoundary) {
     TrialRunner runner(*sim, 1'000'000, true);
     ExperimentSetup setup = make_setup(plant, theory, 2000);
     setup.settle.home = runner.read_position(0);
-    BoundarySettings s;
-    s.b_values = {0.3 * theory.damping_at_max_stiffness(), theory.damping_at_max_stiffness(),
-                  1.4 * theory.damping_at_max_stiffness()};
-    s.k_step = theory.max_stiffness() / 10.0;
-    s.k_min = s.k_step;
-    s.k_max = 2.0 * theory.max_stiffness();
-    s.k_resolution = s.k_step / 16.0;
-    std::ostringstream sink;
-    Progress progress(sink, false, true);
-    const BoundaryResult r = run_boundary(runner, setup, s, theory, progress);
+    const double b_tip = theory.damping_at_max_stiffness();
+    const BoundarySettings s = k_sweep(theory, {0.3 * b_tip, b_tip, 1.4 * b_tip}, 10.0, 16.0);
+    const BoundaryResult r = run_boundary_quietly(runner, setup, s, theory);
     ASSERT_EQ(r.abort.outcome, TrialOutcome::Stable);
     const auto dir = std::filesystem::temp_directory_path() / ("hapticd_experiment_svg_" + std::to_string(::getpid()));
     write_boundary_outputs(dir.string(), r, theory, FigureCaption{"test"});
