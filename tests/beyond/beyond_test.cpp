@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
-#include <unsupported/Eigen/MatrixFunctions>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -13,17 +12,16 @@
 
 #include <hapticopt/hapticopt.hpp>
 
+#include "../core/reference_simulation.hpp"
 #include "paper_table.hpp"
 
 namespace hapticopt {
 namespace {
 
 // ---------------------------------------------------------------------------------------------
-// Independent method: time-stepping with the exact ZOH map of each sub-step (Eigen's unsupported
-// matrix exponential, not the library's Taylor code), the wall force from the samples, composite
-// Simpson quadrature of E(t) t^p; the style of tests/core/reference_simulation.hpp, with the
-// collision initial conditions of impulse_costs.hpp: x(0) = 0, x'(0) = 1, x_{-1} = -1, zero forces
-// before contact, no external force.
+// Independent method: the time-stepping of tests/core/reference_simulation.hpp (exact ZOH sub-steps with
+// Eigen's matrix exponential, Simpson quadrature of E(t) t^p) from the collision initial conditions of
+// impulse_costs.hpp: x(0) = 0, x'(0) = 1, x_{-1} = -1, zero forces before contact, no external force.
 struct SimulatedImpulse {
   std::array<double, 3> ci{};
   double max_sampled_x = 0;  ///< max over the sub-step grid of x
@@ -32,43 +30,9 @@ struct SimulatedImpulse {
 
 SimulatedImpulse simulate_impulse(double gamma, double delta, double d, double alpha, double beta, int substeps,
                                   int periods) {
-  const double h = 1.0 / substeps;
-  Eigen::Matrix3d a;  // (x, v, force): v' = -gamma x - delta v - force
-  a << 0, 1, 0, -gamma, -delta, -1, 0, 0, 0;
-  const Eigen::Matrix3d step = (a * h).exp();
-  const long long delay_steps = std::llround(d * substeps);
-  std::vector<double> forces;
-  double x_prev_sample = -1;  // constant velocity 1 before contact: x(-T) = -1
-  Eigen::Vector3d s(0, 1, 0);
-  SimulatedImpulse out;
-  auto energy = [&](const Eigen::Vector3d& v) { return 0.5 * (alpha + gamma) * v(0) * v(0) + 0.5 * v(1) * v(1); };
-  std::array<double, 3> integral{};
-  const long long total = static_cast<long long>(periods) * substeps;
-  double e_prev = energy(s);
-  for (long long k = 0; k < total; ++k) {
-    if (k % substeps == 0) {
-      const double x = s(0);
-      forces.push_back(alpha * x + beta * (x - x_prev_sample));
-      x_prev_sample = x;
-    }
-    const long long i = k >= delay_steps ? (k - delay_steps) / substeps : -1;
-    s(2) = i >= 0 ? forces[static_cast<std::size_t>(i)] : 0.0;
-    out.max_accel = std::max(out.max_accel, std::abs(-gamma * s(0) - delta * s(1) - s(2)));
-    s = step * s;
-    out.max_accel = std::max(out.max_accel, std::abs(-gamma * s(0) - delta * s(1) - s(2)));
-    const double e = energy(s);
-    const double t = static_cast<double>(k + 1) * h;
-    const double w = ((k + 1) % 2 == 1) ? 4.0 : 2.0;
-    for (int p = 0; p < 3; ++p) integral[static_cast<std::size_t>(p)] += w * e * std::pow(t, p);
-    e_prev = e;
-    out.max_sampled_x = std::max(out.max_sampled_x, s(0));
-  }
-  const double e0 = 0.5;
-  const double t_end = static_cast<double>(total) * h;
-  integral[0] += e0;
-  for (int p = 0; p < 3; ++p) integral[static_cast<std::size_t>(p)] -= e_prev * std::pow(t_end, p);
-  for (int p = 0; p < 3; ++p) out.ci[static_cast<std::size_t>(p)] = integral[static_cast<std::size_t>(p)] * h / 3 / e0;
-  return out;
+  const testing::SimulatedLoop loop =
+      testing::simulate_loop(gamma, delta, d, alpha, beta, substeps, periods, {0, 1, -1, 0, 0});
+  return {loop.costs, loop.max_sampled_deviation, loop.max_accel};
 }
 
 struct Case {
