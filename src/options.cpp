@@ -133,7 +133,7 @@ Given load_config_file(const std::string& path, Options& o) {
 }
 
 // Shortest text that reads back as the same double ("-0.3", not "-0.29999999999999999").
-std::string fmt(double v) {
+std::string shortest_text(double v) {
     char buf[64];
     const auto r = std::to_chars(buf, buf + sizeof buf, v);
     return std::string(buf, r.ptr);
@@ -147,7 +147,7 @@ std::string fmt(double v) {
 
 void check_range(const std::string& where, const std::string& name, double v, double lo, double hi, bool lo_open,
                  const std::string& range) {
-    if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) invalid(where, name, fmt(v), range);
+    if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) invalid(where, name, shortest_text(v), range);
 }
 
 }  // namespace

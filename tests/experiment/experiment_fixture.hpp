@@ -23,6 +23,8 @@ struct Plant {
     }
 };
 
+inline const Plant kDefault{};  // sim.toml: m = 0.3 kg, b = k = 0, d = 0
+
 inline std::unique_ptr<SimDevice> make_sim(const Plant& p, std::int64_t fail_at_tick = -1) {
     SimDeviceConfig c;
     c.capabilities.axes = 1;

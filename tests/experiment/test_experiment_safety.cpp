@@ -12,8 +12,6 @@
 namespace hapticd::experiment::test {
 namespace {
 
-const Plant kDefault{};
-
 TEST(ExperimentSafety, ForceCapHitCountsAsUnstableAndLeavesZeroForce) {
     const Theory theory(kDefault.theory());
     auto sim = make_sim(kDefault);

@@ -15,7 +15,6 @@
 namespace hapticd::experiment::test {
 namespace {
 
-const Plant kDefault{};                             // sim.toml: m = 0.3 kg, b = k = 0, d = 0
 const Plant kDelayed{0.3, 3.0, 200.0, 1.0, 1, 1e-3};  // delta = 0.01, gamma = 6.7e-4, d = 2
 
 // K where the spectral radius reaches rho (> 1) at damping B, above the exact boundary (bisection).
