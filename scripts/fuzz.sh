@@ -23,7 +23,7 @@ if ! command -v "$cxx" >/dev/null 2>&1 || { [[ "$cxx" == clang++-14 ]] && [[ ! -
 fi
 
 declare -A sources=(
-  [config_file]="src/config_file.cpp"
+  [config_file]="src/config/config_file.cpp"
   [falcon_frames]="src/devices/falcon_protocol.cpp"
   [ftdi_strip]="src/devices/ftdi_protocol.cpp"
   [hid_reports]="src/devices/hid_ffb_protocol.cpp"

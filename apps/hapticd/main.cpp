@@ -1,4 +1,4 @@
 // hapticd: renders a virtual wall at a fixed rate with optimally tuned K and B (see docs/hapticd.md).
-#include "hapticd_main.hpp"
+#include "daemon/hapticd_main.hpp"
 
 int main(int argc, char** argv) { return hapticd::hapticd_main(argc, argv); }

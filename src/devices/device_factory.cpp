@@ -7,7 +7,7 @@
 #include "devices/falcon_device.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/transport_libusb.hpp"
-#include "safety.hpp"
+#include "scene/safety.hpp"
 
 namespace hapticd {
 

@@ -7,7 +7,7 @@
 
 #include "devices/device.hpp"
 #include "devices/sim_device.hpp"
-#include "options.hpp"
+#include "config/options.hpp"
 
 namespace hapticd {
 

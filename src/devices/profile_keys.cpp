@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "options.hpp"
+#include "config/options.hpp"
 
 namespace hapticd {
 

@@ -9,10 +9,10 @@
 #include <sstream>
 
 #include "devices/device_factory.hpp"
-#include "exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "experiment/experiment_run.hpp"
-#include "options.hpp"
-#include "safety.hpp"
+#include "config/options.hpp"
+#include "scene/safety.hpp"
 
 namespace hapticd {
 

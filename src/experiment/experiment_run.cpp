@@ -9,10 +9,10 @@
 #include <hapticopt/errors.hpp>
 
 #include "devices/device_factory.hpp"
-#include "exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "experiment/experiment_output.hpp"
-#include "options.hpp"
-#include "safety.hpp"
+#include "config/options.hpp"
+#include "scene/safety.hpp"
 
 namespace hapticd::experiment {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "realtime_loop.hpp"
-#include "safety.hpp"
+#include "loop/realtime_loop.hpp"
+#include "scene/safety.hpp"
 
 namespace hapticd::experiment {
 

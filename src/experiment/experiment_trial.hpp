@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "delay_ring.hpp"
+#include "scene/delay_ring.hpp"
 #include "devices/device.hpp"
 
 namespace hapticd::experiment {

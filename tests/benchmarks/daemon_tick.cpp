@@ -12,12 +12,12 @@
 #include <cstdlib>
 #include <vector>
 
-#include "delay_ring.hpp"
+#include "scene/delay_ring.hpp"
 #include "devices/sim_device.hpp"
-#include "realtime_loop.hpp"
-#include "realtime_setup.hpp"
-#include "scene.hpp"
-#include "stats.hpp"
+#include "loop/realtime_loop.hpp"
+#include "loop/realtime_setup.hpp"
+#include "scene/scene.hpp"
+#include "loop/stats.hpp"
 
 namespace {
 

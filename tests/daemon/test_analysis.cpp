@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/zoh_plant.hpp"
-#include "hapticd_main.hpp"
+#include "daemon/hapticd_main.hpp"
 
 namespace hapticd {
 namespace {

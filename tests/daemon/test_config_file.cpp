@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "config_file.hpp"
+#include "config/config_file.hpp"
 
 namespace hapticd {
 namespace {

@@ -7,9 +7,9 @@
 #include <thread>
 #include <vector>
 
-#include "daemon.hpp"
-#include "realtime_loop.hpp"
-#include "safety.hpp"
+#include "daemon/daemon.hpp"
+#include "loop/realtime_loop.hpp"
+#include "scene/safety.hpp"
 
 namespace hapticd {
 namespace {

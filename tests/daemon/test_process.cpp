@@ -7,7 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "process_runner.hpp"
 
 namespace hapticd {

@@ -9,7 +9,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
-#include "exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "process_runner.hpp"
 
 namespace hapticd {

@@ -9,9 +9,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "spsc_ring.hpp"
-#include "stats.hpp"
-#include "trace.hpp"
+#include "loop/spsc_ring.hpp"
+#include "loop/stats.hpp"
+#include "loop/trace.hpp"
 
 namespace hapticd {
 namespace {

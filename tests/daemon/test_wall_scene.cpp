@@ -5,9 +5,9 @@
 #include <limits>
 #include <random>
 
-#include "delay_ring.hpp"
-#include "scene.hpp"
-#include "wall.hpp"
+#include "scene/delay_ring.hpp"
+#include "scene/scene.hpp"
+#include "scene/wall.hpp"
 
 namespace hapticd {
 namespace {

@@ -6,11 +6,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include "daemon.hpp"
+#include "daemon/daemon.hpp"
 #include "devices/falcon_device.hpp"
 #include "fake_falcon.hpp"
-#include "scene.hpp"
-#include "wall.hpp"
+#include "scene/scene.hpp"
+#include "scene/wall.hpp"
 
 namespace hapticd {
 namespace {

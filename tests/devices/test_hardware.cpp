@@ -9,7 +9,7 @@
 #include "devices/falcon_device.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/transport_libusb.hpp"
-#include "options.hpp"
+#include "config/options.hpp"
 
 namespace hapticd {
 namespace {

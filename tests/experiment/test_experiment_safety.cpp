@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "experiment_fixture.hpp"
 #include "process_runner.hpp"
 

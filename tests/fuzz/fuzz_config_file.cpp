@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "config_file.hpp"
+#include "config/config_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static const std::string path = [] {

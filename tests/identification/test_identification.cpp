@@ -33,11 +33,11 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/sim_device.hpp"
-#include "hapticd_main.hpp"
-#include "identification.hpp"
-#include "identification_run.hpp"
-#include "safety.hpp"
-#include "tuning.hpp"
+#include "daemon/hapticd_main.hpp"
+#include "identification/identification.hpp"
+#include "identification/identification_run.hpp"
+#include "scene/safety.hpp"
+#include "tuning/tuning.hpp"
 
 namespace hapticd {
 namespace {

@@ -1,4 +1,4 @@
-#include "options.hpp"
+#include "config/options.hpp"
 
 #include <charconv>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "config_file.hpp"
+#include "config/config_file.hpp"
 
 #ifndef HAPTICD_CONFIG_DIR
 #error "HAPTICD_CONFIG_DIR must be defined (the repository's config/ directory)"

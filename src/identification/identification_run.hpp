@@ -34,9 +34,9 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "devices/device.hpp"
-#include "identification.hpp"
-#include "options.hpp"
-#include "tuning.hpp"
+#include "identification/identification.hpp"
+#include "config/options.hpp"
+#include "tuning/tuning.hpp"
 
 namespace hapticd {
 

@@ -1,4 +1,4 @@
-#include "safety.hpp"
+#include "scene/safety.hpp"
 
 #include <atomic>
 #include <cerrno>

@@ -1,4 +1,4 @@
-#include "report.hpp"
+#include "daemon/report.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "realtime_loop.hpp"
+#include "loop/realtime_loop.hpp"
 
 #include <cerrno>
 #include <ctime>

@@ -1,4 +1,4 @@
-#include "stats.hpp"
+#include "loop/stats.hpp"
 
 #include <bit>
 #include <cmath>

@@ -7,10 +7,10 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "daemon.hpp"
-#include "options.hpp"
-#include "realtime_setup.hpp"
-#include "tuning.hpp"
+#include "daemon/daemon.hpp"
+#include "config/options.hpp"
+#include "loop/realtime_setup.hpp"
+#include "tuning/tuning.hpp"
 
 namespace hapticd {
 

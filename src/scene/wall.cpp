@@ -1,4 +1,4 @@
-#include "wall.hpp"
+#include "scene/wall.hpp"
 
 #include <cmath>
 #include <stdexcept>

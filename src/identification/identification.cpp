@@ -1,4 +1,4 @@
-#include "identification.hpp"
+#include "identification/identification.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "realtime_setup.hpp"
+#include "loop/realtime_setup.hpp"
 
 #include <pthread.h>
 #include <sched.h>

@@ -11,7 +11,7 @@
 
 #include <cstdint>
 
-#include "stats.hpp"
+#include "loop/stats.hpp"
 
 namespace hapticd {
 

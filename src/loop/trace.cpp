@@ -1,4 +1,4 @@
-#include "trace.hpp"
+#include "loop/trace.hpp"
 
 #include <cerrno>
 #include <chrono>

@@ -7,12 +7,12 @@
 #include <cstdint>
 #include <string>
 
-#include "delay_ring.hpp"
+#include "scene/delay_ring.hpp"
 #include "devices/device.hpp"
-#include "realtime_loop.hpp"
-#include "safety.hpp"
-#include "scene.hpp"
-#include "trace.hpp"
+#include "loop/realtime_loop.hpp"
+#include "scene/safety.hpp"
+#include "scene/scene.hpp"
+#include "loop/trace.hpp"
 
 namespace hapticd {
 

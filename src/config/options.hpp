@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "devices/profile_keys.hpp"
-#include "exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 
 namespace hapticd {
 

@@ -1,4 +1,4 @@
-#include "identification_run.hpp"
+#include "identification/identification_run.hpp"
 
 #include <time.h>
 
@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/device_factory.hpp"
-#include "safety.hpp"
+#include "scene/safety.hpp"
 
 namespace hapticd {
 

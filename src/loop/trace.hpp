@@ -10,7 +10,7 @@
 #include <string>
 #include <thread>
 
-#include "spsc_ring.hpp"
+#include "loop/spsc_ring.hpp"
 
 namespace hapticd {
 

@@ -1,4 +1,4 @@
-#include "hapticd_main.hpp"
+#include "daemon/hapticd_main.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,18 +11,18 @@
 
 #include <nlohmann/json.hpp>
 
-#include "daemon.hpp"
+#include "daemon/daemon.hpp"
 #include "devices/device_factory.hpp"
 #include "devices/device_list.hpp"
 #include "experiment/experiment_main.hpp"
-#include "identification_run.hpp"
-#include "options.hpp"
-#include "realtime_setup.hpp"
-#include "report.hpp"
-#include "safety.hpp"
-#include "scene.hpp"
-#include "trace.hpp"
-#include "tuning.hpp"
+#include "identification/identification_run.hpp"
+#include "config/options.hpp"
+#include "loop/realtime_setup.hpp"
+#include "daemon/report.hpp"
+#include "scene/safety.hpp"
+#include "scene/scene.hpp"
+#include "loop/trace.hpp"
+#include "tuning/tuning.hpp"
 
 namespace hapticd {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "devices/device.hpp"
-#include "wall.hpp"
+#include "scene/wall.hpp"
 
 namespace hapticd {
 

@@ -1,4 +1,4 @@
-#include "tuning.hpp"
+#include "tuning/tuning.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
-#include "options.hpp"
+#include "config/options.hpp"
 
 namespace hapticd {
 
