@@ -17,6 +17,9 @@ PACKAGES=(
   nlohmann-json3-dev
   libusb-1.0-0-dev
   libhidapi-dev
+  umockdev          # emulated USB/hidraw devices for the `usb` tests (umockdev-wrapper)
+  libumockdev-dev   # the UMockdevTestbed API used by those tests
+  rt-tests          # cyclictest, the latency baseline beside hapticd's loop
   chromium  # headless SVG rendering in tests/plots (the test is SKIPPED without it)
 )
 
