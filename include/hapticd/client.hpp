@@ -1,0 +1,266 @@
+// The C++ client library of hapticd (protocol version 1, docs/protocol.md): connect and handshake, keep a
+// lease, commit batches of typed scene objects (all-or-nothing, applied at one tick boundary), read the
+// state from shared memory without a system call, or subscribe to it over the socket.
+//
+//     hapticd::client::Client c = hapticd::client::Client::connect({.client_name = "demo", .lease_s = 0.5});
+//     hapticd::client::Batch batch;
+//     batch.add(hapticd::client::Plane{.normal = {0, 0, 1}, .offset = 0.0, .gains = hapticd::client::Gains::by_criterion("CE2")});
+//     const auto result = c.commit(batch);           // throws hapticd::client::Error (code(), message naming K, B, ...)
+//     hapticd::client::StateReader state = hapticd::client::StateReader::open(c.welcome().state_shm);
+//     hapticd::client::StateSample s;
+//     state.read(s);                                  // latest tick, no system call
+//
+// CMake: find_package(hapticd) and target_link_libraries(app PRIVATE hapticd::client). Not thread-safe:
+// one Client per thread (a StateReader may be used from any one thread).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "hapticd/state_layout.hpp"
+
+namespace hapticd::client {
+
+inline constexpr int kProtocolVersion = 1;
+inline constexpr std::size_t kMaxMessageBytes = 65536;
+
+using Vec3 = std::array<double, 3>;
+
+// The error codes of docs/protocol.md, section 8, plus Transport (the socket failed) and Unknown.
+enum class ErrorCode {
+    ProtocolVersion,
+    BadHello,
+    Oversized,
+    BadJson,
+    BadMessage,
+    UnstableGains,
+    UnstableSum,
+    BeyondDeviceLimits,
+    UnknownCriterion,
+    UnknownObject,
+    NotOwner,
+    Capacity,
+    Busy,
+    LeaseLost,
+    SlowConsumer,
+    Transport,
+    Unknown,
+};
+[[nodiscard]] const char* to_string(ErrorCode code) noexcept;
+[[nodiscard]] ErrorCode error_code_from_string(const std::string& code) noexcept;
+
+// An error reply or refusal of the server, or a transport failure. what() is the server's message
+// (naming the field and the accepted range), prefixed with the client function's name.
+class Error : public std::runtime_error {
+public:
+    Error(ErrorCode code, const std::string& message, int op_index = -1,
+          std::optional<double> largest_stable_K = std::nullopt)
+        : std::runtime_error(message), code_(code), op_index_(op_index), largest_stable_K_(largest_stable_K) {}
+    [[nodiscard]] ErrorCode code() const noexcept { return code_; }
+    // The failing operation of a commit (-1: the summed-gain check or not a commit).
+    [[nodiscard]] int op_index() const noexcept { return op_index_; }
+    // unstable_gains: the largest stable stiffness at the object's damping, N/m.
+    [[nodiscard]] std::optional<double> largest_stable_K() const noexcept { return largest_stable_K_; }
+
+private:
+    ErrorCode code_;
+    int op_index_;
+    std::optional<double> largest_stable_K_;
+};
+
+// Gains of an object: explicit (K in N/m, B in N s/m; checked) or by criterion (the daemon's optimum).
+struct Gains {
+    std::optional<double> K;
+    std::optional<double> B;
+    std::string criterion;  // "CE0" .. "CE2+OV"; empty with K, B
+    static Gains explicit_gains(double stiffness, double damping) { return Gains{stiffness, damping, {}}; }
+    static Gains by_criterion(std::string name) { return Gains{std::nullopt, std::nullopt, std::move(name)}; }
+};
+
+// Plane wall: penetration p = offset - n.x; f = n (K p + B dp/dt), unilateral: only while p > 0.
+struct Plane {
+    Vec3 normal{1.0, 0.0, 0.0};  // unit
+    double offset = 0.0;         // m
+    bool bilateral = false;
+    Gains gains = Gains::by_criterion("CE2");
+};
+
+enum class Constraint { Point, Line, Plane };
+
+// Spring to a point, a line (through `point` along `direction`) or a plane (through `point`, normal
+// `direction`); `point` may be moved every tick by modify().
+struct Spring {
+    Constraint constraint = Constraint::Point;
+    Vec3 point{};
+    Vec3 direction{1.0, 0.0, 0.0};  // unit; unused for Point
+    Gains gains = Gains::explicit_gains(100.0, 0.0);
+};
+
+// Force field F0 + J (x - x0) inside the radius, zero outside.
+struct Field {
+    Vec3 center{};
+    double radius = 0.01;  // m
+    Vec3 force{};          // F0, N
+    std::array<Vec3, 3> jacobian{};  // J, N/m, rows
+};
+
+using ObjectDescription = std::variant<Plane, Spring, Field>;
+
+// One batch of operations, committed all-or-nothing at one tick boundary.
+class Batch {
+public:
+    struct Operation {
+        enum class Kind { Add, Modify, Remove, Clear } kind = Kind::Add;
+        std::uint32_t object_id = 0;              // Modify, Remove
+        std::optional<ObjectDescription> object;  // Add, Modify
+    };
+    Batch& add(const ObjectDescription& object);
+    Batch& modify(std::uint32_t object_id, const ObjectDescription& object);
+    Batch& remove(std::uint32_t object_id);
+    Batch& clear();
+    [[nodiscard]] const std::vector<Operation>& operations() const noexcept { return operations_; }
+    [[nodiscard]] bool empty() const noexcept { return operations_.empty(); }
+
+private:
+    std::vector<Operation> operations_;
+};
+
+struct CommitResult {
+    std::uint64_t commit_seq = 0;             // appears as StateSample::last_commit_seq once applied
+    std::vector<std::uint32_t> object_ids;    // one per add, in order
+};
+
+struct DeviceInfo {
+    std::string name;
+    std::size_t axes = 0;
+    double period_s = 0.0;
+    Vec3 mass{};
+    double delay_s = 0.0;  // total loop delay the gains are checked for
+    double max_force = 0.0;
+    std::optional<double> max_stiffness;
+};
+
+struct Welcome {
+    int protocol = 0;
+    std::uint64_t session = 0;
+    double lease_s = 0.0;
+    std::size_t max_message_bytes = 0;
+    std::size_t capacity = 0;
+    std::string state_shm;
+    double ramp_s = 0.0;
+    double max_force_rate = 0.0;
+    DeviceInfo device;
+};
+
+struct ObjectInfo {
+    std::uint32_t id = 0;
+    std::uint64_t owner = 0;  // session; 0: the daemon's config walls
+    std::string kind;         // "plane", "spring", "field"
+    double K = 0.0;           // gains used, N/m
+    double B = 0.0;           // N s/m
+    std::string description_json;
+};
+
+struct Status {
+    std::uint64_t tick = 0;
+    std::uint64_t sessions = 0;
+    std::uint64_t objects = 0;
+    std::uint64_t overruns = 0;
+    std::uint64_t commits_applied = 0;
+    std::string fault;
+};
+
+// One consistent copy of the shared-memory state (or of a subscribed `state` message).
+struct StateSample {
+    std::uint64_t tick = 0;
+    double time_s = 0.0;
+    Vec3 position{};
+    Vec3 velocity{};
+    Vec3 force{};
+    std::uint64_t contact_mask = 0;
+    std::uint64_t overruns = 0;
+    std::int64_t wake_latency_ns = 0;
+    std::uint64_t last_commit_seq = 0;
+    std::uint32_t fault = 0;
+    std::uint32_t objects = 0;
+    std::array<std::uint32_t, kStateObjectCapacity> slot_object_id{};
+    std::uint64_t dropped = 0;  // subscribed messages dropped before this one (socket only)
+};
+
+struct ConnectOptions {
+    std::string socket_path;       // empty: default_socket_path()
+    std::string client_name = "hapticd-client";
+    double lease_s = 0.0;          // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
+    int protocol = kProtocolVersion;  // for tests of the refusal
+    double timeout_s = 5.0;        // for each reply
+};
+
+// $HAPTICD_SOCKET, else $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock.
+[[nodiscard]] std::string default_socket_path();
+
+class Client {
+public:
+    // Connects and performs the handshake. Throws Error (Transport, ProtocolVersion, BadHello, ...).
+    static Client connect(const ConnectOptions& options);
+
+    Client(Client&& other) noexcept;
+    Client& operator=(Client&& other) noexcept;
+    Client(const Client&) = delete;
+    Client& operator=(const Client&) = delete;
+    ~Client();  // closes the socket: the server ramps this session's objects out
+
+    [[nodiscard]] const Welcome& welcome() const noexcept { return welcome_; }
+
+    std::uint64_t heartbeat();                  // returns the loop's tick
+    CommitResult commit(const Batch& batch);    // throws Error on refusal (nothing changed)
+    std::vector<ObjectInfo> list();
+    Status status();
+    void subscribe(double rate_hz);
+    void unsubscribe();
+    // The next subscribed `state` message; std::nullopt after timeout_s without one.
+    std::optional<StateSample> next_state(double timeout_s);
+    void bye();                                 // orderly end of the session
+
+    // Low level, for tests and other encodings: send one raw message, receive one raw message.
+    void send_raw(const std::string& message);
+    std::optional<std::string> receive_raw(double timeout_s);
+    [[nodiscard]] int fd() const noexcept { return fd_; }
+
+private:
+    Client(int fd, double timeout_s) : fd_(fd), timeout_s_(timeout_s) {}
+    std::string request(const std::string& type, const std::string& body_json);  // returns the ok reply
+    int fd_ = -1;
+    double timeout_s_ = 5.0;
+    std::uint64_t next_id_ = 1;
+    Welcome welcome_;
+    std::vector<std::string> pending_states_;  // state messages received while waiting for a reply
+};
+
+// Read-only view of the daemon's shared-memory state.
+class StateReader {
+public:
+    // Throws Error(Transport) when the segment does not exist or has another magic/layout version.
+    static StateReader open(const std::string& shm_name);
+    StateReader(StateReader&& other) noexcept;
+    StateReader& operator=(StateReader&& other) noexcept;
+    StateReader(const StateReader&) = delete;
+    StateReader& operator=(const StateReader&) = delete;
+    ~StateReader();
+
+    // Copies one consistent tick (seqlock). No system call, no allocation. Returns false only if
+    // `max_attempts` reads in a row overlapped a write.
+    bool read(StateSample& out, int max_attempts = 1000) const noexcept;
+    [[nodiscard]] std::size_t axes() const noexcept;
+    [[nodiscard]] double period_s() const noexcept;
+
+private:
+    explicit StateReader(const StateLayout* layout) : layout_(layout) {}
+    const StateLayout* layout_ = nullptr;
+};
+
+}  // namespace hapticd::client

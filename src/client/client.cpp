@@ -1,0 +1,332 @@
+// Client side of protocol version 1 (docs/protocol.md): SOCK_SEQPACKET, one JSON object per message.
+#include "hapticd/client.hpp"
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+#include <nlohmann/json.hpp>
+
+#include "client/object_json.hpp"
+
+namespace hapticd::client {
+
+namespace {
+
+using nlohmann::json;
+
+struct CodeName {
+    ErrorCode code;
+    const char* name;
+};
+constexpr CodeName kCodeNames[] = {
+    {ErrorCode::ProtocolVersion, "protocol_version"}, {ErrorCode::BadHello, "bad_hello"},
+    {ErrorCode::Oversized, "oversized"},              {ErrorCode::BadJson, "bad_json"},
+    {ErrorCode::BadMessage, "bad_message"},           {ErrorCode::UnstableGains, "unstable_gains"},
+    {ErrorCode::UnstableSum, "unstable_sum"},         {ErrorCode::BeyondDeviceLimits, "beyond_device_limits"},
+    {ErrorCode::UnknownCriterion, "unknown_criterion"}, {ErrorCode::UnknownObject, "unknown_object"},
+    {ErrorCode::NotOwner, "not_owner"},               {ErrorCode::Capacity, "capacity"},
+    {ErrorCode::Busy, "busy"},                        {ErrorCode::LeaseLost, "lease_lost"},
+    {ErrorCode::SlowConsumer, "slow_consumer"},       {ErrorCode::Transport, "transport"},
+    {ErrorCode::Unknown, "unknown"},
+};
+
+Error transport_error(const std::string& function, const std::string& what) {
+    return Error(ErrorCode::Transport, function + ": " + what);
+}
+
+Error error_from_reply(const std::string& function, const json& reply) {
+    const std::string code = reply.value("code", std::string("unknown"));
+    const std::string message = reply.value("message", std::string("(no message)"));
+    const int op_index = reply.contains("op_index") && reply["op_index"].is_number_integer() ? reply["op_index"].get<int>() : -1;
+    std::optional<double> largest;
+    if (reply.contains("largest_stable_K") && reply["largest_stable_K"].is_number()) {
+        largest = reply["largest_stable_K"].get<double>();
+    }
+    return Error(error_code_from_string(code), function + ": " + code + ": " + message, op_index, largest);
+}
+
+Vec3 vec3(const json& j) {
+    Vec3 v{};
+    if (j.is_array() && j.size() == 3) {
+        for (std::size_t i = 0; i < 3; ++i) v[i] = j[i].is_number() ? j[i].get<double>() : 0.0;
+    }
+    return v;
+}
+
+StateSample state_from_json(const json& j) {
+    StateSample s;
+    s.tick = j.value("tick", std::uint64_t{0});
+    s.time_s = j.value("time_s", 0.0);
+    s.position = vec3(j.value("position", json::array()));
+    s.velocity = vec3(j.value("velocity", json::array()));
+    s.force = vec3(j.value("force", json::array()));
+    s.overruns = j.value("overruns", std::uint64_t{0});
+    s.wake_latency_ns = j.value("wake_latency_ns", std::int64_t{0});
+    s.last_commit_seq = j.value("last_commit_seq", std::uint64_t{0});
+    s.objects = j.value("objects", std::uint32_t{0});
+    s.dropped = j.value("dropped", std::uint64_t{0});
+    s.contact_mask = j.value("contact_mask", std::uint64_t{0});
+    return s;
+}
+
+}  // namespace
+
+const char* to_string(ErrorCode code) noexcept {
+    for (const auto& c : kCodeNames) {
+        if (c.code == code) return c.name;
+    }
+    return "unknown";
+}
+
+ErrorCode error_code_from_string(const std::string& code) noexcept {
+    for (const auto& c : kCodeNames) {
+        if (code == c.name) return c.code;
+    }
+    return ErrorCode::Unknown;
+}
+
+Batch& Batch::add(const ObjectDescription& object) {
+    operations_.push_back({Operation::Kind::Add, 0, object});
+    return *this;
+}
+Batch& Batch::modify(std::uint32_t object_id, const ObjectDescription& object) {
+    operations_.push_back({Operation::Kind::Modify, object_id, object});
+    return *this;
+}
+Batch& Batch::remove(std::uint32_t object_id) {
+    operations_.push_back({Operation::Kind::Remove, object_id, std::nullopt});
+    return *this;
+}
+Batch& Batch::clear() {
+    operations_.push_back({Operation::Kind::Clear, 0, std::nullopt});
+    return *this;
+}
+
+std::string default_socket_path() {
+    if (const char* s = std::getenv("HAPTICD_SOCKET"); s != nullptr && *s != '\0') return s;
+    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
+    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
+    return "/run/hapticd/hapticd.sock";
+}
+
+Client Client::connect(const ConnectOptions& options) {
+    const std::string path = options.socket_path.empty() ? default_socket_path() : options.socket_path;
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    if (path.size() >= sizeof(addr.sun_path)) {
+        throw transport_error("Client::connect", "socket path '" + path + "' is longer than " +
+                                                     std::to_string(sizeof(addr.sun_path) - 1) + " bytes");
+    }
+    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+    const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+    if (fd < 0) throw transport_error("Client::connect", std::string("socket: ") + std::strerror(errno));
+    if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+        const int e = errno;
+        ::close(fd);
+        throw transport_error("Client::connect", "connect to '" + path + "': " + std::strerror(e) +
+                                                     " (is hapticd running with --serve? may this user open the socket?)");
+    }
+    Client c(fd, options.timeout_s);
+    json hello{{"type", "hello"}, {"protocol", options.protocol}, {"client", options.client_name}, {"lease_s", options.lease_s}};
+    c.send_raw(hello.dump());
+    const auto raw = c.receive_raw(options.timeout_s);
+    if (!raw) throw transport_error("Client::connect", "no answer to hello within " + std::to_string(options.timeout_s) + " s");
+    json w = json::parse(*raw, nullptr, false);
+    if (w.is_discarded() || !w.is_object()) throw Error(ErrorCode::BadJson, "Client::connect: the server's answer is not JSON");
+    if (w.value("type", std::string()) != "welcome") throw error_from_reply("Client::connect", w);
+    Welcome& we = c.welcome_;
+    we.protocol = w.value("protocol", 0);
+    we.session = w.value("session", std::uint64_t{0});
+    we.lease_s = w.value("lease_s", 0.0);
+    we.max_message_bytes = w.value("max_message_bytes", std::size_t{0});
+    we.capacity = w.value("capacity", std::size_t{0});
+    we.state_shm = w.value("state_shm", std::string());
+    we.ramp_s = w.value("ramp_s", 0.0);
+    we.max_force_rate = w.value("max_force_rate", 0.0);
+    const json d = w.value("device", json::object());
+    we.device.name = d.value("name", std::string());
+    we.device.axes = d.value("axes", std::size_t{0});
+    we.device.period_s = d.value("period_s", 0.0);
+    we.device.mass = vec3(d.value("mass", json::array()));
+    we.device.delay_s = d.value("delay_s", 0.0);
+    we.device.max_force = d.value("max_force", 0.0);
+    if (d.contains("max_stiffness") && d["max_stiffness"].is_number()) we.device.max_stiffness = d["max_stiffness"].get<double>();
+    return c;
+}
+
+Client::Client(Client&& other) noexcept
+    : fd_(other.fd_), timeout_s_(other.timeout_s_), next_id_(other.next_id_), welcome_(std::move(other.welcome_)),
+      pending_states_(std::move(other.pending_states_)) {
+    other.fd_ = -1;
+}
+
+Client& Client::operator=(Client&& other) noexcept {
+    if (this != &other) {
+        if (fd_ >= 0) ::close(fd_);
+        fd_ = other.fd_;
+        timeout_s_ = other.timeout_s_;
+        next_id_ = other.next_id_;
+        welcome_ = std::move(other.welcome_);
+        pending_states_ = std::move(other.pending_states_);
+        other.fd_ = -1;
+    }
+    return *this;
+}
+
+Client::~Client() {
+    if (fd_ >= 0) ::close(fd_);
+}
+
+void Client::send_raw(const std::string& message) {
+    if (fd_ < 0) throw transport_error("Client::send_raw", "not connected");
+    for (;;) {
+        const ssize_t n = ::send(fd_, message.data(), message.size(), MSG_NOSIGNAL);
+        if (n >= 0) return;
+        if (errno == EINTR) continue;
+        throw transport_error("Client::send_raw", std::string("send: ") + std::strerror(errno));
+    }
+}
+
+std::optional<std::string> Client::receive_raw(double timeout_s) {
+    if (fd_ < 0) throw transport_error("Client::receive_raw", "not connected");
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    std::string buffer(kMaxMessageBytes + 1, '\0');
+    for (;;) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+        pollfd p{fd_, POLLIN, 0};
+        const int r = ::poll(&p, 1, left > 0 ? static_cast<int>(left) : 0);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) throw transport_error("Client::receive_raw", std::string("poll: ") + std::strerror(errno));
+        if (r == 0) return std::nullopt;
+        const ssize_t n = ::recv(fd_, buffer.data(), buffer.size(), 0);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) throw transport_error("Client::receive_raw", std::string("recv: ") + std::strerror(errno));
+        if (n == 0) throw transport_error("Client::receive_raw", "the server closed the connection");
+        buffer.resize(static_cast<std::size_t>(n));
+        return buffer;
+    }
+}
+
+std::string Client::request(const std::string& type, const std::string& body_json) {
+    const std::uint64_t id = next_id_++;
+    json body = body_json.empty() ? json::object() : json::parse(body_json);
+    body["type"] = type;
+    body["id"] = id;
+    send_raw(body.dump());
+    const std::string function = "Client::" + type;
+    for (;;) {
+        const auto raw = receive_raw(timeout_s_);
+        if (!raw) throw transport_error(function, "no reply within " + std::to_string(timeout_s_) + " s");
+        json reply = json::parse(*raw, nullptr, false);
+        if (reply.is_discarded() || !reply.is_object()) throw Error(ErrorCode::BadJson, function + ": the reply is not JSON");
+        const std::string t = reply.value("type", std::string());
+        if (t == "state") {
+            pending_states_.push_back(*raw);
+            continue;
+        }
+        if (t == "expired") throw error_from_reply(function, reply);
+        if (!reply.contains("id") || !reply["id"].is_number_unsigned() || reply["id"].get<std::uint64_t>() != id) {
+            if (t == "error") throw error_from_reply(function, reply);  // an error about an earlier message
+            continue;
+        }
+        if (t == "error") throw error_from_reply(function, reply);
+        return *raw;
+    }
+}
+
+std::uint64_t Client::heartbeat() {
+    const json r = json::parse(request("heartbeat", ""));
+    return r.value("tick", std::uint64_t{0});
+}
+
+CommitResult Client::commit(const Batch& batch) {
+    json ops = json::array();
+    for (const auto& op : batch.operations()) {
+        switch (op.kind) {
+            case Batch::Operation::Kind::Add: ops.push_back({{"op", "add"}, {"object", object_to_json(*op.object)}}); break;
+            case Batch::Operation::Kind::Modify:
+                ops.push_back({{"op", "modify"}, {"object_id", op.object_id}, {"object", object_to_json(*op.object)}});
+                break;
+            case Batch::Operation::Kind::Remove: ops.push_back({{"op", "remove"}, {"object_id", op.object_id}}); break;
+            case Batch::Operation::Kind::Clear: ops.push_back({{"op", "clear"}}); break;
+        }
+    }
+    const json r = json::parse(request("commit", json{{"ops", ops}}.dump()));
+    CommitResult result;
+    result.commit_seq = r.value("commit_seq", std::uint64_t{0});
+    for (const auto& id : r.value("object_ids", json::array())) result.object_ids.push_back(id.get<std::uint32_t>());
+    return result;
+}
+
+std::vector<ObjectInfo> Client::list() {
+    const json r = json::parse(request("list", ""));
+    std::vector<ObjectInfo> out;
+    for (const auto& o : r.value("objects", json::array())) {
+        ObjectInfo info;
+        info.id = o.value("id", std::uint32_t{0});
+        info.owner = o.value("owner", std::uint64_t{0});
+        info.kind = o.value("kind", std::string());
+        info.K = o.value("K", 0.0);
+        info.B = o.value("B", 0.0);
+        info.description_json = o.value("object", json::object()).dump();
+        out.push_back(std::move(info));
+    }
+    return out;
+}
+
+Status Client::status() {
+    const json r = json::parse(request("status", ""));
+    Status s;
+    s.tick = r.value("tick", std::uint64_t{0});
+    s.sessions = r.value("sessions", std::uint64_t{0});
+    s.objects = r.value("objects", std::uint64_t{0});
+    s.overruns = r.value("overruns", std::uint64_t{0});
+    s.commits_applied = r.value("commits_applied", std::uint64_t{0});
+    s.fault = r.value("fault", std::string());
+    return s;
+}
+
+void Client::subscribe(double rate_hz) { request("subscribe", json{{"rate_hz", rate_hz}}.dump()); }
+
+void Client::unsubscribe() {
+    request("unsubscribe", "");
+    pending_states_.clear();
+}
+
+std::optional<StateSample> Client::next_state(double timeout_s) {
+    if (!pending_states_.empty()) {
+        const json j = json::parse(pending_states_.front());
+        pending_states_.erase(pending_states_.begin());
+        return state_from_json(j);
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    for (;;) {
+        const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+        if (left <= 0.0) return std::nullopt;
+        const auto raw = receive_raw(left);
+        if (!raw) return std::nullopt;
+        const json j = json::parse(*raw, nullptr, false);
+        if (j.is_object() && j.value("type", std::string()) == "state") return state_from_json(j);
+        if (j.is_object() && j.value("type", std::string()) == "expired") throw error_from_reply("Client::next_state", j);
+    }
+}
+
+void Client::bye() {
+    try {
+        request("bye", "");
+    } catch (const Error& e) {
+        if (e.code() != ErrorCode::Transport) throw;  // the server may close before we read the reply
+    }
+    ::close(fd_);
+    fd_ = -1;
+}
+
+}  // namespace hapticd::client

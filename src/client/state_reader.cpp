@@ -1,0 +1,77 @@
+// The reader side of the state seqlock (docs/protocol.md, section 6).
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+
+#include "hapticd/client.hpp"
+
+namespace hapticd::client {
+
+StateReader StateReader::open(const std::string& shm_name) {
+    const int fd = ::shm_open(shm_name.c_str(), O_RDONLY, 0);
+    if (fd < 0) {
+        throw Error(ErrorCode::Transport, "StateReader::open: shm_open('" + shm_name + "'): " + std::strerror(errno) +
+                                              " (is hapticd running with --serve?)");
+    }
+    void* p = ::mmap(nullptr, sizeof(StateLayout), PROT_READ, MAP_SHARED, fd, 0);
+    const int e = errno;
+    ::close(fd);
+    if (p == MAP_FAILED) throw Error(ErrorCode::Transport, "StateReader::open: mmap('" + shm_name + "'): " + std::strerror(e));
+    const auto* layout = static_cast<const StateLayout*>(p);
+    if (layout->magic != kStateMagic || layout->layout_version != kStateLayoutVersion || layout->size != sizeof(StateLayout)) {
+        const std::uint32_t version = layout->layout_version;
+        ::munmap(p, sizeof(StateLayout));
+        throw Error(ErrorCode::Transport, "StateReader::open: '" + shm_name + "' is not a hapticd state of layout version " +
+                                              std::to_string(kStateLayoutVersion) + " (found version " + std::to_string(version) + ")");
+    }
+    return StateReader(layout);
+}
+
+StateReader::StateReader(StateReader&& other) noexcept : layout_(other.layout_) { other.layout_ = nullptr; }
+
+StateReader& StateReader::operator=(StateReader&& other) noexcept {
+    if (this != &other) {
+        if (layout_ != nullptr) ::munmap(const_cast<StateLayout*>(layout_), sizeof(StateLayout));
+        layout_ = other.layout_;
+        other.layout_ = nullptr;
+    }
+    return *this;
+}
+
+StateReader::~StateReader() {
+    if (layout_ != nullptr) ::munmap(const_cast<StateLayout*>(layout_), sizeof(StateLayout));
+}
+
+std::size_t StateReader::axes() const noexcept { return layout_->axes; }
+double StateReader::period_s() const noexcept { return layout_->period_s; }
+
+bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
+    const StateLayout& l = *layout_;
+    for (int attempt = 0; attempt < max_attempts; ++attempt) {
+        const std::uint64_t s1 = l.sequence.load(std::memory_order_acquire);
+        if ((s1 & 1U) != 0U) continue;
+        out.tick = l.tick;
+        out.time_s = l.time_s;
+        for (std::size_t i = 0; i < 3; ++i) {
+            out.position[i] = l.position[i];
+            out.velocity[i] = l.velocity[i];
+            out.force[i] = l.force[i];
+        }
+        out.contact_mask = l.contact_mask;
+        out.overruns = l.overruns;
+        out.wake_latency_ns = l.wake_latency_ns;
+        out.last_commit_seq = l.last_commit_seq;
+        out.fault = l.fault;
+        out.objects = l.objects;
+        std::memcpy(out.slot_object_id.data(), l.slot_object_id, sizeof(l.slot_object_id));
+        std::atomic_thread_fence(std::memory_order_acquire);
+        if (l.sequence.load(std::memory_order_relaxed) == s1) return true;
+    }
+    return false;
+}
+
+}  // namespace hapticd::client
