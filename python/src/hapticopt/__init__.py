@@ -1,0 +1,28 @@
+"""hapticopt: exact stability region, energy costs and optimal gains of a sampled-data virtual wall
+(Hulin, Gonzalez Camarero, Albu-Schaeffer, "Optimal Control for Haptic Rendering", IROS 2011).
+
+One implementation, two languages: every number comes from the C++ header library
+(include/hapticopt/) through the extension hapticopt._core. Normalised units throughout (m = T = 1;
+hapticopt.normalize / to_physical convert). Figures: hapticopt.plot (needs matplotlib, extra `plot`).
+Documentation: docs/python.md of the repository.
+"""
+from ._core import InvalidParameterError, __version__
+from .costs import (CRITERIA_WITH_SURFACE, Costs, Overshoot, Penetration, Stability, cost, cost_grid, costs,
+                    is_passive, is_stable, overshoot, passivity_margin, penetration, stability)
+from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, OptimalCurve, Optimum, PassiveOptimum, RobustOptimum,
+                     WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum)
+from .parameters import (Gains, PhysicalPlant, Plant, WallGains, normalize, normalize_gains, to_physical,
+                         to_physical_plant)
+from .region import Boundary, alpha_max, beta_range, boundary
+from .response import StepResponse, sampled_step_response, step_response
+
+__all__ = [
+    "__version__", "InvalidParameterError",
+    "Plant", "PhysicalPlant", "Gains", "WallGains", "normalize", "normalize_gains", "to_physical", "to_physical_plant",
+    "Stability", "Costs", "Overshoot", "Penetration", "CRITERIA_WITH_SURFACE", "stability", "is_stable", "costs",
+    "cost", "cost_grid", "overshoot", "penetration", "passivity_margin", "is_passive",
+    "StepResponse", "step_response", "sampled_step_response",
+    "Boundary", "boundary", "alpha_max", "beta_range",
+    "STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
+    "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
+]

@@ -1,0 +1,180 @@
+"""Optimal curves and optimal points of every criterion; robust and passive optima.
+
+Definitions (model notes; optimum.hpp, impulse_optimum.hpp): optimal curve of C: beta_opt(alpha) =
+argmin over the stable beta interval of C(alpha, beta). CEx / CIx point: the global minimum over the
+exact stable region. amax: the region's tip. OV: the largest alpha for which some beta gives
+C_OV <= tol, with the beta of least overshoot just beyond. CEx+OV: the largest alpha on the C_Ex
+curve without overshoot; its cost is C_Ex there.
+
+Method: coarse grid over the exact region, Brent, Newton polish of beta_opt; bisection for the OV
+limits. Accuracy: no point of a 120 x 120 grid is better; dC/dbeta changes sign within 1e-8 of
+beta_opt; all 64 rows of the paper's Tables III and IV within one printed digit (C++ tests and
+python/tests). Robust (robust_optimum.hpp): minimise the worst case of C_E or C_I over a box of
+physical parameters, stability over the box (exact crossing test along mass segments when b = k = 0).
+Passive (passivity.hpp): minimum over the stable gains with delta > alpha/2 + |beta| (Colgate-Schenkel).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from .costs import _plant_args
+from .parameters import PhysicalPlant, Plant, WallGains, normalize, to_physical, Gains
+
+__all__ = ["STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
+           "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum"]
+
+#: The eight criteria of Tables III and IV.
+STEP_CRITERIA = ("amax", "OV", "CE0", "CE1", "CE2", "CE0+OV", "CE1+OV", "CE2+OV")
+#: The collision criteria (beyond the paper).
+COLLISION_CRITERIA = ("CI0", "CI1", "CI2")
+
+Range = Union[float, Tuple[float, float]]
+
+
+@dataclass(frozen=True)
+class OptimalCurve:
+    """beta_opt(alpha) of `criterion` and the cost there (NaN outside (alpha_min, alpha_max])."""
+
+    criterion: str
+    alpha: np.ndarray
+    beta: np.ndarray
+    cost: np.ndarray
+
+
+@dataclass(frozen=True)
+class Optimum:
+    """The optimal point of one criterion. `cost` is None for amax and OV; `penetration` and
+    `on_region_edge` are set for the collision criteria only (CI0's infimum lies on the edge)."""
+
+    criterion: str
+    plant: Plant
+    alpha: float
+    beta: float
+    cost: Optional[float]
+    alpha_max: float
+    beta_at_alpha_max: Optional[float] = None
+    penetration: Optional[float] = None
+    penetration_converged: Optional[bool] = None
+    on_region_edge: Optional[bool] = None
+
+    @property
+    def stability_margin(self) -> float:
+        """alpha / alpha_max."""
+        return self.alpha / self.alpha_max
+
+
+@dataclass(frozen=True)
+class WallTuning:
+    """The physical answer: optimal K [N/m] and B [N s/m] (eq. 3) of one criterion for a device."""
+
+    criterion: str
+    plant: PhysicalPlant
+    normalized: Plant
+    alpha: float
+    beta: float
+    cost: Optional[float]
+    stiffness: float
+    damping: float
+    alpha_max: float
+    stiffness_max: float
+
+    @property
+    def stability_margin(self) -> float:
+        """alpha / alpha_max."""
+        return self.alpha / self.alpha_max
+
+
+@dataclass(frozen=True)
+class RobustOptimum:
+    """Robust gains (K, B), their worst case over the box and where it occurs; the nominal optimum
+    (box centre) and its worst case for comparison (+inf: unstable somewhere in the box)."""
+
+    criterion: str
+    stiffness: float
+    damping: float
+    worst_cost: float
+    worst_at: PhysicalPlant
+    stable_over_box: bool
+    mass_segments_certified: bool
+    stiffness_max: float
+    nominal: PhysicalPlant
+    nominal_stiffness: float
+    nominal_damping: float
+    nominal_worst_cost: float
+    nominal_stable_over_box: bool
+
+
+@dataclass(frozen=True)
+class PassiveOptimum:
+    """The best passive gains and the passivity margin there (>= 0, ~0 on the edge)."""
+
+    criterion: str
+    alpha: float
+    beta: float
+    cost: float
+    margin: float
+
+
+def optimal_curve(criterion: str, alpha: npt.ArrayLike, plant: Optional[Plant] = None, *,
+                  overshoot_tolerance: float = 1e-12, beta_grid: int = 16) -> OptimalCurve:
+    """beta_opt(alpha) of CE0, CE1, CE2, OV, CI0, CI1 or CI2 at each alpha (GIL released). For OV,
+    where a whole beta interval has no overshoot the minimiser is not unique: one point of it."""
+    a = np.ascontiguousarray(np.asarray(alpha, dtype=np.float64).ravel())
+    b, c = _core.optimal_curve(str(criterion), *_plant_args(plant), a, float(overshoot_tolerance), 24, int(beta_grid))
+    return OptimalCurve(str(criterion), a, b, c)
+
+
+def optimal_point(criterion: str, plant: Optional[Plant] = None, *, overshoot_tolerance: float = 1e-12,
+                  alpha_grid: int = 24, beta_grid: int = 16, alpha_tolerance: float = 1e-10) -> Optimum:
+    """The optimum of one of STEP_CRITERIA or COLLISION_CRITERIA (only that one is computed; a few
+    ms at d = 1). The grids and alpha_tolerance are the C++ OptimumOptions (docs/accuracy.md)."""
+    p = Plant() if plant is None else plant
+    d = _core.optimal_point(str(criterion), *_plant_args(p), float(overshoot_tolerance), int(alpha_grid),
+                            int(beta_grid), float(alpha_tolerance))
+    return Optimum(criterion=str(criterion), plant=p, **d)
+
+
+def optimal_wall(criterion: str, plant: PhysicalPlant, **options) -> WallTuning:
+    """Optimal K and B of `criterion` for a physical plant: normalise (Table I), optimal_point,
+    back to physical units (eq. 3); as the C++ optimal_wall(). `options` go to optimal_point."""
+    n = normalize(plant)
+    o = optimal_point(criterion, n, **options)
+    g: WallGains = to_physical(Gains(o.alpha, o.beta), plant.mass, plant.period)
+    return WallTuning(criterion=str(criterion), plant=plant, normalized=n, alpha=o.alpha, beta=o.beta, cost=o.cost,
+                      stiffness=g.stiffness, damping=g.damping, alpha_max=o.alpha_max,
+                      stiffness_max=o.alpha_max * plant.mass / plant.period ** 2)
+
+
+def _range(name: str, value: Range) -> Tuple[float, float]:
+    if isinstance(value, (tuple, list)):
+        if len(value) != 2:
+            raise ValueError(f"hapticopt.robust_optimum: {name} = {value!r} is invalid; accepted: a number or (min, max)")
+        return float(value[0]), float(value[1])
+    return float(value), float(value)
+
+
+def robust_optimum(criterion: str, *, mass: Range, period: float, damping: Range = 0.0, stiffness: Range = 0.0,
+                   time_delay: Range = 0.0) -> RobustOptimum:
+    """Gains minimising the worst case of CE0..2 or CI0..2 over the box (each parameter a value or a
+    (min, max) range; physical units). A few 0.1 s at d = 1."""
+    d = _core.robust_optimum(str(criterion), _range("mass", mass), _range("damping", damping),
+                             _range("stiffness", stiffness), float(period), _range("time_delay", time_delay))
+    return RobustOptimum(criterion=str(criterion), stiffness=d["stiffness"], damping=d["damping"],
+                         worst_cost=d["worst_cost"], worst_at=PhysicalPlant(**d["worst_at"]),
+                         stable_over_box=d["stable_over_box"], mass_segments_certified=d["mass_segments_certified"],
+                         stiffness_max=d["K_max"], nominal=PhysicalPlant(**d["nominal"]),
+                         nominal_stiffness=d["nominal_stiffness"], nominal_damping=d["nominal_damping"],
+                         nominal_worst_cost=d["nominal_worst_cost"],
+                         nominal_stable_over_box=d["nominal_stable_over_box"])
+
+
+def passive_optimum(criterion: str, plant: Optional[Plant] = None) -> Optional[PassiveOptimum]:
+    """The minimum of CE0..2 or CI0..2 over the stable passive gains; None when there are none
+    (delta = 0: no gains satisfy delta > alpha/2 + |beta|)."""
+    d = _core.passive_optimum(str(criterion), *_plant_args(plant))
+    return None if d is None else PassiveOptimum(criterion=str(criterion), **d)

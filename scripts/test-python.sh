@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# The hapticopt Python package's test step (part of scripts/build-and-test.sh, after the release ctest):
+#   1. a venv from Debian's python3 with the system site packages (numpy, scipy, matplotlib, pytest
+#      from apt: scripts/install-deps.sh);
+#   2. pip install ./python: an isolated PEP 517 build whose backend, scikit-build-core, pip fetches
+#      from PyPI; CMake, Ninja, pybind11 and Eigen are Debian's;
+#   3. pytest python/tests against the C++ CLI (default build/release/apps/hapticopt/hapticopt).
+# Exit status: non-zero when any step fails, including pytest's 5 (no test collected).
+# Environment: HAPTICOPT_PYTHON (default /usr/bin/python3), HAPTICOPT_PY_VENV (default build/py-venv),
+# HAPTICOPT_CLI.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+python=${HAPTICOPT_PYTHON:-/usr/bin/python3}
+venv=${HAPTICOPT_PY_VENV:-build/py-venv}
+export HAPTICOPT_CLI=${HAPTICOPT_CLI:-$PWD/build/release/apps/hapticopt/hapticopt}
+
+if [[ ! -x "$venv/bin/python" ]]; then
+  "$python" -m venv --system-site-packages "$venv"
+fi
+if command -v ccache >/dev/null 2>&1; then
+  export CMAKE_ARGS="${CMAKE_ARGS:-} -DCMAKE_CXX_COMPILER_LAUNCHER=ccache"
+fi
+start=$SECONDS
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check ./python
+echo "test-python: pip install ./python took $((SECONDS - start)) s"
+
+export PYTHONDONTWRITEBYTECODE=1 MPLBACKEND=Agg
+status=0
+"$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests || status=$?
+if [[ $status -eq 5 ]]; then
+  echo "test-python: pytest collected no tests" >&2
+fi
+exit "$status"
