@@ -52,9 +52,15 @@ CommandRunner add_cost_command(CLI::App& app) {
       out["CI1"] = number_or_null(ic.ci1);
       out["CI2"] = number_or_null(ic.ci2);
       out["penetration"] = number_or_null(report.stable ? penetration(SampledPlant<double>(plant), gains.alpha, gains.beta, 1000000LL).depth : HUGE_VAL);
-      const double margin = passivity_margin(plant, gains);
-      out["passive"] = margin > 0;
-      out["passivity_margin"] = margin;
+      if (passivity_is_covered(plant)) {
+        const double margin = passivity_margin(plant, gains);
+        out["passive"] = margin > 0;
+        out["passivity_margin"] = margin;
+      } else {
+        out["passive"] = nullptr;
+        out["passivity_margin"] = nullptr;
+        out["passivity_note"] = kPassivityNotCovered;
+      }
       std::cout << out.dump() << '\n';
       return int{kOk};
     }
@@ -70,8 +76,13 @@ CommandRunner add_cost_command(CLI::App& app) {
     const ImpulseCosts ic = impulse_costs(plant, gains);
     std::printf("C_I0             %.12g\nC_I1             %.12g\nC_I2             %.12g\n", ic.ci0, ic.ci1, ic.ci2);
     std::printf("penetration      %.12g v0 T\n", penetration(SampledPlant<double>(plant), gains.alpha, gains.beta, 1000000LL).depth);
-    const double margin = passivity_margin(plant, gains);
-    std::printf("passive          %s (margin delta - alpha/2 - |beta| = %.6g)\n", margin > 0 ? "yes" : "no", margin);
+    if (passivity_is_covered(plant)) {
+      const double margin = passivity_margin(plant, gains);
+      std::printf("passive          %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
+                  margin);
+    } else {
+      std::printf("passive          not covered (%s)\n", kPassivityNotCovered);
+    }
     return int{kOk};
   };
 }

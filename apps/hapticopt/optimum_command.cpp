@@ -1,6 +1,7 @@
 // hapticopt optimum: the optimal point of one criterion, normalised or physical; the collision
 // criteria CI0..2; the robust optimum over a box of physical parameters (--robust, ranges MIN:MAX);
-// every answer reports the Colgate-Schenkel passivity margin (passivity.hpp).
+// every answer reports the delay-aware Colgate-Schenkel passivity margin (passivity.hpp; null for a
+// fractional delay, which it does not cover).
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -44,14 +45,27 @@ void add_passivity(nlohmann::json& out, double margin) {
   out["passivity_margin"] = margin;
 }
 
+/// The passivity fields when the delay is fractional (passivity.hpp does not cover it).
+void add_passivity_not_covered(nlohmann::json& out) {
+  out["passive"] = nullptr;
+  out["passivity_margin"] = nullptr;
+  out["passivity_note"] = kPassivityNotCovered;
+}
+
 int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
   const auto step = parse_criterion(name);
   const auto impulse = parse_impulse_criterion(name);
   RobustOptimum r = impulse ? robust_optimum(*impulse, box) : robust_optimum(*step, box);
-  // Passivity over the box: the smallest normalised margin (T/m)(b - K T/2 - |B|), at b = b_min and
-  // at m_min when negative (m_max when positive).
-  const double phys = box.damping.min - r.gains.stiffness * box.period / 2 - std::abs(r.gains.damping);
-  const double margin = phys * box.period / (phys < 0 ? box.mass.min : box.mass.max);
+  // Passivity over the box: the physical margin b - max_theta R(theta; K T, B) (passivity.hpp) does not
+  // depend on m and is smallest at b = b_min; the normalised margin (T/m) * that is smallest at m_min when
+  // negative (m_max when positive). Covered for one integer delay (t_d fixed), else reported as null.
+  const double d_min = box.time_delay.min / box.period, d_max = box.time_delay.max / box.period;
+  const bool covered = d_min == d_max && passivity_is_covered(NormalizedPlant{0, 0, d_min});
+  double phys = 0, margin = 0;
+  if (covered) {
+    phys = passivity_margin(PhysicalPlant{box.mass.min, box.damping.min, 0, box.period, box.time_delay.min}, r.gains);
+    margin = phys * box.period / (phys < 0 ? box.mass.min : box.mass.max);
+  }
   auto where = [](const BoxWorstCase& w) {
     nlohmann::json o;
     o["cost"] = number_or_null(w.cost);
@@ -72,8 +86,12 @@ int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
     out["stable_over_box"] = r.stability.stable;
     out["mass_segments_certified"] = r.stability.mass_segments_certified;
     out["K_max"] = r.K_max;
-    add_passivity(out, margin);
-    out["passivity_margin_physical"] = phys;
+    if (covered) {
+      add_passivity(out, margin);
+      out["passivity_margin_physical"] = phys;
+    } else {
+      add_passivity_not_covered(out);
+    }
     nlohmann::json nominal;
     nominal["mass"] = r.nominal.mass;
     nominal["damping"] = r.nominal.damping;
@@ -96,7 +114,11 @@ int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
               r.stability.mass_segments_certified ? "yes" : "no");
   std::printf("nominal optimum (box centre) K %.6g, B %.6g: worst case %.10g at m = %.6g kg\n",
               r.nominal_gains.stiffness, r.nominal_gains.damping, r.nominal_worst.cost, r.nominal_worst.where.mass);
-  std::printf("passive    %s (margin %.4g)\n", margin > 0 ? "yes" : "no", margin);
+  if (covered) {
+    std::printf("passive    %s (margin %.4g)\n", margin > 0 ? "yes" : "no", margin);
+  } else {
+    std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
+  }
   return int{kOk};
 }
 
@@ -138,7 +160,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
   robust->needs(mass);
   CLI::Option* passive = sub->add_flag(
       "--passive", args->passive,
-      "best gains within the Colgate-Schenkel passive set delta > alpha/2 + |beta|; CE0..2, CI0..2 only");
+      "best gains within the Colgate-Schenkel passive set with the delay (delta > max_theta R(theta), "
+      "integer delays only); CE0..2, CI0..2 only");
   passive->excludes(robust);
   sub->add_flag("--json", args->json, "print one JSON object");
   return [args, mass]() {
@@ -198,10 +221,10 @@ CommandRunner add_optimum_command(CLI::App& app) {
           out["passive_constraint"] = true;
           out["cost"] = nullptr;
           out["passive"] = false;
-          out["note"] = "no stable gains satisfy delta > alpha/2 + |beta| (e.g. delta = 0)";
+          out["note"] = "no stable gains satisfy delta > max_theta R(theta) (e.g. delta = 0)";
           std::cout << out.dump() << '\n';
         } else {
-          std::printf("no stable gains satisfy delta > alpha/2 + |beta| (delta = %g)\n", np.delta);
+          std::printf("no stable gains satisfy delta > max_theta R(theta) (delta = %g)\n", np.delta);
         }
         return int{kOk};
       }
@@ -215,7 +238,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
       const Optimum o = optimal_point(*parse_criterion(args->criterion), np, options);
       alpha = o.alpha; beta = o.beta; cost = o.cost; alpha_max = o.alpha_max;
     }
-    const double margin = passivity_margin(np, NormalizedGains{alpha, beta});
+    const bool covered = passivity_is_covered(np);
+    const double margin = covered ? passivity_margin(np, NormalizedGains{alpha, beta}) : 0.0;
     WallGains g{0, 0};
     if (physical) g = to_physical(NormalizedGains{alpha, beta}, plant.mass, plant.period);
     if (args->json) {
@@ -230,11 +254,11 @@ CommandRunner add_optimum_command(CLI::App& app) {
         out["penetration"] = *depth;
         out["on_region_edge"] = on_edge;
       }
-      add_passivity(out, margin);
+      if (covered) add_passivity(out, margin); else add_passivity_not_covered(out);
       if (physical) {
         out["K"] = g.stiffness;
         out["B"] = g.damping;
-        out["passivity_margin_physical"] = passivity_margin(plant, g);
+        if (covered) out["passivity_margin_physical"] = margin * plant.mass / plant.period;
       }
       std::cout << out.dump() << '\n';
       return int{kOk};
@@ -244,7 +268,11 @@ CommandRunner add_optimum_command(CLI::App& app) {
     if (depth) std::printf("penetration %.10g v0 T\n", *depth);
     if (on_edge) std::printf("note       the infimum lies on the region's edge alpha -> -gamma (pure damper)\n");
     std::printf("alpha/alpha_max  %.4f\n", alpha / alpha_max);
-    std::printf("passive    %s (margin delta - alpha/2 - |beta| = %.6g)\n", margin > 0 ? "yes" : "no", margin);
+    if (covered) {
+      std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no", margin);
+    } else {
+      std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
+    }
     if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
     return int{kOk};
   };

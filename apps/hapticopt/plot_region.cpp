@@ -1,10 +1,13 @@
 // hapticopt plot region: the stability boundaries in the (alpha, beta) plane for the corners of a
 // (gamma, delta) box (Fig. 3 of the paper), with each region's tip (alpha_max) marked, and optionally
-// the Colgate-Schenkel passivity region delta > alpha/2 + |beta| for comparison.
+// the passive set of the Colgate-Schenkel condition with the loop delay (passivity.hpp) for comparison.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
+#include <string>
 
+#include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
 
 #include "svg_figure.hpp"
@@ -24,8 +27,8 @@ CommandRunner add_plot_region(CLI::App& plot) {
       ->capture_default_str()
       ->check(CLI::Range(8, 1000000));
   sub->add_flag("--passivity", args->passivity,
-                "also draw the passivity region delta > alpha/2 + |beta| (Colgate & Schenkel 1997) of the "
-                "largest delta");
+                "also draw the passive set delta > max_theta R(theta) (Colgate & Schenkel 1997 with the delay "
+                "z^-d; integer delays) of the largest delta");
   return [args]() {
     const auto start = std::chrono::steady_clock::now();
     const FigureOptions& o = args->fig;
@@ -51,11 +54,14 @@ CommandRunner add_plot_region(CLI::App& plot) {
     if (args->passivity) {
       NormalizedPlant widest = curves.front().plant;
       for (const auto& c : curves) if (c.plant.delta > widest.delta) widest = c.plant;
-      const double g = widest.gamma, d = widest.delta;
       const svg::Style style{"#2ca02c", 1, "", "#2ca02c", 0.3};
-      if (d > 0) {
-        ax.polygon(scaled({{-g, d + g / 2}, {2 * d, 0.0}, {-g, -d - g / 2}}, sx, sy), style, "passivity",
-                   "passive: \u03b4 > \u03b1/2 + |\u03b2|");
+      if (!passivity_is_covered(widest)) {
+        ax.legend_line("passive: not covered (fractional delay)", style);
+      } else if (widest.delta > 0) {
+        svg::Polyline set;
+        for (const PassivePoint& p : passive_polygon(widest, 64)) set.emplace_back(p.alpha, p.beta);
+        ax.polygon(scaled(set, sx, sy), style, "passivity", "passive: \u03b4 > max R(\u03b8), d = " +
+                   std::to_string(static_cast<int>(std::lround(widest.delay))));
         ax.legend_line("passive (" + o.corner_label(widest) + ")", style);
       } else {
         ax.legend_line("passive: none (\u03b4 = 0)", style);

@@ -1,26 +1,71 @@
-// Passivity of the sampled-data wall: the Colgate-Schenkel condition, and the best passive gains.
+// Passivity of the sampled-data wall with an integer loop delay: the Colgate-Schenkel condition with
+// H(z) = z^-d (K + B (1 - z^-1) / T), its exact maximum over frequency, the passive set, and the best
+// passive gains.
 //
-// J. E. Colgate and G. G. Schenkel, "Passivity of a class of sampled-data systems: application to
-// haptic interfaces", J. Robotic Systems 14(1), 37-47, 1997: a virtual wall K + B (1 - z^-1) / T behind
-// a zero-order hold, rendered by a device with physical damping b, is passive iff
-//   b > K T / 2 + |B|,        normalised (Table I):   delta > alpha / 2 + |beta|.
-// We use this delay-free form as it stands (no delay-aware variant): for d = 0 it is the paper's
-// condition; for d > 0 the same inequality is reported but does not prove passivity (the extra delay
-// is not part of Colgate and Schenkel's model). Hulin et al. 2011 remark that their optima violate it.
+// Source. J. E. Colgate and G. G. Schenkel, "Passivity of a class of sampled-data systems: application
+// to haptic interfaces", J. Robotic Systems 14(1), 37-47, 1997: a discrete environment H(z) behind a
+// zero-order hold, rendered by a device with physical damping b, is passive iff
+//   b > (T / 2) / (1 - cos wT) * Re{ (1 - e^{-jwT}) H(e^{jwT}) }      for 0 <= w <= pi / T.
+// Here H is the analysed wall with the loop delay as z^-d (notes/model.md: the force computed at jT acts
+// from jT + d T for one period; d = 0 still has the hold).
 //
-// Passivity margin (normalised, dimensionless):  mu = delta - alpha / 2 - |beta|;  passive iff mu > 0.
-// In physical units the margin is mu m / T = b - K T / 2 - |B|  [N s/m]. With delta = 0 (no physical
-// damping) no gains are passive; the passive set is the triangle 0 <= alpha < 2 delta,
-// |beta| < delta - alpha / 2, inside the stable region (tests/beyond check both facts).
+// Normalised (Table I: alpha = K T^2/m, beta = B T/m, delta = b T/m) with theta = wT, multiplying by T/m:
+//   delta > R(theta) = Re{ (1 - e^{-j theta}) e^{-j d theta} (alpha + beta (1 - e^{-j theta})) }
+//                      / (2 (1 - cos theta)).
+// Derivation of the closed form (checked in tests/beyond/passivity_test.cpp against the complex form):
+//   Re{(1 - e^{-j theta}) e^{-j d theta}}   = cos d theta - cos (d + 1) theta,
+//   Re{(1 - e^{-j theta})^2 e^{-j d theta}} = (cos d theta - cos (d+1) theta) - (cos (d+1) theta - cos (d+2) theta),
+//   (cos n theta - cos (n+1) theta) / (2 (1 - cos theta)) = D_n(theta) / 2,  D_n = 1 + 2 sum_{k=1..n} cos k theta
+//   (the Dirichlet kernel: both sides equal sin((2n+1) theta/2) / (2 sin(theta/2))), hence
+//   R(theta) = alpha D_d(theta) / 2 - beta cos((d + 1) theta)
+//            = alpha / 2 + alpha sum_{k=1..d} T_k(c) - beta T_{d+1}(c),   c = cos theta,
+// a Chebyshev series of degree d + 1 in c in [-1, 1] (the 0/0 at theta = 0 is removable).
+//   d = 0:  R = alpha/2 - beta c, max = alpha/2 + |beta|  (Colgate-Schenkel's b > K T/2 + |B|);
+//   d = 1, beta = 0:  R = alpha (1 + 2c)/2, max at c = 1: passive iff alpha < delta / (d + 1/2);
+//   any d: R(theta = 0) = alpha (d + 1/2) - beta (the low-frequency condition b + B > K (t_d + T/2)), and the
+//   mean of R over theta in [0, pi] is alpha/2, so a passive wall has alpha < 2 delta.
+// Stiffness sign: the frequency condition does not see the pole of K/(1 - z^-1) at z = 1; a negative K
+// (alpha < 0) stores unbounded negative energy and is never passive. The margin folds this in (below).
 //
-// Best passive gains: the minimum of a criterion over the stable part of that triangle, by the
-// search of region_minimum.hpp with the b interval clipped to the triangle; none when delta = 0.
-// Cost: a few thousand cost evaluations.
+// Method (exact maximum). max_{theta in [0, pi]} R = max_{c in [-1, 1]} p(c), p the Chebyshev series above.
+// The maximum is at c = +-1 or at a zero of p' where p' changes sign. The zeros of p^{(k)} are bracketed
+// by the derivative cascade: p^{(d+1)} is constant; between consecutive sign-changing zeros of p^{(k+1)}
+// (and +-1) p^{(k)} is monotone, so it has at most one sign change there, found by bisection down to
+// adjacent doubles. A zero of p^{(k+1)} without a sign change leaves p^{(k)} monotone across it, so missing
+// one cannot lose a zero. Values and derivatives by Clenshaw's recurrence on the Chebyshev coefficients
+// (derivative coefficients by c'_{k-1} = c'_{k+1} + 2k c_k).
+// Error bound (reported as `error_bound`): the bisection brackets of the zeros of p' have width w_i, on
+// which p' is monotone, so the maximum inside exceeds p(midpoint) by at most w_i/2 max(|p'(lo_i)|,
+// |p'(hi_i)|); plus a rounding allowance of 8 (d + 2)^2 u sum |c_k| for Clenshaw's recurrence (its error
+// grows at most quadratically with the degree). The tests check the bound against an independent fine grid
+// of the complex form.
+// Cost: O(d^3) flops with ~60 bisection steps per bracket (d = 6: a few microseconds).
+//
+// Fractional delay d: not covered. The force then switches inside a period and H is not a rational
+// function of z; every function here throws InvalidParameter naming `delay` rather than report the integer
+// answer. Delays within 1e-9 of an integer (rounding of t_d / T) are taken as that integer.
+//
+// Passivity margin (normalised, dimensionless):  mu = delta - max_theta R(theta) for alpha >= 0, and
+// min(delta - max R, alpha) for alpha < 0;  passive iff mu > 0. Physical: mu m / T [N s/m]
+// (= b - max_theta R(theta; K T, B), independent of m). d = 0: mu = delta - alpha/2 - |beta| exactly.
+// Passive implies stable when alpha + gamma > 0 (tested on a dense sample, d = 0..6, delta <= 0.5,
+// gamma <= 0.05); at alpha = gamma = 0 the loop is a free damped mass: passive, marginally stable.
+//
+// The passive set {alpha >= 0, mu > 0} is convex (max R is a maximum of functions linear in (alpha, beta)).
+// At fixed alpha, g(beta) = max R is convex and 1-Lipschitz (|T_{d+1}| <= 1); the beta interval is found by
+// Brent on g (minimum) and bisection of g = delta on each side; the largest passive alpha by bisection on
+// the convex h(alpha) = min_beta g (h(0) = 0, h(alpha) >= alpha/2), so alpha < 2 delta.
+// Best passive gains: the minimum of a criterion over the stable passive set, by the search of
+// region_minimum.hpp; none when delta = 0. Cost: a few thousand cost and passive-interval evaluations.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include "impulse_costs.hpp"
 #include "region_minimum.hpp"
@@ -28,32 +73,247 @@
 
 namespace hapticopt {
 
-/// mu = delta - alpha / 2 - |beta| (header comment); > 0 iff passive.
+namespace detail {
+
+inline constexpr double kPassivityPi = 3.14159265358979323846;
+
+/// sum_{k < n} a[k] T_k(c) by Clenshaw's recurrence.
+inline double chebyshev_value(const double* a, int n, double c) {
+  double b1 = 0, b2 = 0;
+  for (int k = n - 1; k >= 1; --k) {
+    const double b0 = a[k] + 2 * c * b1 - b2;
+    b2 = b1;
+    b1 = b0;
+  }
+  return n > 0 ? a[0] + c * b1 - b2 : 0.0;
+}
+
+/// Chebyshev coefficients of the derivative of sum_{k<n} a[k] T_k (n - 1 of them; n >= 1).
+inline std::vector<double> chebyshev_derivative(const std::vector<double>& a) {
+  const int n = static_cast<int>(a.size());
+  std::vector<double> b(static_cast<std::size_t>(std::max(n - 1, 1)), 0.0);
+  if (n <= 1) return b;
+  double next = 0, next2 = 0;  // b_{k+1}, b_{k+2} in the recurrence b_{k-1} = b_{k+1} + 2 k a_k
+  for (int k = n - 1; k >= 1; --k) {
+    const double value = next2 + 2.0 * k * a[static_cast<std::size_t>(k)];
+    b[static_cast<std::size_t>(k - 1)] = value;
+    next2 = next;
+    next = value;
+  }
+  b[0] /= 2;
+  return b;
+}
+
+/// The integer delay of `plant`, or InvalidParameter naming `delay` when it is fractional.
+inline int integer_delay(double delay, const char* function) {
+  require_non_negative(function, "delay", delay);
+  const double whole = std::round(delay);
+  if (!(std::abs(delay - whole) <= 1e-9 * std::max(1.0, whole)) || whole > 1e6) {
+    throw InvalidParameter(function, "delay", delay,
+                           "an integer number of periods 0..10^6 (the passivity condition with a fractional "
+                           "delay, where the force switches inside a period, is not covered)");
+  }
+  return static_cast<int>(whole);
+}
+
+}  // namespace detail
+
+/// What the CLI and bindings print when the delay is fractional (passivity_is_covered() false).
+inline constexpr const char* kPassivityNotCovered =
+    "passivity with a fractional delay (the force switches inside a period) is not covered; integer delays only";
+
+/// Whether the passivity functions cover this plant's delay (an integer number of periods, header).
+inline bool passivity_is_covered(const NormalizedPlant& plant) {
+  try {
+    detail::integer_delay(plant.delay, "hapticopt::passivity_is_covered");
+    return true;
+  } catch (const InvalidParameter&) {
+    return false;
+  }
+}
+
+/// Chebyshev coefficients of R(c) = alpha/2 + alpha sum_{k=1..d} T_k(c) - beta T_{d+1}(c) (header).
+inline std::vector<double> passivity_condition_coefficients(const NormalizedGains& gains, int delay) {
+  std::vector<double> a(static_cast<std::size_t>(delay) + 2, gains.alpha);
+  a[0] = gains.alpha / 2;
+  a.back() = -gains.beta;
+  return a;
+}
+
+/// R(theta) of the header (closed form), the right-hand side of delta > R.
+inline double passivity_condition(const NormalizedGains& gains, double delay, double theta) {
+  validate(gains, "hapticopt::passivity_condition");
+  const int d = detail::integer_delay(delay, "hapticopt::passivity_condition");
+  detail::require_in_range("hapticopt::passivity_condition", "theta", theta, 0.0, false, detail::kPassivityPi, "0 <= theta <= pi");
+  const auto a = passivity_condition_coefficients(gains, d);
+  return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), std::cos(theta));
+}
+
+struct PassivityConditionMaximum {
+  double value = 0;        ///< max over 0 <= theta <= pi of R(theta)
+  double theta = 0;        ///< where (one maximiser)
+  double error_bound = 0;  ///< |value - exact maximum| <= error_bound (header comment)
+};
+
+/// The exact maximum of R over frequency by the derivative cascade (header comment).
+inline PassivityConditionMaximum passivity_condition_maximum(const NormalizedGains& gains, double delay) {
+  validate(gains, "hapticopt::passivity_condition_maximum");
+  const int d = detail::integer_delay(delay, "hapticopt::passivity_condition_maximum");
+  const int n = d + 2;  // number of coefficients, degree d + 1
+  std::vector<std::vector<double>> derivative(static_cast<std::size_t>(n));
+  derivative[0] = passivity_condition_coefficients(gains, d);
+  for (std::size_t k = 1; k < derivative.size(); ++k) derivative[k] = detail::chebyshev_derivative(derivative[k - 1]);
+  auto value = [&](int k, double c) {
+    const auto& a = derivative[static_cast<std::size_t>(k)];
+    return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), c);
+  };
+  struct Bracket {
+    double lo, hi;
+  };
+  // Zeros (with a sign change) of p^{(k)}, from k = degree - 1 down to 1.
+  std::vector<Bracket> zeros;
+  for (int k = n - 2; k >= 1; --k) {
+    std::vector<double> cuts{-1.0};
+    for (const Bracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
+    cuts.push_back(1.0);
+    std::vector<Bracket> next;
+    for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+      double lo = cuts[i], hi = cuts[i + 1];
+      const double vlo = value(k, lo), vhi = value(k, hi);
+      if (!(hi > lo) || vlo == 0 || vhi == 0 || (vlo > 0) == (vhi > 0)) {
+        if (vlo == 0 && i > 0) next.push_back({lo, lo});  // an exact zero at an interior cut
+        continue;
+      }
+      const bool lo_positive = vlo > 0;
+      for (int it = 0; it < 200; ++it) {
+        const double mid = (lo + hi) / 2;
+        if (!(mid > lo && mid < hi)) break;
+        const double v = value(k, mid);
+        if (v == 0) { lo = hi = mid; break; }
+        ((v > 0) == lo_positive ? lo : hi) = mid;
+      }
+      next.push_back({lo, hi});
+    }
+    zeros = std::move(next);
+  }
+  double sum_abs = 0;
+  for (double a : derivative[0]) sum_abs += std::abs(a);
+  const double u = std::numeric_limits<double>::epsilon() / 2;
+  PassivityConditionMaximum best;
+  best.value = value(0, 1.0);
+  best.theta = 0.0;
+  double bracket_error = 0;
+  auto consider = [&](double c) {
+    const double v = value(0, c);
+    if (v > best.value) { best.value = v; best.theta = std::acos(std::clamp(c, -1.0, 1.0)); }
+  };
+  consider(-1.0);
+  for (const Bracket& z : zeros) {
+    consider((z.lo + z.hi) / 2);
+    const double slope = std::max(std::abs(value(1, z.lo)), std::abs(value(1, z.hi)));
+    bracket_error = std::max(bracket_error, (z.hi - z.lo) / 2 * slope);
+  }
+  best.error_bound = bracket_error + 8.0 * (d + 2) * (d + 2) * u * sum_abs;
+  return best;
+}
+
+/// mu = delta - max R (alpha >= 0), min(delta - max R, alpha) (alpha < 0); > 0 iff passive. Throws
+/// InvalidParameter for a fractional delay (header comment).
 inline double passivity_margin(const NormalizedPlant& plant, const NormalizedGains& gains) {
   validate(plant, "hapticopt::passivity_margin");
   validate(gains, "hapticopt::passivity_margin");
-  return plant.delta - gains.alpha / 2 - std::abs(gains.beta);
+  detail::integer_delay(plant.delay, "hapticopt::passivity_margin");
+  const double mu = plant.delta - passivity_condition_maximum(gains, plant.delay).value;
+  return gains.alpha < 0 ? std::min(mu, gains.alpha) : mu;
 }
 
-/// Colgate-Schenkel: b > K T / 2 + |B|.
+/// Colgate-Schenkel with the delay: delta > max_theta R(theta) and alpha >= 0.
 inline bool is_passive(const NormalizedPlant& plant, const NormalizedGains& gains) {
   return passivity_margin(plant, gains) > 0;
 }
 
-/// Physical margin b - K T / 2 - |B| [N s/m]; > 0 iff passive.
+/// Physical margin [N s/m] = passivity_margin(normalised) m / T; > 0 iff passive.
 inline double passivity_margin(const PhysicalPlant& plant, const WallGains& gains) {
   validate(plant, "hapticopt::passivity_margin");
   detail::require_finite("hapticopt::passivity_margin", "stiffness", gains.stiffness);
   detail::require_finite("hapticopt::passivity_margin", "damping", gains.damping);
-  return plant.damping - gains.stiffness * plant.period / 2 - std::abs(gains.damping);
+  const NormalizedPlant np = normalize(plant);
+  return passivity_margin(np, normalize(gains, plant.mass, plant.period)) * plant.mass / plant.period;
 }
 
-/// The stable beta interval at alpha clipped to the passive triangle (empty: hi <= lo).
+/// The open beta interval (lo, hi) of passive gains at alpha (empty: hi <= lo; alpha < 0: empty).
+inline std::pair<double, double> passive_beta_interval(const NormalizedPlant& plant, double alpha) {
+  validate(plant, "hapticopt::passive_beta_interval");
+  detail::require_finite("hapticopt::passive_beta_interval", "alpha", alpha);
+  const double d = detail::integer_delay(plant.delay, "hapticopt::passive_beta_interval");
+  if (alpha < 0 || !(plant.delta > 0)) return {0.0, 0.0};
+  auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d).value; };
+  // g(beta) >= |beta| - alpha (d + 1/2), so the interval lies inside |beta| < delta + alpha (d + 1/2).
+  const double reach = plant.delta + alpha * (d + 0.5);
+  const detail::ScalarMinimum m = detail::minimize_scalar(g, -reach, reach, 1e-15 * reach);
+  if (!(m.value < plant.delta)) return {0.0, 0.0};
+  auto passive = [&](double beta) { return g(beta) < plant.delta; };
+  const auto lo = detail::bisect(passive, -reach, m.x, 0.0, 80);
+  const auto hi = detail::bisect(passive, m.x, reach, 0.0, 80);
+  return {lo.second, hi.first};  // the passive ends of the brackets
+}
+
+struct PassiveAlphaLimit {
+  double alpha = 0;  ///< sup of the passive alpha (open: alpha < this)
+  double beta = 0;   ///< the beta of that tip
+};
+
+/// The largest passive alpha over all beta, and its beta (bisection on h(alpha) = min_beta max R).
+inline PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& plant) {
+  validate(plant, "hapticopt::largest_passive_alpha");
+  const double d = detail::integer_delay(plant.delay, "hapticopt::largest_passive_alpha");
+  if (!(plant.delta > 0)) return {};
+  auto h = [&](double alpha) {
+    const double reach = plant.delta + alpha * (d + 0.5);
+    auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d).value; };
+    return detail::minimize_scalar(g, -reach, reach, 1e-15 * reach);
+  };
+  const auto bracket = detail::bisect([&](double a) { return h(a).value < plant.delta; }, 0.0,
+                                      2 * plant.delta, 0.0, 80);
+  return {bracket.first, h(bracket.first).x};
+}
+
+struct PassivePoint {
+  double alpha;
+  double beta;
+};
+
+/// The passive set's boundary as a closed polygon (counter-clockwise from (0, lo(0))): `points` alphas
+/// per side, clustered at both ends (alpha_i = alpha_top (1 - cos(pi i / (points - 1))) / 2); the first
+/// point is not repeated at the end. Empty when delta = 0.
+inline std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, int points = 64) {
+  detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
+  const PassiveAlphaLimit top = largest_passive_alpha(plant);
+  std::vector<PassivePoint> lower, upper;
+  if (!(top.alpha > 0)) return {};
+  for (int i = 0; i < points; ++i) {
+    const double a = top.alpha * (1 - std::cos(detail::kPassivityPi * i / (points - 1))) / 2;
+    if (i == points - 1) {
+      lower.push_back({top.alpha, top.beta});
+      break;
+    }
+    const auto [lo, hi] = passive_beta_interval(plant, a);
+    if (!(hi > lo)) continue;
+    lower.push_back({a, lo});
+    upper.push_back({a, hi});
+  }
+  std::vector<PassivePoint> out = lower;
+  for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
+  return out;
+}
+
+/// The stable beta interval at alpha clipped to the passive set (empty: hi <= lo).
 inline std::pair<double, double> passive_beta_range(const StabilityRegion& region, double alpha) {
-  const double half = region.plant().delta - alpha / 2;
-  if (!(half > 0) || !(alpha > region.alpha_min()) || alpha > region.alpha_max()) return {0.0, 0.0};
+  if (!(alpha > region.alpha_min()) || alpha > region.alpha_max()) return {0.0, 0.0};
+  const auto [plo, phi] = passive_beta_interval(region.plant(), alpha);
+  if (!(phi > plo)) return {0.0, 0.0};
   const auto [lo, hi] = region.beta_range(alpha);
-  return {std::max(lo, -half), std::min(hi, half)};
+  return {std::max(lo, plo), std::min(hi, phi)};
 }
 
 struct PassiveOptimum {
@@ -64,12 +324,12 @@ struct PassiveOptimum {
 };
 
 /// The minimum of cost(alpha, beta) over the stable passive gains; nullopt when there are none
-/// (delta = 0, or the triangle misses the stable region).
+/// (delta = 0, or the passive set misses the stable region).
 template <typename Cost>
 std::optional<PassiveOptimum> passive_minimum(const StabilityRegion& region, Cost&& cost,
                                               const RegionSearchOptions& options = {}) {
   const double a0 = std::max(0.0, region.alpha_min());
-  const double a1 = std::min(2 * region.plant().delta, region.alpha_max());
+  const double a1 = std::min(largest_passive_alpha(region.plant()).alpha, region.alpha_max());
   if (!(a1 > a0)) return std::nullopt;
   auto interval = [&](double a) { return passive_beta_range(region, a); };
   const RegionMinimum m = minimize_on_region(cost, a0, a1, interval, options);
@@ -82,6 +342,7 @@ std::optional<PassiveOptimum> passive_minimum(const StabilityRegion& region, Cos
 inline std::optional<PassiveOptimum> passive_optimum(int index, const NormalizedPlant& plant,
                                                      const RegionSearchOptions& options = {}) {
   detail::require_in_range("hapticopt::passive_optimum", "index", index, 0, false, 2, "0, 1 or 2");
+  detail::integer_delay(plant.delay, "hapticopt::passive_optimum");
   const StabilityRegion region(plant);
   const SampledPlant<double> sampled(plant);
   auto c = [&](double a, double b) {
@@ -95,6 +356,7 @@ inline std::optional<PassiveOptimum> passive_optimum(int index, const Normalized
 inline std::optional<PassiveOptimum> passive_impulse_optimum(int index, const NormalizedPlant& plant,
                                                              const RegionSearchOptions& options = {}) {
   detail::require_in_range("hapticopt::passive_impulse_optimum", "index", index, 0, false, 2, "0, 1 or 2");
+  detail::integer_delay(plant.delay, "hapticopt::passive_impulse_optimum");
   const StabilityRegion region(plant);
   const SampledPlant<double> sampled(plant);
   auto c = [&](double a, double b) { return impulse_costs(sampled, a, b)[index]; };

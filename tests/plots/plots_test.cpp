@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -20,6 +21,7 @@
 #include <hapticopt/energy_costs.hpp>
 #include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/optimum.hpp>
+#include <hapticopt/passivity.hpp>
 #include <hapticopt/overshoot.hpp>
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/step_response.hpp>
@@ -163,12 +165,22 @@ TEST(PlotRegion, PhysicalAxesAndPassivityRegion) {
     std::snprintf(label, sizeof label, "alpha_max k = 0 N/m, b = %g N s/m", b);
     expect_marker_at(f, "alpha-max", label, region.alpha_max() * m / (T * T), region.beta_at_alpha_max() * m / T);
   }
-  // Colgate-Schenkel for b = 3 N s/m: the triangle's corner on beta = 0 is at K = 2 b / T = 6000 N/m.
+  // The passive set for b = 3 N s/m, d = 1 (passivity.hpp): every drawn vertex on its boundary, the right-most
+  // one at the largest passive stiffness 2 b (sqrt 2 - 1) / T = 2485.3 N/m (the d = 1 closed form).
   const auto passive = elements(f.main, "polygon", "passivity");
   ASSERT_EQ(passive.size(), 1u);
-  const auto corner = points(passive[0].attr("points")).at(1);
-  EXPECT_NEAR(corner.first, f.x.pixel(6000.0), kPixelTolerance);
-  EXPECT_NEAR(corner.second, f.y.pixel(0.0), kPixelTolerance);
+  const hapticopt::NormalizedPlant np = hapticopt::normalize(hapticopt::PhysicalPlant{m, 3.0, 0.0, T, td});
+  const auto polygon = hapticopt::passive_polygon(np, 64);
+  const auto drawn = points(passive[0].attr("points"));
+  ASSERT_EQ(drawn.size(), polygon.size());
+  double right_most = -HUGE_VAL;
+  for (std::size_t i = 0; i < drawn.size(); ++i) {
+    EXPECT_NEAR(drawn[i].first, f.x.pixel(polygon[i].alpha * m / (T * T)), kPixelTolerance);
+    EXPECT_NEAR(drawn[i].second, f.y.pixel(polygon[i].beta * m / T), kPixelTolerance);
+    EXPECT_NEAR(hapticopt::passivity_margin(np, {polygon[i].alpha, polygon[i].beta}), 0.0, 1e-9);
+    right_most = std::max(right_most, drawn[i].first);
+  }
+  EXPECT_NEAR(right_most, f.x.pixel(2 * 3.0 * (std::sqrt(2.0) - 1) / T), kPixelTolerance);
 }
 
 TEST(PlotCosts, OptimumMarkerCurveAndContoursMatchTheCosts) {
