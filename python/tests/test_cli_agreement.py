@@ -94,3 +94,13 @@ def test_robust_optimum_matches_the_cli(cli):
     assert r.stable_over_box == expected["stable_over_box"]
     assert r.mass_segments_certified == expected["mass_segments_certified"]
     assert r.worst_at.mass == pytest.approx(expected["worst_case_at"]["mass"], rel=1e-9)
+
+
+@pytest.mark.parametrize("delay", [0.0, 1.0])
+def test_passive_optimum_matches_the_cli(cli, delay):
+    expected = run_json(cli, "optimum", "--criterion", "CE2", "--passive", "--delta", "0.02", "--delay", repr(delay))
+    p = ho.passive_optimum("CE2", ho.Plant(delta=0.02, delay=delay))
+    # Same region search; its Brent tolerances put alpha and beta within ~1e-8 of the same minimiser.
+    assert abs(p.alpha - expected["alpha"]) <= 1e-8 and abs(p.beta - expected["beta"]) <= 1e-8
+    assert math.isclose(p.cost, expected["cost"], rel_tol=1e-9)
+    assert expected["passive"] is True and p.margin >= 0
