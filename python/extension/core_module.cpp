@@ -122,7 +122,7 @@ py::dict point_costs(double gamma, double delta, double delay, double alpha, dou
   const EnergyCosts e = energy_costs(plant, alpha, beta);
   const OvershootResult ov = overshoot(plant, alpha, beta, o);
   const ImpulseCosts ic = impulse_costs(plant, alpha, beta);
-  const PenetrationResult pen = penetration(plant, alpha, beta);
+  const PenetrationResult pen = penetration(plant, alpha, beta, 1000000LL);  // the CLI's cap (cost_command.cpp)
   py::dict d;
   d["stable"] = report.stable;
   d["spectral_radius"] = report.spectral_radius;
@@ -169,7 +169,8 @@ py::tuple step_response_of(double gamma, double delta, double delay, double alph
   validate(NormalizedGains{alpha, beta}, fn);
   const SampledPlant<double> plant(plant_of(gamma, delta, delay));
   std::vector<double> t(times.data(), times.data() + times.size());
-  for (const double v : t) detail::require_non_negative(fn, "time", v);
+  // The cost is O(N^2 t) (one loop-map step per period): a cap keeps a typo from hanging the call.
+  for (const double v : t) detail::require_in_range(fn, "time", v, 0.0, false, 1e8, "finite, 0 <= time <= 10^8 periods");
   std::vector<StepResponsePoint> points;
   without_gil([&] { points = step_response(plant, alpha, beta, t); });
   const std::vector<py::ssize_t> shape(times.shape(), times.shape() + times.ndim());
@@ -185,7 +186,7 @@ py::tuple step_response_of(double gamma, double delta, double delay, double alph
 py::array_t<double> sampled_step_response_of(double gamma, double delta, double delay, double alpha, double beta,
                                              long long samples) {
   detail::require_in_range("hapticopt.sampled_step_response", "samples", static_cast<double>(samples), 0.0, false,
-                           1e9, "0 <= samples <= 10^9");
+                           1e8, "0 <= samples <= 10^8");
   const std::vector<double> x = sampled_step_response(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta},
                                                       static_cast<std::size_t>(samples));
   py::array_t<double> out(static_cast<py::ssize_t>(x.size()));

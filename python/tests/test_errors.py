@@ -63,6 +63,12 @@ def test_bad_gains_and_options():
         ho.step_response(0.05, 0.3, [0.0, math.nan])
     check(e, "time")
     with pytest.raises(ValueError) as e:
+        ho.step_response(0.05, 0.3, [1e9])  # beyond the 10^8-period cap: an error, not an hour-long loop
+    check(e, "time")
+    with pytest.raises(ValueError) as e:
+        ho.sampled_step_response(0.05, 0.3, 10**9)
+    check(e, "samples")
+    with pytest.raises(ValueError) as e:
         ho.optimal_point("CE2", alpha_grid=1)
     check(e, "alpha_grid")
     with pytest.raises(ValueError) as e:

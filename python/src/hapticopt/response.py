@@ -33,7 +33,8 @@ class StepResponse:
 
 def step_response(alpha: float, beta: float, time: npt.ArrayLike, plant: Optional[Plant] = None) -> StepResponse:
     """x(t), x'(t), E(t) of the unit step at each time (any shape and order, each finite and >= 0;
-    otherwise InvalidParameterError naming `time`). Cost O(N^2 t_max) for the batch; GIL released."""
+    at most 10^8 periods; otherwise InvalidParameterError naming `time`). Cost O(N^2 t_max) for the
+    batch; GIL released."""
     t = np.ascontiguousarray(np.asarray(time, dtype=np.float64))
     x, v, e, x_inf = _core.step_response(*_plant_args(plant), float(alpha), float(beta), t)
     return StepResponse(t, x, v, e, float(x_inf))
