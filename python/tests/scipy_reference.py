@@ -121,3 +121,15 @@ class ReferenceLoop:
         for _ in range(j):
             e = self.m @ e
         return float((expm(self.a3 * (t - j)) @ (self.l @ e))[0] + 1.0 / k)
+
+    def step_positions_on_grid(self, periods: int, per_period: int) -> np.ndarray:
+        """x(t) of the unit step at t = j + i / per_period, j < periods, i < per_period (row j)."""
+        k = self.alpha + self.gamma
+        e = np.full(self.n, -1.0 / k)
+        e[1] = 0.0
+        inside = np.array([expm(self.a3 * (i / per_period)) for i in range(per_period)])  # (per_period, 3, 3)
+        rows = []
+        for _ in range(periods):
+            rows.append((inside @ (self.l @ e))[:, 0] + 1.0 / k)
+            e = self.m @ e
+        return np.array(rows)

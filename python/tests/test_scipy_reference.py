@@ -63,3 +63,27 @@ def test_step_response_agrees_with_the_scipy_reference(delay):
     # Both exact up to rounding: expm (Pade, ~1e-15 relative) propagated over <= 20 periods of a
     # contracting loop; 1e-12 of x_inf covers ~20 steps of a few ulp each with a margin of 10.
     np.testing.assert_allclose(r.position, expected, rtol=0, atol=1e-12 * r.final_position)
+
+
+@pytest.mark.parametrize("delay,criterion", [(0, "CE2"), (1, "CE2"), (2, "CE1"), (3, "CE0")])
+def test_overshoot_is_the_supremum_of_the_scipy_samples(delay, criterion):
+    """C_OV (eq. 9) is a continuous-time maximum: every sample of the reference step response is at
+    most x_inf (1 + C_OV), and the best of 400 samples per period comes within the sampling error
+    of a smooth maximum, |x''| h^2 / 8 for spacing h (half a spacing to the true maximum), doubled
+    for the variation of x'' over that interval, plus 1e-12 x_inf of rounding."""
+    plant = ho.Plant(0.0005, 0.01, float(delay))
+    o = ho.optimal_point(criterion, plant)
+    ov = ho.overshoot(o.alpha, o.beta, plant)
+    assert ov.value > 1e-4 and ov.converged  # these optima overshoot visibly
+    loop = ReferenceLoop(o.alpha, o.beta, plant.gamma, plant.delta, delay)
+    per_period = 400
+    periods = int(np.ceil(ov.time)) + 40  # well past the maximum (the proven stop lies within this)
+    x = loop.step_positions_on_grid(periods, per_period).ravel()
+    x_inf = 1.0 / (o.alpha + plant.gamma)
+    exact_max = x_inf * (1 + ov.value)
+    k = int(np.argmax(x))
+    h = 1.0 / per_period
+    curvature = abs(x[k - 1] - 2 * x[k] + x[k + 1]) / h ** 2
+    assert x[k] <= exact_max + 1e-12 * x_inf
+    assert exact_max - x[k] <= 2 * curvature * h ** 2 / 8 + 1e-12 * x_inf
+    assert abs(k * h - ov.time) <= h  # the same maximum, found at the same time
