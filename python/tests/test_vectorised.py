@@ -94,3 +94,18 @@ def test_optimal_curve_matches_the_optimal_beta_and_cost():
     # Optimality: nearby betas cost more (by at least rounding; the minimum is quadratic).
     for delta_beta in (-1e-3, 1e-3):
         assert ho.cost("CE2", curve.alpha[1], curve.beta[1] + delta_beta, PLANT) > curve.cost[1]
+
+
+@pytest.mark.parametrize("criterion", ["OV", "CI0", "CI2", "CE0"])
+def test_optimal_curves_are_minima_over_beta(criterion):
+    b = ho.boundary(PLANT)
+    alphas = np.array([0.15, 0.4, 0.7]) * b.alpha_max
+    curve = ho.optimal_curve(criterion, alphas, PLANT)
+    for a, beta, c in zip(curve.alpha, curve.beta, curve.cost):
+        assert c == ho.cost(criterion, a, beta, PLANT)
+        lo, hi = ho.beta_range(a, PLANT)
+        assert lo < beta < hi
+        # A minimiser: no better beta at +-1e-3 (far beyond Brent's ~1e-8 flatness limit) nor on a
+        # coarse scan of the stable interval (<= allows OV's flat zero-overshoot intervals).
+        for other in (beta - 1e-3, beta + 1e-3, *np.linspace(lo, hi, 41)[1:-1]):
+            assert c <= ho.cost(criterion, a, other, PLANT) * (1 + 1e-12), (a, beta, other)
