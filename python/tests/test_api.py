@@ -18,6 +18,9 @@ def test_version_is_the_libraries():
     version = re.search(r'#define HAPTICOPT_VERSION_STRING "([^"]+)"', header).group(1)
     assert ho.__version__ == version
     assert importlib.metadata.version("hapticopt") == version
+    # The C++ build's project(VERSION) must say the same (the package reads version.hpp only).
+    cmake = (VERSION_HEADER.parents[2] / "CMakeLists.txt").read_text()
+    assert re.search(r"project\(hapticopt\s+VERSION\s+([0-9.]+)", cmake).group(1) == version
 
 
 def test_normalize_and_back():
