@@ -21,6 +21,8 @@ PACKAGES=(
   libumockdev-dev   # the UMockdevTestbed API used by those tests
   rt-tests          # cyclictest, the latency baseline beside hapticd's loop
   chromium  # headless SVG rendering in tests/plots (the test is SKIPPED without it)
+  python3-dev python3-venv python3-pip pybind11-dev  # the Python package (python/, scripts/test-python.sh)
+  python3-numpy python3-scipy python3-matplotlib python3-pytest  # its run time, reference and tests
 )
 
 missing=()
