@@ -48,7 +48,9 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         }
     }
     // The delay buffer keeps its timing whatever happens; its output is applied only while all is well.
-    const AxisVector delayed = delay_.push_pop(force);
+    AxisVector delayed = delay_.push_pop(force);
+    // Passivity control observes the port after the delay buffer and damps what it generated (same tick).
+    if (config_.passivity != nullptr && result_.fault == Fault::None) config_.passivity->apply(position, delayed);
     const bool zero = result_.fault != Fault::None || stop || last;
     const AxisVector applied = zero ? AxisVector{} : delayed;
 

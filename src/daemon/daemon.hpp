@@ -8,6 +8,7 @@
 #include <string>
 
 #include "scene/delay_ring.hpp"
+#include "scene/passivity_controller.hpp"
 #include "devices/device.hpp"
 #include "loop/realtime_loop.hpp"
 #include "scene/safety.hpp"
@@ -23,6 +24,9 @@ struct DaemonConfig {
     WatchdogConfig watchdog;
     bool watchdog_enabled = true;  // off in lockstep (no deadlines)
     std::size_t trace_axis = 0;
+    // --passivity-control (scene/passivity_controller.hpp): applied to the force after the delay buffer; may be
+    // null. Must outlive the daemon.
+    PassivityController* passivity = nullptr;
 };
 
 struct RunResult {

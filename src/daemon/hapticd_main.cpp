@@ -71,7 +71,8 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
         if (o.gains_set) {
             auto it = tuned.find("explicit");
             if (it == tuned.end()) {
-                it = tuned.emplace("explicit", check_explicit_gains(o.stiffness, o.damping, o.criterion, plant)).first;
+                it = tuned.emplace("explicit", check_explicit_gains(o.stiffness, o.damping, o.criterion, plant,
+                                                                         o.passivity_control)).first;
             }
             w.tuning = it->second;
         } else {
@@ -275,6 +276,22 @@ int run_main(int argc, const char* const* argv) {
     cfg.watchdog.max_skipped_periods = static_cast<std::uint64_t>(o.watchdog_stall_periods);
     cfg.watchdog_enabled = !o.lockstep;
     cfg.trace_axis = walls.empty() ? 0 : walls.front().geometry.axis;
+    std::optional<PassivityController> passivity;
+    if (o.passivity_control) {
+        PassivityControlConfig pc;
+        pc.period = period;
+        pc.damping_cap = o.passivity_damping_cap > 0.0 ? o.passivity_damping_cap : 4.0 * profile.mass / period;
+        pc.velocity_guard = o.passivity_velocity_guard;
+        pc.max_force = profile.max_force;
+        pc.axes = static_cast<std::size_t>(profile.axes);
+        try {
+            passivity.emplace(pc);
+        } catch (const std::invalid_argument& e) {
+            throw StartupError(kExitInvalidParameter, e.what());
+        }
+        cfg.passivity = &*passivity;
+        if (!o.quiet) out << "hapticd: " << describe(pc) << "\n";
+    }
     auto daemon = std::make_unique<Daemon>(*device, scene, trace.get(), cfg);
 
     if (!o.lockstep) {
@@ -313,6 +330,10 @@ int run_main(int argc, const char* const* argv) {
         }
     }
     report.saturated_ticks = scene.stats().saturated_ticks;
+    if (passivity) {
+        report.passivity_control = true;
+        report.passivity = passivity->stats();
+    }
     if (const DeviceCounters c = device->counters(); c.packets_malformed + c.packets_short + c.garbage_bytes > 0 && !o.quiet) {
         std::cerr << "hapticd: warning: device '" << profile.name << "': " << c.packets_malformed << " malformed and "
                   << c.packets_short << " short packets dropped, " << c.garbage_bytes << " bytes skipped while resynchronising ("

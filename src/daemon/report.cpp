@@ -59,6 +59,18 @@ std::string statistics_text(const RunReport& r) {
         }
         s += "\n";
     }
+    if (r.passivity_control) {
+        const PassivityControlStats& p = r.passivity;
+        std::snprintf(buf, sizeof buf,
+                      "passivity control: damper on %llu ticks (capped %llu, guarded %llu, saturated %llu, non-finite %llu), "
+                      "max added damping %.6g N s/m, dissipated %.6g J, observed energy min %.6g J, port energy min %.6g J "
+                      "(bound: -(shortfall %.6g J + prediction error %.6g J))\n",
+                      static_cast<unsigned long long>(p.damper_ticks), static_cast<unsigned long long>(p.capped_ticks),
+                      static_cast<unsigned long long>(p.guarded_ticks), static_cast<unsigned long long>(p.saturated_ticks),
+                      static_cast<unsigned long long>(p.nonfinite_events), p.max_added_damping, p.dissipated,
+                      p.min_observed_energy, p.min_port_energy, p.shortfall, p.prediction_error);
+        s += buf;
+    }
     return s;
 }
 
@@ -135,6 +147,18 @@ nlohmann::json summary_json(const RunReport& r) {
     j["skipped_periods"] = c.skipped_periods;
     j["max_consecutive_overruns"] = c.max_consecutive_overruns;
     j["saturated_ticks"] = r.saturated_ticks;
+    if (r.passivity_control) {
+        const PassivityControlStats& p = r.passivity;
+        j["passivity_control"] = {{"damper_ticks", p.damper_ticks},         {"capped_ticks", p.capped_ticks},
+                                   {"guarded_ticks", p.guarded_ticks},       {"saturated_ticks", p.saturated_ticks},
+                                   {"nonfinite_events", p.nonfinite_events}, {"max_added_damping", p.max_added_damping},
+                                   {"dissipated", p.dissipated},             {"shortfall", p.shortfall},
+                                   {"prediction_error", p.prediction_error},
+                                   {"min_observed_energy", p.min_observed_energy},
+                                   {"min_port_energy", p.min_port_energy}};
+    } else {
+        j["passivity_control"] = nullptr;
+    }
     if (r.loop != nullptr) {
         j["wake_latency"] = r.loop->wake_latency().to_json();
         j["compute_time"] = r.loop->compute_time().to_json();

@@ -115,7 +115,8 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
     }
 }
 
-TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant) {
+TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,
+                                  bool allow_unstable) {
     const hapticopt::Criterion c = parse(criterion);
     TuningResult r;
     r.criterion = criterion;
@@ -130,6 +131,7 @@ TuningResult check_explicit_gains(double K, double B, const std::string& criteri
         r.beta = gains.beta;
         r.alpha_max = hapticopt::StabilityRegion(normalized).alpha_max();
         if (!hapticopt::is_stable(normalized, gains)) {
+            if (allow_unstable) return r;  // no predicted cost: the loop without the controller diverges
             throw StartupError(
                 kExitUnstableGains,
                 "explicit gains stiffness K = " + g(K) + " N/m, damping B = " + g(B) + " N s/m (alpha = " + g(gains.alpha) +

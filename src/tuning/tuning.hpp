@@ -63,7 +63,9 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
 
 // Explicit gains: accepted when inside the stability region (cost of `criterion` predicted when it is an
 // energy or overshoot criterion); refused with StartupError(kExitUnstableGains) naming K, B, alpha, beta
-// and alpha_max otherwise.
-TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant);
+// and alpha_max otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall
+// bounded): unstable gains are accepted without a predicted cost.
+TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,
+                                  bool allow_unstable = false);
 
 }  // namespace hapticd
