@@ -1,5 +1,6 @@
 #include "devices/device_factory.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -54,28 +55,19 @@ std::unique_ptr<Device> make_falcon_device(const DeviceProfile& p, const Options
     return std::make_unique<FalconDevice>(std::move(cfg));
 }
 
-std::unique_ptr<Device> make_hid_device(const DeviceProfile& p) {
+std::unique_ptr<Device> make_hid_device(const DeviceProfile& p, double period) {
     HidDeviceConfig cfg;
     cfg.capabilities = capabilities_from_profile(p);
     const RealDeviceKeys& k = p.real;
     hid::Layout& l = cfg.layout;
     l.vendor_id = static_cast<std::uint16_t>(k.usb_vid);
     l.product_id = static_cast<std::uint16_t>(k.usb_pid);
-    l.input_report_id = static_cast<std::uint8_t>(k.input_report_id);
-    l.position_offset = static_cast<std::size_t>(k.position_offset);
-    l.position_bytes = static_cast<std::size_t>(k.position_bytes);
-    l.position_signed = k.position_signed;
     l.position_scale = k.position_scale;
     l.position_zero = k.position_zero;
-    l.set_effect_report_id = static_cast<std::uint8_t>(k.set_effect_report_id);
-    l.constant_force_report_id = static_cast<std::uint8_t>(k.constant_force_report_id);
-    l.effect_operation_report_id = static_cast<std::uint8_t>(k.effect_operation_report_id);
-    l.block_free_report_id = static_cast<std::uint8_t>(k.block_free_report_id);
-    l.device_control_report_id = static_cast<std::uint8_t>(k.device_control_report_id);
-    l.create_effect_report_id = static_cast<std::uint8_t>(k.create_effect_report_id);
-    l.block_load_report_id = static_cast<std::uint8_t>(k.block_load_report_id);
     l.force_scale = k.force_scale;
-    l.force_max_counts = static_cast<std::int32_t>(k.force_max_counts);
+    cfg.device_index = static_cast<int>(k.device_index);
+    // 0.5 s without an input report: 5x the ~100 ms keep-alive of a device that reports only on change.
+    cfg.max_stale_reads = static_cast<int>(std::ceil(0.5 / period));
     return std::make_unique<HidFfbDevice>(std::move(cfg));
 }
 
@@ -84,7 +76,7 @@ std::unique_ptr<Device> make_hid_device(const DeviceProfile& p) {
 std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, const SimScenario& scenario,
                                     double period) {
     if (p.driver == "falcon" && !o.simulate) return make_falcon_device(p, o);
-    if (p.driver == "hid" && !o.simulate) return make_hid_device(p);
+    if (p.driver == "hid" && !o.simulate) return make_hid_device(p, period);
     if (p.driver != "sim" && !o.simulate) {
         throw StartupError(kExitDeviceError,
                            "device '" + p.name + "': driver '" + p.driver +

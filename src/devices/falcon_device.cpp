@@ -46,9 +46,10 @@ DeviceStatus FalconDevice::transport_failure(TransportStatus status) noexcept {
 
 DeviceStatus FalconDevice::poll_input(std::size_t& frames) noexcept {
     frames = 0;
-    // Drain what arrived; a few reads at most (each returns at most one USB packet's payload).
+    // Drain what arrived; a few reads at most. While streaming, poll() never waits; during the set-up
+    // (homing) the first read may wait up to io_timeout_ms.
     for (int i = 0; i < 4; ++i) {
-        const TransportResult r = transport_->read(rx_, i == 0 ? config_.io_timeout_ms : 0);
+        const TransportResult r = streaming_ ? transport_->poll(rx_) : transport_->read(rx_, i == 0 ? config_.io_timeout_ms : 0);
         if (r.status != TransportStatus::Ok && r.status != TransportStatus::Timeout) return transport_failure(r.status);
         if (r.bytes == 0) break;
         frames += parser_.feed(rx_.data(), r.bytes, status_);
@@ -106,7 +107,15 @@ DeviceStatus FalconDevice::open() {
             config_.notify("Falcon firmware not running: uploading '" + config_.firmware_path + "' (" +
                            std::to_string(image.size()) + " bytes)");
         }
-        const falcon::FirmwareUploadResult up = falcon::upload_firmware(*transport_, image, config_.upload);
+        const falcon::ReopenTransport reopen = [this](std::string& error) -> FtdiTransport* {
+            transport_.reset();
+            OpenedTransport again = config_.open_transport();
+            error = again.error;
+            transport_ = std::move(again.transport);
+            return transport_.get();
+        };
+        const falcon::FirmwareUploadResult up = falcon::upload_firmware(*transport_, image, config_.upload, reopen);
+        if (!transport_) return fail(DeviceStatus::Disconnected, up.message);
         if (!up.ok) {
             const DeviceStatus s = up.transport == TransportStatus::Disconnected ? DeviceStatus::Disconnected
                                                                                  : DeviceStatus::HardwareFault;
@@ -128,6 +137,10 @@ DeviceStatus FalconDevice::open() {
 
 DeviceStatus FalconDevice::home() {
     if (!open_) return fail(DeviceStatus::NotOpen, "home() before open()");
+    if (streaming_) {
+        transport_->stop_streaming();
+        streaming_ = false;
+    }
     gate_.reset();
     bool told = false;
     while (true) {
@@ -166,10 +179,56 @@ DeviceStatus FalconDevice::home() {
         return fail(DeviceStatus::HardwareFault, "homing: the encoder counts do not correspond to a reachable position");
     }
     if (config_.notify) config_.notify("Falcon homed (LED green)");
+    if (const DeviceStatus s = wait_for_release(); s != DeviceStatus::Ok) return s;
+    if (const TransportStatus t = transport_->start_streaming(); t != TransportStatus::Ok) {
+        return fail(to_device_status(t), "cannot start the Falcon's asynchronous transfers: " + transport_->last_error());
+    }
+    streaming_ = true;
     return DeviceStatus::Ok;
 }
 
+bool FalconDevice::update_kinematics(int max_iterations) noexcept {
+    falcon::Vec3 theta{};
+    for (std::size_t i = 0; i < 3; ++i) theta[i] = falcon::encoder_to_angle(status_.encoder[i], config_.geometry);
+    falcon::Vec3 p = kinematic_position_;
+    const falcon::ForwardResult fk = falcon::forward_kinematics(theta, config_.geometry, p, max_iterations, 1e-10);
+    if (fk.converged) kinematic_position_ = p;
+    return fk.converged;
+}
+
+// After homing the grip sits pushed in; libnifalcon's examples render nothing until it has been pulled
+// out past z = 0.170 m (FalconCubeTest.cpp). Zero torque, homing bit and green LED meanwhile.
+DeviceStatus FalconDevice::wait_for_release() {
+    if (kinematic_position_[2] > config_.release_z) return DeviceStatus::Ok;
+    if (config_.notify) {
+        config_.notify("Falcon: pull the grip out towards you (past z = " + std::to_string(config_.release_z) +
+                       " m); forces start after that");
+    }
+    const double polls = config_.homing_timeout * 1000.0 / std::max(1, config_.homing_poll_ms);
+    for (double i = 0; i < std::max(1.0, polls); ++i) {
+        std::size_t frames = 0;
+        if (const DeviceStatus s = exchange(frames); s != DeviceStatus::Ok) {
+            return fail(s, std::string("waiting for the grip to be pulled out: ") + rt_error_);
+        }
+        if (frames > 0) {
+            if ((status_.homed_mask & falcon::kAllAxesHomed) != falcon::kAllAxesHomed) {
+                return fail(DeviceStatus::NotHomed, "the Falcon lost its homing while waiting for the grip to be pulled out");
+            }
+            if (update_kinematics(100) && kinematic_position_[2] > config_.release_z) return DeviceStatus::Ok;
+        }
+        if (config_.cancel && config_.cancel()) {
+            return fail(DeviceStatus::NotHomed, "interrupted by a stop request while waiting for the grip to be pulled out");
+        }
+        if (config_.homing_poll_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(config_.homing_poll_ms));
+    }
+    return fail(DeviceStatus::NotHomed, "the grip was not pulled out past z = " + std::to_string(config_.release_z) +
+                                            " m within " + std::to_string(config_.homing_timeout) +
+                                            " s after homing (no force is rendered before that)");
+}
+
 void FalconDevice::close() noexcept {
+    if (transport_ && streaming_) transport_->stop_streaming();  // then the blocking writes below
+    streaming_ = false;
     if (transport_) {
         // Zero torque, LEDs off, a few times in case one packet is lost.
         command_ = falcon::Command{};
@@ -199,12 +258,7 @@ DeviceStatus FalconDevice::read_position(AxisVector& position) noexcept {
             rt_error_ = "the Falcon lost its homing (re-home: pull the grip out, push it in)";
             return DeviceStatus::NotHomed;
         }
-        falcon::Vec3 theta{};
-        for (std::size_t i = 0; i < 3; ++i) theta[i] = falcon::encoder_to_angle(status_.encoder[i], config_.geometry);
-        falcon::Vec3 p = kinematic_position_;
-        const falcon::ForwardResult fk = falcon::forward_kinematics(theta, config_.geometry, p, 8, 1e-10);
-        if (fk.converged) {
-            kinematic_position_ = p;
+        if (update_kinematics(8)) {
             consecutive_kinematics_failures_ = 0;
         } else {
             ++kinematics_failures_;
@@ -255,8 +309,13 @@ DeviceStatus FalconDevice::write_force(const AxisVector& force) noexcept {
         }
         if (saturated) ++saturated_;
     }
-    const TransportResult w = transport_->write(falcon::encode_command(command_), config_.io_timeout_ms + 1);
-    if (w.status != TransportStatus::Ok) return transport_failure(w.status);
+    // Never waits: queued for the event thread (one command in flight); a command the Falcon had not
+    // taken yet is replaced by this newer one and counted as late.
+    bool replaced = false;
+    const TransportStatus w = streaming_ ? transport_->post(falcon::encode_command(command_), replaced)
+                                         : transport_->write(falcon::encode_command(command_), config_.io_timeout_ms + 1).status;
+    if (replaced) ++late_commands_;
+    if (w != TransportStatus::Ok) return transport_failure(w);
     return result;
 }
 

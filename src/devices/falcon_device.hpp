@@ -33,7 +33,11 @@ struct FalconDeviceConfig {
     falcon::Vec3 origin{0.0, 0.0, 0.125};      // m, subtracted from the kinematic position
     double homing_timeout = 60.0;              // s
     int homing_poll_ms = 1;                    // sleep between homing polls (0 in tests)
-    int io_timeout_ms = 1;                     // read timeout per tick
+    int io_timeout_ms = 1;                     // read timeout of the set-up exchanges (the loop never waits)
+    // Forces start only after the grip has left the homing pose: libnifalcon's examples
+    // (examples/falcon_test_cli/FalconCubeTest.cpp) wait until the kinematic z exceeds 0.170 m
+    // ("Move the end effector all the way out") before rendering anything.
+    double release_z = 0.170;                  // m, kinematic frame (before `origin` is subtracted)
     int probe_tries = 50;                      // packets sent to see whether the firmware runs
     int max_stale_reads = 100;                 // consecutive ticks without a packet -> Timeout
     int max_kinematics_failures = 10;          // consecutive unsolvable positions -> HardwareFault
@@ -63,6 +67,8 @@ public:
 
     [[nodiscard]] const falcon::Status& last_status() const noexcept { return status_; }
     [[nodiscard]] const falcon::Command& last_command() const noexcept { return command_; }
+    // Commands that replaced one the Falcon had not taken yet (one command in flight; see transport.hpp).
+    [[nodiscard]] std::uint64_t late_commands() const noexcept { return late_commands_; }
 
 private:
     // One exchange without the kinematics: sends `command_`, reads and parses what arrived.
@@ -72,6 +78,8 @@ private:
     DeviceStatus fail(DeviceStatus status, std::string message);
     DeviceStatus transport_failure(TransportStatus status) noexcept;
     bool probe_firmware();
+    DeviceStatus wait_for_release();
+    bool update_kinematics(int max_iterations) noexcept;
 
     FalconDeviceConfig config_;
     std::unique_ptr<FtdiTransport> transport_;
@@ -84,9 +92,11 @@ private:
     std::uint64_t stale_reads_ = 0;
     std::uint64_t saturated_ = 0;
     std::uint64_t kinematics_failures_ = 0;
+    std::uint64_t late_commands_ = 0;
     int consecutive_stale_ = 0;
     int consecutive_kinematics_failures_ = 0;
     bool open_ = false;
+    bool streaming_ = false;
     std::string error_;             // set outside the real-time path
     const char* rt_error_ = "";     // set in the real-time path (static text: no allocation)
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <fstream>
 #include <iterator>
 
@@ -43,15 +44,27 @@ std::string_view status_text(TransportStatus s) {
     return "?";
 }
 
-// Reads exactly `n` payload bytes (several transfers if needed) or fails.
-TransportStatus read_exact(FtdiTransport& t, std::uint8_t* out, std::size_t n, int timeout_ms) {
+// Reads exactly `n` payload bytes (several transfers if needed) or fails. Empty reads (status-only FTDI
+// packets) are waited through as libnifalcon's loadFirmware() does; only a lack of progress for
+// `echo_patience_ms` (or that many empty reads in a row) is a timeout.
+TransportStatus read_exact(FtdiTransport& t, std::uint8_t* out, std::size_t n, const FirmwareUploadConfig& cfg) {
+    using Clock = std::chrono::steady_clock;
     std::size_t got = 0;
-    int empty_reads = 0;
+    int empty_in_a_row = 0;
+    Clock::time_point last_progress = Clock::now();
     while (got < n) {
-        const TransportResult r = t.read(std::span<std::uint8_t>(out + got, n - got), timeout_ms);
+        const TransportResult r = t.read(std::span<std::uint8_t>(out + got, n - got), cfg.timeout_ms);
         if (r.status != TransportStatus::Ok && r.status != TransportStatus::Timeout) return r.status;
-        got += r.bytes;
-        if (r.bytes == 0 && ++empty_reads > 3) return TransportStatus::Timeout;
+        if (r.bytes > 0) {
+            got += r.bytes;
+            empty_in_a_row = 0;
+            last_progress = Clock::now();
+            continue;
+        }
+        const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - last_progress);
+        if (++empty_in_a_row > cfg.max_consecutive_empty_reads || waited.count() > cfg.echo_patience_ms) {
+            return TransportStatus::Timeout;
+        }
     }
     return TransportStatus::Ok;
 }
@@ -120,7 +133,7 @@ bool sync(FtdiTransport& t, const FirmwareUploadConfig& cfg, StepError& err) {
     static constexpr std::array<std::uint8_t, 1> kSync{0x41};
     const TransportResult w = t.write(kSync, cfg.timeout_ms);
     std::array<std::uint8_t, 1> echo{};
-    const TransportStatus r = w.status == TransportStatus::Ok ? read_exact(t, echo.data(), 1, cfg.timeout_ms) : w.status;
+    const TransportStatus r = w.status == TransportStatus::Ok ? read_exact(t, echo.data(), 1, cfg) : w.status;
     if (r != TransportStatus::Ok || echo[0] != 0x41) {
         err = {FirmwareStage::Sync, r == TransportStatus::Ok ? TransportStatus::Error : r,
                r == TransportStatus::Ok ? "loader answered " + hex(echo[0]) + " instead of 'A'"
@@ -144,7 +157,7 @@ bool upload(FtdiTransport& t, std::span<const std::uint8_t> image, const Firmwar
                        " failed: " + std::string(status_text(w.status))};
             return false;
         }
-        const TransportStatus r = read_exact(t, echo.data(), n, cfg.timeout_ms);
+        const TransportStatus r = read_exact(t, echo.data(), n, cfg);
         if (r != TransportStatus::Ok) {
             err = {FirmwareStage::Upload, r, "no echo for firmware bytes " + std::to_string(confirmed) + ".." +
                                                  std::to_string(confirmed + n) + ": " + std::string(status_text(r))};
@@ -185,21 +198,32 @@ TransportStatus set_normal_mode(FtdiTransport& t) noexcept {
     return s;
 }
 
-FirmwareUploadResult upload_firmware(FtdiTransport& t, std::span<const std::uint8_t> image,
-                                     const FirmwareUploadConfig& cfg) {
+FirmwareUploadResult upload_firmware(FtdiTransport& transport, std::span<const std::uint8_t> image,
+                                     const FirmwareUploadConfig& cfg, const ReopenTransport& reopen) {
     FirmwareUploadResult result;
     if (image.empty() || cfg.chunk_size == 0 || cfg.attempts < 1) {
         result.message = image.empty() ? "the firmware image is empty" : "invalid firmware upload settings";
         return result;
     }
+    FtdiTransport* t = &transport;
     StepError err{FirmwareStage::Configure, TransportStatus::Ok, ""};
     for (int attempt = 1; attempt <= cfg.attempts; ++attempt) {
         result.attempts_used = attempt;
         result.bytes_confirmed = 0;
-        const bool ok = configure(t, err) && handshake(t, cfg, err) && sync(t, cfg, err) &&
-                        upload(t, image, cfg, result.bytes_confirmed, err);
+        if (attempt > 1 && reopen) {
+            // Close and reopen between attempts (FalconCLIBase.cpp retries loadFirmware() 10 times; the
+            // reopen clears a confused FTDI state that a purge alone does not).
+            std::string reopen_error;
+            t = reopen(reopen_error);
+            if (t == nullptr) {
+                err = {FirmwareStage::Configure, TransportStatus::Disconnected, "reopening the Falcon failed: " + reopen_error};
+                break;
+            }
+        }
+        const bool ok = configure(*t, err) && handshake(*t, cfg, err) && sync(*t, cfg, err) &&
+                        upload(*t, image, cfg, result.bytes_confirmed, err);
         if (ok) {
-            const TransportStatus s = set_normal_mode(t);
+            const TransportStatus s = set_normal_mode(*t);
             if (s == TransportStatus::Ok) {
                 result.ok = true;
                 result.stage = FirmwareStage::Done;
@@ -207,7 +231,7 @@ FirmwareUploadResult upload_firmware(FtdiTransport& t, std::span<const std::uint
                                  std::to_string(attempt) + ")";
                 return result;
             }
-            err = {FirmwareStage::NormalMode, s, "switching to normal mode failed: " + t.last_error()};
+            err = {FirmwareStage::NormalMode, s, "switching to normal mode failed: " + t->last_error()};
         }
         if (err.status == TransportStatus::Disconnected || err.status == TransportStatus::AccessDenied) break;
     }

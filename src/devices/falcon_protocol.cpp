@@ -55,12 +55,15 @@ bool decode_status(const std::uint8_t* packet, Status& status) noexcept {
     for (std::size_t i = 1; i <= 12; ++i) {
         if (!is_nibble_byte(packet[i])) return false;
     }
-    // Byte 13 carries 7 bits (buttons + homed flags) above 0x41: 0x41 .. 0xC0.
-    if (packet[13] < kNibbleBase || packet[13] > kNibbleBase + 0x7F) return false;
-    // Byte 14's meaning is unknown (libnifalcon); only the frame characters are excluded.
-    if (packet[14] == kStart || packet[14] == kEnd) return false;
+    // Bytes 13 and 14 are not range-checked, as in libnifalcon (FalconFirmwareNovintSDK.cpp
+    // formatOutput(): only '<' at 0 and '>' at 15 are required; byte 13 is decoded as
+    // ((b - 0x41) >> 4) & 7 for the homed flags and (b - 0x41) & 0x0f for the grip, byte 14 is ignored).
+    // A frame character inside them is still a broken frame ('>' ends a packet early in libnifalcon).
+    for (std::size_t i = 13; i <= 14; ++i) {
+        if (packet[i] == kStart || packet[i] == kEnd) return false;
+    }
     for (std::size_t axis = 0; axis < 3; ++axis) status.encoder[axis] = get_value(&packet[1 + 4 * axis]);
-    const auto control = static_cast<std::uint8_t>(packet[13] - kNibbleBase);
+    const auto control = static_cast<std::uint8_t>(packet[13] - kNibbleBase);  // modulo 256, as libnifalcon
     status.homed_mask = static_cast<std::uint8_t>((control >> 4) & 7);
     status.buttons = static_cast<std::uint8_t>(control & 0xF);
     return true;

@@ -7,7 +7,7 @@
 //               byte carries one nibble plus 0x41 ('A'), so nibble bytes are 'A'..'P'
 //   byte 13     host -> Falcon: LED bits | homing-mode bit, plus 0x41
 //               Falcon -> host: buttons in bits 0..3, per-axis "homed" flags in bits 4..6, plus 0x41
-//   byte 14     unknown; the host sends 'A' (0 + 0x41)
+//   byte 14     unknown; the host sends 'A' (0 + 0x41); replies may carry other values (not checked)
 // Host -> Falcon values are motor torques; Falcon -> host values are encoder counts.
 // Bit assignments of byte 13 to the Falcon follow libnifalcon's code (FalconFirmware.h enums:
 // homing 0x01, green 0x02, blue 0x04, red 0x08); the comment block of FalconFirmwareNovintSDK.h lists
@@ -54,7 +54,8 @@ Packet encode_command(const Command& command) noexcept;
 // Encodes a status packet (what the Falcon sends); for tests and the scripted device.
 Packet encode_status(const Status& status) noexcept;
 
-// Checks the framing and byte ranges of a status packet and decodes it. false: malformed.
+// Checks the framing ('<' ... '>') and the nibble bytes 1..12 of a status packet and decodes it; bytes
+// 13/14 are accepted whatever they hold (as libnifalcon does) except a frame character. false: malformed.
 bool decode_status(const std::uint8_t* packet, Status& status) noexcept;
 
 struct FrameCounters {

@@ -1,9 +1,16 @@
 #include "devices/hid_device.hpp"
 
+#include <fcntl.h>
 #include <hidapi.h>
+#include <linux/hidraw.h>
+#include <sys/ioctl.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <vector>
 
 #include "devices/transport_libusb.hpp"  // kUdevHint
 
@@ -17,14 +24,29 @@ std::string hex4(unsigned v) {
     return buf;
 }
 
-bool present(std::uint16_t vid, std::uint16_t pid) {
-    hid_device_info* list = hid_enumerate(vid, pid);
-    const bool any = list != nullptr;
-    hid_free_enumeration(list);
-    return any;
+// The report descriptor of a hidraw node (HIDIOCGRDESCSIZE / HIDIOCGRDESC, linux/hidraw.h).
+bool read_report_descriptor(const std::string& path, std::vector<std::uint8_t>& out, std::string& error) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (fd < 0) {
+        error = "cannot open " + path + ": " + std::strerror(errno);
+        return false;
+    }
+    int size = 0;
+    hidraw_report_descriptor desc{};
+    bool ok = ::ioctl(fd, HIDIOCGRDESCSIZE, &size) == 0 && size > 0 && size <= HID_MAX_DESCRIPTOR_SIZE;
+    if (ok) {
+        desc.size = static_cast<std::uint32_t>(size);
+        ok = ::ioctl(fd, HIDIOCGRDESC, &desc) == 0;
+    }
+    if (!ok) error = "cannot read the report descriptor of " + path + ": " + std::strerror(errno);
+    ::close(fd);
+    if (ok) out.assign(desc.value, desc.value + desc.size);
+    return ok;
 }
 
 }  // namespace
+
+HidFfbDevice::HidFfbDevice(HidDeviceConfig config) : config_(std::move(config)), pid_(std::make_unique<hid::PidLayout>()) {}
 
 HidFfbDevice::~HidFfbDevice() { close(); }
 
@@ -34,47 +56,70 @@ DeviceStatus HidFfbDevice::fail(DeviceStatus status, std::string message) {
     return status;
 }
 
-bool HidFfbDevice::write_report(const std::uint8_t* data, std::size_t size) noexcept {
-    return hid_write(handle_, data, size) == static_cast<int>(size);
+bool HidFfbDevice::write_report(const hid::Report& r) noexcept {
+    if (r.size == 0) return true;  // the device has no such report
+    return hid_write(handle_, r.bytes.data(), r.size) == static_cast<int>(r.size);
 }
 
 DeviceStatus HidFfbDevice::open() {
     close();
     const hid::Layout& l = config_.layout;
     const std::string ids = "USB HID " + hex4(l.vendor_id) + ":" + hex4(l.product_id);
-    if (hid_init() != 0) return fail(DeviceStatus::HardwareFault, "hidapi initialisation failed");
-    handle_ = hid_open(l.vendor_id, l.product_id, nullptr);
+    if (hid_init() != 0) return fail(DeviceStatus::HardwareFault, "HidFfbDevice::open: hidapi initialisation failed");
+    path_.clear();
+    hid_device_info* list = hid_enumerate(l.vendor_id, l.product_id);
+    int seen = 0;
+    for (hid_device_info* d = list; d != nullptr; d = d->next) {
+        if (d->path != nullptr && seen++ == config_.device_index) path_ = d->path;
+    }
+    hid_free_enumeration(list);
+    if (path_.empty()) {
+        return fail(DeviceStatus::Disconnected, "no force-feedback device found (looked for " + ids +
+                                                    (config_.device_index > 0 ? ", device #" + std::to_string(config_.device_index) : "") +
+                                                    "); is it plugged in? `hapticd --list-devices` shows what hapticd sees; "
+                                                    "--simulate runs the profile on the simulated device");
+    }
+    std::vector<std::uint8_t> descriptor;
+    std::string error;
+    if (!read_report_descriptor(path_, descriptor, error)) {
+        const bool denied = error.find("Permission denied") != std::string::npos;
+        return fail(DeviceStatus::HardwareFault, ids + ": " + error + (denied ? "; " + std::string(kUdevHint) : ""));
+    }
+    pid_ = std::make_unique<hid::PidLayout>();
+    if (!hid::build_pid_layout(descriptor.data(), descriptor.size(), *pid_, error)) {
+        return fail(DeviceStatus::Unsupported, ids + " (" + path_ + "): " + error);
+    }
+    handle_ = hid_open_path(path_.c_str());
     if (handle_ == nullptr) {
-        if (!present(l.vendor_id, l.product_id)) {
-            return fail(DeviceStatus::Disconnected, "no force-feedback device found (looked for " + ids +
-                                                        "); is it plugged in? `hapticd --list-devices` shows what hapticd sees; "
-                                                        "--simulate runs the profile on the simulated device");
-        }
-        return fail(DeviceStatus::HardwareFault, "cannot open " + ids + " (permission denied?): " + std::string(kUdevHint));
+        return fail(DeviceStatus::HardwareFault, "cannot open " + ids + " (" + path_ + ", permission denied?): " + std::string(kUdevHint));
     }
     hid_set_nonblocking(handle_, 1);
-    // Effect set-up: enable actuators, allocate a constant-force effect, configure it, start it at 0.
-    const auto enable = hid::encode_device_control(hid::DeviceControl::EnableActuators, l);
-    const auto create = hid::encode_create_effect(l);
-    if (!write_report(enable.data(), enable.size()) ||
-        hid_send_feature_report(handle_, create.data(), create.size()) != static_cast<int>(create.size())) {
+    // Start-up as Linux's hid-pidff.c: Reset and Stop All Effects (effects or blocks left by another
+    // program stop acting; pidff_reset()), Device Gain to the maximum (pidff_set_gain(0xFFFF)), Enable
+    // Actuators; then one constant-force effect: Create New Effect -> Block Load -> Set Effect ->
+    // magnitude 0 -> Start.
+    const hid::PidLayout& p = *pid_;
+    const bool reset_ok = write_report(hid::encode_device_control(hid::DeviceControl::Reset, p)) &&
+                          write_report(hid::encode_device_control(hid::DeviceControl::StopAll, p)) &&
+                          write_report(hid::encode_device_gain(1.0, p)) &&
+                          write_report(hid::encode_device_control(hid::DeviceControl::EnableActuators, p));
+    const hid::Report create = hid::encode_create_effect(p);
+    if (!reset_ok || hid_send_feature_report(handle_, create.bytes.data(), create.size) != static_cast<int>(create.size)) {
         close();
         return fail(DeviceStatus::HardwareFault, ids + ": the device refused the force-feedback set-up reports "
-                                                       "(is it a HID PID device? check the report ids in the profile)");
+                                                       "(Reset / Stop All / Device Gain / Enable Actuators / Create New Effect)");
     }
-    std::array<std::uint8_t, 8> load{};
-    load[0] = l.block_load_report_id;
-    const int got = hid_get_feature_report(handle_, load.data(), load.size());
-    if (got < 3 || !hid::decode_block_load(load.data(), static_cast<std::size_t>(got), l, block_)) {
+    std::array<std::uint8_t, hid::kMaxReportBytes> load{};
+    load[0] = p.block_load_id;
+    const int got = hid_get_feature_report(handle_, load.data(), std::max<std::size_t>(p.block_load_bytes, 2));
+    if (got < 2 || !hid::decode_block_load(load.data(), static_cast<std::size_t>(got), p, block_)) {
         close();
         return fail(DeviceStatus::HardwareFault, ids + ": the device did not allocate a constant-force effect (PID Block Load)");
     }
-    const auto set_effect = hid::encode_set_effect(block_, l);
     bool saturated = false;
-    const auto zero = hid::encode_constant_force(0.0, block_, l, saturated);
-    const auto start = hid::encode_effect_operation(block_, hid::EffectOperation::Start, l);
-    if (!write_report(set_effect.data(), set_effect.size()) || !write_report(zero.data(), zero.size()) ||
-        !write_report(start.data(), start.size())) {
+    if (!write_report(hid::encode_set_effect(block_, p)) ||
+        !write_report(hid::encode_constant_force(0.0, block_, p, config_.layout, saturated)) ||
+        !write_report(hid::encode_effect_operation(block_, hid::EffectOperation::Start, p))) {
         close();
         return fail(DeviceStatus::HardwareFault, ids + ": starting the constant-force effect failed");
     }
@@ -85,20 +130,21 @@ DeviceStatus HidFfbDevice::open() {
 }
 
 DeviceStatus HidFfbDevice::home() {
-    if (handle_ == nullptr) return fail(DeviceStatus::NotOpen, "home() before open()");
-    // Wait (up to 1 s) for a first input report so that the first tick has a real position.
+    if (handle_ == nullptr) return fail(DeviceStatus::NotOpen, "HidFfbDevice::home: called before open()");
+    // Wait (up to 1 s: the device sends at least every ~100 ms) for a first input report so that the
+    // first tick has a real position.
     for (int i = 0; i < 1000 && !have_position_; ++i) {
         const int n = hid_read_timeout(handle_, report_.data(), report_.size(), 1);
-        if (n < 0) return fail(DeviceStatus::Disconnected, "the HID device stopped answering");
+        if (n < 0) return fail(DeviceStatus::Disconnected, "HidFfbDevice::home: the HID device stopped answering");
         double p = 0.0;
-        if (n > 0 && hid::decode_position(report_.data(), static_cast<std::size_t>(n), config_.layout, p)) {
+        if (n > 0 && hid::decode_position(report_.data(), static_cast<std::size_t>(n), *pid_, config_.layout, p)) {
             position_ = p;
             have_position_ = true;
         }
     }
     if (!have_position_) {
-        return fail(DeviceStatus::Timeout, "no input report with id " + std::to_string(config_.layout.input_report_id) +
-                                               " within 1 s (check input_report_id in the profile)");
+        return fail(DeviceStatus::Timeout, "HidFfbDevice::home: no input report with id " + std::to_string(pid_->input_id) +
+                                               " (the one holding X, from the report descriptor) within 1 s");
     }
     return DeviceStatus::Ok;
 }
@@ -106,12 +152,10 @@ DeviceStatus HidFfbDevice::home() {
 void HidFfbDevice::close() noexcept {
     if (handle_ == nullptr) return;
     bool saturated = false;
-    const auto zero = hid::encode_constant_force(0.0, block_, config_.layout, saturated);
-    const auto stop = hid::encode_effect_operation(block_, hid::EffectOperation::Stop, config_.layout);
-    const auto free_block = hid::encode_block_free(block_, config_.layout);
-    write_report(zero.data(), zero.size());
-    write_report(stop.data(), stop.size());
-    write_report(free_block.data(), free_block.size());
+    write_report(hid::encode_constant_force(0.0, block_, *pid_, config_.layout, saturated));
+    write_report(hid::encode_effect_operation(block_, hid::EffectOperation::Stop, *pid_));
+    write_report(hid::encode_block_free(block_, *pid_));
+    write_report(hid::encode_device_control(hid::DeviceControl::StopAll, *pid_));
     hid_close(handle_);
     handle_ = nullptr;
 }
@@ -126,20 +170,20 @@ DeviceStatus HidFfbDevice::read_position(AxisVector& position) noexcept {
             return DeviceStatus::Disconnected;
         }
         if (n == 0) break;
-        if (report_[0] != config_.layout.input_report_id) continue;  // other reports (PID state, ...)
+        if (pid_->ids && report_[0] != pid_->input_id) continue;  // other reports (PID state, ...)
         double p = 0.0;
-        if (hid::decode_position(report_.data(), static_cast<std::size_t>(n), config_.layout, p) && std::isfinite(p)) {
+        if (hid::decode_position(report_.data(), static_cast<std::size_t>(n), *pid_, config_.layout, p) && std::isfinite(p)) {
             position_ = p;
             fresh = true;
             ++counters_.packets_ok;
         } else {
-            ++counters_.packets_malformed;  // right id, too short: dropped
+            ++counters_.packets_short;  // right id, too short: dropped
         }
     }
     if (!fresh) {
         ++counters_.stale_reads;
         if (config_.max_stale_reads > 0 && ++consecutive_stale_ > config_.max_stale_reads) {
-            rt_error_ = "no input report from the HID device for too many ticks";
+            rt_error_ = "no input report from the HID device for too many ticks (it sends at least every ~100 ms)";
             return DeviceStatus::Timeout;
         }
     } else {
@@ -160,12 +204,12 @@ DeviceStatus HidFfbDevice::write_force(const AxisVector& force) noexcept {
         f = 0.0;
     }
     const double limit = config_.capabilities.max_force;
-    bool saturated = f > limit || f < -limit;
+    const bool saturated = f > limit || f < -limit;
     f = f > limit ? limit : (f < -limit ? -limit : f);
     bool protocol_saturated = false;
-    const auto report = hid::encode_constant_force(f, block_, config_.layout, protocol_saturated);
+    const hid::Report report = hid::encode_constant_force(f, block_, *pid_, config_.layout, protocol_saturated);
     if (saturated || protocol_saturated) ++counters_.saturated_commands;
-    if (!write_report(report.data(), report.size())) {
+    if (!write_report(report)) {
         rt_error_ = "HID device disconnected (write failed)";
         return DeviceStatus::Disconnected;
     }

@@ -1,9 +1,12 @@
-// A USB HID force-feedback device (HID PID, e.g. OpenFFBoard) as a hapticd Device, over hidapi:
-// position from an axis of an input report, force through one constant-force effect whose magnitude is
-// updated every tick. One axis (axis 0). Layout (ids, offsets, scaling) from the device profile.
+// A USB HID force-feedback device (HID PID, e.g. OpenFFBoard) as a hapticd Device, over hidapi (hidraw):
+// position from the X axis of an input report, force through one constant-force effect whose magnitude
+// is updated every tick. One axis (axis 0). Report ids, offsets and ranges come from the device's
+// report descriptor (read from the hidraw node, HIDIOCGRDESC; hid_ffb_protocol.hpp); scaling from the
+// device profile.
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 
 #include "devices/device.hpp"
@@ -16,16 +19,20 @@ namespace hapticd {
 struct HidDeviceConfig {
     DeviceCapabilities capabilities;
     hid::Layout layout;
-    int max_stale_reads = 100;  // consecutive ticks without an input report -> Timeout (0: never)
+    // Consecutive ticks without an input report -> Timeout (0: never). The device reports only on change
+    // or every ~100 ms (OpenFFBoard FFBWheel/FFBHIDMain send_report(): on change, or after 100 calls at
+    // 1 kHz), so a resting wheel is silent for 100 ms: the factory sets 0.5 s worth of ticks.
+    int max_stale_reads = 500;
+    int device_index = 0;  // which of several devices with the same VID:PID
 };
 
 class HidFfbDevice final : public Device {
 public:
-    explicit HidFfbDevice(HidDeviceConfig config) : config_(std::move(config)) {}
+    explicit HidFfbDevice(HidDeviceConfig config);
     ~HidFfbDevice() override;
 
     DeviceStatus open() override;
-    DeviceStatus home() override;  // HID wheels/joysticks need no homing
+    DeviceStatus home() override;  // HID wheels/joysticks need no homing: waits for a first input report
     void close() noexcept override;
 
     DeviceStatus read_position(AxisVector& position) noexcept override;
@@ -36,11 +43,17 @@ public:
     [[nodiscard]] std::string_view name() const noexcept override { return "hid"; }
     [[nodiscard]] std::string last_error() const override { return *rt_error_ != '\0' ? rt_error_ : error_; }
 
+    // The layout read from the device (valid after open()).
+    [[nodiscard]] const hid::PidLayout& pid_layout() const noexcept { return *pid_; }
+    [[nodiscard]] const std::string& path() const noexcept { return path_; }
+
 private:
     DeviceStatus fail(DeviceStatus status, std::string message);
-    bool write_report(const std::uint8_t* data, std::size_t size) noexcept;
+    bool write_report(const hid::Report& report) noexcept;
 
     HidDeviceConfig config_;
+    std::unique_ptr<hid::PidLayout> pid_;
+    std::string path_;
     hid_device_* handle_ = nullptr;
     std::uint8_t block_ = 1;
     double position_ = 0.0;

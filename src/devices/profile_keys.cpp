@@ -15,21 +15,9 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
     app.add_option("--device_index", k.device_index);
     app.add_option("--usb_vid", k.usb_vid);
     app.add_option("--usb_pid", k.usb_pid);
-    app.add_option("--input_report_id", k.input_report_id);
-    app.add_option("--position_offset", k.position_offset);
-    app.add_option("--position_bytes", k.position_bytes);
-    app.add_option("--position_signed", k.position_signed);
     app.add_option("--position_scale", k.position_scale);
     app.add_option("--position_zero", k.position_zero);
-    app.add_option("--set_effect_report_id", k.set_effect_report_id);
-    app.add_option("--constant_force_report_id", k.constant_force_report_id);
-    app.add_option("--effect_operation_report_id", k.effect_operation_report_id);
-    app.add_option("--block_free_report_id", k.block_free_report_id);
-    app.add_option("--device_control_report_id", k.device_control_report_id);
-    app.add_option("--create_effect_report_id", k.create_effect_report_id);
-    app.add_option("--block_load_report_id", k.block_load_report_id);
     app.add_option("--force_scale", k.force_scale);
-    app.add_option("--force_max_counts", k.force_max_counts);
 }
 
 namespace {
@@ -65,25 +53,9 @@ void validate_real_device_keys(const std::string& where, const std::string& driv
         check_int(where, "usb_vid", k.usb_vid, 0, 0xFFFF);
         check_int(where, "usb_pid", k.usb_pid, 0, 0xFFFF);
     }
-    check_int(where, "input_report_id", k.input_report_id, 0, 255);
-    check_int(where, "position_offset", k.position_offset, 1, 63);
-    if (k.position_bytes != 1 && k.position_bytes != 2 && k.position_bytes != 4) {
-        invalid(where, "position_bytes", std::to_string(k.position_bytes), "1, 2 or 4");
-    }
-    check_int(where, "position_offset + position_bytes", k.position_offset + k.position_bytes, 2, 64);
     check_real(where, "position_scale", k.position_scale, -1e6, 1e6, true);
     check_real(where, "position_zero", k.position_zero, -4.3e9, 4.3e9, false);
-    for (auto [key, v] : {std::pair{"set_effect_report_id", k.set_effect_report_id},
-                          std::pair{"constant_force_report_id", k.constant_force_report_id},
-                          std::pair{"effect_operation_report_id", k.effect_operation_report_id},
-                          std::pair{"block_free_report_id", k.block_free_report_id},
-                          std::pair{"device_control_report_id", k.device_control_report_id},
-                          std::pair{"create_effect_report_id", k.create_effect_report_id},
-                          std::pair{"block_load_report_id", k.block_load_report_id}}) {
-        check_int(where, key, v, 1, 255);
-    }
     check_real(where, "force_scale", k.force_scale, -1e9, 1e9, true);
-    check_int(where, "force_max_counts", k.force_max_counts, 1, 32767);
 }
 
 }  // namespace hapticd

@@ -42,6 +42,26 @@ public:
     virtual TransportResult read(std::span<std::uint8_t> buffer, int timeout_ms) noexcept = 0;
     // Text of the last failure (not for the real-time path).
     [[nodiscard]] virtual std::string last_error() const = 0;
+
+    // Streaming, for the real-time path: nothing here may block. libnifalcon keeps one command in
+    // flight and polls asynchronous transfers (FalconCommLibUSB.cpp write()/issueRead()/poll(),
+    // FalconFirmwareNovintSDK.cpp runIOLoop()); the libusb transport does the same with an event
+    // thread. The defaults suit a transport whose calls return at once (the scripted one): post() is
+    // write() and poll() is read(), both with timeout 0.
+    //
+    // start_streaming(): from now on IN data is collected in the background. stop_streaming(): waits
+    // (bounded) for the transfers in flight, after which the blocking calls above may be used again.
+    virtual TransportStatus start_streaming() noexcept { return TransportStatus::Ok; }
+    virtual void stop_streaming() noexcept {}
+    // Queues one packet; it is sent now, or as soon as the packet in flight completes. A packet still
+    // queued is replaced by the newer one (`replaced` = true: the device had not taken the previous
+    // command yet). Errors of earlier transfers (unplug, stall) are returned here and by poll().
+    virtual TransportStatus post(std::span<const std::uint8_t> data, bool& replaced) noexcept {
+        replaced = false;
+        return write(data, 0).status;
+    }
+    // The payload bytes that arrived since the last call (at most buffer.size()); never waits.
+    virtual TransportResult poll(std::span<std::uint8_t> buffer) noexcept { return read(buffer, 0); }
 };
 
 }  // namespace hapticd

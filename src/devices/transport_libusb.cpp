@@ -1,6 +1,9 @@
 #include "devices/transport_libusb.hpp"
 
 #include <libusb.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
@@ -78,6 +81,7 @@ OpenedTransport LibusbFtdiTransport::open_falcon(int index) {
 }
 
 LibusbFtdiTransport::~LibusbFtdiTransport() {
+    stop_streaming();
     if (handle_ != nullptr) {
         libusb_release_interface(handle_, 0);
         libusb_close(handle_);
@@ -124,6 +128,210 @@ TransportResult LibusbFtdiTransport::read(std::span<std::uint8_t> buffer, int ti
     std::memcpy(buffer.data(), pending_.data(), n);
     std::memmove(pending_.data(), pending_.data() + n, pending_size_ - n);
     pending_size_ -= n;
+    return {TransportStatus::Ok, n};
+}
+
+// ---- Streaming ---------------------------------------------------------------------------------
+
+TransportStatus LibusbFtdiTransport::start_streaming() noexcept {
+    if (streaming_) return TransportStatus::Ok;
+    wake_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    in_transfer_ = libusb_alloc_transfer(0);
+    out_transfer_ = libusb_alloc_transfer(0);
+    if (wake_fd_ < 0 || in_transfer_ == nullptr || out_transfer_ == nullptr) {
+        stop_streaming();
+        last_error_code_ = LIBUSB_ERROR_NO_MEM;
+        return TransportStatus::Error;
+    }
+    stop_.store(false);
+    stream_status_.store(0);
+    ring_head_.store(0);
+    ring_tail_.store(0);
+    pending_size_ = 0;
+    posted_seq_ = mailbox_seq_.load();
+    sent_seq_.store(posted_seq_);
+    // Timeout 0 = none: the FTDI chip completes the IN transfer every latency period on its own.
+    libusb_fill_bulk_transfer(in_transfer_, handle_, ftdi::kEndpointIn, in_buffer_.data(),
+                              static_cast<int>(in_buffer_.size()), &LibusbFtdiTransport::on_in_done, this, 0);
+    in_active_.store(true);
+    if (const int rc = libusb_submit_transfer(in_transfer_); rc != 0) {
+        in_active_.store(false);
+        stop_streaming();
+        return map(rc);
+    }
+    streaming_ = true;
+    try {
+        event_thread_ = std::thread([this] { event_loop(); });
+    } catch (...) {
+        libusb_cancel_transfer(in_transfer_);
+        timeval tv{0, 100000};
+        while (in_active_.load()) libusb_handle_events_timeout_completed(context_, &tv, nullptr);
+        streaming_ = false;
+        stop_streaming();
+        return TransportStatus::Error;
+    }
+    return TransportStatus::Ok;
+}
+
+void LibusbFtdiTransport::stop_streaming() noexcept {
+    if (streaming_) {
+        stop_.store(true);
+        const std::uint64_t one = 1;
+        [[maybe_unused]] const ssize_t w = ::write(wake_fd_, &one, sizeof one);
+        if (event_thread_.joinable()) event_thread_.join();
+        streaming_ = false;
+    }
+    if (in_transfer_ != nullptr && !in_active_.load()) {
+        libusb_free_transfer(in_transfer_);
+        in_transfer_ = nullptr;
+    }
+    if (out_transfer_ != nullptr && !out_active_.load()) {
+        libusb_free_transfer(out_transfer_);
+        out_transfer_ = nullptr;
+    }
+    if (wake_fd_ >= 0) {
+        ::close(wake_fd_);
+        wake_fd_ = -1;
+    }
+}
+
+void LibusbFtdiTransport::event_loop() noexcept {
+    std::array<pollfd, 16> fds{};
+    while (true) {
+        const bool stopping = stop_.load(std::memory_order_acquire);
+        if (stopping) {
+            if (in_active_.load()) libusb_cancel_transfer(in_transfer_);
+            if (out_active_.load()) libusb_cancel_transfer(out_transfer_);
+        }
+        if (stopping && !in_active_.load() && !out_active_.load()) break;
+        // Wait for a libusb fd (transfer completion) or the wake-up eventfd (a new command, a stop).
+        std::size_t n = 0;
+        fds[n++] = {wake_fd_, POLLIN, 0};
+        if (const libusb_pollfd** list = libusb_get_pollfds(context_); list != nullptr) {
+            for (const libusb_pollfd** p = list; *p != nullptr && n < fds.size(); ++p) {
+                fds[n++] = {(*p)->fd, (*p)->events, 0};
+            }
+            libusb_free_pollfds(list);
+        }
+        ::poll(fds.data(), n, stopping ? 5 : 50);
+        if ((fds[0].revents & POLLIN) != 0) {
+            std::uint64_t count = 0;
+            [[maybe_unused]] const ssize_t r = ::read(wake_fd_, &count, sizeof count);
+        }
+        timeval zero{0, 0};
+        libusb_handle_events_timeout_completed(context_, &zero, nullptr);
+        if (!stopping) submit_out_if_due();
+    }
+}
+
+void LibusbFtdiTransport::fail_stream(TransportStatus status) noexcept {
+    int expected = 0;
+    stream_status_.compare_exchange_strong(expected, static_cast<int>(status));
+}
+
+void LibusbFtdiTransport::submit_out_if_due() noexcept {
+    if (out_active_.load() || stream_status_.load() != 0) return;
+    // Read the newest command from the seqlock mailbox (retry while the real-time thread writes it).
+    std::uint32_t before = 0;
+    std::array<std::uint64_t, 2> words{};
+    do {
+        before = mailbox_seq_.load(std::memory_order_acquire);
+        if ((before & 1U) != 0) continue;
+        words[0] = mailbox_[0].load(std::memory_order_relaxed);
+        words[1] = mailbox_[1].load(std::memory_order_relaxed);
+        std::atomic_thread_fence(std::memory_order_acquire);
+    } while ((before & 1U) != 0 || mailbox_seq_.load(std::memory_order_relaxed) != before);
+    if (before == sent_seq_.load(std::memory_order_relaxed)) return;  // nothing new
+    std::memcpy(out_buffer_.data(), words.data(), kPacketBytes);
+    libusb_fill_bulk_transfer(out_transfer_, handle_, ftdi::kEndpointOut, out_buffer_.data(),
+                              static_cast<int>(kPacketBytes), &LibusbFtdiTransport::on_out_done, this, 100);
+    out_active_.store(true);
+    if (const int rc = libusb_submit_transfer(out_transfer_); rc != 0) {
+        out_active_.store(false);
+        fail_stream(map_error(rc));
+        return;
+    }
+    sent_seq_.store(before, std::memory_order_release);
+}
+
+bool LibusbFtdiTransport::ring_push(const std::uint8_t* data, std::size_t n) noexcept {
+    const std::size_t head = ring_head_.load(std::memory_order_relaxed);
+    const std::size_t tail = ring_tail_.load(std::memory_order_acquire);
+    if (kRingSize - (head - tail) < n) return false;
+    for (std::size_t i = 0; i < n; ++i) ring_[(head + i) & (kRingSize - 1)] = data[i];
+    ring_head_.store(head + n, std::memory_order_release);
+    return true;
+}
+
+void LibusbFtdiTransport::on_in_done(libusb_transfer* transfer) {
+    auto* self = static_cast<LibusbFtdiTransport*>(transfer->user_data);
+    switch (transfer->status) {
+        case LIBUSB_TRANSFER_COMPLETED: {
+            std::array<std::uint8_t, 512> payload{};
+            const std::size_t n = ftdi::strip_ftdi_status(transfer->buffer, static_cast<std::size_t>(transfer->actual_length),
+                                                          payload.data());
+            if (n > 0 && !self->ring_push(payload.data(), n)) self->ring_overflows_.fetch_add(1, std::memory_order_relaxed);
+            if (!self->stop_.load() && libusb_submit_transfer(transfer) == 0) return;  // keep one IN in flight
+            if (!self->stop_.load()) self->fail_stream(TransportStatus::Disconnected);
+            break;
+        }
+        case LIBUSB_TRANSFER_CANCELLED: break;
+        case LIBUSB_TRANSFER_NO_DEVICE: self->fail_stream(TransportStatus::Disconnected); break;
+        case LIBUSB_TRANSFER_TIMED_OUT:
+            if (!self->stop_.load() && libusb_submit_transfer(transfer) == 0) return;
+            self->fail_stream(TransportStatus::Error);
+            break;
+        default: self->fail_stream(TransportStatus::Error); break;  // STALL, ERROR, OVERFLOW
+    }
+    self->in_active_.store(false);
+}
+
+void LibusbFtdiTransport::on_out_done(libusb_transfer* transfer) {
+    auto* self = static_cast<LibusbFtdiTransport*>(transfer->user_data);
+    switch (transfer->status) {
+        case LIBUSB_TRANSFER_COMPLETED:
+        case LIBUSB_TRANSFER_CANCELLED: break;
+        case LIBUSB_TRANSFER_NO_DEVICE: self->fail_stream(TransportStatus::Disconnected); break;
+        case LIBUSB_TRANSFER_TIMED_OUT: self->fail_stream(TransportStatus::Timeout); break;
+        default: self->fail_stream(TransportStatus::Error); break;
+    }
+    self->out_active_.store(false);
+    if (!self->stop_.load()) self->submit_out_if_due();  // a newer command may be waiting
+}
+
+TransportStatus LibusbFtdiTransport::post(std::span<const std::uint8_t> data, bool& replaced) noexcept {
+    replaced = false;
+    if (!streaming_) return write(data, 1).status;
+    if (const int s = stream_status_.load(std::memory_order_acquire); s != 0) return static_cast<TransportStatus>(s);
+    if (data.size() != kPacketBytes) return TransportStatus::Error;
+    // The previous command was not submitted yet: it is overwritten (counted by the caller as late).
+    replaced = sent_seq_.load(std::memory_order_acquire) != posted_seq_;
+    std::array<std::uint64_t, 2> words{};
+    std::memcpy(words.data(), data.data(), kPacketBytes);
+    const std::uint32_t seq = posted_seq_;
+    mailbox_seq_.store(seq + 1, std::memory_order_relaxed);  // odd: writing
+    std::atomic_thread_fence(std::memory_order_release);
+    mailbox_[0].store(words[0], std::memory_order_relaxed);
+    mailbox_[1].store(words[1], std::memory_order_relaxed);
+    mailbox_seq_.store(seq + 2, std::memory_order_release);
+    posted_seq_ = seq + 2;
+    const std::uint64_t one = 1;
+    [[maybe_unused]] const ssize_t w = ::write(wake_fd_, &one, sizeof one);  // eventfd: never blocks (EFD_NONBLOCK)
+    return TransportStatus::Ok;
+}
+
+TransportResult LibusbFtdiTransport::poll(std::span<std::uint8_t> buffer) noexcept {
+    if (!streaming_) return read(buffer, 1);
+    const std::size_t tail = ring_tail_.load(std::memory_order_relaxed);
+    const std::size_t head = ring_head_.load(std::memory_order_acquire);
+    const std::size_t n = std::min(buffer.size(), head - tail);
+    for (std::size_t i = 0; i < n; ++i) buffer[i] = ring_[(tail + i) & (kRingSize - 1)];
+    ring_tail_.store(tail + n, std::memory_order_release);
+    if (n == 0) {
+        if (const int s = stream_status_.load(std::memory_order_acquire); s != 0) {
+            return {static_cast<TransportStatus>(s), 0};
+        }
+    }
     return {TransportStatus::Ok, n};
 }
 

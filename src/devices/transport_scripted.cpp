@@ -32,6 +32,7 @@ TransportResult ScriptedTransport::read(std::span<std::uint8_t> buffer, int /*ti
         error_ = "scripted: disconnected";
         return {TransportStatus::Disconnected, 0};
     }
+    if (on_read) on_read(*this);
     const std::size_t n = std::min({buffer.size(), rx.size(), max_read_chunk});
     for (std::size_t i = 0; i < n; ++i) {
         buffer[i] = rx.front();

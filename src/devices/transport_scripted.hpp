@@ -33,6 +33,7 @@ public:
     std::vector<std::vector<std::uint8_t>> writes;  // every write, in order
     std::deque<std::uint8_t> rx;                    // payload bytes the next reads return
     Responder on_write;                             // called after each write
+    std::function<void(ScriptedTransport&)> on_read;  // called before each read (e.g. a slow device)
     std::size_t max_read_chunk = 62;                // payload bytes per read (one FTDI packet)
     bool disconnected = false;                      // every call fails with Disconnected
     long fail_control_at = -1;                      // the control request with this index fails (Error)

@@ -2,7 +2,9 @@
 // torques and their clamping, malformed packets, disconnects.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -50,7 +52,16 @@ TEST_F(FalconDeviceTest, RunningFirmwareIsDetectedAndHomingGatesForce) {
     EXPECT_NE(notices.front().find("pull the grip all the way out"), std::string::npos);
     // Every homing packet had the homing bit and the red LED; afterwards the LED is green.
     for (const auto& c : fake.commands) EXPECT_TRUE(c.homing_mode);
-    EXPECT_EQ(fake.commands.back().leds, falcon::kLedRed);
+    // Red while homing (after the firmware probe's LED-less packets), green once homed.
+    const auto first_lit = std::find_if(fake.commands.begin(), fake.commands.end(), [](const auto& c) { return c.leds != 0; });
+    ASSERT_NE(first_lit, fake.commands.end());
+    EXPECT_EQ(first_lit->leds, falcon::kLedRed);
+    EXPECT_EQ(fake.commands.back().leds, falcon::kLedGreen);
+    // Then the grip had to be pulled out before forces (libnifalcon FalconCubeTest.cpp: z > 0.170 m).
+    bool asked_to_pull_out = false;
+    for (const auto& n : notices) asked_to_pull_out = asked_to_pull_out || n.find("pull the grip out towards you") != std::string::npos;
+    EXPECT_TRUE(asked_to_pull_out);
+    for (const auto& c : fake.commands) EXPECT_EQ(c.torque, (std::array<std::int16_t, 3>{0, 0, 0}));
     EXPECT_EQ(dev.write_force({0.0, 0.0, 0.0}), DeviceStatus::Ok);
     EXPECT_EQ(fake.commands.back().leds, falcon::kLedGreen);
     EXPECT_TRUE(fake.commands.back().homing_mode);
@@ -94,6 +105,52 @@ TEST_F(FalconDeviceTest, HomingTimesOutWithInstructions) {
     EXPECT_NE(dev.last_error().find("motor(s) 2 not homed"), std::string::npos) << dev.last_error();
     EXPECT_EQ(dev.write_force({0.0, 0.0, 1.0}), DeviceStatus::NotHomed);
     EXPECT_EQ(fake.commands.back().torque, (std::array<std::int16_t, 3>{0, 0, 0}));
+}
+
+// After homing the grip sits at the homing pose (pushed in); no force until it has been pulled out.
+TEST_F(FalconDeviceTest, ForcesOnlyAfterTheGripLeftTheHomingPose) {
+    fake.firmware_running = true;
+    fake.packets_until_pulled_out = 40;
+    FalconDevice dev(config());
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok);
+    ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
+    // 40 packets after the homed flags the encoders moved to z = 0.175 m: home() waited for them, with
+    // zero torque throughout.
+    ASSERT_GE(fake.commands.size(), 40U);
+    for (const auto& c : fake.commands) EXPECT_EQ(c.torque, (std::array<std::int16_t, 3>{0, 0, 0}));
+    AxisVector pos{};
+    ASSERT_EQ(dev.write_force({}), DeviceStatus::Ok);
+    ASSERT_EQ(dev.read_position(pos), DeviceStatus::Ok);
+    EXPECT_NEAR(pos[2], 0.175 - 0.125, 1e-4);  // 1e-4 m: encoder quantisation (~4e-5 m per count here)
+}
+
+TEST_F(FalconDeviceTest, GripNeverPulledOutMeansNoForceAndAClearError) {
+    fake.firmware_running = true;
+    fake.packets_until_pulled_out = -1;
+    FalconDevice dev(config());
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok);
+    EXPECT_EQ(dev.home(), DeviceStatus::NotHomed);
+    EXPECT_NE(dev.last_error().find("not pulled out"), std::string::npos) << dev.last_error();
+    for (const auto& c : fake.commands) EXPECT_EQ(c.torque, (std::array<std::int16_t, 3>{0, 0, 0}));
+}
+
+// libnifalcon (FalconCLIBase.cpp) tries the firmware upload 10 times; hapticd reopens the device between
+// attempts. Here the first 4 attempts get a corrupted echo.
+TEST_F(FalconDeviceTest, FirmwareUploadIsRetriedWithAReopen) {
+    const auto path = std::filesystem::temp_directory_path() / "hapticd_test_falcon_fw_retry.bin";
+    {
+        std::ofstream out(path, std::ios::binary);
+        for (int i = 0; i < 200; ++i) out.put(static_cast<char>(i * 3));
+    }
+    fake.firmware_size = 200;
+    fake.corrupt_echo_attempts = 4;
+    FalconDeviceConfig c = config();
+    c.firmware_path = path.string();
+    FalconDevice dev(c);
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
+    EXPECT_EQ(fake.upload_attempts, 5);
+    EXPECT_EQ(fake.opens, 5);  // the first open, then one reopen before each of attempts 2..5
+    std::filesystem::remove(path);
 }
 
 TEST_F(FalconDeviceTest, HomingCanBeInterrupted) {
@@ -151,6 +208,62 @@ TEST_F(HomedFalcon, ForceAlongZGivesEqualTorquesAndIsClamped) {
     // Non-finite: refused, zero torque sent.
     EXPECT_EQ(dev->write_force({NAN, 0.0, 0.0}), DeviceStatus::InvalidArgument);
     EXPECT_EQ(fake.commands.back().torque, (std::array<std::int16_t, 3>{0, 0, 0}));
+}
+
+// What the Falcon can really give: with the protocol's +-4096 torque commands (libnifalcon
+// FalconKinematic.h "Force values are capped at 4096"), a force along one axis at the workspace centre
+// is limited below the profile's max_force of 9 N on some axes; the driver then scales the whole force
+// down (direction kept). Checked the second way: the force delivered by the commanded torques,
+// F = A^T tau with A = d theta / d p from central differences of the inverse kinematics (h = 1e-6 m,
+// error O(h^2) ~ 1e-10), must point along the requested axis and equal the scaled magnitude.
+// Tolerance 0.02 N: torque commands are rounded to whole counts (0.5 / 10000 N m per motor) times
+// |A| < 40 rad/m, i.e. < 0.002 N per motor.
+TEST_F(HomedFalcon, TorqueLimitGivesLessThanMaxForceAtTheCentreAndKeepsTheDirection) {
+    const falcon::Geometry g = falcon::Geometry::published();
+    const falcon::Vec3 centre{0.0, 0.0, 0.125};
+    fake.status.encoder = FakeFalcon::encoders_at(centre);
+    AxisVector pos{};
+    for (int i = 0; i < 3; ++i) {  // a few packets for the Newton iteration to settle on the new pose
+        ASSERT_EQ(dev->write_force({}), DeviceStatus::Ok);
+        ASSERT_EQ(dev->read_position(pos), DeviceStatus::Ok);
+    }
+    falcon::Vec3 p{pos[0] + 0.0, pos[1] + 0.0, pos[2] + 0.125};
+    falcon::Mat3 A{};
+    const double h = 1e-6;
+    for (std::size_t k = 0; k < 3; ++k) {
+        falcon::Vec3 plus = p, minus = p, tp{}, tm{};
+        plus[k] += h;
+        minus[k] -= h;
+        ASSERT_TRUE(falcon::inverse_kinematics(plus, g, tp));
+        ASSERT_TRUE(falcon::inverse_kinematics(minus, g, tm));
+        for (std::size_t i = 0; i < 3; ++i) A[i][k] = (tp[i] - tm[i]) / (2 * h);
+    }
+    const char* names = "xyz";
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+        AxisVector f{};
+        f[axis] = 100.0;  // far beyond max_force = 9 N
+        ASSERT_EQ(dev->write_force(f), DeviceStatus::Ok);
+        const auto cmd = fake.commands.back().torque;
+        falcon::Vec3 tau{};
+        for (std::size_t i = 0; i < 3; ++i) tau[i] = cmd[i] / g.torque_to_command;
+        falcon::Vec3 delivered{};
+        for (std::size_t k = 0; k < 3; ++k) delivered[k] = A[0][k] * tau[0] + A[1][k] * tau[1] + A[2][k] * tau[2];
+        int largest = 0;
+        for (auto c : cmd) largest = std::max(largest, std::abs(static_cast<int>(c)));
+        const double along = delivered[axis];
+        std::printf("MEASURED falcon max force along %c at the centre: %.2f N (largest motor command %d of 4096)\n",
+                    names[axis], along, largest);
+        EXPECT_GT(along, 0.0);
+        EXPECT_LE(along, 9.0 + 0.02);
+        if (along < 9.0 - 0.02) {
+            EXPECT_GE(largest, falcon::kMaxTorqueCommand - 1);  // limited by the motors
+        }
+        for (std::size_t k = 0; k < 3; ++k) {
+            if (k != axis) {
+                EXPECT_NEAR(delivered[k], 0.0, 0.02) << "axis " << axis << " component " << k;
+            }
+        }
+    }
 }
 
 TEST_F(HomedFalcon, MalformedPacketsAreCountedAndNeverUsed) {
@@ -231,6 +344,7 @@ TEST_F(HomedFalcon, LoopRendersTheWallThenStopsCleanlyOnUnplug) {
     cfg.watchdog_enabled = false;
     cfg.trace_axis = 2;
     Daemon daemon(*dev, scene, nullptr, cfg);
+    fake.status.encoder = {0, 0, 0};
     ASSERT_EQ(dev->write_force({}), DeviceStatus::Ok);  // the first status packet
     const RunResult r = daemon.run();
     EXPECT_EQ(r.fault, Fault::Device);

@@ -90,6 +90,39 @@ TEST(FalconFirmware, PersistentEchoMismatchEndsWithAClearError) {
     EXPECT_NE(r.message.find("echo mismatch at firmware byte 70"), std::string::npos) << r.message;
 }
 
+// The FTDI chip answers reads with status-only packets (no payload) every 16 ms while the loader
+// works; libnifalcon's loadFirmware() keeps reading. 20 empty reads per chunk (0.32 s at 16 ms) are
+// waited through; the old limit was 3 per chunk, cumulative.
+TEST(FalconFirmware, SlowLoaderIsWaitedFor) {
+    Fixture f;
+    f.falcon.empty_reads_before_echo = 20;
+    const auto img = image(300);  // 5 chunks
+    f.falcon.firmware_size = img.size();
+    const FirmwareUploadResult r = upload_firmware(f.t, img);
+    ASSERT_TRUE(r.ok) << r.message;
+    EXPECT_EQ(r.attempts_used, 1);
+    EXPECT_EQ(f.falcon.empty_reads_served, 5 * 20);
+}
+
+TEST(FalconFirmware, LoaderThatStopsEchoingTimesOutAfterThePatience) {
+    Fixture f;
+    f.falcon.empty_reads_before_echo = 1'000'000;  // never within the limit below
+    FirmwareUploadConfig cfg;
+    cfg.attempts = 1;
+    cfg.max_consecutive_empty_reads = 50;
+    const FirmwareUploadResult r = upload_firmware(f.t, image(100), cfg);
+    EXPECT_FALSE(r.ok);
+    EXPECT_EQ(r.stage, FirmwareStage::Upload);  // the sync 'A' is answered; the first chunk's echo never comes
+    EXPECT_EQ(r.transport, TransportStatus::Timeout);
+    EXPECT_EQ(f.falcon.empty_reads_served, 51);
+}
+
+TEST(FalconFirmware, DefaultsFollowLibnifalcon) {
+    const FirmwareUploadConfig cfg;
+    EXPECT_EQ(cfg.handshake_tries, 100);  // FalconCommLibUSB.cpp setFirmwareMode()
+    EXPECT_EQ(cfg.attempts, 10);          // FalconCLIBase.cpp loadFirmware(10, ...)
+}
+
 TEST(FalconFirmware, SilentLoaderFailsInTheHandshake) {
     Fixture f;
     f.falcon.answer_handshake = false;

@@ -60,10 +60,26 @@ TEST(FalconProtocol, MalformedStatusIsRejected) {
     EXPECT_FALSE(decode_status(bytes("(AAAAAAAAAAAAAA>"), st));  // no start marker
     EXPECT_FALSE(decode_status(bytes("<AAAAQAAAAAAAAA>"), st));  // 'Q' = 0x51 is not a nibble byte
     EXPECT_FALSE(decode_status(bytes("<AAAA@AAAAAAAAA>"), st));  // '@' = 0x40 below 'A'
+    EXPECT_FALSE(decode_status(bytes("<AAAAAAAAAAAA>A>"), st));  // a frame character in byte 13
+}
+
+// Bytes 13 and 14 carry values outside 'A'..'P' on real Falcons; libnifalcon (FalconFirmwareNovintSDK.cpp
+// formatOutput()) accepts them and decodes byte 13 as ((b - 0x41) >> 4) & 7 / (b - 0x41) & 0x0f.
+TEST(FalconProtocol, Bytes13And14AreToleratedAsLibnifalconDoes) {
+    Status st;
     std::string high = "<AAAAAAAAAAAA";
-    high += static_cast<char>(0xC1);  // above 0x41 + 0x7F
-    high += "A>";
-    EXPECT_FALSE(decode_status(bytes(high), st));
+    high += static_cast<char>(0xC1);  // 0xC1 - 0x41 = 0x80: homed bits 0, grip 0 (the 0x80 bit is dropped)
+    high += static_cast<char>(0x20);  // byte 14: any value
+    high += ">";
+    ASSERT_TRUE(decode_status(bytes(high), st));
+    EXPECT_EQ(st.homed_mask, 0);
+    EXPECT_EQ(st.buttons, 0);
+    std::string low = "<AAAAAAAAAAAA";
+    low += static_cast<char>(0x30);  // (0x30 - 0x41) mod 256 = 0xEF: homed (0xE & 7) = 6, grip 0xF
+    low += "Z>";
+    ASSERT_TRUE(decode_status(bytes(low), st));
+    EXPECT_EQ(st.homed_mask, 6);
+    EXPECT_EQ(st.buttons, 0xF);
 }
 
 TEST(FalconProtocol, StatusRoundTripOverRandomValues) {

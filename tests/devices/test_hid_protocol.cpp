@@ -1,120 +1,173 @@
-// HID PID report encoding/decoding. Layouts: OpenFFBoard ffb_defs.h (reportHID_t: id 1, 4 button bytes,
-// int16 X at offset 5; FFB_SetConstantForce_Data_t: id 5, block, int16 magnitude; FFB_SetEffect_t) and
-// the USB HID PID 1.0 usage values (effect operation, device control, block load status).
+// HID PID reports laid out from the report descriptor (hid_report_descriptor.hpp, hid_ffb_protocol.hpp)
+// against an OpenFFBoard-like descriptor (pid_descriptor.hpp). Expected bytes are worked out by hand from
+// the descriptor's items (field order, sizes, logical ranges); the parser is the second way to the same
+// numbers.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "devices/hid_ffb_protocol.hpp"
+#include "pid_descriptor.hpp"
 
 namespace hapticd::hid {
 namespace {
 
-Layout openffboard() {
+struct Pid {
+    explicit Pid(bool axes_32_bit = false) {
+        const std::vector<std::uint8_t> d = test::openffboard_like_descriptor(axes_32_bit);
+        ok = build_pid_layout(d.data(), d.size(), layout, error);
+    }
+    PidLayout layout;
+    std::string error;
+    bool ok = false;
+};
+
+Layout scaling() {
     Layout l;
     l.position_scale = 0.001;  // units per count, for the test
     l.force_scale = 1000.0;    // counts per N
     return l;
 }
 
-TEST(HidProtocol, DecodesTheSignedXAxisOfTheInputReport) {
-    // X = -2 = 0xFFFE little-endian at bytes 5, 6.
-    const std::vector<std::uint8_t> report{0x01, 0x00, 0x00, 0x00, 0x00, 0xFE, 0xFF, 0x34, 0x12};
-    double p = 0.0;
-    ASSERT_TRUE(decode_position(report.data(), report.size(), openffboard(), p));
-    EXPECT_DOUBLE_EQ(p, -0.002);
-    // X = 0x1234 = 4660 when the axis is the next field.
-    Layout l = openffboard();
-    l.position_offset = 7;
-    ASSERT_TRUE(decode_position(report.data(), report.size(), l, p));
-    EXPECT_DOUBLE_EQ(p, 4.660);
+std::vector<std::uint8_t> bytes(const Report& r) { return {r.bytes.begin(), r.bytes.begin() + static_cast<long>(r.size)}; }
+
+TEST(HidDescriptor, ReportSizesAndTheXAxisComeFromTheDescriptor) {
+    Pid p;
+    ASSERT_TRUE(p.ok) << p.error;
+    EXPECT_TRUE(p.layout.ids);
+    EXPECT_EQ(p.layout.input_id, 1);
+    EXPECT_EQ(p.layout.input_bytes, 13U);             // 1 + 64 bits + 2 x 16 bits
+    EXPECT_EQ(p.layout.position->bit_offset, 64U);    // after the 64 button bits: byte 9 with the id byte
+    EXPECT_EQ(p.layout.position->bit_size, 16U);
+    EXPECT_EQ(p.layout.set_effect_bytes, 22U);        // not 16: the default 2-axis descriptor
+    EXPECT_EQ(p.layout.constant_bytes, 4U);
+    EXPECT_EQ(p.layout.cf_magnitude->logical_min, -32767);
+    EXPECT_EQ(p.layout.cf_magnitude->logical_max, 32767);
+    Pid wide(true);
+    ASSERT_TRUE(wide.ok) << wide.error;
+    EXPECT_EQ(wide.layout.input_bytes, 17U);
+    EXPECT_EQ(wide.layout.position->bit_size, 32U);
 }
 
-TEST(HidProtocol, UnsignedOneAndFourByteAxesWithZeroOffset) {
-    Layout l = openffboard();
-    l.position_signed = false;
-    l.position_bytes = 1;
-    l.position_offset = 1;
-    l.position_zero = 128.0;
-    l.position_scale = 0.5;
-    const std::vector<std::uint8_t> r1{0x01, 0xFF};
-    double p = 0.0;
-    ASSERT_TRUE(decode_position(r1.data(), r1.size(), l, p));
-    EXPECT_DOUBLE_EQ(p, (255.0 - 128.0) * 0.5);
-    l.position_bytes = 4;
-    l.position_signed = true;
-    l.position_zero = 0.0;
-    l.position_scale = 1.0;
-    const std::vector<std::uint8_t> r4{0x01, 0xFE, 0xFF, 0xFF, 0xFF};  // -2 as int32
-    ASSERT_TRUE(decode_position(r4.data(), r4.size(), l, p));
-    EXPECT_DOUBLE_EQ(p, -2.0);
+TEST(HidDescriptor, PositionIsReadAtByte9ForBoth16And32BitAxes) {
+    Pid p;
+    ASSERT_TRUE(p.ok) << p.error;
+    // Buttons all set (bytes 1..8 = 0xFF: reading X inside them would give -1), X = -2 at bytes 9, 10.
+    std::vector<std::uint8_t> r{0x01, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFE, 0xFF, 0x34, 0x12};
+    double x = 0.0;
+    ASSERT_TRUE(decode_position(r.data(), r.size(), p.layout, scaling(), x));
+    EXPECT_DOUBLE_EQ(x, -0.002);
+    EXPECT_FALSE(decode_position(r.data(), 10, p.layout, scaling(), x));  // cut inside X
+    r[0] = 0x02;
+    EXPECT_FALSE(decode_position(r.data(), r.size(), p.layout, scaling(), x));  // another report
+    Pid wide(true);
+    ASSERT_TRUE(wide.ok);
+    const std::vector<std::uint8_t> r32{0x01, 0, 0, 0, 0, 0, 0, 0, 0, 0x40, 0x42, 0x0F, 0x00, 0, 0, 0, 0};  // 1e6
+    ASSERT_TRUE(decode_position(r32.data(), r32.size(), wide.layout, scaling(), x));
+    EXPECT_DOUBLE_EQ(x, 1000.0);
 }
 
-TEST(HidProtocol, WrongIdOrShortReportIsRejected) {
-    double p = 42.0;
-    const std::vector<std::uint8_t> wrong_id{0x02, 0, 0, 0, 0, 1, 0};
-    const std::vector<std::uint8_t> too_short{0x01, 0, 0, 0, 0, 1};
-    EXPECT_FALSE(decode_position(wrong_id.data(), wrong_id.size(), openffboard(), p));
-    EXPECT_FALSE(decode_position(too_short.data(), too_short.size(), openffboard(), p));
-    EXPECT_FALSE(decode_position(too_short.data(), 0, openffboard(), p));
-    EXPECT_EQ(p, 42.0);
+TEST(HidReports, SetEffectHasDirectionEnableAnd90DegreesAndTheDescriptorLength) {
+    Pid p;
+    ASSERT_TRUE(p.ok) << p.error;
+    // id, block 3, type 1 (ET Constant Force is the first of the array, logical minimum 1), duration
+    // 0xFFFF, trigger repeat 0, sample period 0, start delay 0, gain 255 (its logical maximum), trigger
+    // button 0, then bit 0 = X enabled, bit 1 = Y off, bit 2 = Direction Enable -> 0x05, direction
+    // instance 1 = 36000 / 4 = 9000 = 0x2328, instance 2 = 0, type-specific offsets 0.
+    const std::vector<std::uint8_t> expected{0x01, 0x03, 0x01, 0xFF, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+                                             0xFF, 0x00, 0x05, 0x28, 0x23, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};
+    EXPECT_EQ(bytes(encode_set_effect(3, p.layout)), expected);
 }
 
-TEST(HidProtocol, ConstantForceReportKnownBytes) {
-    bool sat = true;
-    // 1.5 N * 1000 = 1500 = 0x05DC -> DC 05.
-    EXPECT_EQ(encode_constant_force(1.5, 1, openffboard(), sat), (std::array<std::uint8_t, 4>{0x05, 0x01, 0xDC, 0x05}));
-    EXPECT_FALSE(sat);
-    // -1.5 N -> -1500 = 0xFA24 -> 24 FA.
-    EXPECT_EQ(encode_constant_force(-1.5, 3, openffboard(), sat), (std::array<std::uint8_t, 4>{0x05, 0x03, 0x24, 0xFA}));
-    // 20 N -> 20000 counts, clamped to the logical maximum 10000 = 0x2710 -> 10 27.
-    EXPECT_EQ(encode_constant_force(20.0, 1, openffboard(), sat), (std::array<std::uint8_t, 4>{0x05, 0x01, 0x10, 0x27}));
-    EXPECT_TRUE(sat);
-    // -10000 = 0xD8F0 -> F0 D8.
-    EXPECT_EQ(encode_constant_force(-1e9, 1, openffboard(), sat), (std::array<std::uint8_t, 4>{0x05, 0x01, 0xF0, 0xD8}));
-    // Non-finite: zero force.
-    EXPECT_EQ(encode_constant_force(NAN, 1, openffboard(), sat), (std::array<std::uint8_t, 4>{0x05, 0x01, 0x00, 0x00}));
+TEST(HidReports, ConstantForceUsesTheMagnitudeRangeOfTheDescriptor) {
+    Pid p;
+    ASSERT_TRUE(p.ok);
+    bool saturated = true;
+    // -1.5 N * 1000 counts/N = -1500 = 0xFA24.
+    EXPECT_EQ(bytes(encode_constant_force(-1.5, 2, p.layout, scaling(), saturated)),
+              (std::vector<std::uint8_t>{0x05, 0x02, 0x24, 0xFA}));
+    EXPECT_FALSE(saturated);
+    // 20 N -> 20000 counts: inside +-32767 (it was clamped at 10000 before).
+    EXPECT_EQ(bytes(encode_constant_force(20.0, 2, p.layout, scaling(), saturated)),
+              (std::vector<std::uint8_t>{0x05, 0x02, 0x20, 0x4E}));
+    EXPECT_FALSE(saturated);
+    // 40 N -> clamped to 32767 = 0x7FFF; -40 N -> -32767 = 0x8001.
+    EXPECT_EQ(bytes(encode_constant_force(40.0, 2, p.layout, scaling(), saturated)),
+              (std::vector<std::uint8_t>{0x05, 0x02, 0xFF, 0x7F}));
+    EXPECT_TRUE(saturated);
+    EXPECT_EQ(bytes(encode_constant_force(-40.0, 2, p.layout, scaling(), saturated)),
+              (std::vector<std::uint8_t>{0x05, 0x02, 0x01, 0x80}));
+    EXPECT_EQ(bytes(encode_constant_force(NAN, 2, p.layout, scaling(), saturated)),
+              (std::vector<std::uint8_t>{0x05, 0x02, 0x00, 0x00}));
 }
 
-TEST(HidProtocol, ConstantForceRoundTrip) {
-    const Layout l = openffboard();
-    for (int counts = -10000; counts <= 10000; counts += 7) {
-        bool sat = false;
-        const auto r = encode_constant_force(counts / 1000.0, 1, l, sat);
-        const auto back = static_cast<std::int16_t>(static_cast<std::uint16_t>(r[2] | (r[3] << 8)));
-        ASSERT_EQ(back, counts);
-        ASSERT_FALSE(sat);
-    }
-}
-
-TEST(HidProtocol, EffectSetUpReports) {
-    const Layout l = openffboard();
-    EXPECT_EQ(encode_create_effect(l), (std::array<std::uint8_t, 4>{0x11, 0x01, 0x00, 0x00}));
-    EXPECT_EQ(encode_effect_operation(2, EffectOperation::Start, l), (std::array<std::uint8_t, 4>{0x0A, 0x02, 0x01, 0x01}));
-    EXPECT_EQ(encode_effect_operation(2, EffectOperation::Stop, l), (std::array<std::uint8_t, 4>{0x0A, 0x02, 0x03, 0x01}));
-    EXPECT_EQ(encode_device_control(DeviceControl::EnableActuators, l), (std::array<std::uint8_t, 2>{0x0C, 0x01}));
-    EXPECT_EQ(encode_block_free(2, l), (std::array<std::uint8_t, 2>{0x0B, 0x02}));
-    const auto set = encode_set_effect(2, l);
-    EXPECT_EQ(set[0], 0x01);  // Set Effect report id
-    EXPECT_EQ(set[1], 0x02);  // block
-    EXPECT_EQ(set[2], 0x01);  // constant force
-    EXPECT_EQ(set[3], 0xFF);  // duration 0xFFFF: infinite
-    EXPECT_EQ(set[4], 0xFF);
-    EXPECT_EQ(set[11], 0xFF);  // gain
-    EXPECT_EQ(set[13], 0x01);  // X axis enabled
-}
-
-TEST(HidProtocol, BlockLoadReport) {
-    const Layout l = openffboard();
+TEST(HidReports, ControlGainOperationAndBlockLoad) {
+    Pid p;
+    ASSERT_TRUE(p.ok);
+    // Device Control array: Enable 0x97 -> 1, Disable 2, Stop All 3, Reset 0x9A -> 4.
+    EXPECT_EQ(bytes(encode_device_control(DeviceControl::Reset, p.layout)), (std::vector<std::uint8_t>{0x0C, 4}));
+    EXPECT_EQ(bytes(encode_device_control(DeviceControl::StopAll, p.layout)), (std::vector<std::uint8_t>{0x0C, 3}));
+    EXPECT_EQ(bytes(encode_device_control(DeviceControl::EnableActuators, p.layout)), (std::vector<std::uint8_t>{0x0C, 1}));
+    EXPECT_EQ(bytes(encode_device_gain(1.0, p.layout)), (std::vector<std::uint8_t>{0x0D, 0xFF}));
+    // Effect Operation: block, Start = 1 / Stop = 3, loop count 1.
+    EXPECT_EQ(bytes(encode_effect_operation(7, EffectOperation::Start, p.layout)), (std::vector<std::uint8_t>{0x0A, 7, 1, 1}));
+    EXPECT_EQ(bytes(encode_effect_operation(7, EffectOperation::Stop, p.layout)), (std::vector<std::uint8_t>{0x0A, 7, 3, 1}));
+    EXPECT_EQ(bytes(encode_block_free(7, p.layout)), (std::vector<std::uint8_t>{0x0B, 7}));
+    EXPECT_EQ(bytes(encode_create_effect(p.layout)), (std::vector<std::uint8_t>{0x11, 1, 0, 0}));
     std::uint8_t block = 0;
-    const std::vector<std::uint8_t> ok{0x12, 0x03, 0x01, 0x28, 0x00};
-    ASSERT_TRUE(decode_block_load(ok.data(), ok.size(), l, block));
-    EXPECT_EQ(block, 3);
-    const std::vector<std::uint8_t> full{0x12, 0x03, 0x02, 0x00, 0x00};
-    EXPECT_FALSE(decode_block_load(full.data(), full.size(), l, block));
-    const std::vector<std::uint8_t> wrong{0x13, 0x03, 0x01};
-    EXPECT_FALSE(decode_block_load(wrong.data(), wrong.size(), l, block));
+    const std::vector<std::uint8_t> ok{0x12, 0x05, 0x01, 0x00, 0x10};
+    ASSERT_TRUE(decode_block_load(ok.data(), ok.size(), p.layout, block));
+    EXPECT_EQ(block, 5);
+    const std::vector<std::uint8_t> full{0x12, 0x05, 0x02, 0x00, 0x00};
+    block = 0;
+    EXPECT_FALSE(decode_block_load(full.data(), full.size(), p.layout, block));
+    EXPECT_EQ(block, 0);
+}
+
+TEST(HidDescriptor, MalformedDescriptorsAreRefusedWithTheOffset) {
+    ReportDescriptor d;
+    std::string error;
+    const std::vector<std::uint8_t> truncated{0x05, 0x01, 0x26, 0xFF};  // Logical Maximum needs 2 bytes
+    EXPECT_FALSE(parse_report_descriptor(truncated.data(), truncated.size(), d, error));
+    EXPECT_NE(error.find("byte 2"), std::string::npos) << error;
+    const std::vector<std::uint8_t> open_collection{0x05, 0x01, 0x09, 0x04, 0xA1, 0x01};
+    EXPECT_FALSE(parse_report_descriptor(open_collection.data(), open_collection.size(), d, error));
+    EXPECT_NE(error.find("not closed"), std::string::npos) << error;
+    const std::vector<std::uint8_t> pop{0xB4};
+    EXPECT_FALSE(parse_report_descriptor(pop.data(), pop.size(), d, error));
+    const std::vector<std::uint8_t> huge_size{0x75, 0x40};  // Report Size 64
+    EXPECT_FALSE(parse_report_descriptor(huge_size.data(), huge_size.size(), d, error));
+    EXPECT_NE(error.find("1..32"), std::string::npos) << error;
+    // A keyboard: parses, but has no PID reports.
+    const std::vector<std::uint8_t> keyboard{0x05, 0x01, 0x09, 0x06, 0xA1, 0x01, 0x05, 0x07, 0x19, 0xE0, 0x29, 0xE7,
+                                             0x15, 0x00, 0x25, 0x01, 0x75, 0x01, 0x95, 0x08, 0x81, 0x02, 0xC0};
+    PidLayout p;
+    EXPECT_FALSE(build_pid_layout(keyboard.data(), keyboard.size(), p, error));
+    EXPECT_NE(error.find("X axis"), std::string::npos) << error;
+}
+
+TEST(HidDescriptor, FieldsRoundTripAtAnyBitOffset) {
+    // put_field/get_field against a bit-by-bit reference: a 13-bit signed field at bit 5.
+    ReportField f;
+    f.bit_offset = 5;
+    f.bit_size = 13;
+    f.logical_min = -4096;
+    f.logical_max = 4095;
+    for (std::int64_t v : {-4096L, -1L, 0L, 1L, 1234L, 4095L}) {
+        std::array<std::uint8_t, 4> r{0xAA, 0xAA, 0xAA, 0xAA};
+        put_field(r.data(), r.size(), f, true, v);
+        for (int bit = 0; bit < 32; ++bit) {
+            const bool inside = bit >= 13 && bit < 26;  // 8 (id byte) + 5 .. + 13
+            const bool expected = inside ? ((static_cast<std::uint64_t>(v) >> (bit - 13)) & 1U) != 0
+                                         : ((0xAAU >> (bit % 8)) & 1U) != 0;
+            EXPECT_EQ(((r[static_cast<std::size_t>(bit / 8)] >> (bit % 8)) & 1U) != 0, expected) << "v " << v << " bit " << bit;
+        }
+        std::int64_t back = 0;
+        ASSERT_TRUE(get_field(r.data(), r.size(), f, true, back));
+        EXPECT_EQ(back, v);
+    }
 }
 
 }  // namespace
