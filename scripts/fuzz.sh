@@ -26,7 +26,7 @@ declare -A sources=(
   [config_file]="src/config/config_file.cpp"
   [falcon_frames]="src/devices/falcon_protocol.cpp"
   [ftdi_strip]="src/devices/ftdi_protocol.cpp"
-  [hid_reports]="src/devices/hid_ffb_protocol.cpp"
+  [hid_reports]="src/devices/hid_ffb_protocol.cpp src/devices/hid_report_descriptor.cpp"
 )
 out=build/fuzz
 mkdir -p "$out/artifacts"
