@@ -11,9 +11,16 @@
 Goal: vectorised >= 100x faster per point than the scipy reference. Run (docs/python.md):
   build/py-venv/bin/python python/benchmarks/bench_costs.py --cpp build/py/tests/benchmarks/hapticopt_benchmarks
 Times are medians over repetitions of CPU time per point (time.process_time; the C++ figures are
-Google Benchmark's cpu_time medians).
+Google Benchmark's cpu_time medians); BLAS limited to one thread.
 """
 from __future__ import annotations
+
+import os
+
+# One core for every contender (the C++ benchmark is single-threaded): a multi-threaded BLAS would
+# add its threads' spinning to scipy's CPU time. Set before numpy loads its BLAS.
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
 
 import argparse
 import json
