@@ -109,3 +109,20 @@ def test_optimal_curves_are_minima_over_beta(criterion):
         # coarse scan of the stable interval (<= allows OV's flat zero-overshoot intervals).
         for other in (beta - 1e-3, beta + 1e-3, *np.linspace(lo, hi, 41)[1:-1]):
             assert c <= ho.cost(criterion, a, other, PLANT) * (1 + 1e-12), (a, beta, other)
+
+
+@pytest.mark.parametrize("criterion", ["CE2", "OV", "CI1"])
+def test_threads_give_the_same_cells(criterion):
+    alphas, betas = small_grid()
+    a, b = np.meshgrid(alphas, betas)
+    a[2, 3] = np.nan  # a NaN cell stays NaN on every thread count
+    one = ho.cost(criterion, a, b, PLANT)
+    for threads in (2, 3, 64):
+        np.testing.assert_array_equal(ho.cost(criterion, a, b, PLANT, threads=threads), one)
+    assert np.isnan(one[2, 3])
+
+
+def test_bad_thread_count():
+    with pytest.raises(ValueError) as error:
+        ho.cost("CE2", [0.05], [0.3], PLANT, threads=0)
+    assert "threads" in str(error.value) and "accepted" in str(error.value)
