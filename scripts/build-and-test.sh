@@ -3,7 +3,7 @@
 #   1. install what is missing (scripts/install-deps.sh);
 #   2. configure + build the `release` preset (build/release) and run ctest: every label
 #      (core, paper, packaging, daemon, devices, identification, beyond, plots, stress, fuzz);
-#   2b. the Python package: pip install ./python into build/py-venv, pytest python/tests (scripts/test-python.sh);
+#   2b. the Python package: pip install ./python into build/python-venv, pytest python/tests (scripts/test-python.sh);
 #   3. the same tests under ASan + UBSan, and the daemon's threaded tests under TSan (scripts/sanitize.sh);
 #   4. each libFuzzer target for a bounded time over its corpus (scripts/fuzz.sh, clang).
 # `--quick` stops after step 2b. Exit status: non-zero as soon as a step fails.

@@ -6,12 +6,12 @@
 #      from PyPI; CMake, Ninja, pybind11 and Eigen are Debian's;
 #   3. pytest python/tests against the C++ CLI (default build/release/apps/hapticopt/hapticopt).
 # Exit status: non-zero when any step fails, including pytest's 5 (no test collected).
-# Environment: HAPTICOPT_PYTHON (default /usr/bin/python3), HAPTICOPT_PY_VENV (default build/py-venv),
+# Environment: HAPTICOPT_PYTHON (default /usr/bin/python3), HAPTICOPT_PY_VENV (default build/python-venv),
 # HAPTICOPT_CLI.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 python=${HAPTICOPT_PYTHON:-/usr/bin/python3}
-venv=${HAPTICOPT_PY_VENV:-build/py-venv}
+venv=${HAPTICOPT_PY_VENV:-build/python-venv}
 export HAPTICOPT_CLI=${HAPTICOPT_CLI:-$PWD/build/release/apps/hapticopt/hapticopt}
 
 if [[ ! -x "$venv/bin/python" ]]; then
