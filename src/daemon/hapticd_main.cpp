@@ -14,6 +14,7 @@
 #include "daemon/daemon.hpp"
 #include "devices/device_factory.hpp"
 #include "devices/device_list.hpp"
+#include "devices/check_device.hpp"
 #include "experiment/experiment_main.hpp"
 #include "identification/identification_run.hpp"
 #include "config/options.hpp"
@@ -373,6 +374,8 @@ int run_main(int argc, const char* const* argv) {
 int hapticd_main(int argc, const char* const* argv) noexcept {
     // `hapticd experiment boundary|optimal ...`: the Sect. V experiments (docs/experiments.md).
     if (argc > 1 && std::string_view(argv[1]) == "experiment") return experiment_main(argc - 1, argv + 1);
+    // `hapticd check-device`: the measured force sign, before the first real run (docs/devices.md).
+    if (argc > 1 && std::string_view(argv[1]) == "check-device") return check_device_main(argc - 1, argv + 1);
     clear_stop_request();
     try {
         return run_main(argc, argv);

@@ -6,6 +6,8 @@
 #include <limits>
 
 #include "devices/falcon_device.hpp"
+#include "devices/first_run.hpp"
+#include "devices/force_sign_device.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/transport_libusb.hpp"
 #include "scene/safety.hpp"
@@ -25,6 +27,18 @@ DeviceCapabilities capabilities_from_profile(const DeviceProfile& p) {
     return c;
 }
 
+bool apply_first_run_limit(DeviceCapabilities& c, const std::string& profile_name, bool quiet) {
+    if (force_sign_confirmed(profile_name) || c.max_force <= kFirstRunMaxForce) return false;
+    if (!quiet) {
+        std::cerr << "hapticd: warning: device '" << profile_name << "': first run, the force sign is not confirmed yet: "
+                  << "forces limited to " << kFirstRunMaxForce << " (instead of max_force " << c.max_force
+                  << ") until `hapticd check-device --device " << profile_name << "` has measured it (docs/devices.md, "
+                  << "\"First run\")" << std::endl;
+    }
+    c.max_force = kFirstRunMaxForce;
+    return true;
+}
+
 namespace {
 
 // A relative firmware path in a profile is relative to the profile's directory (when it exists there).
@@ -42,6 +56,7 @@ std::string resolve_firmware(const DeviceProfile& p, const Options& o) {
 std::unique_ptr<Device> make_falcon_device(const DeviceProfile& p, const Options& o) {
     FalconDeviceConfig cfg;
     cfg.capabilities = capabilities_from_profile(p);
+    apply_first_run_limit(cfg.capabilities, p.name, o.quiet);
     cfg.firmware_path = resolve_firmware(p, o);
     if (p.real.origin.size() == 3) cfg.origin = {p.real.origin[0], p.real.origin[1], p.real.origin[2]};
     cfg.homing_timeout = p.real.homing_timeout;
@@ -55,9 +70,10 @@ std::unique_ptr<Device> make_falcon_device(const DeviceProfile& p, const Options
     return std::make_unique<FalconDevice>(std::move(cfg));
 }
 
-std::unique_ptr<Device> make_hid_device(const DeviceProfile& p, double period) {
+std::unique_ptr<Device> make_hid_device(const DeviceProfile& p, const Options& o, double period) {
     HidDeviceConfig cfg;
     cfg.capabilities = capabilities_from_profile(p);
+    apply_first_run_limit(cfg.capabilities, p.name, o.quiet);
     const RealDeviceKeys& k = p.real;
     hid::Layout& l = cfg.layout;
     l.vendor_id = static_cast<std::uint16_t>(k.usb_vid);
@@ -75,8 +91,17 @@ std::unique_ptr<Device> make_hid_device(const DeviceProfile& p, double period) {
 
 std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, const SimScenario& scenario,
                                     double period) {
-    if (p.driver == "falcon" && !o.simulate) return make_falcon_device(p, o);
-    if (p.driver == "hid" && !o.simulate) return make_hid_device(p, period);
+    if ((p.driver == "falcon" || p.driver == "hid") && !o.simulate) {
+        std::unique_ptr<Device> d = p.driver == "falcon" ? make_falcon_device(p, o) : make_hid_device(p, o, period);
+        AxisVector sign{1.0, 1.0, 1.0};
+        bool flipped = false;
+        for (std::size_t a = 0; a < p.real.force_sign.size() && a < kMaxAxes; ++a) {
+            sign[a] = p.real.force_sign[a];
+            flipped = flipped || sign[a] < 0;
+        }
+        if (!flipped) return d;
+        return std::make_unique<ForceSignDevice>(std::move(d), sign);
+    }
     if (p.driver != "sim" && !o.simulate) {
         throw StartupError(kExitDeviceError,
                            "device '" + p.name + "': driver '" + p.driver +

@@ -1,9 +1,12 @@
 // Builds the device named by a profile: driver "sim" -> SimDevice, "falcon" -> FalconDevice (libusb),
 // "hid" -> HidFfbDevice (hidapi); with --simulate every profile runs on the simulated device. Drivers
-// without an implementation ("lwr") are refused (kExitDeviceError) unless simulated.
+// without an implementation ("lwr") are refused (kExitDeviceError) unless simulated. Real devices get
+// the first-run force limit until their force sign is confirmed (first_run.hpp), and the profile's
+// `force_sign` (force_sign_device.hpp).
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "devices/device.hpp"
 #include "devices/sim_device.hpp"
@@ -12,6 +15,10 @@
 namespace hapticd {
 
 DeviceCapabilities capabilities_from_profile(const DeviceProfile& profile);
+
+// Caps capabilities.max_force at kFirstRunMaxForce (with a warning unless quiet) when the force sign of
+// `profile_name` has not been confirmed by `hapticd check-device`; true if it capped.
+bool apply_first_run_limit(DeviceCapabilities& capabilities, const std::string& profile_name, bool quiet);
 
 std::unique_ptr<Device> make_device(const DeviceProfile& profile, const Options& options, const SimScenario& scenario,
                                     double period);

@@ -13,6 +13,7 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
     app.add_option("--homing_timeout", k.homing_timeout);
     app.add_option("--origin", k.origin);
     app.add_option("--device_index", k.device_index);
+    app.add_option("--force_sign", k.force_sign);
     app.add_option("--usb_vid", k.usb_vid);
     app.add_option("--usb_pid", k.usb_pid);
     app.add_option("--position_scale", k.position_scale);
@@ -46,6 +47,10 @@ void validate_real_device_keys(const std::string& where, const std::string& driv
         invalid(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
     }
     for (double v : k.origin) check_real(where, "origin", v, -1.0, 1.0, false);
+    if (k.force_sign.size() > 3) invalid(where, "force_sign", std::to_string(k.force_sign.size()) + " values", "1 to 3 values, one per axis");
+    for (double v : k.force_sign) {
+        if (v != 1.0 && v != -1.0) invalid(where, "force_sign", std::to_string(v), "+1 or -1 per axis");
+    }
     if (driver == "hid") {
         if (k.usb_vid < 0 || k.usb_pid < 0) {
             throw StartupError(kExitBadConfig, where + "driver = \"hid\" needs usb_vid and usb_pid");

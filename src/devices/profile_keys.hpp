@@ -17,6 +17,9 @@ struct RealDeviceKeys {
     double homing_timeout = 60.0;       // s
     std::vector<double> origin;         // m, kinematic position of the workspace centre (default 0, 0, 0.125)
     long long device_index = 0;         // which of several identical devices (0: the first)
+    // Per axis +1 or -1: forces are multiplied by it before they reach the device (the fix when
+    // `hapticd check-device` measures sign -1). Empty: +1 on every axis.
+    std::vector<double> force_sign;
     // driver = "hid" (report ids, offsets and the magnitude range come from the device's report
     // descriptor; only what no descriptor says is here)
     long long usb_vid = -1;
