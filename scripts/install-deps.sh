@@ -17,6 +17,7 @@ PACKAGES=(
   nlohmann-json3-dev
   libusb-1.0-0-dev
   libhidapi-dev
+  libsystemd-dev  # sd_notify: hapticd under systemd Type=notify with the watchdog
   umockdev          # emulated USB/hidraw devices for the `usb` tests (umockdev-wrapper)
   libumockdev-dev   # the UMockdevTestbed API used by those tests
   rt-tests          # cyclictest, the latency baseline beside hapticd's loop

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string_view>
 
 #include <nlohmann/json.hpp>
@@ -20,6 +21,7 @@
 #include "config/options.hpp"
 #include "loop/realtime_setup.hpp"
 #include "daemon/report.hpp"
+#include "daemon/systemd_notify.hpp"
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
 #include "loop/trace.hpp"
@@ -314,7 +316,16 @@ int run_main(int argc, const char* const* argv) {
             << ", scenario " << o.scenario << std::endl;
     }
 
+    // Under systemd (Type=notify): READY=1 now that tuning, device open and homing are done; WATCHDOG=1 while
+    // the loop's heartbeat advances; STOPPING=1 after the loop (daemon/systemd_notify.hpp).
+    SystemdNotifier notifier;
+    std::ostringstream ready_status;
+    ready_status << "device '" << profile.name << "' open and homed, " << walls.size() << " wall(s) tuned"
+                 << (walls.empty() ? std::string() : " (" + tuning_line(walls.front().tuning, profile.rotary) + ")")
+                 << ", loop running at " << o.rate << " Hz";
+    notifier.ready(ready_status.str(), daemon->loop().heartbeat());
     report.run = daemon->run();
+    notifier.stopping("loop ended after " + std::to_string(daemon->loop().counters().ticks) + " ticks");
     report.ran = true;
     report.loop = &daemon->loop();
     if (report.run.fault == Fault::Device) report.device_error = device->last_error();

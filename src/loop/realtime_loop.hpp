@@ -7,8 +7,11 @@
 // duration) are recorded in preallocated statistics. In lockstep mode there is no sleeping: ticks run
 // back to back, latency is 0 and no overrun is possible.
 // run() does not allocate, lock, throw or do I/O; the callback must not either.
+// heartbeat(): the number of completed ticks, published (relaxed atomic store) after each tick so that
+// a non-real-time thread can see the loop advance (the systemd watchdog, daemon/systemd_notify.hpp).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 
 #include "loop/stats.hpp"
@@ -70,6 +73,7 @@ public:
             wake_latency_.record(in.wake_latency_ns);
             compute_time_.record(end - wake);
             ++counters_.ticks;
+            heartbeat_.store(counters_.ticks, std::memory_order_relaxed);
             if (out.stop) {
                 break;
             }
@@ -99,6 +103,8 @@ public:
     [[nodiscard]] const LatencyStats& compute_time() const noexcept { return compute_time_; }
     [[nodiscard]] const LoopCounters& counters() const noexcept { return counters_; }
     [[nodiscard]] const LoopConfig& config() const noexcept { return config_; }
+    // Completed ticks, readable from any thread while run() runs.
+    [[nodiscard]] const std::atomic<std::uint64_t>& heartbeat() const noexcept { return heartbeat_; }
 
     static std::int64_t now_ns() noexcept;
     // Sleeps until the absolute CLOCK_MONOTONIC time; resumes after signals (EINTR).
@@ -109,6 +115,7 @@ private:
     LatencyStats wake_latency_;
     LatencyStats compute_time_;
     LoopCounters counters_;
+    std::atomic<std::uint64_t> heartbeat_{0};
 };
 
 }  // namespace hapticd
