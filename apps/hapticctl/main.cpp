@@ -1,0 +1,270 @@
+// hapticctl: the command-line client of `hapticd --serve` (docs/clients.md), on the C++ client library.
+//   hapticctl status | list [--json]
+//   hapticctl add plane normal=0,0,1 offset=0.01 criterion=CE2 [--for SECONDS]
+//   hapticctl session [FILE]          (commands from FILE or stdin, one session)
+//   hapticctl watch [--rate HZ] [--count N] [--duration S] [--via-socket]
+// An object lives as long as the session that added it (docs/protocol.md, section 7): `add` holds its
+// session until SIGINT/SIGTERM or --for; `session` runs add/modify/remove/clear in one session.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "exit_codes.hpp"
+#include "object_spec.hpp"
+#include "session_script.hpp"
+#include "state_line.hpp"
+
+namespace hc = hapticd::client;
+using namespace hapticctl;
+
+namespace {
+
+struct Common {
+    std::string socket;
+    double timeout = 5.0;
+    double lease = 1.0;
+    std::string name = "hapticctl";
+};
+
+hc::Client connect(const Common& c, double lease) {
+    hc::ConnectOptions o;
+    o.socket_path = c.socket;
+    o.client_name = c.name;
+    o.lease_s = lease;
+    o.timeout_s = c.timeout;
+    return hc::Client::connect(o);
+}
+
+int cmd_status(const Common& common, bool json) {
+    hc::Client client = connect(common, 0.0);
+    const hc::Status s = client.status();
+    const hc::Welcome& w = client.welcome();
+    if (json) {
+        std::cout << nlohmann::json{{"tick", s.tick},
+                                    {"sessions", s.sessions},
+                                    {"objects", s.objects},
+                                    {"overruns", s.overruns},
+                                    {"commits_applied", s.commits_applied},
+                                    {"fault", s.fault},
+                                    {"protocol", w.protocol},
+                                    {"device", {{"name", w.device.name}, {"axes", w.device.axes}, {"period_s", w.device.period_s},
+                                                {"mass", w.device.mass}, {"delay_s", w.device.delay_s}, {"max_force", w.device.max_force}}},
+                                    {"capacity", w.capacity},
+                                    {"state_shm", w.state_shm},
+                                    {"ramp_s", w.ramp_s}}
+                         .dump()
+                  << "\n";
+    } else {
+        std::cout << "device " << w.device.name << ": " << w.device.axes << " axes, period " << w.device.period_s * 1e3
+                  << " ms, delay " << w.device.delay_s * 1e3 << " ms, max force " << w.device.max_force << " N\n"
+                  << "tick " << s.tick << ", sessions " << s.sessions << ", objects " << s.objects << " of " << w.capacity
+                  << ", overruns " << s.overruns << ", commits applied " << s.commits_applied << ", fault " << s.fault
+                  << "\nstate stream " << w.state_shm << ", ramp " << w.ramp_s * 1e3 << " ms, protocol " << w.protocol << "\n";
+    }
+    client.bye();
+    return kExitOk;
+}
+
+int cmd_list(const Common& common, bool json) {
+    hc::Client client = connect(common, 0.0);
+    print_objects(std::cout, client.list(), json);
+    client.bye();
+    return kExitOk;
+}
+
+int cmd_add(const Common& common, const std::vector<std::string>& words, double hold_s) {
+    const hc::ObjectDescription object = parse_object_spec(words);  // before connecting: a typo costs nothing
+    hc::Client client = connect(common, common.lease);
+    hc::Batch batch;
+    batch.add(object);
+    const hc::CommitResult r = client.commit(batch);
+    const std::uint32_t id = r.object_ids.front();
+    for (const auto& o : client.list()) {
+        if (o.id == id) {
+            std::cout << "added " << id << " (" << o.kind << ", K = " << o.K << " N/m, B = " << o.B
+                      << " N s/m); held until " << (hold_s > 0 ? "--for " + std::to_string(hold_s) + " s or " : std::string())
+                      << "SIGINT/SIGTERM, then it ramps out" << std::endl;
+        }
+    }
+    sleep_with_heartbeats(client, hold_s > 0 ? hold_s : 1e9);
+    client.bye();
+    return kExitOk;
+}
+
+int cmd_session(const Common& common, const std::string& file) {
+    std::ifstream in_file;
+    std::istream* in = &std::cin;
+    std::string source = "stdin";
+    if (!file.empty() && file != "-") {
+        in_file.open(file);
+        if (!in_file) {
+            std::cerr << "hapticctl: session: cannot open '" << file << "'\n";
+            return kExitUsage;
+        }
+        in = &in_file;
+        source = file;
+    }
+    hc::Client client = connect(common, common.lease);
+    return run_session_script(client, *in, source, std::cout, std::cerr);
+}
+
+int cmd_watch(const Common& common, double rate, long long count, double duration, bool via_socket, double stall_s,
+              std::string shm) {
+    std::optional<hc::Client> client;
+    std::size_t axes = 3;
+    if (via_socket || shm.empty()) {
+        client.emplace(connect(common, 0.0));
+        axes = client->welcome().device.axes;
+        if (shm.empty()) shm = client->welcome().state_shm;
+    }
+    std::optional<hc::StateReader> reader;
+    if (via_socket) {
+        client->subscribe(rate);
+    } else {
+        reader.emplace(hc::StateReader::open(shm));
+        if (!client) axes = reader->axes();
+        client.reset();  // the shared memory needs no session
+    }
+    const bool tty = ::isatty(STDOUT_FILENO) != 0;
+    const auto start = std::chrono::steady_clock::now();
+    const auto period = std::chrono::duration<double>(1.0 / rate);
+    auto last_change = start;
+    std::uint64_t last_tick = 0;
+    bool have_tick = false;
+    long long shown = 0;
+    int code = kExitOk;
+    while (!stop_requested()) {
+        hc::StateSample s;
+        if (via_socket) {
+            const auto next = client->next_state(stall_s);
+            if (!next) {
+                std::cerr << "\nhapticctl: watch: no state message for " << stall_s << " s\n";
+                code = kExitNoState;
+                break;
+            }
+            s = *next;
+        } else {
+            std::this_thread::sleep_for(shown == 0 ? std::chrono::duration<double>(0) : period);
+            if (!reader->read(s)) continue;  // the writer kept overlapping: try at the next refresh
+        }
+        const auto now = std::chrono::steady_clock::now();
+        if (!have_tick || s.tick != last_tick) {
+            last_tick = s.tick;
+            last_change = now;
+            have_tick = true;
+        }
+        const std::string text = state_line(s, axes);
+        if (tty) {
+            std::cout << "\r" << text << "\x1b[K" << std::flush;
+        } else {
+            std::cout << text << "\n" << std::flush;
+        }
+        ++shown;
+        if (s.fault != 0) {
+            std::cerr << (tty ? "\n" : "") << "hapticctl: watch: the daemon reports fault " << fault_name(s.fault)
+                      << " (its force is zero, the loop stopped)\n";
+            code = kExitNoState;
+            break;
+        }
+        if (std::chrono::duration<double>(now - last_change).count() > stall_s) {
+            std::cerr << (tty ? "\n" : "") << "hapticctl: watch: the loop has not advanced for " << stall_s
+                      << " s (tick " << last_tick << "): is hapticd still running?\n";
+            code = kExitNoState;
+            break;
+        }
+        if (count > 0 && shown >= count) break;
+        if (duration > 0 && std::chrono::duration<double>(now - start).count() >= duration) break;
+    }
+    if (tty) std::cout << "\n";
+    if (client) client->bye();
+    return code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"hapticctl: the command-line client of hapticd --serve (docs/clients.md)"};
+    app.footer(kExitCodeHelp);
+    app.require_subcommand(1);
+    Common common;
+    app.add_option("--socket", common.socket,
+                   "Control socket (default: $HAPTICD_SOCKET, $RUNTIME_DIRECTORY/hapticd.sock, "
+                   "$XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock)");
+    app.add_option("--timeout", common.timeout, "Seconds to wait for each reply")->check(CLI::Range(0.01, 600.0));
+    app.add_option("--lease", common.lease, "Lease of add/session in seconds (0: none; heartbeats at a third of it)")
+        ->check(CLI::Range(0.0, 60.0));
+    app.add_option("--name", common.name, "Client name in the daemon's log");
+
+    bool json = false;
+    auto* status = app.add_subcommand("status", "The daemon's device, tick, sessions, objects, overruns and fault");
+    status->add_flag("--json", json, "One JSON object");
+    auto* list = app.add_subcommand("list", "Every object in the scene with its owner and the gains in use");
+    list->add_flag("--json", json, "A JSON array");
+
+    std::vector<std::string> words;
+    double hold = 0.0;
+    auto* add = app.add_subcommand("add", "Add one object and hold it until SIGINT/SIGTERM (or --for): "
+                                          "plane normal=X,Y,Z [offset=M] [mode=bilateral] [criterion=C | K= B=]; "
+                                          "spring [constraint=point|line|plane] point=X,Y,Z [direction=X,Y,Z] K= [B=]; "
+                                          "field center=X,Y,Z radius=M [force=X,Y,Z] [jacobian=9 numbers]");
+    add->add_option("object", words, "KIND key=value ...")->required()->expected(1, -1);
+    add->add_option("--for", hold, "Seconds to hold the object, then end the session (ramp-out)")->check(CLI::Range(0.0, 1e9));
+
+    std::string script;
+    auto* session = app.add_subcommand("session", "Run commands from FILE (default stdin) in one session: add, modify, "
+                                                  "remove, clear, begin/commit, list, status, state, sleep, bye");
+    session->add_option("file", script, "Script file, '-' for stdin");
+
+    double rate = 20.0;
+    long long count = 0;
+    double duration = 0.0;
+    bool via_socket = false;
+    double stall = 2.0;
+    std::string shm;
+    auto* watch = app.add_subcommand("watch", "The state as a live line (one line per sample when not a terminal)");
+    watch->add_option("--rate", rate, "Samples per second")->check(CLI::Range(0.1, 1000.0));
+    watch->add_option("--count", count, "Stop after N samples")->check(CLI::Range(0LL, 1LL << 40));
+    watch->add_option("--duration", duration, "Stop after S seconds")->check(CLI::Range(0.0, 1e9));
+    watch->add_flag("--via-socket", via_socket, "Subscribe over the socket instead of reading the shared memory");
+    watch->add_option("--stall-timeout", stall, "Fail (exit 9) when the tick has not advanced for S seconds")
+        ->check(CLI::Range(0.01, 3600.0));
+    watch->add_option("--shm", shm, "Read this shared-memory name directly, without connecting");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? kExitOk : kExitUsage;
+    }
+    install_stop_signal_handlers();
+    try {
+        if (*status) return cmd_status(common, json);
+        if (*list) return cmd_list(common, json);
+        if (*add) return cmd_add(common, words, hold);
+        if (*session) return cmd_session(common, script);
+        if (*watch) return cmd_watch(common, rate, count, duration, via_socket, stall, shm);
+    } catch (const SpecError& e) {
+        std::cerr << "hapticctl: " << e.what() << "\n";
+        return kExitUsage;
+    } catch (const hc::Error& e) {
+        std::cerr << "hapticctl: " << e.what() << "\n";
+        const std::string what = e.what();
+        if (what.rfind("StateReader::open", 0) == 0) return kExitNoState;
+        // A transport failure while connecting: no daemon (3); after the welcome: the session was lost (8).
+        return exit_code_for(e, /*connected=*/what.rfind("Client::connect", 0) != 0);
+    } catch (const std::exception& e) {
+        std::cerr << "hapticctl: internal error: " << e.what() << "\n";
+        return kExitInternal;
+    }
+    return kExitInternal;
+}

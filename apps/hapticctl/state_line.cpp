@@ -1,0 +1,56 @@
+#include "state_line.hpp"
+
+#include <cstdio>
+
+namespace hapticctl {
+
+namespace {
+
+void append_vector(std::string& out, const char* name, const hapticd::client::Vec3& v, std::size_t axes, double scale,
+                   const char* unit) {
+    out += ' ';
+    out += name;
+    out += " [";
+    char buf[32];
+    for (std::size_t i = 0; i < axes && i < 3; ++i) {
+        std::snprintf(buf, sizeof buf, i == 0 ? "%+.3f" : " %+.3f", v[i] * scale);
+        out += buf;
+    }
+    out += "] ";
+    out += unit;
+}
+
+}  // namespace
+
+std::string fault_name(std::uint32_t fault) {
+    switch (fault) {
+        case 0: return "none";
+        case 1: return "device";
+        case 2: return "non-finite";
+        case 3: return "watchdog";
+        default: return std::to_string(fault);
+    }
+}
+
+std::string state_line(const hapticd::client::StateSample& s, std::size_t axes) {
+    std::string out;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "tick %llu t %.3f s", static_cast<unsigned long long>(s.tick), s.time_s);
+    out += buf;
+    append_vector(out, "x", s.position, axes, 1e3, "mm");
+    append_vector(out, "v", s.velocity, axes, 1e3, "mm/s");
+    append_vector(out, "F", s.force, axes, 1.0, "N");
+    out += " contact {";
+    bool first = true;
+    for (std::size_t slot = 0; slot < s.slot_object_id.size(); ++slot) {
+        if ((s.contact_mask >> slot & 1U) == 0U) continue;
+        if (!first) out += ',';
+        out += std::to_string(s.slot_object_id[slot]);
+        first = false;
+    }
+    out += "} objects " + std::to_string(s.objects) + " overruns " + std::to_string(s.overruns) + " fault " +
+           fault_name(s.fault);
+    return out;
+}
+
+}  // namespace hapticctl

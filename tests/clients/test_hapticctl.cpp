@@ -1,0 +1,207 @@
+// hapticctl against a real hapticd --serve (lockstep, simulated device): every subcommand, the exit code of
+// each kind of failure, and that an object lives exactly as long as the session that added it.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "client_process.hpp"
+
+namespace {
+
+using clients_test::LockstepDaemon;
+using clients_test::Process;
+using clients_test::Result;
+
+class Hapticctl : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() { daemon_ = new LockstepDaemon("hapticctl"); }
+    static void TearDownTestSuite() {
+        EXPECT_EQ(daemon_->stop(), 0) << daemon_->log();
+        delete daemon_;
+        daemon_ = nullptr;
+    }
+    void SetUp() override { ASSERT_TRUE(daemon_->ready()) << daemon_->log(); }
+
+    static std::vector<std::string> with_socket(std::vector<std::string> args) {
+        args.insert(args.begin(), {"--socket", daemon_->socket()});
+        return args;
+    }
+    static Result ctl(const std::vector<std::string>& args, const std::string& tag, const std::string& stdin_path = "") {
+        return clients_test::run(HAPTICCTL_BINARY, with_socket(args), tag, stdin_path);
+    }
+    // The scene's objects (hapticctl list --json).
+    static nlohmann::json objects() {
+        const Result r = ctl({"list", "--json"}, "list_json");
+        EXPECT_EQ(r.code, 0) << r.err;
+        return nlohmann::json::parse(r.out, nullptr, false);
+    }
+    static bool has_object(std::uint32_t id) {
+        for (const auto& o : objects()) {
+            if (o.value("id", 0U) == id) return true;
+        }
+        return false;
+    }
+    // Polls until the object is gone (ramp-out, default 30 ms) or 5 s passed.
+    static bool gone_within_5s(std::uint32_t id) {
+        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        while (std::chrono::steady_clock::now() < end) {
+            if (!has_object(id)) return true;
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        return false;
+    }
+
+    static LockstepDaemon* daemon_;
+};
+LockstepDaemon* Hapticctl::daemon_ = nullptr;
+
+TEST_F(Hapticctl, StatusAndListShowTheDaemonAndItsConfigWall) {
+    const Result s = ctl({"status"}, "status");
+    ASSERT_EQ(s.code, 0) << s.err;
+    EXPECT_NE(s.out.find("device sim"), std::string::npos) << s.out;
+    EXPECT_NE(s.out.find("fault none"), std::string::npos) << s.out;
+    const Result j = ctl({"status", "--json"}, "status_json");
+    ASSERT_EQ(j.code, 0) << j.err;
+    const auto status = nlohmann::json::parse(j.out);
+    EXPECT_EQ(status["protocol"], 1);
+    EXPECT_EQ(status["state_shm"], daemon_->shm());
+    EXPECT_GT(status["tick"].get<std::uint64_t>(), 0U);
+    // The config wall: owner 0 (the daemon), the explicit gains of the command line.
+    const auto list = objects();
+    ASSERT_TRUE(list.is_array());
+    bool config_wall = false;
+    for (const auto& o : list) {
+        if (o["owner"] == 0 && o["kind"] == "plane" && o["K"] == 100.0 && o["B"] == 1.0) config_wall = true;
+    }
+    EXPECT_TRUE(config_wall) << list.dump();
+    const Result table = ctl({"list"}, "list_table");
+    EXPECT_EQ(table.code, 0);
+    EXPECT_NE(table.out.find("daemon"), std::string::npos) << table.out;
+}
+
+TEST_F(Hapticctl, EachFailureHasItsExitCode) {
+    // 3: no daemon at that socket.
+    const Result none = clients_test::run(HAPTICCTL_BINARY, {"--socket", "/nonexistent/hapticd.sock", "status"}, "nodaemon");
+    EXPECT_EQ(none.code, 3) << none.err;
+    EXPECT_NE(none.err.find("connect to '/nonexistent/hapticd.sock'"), std::string::npos) << none.err;
+    // 2: malformed objects, before connecting (the message names the word and the accepted form).
+    const Result bad_kind = ctl({"add", "cube"}, "badkind");
+    EXPECT_EQ(bad_kind.code, 2);
+    EXPECT_NE(bad_kind.err.find("accepted: plane, spring, field"), std::string::npos) << bad_kind.err;
+    const Result bad_vec = ctl({"add", "plane", "normal=1,0"}, "badvec");
+    EXPECT_EQ(bad_vec.code, 2);
+    EXPECT_NE(bad_vec.err.find("normal = '1,0' must be 3 comma-separated numbers"), std::string::npos) << bad_vec.err;
+    // 5: the daemon refuses unstable gains, naming K, B and the largest stable K; nothing was added.
+    const auto before = objects().size();
+    const Result unstable = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "K=1e9", "B=0"}, "unstable");
+    EXPECT_EQ(unstable.code, 5) << unstable.err;
+    EXPECT_NE(unstable.err.find("unstable_gains"), std::string::npos) << unstable.err;
+    EXPECT_NE(unstable.err.find("largest stable K"), std::string::npos) << unstable.err;
+    EXPECT_EQ(objects().size(), before);
+    // 5: not a unit normal (the daemon's check).
+    const Result normal = ctl({"add", "plane", "normal=2,0,0", "K=100"}, "normal");
+    EXPECT_EQ(normal.code, 5) << normal.err;
+    EXPECT_NE(normal.err.find("bad_message"), std::string::npos) << normal.err;
+    // 6: removing the daemon's config wall (or another session's object).
+    const auto config_id = std::to_string(objects().front()["id"].get<std::uint32_t>());
+    const std::string script = clients_test::write_file("remove_config.txt", "remove " + config_id + "\n");
+    const Result not_owner = ctl({"session", script}, "notowner");
+    EXPECT_EQ(not_owner.code, 6) << not_owner.err;
+    EXPECT_NE(not_owner.err.find("not_owner"), std::string::npos) << not_owner.err;
+    EXPECT_NE(not_owner.err.find("remove_config.txt:1"), std::string::npos) << "the message names the script line: " << not_owner.err;
+    // 2: an unknown script command, naming the line.
+    const std::string typo = clients_test::write_file("typo.txt", "# comment\nstatus\nfrobnicate 3\n");
+    const Result t = ctl({"session", typo}, "typo");
+    EXPECT_EQ(t.code, 2) << t.err;
+    EXPECT_NE(t.err.find("typo.txt:3: run_session_script: unknown command 'frobnicate'"), std::string::npos) << t.err;
+}
+
+TEST_F(Hapticctl, SessionAddsModifiesAndRemovesInOneSessionThenItsObjectsGo) {
+    const std::string script = clients_test::write_file(
+        "session.txt",
+        "add plane normal=-1,0,0 offset=0.005 K=1000 B=5\n"
+        "begin\n"
+        "add spring constraint=plane point=0,0,0 direction=1,0,0 K=50 B=1\n"
+        "add field center=0,0,0 radius=0.001 force=0.1,0,0\n"
+        "commit\n"
+        "modify 1000000 plane normal=-1,0,0 offset=0.004 K=1000 B=5\n");
+    // The last line names an object that does not exist: exit 6 after the earlier lines took effect.
+    const Result r = ctl({"session", script}, "session_unknown");
+    EXPECT_EQ(r.code, 6) << r.out << r.err;
+    EXPECT_NE(r.err.find("session.txt:6"), std::string::npos) << r.err;
+
+    // A script that holds its session while a second hapticctl looks at the scene.
+    const std::string hold = clients_test::write_file(
+        "hold.txt",
+        "add plane normal=-1,0,0 offset=0.005 K=1000 B=5\n"
+        "list\n"
+        "state\n"
+        "sleep 1\n"
+        "clear\n");
+    Process p(HAPTICCTL_BINARY, with_socket({"session", hold}), "session_hold");
+    std::uint32_t id = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (id == 0 && std::chrono::steady_clock::now() < end) {
+        const std::string out = p.out();
+        const auto at = out.find("added ");
+        if (at != std::string::npos) id = static_cast<std::uint32_t>(std::stoul(out.substr(at + 6)));
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ASSERT_NE(id, 0U) << p.out() << p.err();
+    EXPECT_TRUE(has_object(id)) << "the object exists while its session lives";
+    for (const auto& o : objects()) {
+        if (o["id"] == id) {
+            EXPECT_NE(o["owner"], 0);
+            EXPECT_EQ(o["K"], 1000.0);
+        }
+    }
+    EXPECT_EQ(p.wait(), 0) << p.err();
+    EXPECT_NE(p.out().find("tick "), std::string::npos) << "the state line: " << p.out();
+    EXPECT_TRUE(gone_within_5s(id));
+}
+
+TEST_F(Hapticctl, AddHoldsTheObjectUntilSigtermThenItRampsOut) {
+    Process p(HAPTICCTL_BINARY, with_socket({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=CE2"}), "add_hold");
+    std::uint32_t id = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (id == 0 && std::chrono::steady_clock::now() < end) {
+        const std::string out = p.out();
+        const auto at = out.find("added ");
+        if (at != std::string::npos && out.find('\n', at) != std::string::npos) {
+            id = static_cast<std::uint32_t>(std::stoul(out.substr(at + 6)));
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ASSERT_NE(id, 0U) << p.out() << p.err();
+    EXPECT_NE(p.out().find("K = "), std::string::npos) << "the criterion's gains are printed: " << p.out();
+    EXPECT_TRUE(has_object(id));
+    ASSERT_EQ(::kill(p.pid(), SIGTERM), 0);
+    EXPECT_EQ(p.wait(), 0) << p.err();
+    EXPECT_TRUE(gone_within_5s(id));
+}
+
+TEST_F(Hapticctl, WatchPrintsOneLinePerSampleWithAdvancingTicks) {
+    for (const bool via_socket : {false, true}) {
+        std::vector<std::string> args{"watch", "--count", "5", "--rate", "50"};
+        if (via_socket) args.push_back("--via-socket");
+        const Result r = ctl(args, via_socket ? "watch_socket" : "watch_shm");
+        ASSERT_EQ(r.code, 0) << r.err;
+        std::istringstream lines(r.out);
+        std::string line;
+        std::vector<unsigned long long> ticks;
+        while (std::getline(lines, line)) {
+            unsigned long long tick = 0;
+            ASSERT_EQ(std::sscanf(line.c_str(), "tick %llu", &tick), 1) << line;
+            EXPECT_NE(line.find(" x ["), std::string::npos) << line;
+            EXPECT_NE(line.find(" fault none"), std::string::npos) << line;
+            ticks.push_back(tick);
+        }
+        ASSERT_EQ(ticks.size(), 5U) << r.out;
+        for (std::size_t i = 1; i < ticks.size(); ++i) EXPECT_GT(ticks[i], ticks[i - 1]) << "lockstep ticks advance";
+    }
+    // 9: a shared-memory name that does not exist.
+    const Result missing = clients_test::run(HAPTICCTL_BINARY, {"watch", "--shm", "/hapticd-no-such-state", "--count", "1"}, "watch_missing");
+    EXPECT_EQ(missing.code, 9) << missing.err;
+}
+
+}  // namespace
