@@ -1,0 +1,32 @@
+"""hapticd_client: the dependency-free Python client of ``hapticd --serve`` (protocol version 1).
+
+    from hapticd_client import Client, StateReader, plane
+    with Client.connect(client="demo", lease_s=0.5) as c:
+        wall = c.add(plane(normal=(0, 0, 1), offset=0.0, criterion="CE2"))
+        with StateReader(c.welcome["state_shm"]) as state:
+            print(state.read())
+
+The protocol: docs/protocol.md; this module and its examples: docs/clients.md.
+"""
+
+from .client import MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, default_socket_path
+from .errors import HapticdError
+from .objects import Batch, field, gains, plane, spring
+from .state import FAULT_NAMES, StateReader, StateSample, shm_path
+
+__all__ = [
+    "Batch",
+    "Client",
+    "FAULT_NAMES",
+    "HapticdError",
+    "MAX_MESSAGE_BYTES",
+    "PROTOCOL_VERSION",
+    "StateReader",
+    "StateSample",
+    "default_socket_path",
+    "field",
+    "gains",
+    "plane",
+    "shm_path",
+    "spring",
+]

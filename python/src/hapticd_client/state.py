@@ -1,0 +1,130 @@
+"""The daemon's state stream read from POSIX shared memory without a system call per read
+(docs/protocol.md, section 6: layout version 1, 1152 bytes, a seqlock written once per tick by the loop).
+
+Seqlock read: s1 = sequence; if odd, retry; copy the fields; s2 = sequence; equal: the copy is one tick.
+The sequence is read with one aligned 8-byte load (a memoryview of native 'Q' items), never byte by byte.
+The ordering of those loads relies on the CPU: x86-64 does not reorder loads with loads, so the read is
+exact there. CPython cannot issue memory fences; on weakly ordered CPUs (arm64) prefer the socket
+subscription (``Client.subscribe``) or the C++ client, whose reader has the acquire fences.
+"""
+
+from __future__ import annotations
+
+import mmap
+import os
+import struct
+import sys
+from dataclasses import dataclass, field
+from typing import List, Optional, Tuple
+
+from .errors import HapticdError
+
+MAGIC = 0x54535048  # "HPST"
+LAYOUT_VERSION = 1
+LAYOUT_SIZE = 1152
+CAPACITY = 64
+_HEADER = struct.Struct("<IIIId I")  # magic, layout_version, size, axes, period_s, capacity (offsets 0..27)
+_SEQUENCE_INDEX = 64 // 8  # `sequence` at byte 64, as the 9th uint64
+_FIELDS_OFFSET = 128
+# tick, time_s, position[3], velocity[3], force[3], contact_mask, overruns, wake_latency_ns, last_commit_seq,
+# fault, objects, slot_object_id[64], slot_ramp[64]   (offsets 128 .. 575)
+_FIELDS = struct.Struct("<Qd3d3d3dQQqQII64I64B")
+assert _HEADER.size == 28 and _FIELDS.size == 576 - 128
+
+if sys.byteorder != "little":  # pragma: no cover - the layout is native, hapticd runs on little-endian hosts
+    raise ImportError("hapticd_client.state: the state layout is little-endian; this host is big-endian")
+
+
+@dataclass
+class StateSample:
+    """One consistent tick of the loop."""
+
+    tick: int = 0
+    time_s: float = 0.0  # CLOCK_MONOTONIC at the tick's wake-up
+    position: Tuple[float, float, float] = (0.0, 0.0, 0.0)  # m
+    velocity: Tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, backward difference of the sampled position
+    force: Tuple[float, float, float] = (0.0, 0.0, 0.0)  # N, commanded this tick
+    contact_mask: int = 0  # bit s: the object in slot s is in contact
+    overruns: int = 0
+    wake_latency_ns: int = 0
+    last_commit_seq: int = 0  # the last batch applied
+    fault: int = 0  # 0 none, 1 device, 2 non-finite, 3 watchdog
+    objects: int = 0
+    slot_object_id: List[int] = field(default_factory=lambda: [0] * CAPACITY)
+    slot_ramp: List[int] = field(default_factory=lambda: [0] * CAPACITY)
+
+    def contacts(self) -> List[int]:
+        """The ids of the objects in contact."""
+        return [self.slot_object_id[s] for s in range(CAPACITY) if (self.contact_mask >> s) & 1]
+
+
+FAULT_NAMES = {0: "none", 1: "device", 2: "non-finite", 3: "watchdog"}
+
+
+def shm_path(name: str) -> str:
+    """The file of a POSIX shared-memory name on Linux: ``/hapticd-state`` -> ``/dev/shm/hapticd-state``."""
+    if not name.startswith("/") or "/" in name[1:] or len(name) < 2:
+        raise HapticdError("transport", f"shm_path: name = {name!r}: expected '/' followed by a name without '/'")
+    return "/dev/shm" + name
+
+
+class StateReader:
+    """Read-only mapping of the daemon's state; ``read()`` returns the latest tick."""
+
+    def __init__(self, name: str = "/hapticd-state") -> None:
+        path = shm_path(name)
+        try:
+            fd = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
+        except OSError as e:
+            raise HapticdError("transport", f"StateReader: open {path}: {e.strerror} (is hapticd running with --serve?)") from e
+        try:
+            self._map = mmap.mmap(fd, LAYOUT_SIZE, flags=mmap.MAP_SHARED, prot=mmap.PROT_READ)
+        except (OSError, ValueError) as e:
+            raise HapticdError("transport", f"StateReader: mmap {path}: {e}") from e
+        finally:
+            os.close(fd)
+        magic, version, size, axes, period_s, capacity = _HEADER.unpack_from(self._map, 0)
+        if magic != MAGIC or version != LAYOUT_VERSION or size != LAYOUT_SIZE:
+            self._map.close()
+            raise HapticdError("transport", f"StateReader: {path} is not a hapticd state of layout version "
+                                            f"{LAYOUT_VERSION} (magic {magic:#x}, version {version}, size {size})")
+        self.name = name
+        self.axes = axes
+        self.period_s = period_s
+        self.capacity = capacity
+        self._words = memoryview(self._map).cast("Q")  # native uint64 items: one 8-byte load each
+
+    def close(self) -> None:
+        if self._map is not None:
+            self._words.release()
+            self._map.close()
+            self._map = None
+
+    def __enter__(self) -> "StateReader":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def read_raw(self, max_attempts: int = 1000) -> Optional[bytes]:
+        """The 448 bytes of one tick's fields, or None when ``max_attempts`` reads overlapped a write."""
+        words = self._words
+        m = self._map
+        for _ in range(max_attempts):
+            s1 = words[_SEQUENCE_INDEX]
+            if s1 & 1:
+                continue
+            block = m[_FIELDS_OFFSET:_FIELDS_OFFSET + _FIELDS.size]
+            if words[_SEQUENCE_INDEX] == s1:
+                return block
+        return None
+
+    def read(self, max_attempts: int = 1000) -> StateSample:
+        """One consistent tick. Raises HapticdError("transport") if every attempt overlapped a write."""
+        block = self.read_raw(max_attempts)
+        if block is None:
+            raise HapticdError("transport", f"StateReader.read: {max_attempts} reads in a row overlapped the loop's writes")
+        v = _FIELDS.unpack(block)
+        return StateSample(tick=v[0], time_s=v[1], position=tuple(v[2:5]), velocity=tuple(v[5:8]), force=tuple(v[8:11]),
+                           contact_mask=v[11], overruns=v[12], wake_latency_ns=v[13], last_commit_seq=v[14], fault=v[15],
+                           objects=v[16], slot_object_id=list(v[17:81]), slot_ramp=list(v[81:145]))
