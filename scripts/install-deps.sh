@@ -15,6 +15,7 @@ PACKAGES=(
   libgmock-dev
   libbenchmark-dev
   nlohmann-json3-dev
+  libtomlplusplus-dev  # toml++: hapticd's config file and device profiles (src/config/config_file.cpp)
   libusb-1.0-0-dev
   libhidapi-dev
   libsystemd-dev  # sd_notify: hapticd under systemd Type=notify with the watchdog

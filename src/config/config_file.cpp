@@ -1,162 +1,150 @@
 #include "config/config_file.hpp"
 
-#include <cctype>
+#include <algorithm>
+#include <charconv>
+#include <climits>
+#include <cmath>
 #include <fstream>
-#include <regex>
-#include <set>
+#include <sstream>
+
+#include <toml++/toml.h>
 
 namespace hapticd {
 
 namespace {
 
-// Scalar TOML values that hapticd uses.
-const std::regex& scalar_re() {
-    static const std::regex re(
-        R"((?:"(?:[^"\\]|\\.)*")|(?:'[^']*')|(?:true|false)|)"
-        R"((?:[+-]?(?:inf|nan))|)"
-        R"((?:[+-]?(?:0|[1-9](?:_?[0-9])*)(?:\.[0-9](?:_?[0-9])*)?(?:[eE][+-]?[0-9](?:_?[0-9])*)?))");
-    return re;
+int clamp_to_int(toml::source_index v) { return v > static_cast<toml::source_index>(INT_MAX) ? INT_MAX : static_cast<int>(v); }
+
+FilePosition position_of(const toml::source_position& p) { return {clamp_to_int(p.line), clamp_to_int(p.column)}; }
+
+bool earlier(const FilePosition& a, const FilePosition& b) {
+    return a.line != b.line ? a.line < b.line : a.column < b.column;
 }
 
-std::string trim(const std::string& s) {
-    std::size_t b = 0;
-    std::size_t e = s.size();
-    while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-    while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
-    return s.substr(b, e - b);
+// Shortest text that reads back as the same double ("-0.3", not "-0.29999999999999999"); every NaN is "nan".
+std::string float_text(double v) {
+    if (std::isnan(v)) return "nan";
+    char buf[64];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
 }
 
-// Removes a trailing comment that is not inside a string.
-std::string strip_comment(const std::string& s) {
-    char quote = 0;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-        const char c = s[i];
-        if (quote != 0) {
-            if (c == '\\' && quote == '"') {
-                ++i;
-            } else if (c == quote) {
-                quote = 0;
-            }
-        } else if (c == '"' || c == '\'') {
-            quote = c;
-        } else if (c == '#') {
-            return s.substr(0, i);
-        }
-    }
-    return s;
+// A scalar node as hapticd reads it; nullopt for the node types hapticd does not use.
+std::optional<ConfigValue> scalar_of(const toml::node& node) {
+    if (const auto* s = node.as_string()) return ConfigValue{ConfigValueType::String, s->get()};
+    if (const auto* i = node.as_integer()) return ConfigValue{ConfigValueType::Integer, std::to_string(i->get())};
+    if (const auto* f = node.as_floating_point()) return ConfigValue{ConfigValueType::Float, float_text(f->get())};
+    if (const auto* b = node.as_boolean()) return ConfigValue{ConfigValueType::Boolean, b->get() ? "true" : "false"};
+    return std::nullopt;
 }
 
-// Splits the inside of an array at top-level commas (strings may contain commas).
-bool split_array(const std::string& inner, std::vector<std::string>& items) {
-    char quote = 0;
-    std::string cur;
-    for (std::size_t i = 0; i < inner.size(); ++i) {
-        const char c = inner[i];
-        if (quote != 0) {
-            cur += c;
-            if (c == '\\' && quote == '"' && i + 1 < inner.size()) {
-                cur += inner[++i];
-            } else if (c == quote) {
-                quote = 0;
-            }
-        } else if (c == '"' || c == '\'') {
-            quote = c;
-            cur += c;
-        } else if (c == ',') {
-            items.push_back(trim(cur));
-            cur.clear();
-        } else {
-            cur += c;
-        }
+std::string written_scalar(const ConfigValue& v) { return v.type == ConfigValueType::String ? "\"" + v.text + "\"" : v.text; }
+
+std::string unused_type_message(const std::string& key, const toml::node& node) {
+    if (node.is_table()) {
+        return "'" + key + "' is a table ([" + key + "], " + key + ".name = ... or " + key +
+               " = {...}); hapticd files write every key at the top level";
     }
-    if (quote != 0) return false;
-    const std::string last = trim(cur);
-    if (!last.empty()) items.push_back(last);  // a trailing comma is allowed
-    return true;
+    if (node.is_array()) return "key '" + key + "': arrays of arrays are not used by hapticd (one level: [1, 2])";
+    if (node.is_date() || node.is_time() || node.is_date_time()) {
+        return "key '" + key + "': dates and times are not used by hapticd";
+    }
+    return "key '" + key + "': unsupported value";
 }
 
-bool valid_value(const std::string& v, std::string& why) {
-    if (!v.empty() && v.front() == '[') {
-        if (v.back() != ']') {
-            why = "unterminated array";
-            return false;
-        }
-        std::vector<std::string> items;
-        if (!split_array(v.substr(1, v.size() - 2), items)) {
-            why = "unterminated string in array";
-            return false;
-        }
-        for (const auto& item : items) {
-            if (item.empty() || !std::regex_match(item, scalar_re())) {
-                why = "invalid array element '" + item + "'";
-                return false;
-            }
-        }
-        return true;
+// The line `line` (1-based) of `text` and a caret under `column`, for a syntax error.
+std::string excerpt(const std::string& text, const FilePosition& at) {
+    if (at.line < 1) return "";
+    std::istringstream in(text);
+    std::string line;
+    for (int i = 0; i < at.line; ++i) {
+        if (!std::getline(in, line)) return "";
     }
-    if (!std::regex_match(v, scalar_re())) {
-        why = "invalid value '" + v + "' (expected a number, true/false, a quoted string or an array)";
-        return false;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    constexpr std::size_t kMaxShown = 160;
+    if (line.size() > kMaxShown) line = line.substr(0, kMaxShown) + " ...";
+    std::string caret;
+    if (at.column >= 1 && static_cast<std::size_t>(at.column) <= kMaxShown + 1) {
+        for (std::size_t i = 0; i + 1 < static_cast<std::size_t>(at.column) && i < line.size(); ++i) {
+            caret += line[i] == '\t' ? '\t' : ' ';
+        }
+        caret += '^';
     }
-    return true;
+    return "\n    " + line + (caret.empty() ? "" : "\n    " + caret);
 }
 
 }  // namespace
 
-std::vector<ConfigFileIssue> check_config_file(const std::string& path) {
-    std::vector<ConfigFileIssue> issues;
-    std::ifstream in(path);
-    if (!in) {
-        issues.push_back({0, "cannot open file"});
-        return issues;
+const char* config_value_type_name(ConfigValueType type) {
+    switch (type) {
+        case ConfigValueType::String: return "a string";
+        case ConfigValueType::Integer: return "an integer";
+        case ConfigValueType::Float: return "a float";
+        case ConfigValueType::Boolean: return "a boolean";
     }
-    static const std::regex key_re(R"([A-Za-z0-9_-]+)");
-    std::set<std::string> seen;
-    std::string raw;
-    int line_no = 0;
-    while (std::getline(in, raw)) {
-        ++line_no;
-        const int start_line = line_no;
-        std::string line = trim(strip_comment(raw));
-        if (line.empty()) continue;
-        if (line.front() == '[') {
-            issues.push_back({line_no, "tables/sections ('" + line + "') are not used in hapticd files; "
-                                       "write every key at the top level"});
-            continue;
-        }
-        const auto eq = line.find('=');
-        if (eq == std::string::npos) {
-            issues.push_back({line_no, "expected 'key = value', got '" + line + "'"});
-            continue;
-        }
-        const std::string key = trim(line.substr(0, eq));
-        std::string value = trim(line.substr(eq + 1));
-        if (!std::regex_match(key, key_re)) {
-            issues.push_back({line_no, "invalid key '" + key + "' (bare keys: letters, digits, '-', '_')"});
-            continue;
-        }
-        if (value.empty()) {
-            issues.push_back({line_no, "missing value for key '" + key + "'"});
-            continue;
-        }
-        if (value.front() == '[') {  // an array may continue on the following lines
-            int depth_guard = 0;
-            while (value.back() != ']' && std::getline(in, raw) && ++depth_guard < 10000) {
-                ++line_no;
-                value += " " + trim(strip_comment(raw));
-                value = trim(value);
+    return "a value";
+}
+
+ConfigFileContents parse_config_text(const std::string& text, const std::string& source_name) {
+    ConfigFileContents out;
+    toml::table table;
+    try {
+        table = toml::parse(std::string_view{text}, std::string_view{source_name});
+    } catch (const toml::parse_error& e) {
+        const FilePosition at = position_of(e.source().begin);
+        out.issue = ConfigFileIssue{at, std::string(e.description()) + excerpt(text, at)};
+        return out;
+    }
+    std::optional<ConfigFileIssue> first_issue;
+    auto note_issue = [&first_issue](FilePosition at, std::string message) {
+        if (!first_issue || earlier(at, first_issue->at)) first_issue = ConfigFileIssue{at, std::move(message)};
+    };
+    for (auto&& [toml_key, node] : table) {
+        ConfigEntry entry;
+        entry.key = std::string(toml_key.str());
+        entry.at = position_of(toml_key.source().begin);
+        if (const auto* array = node.as_array()) {
+            entry.is_array = true;
+            std::string written;
+            for (const toml::node& element : *array) {
+                const auto value = scalar_of(element);
+                if (!value) {
+                    note_issue(position_of(element.source().begin), unused_type_message(entry.key, element));
+                    break;
+                }
+                written += (written.empty() ? "" : ", ") + written_scalar(*value);
+                entry.values.push_back(*value);
             }
-        }
-        std::string why;
-        if (!valid_value(value, why)) {
-            issues.push_back({start_line, "key '" + key + "': " + why});
+            entry.written = "[" + written + "]";
+        } else if (const auto value = scalar_of(node)) {
+            entry.values.push_back(*value);
+            entry.written = written_scalar(*value);
+        } else {
+            note_issue(node.is_table() ? position_of(node.source().begin) : entry.at, unused_type_message(entry.key, node));
             continue;
         }
-        if (!seen.insert(key).second) {
-            issues.push_back({start_line, "duplicate key '" + key + "'"});
-        }
+        out.entries.push_back(std::move(entry));
     }
-    return issues;
+    if (first_issue) {
+        out.entries.clear();
+        out.issue = std::move(first_issue);
+        return out;
+    }
+    std::stable_sort(out.entries.begin(), out.entries.end(),
+                     [](const ConfigEntry& a, const ConfigEntry& b) { return earlier(a.at, b.at); });
+    return out;
+}
+
+ConfigFileContents read_config_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    if (in) text << in.rdbuf();
+    if (!in || in.bad()) {
+        ConfigFileContents out;
+        out.issue = ConfigFileIssue{{0, 0}, "cannot read the file"};
+        return out;
+    }
+    return parse_config_text(text.str(), path);
 }
 
 }  // namespace hapticd

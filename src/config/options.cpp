@@ -5,11 +5,10 @@
 #include <filesystem>
 #include <iostream>
 #include <regex>
-#include <sstream>
 
 #include <CLI/CLI.hpp>
 
-#include "config/config_file.hpp"
+#include "config/apply_config_file.hpp"
 
 #ifndef HAPTICD_CONFIG_DIR
 #error "HAPTICD_CONFIG_DIR must be defined (the repository's config/ directory)"
@@ -103,39 +102,13 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
                    "Novint Falcon firmware image to upload at start (user-supplied; overrides the profile's firmware)");
 }
 
-std::string config_error_message(const std::string& path, const CLI::Error& e) {
-    std::string what = e.what();
-    const std::string extras = "INI was not able to parse ";
-    if (what.rfind(extras, 0) == 0) {
-        what = "unknown key '" + what.substr(extras.size()) + "'";
-    }
-    return "config file '" + path + "': " + what;
-}
-
-void lint_or_throw(const std::string& kind, const std::string& path) {
-    const auto issues = check_config_file(path);
-    if (issues.empty()) return;
-    std::ostringstream msg;
-    msg << kind << " '" << path << "' is malformed:";
-    for (const auto& issue : issues) {
-        msg << "\n  line " << issue.line << ": " << issue.message;
-    }
-    throw StartupError(kExitBadConfig, msg.str());
-}
-
+// The config file's keys are the options of define_common (its types and checks included).
 Given load_config_file(const std::string& path, Options& o) {
     Handles h;
-    lint_or_throw("config file", path);
     CLI::App file_app{"hapticd config file"};
     file_app.set_help_flag();
-    file_app.allow_config_extras(CLI::config_extras_mode::error);
     define_common(file_app, o, h);
-    file_app.set_config("--hapticd-config-file", path, "", true);
-    try {
-        file_app.parse(std::vector<std::string>{});
-    } catch (const CLI::Error& e) {
-        throw StartupError(kExitBadConfig, config_error_message(path, e));
-    }
+    o.config_locations = apply_config_file(file_app, "config file '" + path + "'", path, false);
     return Given::of(h);
 }
 
@@ -146,13 +119,14 @@ std::string shortest_text(double v) {
     return std::string(buf, r.ptr);
 }
 
-[[noreturn]] void invalid(const std::string& where, const std::string& name, const std::string& value,
+// `where` names the file and line of the key when the value came from a file.
+[[noreturn]] void invalid(const KeyLocations& where, const std::string& name, const std::string& value,
                           const std::string& range) {
     throw StartupError(kExitInvalidParameter,
-                       where + name + " = " + value + " is invalid; accepted range: " + range);
+                       where.prefix(name) + name + " = " + value + " is invalid; accepted range: " + range);
 }
 
-void check_range(const std::string& where, const std::string& name, double v, double lo, double hi, bool lo_open,
+void check_range(const KeyLocations& where, const std::string& name, double v, double lo, double hi, bool lo_open,
                  const std::string& range) {
     if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) invalid(where, name, shortest_text(v), range);
 }
@@ -225,6 +199,12 @@ Options parse_options(int argc, const char* const* argv) {
             throw StartupError(kExitUsage, std::string(e.what()) + " (see hapticd --help)");
         }
         from_cli = Given::of(cli_h);
+        std::vector<std::string> overridden;  // a range error of these names the command line, not the file
+        for (const auto& entry : o.config_locations.positions()) {
+            const CLI::Option* option = app.get_option_no_throw("--" + entry.first);
+            if (option != nullptr && option->count() > 0) overridden.push_back(entry.first);
+        }
+        for (const auto& key : overridden) o.config_locations.forget(key);
     }
     o.duration_set = from_file.duration || from_cli.duration;
     const bool k_set = from_file.stiffness || from_cli.stiffness;
@@ -239,7 +219,7 @@ Options parse_options(int argc, const char* const* argv) {
 }
 
 void validate_options(const Options& o) {
-    const std::string w;
+    const KeyLocations& w = o.config_locations;
     check_range(w, "rate", o.rate, 1.0, 100000.0, false, "1 .. 100000 Hz");
     if (o.delay_buffer < 0 || o.delay_buffer > 100000) {
         invalid(w, "delay-buffer", std::to_string(o.delay_buffer), "0 .. 100000 samples");
@@ -300,10 +280,8 @@ DeviceProfile load_device_profile(const Options& o) {
         throw StartupError(kExitBadConfig, "device profile '" + p.path + "' (device = '" + o.device +
                                                "') does not exist or is not a file");
     }
-    lint_or_throw("device profile", p.path);
     CLI::App app{"hapticd device profile"};
     app.set_help_flag();
-    app.allow_config_extras(CLI::config_extras_mode::error);
     app.add_option("--name", p.name);
     app.add_option("--description", p.description);
     app.add_option("--driver", p.driver)->check(CLI::IsMember({"sim", "falcon", "hid", "lwr"}));
@@ -325,20 +303,13 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--stiffness_range", p.stiffness_range);
     app.add_option("--inherent_delay_range", p.inherent_delay_range);
     add_real_device_keys(app, p.real);
-    app.set_config("--hapticd-profile-file", p.path, "", true);
-    try {
-        app.parse(std::vector<std::string>{});
-    } catch (const CLI::Error& e) {
-        std::string what = config_error_message(p.path, e);
-        throw StartupError(kExitBadConfig, "device profile" + what.substr(std::string("config file").size()));
-    }
+    const KeyLocations where = apply_config_file(app, "device profile '" + p.path + "'", p.path, true);
     for (auto [opt, key] : {std::pair{mass, "mass"}, std::pair{max_force, "max_force"}}) {
         if (opt->count() == 0) {
             throw StartupError(kExitBadConfig, "device profile '" + p.path + "': missing key '" + key + "'");
         }
     }
     if (p.name.empty()) p.name = fs::path(p.path).stem().string();
-    const std::string where = "device profile '" + p.path + "': ";
     check_range(where, "mass", p.mass, 0.0, 1e6, true, "finite, > 0 kg (kg m^2 for rotary devices)");
     check_range(where, "damping", p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m");
     check_range(where, "stiffness", p.stiffness, 0.0, 1e12, false, "finite, >= 0 N/m");
@@ -358,7 +329,7 @@ DeviceProfile load_device_profile(const Options& o) {
     }
     check_range(where, "position_noise", p.position_noise, 0.0, 1.0, false, "0 .. 1 m");
     check_range(where, "position_resolution", p.position_resolution, 0.0, 1.0, false, "0 .. 1 m");
-    validate_real_device_keys(where, p.driver, p.real);
+    validate_real_device_keys("device profile '" + p.path + "': ", p.driver, p.real);
     struct RangeKey {
         const char* key;
         const std::vector<double>* range;

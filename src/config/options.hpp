@@ -1,5 +1,6 @@
-// hapticd's options: command line (CLI11) over the config file (TOML through CLI11's config support)
-// over built-in defaults; and the device profile (a TOML file of its own).
+// hapticd's options: command line (CLI11) over the config file (TOML read with toml++, applied to the same
+// CLI11 options: config/apply_config_file.hpp) over built-in defaults; and the device profile (a TOML file
+// of its own).
 #pragma once
 
 #include <cstdint>
@@ -7,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "config/key_locations.hpp"
 #include "devices/profile_keys.hpp"
 #include "daemon/exit_codes.hpp"
 
@@ -56,6 +58,7 @@ struct Options {
     bool passivity_control = false;   // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
     double passivity_damping_cap = 0.0;        // N s/m; 0: 4 m / T (the normalised damper beta <= 4)
     double passivity_velocity_guard = 1e-4;    // m/s: no damper below this speed
+    KeyLocations config_locations;    // where the config file wrote the values the command line did not override
 };
 
 struct DeviceProfile {

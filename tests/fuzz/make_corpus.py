@@ -25,8 +25,22 @@ for i, text in enumerate([
     "a = 1\na = 2\n", "s = 'literal'\nt = \"basic \\\" esc\"\n", "f = 1.5e-3\ng = inf\nh = -nan\nb = true\n",
     "arr = [1, 2,\n  3, # comment\n  4]\n", "arr = [1, 2\n", "x = \"unterminated\n", "k = 1 # trailing\r\n",
     "k = [\"a\", 'b', 1.0, true]\n", "k = 0x10\n", "=\n", "k = [[1], [2]]\n",
+    # TOML that the toml++ reader accepts, or rejects with a position: multi-line arrays and strings,
+    # underscores, other bases, tables, inline tables, dates, quoted and dotted keys, a BOM with CRLF.
+    "wall = [\n  \"axis=0 position=0.0 direction=+1\",\n  \"axis=0 position=0.05 direction=-1\",\n]\n",
+    "rate = 1_000.0\nn = 0o17\nb = 0b101\nh = 0xdead_beef\n",
+    "d = \"\"\"\nline one\nline \\\n  two\"\"\"\nl = '''raw\\n'''\n",
+    "[server]\nsocket = \"/run/x\"\n", "k = {a = 1, b = [2]}\n", "t = 1979-05-27T07:32:00Z\n",
+    "\"quoted key\" = 1\na.b = 2\n", "\ufeffrate = 1.0\r\nmass = 2\r\n", "s = \"\\u00e9\\U0001F600\"\n",
+    "x = 1e400\ny = -0.0\n",
 ]):
     put("config_file", f"case{i:02d}.toml", text)
+# Inputs that reach toml++ 3.3.0's known bugs (see tests/fuzz/toml_assert_policy.hpp): the replay shows the
+# parse errors the shipped library gives instead.
+put("config_file", "toml_issue_294_ampersand.toml", "[&\n")
+put("config_file", "toml_issue_294_nul.toml", "[\0\0table]\nkey = 1\n")
+put("config_file", "toml_issue_date_nul.toml", "t = 1979-05-27T\0\x192:00Z\n")
+put("config_file", "toml_issue_190.toml", "s = \"\"\"\\\n\u00a7\"\"\"\nk \u00da= 1\n")
 
 
 # falcon_frames: valid status frames, a stream with garbage, a short frame and a malformed one.
