@@ -67,9 +67,12 @@ void list_hid(const std::vector<DeviceProfile>& profiles, std::vector<ListedDevi
         names += (names.empty() ? "" : ", ") + p.name;
     }
     for (const auto& [ids, names] : wanted) {
-        hid_device_info* list = hid_enumerate(static_cast<unsigned short>(ids.first), static_cast<unsigned short>(ids.second));
+        // All devices, filtered here: hidapi 0.13's own VID:PID filter misses devices that the unfiltered
+        // enumeration reports with these ids (seen on the umockdev-emulated device of the usb tests).
+        hid_device_info* list = hid_enumerate(0, 0);
         std::set<std::string> seen;
         for (hid_device_info* it = list; it != nullptr; it = it->next) {
+            if (it->vendor_id != ids.first || it->product_id != ids.second) continue;
             if (it->path == nullptr || !seen.insert(it->path).second) continue;
             ListedDevice d;
             d.driver = "hid";

@@ -67,10 +67,12 @@ DeviceStatus HidFfbDevice::open() {
     const std::string ids = "USB HID " + hex4(l.vendor_id) + ":" + hex4(l.product_id);
     if (hid_init() != 0) return fail(DeviceStatus::HardwareFault, "HidFfbDevice::open: hidapi initialisation failed");
     path_.clear();
-    hid_device_info* list = hid_enumerate(l.vendor_id, l.product_id);
+    // All devices, filtered here (see device_list.cpp: hidapi 0.13's VID:PID filter can miss devices).
+    hid_device_info* list = hid_enumerate(0, 0);
     int seen = 0;
     for (hid_device_info* d = list; d != nullptr; d = d->next) {
-        if (d->path != nullptr && seen++ == config_.device_index) path_ = d->path;
+        if (d->vendor_id != l.vendor_id || d->product_id != l.product_id || d->path == nullptr) continue;
+        if (seen++ == config_.device_index) path_ = d->path;
     }
     hid_free_enumeration(list);
     if (path_.empty()) {
