@@ -5,13 +5,13 @@
 # build/fuzz/artifacts/). Installs clang-14 and libclang-rt-14-dev (which ships libclang_rt.fuzzer) from
 # Debian 12 when missing. Exit status non-zero when a target finds a crash, a leak or a sanitizer report.
 # Usage: scripts/fuzz.sh [seconds per target, default 20] [target...]
-#   targets: config_file falcon_frames ftdi_strip hid_reports (default: all)
+#   targets: config_file falcon_frames ftdi_strip hid_reports server_messages (default: all)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 seconds="${1:-20}"
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -gt 0 ]] || targets=(config_file falcon_frames ftdi_strip hid_reports)
+[[ ${#targets[@]} -gt 0 ]] || targets=(config_file falcon_frames ftdi_strip hid_reports server_messages)
 
 cxx="${FUZZ_CXX:-clang++-14}"
 fuzzer_lib=/usr/lib/llvm-14/lib/clang/14.0.6/lib/linux/libclang_rt.fuzzer-x86_64.a
@@ -27,6 +27,7 @@ declare -A sources=(
   [falcon_frames]="src/devices/falcon_protocol.cpp"
   [ftdi_strip]="src/devices/ftdi_protocol.cpp"
   [hid_reports]="src/devices/hid_ffb_protocol.cpp src/devices/hid_report_descriptor.cpp"
+  [server_messages]="src/server/message_decoder.cpp src/client/object_json.cpp"
 )
 # toml++ (Debian's libtomlplusplus-dev) is compiled into the config target header-only, so that its parser is
 # instrumented too (linking Debian's uninstrumented libtomlplusplus.so would leave it out of the coverage). Known
@@ -36,6 +37,7 @@ declare -A sources=(
 # #190/#295: a code point U+00A1..U+FEFF where it tests for whitespace reaches a __builtin_unreachable()).
 declare -A extra_flags=(
   [config_file]="-DTOML_HEADER_ONLY=1 -include tests/fuzz/toml_assert_policy.hpp -fno-sanitize=unreachable"
+  [server_messages]="-Iinclude"
 )
 out=build/fuzz
 mkdir -p "$out/artifacts"

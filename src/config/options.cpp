@@ -98,6 +98,16 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_flag("--robust", o.robust,
                  "Tune CE0/CE1/CE2 for the worst case over the profile's mass_range, damping_range, stiffness_range "
                  "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
+    app.add_flag("--serve", o.serve, "Serve client applications on a control socket (docs/protocol.md)");
+    app.add_option("--serve-socket", o.serve_socket,
+                   "Control socket path (default $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock or /run/hapticd/hapticd.sock)");
+    app.add_option("--serve-mode", o.serve_mode, "Octal file mode of the control socket (default 0660)");
+    app.add_option("--serve-group", o.serve_group, "Group of the control socket and the state (default: the daemon's)");
+    app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");
+    app.add_option("--ramp-time", o.ramp_time, "Ramp in/out time of client objects in s (default 0.03; 0: none)");
+    app.add_option("--max-force-rate", o.max_force_rate, "Limit on the change of the total force in N/s (default 10000)");
+    app.add_flag("--serve-wait-commit", o.serve_wait_commit, "Start the loop only once a client batch was accepted (tests)");
+    app.add_option("--trace-axis", o.trace_axis, "Axis the trace records (default -1: the first wall's)");
     app.add_option("--falcon-firmware", o.falcon_firmware,
                    "Novint Falcon firmware image to upload at start (user-supplied; overrides the profile's firmware)");
 }
@@ -253,6 +263,15 @@ void validate_options(const Options& o) {
     check_range(w, "identify-force", o.identify_force, 0.0, 1e6, false, "0 (auto) .. 1e6 N");
     check_range(w, "identify-distance", o.identify_distance, 0.0, 1e3, false, "0 (auto) .. 1000 m");
     check_range(w, "identify-duration", o.identify_duration, 0.1, 600.0, false, "0.1 .. 600 s");
+    check_range(w, "ramp-time", o.ramp_time, 0.0, 10.0, false, "0 .. 10 s");
+    check_range(w, "max-force-rate", o.max_force_rate, 0.0, 1e9, true, "> 0 and <= 1e9 N/s");
+    if (o.serve_mode.empty() || o.serve_mode.size() > 4 || o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
+        invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
+    }
+    if (o.serve_shm.size() < 2 || o.serve_shm[0] != '/' || o.serve_shm.find('/', 1) != std::string::npos) {
+        invalid(w, "serve-shm", o.serve_shm, "'/' followed by a name without '/', e.g. /hapticd-state");
+    }
+    if (o.trace_axis < -1 || o.trace_axis > 2) invalid(w, "trace-axis", std::to_string(o.trace_axis), "-1 (the first wall's), 0, 1, 2");
 }
 
 std::string resolve_device_profile_path(const Options& o) {

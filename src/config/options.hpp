@@ -55,6 +55,16 @@ struct Options {
     double identify_distance = 0.0;   // excitation position limit, m (0: 5 mm, 0.05 rad for rotary devices)
     double identify_duration = 2.0;   // s of excitation (plus 0.3 s of zero force)
     bool robust = false;              // tune for the worst case over the profile's parameter ranges (tuning.hpp)
+    // The control socket for client applications (docs/protocol.md, server/server.hpp).
+    bool serve = false;
+    std::string serve_socket;                 // "" : $RUNTIME_DIRECTORY or $XDG_RUNTIME_DIR /hapticd.sock, else /run/hapticd/
+    std::string serve_mode = "0660";          // octal file mode of the socket
+    std::string serve_group;                  // group of the socket and the state ("" : the daemon's group)
+    std::string serve_shm = "/hapticd-state"; // POSIX shared-memory name of the state stream
+    double ramp_time = 0.03;                  // s, ramp in/out of client objects
+    double max_force_rate = 10000.0;          // N/s, limit on the change of the total force per tick
+    bool serve_wait_commit = false;           // start the loop only once a client batch was accepted (tests)
+    long long trace_axis = -1;                // axis the trace records (-1: the first wall's)
     bool passivity_control = false;   // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
     double passivity_damping_cap = 0.0;        // N s/m; 0: 4 m / T (the normalised damper beta <= 4)
     double passivity_velocity_guard = 1e-4;    // m/s: no damper below this speed

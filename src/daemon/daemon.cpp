@@ -2,6 +2,9 @@
 
 #include <limits>
 
+#include "scene/scene_objects.hpp"
+#include "server/state_publisher.hpp"
+
 namespace hapticd {
 
 Daemon::Daemon(Device& device, Scene& scene, TraceWriter* trace, const DaemonConfig& config)
@@ -28,6 +31,8 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         result_.signal = stop_signal();
     }
 
+    if (hooks_.objects != nullptr) hooks_.objects->apply_commits();  // whole batches, at this tick boundary
+
     DeviceStatus status = device_.read_position(position);
     if (status != DeviceStatus::Ok && result_.fault == Fault::None) {
         result_.fault = Fault::Device;
@@ -40,7 +45,10 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         result_.fault_tick = in.tick;
     }
     if (result_.fault == Fault::None) {
-        const SceneFault sf = scene_.evaluate(position, force);
+        SceneFault sf = scene_.evaluate(position, force);
+        if (sf == SceneFault::None && hooks_.objects != nullptr && !hooks_.objects->add_forces(position, force)) {
+            sf = SceneFault::NonFiniteForce;
+        }
         if (sf != SceneFault::None) {
             result_.fault = Fault::NonFinite;
             result_.scene_fault = sf;
@@ -59,6 +67,20 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         result_.fault = Fault::Device;
         result_.device_status = status;
         result_.fault_tick = in.tick;
+    }
+
+    if (hooks_.state != nullptr) {
+        StateTick st;
+        st.tick = in.tick;
+        st.time_s = static_cast<double>(RealtimeLoop::now_ns()) * 1e-9;
+        st.position = position;
+        if (hooks_.objects != nullptr) st.velocity = hooks_.objects->velocity();
+        st.force = applied;
+        st.overruns = loop_.counters().overruns;
+        st.wake_latency_ns = in.wake_latency_ns;
+        // The protocol's fault numbers (docs/protocol.md, section 6): 0 none, 1 device, 2 non-finite, 3 watchdog.
+        st.fault = result_.fault == Fault::Device ? 1U : result_.fault == Fault::NonFinite ? 2U : result_.fault == Fault::Watchdog ? 3U : 0U;
+        hooks_.state->publish(st, hooks_.objects);
     }
 
     if (trace_ != nullptr) {

@@ -17,6 +17,16 @@
 
 namespace hapticd {
 
+class SceneObjects;
+class StatePublisher;
+
+// With --serve (server/server.hpp): the clients' objects, rendered after the config walls (their commits
+// applied at the start of a tick), and the shared-memory state written at the end of every tick.
+struct ServerHooks {
+    SceneObjects* objects = nullptr;
+    StatePublisher* state = nullptr;
+};
+
 struct DaemonConfig {
     LoopConfig loop;
     std::uint64_t max_ticks = 0;   // 0: until stopped
@@ -46,6 +56,9 @@ public:
 
     RunResult run() noexcept;
 
+    // Before run(): render the clients' objects and publish the state (both must outlive the daemon).
+    void attach(const ServerHooks& hooks) noexcept { hooks_ = hooks; }
+
     [[nodiscard]] const RealtimeLoop& loop() const noexcept { return loop_; }
 
 private:
@@ -59,6 +72,7 @@ private:
     DelayRing<AxisVector> delay_;
     Watchdog watchdog_;
     RunResult result_;
+    ServerHooks hooks_;
 };
 
 }  // namespace hapticd

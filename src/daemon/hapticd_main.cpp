@@ -24,6 +24,7 @@
 #include "daemon/systemd_notify.hpp"
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
+#include "server/serve_runtime.hpp"
 #include "loop/trace.hpp"
 #include "tuning/tuning.hpp"
 
@@ -278,7 +279,7 @@ int run_main(int argc, const char* const* argv) {
     cfg.watchdog.max_consecutive_overruns = static_cast<std::uint32_t>(o.watchdog_overruns);
     cfg.watchdog.max_skipped_periods = static_cast<std::uint64_t>(o.watchdog_stall_periods);
     cfg.watchdog_enabled = !o.lockstep;
-    cfg.trace_axis = walls.empty() ? 0 : walls.front().geometry.axis;
+    cfg.trace_axis = o.trace_axis >= 0 ? static_cast<std::size_t>(o.trace_axis) : walls.empty() ? 0 : walls.front().geometry.axis;
     std::optional<PassivityController> passivity;
     if (o.passivity_control) {
         PassivityControlConfig pc;
@@ -296,6 +297,17 @@ int run_main(int argc, const char* const* argv) {
         if (!o.quiet) out << "hapticd: " << describe(pc) << "\n";
     }
     auto daemon = std::make_unique<Daemon>(*device, scene, trace.get(), cfg);
+    std::unique_ptr<ServeRuntime> serving;  // --serve: client objects, state stream, control socket
+    if (o.serve) {
+        std::vector<ConfigWallInfo> config_walls;
+        for (const auto& w : walls) {
+            config_walls.push_back({w.geometry.axis, w.geometry.position, w.geometry.direction,
+                                    w.geometry.mode == WallMode::Bilateral, w.tuning.K, w.tuning.B});
+        }
+        serving = std::make_unique<ServeRuntime>(o, profile, period, delay, config_walls);
+        daemon->attach(serving->hooks());
+        serving->start();
+    }
 
     if (!o.lockstep) {
         report.realtime_requested = true;
@@ -324,7 +336,9 @@ int run_main(int argc, const char* const* argv) {
                  << (walls.empty() ? std::string() : " (" + tuning_line(walls.front().tuning, profile.rotary) + ")")
                  << ", loop running at " << o.rate << " Hz";
     notifier.ready(ready_status.str(), daemon->loop().heartbeat());
+    if (serving && o.serve_wait_commit) serving->wait_for_first_commit();
     report.run = daemon->run();
+    if (serving) serving->stop();
     notifier.stopping("loop ended after " + std::to_string(daemon->loop().counters().ticks) + " ticks");
     report.ran = true;
     report.loop = &daemon->loop();

@@ -1,0 +1,166 @@
+#include "server/message_decoder.hpp"
+
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "client/object_json.hpp"
+
+namespace hapticd::server {
+
+namespace {
+
+using nlohmann::json;
+
+DecodeError error(std::string code, std::string message, std::optional<std::uint64_t> id = std::nullopt) {
+    DecodeError e;
+    e.code = std::move(code);
+    e.message = std::move(message);
+    e.id = id;
+    return e;
+}
+
+constexpr std::uint64_t kMaxId = (std::uint64_t{1} << 53);
+
+DecodeResult decode_hello(const json& j) {
+    if (!j.contains("type") || !j["type"].is_string() || j["type"].get<std::string>() != "hello") {
+        return error("bad_hello", "decode_message: the first message must be {\"type\": \"hello\", \"protocol\": 1, ...}");
+    }
+    const auto p = j.find("protocol");
+    if (p == j.end() || !p->is_number_integer()) {
+        return error("bad_hello", "decode_message: hello.protocol: missing or not an integer; this server speaks protocol 1");
+    }
+    HelloRequest h;
+    const auto v = p->get<std::int64_t>();
+    if (v != kServerProtocol) {
+        DecodeError e = error("protocol_version", "hello: protocol = " + std::to_string(v) +
+                                                      " is not supported; this server speaks protocol " +
+                                                      std::to_string(kServerProtocol));
+        e.client_protocol = v > 1000000 || v < -1000000 ? -1 : static_cast<int>(v);
+        return e;
+    }
+    h.protocol = static_cast<int>(v);
+    if (const auto c = j.find("client"); c != j.end()) {
+        if (!c->is_string() || c->get_ref<const std::string&>().size() > 64) {
+            return error("bad_hello", "decode_message: hello.client: expected a string of at most 64 bytes");
+        }
+        h.client = c->get<std::string>();
+    }
+    if (const auto l = j.find("lease_s"); l != j.end() && !l->is_null()) {
+        if (!l->is_number() || !std::isfinite(l->get<double>())) {
+            return error("bad_hello", "decode_message: hello.lease_s: expected a number; accepted range: 0 (no lease) or 0.01 .. 60 s");
+        }
+        h.lease_s = l->get<double>();
+        if (!(h.lease_s == 0.0 || (h.lease_s >= 0.01 && h.lease_s <= 60.0))) {
+            return error("bad_hello", "decode_message: hello.lease_s = " + std::to_string(h.lease_s) +
+                                          " is invalid; accepted range: 0 (no lease) or 0.01 .. 60 s");
+        }
+    }
+    return Request{std::nullopt, h};
+}
+
+DecodeResult decode_commit(const json& j, std::uint64_t id) {
+    const auto ops = j.find("ops");
+    if (ops == j.end() || !ops->is_array()) {
+        return error("bad_message", "decode_message: commit.ops: missing or not an array; expected 1 .. 64 operations", id);
+    }
+    if (ops->empty() || ops->size() > kMaxOpsPerCommit) {
+        return error("bad_message", "decode_message: commit.ops: " + std::to_string(ops->size()) +
+                                        " operations; accepted range: 1 .. 64", id);
+    }
+    CommitRequest c;
+    int index = 0;
+    for (const json& op : *ops) {
+        auto fail = [&](const std::string& what) {
+            DecodeError e = error("bad_message", "decode_message: commit.ops[" + std::to_string(index) + "]" + what, id);
+            e.op_index = index;
+            return e;
+        };
+        if (!op.is_object() || !op.contains("op") || !op["op"].is_string()) {
+            return fail(": expected an object with \"op\": add | modify | remove | clear");
+        }
+        const std::string kind = op["op"].get<std::string>();
+        CommitOperation o;
+        if (kind == "add") {
+            o.kind = CommitOperation::Kind::Add;
+        } else if (kind == "modify") {
+            o.kind = CommitOperation::Kind::Modify;
+        } else if (kind == "remove") {
+            o.kind = CommitOperation::Kind::Remove;
+        } else if (kind == "clear") {
+            o.kind = CommitOperation::Kind::Clear;
+        } else {
+            return fail(".op: \"" + kind.substr(0, 40) + "\" is invalid; accepted: add, modify, remove, clear");
+        }
+        if (o.kind == CommitOperation::Kind::Modify || o.kind == CommitOperation::Kind::Remove) {
+            const auto oid = op.find("object_id");
+            if (oid == op.end() || !oid->is_number_unsigned() || oid->get<std::uint64_t>() == 0 ||
+                oid->get<std::uint64_t>() > 0xffffffffULL) {
+                return fail(".object_id: missing or invalid; accepted range: an object id 1 .. 2^32-1");
+            }
+            o.object_id = static_cast<std::uint32_t>(oid->get<std::uint64_t>());
+        }
+        if (o.kind == CommitOperation::Kind::Add || o.kind == CommitOperation::Kind::Modify) {
+            const auto obj = op.find("object");
+            if (obj == op.end()) return fail(".object: missing; expected an object description");
+            std::string why;
+            o.object = client::object_from_json(*obj, why);
+            if (!o.object) return fail("." + why);
+        }
+        c.ops.push_back(std::move(o));
+        ++index;
+    }
+    return Request{id, std::move(c)};
+}
+
+}  // namespace
+
+DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept {
+    try {
+        if (bytes.size() > client::kMaxMessageBytes) {
+            return error("oversized", "decode_message: message of " + std::to_string(bytes.size()) +
+                                          " bytes; accepted: at most 65536 bytes");
+        }
+        const json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
+        if (j.is_discarded()) {
+            return error(expect_hello ? "bad_hello" : "bad_json", "decode_message: not valid UTF-8 JSON (one JSON object per message)");
+        }
+        if (!j.is_object()) {
+            return error(expect_hello ? "bad_hello" : "bad_json", "decode_message: expected a JSON object, got " + std::string(j.type_name()));
+        }
+        if (expect_hello) return decode_hello(j);
+        const auto idit = j.find("id");
+        if (idit == j.end() || !idit->is_number_unsigned() || idit->get<std::uint64_t>() > kMaxId) {
+            return error("bad_message", "decode_message: id: missing or invalid; accepted range: an integer 0 .. 2^53");
+        }
+        const std::uint64_t id = idit->get<std::uint64_t>();
+        const auto type = j.find("type");
+        if (type == j.end() || !type->is_string()) {
+            return error("bad_message", "decode_message: type: missing or not a string", id);
+        }
+        const std::string& t = type->get_ref<const std::string&>();
+        if (t == "heartbeat") return Request{id, HeartbeatRequest{}};
+        if (t == "commit") return decode_commit(j, id);
+        if (t == "list") return Request{id, ListRequest{}};
+        if (t == "status") return Request{id, StatusRequest{}};
+        if (t == "unsubscribe") return Request{id, UnsubscribeRequest{}};
+        if (t == "bye") return Request{id, ByeRequest{}};
+        if (t == "subscribe") {
+            const auto r = j.find("rate_hz");
+            if (r == j.end() || !r->is_number() || !(r->get<double>() >= 0.1 && r->get<double>() <= 1000.0)) {
+                return error("bad_message", "decode_message: subscribe.rate_hz: missing or out of range; accepted range: 0.1 .. 1000 Hz", id);
+            }
+            return Request{id, SubscribeRequest{r->get<double>()}};
+        }
+        if (t == "hello") return error("bad_message", "decode_message: hello: already welcomed (hello only once)", id);
+        return error("bad_message", "decode_message: type = \"" + t.substr(0, 40) +
+                                        "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, bye",
+                     id);
+    } catch (const std::exception& e) {
+        return error("bad_message", std::string("decode_message: ") + e.what());
+    } catch (...) {
+        return error("bad_message", "decode_message: unreadable message");
+    }
+}
+
+}  // namespace hapticd::server

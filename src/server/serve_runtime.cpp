@@ -1,0 +1,94 @@
+#include "server/serve_runtime.hpp"
+
+#include <grp.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <thread>
+
+#include "daemon/exit_codes.hpp"
+#include "scene/safety.hpp"
+
+namespace hapticd {
+
+namespace {
+
+constexpr std::size_t kCommitRingCapacity = 64;
+
+int group_id(const std::string& name) {
+    if (name.empty()) return -1;
+    const group* g = ::getgrnam(name.c_str());
+    if (g == nullptr) {
+        throw StartupError(kExitInvalidParameter, "serve-group = " + name + " is invalid; accepted: an existing group name");
+    }
+    return static_cast<int>(g->gr_gid);
+}
+
+}  // namespace
+
+ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, double period, double delay,
+                           const std::vector<ConfigWallInfo>& config_walls) {
+    const int gid = group_id(o.serve_group);
+    const unsigned mode = static_cast<unsigned>(std::strtoul(o.serve_mode.c_str(), nullptr, 8));
+    if (mode > 0777U) throw StartupError(kExitInvalidParameter, "serve-mode = " + o.serve_mode + " is invalid; accepted: 0 .. 0777");
+    const std::size_t axes = static_cast<std::size_t>(profile.axes);
+
+    ring_ = std::make_unique<CommitRing>(kCommitRingCapacity);
+    SceneObjectsConfig oc;
+    oc.period = period;
+    oc.ramp_time = o.ramp_time;
+    oc.max_force = profile.max_force;
+    oc.max_force_rate = o.max_force_rate;
+    oc.axes = axes;
+    objects_ = std::make_unique<SceneObjects>(oc, *ring_);
+    try {
+        state_ = std::make_unique<StatePublisher>(o.serve_shm, axes, period, gid);
+    } catch (const std::exception& e) {
+        throw StartupError(kExitServerError, e.what());
+    }
+    GainCheckPlant plant;
+    plant.mass = profile.mass;
+    plant.damping = profile.damping;
+    plant.stiffness = profile.stiffness;
+    plant.period = period;
+    plant.time_delay = delay;
+    checker_ = std::make_unique<GainChecker>(plant);
+
+    ServerConfig sc;
+    sc.socket_path = o.serve_socket;
+    sc.socket_mode = mode;
+    sc.socket_gid = gid;
+    sc.device_name = profile.name;
+    sc.axes = axes;
+    sc.period = period;
+    sc.mass = profile.mass;
+    sc.delay = delay;
+    sc.max_force = profile.max_force;
+    sc.ramp_time = o.ramp_time;
+    sc.max_force_rate = o.max_force_rate;
+    for (std::size_t a = 0; a < axes && a < kMaxAxes; ++a) {
+        if (a < profile.workspace_min.size()) sc.workspace_min[a] = profile.workspace_min[a];
+        if (a < profile.workspace_max.size()) sc.workspace_max[a] = profile.workspace_max[a];
+    }
+    sc.config_walls = config_walls;
+    sc.log_connections = !o.quiet;
+    try {
+        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_);
+    } catch (const std::exception& e) {
+        throw StartupError(kExitServerError, e.what());
+    }
+}
+
+ServeRuntime::~ServeRuntime() { stop(); }
+
+void ServeRuntime::start() { server_->start(); }
+
+void ServeRuntime::wait_for_first_commit() const {
+    while (server_->commits_pushed() == 0 && !stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+void ServeRuntime::stop() {
+    if (server_) server_->stop();
+}
+
+}  // namespace hapticd

@@ -1,0 +1,41 @@
+// What `hapticd --serve` adds to a run, built from the options and the profile before the loop starts:
+// the hand-over ring, the loop's object slots, the shared-memory state, the gain checker and the server
+// thread. hapticd_main attaches hooks() to the daemon, start()s the server, runs the loop, then stop()s.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "config/options.hpp"
+#include "daemon/daemon.hpp"
+#include "scene/scene_objects.hpp"
+#include "server/server.hpp"
+#include "server/state_publisher.hpp"
+#include "tuning/object_checks.hpp"
+
+namespace hapticd {
+
+class ServeRuntime {
+public:
+    // Throws StartupError: kExitInvalidParameter for a bad --serve-group / --serve-mode, kExitServerError
+    // when the socket or the shared memory cannot be created.
+    ServeRuntime(const Options& options, const DeviceProfile& profile, double period, double delay,
+                 const std::vector<ConfigWallInfo>& config_walls);
+    ~ServeRuntime();
+
+    [[nodiscard]] ServerHooks hooks() noexcept { return ServerHooks{objects_.get(), state_.get()}; }
+    void start();
+    // --serve-wait-commit: returns once a client batch was handed to the loop, or on SIGINT/SIGTERM.
+    void wait_for_first_commit() const;
+    void stop();
+    [[nodiscard]] const Server& server() const noexcept { return *server_; }
+
+private:
+    std::unique_ptr<CommitRing> ring_;
+    std::unique_ptr<SceneObjects> objects_;
+    std::unique_ptr<StatePublisher> state_;
+    std::unique_ptr<GainChecker> checker_;
+    std::unique_ptr<Server> server_;
+};
+
+}  // namespace hapticd

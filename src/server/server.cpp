@@ -1,0 +1,890 @@
+#include "server/server.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "client/object_json.hpp"
+#include "server/message_decoder.hpp"
+#include "server/state_publisher.hpp"
+#include "tuning/object_checks.hpp"
+#include "tuning/tuning.hpp"
+
+namespace hapticd {
+
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+namespace cl = hapticd::client;
+
+constexpr std::size_t kMaxSessions = 256;
+constexpr int kMessagesPerRound = 16;
+constexpr std::uint64_t kNotPushed = ~std::uint64_t{0};
+
+std::string g(double v) {
+    std::ostringstream s;
+    s.precision(6);
+    s << v;
+    return s.str();
+}
+
+
+Matrix3 outer(const AxisVector& u, double scale) {
+    Matrix3 m{};
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) m[i][j] = scale * u[i] * u[j];
+    }
+    return m;
+}
+
+void add_to(Matrix3& a, const Matrix3& b) {
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) a[i][j] += b[i][j];
+    }
+}
+
+AxisVector to_axis(const cl::Vec3& v) { return AxisVector{v[0], v[1], v[2]}; }
+
+// A checked object: what the loop renders and what the summed-gain check adds.
+struct Resolved {
+    ObjectParams params;
+    Matrix3 K_matrix{};
+    Matrix3 B_matrix{};
+};
+
+struct Refusal {
+    std::string code;
+    std::string message;
+    std::optional<double> largest_stable_K;
+};
+
+struct ServerSlot {
+    enum class State { Free, Used, Draining } state = State::Free;
+    std::uint32_t id = 0;
+    std::uint64_t owner = 0;
+    std::optional<cl::ObjectDescription> description;
+    Resolved resolved;
+    std::uint64_t drain_seq = kNotPushed;
+};
+
+struct Session {
+    int fd = -1;
+    std::uint64_t id = 0;
+    long pid = 0;
+    long uid = -1;
+    long gid = -1;
+    std::string name;
+    bool welcomed = false;
+    double lease_s = 0.0;
+    Clock::time_point last_rx;
+    bool subscribed = false;
+    double rate_hz = 0.0;
+    Clock::time_point next_state;
+    std::uint64_t dropped = 0;
+    bool closed = false;
+};
+
+}  // namespace
+
+std::string default_server_socket_path() {
+    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
+    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
+    return "/run/hapticd/hapticd.sock";
+}
+
+struct Server::Impl {
+    Impl(const ServerConfig& c, GainChecker& k, CommitRing& r, const StatePublisher& s, std::atomic<std::uint64_t>& pushed)
+        : config(c), checker(k), ring(r), state(s), commits_pushed(pushed) {}
+
+    ServerConfig config;
+    GainChecker& checker;
+    CommitRing& ring;
+    const StatePublisher& state;
+    std::atomic<std::uint64_t>& commits_pushed;
+    int listen_fd = -1;
+    int wake_fd = -1;
+    std::atomic<bool> stop{false};
+    std::map<std::uint64_t, Session> sessions;
+    std::array<ServerSlot, kSceneObjectCapacity> slots{};
+    std::deque<ObjectCommit> pending;  // ramp-out batches that did not fit in the ring yet
+    std::uint32_t next_object_id = 1;
+    std::uint64_t next_session_id = 1;
+    std::uint64_t next_commit_seq = 1;
+    mutable std::mutex counters_mutex;
+    ServerCounters counters;
+    std::vector<char> buffer = std::vector<char>(cl::kMaxMessageBytes + 1);
+    StateLayout snapshot{};
+
+    void log(const std::string& line) const {
+        if (config.log_connections) std::cerr << "hapticd: server: " << line << "\n";
+    }
+
+    // ---- socket set-up -------------------------------------------------------------------------
+    void open_socket() {
+        if (config.socket_path.empty()) config.socket_path = default_server_socket_path();
+        const std::string& path = config.socket_path;
+        sockaddr_un addr{};
+        addr.sun_family = AF_UNIX;
+        if (path.size() >= sizeof(addr.sun_path)) {
+            throw std::runtime_error("Server: socket path '" + path + "' is too long; accepted: at most " +
+                                     std::to_string(sizeof(addr.sun_path) - 1) + " bytes");
+        }
+        const auto slash = path.rfind('/');
+        if (slash != std::string::npos && slash > 0) {
+            const std::string dir = path.substr(0, slash);
+            struct stat st {};
+            if (::stat(dir.c_str(), &st) != 0 && ::mkdir(dir.c_str(), 0755) != 0) {
+                throw std::runtime_error("Server: cannot create the socket directory '" + dir + "': " + std::strerror(errno));
+            }
+        }
+        std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+        listen_fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+        if (listen_fd < 0) throw std::runtime_error(std::string("Server: socket: ") + std::strerror(errno));
+        ::unlink(path.c_str());  // a stale socket of a previous run
+        // Bind with a restrictive umask so the file never exists with a wider mode than asked for.
+        const mode_t old = ::umask(0177);
+        const int b = ::bind(listen_fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
+        const int bind_errno = errno;
+        ::umask(old);
+        if (b != 0) throw std::runtime_error("Server: bind('" + path + "'): " + std::strerror(bind_errno));
+        if (config.socket_gid >= 0 && ::chown(path.c_str(), static_cast<uid_t>(-1), static_cast<gid_t>(config.socket_gid)) != 0) {
+            throw std::runtime_error("Server: chown('" + path + "', group " + std::to_string(config.socket_gid) + "): " + std::strerror(errno));
+        }
+        if (::chmod(path.c_str(), static_cast<mode_t>(config.socket_mode)) != 0) {
+            throw std::runtime_error("Server: chmod('" + path + "'): " + std::strerror(errno));
+        }
+        if (::listen(listen_fd, 64) != 0) throw std::runtime_error(std::string("Server: listen: ") + std::strerror(errno));
+        wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+        if (wake_fd < 0) throw std::runtime_error(std::string("Server: eventfd: ") + std::strerror(errno));
+    }
+
+    // ---- sending -------------------------------------------------------------------------------
+    // Replies: a full socket means the client does not read -> disconnect (never block).
+    void send_reply(Session& s, const json& message) {
+        if (s.closed) return;
+        const std::string text = message.dump();
+        const ssize_t n = ::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EWOULDBLOCK) {
+                close_session(s, "slow_consumer (a reply did not fit: the client does not read)");
+            } else {
+                close_session(s, std::string("send failed: ") + std::strerror(errno));
+            }
+        }
+    }
+
+    void send_error(Session& s, std::optional<std::uint64_t> id, const std::string& code, const std::string& message,
+                    int op_index = -1, std::optional<double> largest = std::nullopt) {
+        json e{{"type", "error"}, {"code", code}, {"message", message}};
+        e["id"] = id ? json(*id) : json(nullptr);
+        if (op_index >= -1 && code != "bad_json") e["op_index"] = op_index;
+        if (largest) e["largest_stable_K"] = *largest;
+        send_reply(s, e);
+    }
+
+    // ---- sessions ------------------------------------------------------------------------------
+    void accept_all() {
+        for (;;) {
+            const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+            if (fd < 0) return;  // EAGAIN or a transient error: try again next round
+            ucred cred{};
+            socklen_t len = sizeof(cred);
+            const bool have = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
+            if (sessions.size() >= kMaxSessions) {
+                const std::string text = json{{"type", "refused"}, {"code", "capacity"},
+                                              {"message", "Server: " + std::to_string(kMaxSessions) + " sessions already open"}}
+                                             .dump();
+                (void)::send(fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+                ::close(fd);
+                continue;
+            }
+            Session s;
+            s.fd = fd;
+            s.id = next_session_id++;
+            s.pid = have ? static_cast<long>(cred.pid) : 0;
+            s.uid = have ? static_cast<long>(cred.uid) : -1;
+            s.gid = have ? static_cast<long>(cred.gid) : -1;
+            s.last_rx = Clock::now();
+            log("session " + std::to_string(s.id) + " connected: pid " + std::to_string(s.pid) + ", uid " +
+                std::to_string(s.uid) + ", gid " + std::to_string(s.gid));
+            sessions.emplace(s.id, s);
+            std::lock_guard<std::mutex> lock(counters_mutex);
+            ++counters.sessions_opened;
+        }
+    }
+
+    void close_session(Session& s, const std::string& why) {
+        if (s.closed) return;
+        s.closed = true;
+        ::close(s.fd);
+        s.fd = -1;
+        ramp_out_objects_of(s.id);
+        log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " + std::to_string(s.pid) +
+            ", uid " + std::to_string(s.uid) + ") closed: " + why);
+        std::lock_guard<std::mutex> lock(counters_mutex);
+        ++counters.sessions_closed;
+    }
+
+    void ramp_out_objects_of(std::uint64_t session) {
+        ObjectCommit c;
+        for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+            ServerSlot& slot = slots[i];
+            if (slot.state != ServerSlot::State::Used || slot.owner != session) continue;
+            slot.state = ServerSlot::State::Draining;
+            slot.drain_seq = kNotPushed;
+            SlotUpdate& u = c.updates[c.count++];
+            u.slot = static_cast<std::uint8_t>(i);
+            u.action = SlotUpdate::Action::Remove;
+            u.params = slot.resolved.params;
+        }
+        if (c.count == 0) return;
+        pending.push_back(c);
+        push_pending();
+    }
+
+    // Pushes waiting ramp-out batches in order; assigns their sequence numbers when they enter the ring.
+    void push_pending() {
+        while (!pending.empty()) {
+            ObjectCommit& c = pending.front();
+            c.seq = next_commit_seq;
+            if (!ring.try_push(c)) return;
+            ++next_commit_seq;
+            for (std::uint32_t i = 0; i < c.count; ++i) slots[c.updates[i].slot].drain_seq = c.seq;
+            commits_pushed.fetch_add(1, std::memory_order_release);
+            {
+                std::lock_guard<std::mutex> lock(counters_mutex);
+                ++counters.commits_pushed;
+            }
+            pending.pop_front();
+        }
+    }
+
+    // ---- object checks -------------------------------------------------------------------------
+    std::optional<Refusal> check_vector(const cl::Vec3& v, const std::string& field, bool unit) const {
+        for (std::size_t a = config.axes; a < 3; ++a) {
+            if (v[a] != 0.0) {
+                return Refusal{"bad_message", field + "[" + std::to_string(a) + "] = " + g(v[a]) + " is invalid: the device has " +
+                                                  std::to_string(config.axes) + " axes; accepted: 0 beyond axis " +
+                                                  std::to_string(config.axes - 1), std::nullopt};
+            }
+        }
+        if (unit) {
+            const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            if (!(std::fabs(n - 1.0) <= 1e-6)) {
+                return Refusal{"bad_message", field + ": length " + g(n) + " is invalid; accepted range: a unit vector, | |n| - 1 | <= 1e-6",
+                               std::nullopt};
+            }
+        }
+        return std::nullopt;
+    }
+
+    std::optional<Refusal> check_in_workspace(const cl::Vec3& v, const std::string& field) const {
+        for (std::size_t a = 0; a < config.axes; ++a) {
+            if (v[a] < config.workspace_min[a] || v[a] > config.workspace_max[a]) {
+                return Refusal{"beyond_device_limits", field + "[" + std::to_string(a) + "] = " + g(v[a]) +
+                                                           " m is outside the device's workspace; accepted range: " +
+                                                           g(config.workspace_min[a]) + " .. " + g(config.workspace_max[a]) + " m",
+                               std::nullopt};
+            }
+        }
+        return std::nullopt;
+    }
+
+    // Gains of an object: explicit (checked) or the cached optimum of the criterion.
+    std::optional<Refusal> resolve_gains(const cl::Gains& gains, const std::string& kind, double& K, double& B) {
+        if (!gains.criterion.empty()) {
+            std::optional<CriterionGains> c;
+            try {
+                c = checker.criterion_gains(gains.criterion);
+            } catch (const std::exception& e) {
+                return Refusal{"bad_message", kind + ".gains.criterion = " + gains.criterion + ": " + e.what(), std::nullopt};
+            }
+            if (!c) {
+                return Refusal{"unknown_criterion", kind + ".gains.criterion = \"" + gains.criterion.substr(0, 40) +
+                                                        "\" is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV",
+                               std::nullopt};
+            }
+            K = c->K;
+            B = c->B;
+            return std::nullopt;
+        }
+        K = gains.K.value_or(0.0);
+        B = gains.B.value_or(0.0);
+        if (!(K >= 0.0) || !(B >= 0.0)) {
+            return Refusal{"bad_message", kind + ".gains: K = " + g(K) + " N/m, B = " + g(B) +
+                                              " N s/m are invalid; accepted range: K >= 0, B >= 0 (finite)", std::nullopt};
+        }
+        const PairVerdict v = checker.check_pair(K, B);
+        if (!v.stable) {
+            return Refusal{"unstable_gains",
+                           kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
+                               ") are outside the stability region for mass " + g(config.mass) + " kg, period " + g(config.period) +
+                               " s, delay " + g(config.delay) + " s; the largest stable K at B = " + g(B) + " N s/m is " +
+                               g(v.largest_stable_K) + " N/m (alpha_max = " + g(v.alpha_max) + ")",
+                           v.largest_stable_K};
+        }
+        return std::nullopt;
+    }
+
+    std::optional<Refusal> resolve(const cl::ObjectDescription& d, Resolved& out) {
+        out = Resolved{};
+        ObjectParams& p = out.params;
+        if (const auto* plane = std::get_if<cl::Plane>(&d)) {
+            if (auto r = check_vector(plane->normal, "plane.normal", true)) return r;
+            p.kind = ObjectKind::Plane;
+            p.direction = to_axis(plane->normal);
+            p.offset = plane->offset;
+            p.bilateral = plane->bilateral;
+            if (auto r = resolve_gains(plane->gains, "plane", p.K, p.B)) return r;
+            out.K_matrix = outer(p.direction, p.K);
+            out.B_matrix = outer(p.direction, p.B);
+            return std::nullopt;
+        }
+        if (const auto* spring = std::get_if<cl::Spring>(&d)) {
+            if (auto r = check_vector(spring->point, "spring.point", false)) return r;
+            if (auto r = check_in_workspace(spring->point, "spring.point")) return r;
+            p.kind = ObjectKind::Spring;
+            p.constraint = spring->constraint == cl::Constraint::Point  ? SpringConstraint::Point
+                           : spring->constraint == cl::Constraint::Line ? SpringConstraint::Line
+                                                                        : SpringConstraint::Plane;
+            if (p.constraint != SpringConstraint::Point) {
+                if (auto r = check_vector(spring->direction, "spring.direction", true)) return r;
+                p.direction = to_axis(spring->direction);
+            }
+            p.point = to_axis(spring->point);
+            if (auto r = resolve_gains(spring->gains, "spring", p.K, p.B)) return r;
+            Matrix3 P{};
+            if (p.constraint == SpringConstraint::Plane) {
+                P = outer(p.direction, 1.0);
+            } else {
+                for (std::size_t i = 0; i < config.axes; ++i) P[i][i] = 1.0;  // only the device's axes
+                if (p.constraint == SpringConstraint::Line) {
+                    const Matrix3 dd = outer(p.direction, -1.0);
+                    add_to(P, dd);
+                }
+            }
+            for (std::size_t i = 0; i < 3; ++i) {
+                for (std::size_t j = 0; j < 3; ++j) {
+                    out.K_matrix[i][j] = p.K * P[i][j];
+                    out.B_matrix[i][j] = p.B * P[i][j];
+                }
+            }
+            return std::nullopt;
+        }
+        const auto& field = std::get<cl::Field>(d);
+        if (auto r = check_vector(field.center, "field.center", false)) return r;
+        if (auto r = check_vector(field.force, "field.force", false)) return r;
+        if (auto r = check_in_workspace(field.center, "field.center")) return r;
+        if (!(field.radius > 0.0) || !std::isfinite(field.radius)) {
+            return Refusal{"bad_message", "field.radius = " + g(field.radius) + " is invalid; accepted range: finite, > 0 m", std::nullopt};
+        }
+        Matrix3 J{};
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) {
+                J[i][j] = field.jacobian[i][j];
+                if ((i >= config.axes || j >= config.axes) && J[i][j] != 0.0) {
+                    return Refusal{"bad_message", "field.jacobian[" + std::to_string(i) + "][" + std::to_string(j) +
+                                                      "] is invalid: the device has " + std::to_string(config.axes) +
+                                                      " axes; accepted: 0 outside them", std::nullopt};
+                }
+            }
+        }
+        const GainChecker::FieldStiffness fs = GainChecker::field_stiffness(J);
+        const double scale = 1e-12 * (1.0 + fs.jacobian_norm);
+        if (fs.min_stiffness < -scale) {
+            return Refusal{"unstable_gains", "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.min_stiffness) +
+                                                 " N/m > 0 (a negative stiffness, unstable); accepted: sym(J) negative semi-definite",
+                           std::nullopt};
+        }
+        const double f0 = std::sqrt(field.force[0] * field.force[0] + field.force[1] * field.force[1] + field.force[2] * field.force[2]);
+        const double largest = f0 + fs.jacobian_norm * field.radius;
+        if (largest > config.max_force) {
+            return Refusal{"beyond_device_limits", "field: the largest force |F0| + ||J|| radius = " + g(largest) +
+                                                       " N exceeds the device's max_force; accepted range: <= " + g(config.max_force) + " N",
+                           std::nullopt};
+        }
+        if (fs.max_stiffness > scale) {
+            const PairVerdict v = checker.check_pair(fs.max_stiffness, 0.0);
+            if (!v.stable) {
+                return Refusal{"unstable_gains", "field: stiffness " + g(fs.max_stiffness) + " N/m (largest eigenvalue of -sym(J)) with B = 0 "
+                                                 "is outside the stability region; the largest stable K at B = 0 is " +
+                                                     g(v.largest_stable_K) + " N/m",
+                               v.largest_stable_K};
+            }
+        }
+        p.kind = ObjectKind::Field;
+        p.point = to_axis(field.center);
+        p.radius = field.radius;
+        p.force = to_axis(field.force);
+        for (std::size_t i = 0; i < 3; ++i) p.jacobian[i] = AxisVector{J[i][0], J[i][1], J[i][2]};
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) out.K_matrix[i][j] = -0.5 * (J[i][j] + J[j][i]);
+        }
+        return std::nullopt;
+    }
+
+    // A modify that keeps everything but where the object is: applied at once, without a ramp.
+    static bool is_move(const ObjectParams& a, const ObjectParams& b) {
+        if (a.kind != b.kind || a.K != b.K || a.B != b.B) return false;
+        switch (a.kind) {
+            case ObjectKind::Plane: return a.direction == b.direction && a.bilateral == b.bilateral;
+            case ObjectKind::Spring: return a.constraint == b.constraint && a.direction == b.direction;
+            case ObjectKind::Field: return a.radius == b.radius && a.jacobian == b.jacobian;
+        }
+        return false;
+    }
+
+    // ---- commit --------------------------------------------------------------------------------
+    void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req) {
+        std::array<ServerSlot, kSceneObjectCapacity> proposal = slots;
+        std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates{};
+        std::vector<std::uint32_t> new_ids;
+        std::uint32_t next_id = next_object_id;
+        auto refuse = [&](const std::string& code, const std::string& message, int op, std::optional<double> largest = std::nullopt) {
+            {
+                std::lock_guard<std::mutex> lock(counters_mutex);
+                ++counters.commits_refused;
+            }
+            send_error(s, id, code, "commit: ops[" + std::to_string(op) + "]: " + message, op, largest);
+        };
+        auto find_slot = [&](std::uint32_t object_id) -> int {
+            for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+                if (proposal[i].state == ServerSlot::State::Used && proposal[i].id == object_id) return static_cast<int>(i);
+            }
+            return -1;
+        };
+        auto owned_slot = [&](std::uint32_t object_id, int op, int& slot_out) -> bool {
+            const int slot = find_slot(object_id);
+            if (slot < 0) {
+                if (object_id >= 1 && object_id <= config.config_walls.size()) {
+                    refuse("not_owner", "object " + std::to_string(object_id) + " is a config-file wall, owned by the daemon", op);
+                } else {
+                    refuse("unknown_object", "object_id = " + std::to_string(object_id) + ": no such object in the scene", op);
+                }
+                return false;
+            }
+            if (proposal[static_cast<std::size_t>(slot)].owner != s.id) {
+                refuse("not_owner", "object " + std::to_string(object_id) + " belongs to session " +
+                                        std::to_string(proposal[static_cast<std::size_t>(slot)].owner) + ", not to this one (" +
+                                        std::to_string(s.id) + ")", op);
+                return false;
+            }
+            slot_out = slot;
+            return true;
+        };
+        auto merge = [&](std::size_t slot, SlotUpdate::Action action, const ObjectParams& params) {
+            auto& u = updates[slot];
+            if (!u) {
+                u = SlotUpdate{static_cast<std::uint8_t>(slot), action, params};
+                return;
+            }
+            if (action == SlotUpdate::Action::Remove) {
+                u->action = SlotUpdate::Action::Remove;
+            } else if (action == SlotUpdate::Action::Set || u->action == SlotUpdate::Action::Set) {
+                u->action = SlotUpdate::Action::Set;
+            }
+            u->params = params;
+        };
+
+        int op_index = 0;
+        for (const auto& op : req.ops) {
+            switch (op.kind) {
+                case server::CommitOperation::Kind::Add: {
+                    Resolved r;
+                    if (auto refusal = resolve(*op.object, r)) {
+                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K);
+                        return;
+                    }
+                    int free_slot = -1;
+                    for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+                        if (proposal[i].state == ServerSlot::State::Free && !updates[i]) {
+                            free_slot = static_cast<int>(i);
+                            break;
+                        }
+                    }
+                    if (free_slot < 0) {
+                        refuse("capacity", "the scene holds " + std::to_string(kSceneObjectCapacity) +
+                                               " client objects (removed ones count until their ramp-out ends); remove some first", op_index);
+                        return;
+                    }
+                    if (next_id < 1 + config.config_walls.size()) next_id = static_cast<std::uint32_t>(1 + config.config_walls.size());
+                    r.params.id = next_id++;
+                    ServerSlot& slot = proposal[static_cast<std::size_t>(free_slot)];
+                    slot.state = ServerSlot::State::Used;
+                    slot.id = r.params.id;
+                    slot.owner = s.id;
+                    slot.description = *op.object;
+                    slot.resolved = r;
+                    merge(static_cast<std::size_t>(free_slot), SlotUpdate::Action::Set, r.params);
+                    new_ids.push_back(r.params.id);
+                    break;
+                }
+                case server::CommitOperation::Kind::Modify: {
+                    int slot = -1;
+                    if (!owned_slot(op.object_id, op_index, slot)) return;
+                    Resolved r;
+                    if (auto refusal = resolve(*op.object, r)) {
+                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K);
+                        return;
+                    }
+                    ServerSlot& ss = proposal[static_cast<std::size_t>(slot)];
+                    r.params.id = ss.id;
+                    const bool move = is_move(ss.resolved.params, r.params);
+                    ss.description = *op.object;
+                    ss.resolved = r;
+                    merge(static_cast<std::size_t>(slot), move ? SlotUpdate::Action::Move : SlotUpdate::Action::Set, r.params);
+                    break;
+                }
+                case server::CommitOperation::Kind::Remove: {
+                    int slot = -1;
+                    if (!owned_slot(op.object_id, op_index, slot)) return;
+                    ServerSlot& ss = proposal[static_cast<std::size_t>(slot)];
+                    ss.state = ServerSlot::State::Draining;
+                    ss.drain_seq = kNotPushed;
+                    merge(static_cast<std::size_t>(slot), SlotUpdate::Action::Remove, ss.resolved.params);
+                    break;
+                }
+                case server::CommitOperation::Kind::Clear:
+                    for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+                        ServerSlot& ss = proposal[i];
+                        if (ss.state != ServerSlot::State::Used || ss.owner != s.id) continue;
+                        ss.state = ServerSlot::State::Draining;
+                        ss.drain_seq = kNotPushed;
+                        merge(i, SlotUpdate::Action::Remove, ss.resolved.params);
+                    }
+                    break;
+            }
+            ++op_index;
+        }
+
+        // The summed gains of the scene that would result (every session's objects and the config walls).
+        Matrix3 K_sum{}, B_sum{};
+        for (const auto& w : config.config_walls) {
+            AxisVector e{};
+            e[w.axis] = 1.0;
+            add_to(K_sum, outer(e, w.K));
+            add_to(B_sum, outer(e, w.B));
+        }
+        for (const auto& slot : proposal) {
+            if (slot.state != ServerSlot::State::Used) continue;
+            add_to(K_sum, slot.resolved.K_matrix);
+            add_to(B_sum, slot.resolved.B_matrix);
+        }
+        std::string why;
+        if (!checker.sum_is_stable(K_sum, B_sum, why)) {
+            {
+                std::lock_guard<std::mutex> lock(counters_mutex);
+                ++counters.commits_refused;
+            }
+            send_error(s, id, "unstable_sum", "commit: " + why + " (all objects are counted as in contact at once; docs/protocol.md, section 5)",
+                       -1);
+            return;
+        }
+
+        ObjectCommit c;
+        for (const auto& u : updates) {
+            if (u) c.updates[c.count++] = *u;
+        }
+        push_pending();  // older ramp-outs first, so batches reach the loop in order
+        if (!pending.empty()) {
+            send_error(s, id, "busy", "commit: the hand-over queue to the loop is full; retry", -1);
+            return;
+        }
+        c.seq = next_commit_seq;
+        if (c.count > 0 && !ring.try_push(c)) {
+            send_error(s, id, "busy", "commit: the hand-over queue to the loop is full; retry", -1);
+            return;
+        }
+        std::uint64_t seq = 0;
+        if (c.count > 0) {
+            seq = next_commit_seq++;
+            commits_pushed.fetch_add(1, std::memory_order_release);
+            std::lock_guard<std::mutex> lock(counters_mutex);
+            ++counters.commits_pushed;
+        }
+        for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+            if (proposal[i].state == ServerSlot::State::Draining && proposal[i].drain_seq == kNotPushed) proposal[i].drain_seq = seq;
+        }
+        slots = proposal;
+        next_object_id = next_id;
+        send_reply(s, json{{"type", "ok"}, {"id", id}, {"commit_seq", seq}, {"object_ids", new_ids}});
+    }
+
+    // ---- other requests ------------------------------------------------------------------------
+    json device_json() const {
+        return json{{"name", config.device_name}, {"axes", config.axes}, {"period_s", config.period},
+                    {"mass", json::array({config.mass, config.mass, config.mass})}, {"delay_s", config.delay},
+                    {"max_force", config.max_force}, {"max_stiffness", nullptr}};
+    }
+
+    json list_json() const {
+        json objects = json::array();
+        std::uint32_t wall_id = 1;
+        for (const auto& w : config.config_walls) {
+            cl::Plane p;
+            p.normal = {0.0, 0.0, 0.0};
+            p.normal[w.axis] = -w.direction;
+            p.offset = -w.direction * w.position;
+            p.bilateral = w.bilateral;
+            p.gains = cl::Gains::explicit_gains(w.K, w.B);
+            objects.push_back({{"id", wall_id++}, {"owner", 0}, {"kind", "plane"}, {"K", w.K}, {"B", w.B},
+                               {"object", cl::object_to_json(p)}, {"ramping_out", false}});
+        }
+        for (const auto& slot : slots) {
+            if (slot.state == ServerSlot::State::Free || !slot.description) continue;
+            objects.push_back({{"id", slot.id}, {"owner", slot.owner}, {"kind", cl::kind_name(*slot.description)},
+                               {"K", slot.resolved.params.K}, {"B", slot.resolved.params.B},
+                               {"object", cl::object_to_json(*slot.description)},
+                               {"ramping_out", slot.state == ServerSlot::State::Draining}});
+        }
+        return objects;
+    }
+
+    static const char* fault_name(std::uint32_t f) {
+        switch (f) {
+            case 0: return "none";
+            case 1: return "device";
+            case 2: return "non-finite";
+            case 3: return "watchdog";
+            default: return "unknown";
+        }
+    }
+
+    void handle_message(Session& s, std::string_view bytes) {
+        s.last_rx = Clock::now();
+        const server::DecodeResult result = server::decode_message(bytes, !s.welcomed);
+        if (const auto* e = std::get_if<server::DecodeError>(&result)) {
+            if (e->code == "protocol_version") {
+                send_reply(s, json{{"type", "refused"}, {"code", e->code}, {"server_protocol", server::kServerProtocol},
+                                   {"client_protocol", e->client_protocol}, {"message", e->message}});
+                close_session(s, "refused: " + e->message);
+            } else if (e->code == "bad_hello") {
+                send_reply(s, json{{"type", "refused"}, {"code", e->code}, {"server_protocol", server::kServerProtocol}, {"message", e->message}});
+                close_session(s, "refused: " + e->message);
+            } else {
+                send_error(s, e->id, e->code, e->message, e->op_index);
+                if (e->code == "oversized") close_session(s, "oversized message");
+            }
+            return;
+        }
+        const auto& req = std::get<server::Request>(result);
+        if (const auto* hello = std::get_if<server::HelloRequest>(&req.body)) {
+            s.welcomed = true;
+            s.name = hello->client;
+            s.lease_s = hello->lease_s;
+            log("session " + std::to_string(s.id) + " is '" + s.name + "', lease " + g(s.lease_s) + " s");
+            send_reply(s, json{{"type", "welcome"}, {"protocol", server::kServerProtocol}, {"session", s.id}, {"lease_s", s.lease_s},
+                               {"max_message_bytes", cl::kMaxMessageBytes}, {"capacity", kSceneObjectCapacity},
+                               {"state_shm", state.name()}, {"ramp_s", config.ramp_time}, {"max_force_rate", config.max_force_rate},
+                               {"device", device_json()}});
+            return;
+        }
+        const std::uint64_t id = *req.id;
+        std::visit(
+            [&](const auto& body) {
+                using T = std::decay_t<decltype(body)>;
+                if constexpr (std::is_same_v<T, server::HeartbeatRequest>) {
+                    state.read(snapshot);
+                    send_reply(s, json{{"type", "ok"}, {"id", id}, {"tick", snapshot.tick}});
+                } else if constexpr (std::is_same_v<T, server::CommitRequest>) {
+                    handle_commit(s, id, body);
+                } else if constexpr (std::is_same_v<T, server::ListRequest>) {
+                    send_reply(s, json{{"type", "ok"}, {"id", id}, {"objects", list_json()}});
+                } else if constexpr (std::is_same_v<T, server::StatusRequest>) {
+                    state.read(snapshot);
+                    std::size_t n = config.config_walls.size();
+                    for (const auto& slot : slots) n += slot.state != ServerSlot::State::Free ? 1U : 0U;
+                    send_reply(s, json{{"type", "ok"}, {"id", id}, {"tick", snapshot.tick}, {"sessions", sessions.size()},
+                                       {"objects", n}, {"overruns", snapshot.overruns}, {"fault", fault_name(snapshot.fault)},
+                                       {"commits_applied", snapshot.last_commit_seq}});
+                } else if constexpr (std::is_same_v<T, server::SubscribeRequest>) {
+                    s.subscribed = true;
+                    s.rate_hz = body.rate_hz;
+                    s.next_state = Clock::now();
+                    send_reply(s, json{{"type", "ok"}, {"id", id}});
+                } else if constexpr (std::is_same_v<T, server::UnsubscribeRequest>) {
+                    s.subscribed = false;
+                    send_reply(s, json{{"type", "ok"}, {"id", id}});
+                } else if constexpr (std::is_same_v<T, server::ByeRequest>) {
+                    send_reply(s, json{{"type", "ok"}, {"id", id}});
+                    close_session(s, "bye");
+                } else {
+                    send_error(s, id, "bad_message", "hello: already welcomed");
+                }
+            },
+            req.body);
+    }
+
+    void read_session(Session& s) {
+        for (int i = 0; i < kMessagesPerRound && !s.closed; ++i) {
+            const ssize_t n = ::recv(s.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
+            if (n < 0) {
+                if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) return;
+                close_session(s, std::string("recv failed: ") + std::strerror(errno));
+                return;
+            }
+            if (n == 0) {
+                close_session(s, "disconnected (EOF)");
+                return;
+            }
+            handle_message(s, std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+        }
+    }
+
+    void send_states(Clock::time_point now) {
+        bool have = false;
+        for (auto& [sid, s] : sessions) {
+            if (s.closed || !s.subscribed || now < s.next_state) continue;
+            if (!have) {
+                state.read(snapshot);
+                have = true;
+            }
+            s.next_state += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.rate_hz));
+            if (s.next_state < now) s.next_state = now;  // never send bursts to catch up
+            json contact = json::array();
+            for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+                if ((snapshot.contact_mask >> i) & 1U) contact.push_back(snapshot.slot_object_id[i]);
+            }
+            const std::string text =
+                json{{"type", "state"}, {"tick", snapshot.tick}, {"time_s", snapshot.time_s},
+                     {"position", json::array({snapshot.position[0], snapshot.position[1], snapshot.position[2]})},
+                     {"velocity", json::array({snapshot.velocity[0], snapshot.velocity[1], snapshot.velocity[2]})},
+                     {"force", json::array({snapshot.force[0], snapshot.force[1], snapshot.force[2]})},
+                     {"contact", contact}, {"contact_mask", snapshot.contact_mask}, {"overruns", snapshot.overruns},
+                     {"wake_latency_ns", snapshot.wake_latency_ns}, {"last_commit_seq", snapshot.last_commit_seq},
+                     {"objects", snapshot.objects}, {"fault", fault_name(snapshot.fault)}, {"dropped", s.dropped}}
+                    .dump();
+            const ssize_t n = ::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (n < 0) {
+                if (errno == EAGAIN || errno == EWOULDBLOCK) {
+                    ++s.dropped;
+                    std::lock_guard<std::mutex> lock(counters_mutex);
+                    ++counters.states_dropped;
+                } else {
+                    close_session(s, std::string("send failed: ") + std::strerror(errno));
+                }
+            }
+        }
+    }
+
+    void reclaim_slots() {
+        state.read(snapshot);
+        for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+            ServerSlot& slot = slots[i];
+            if (slot.state != ServerSlot::State::Draining || slot.drain_seq == kNotPushed) continue;
+            if (snapshot.last_commit_seq >= slot.drain_seq && snapshot.slot_object_id[i] == 0) slot = ServerSlot{};
+        }
+    }
+
+    void run() {
+        std::vector<pollfd> fds;
+        std::vector<std::uint64_t> ids;
+        while (!stop.load(std::memory_order_acquire)) {
+            fds.clear();
+            ids.clear();
+            fds.push_back({listen_fd, POLLIN, 0});
+            fds.push_back({wake_fd, POLLIN, 0});
+            for (auto& [sid, s] : sessions) {
+                fds.push_back({s.fd, POLLIN, 0});
+                ids.push_back(sid);
+            }
+            const int r = ::poll(fds.data(), fds.size(), 1);  // 1 ms: leases, subscriptions, slot reclaim
+            if (r < 0 && errno != EINTR) {
+                log(std::string("poll failed: ") + std::strerror(errno));
+                return;
+            }
+            if (stop.load(std::memory_order_acquire)) break;
+            if (r > 0) {
+                if ((fds[0].revents & POLLIN) != 0) accept_all();
+                for (std::size_t i = 0; i < ids.size(); ++i) {
+                    const short ev = fds[i + 2].revents;
+                    if (ev == 0) continue;
+                    Session& s = sessions.at(ids[i]);
+                    if ((ev & POLLIN) != 0) read_session(s);
+                    if (!s.closed && (ev & (POLLHUP | POLLERR)) != 0 && (ev & POLLIN) == 0) close_session(s, "hung up");
+                }
+            }
+            const auto now = Clock::now();
+            for (auto& [sid, s] : sessions) {
+                if (s.closed || s.lease_s <= 0.0) continue;
+                if (now - s.last_rx > std::chrono::duration<double>(s.lease_s)) {
+                    const std::string text = json{{"type", "expired"}, {"code", "lease_lost"},
+                                                  {"message", "lease: no message for " + g(s.lease_s) + " s; the session's objects ramp out"}}
+                                                 .dump();
+                    (void)::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+                    close_session(s, "lease lost (no message for " + g(s.lease_s) + " s)");
+                }
+            }
+            send_states(now);
+            push_pending();
+            reclaim_slots();
+            for (auto it = sessions.begin(); it != sessions.end();) {
+                it = it->second.closed ? sessions.erase(it) : std::next(it);
+            }
+        }
+        for (auto& [sid, s] : sessions) close_session(s, "server stopping");
+        sessions.clear();
+    }
+};
+
+Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state)
+    : impl_(std::make_unique<Impl>(config, checker, ring, state, commits_pushed_)) {
+    impl_->open_socket();
+    impl_->log("listening on " + impl_->config.socket_path + " (mode 0" +
+               [&] {
+                   std::ostringstream o;
+                   o << std::oct << impl_->config.socket_mode;
+                   return o.str();
+               }() +
+               "), state in shared memory " + state.name());
+}
+
+Server::~Server() {
+    stop();
+    if (impl_->listen_fd >= 0) ::close(impl_->listen_fd);
+    if (impl_->wake_fd >= 0) ::close(impl_->wake_fd);
+    ::unlink(impl_->config.socket_path.c_str());
+}
+
+void Server::start() {
+    if (thread_.joinable()) return;
+    impl_->stop.store(false, std::memory_order_release);
+    thread_ = std::thread([this] { impl_->run(); });
+}
+
+void Server::stop() {
+    if (!thread_.joinable()) return;
+    impl_->stop.store(true, std::memory_order_release);
+    const std::uint64_t one = 1;
+    (void)::write(impl_->wake_fd, &one, sizeof(one));
+    thread_.join();
+}
+
+const std::string& Server::socket_path() const noexcept { return impl_->config.socket_path; }
+
+ServerCounters Server::counters() const {
+    std::lock_guard<std::mutex> lock(impl_->counters_mutex);
+    return impl_->counters;
+}
+
+}  // namespace hapticd

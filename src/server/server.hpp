@@ -1,0 +1,88 @@
+// hapticd's control server (docs/protocol.md): a Unix-domain SOCK_SEQPACKET socket served by one thread
+// of its own. It decodes requests (server/message_decoder.hpp), checks every object against the exact
+// stability region (tuning/object_checks.hpp) and hands whole batches to the loop through the lock-free
+// SPSC ring of scene/scene_objects.hpp. It never blocks the loop and is never blocked by a client: all
+// socket I/O is non-blocking; a client whose replies do not fit is disconnected.
+//
+// Slots: the server owns the assignment of the loop's 64 object slots. A removed object's slot is reused
+// only after the loop has published (state shared memory) that the batch removing it was applied and the
+// slot is empty, so a ramp-out is never cut short.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "devices/device.hpp"
+#include "scene/scene_objects.hpp"
+
+namespace hapticd {
+
+class GainChecker;
+class StatePublisher;
+
+// A config-file wall, as the server lists it and counts it in the summed gains.
+struct ConfigWallInfo {
+    std::size_t axis = 0;
+    double position = 0.0;
+    double direction = 1.0;
+    bool bilateral = false;
+    double K = 0.0, B = 0.0;
+};
+
+struct ServerConfig {
+    std::string socket_path;      // empty: default_server_socket_path()
+    unsigned socket_mode = 0660;
+    int socket_gid = -1;          // -1: the process's group
+    std::string device_name = "sim";
+    std::size_t axes = 1;
+    double period = 1e-3;         // s
+    double mass = 0.3;            // kg, every axis
+    double delay = 0.0;           // s, device + buffer
+    double max_force = 10.0;      // N
+    double ramp_time = 0.03;      // s
+    double max_force_rate = 1e4;  // N/s
+    AxisVector workspace_min{-1e9, -1e9, -1e9};
+    AxisVector workspace_max{1e9, 1e9, 1e9};
+    std::vector<ConfigWallInfo> config_walls;
+    bool log_connections = true;  // SO_PEERCRED lines on stderr
+};
+
+[[nodiscard]] std::string default_server_socket_path();
+
+struct ServerCounters {
+    std::uint64_t sessions_opened = 0;
+    std::uint64_t sessions_closed = 0;
+    std::uint64_t commits_pushed = 0;
+    std::uint64_t commits_refused = 0;
+    std::uint64_t states_dropped = 0;
+};
+
+class Server {
+public:
+    // Creates and binds the socket (mode, group), throws std::runtime_error naming the path on failure.
+    // checker, ring (producer side) and state must outlive the server.
+    Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state);
+    ~Server();  // stop() + remove the socket file
+    Server(const Server&) = delete;
+    Server& operator=(const Server&) = delete;
+
+    void start();  // spawns the server thread
+    void stop();   // ends it (sessions closed) and joins
+
+    [[nodiscard]] const std::string& socket_path() const noexcept;
+    // Batches handed to the loop so far (any thread).
+    [[nodiscard]] std::uint64_t commits_pushed() const noexcept { return commits_pushed_.load(std::memory_order_acquire); }
+    [[nodiscard]] ServerCounters counters() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+    std::atomic<std::uint64_t> commits_pushed_{0};
+    std::thread thread_;
+};
+
+}  // namespace hapticd

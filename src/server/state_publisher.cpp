@@ -1,0 +1,135 @@
+#include "server/state_publisher.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+
+#include "scene/scene_objects.hpp"
+
+namespace hapticd {
+
+StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid) : name_(shm_name) {
+    if (shm_name.size() < 2 || shm_name[0] != '/' || shm_name.find('/', 1) != std::string::npos || shm_name.size() > 200) {
+        throw std::runtime_error("StatePublisher: shm name '" + shm_name +
+                                 "' is invalid; accepted: '/' followed by 1..199 characters without '/'");
+    }
+    ::shm_unlink(shm_name.c_str());  // a stale segment of a crashed daemon
+    const int fd = ::shm_open(shm_name.c_str(), O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC, 0640);
+    if (fd < 0) throw std::runtime_error("StatePublisher: shm_open('" + shm_name + "'): " + std::strerror(errno));
+    if (::ftruncate(fd, sizeof(StateLayout)) != 0) {
+        const int e = errno;
+        ::close(fd);
+        ::shm_unlink(shm_name.c_str());
+        throw std::runtime_error("StatePublisher: ftruncate('" + shm_name + "'): " + std::strerror(e));
+    }
+    if (gid >= 0 && ::fchown(fd, static_cast<uid_t>(-1), static_cast<gid_t>(gid)) != 0) {
+        const int e = errno;
+        ::close(fd);
+        ::shm_unlink(shm_name.c_str());
+        throw std::runtime_error("StatePublisher: fchown('" + shm_name + "', group " + std::to_string(gid) + "): " + std::strerror(e));
+    }
+    void* p = ::mmap(nullptr, sizeof(StateLayout), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    const int e = errno;
+    ::close(fd);
+    if (p == MAP_FAILED) {
+        ::shm_unlink(shm_name.c_str());
+        throw std::runtime_error("StatePublisher: mmap('" + shm_name + "'): " + std::strerror(e));
+    }
+    std::memset(p, 0, sizeof(StateLayout));
+    layout_ = new (p) StateLayout{};
+    layout_->axes = static_cast<std::uint32_t>(axes);
+    layout_->period_s = period_s;
+    layout_->capacity = static_cast<std::uint32_t>(kStateObjectCapacity);
+    layout_->size = sizeof(StateLayout);
+    layout_->layout_version = kStateLayoutVersion;
+    layout_->sequence.store(0, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    layout_->magic = kStateMagic;  // last: a reader that sees the magic sees a complete header
+}
+
+StatePublisher::~StatePublisher() {
+    if (layout_ != nullptr) {
+        ::munmap(layout_, sizeof(StateLayout));
+        ::shm_unlink(name_.c_str());
+    }
+}
+
+namespace {
+
+// The fields are written by the loop and read by the server thread of the same process under the seqlock:
+// relaxed atomic accesses (std::atomic_ref) make that well-defined (and visible to ThreadSanitizer);
+// on x86-64 and arm64 they compile to plain loads and stores.
+template <class T>
+void put(T& field, T value) noexcept {
+    std::atomic_ref<T>(field).store(value, std::memory_order_relaxed);
+}
+template <class T>
+T get(const T& field) noexcept {
+    return std::atomic_ref<T>(const_cast<T&>(field)).load(std::memory_order_relaxed);
+}
+
+}  // namespace
+
+void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) noexcept {
+    StateLayout& l = *layout_;
+    const std::uint64_t s = l.sequence.load(std::memory_order_relaxed);
+    l.sequence.store(s + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    put(l.tick, t.tick);
+    put(l.time_s, t.time_s);
+    for (std::size_t a = 0; a < 3; ++a) {
+        put(l.position[a], t.position[a]);
+        put(l.velocity[a], t.velocity[a]);
+        put(l.force[a], t.force[a]);
+    }
+    put(l.overruns, t.overruns);
+    put(l.wake_latency_ns, t.wake_latency_ns);
+    put(l.fault, t.fault);
+    if (objects != nullptr) {
+        put(l.contact_mask, objects->contact_mask());
+        put(l.last_commit_seq, objects->stats().last_commit_seq);
+        std::uint32_t n = 0;
+        for (std::size_t i = 0; i < kStateObjectCapacity; ++i) {
+            const std::uint32_t id = objects->slot_object_id(i);
+            put(l.slot_object_id[i], id);
+            put(l.slot_ramp[i], static_cast<std::uint8_t>(std::lround(255.0 * objects->slot_ramp(i))));
+            n += id != 0 ? 1U : 0U;
+        }
+        put(l.objects, n);
+    }
+    l.sequence.store(s + 2, std::memory_order_release);
+}
+
+bool StatePublisher::read(StateLayout& out) const noexcept {
+    const StateLayout& l = *layout_;
+    for (int attempt = 0; attempt < 10000; ++attempt) {
+        const std::uint64_t s1 = l.sequence.load(std::memory_order_acquire);
+        if ((s1 & 1U) != 0U) continue;
+        out.tick = get(l.tick);
+        out.time_s = get(l.time_s);
+        for (std::size_t a = 0; a < 3; ++a) {
+            out.position[a] = get(l.position[a]);
+            out.velocity[a] = get(l.velocity[a]);
+            out.force[a] = get(l.force[a]);
+        }
+        out.contact_mask = get(l.contact_mask);
+        out.overruns = get(l.overruns);
+        out.wake_latency_ns = get(l.wake_latency_ns);
+        out.last_commit_seq = get(l.last_commit_seq);
+        out.fault = get(l.fault);
+        out.objects = get(l.objects);
+        for (std::size_t i = 0; i < kStateObjectCapacity; ++i) out.slot_object_id[i] = get(l.slot_object_id[i]);
+        std::atomic_thread_fence(std::memory_order_acquire);
+        if (l.sequence.load(std::memory_order_relaxed) == s1) return true;
+    }
+    return false;
+}
+
+}  // namespace hapticd

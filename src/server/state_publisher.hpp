@@ -1,0 +1,49 @@
+// The loop's side of the shared-memory state (docs/protocol.md, section 6; layout
+// include/hapticd/state_layout.hpp): created (shm_open, mode 0640, the socket's group) before the loop
+// starts, written once per tick under a seqlock, unlinked at shut-down.
+// Writer protocol: sequence <- s + 1 (odd, relaxed store) ; release fence ; fields ; sequence <- s + 2
+// (release store). publish() does not allocate, lock, throw or make a system call.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "devices/device.hpp"
+#include "hapticd/state_layout.hpp"
+
+namespace hapticd {
+
+class SceneObjects;
+
+struct StateTick {
+    std::uint64_t tick = 0;
+    double time_s = 0.0;
+    AxisVector position{};
+    AxisVector velocity{};
+    AxisVector force{};
+    std::uint64_t overruns = 0;
+    std::int64_t wake_latency_ns = 0;
+    std::uint32_t fault = 0;
+};
+
+class StatePublisher {
+public:
+    // Throws std::runtime_error naming the shm name and errno on failure. gid < 0: keep the group.
+    StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid);
+    ~StatePublisher();
+    StatePublisher(const StatePublisher&) = delete;
+    StatePublisher& operator=(const StatePublisher&) = delete;
+
+    void publish(const StateTick& tick, const SceneObjects* objects) noexcept;
+
+    // For the server thread: a consistent copy of the last tick (seqlock read).
+    bool read(StateLayout& out) const noexcept;
+
+    [[nodiscard]] const std::string& name() const noexcept { return name_; }
+
+private:
+    std::string name_;
+    StateLayout* layout_ = nullptr;
+};
+
+}  // namespace hapticd

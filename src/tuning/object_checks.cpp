@@ -1,0 +1,153 @@
+#include "tuning/object_checks.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <hapticopt/hapticopt.hpp>
+
+#include "tuning/tuning.hpp"
+
+namespace hapticd {
+
+namespace {
+
+hapticopt::PhysicalPlant physical(const GainCheckPlant& p) {
+    hapticopt::PhysicalPlant plant{};
+    plant.mass = p.mass;
+    plant.damping = p.damping;
+    plant.stiffness = p.stiffness;
+    plant.period = p.period;
+    plant.time_delay = p.time_delay;
+    return plant;
+}
+
+}  // namespace
+
+GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
+    alpha_max_ = hapticopt::StabilityRegion(hapticopt::normalize(physical(plant_))).alpha_max();
+}
+
+PairVerdict GainChecker::check_pair(double K, double B) const {
+    const hapticopt::NormalizedPlant np = hapticopt::normalize(physical(plant_));
+    PairVerdict v;
+    const double T = plant_.period, m = plant_.mass;
+    v.alpha = K * T * T / m;
+    v.beta = B * T / m;
+    v.alpha_max = alpha_max_;
+    v.stable = hapticopt::is_stable(np, hapticopt::NormalizedGains{v.alpha, v.beta});
+    // Largest stable alpha at this beta: bisection on is_stable over (0, alpha_max].
+    double lo = v.stable && v.alpha > 0.0 ? v.alpha : alpha_max_ * 1e-9;
+    if (!hapticopt::is_stable(np, hapticopt::NormalizedGains{lo, v.beta})) {
+        v.largest_stable_K = 0.0;
+        return v;
+    }
+    double hi = alpha_max_ * (1.0 + 1e-9);
+    if (hapticopt::is_stable(np, hapticopt::NormalizedGains{hi, v.beta})) {
+        lo = hi;  // cannot happen (alpha_max is the tip of the region); kept as a safe answer
+    } else {
+        for (int i = 0; i < 60; ++i) {
+            const double mid = 0.5 * (lo + hi);
+            if (hapticopt::is_stable(np, hapticopt::NormalizedGains{mid, v.beta})) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+    }
+    v.largest_stable_K = lo * m / (T * T);
+    return v;
+}
+
+std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& criterion) {
+    if (!is_accepted_criterion(criterion)) return std::nullopt;
+    std::lock_guard<std::mutex> lock(cache_mutex_);
+    const auto it = cache_.find(criterion);
+    if (it != cache_.end()) return it->second;
+    TuningPlant tp;
+    tp.mass = plant_.mass;
+    tp.damping = plant_.damping;
+    tp.stiffness = plant_.stiffness;
+    tp.period = plant_.period;
+    tp.time_delay = plant_.time_delay;
+    const TuningResult r = tune_wall(criterion, tp);
+    const CriterionGains g{r.K, r.B};
+    cache_.emplace(criterion, g);
+    return g;
+}
+
+GainChecker::FieldStiffness GainChecker::field_stiffness(const Matrix3& J) {
+    Eigen::Matrix3d m, s;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) m(i, j) = J[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+    }
+    s = -0.5 * (m + m.transpose());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s, Eigen::EigenvaluesOnly);
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m);
+    FieldStiffness f;
+    f.min_stiffness = es.eigenvalues().minCoeff();
+    f.max_stiffness = es.eigenvalues().maxCoeff();
+    f.jacobian_norm = svd.singularValues()(0);
+    return f;
+}
+
+bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const {
+    Eigen::Matrix3d K, B;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            K(i, j) = 0.5 * (K_sum[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] +
+                             K_sum[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)]);
+            B(i, j) = 0.5 * (B_sum[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] +
+                             B_sum[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)]);
+        }
+    }
+    if (K.isZero(0.0) && B.isZero(0.0)) return true;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ek(K), eb(B);
+    auto pair_ok = [&](double k, double b, const std::string& where) {
+        if (k <= 1e-12 * (1.0 + K.norm()) && b <= 1e-12 * (1.0 + B.norm())) return true;  // a direction with nothing in it
+        const PairVerdict v = check_pair(k, b);
+        if (v.stable) return true;
+        std::ostringstream s;
+        s.precision(6);
+        s << "summed gains along " << where << ": K = " << k << " N/m, B = " << b << " N s/m (alpha = " << v.alpha
+          << ", beta = " << v.beta << ") are outside the stability region; the largest stable K at that B is "
+          << v.largest_stable_K << " N/m";
+        why = s.str();
+        return false;
+    };
+    for (const auto* solver : {&ek, &eb}) {
+        for (int c = 0; c < 3; ++c) {
+            const Eigen::Vector3d u = solver->eigenvectors().col(c);
+            std::ostringstream where;
+            where.precision(4);
+            where << "u = (" << u(0) << ", " << u(1) << ", " << u(2) << ")";
+            if (!pair_ok(u.dot(K * u), u.dot(B * u), where.str())) return false;
+        }
+    }
+    const double commutator = (K * B - B * K).norm();
+    if (commutator > 1e-9 * (1.0 + K.norm() * B.norm())) {
+        const double kmax = ek.eigenvalues().maxCoeff();
+        // The smallest damping within the directions K_sum acts on (its range): directions without any
+        // stiffness cannot oscillate.
+        double bmin = eb.eigenvalues().maxCoeff();
+        const double tol = 1e-12 * (1.0 + K.norm());
+        Eigen::MatrixXd Q(3, 0);
+        for (int c = 0; c < 3; ++c) {
+            if (ek.eigenvalues()(c) > tol) {
+                Q.conservativeResize(3, Q.cols() + 1);
+                Q.col(Q.cols() - 1) = ek.eigenvectors().col(c);
+            }
+        }
+        if (Q.cols() > 0) {
+            const Eigen::MatrixXd Br = Q.transpose() * B * Q;
+            const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> er(Br, Eigen::EigenvaluesOnly);
+            bmin = er.eigenvalues().minCoeff();
+        }
+        if (!pair_ok(kmax, bmin, "the worst corner (lambda_max(K), lambda_min(B) on the range of K)")) return false;
+        if (!pair_ok(kmax, eb.eigenvalues().maxCoeff(), "the worst corner (lambda_max(K), lambda_max(B))")) return false;
+    }
+    return true;
+}
+
+}  // namespace hapticd

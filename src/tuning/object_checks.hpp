@@ -1,0 +1,78 @@
+// The checks of the clients' scene objects against hapticopt's exact stability region (docs/protocol.md,
+// section 5). Runs in the server thread (never in the loop).
+//
+//  * One object: the pair (K, B) with alpha = K T^2 / m, beta = B T / m, for the plant (m, b, k) of the
+//    device profile (isotropic: the profile gives one mass for every axis, so m = n^T M n = m for any unit n)
+//    and the total delay d = (device + buffer) / T, is stable iff the characteristic polynomial of the
+//    exact sampled-data loop has all roots inside the unit circle (hapticopt::is_stable, Schur-Cohn).
+//    The largest stable K at that B: bisection in alpha on is_stable between a stable alpha and
+//    alpha_max (beyond which nothing is stable), 60 halvings (relative width 2^-60 of alpha_max).
+//  * By criterion: hapticopt::optimal_wall for the criterion, computed once per criterion and cached.
+//  * The sum: with K_sum = sum K_i P_i and B_sum = sum B_i P_i (3x3, symmetric), stable along every
+//    eigenvector u of K_sum and of B_sum with (u^T K_sum u, u^T B_sum u); when K_sum and B_sum do not commute
+//    also (lambda_max(K_sum), the smallest eigenvalue of B_sum restricted to the range of K_sum) and
+//    (lambda_max(K_sum), lambda_max(B_sum)). Exact when they commute (the loop then decouples along the
+//    common eigenvectors into the analysed scalar loops); for non-commuting sums it is a rule, not a proof.
+//    Cost: a 3x3 eigen-decomposition and at most 8 Schur-Cohn tests.
+#pragma once
+
+#include <array>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+
+namespace hapticd {
+
+using Matrix3 = std::array<std::array<double, 3>, 3>;
+
+struct GainCheckPlant {
+    double mass = 0.3;        // kg, every axis
+    double damping = 0.0;     // N s/m
+    double stiffness = 0.0;   // N/m
+    double period = 1e-3;     // s
+    double time_delay = 0.0;  // s, device + buffer
+};
+
+struct PairVerdict {
+    bool stable = false;
+    double alpha = 0.0, beta = 0.0;
+    double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
+    double largest_stable_K = 0.0;  // N/m at this B (0: none)
+};
+
+struct CriterionGains {
+    double K = 0.0, B = 0.0;
+};
+
+class GainChecker {
+public:
+    explicit GainChecker(const GainCheckPlant& plant);
+
+    [[nodiscard]] const GainCheckPlant& plant() const noexcept { return plant_; }
+
+    // Stability of one (K, B) (N/m, N s/m, finite) and the largest stable K at that B.
+    [[nodiscard]] PairVerdict check_pair(double K, double B) const;
+
+    // The optimum of a criterion (CE0 .. CE2+OV): computed on first use, then cached. std::nullopt for
+    // an unknown name.
+    std::optional<CriterionGains> criterion_gains(const std::string& criterion);
+
+    // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
+    // and the spectral norm of J (for the force bound ||F0|| + ||J|| radius).
+    struct FieldStiffness {
+        double min_stiffness = 0.0, max_stiffness = 0.0, jacobian_norm = 0.0;
+    };
+    [[nodiscard]] static FieldStiffness field_stiffness(const Matrix3& J);
+
+    // The summed-gain rule above. On failure `why` names the direction and the pair.
+    [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
+
+private:
+    GainCheckPlant plant_;
+    double alpha_max_ = 0.0;
+    std::mutex cache_mutex_;
+    std::map<std::string, CriterionGains> cache_;
+};
+
+}  // namespace hapticd

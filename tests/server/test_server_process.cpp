@@ -1,0 +1,275 @@
+// hapticd --serve with real client processes: the analysed step response along an oblique plane, gains by
+// criterion, refusal of unstable gains, ramp-out after SIGKILL and after a lost lease, many clients.
+#include <cmath>
+#include <cstdio>
+
+#include <hapticopt/hapticopt.hpp>
+
+#include "server_fixture.hpp"
+
+namespace hapticd::server_test {
+namespace {
+
+constexpr double kT = 1e-3;
+constexpr double kMass = 0.30;  // tests/server/sim3.toml
+
+std::vector<double> trace_positions(const std::string& path) {
+    std::vector<double> x;
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+        unsigned long long tick = 0;
+        double t = 0, pos = 0, wall = 0, ext = 0, lat = 0;
+        if (std::sscanf(line.c_str(), "%llu,%lf,%lf,%lf,%lf,%lf", &tick, &t, &pos, &wall, &ext, &lat) < 3) break;
+        x.push_back(pos);
+    }
+    return x;
+}
+
+// A bilateral plane with normal n = (0, 0.6, 0.8) and a client field F0 = -1 N n (the paper's unit step
+// force, applied from tick 0 like the simulated step: no delay in this profile) in lockstep: the
+// penetration p_j = -y_j / 0.6 must be hapticopt's sampled step response for (alpha, beta, d = 0).
+// Both are exact zero-order-hold discretisations of the same loop (the daemon per axis in physical units,
+// hapticopt in normalised units), so they differ by rounding only: relative 1e-9 of x_inf = F / K (as in
+// tests/daemon/test_analysis.cpp) leaves a wide margin over ~1e-13 rounding accumulated over 300 steps.
+TEST(ServerProcess, ObliquePlaneGivesTheAnalysedStepResponse) {
+    const Names n = names("step");
+    const std::string trace = (scratch() / "step.csv").string();
+    const std::array<double, 3> normal{0.0, 0.6, 0.8};
+    const json ops = json::array({
+        {{"op", "add"}, {"object", plane(normal, 0.0, {{"criterion", "CE2"}}, true)}},
+        {{"op", "add"},
+         {"object", {{"kind", "field"}, {"center", {0, 0, 0}}, {"radius", 1.0}, {"force", {0.0, -0.6, -0.8}},
+                     {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}}}},
+    });
+    Child daemon(HAPTICD_BINARY,
+                 daemon_args(n, {"--lockstep", "--serve-wait-commit", "--scenario", "step", "--step-force", "0", "--ramp-time", "0",
+                                 "--duration", "0.3", "--trace", trace, "--trace-axis", "1"}),
+                 "step_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    Child client(HAPTICD_TEST_CLIENT, client_args(n, ops, {"--then", "hold-silent"}), "step_client");
+    const auto reply = client.first_line();
+    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << client.out() << client.err();
+    ASSERT_EQ(daemon.wait(), 0) << daemon.err();
+
+    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE2,
+                                                            hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
+    const std::vector<double> y = trace_positions(trace);
+    ASSERT_EQ(y.size(), 300U);
+    const auto x = hapticopt::sampled_step_response(hapticopt::NormalizedPlant{0.0, 0.0, 0.0},
+                                                    hapticopt::NormalizedGains{t.alpha, t.beta}, y.size());
+    const double x_inf = 1.0 / t.K;
+    double worst = 0.0;
+    for (std::size_t j = 0; j < y.size(); ++j) {
+        const double p = -y[j] / 0.6;
+        worst = std::max(worst, std::abs(p - x[j] * kT * kT / kMass) / x_inf);
+    }
+    std::printf("[ oblique step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", t.K, t.B, worst,
+                y.size());
+    EXPECT_LE(worst, 1e-9);
+    EXPECT_GT(-y[100] / 0.6, 0.5 * x_inf);  // it did move into the wall (the comparison is not against zeros)
+}
+
+// A criterion object gets the library's optimal gains for the profile's plant and the total delay
+// (--delay-buffer 1: d = 1); an unstable explicit pair is refused naming the largest stable K, which is
+// checked independently with hapticopt::is_stable just below and just above it; nothing changes in the loop.
+TEST(ServerProcess, CriterionGainsAndUnstableRefusal) {
+    const Names n = names("crit");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}), "crit_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    EXPECT_DOUBLE_EQ(c.welcome().device.delay_s, kT);
+    const auto r = c.commit(cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false,
+                                                      .gains = cl::Gains::by_criterion("CE1")}));
+    ASSERT_EQ(r.object_ids.size(), 1U);
+    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE1,
+                                                            hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, kT});
+    bool found = false;
+    for (const auto& o : c.list()) {
+        if (o.id != r.object_ids[0]) continue;
+        found = true;
+        EXPECT_EQ(o.owner, c.welcome().session);
+        EXPECT_NEAR(o.K, t.K, 1e-12 * t.K);  // the same computation: equal to rounding
+        EXPECT_NEAR(o.B, t.B, 1e-12 * t.B);
+    }
+    EXPECT_TRUE(found);
+
+    const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+    ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= r.commit_seq; }, 5.0));
+    cl::StateSample before;
+    ASSERT_TRUE(state.read(before));
+    const double K_bad = 5.0 * t.K, B = t.B;
+    try {
+        c.commit(cl::Batch().add(cl::Plane{.normal = {0, -1, 0}, .offset = -0.05, .bilateral = false,
+                                           .gains = cl::Gains::explicit_gains(K_bad, B)}));
+        ADD_FAILURE() << "an unstable pair was accepted";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::UnstableGains) << e.what();
+        EXPECT_NE(std::string(e.what()).find("K = "), std::string::npos) << e.what();
+        ASSERT_TRUE(e.largest_stable_K().has_value());
+        const double K_max = *e.largest_stable_K();
+        const hapticopt::NormalizedPlant np{0.0, 0.0, 1.0};
+        const double beta = B * kT / kMass;
+        // The bisection's resolution is 2^-60 alpha_max; 1e-6 relative is far outside it.
+        EXPECT_TRUE(hapticopt::is_stable(np, {K_max * (1 - 1e-6) * kT * kT / kMass, beta}));
+        EXPECT_FALSE(hapticopt::is_stable(np, {K_max * (1 + 1e-6) * kT * kT / kMass, beta}));
+        EXPECT_LT(K_max, K_bad);
+    }
+    cl::StateSample after;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_TRUE(state.read(after));
+    EXPECT_EQ(after.last_commit_seq, before.last_commit_seq);  // nothing reached the loop
+    EXPECT_EQ(after.objects, 1U);
+    EXPECT_GT(after.tick, before.tick);
+    EXPECT_EQ(c.list().size(), 2U);  // the config wall and the criterion plane
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// The pressing scene: the simulated hand pushes -x with 2 N (hold scenario, starting at x = 0.049 m) onto
+// a client plane at x = 0.048 m (normal +x); the config wall (x > 0.05) is never touched, so once the
+// client's plane is gone the commanded force is exactly zero. The loop starts with the first accepted batch
+// (--serve-wait-commit), so the hand meets the plane 1 mm after the start instead of flying off first.
+struct PressScene {
+    Names n;
+    Child daemon;
+    explicit PressScene(const std::string& tag, double ramp_s)
+        : n(names(tag)),
+          daemon(HAPTICD_BINARY,
+                 daemon_args(n, {"--scenario", "hold", "--hold-force", "-2", "--hold-distance", "0.001", "--ramp-time",
+                                 std::to_string(ramp_s), "--serve-wait-commit"}),
+                 tag + "_daemon") {}
+    // Explicit gains softer than the optimum: with the config wall's CE2 gains along the same axis the sum
+    // (74226 + 20000 N/m, 223 + 100 N s/m) stays stable; the CE2 optimum twice is refused (unstable_sum).
+    static json press_ops() {
+        return json::array({{{"op", "add"}, {"object", plane({1.0, 0.0, 0.0}, 0.048, {{"K", 20000.0}, {"B", 100.0}})}}});
+    }
+};
+
+// Allowance beyond the ramp: the kernel closing the killed client's socket, the server thread (not
+// real-time) noticing it in its 1 ms poll and being scheduled on a shared 2-core machine, one tick.
+constexpr double kDetectionAllowance = 0.1;  // s
+
+void expect_ramp_out(const cl::StateReader& state, double t_start, double ramp_s, double earliest_s, const char* what) {
+    const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
+                                 earliest_s + ramp_s + kDetectionAllowance + 2.0);
+    ASSERT_TRUE(zero.has_value()) << what << ": the force never reached zero";
+    const double took = zero->time_s - t_start;
+    std::printf("[ %s ] force zero %.1f ms after the event (ramp %.0f ms, lease/earliest %.0f ms)\n", what, took * 1e3, ramp_s * 1e3,
+                earliest_s * 1e3);
+    EXPECT_LE(took, earliest_s + ramp_s + kDetectionAllowance) << what;
+    EXPECT_GE(took, earliest_s + 0.5 * ramp_s) << what << ": no ramp (a step to zero)";
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    cl::StateSample s;
+    ASSERT_TRUE(state.read(s));
+    EXPECT_EQ(s.force[0], 0.0) << what;
+    EXPECT_EQ(s.objects, 0U) << what;
+}
+
+TEST(ServerProcess, SigkillOfAPressingClientRampsItsForceOut) {
+    const double ramp = 0.03;
+    PressScene scene("kill", ramp);
+    ASSERT_TRUE(wait_for_socket(scene.n.socket)) << scene.daemon.err();
+    Child presser(HAPTICD_TEST_CLIENT, client_args(scene.n, PressScene::press_ops(), {"--then", "hold"}), "kill_client");
+    const auto reply = presser.first_line();
+    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << presser.out();
+    const cl::StateReader state = cl::StateReader::open(scene.n.shm);
+    // Pressing at rest: the wall holds the hand's 2 N (not saturated at the device's 10 N).
+    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
+        return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0; }, 10.0))
+        << "the hand never pressed on the plane";
+    const double t_kill = monotonic_s();
+    presser.signal(SIGKILL);
+    expect_ramp_out(state, t_kill, ramp, 0.0, "SIGKILL");
+    // The daemon keeps serving the others.
+    cl::Client other = cl::Client::connect({.socket_path = scene.n.socket, .client_name = "other"});
+    EXPECT_EQ(other.status().fault, "none");
+    EXPECT_NE(scene.daemon.err().find("connected: pid"), std::string::npos);  // SO_PEERCRED logged
+    scene.daemon.signal(SIGTERM);
+    EXPECT_EQ(scene.daemon.wait(), 0);
+}
+
+TEST(ServerProcess, AClientThatStopsHeartbeatingLosesItsObjects) {
+    const double ramp = 0.03, lease = 0.2;
+    PressScene scene("lease", ramp);
+    ASSERT_TRUE(wait_for_socket(scene.n.socket)) << scene.daemon.err();
+    Child silent(HAPTICD_TEST_CLIENT, client_args(scene.n, PressScene::press_ops(), {"--lease", "0.2", "--then", "hold-silent"}),
+                 "lease_client");
+    const auto reply = silent.first_line();
+    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << silent.out();
+    const double t_commit = monotonic_s();
+    // A second client, heartbeating, whose object must stay (far away: n = -z at z = 0.05).
+    Child keeper(HAPTICD_TEST_CLIENT,
+                 client_args(scene.n, json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.05, {{"K", 100.0}, {"B", 1.0}})}}}),
+                             {"--lease", "0.2", "--then", "hold"}),
+                 "lease_keeper");
+    ASSERT_TRUE(keeper.first_line());
+    const cl::StateReader state = cl::StateReader::open(scene.n.shm);
+    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.force[0] > 1.0 && s.contact_mask != 0; }, lease))
+        << "the hand did not press on the plane before the lease ran out";
+    // The lease runs from the commit (the client's last message); the force must be zero by lease + ramp.
+    const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.objects == 1; },
+                                 lease + ramp + kDetectionAllowance + 2.0);
+    ASSERT_TRUE(zero.has_value());
+    const double took = zero->time_s - t_commit;
+    std::printf("[ lease ] force zero %.1f ms after the last message (lease %.0f ms + ramp %.0f ms)\n", took * 1e3, lease * 1e3, ramp * 1e3);
+    EXPECT_LE(took, lease + ramp + kDetectionAllowance);
+    EXPECT_GE(took, lease);
+    EXPECT_TRUE(keeper.running());  // the heartbeating client keeps its session and its object
+    cl::StateSample s;
+    ASSERT_TRUE(state.read(s));
+    EXPECT_EQ(s.objects, 1U);
+    scene.daemon.signal(SIGTERM);
+    EXPECT_EQ(scene.daemon.wait(), 0);
+}
+
+// 32 clients at once, one flooding commits, one that never reads its subscription: every client's batch is
+// accepted, the loop keeps ticking, the flooder's and the non-reader's excess costs only themselves.
+TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
+    const Names n = names("many");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}), "many_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    const cl::StateReader state = cl::StateReader::open(n.shm);
+    Child noread(HAPTICD_TEST_CLIENT, {n.socket, "noread"}, "many_noread");
+    ASSERT_TRUE(noread.first_line());
+    Child flooder(HAPTICD_TEST_CLIENT, {n.socket, "flood", "5000"}, "many_flood");
+    std::vector<std::unique_ptr<Child>> clients;
+    for (int i = 0; i < 32; ++i) {
+        const json ops = json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.051 - 1e-4 * i, {{"K", 50.0}, {"B", 0.5}})}}});
+        clients.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, client_args(n, ops, {"--then", "hold-silent"}),
+                                                  "many_client" + std::to_string(i)));
+    }
+    cl::StateSample first;
+    ASSERT_TRUE(state.read(first));
+    for (auto& c : clients) {
+        const auto reply = c->first_line(60.0);
+        ASSERT_TRUE(reply.has_value());
+        EXPECT_TRUE((*reply)["ok"].get<bool>()) << reply->dump();
+    }
+    ASSERT_EQ(flooder.wait(120.0), 0) << flooder.out() << flooder.err();
+    const json flood = json::parse(flooder.out());
+    std::printf("[ many ] flooder: %lld accepted, %lld busy\n", flood["ok"].get<long long>(), flood["busy"].get<long long>());
+    EXPECT_EQ(flood["ok"].get<long long>() + flood["busy"].get<long long>(), 5000);
+    cl::StateSample later;
+    ASSERT_TRUE(state.read(later));
+    EXPECT_GT(later.tick, first.tick);
+    EXPECT_EQ(later.fault, 0U);
+    EXPECT_TRUE(noread.running());
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    // Config wall, 32 clients, the non-reader; the flooder has gone (its plane is listed until its ramp-out ends).
+    std::size_t listed = 0;
+    for (int i = 0; i < 200 && listed != 1U + 32U + 1U; ++i) {
+        listed = c.list().size();
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_EQ(listed, 1U + 32U + 1U);
+    for (auto& ch : clients) ch->signal(SIGKILL);
+    noread.signal(SIGKILL);
+    EXPECT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; }, 10.0));
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+}  // namespace
+}  // namespace hapticd::server_test

@@ -1,0 +1,202 @@
+// The protocol's error paths against a running hapticd --serve (docs/protocol.md, section 8): wrong
+// version, malformed, truncated and oversized messages, ownership; the socket's mode and owner and a
+// second user's client; the loop undisturbed and nothing else lost.
+#include <grp.h>
+#include <pwd.h>
+#include <sys/stat.h>
+
+#include "server_fixture.hpp"
+
+namespace hapticd::server_test {
+namespace {
+
+class ServerProtocol : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        n_ = new Names(names("proto"));
+        daemon_ = new Child(HAPTICD_BINARY, daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}), "proto_daemon");
+        ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
+    }
+    static void TearDownTestSuite() {
+        daemon_->signal(SIGTERM);
+        EXPECT_EQ(daemon_->wait(), 0) << daemon_->err();
+        delete daemon_;
+        delete n_;
+    }
+    static Names* n_;
+    static Child* daemon_;
+};
+Names* ServerProtocol::n_ = nullptr;
+Child* ServerProtocol::daemon_ = nullptr;
+
+TEST_F(ServerProtocol, WrongVersionIsRefusedNamingBothVersionsAndClosed) {
+    RawConnection c(n_->socket);
+    ASSERT_TRUE(c.connected());
+    c.send(R"({"type":"hello","protocol":2,"client":"future"})");
+    const json r = c.receive_json();
+    EXPECT_EQ(r.value("type", ""), "refused") << r.dump();
+    EXPECT_EQ(r.value("code", ""), "protocol_version");
+    EXPECT_EQ(r.value("server_protocol", 0), 1);
+    EXPECT_EQ(r.value("client_protocol", 0), 2);
+    EXPECT_TRUE(c.receive_json().value("eof", false));  // closed after the refusal
+    // The client library reports the same as a typed error.
+    try {
+        (void)cl::Client::connect({.socket_path = n_->socket, .protocol = 7});
+        ADD_FAILURE() << "protocol 7 was accepted";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::ProtocolVersion) << e.what();
+    }
+}
+
+TEST_F(ServerProtocol, AFirstMessageThatIsNotHelloIsRefused) {
+    RawConnection c(n_->socket);
+    c.send(R"({"type":"commit","id":1,"ops":[]})");
+    const json r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_hello") << r.dump();
+    EXPECT_TRUE(c.receive_json().value("eof", false));
+}
+
+TEST_F(ServerProtocol, MalformedAndTruncatedMessagesGetAnErrorAndTheConnectionStaysOpen) {
+    RawConnection c(n_->socket);
+    c.hello();
+    c.send("{not json");
+    json r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_json") << r.dump();
+    EXPECT_TRUE(r["id"].is_null());
+    c.send(R"({"type":"commit","id":3,"ops":[{"op":"add","object":{"kind":"pla)");  // truncated
+    EXPECT_EQ(c.receive_json().value("code", ""), "bad_json");
+    c.send(std::string("\xff\xfe\x00garbage", 10));
+    EXPECT_EQ(c.receive_json().value("code", ""), "bad_json");
+    c.send(R"({"type":"teleport","id":4})");
+    r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_message");
+    EXPECT_EQ(r.value("id", 0), 4);
+    c.send(R"({"type":"commit","id":5,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,2],"offset":0,"gains":{"K":10,"B":1}}}]})");
+    r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
+    EXPECT_EQ(r.value("op_index", -2), 0);
+    EXPECT_NE(r.value("message", "").find("normal"), std::string::npos) << r.dump();
+    c.send(R"({"type":"commit","id":6,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"K":-1,"B":1}}}]})");
+    EXPECT_EQ(c.receive_json().value("code", ""), "bad_message");
+    c.send(R"({"type":"commit","id":7,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
+    EXPECT_EQ(c.receive_json().value("code", ""), "unknown_criterion");
+    c.send(R"({"type":"heartbeat","id":8})");  // still open and served
+    r = c.receive_json();
+    EXPECT_EQ(r.value("type", ""), "ok") << r.dump();
+    EXPECT_EQ(r.value("id", 0), 8);
+}
+
+TEST_F(ServerProtocol, AnOversizedMessageIsRefusedAndClosedOthersUndisturbed) {
+    cl::Client keeper = cl::Client::connect({.socket_path = n_->socket, .client_name = "keeper"});
+    const auto kept = keeper.commit(cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false,
+                                                              .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
+    const cl::StateReader state = cl::StateReader::open(keeper.welcome().state_shm);
+    cl::StateSample before;
+    ASSERT_TRUE(state.read(before));
+    RawConnection c(n_->socket);
+    c.hello();
+    c.send(R"({"type":"heartbeat","id":1,"pad":")" + std::string(70000, 'x') + "\"}");
+    const json r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "oversized") << r.dump().substr(0, 200);
+    EXPECT_TRUE(c.receive_json().value("eof", false));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    cl::StateSample after;
+    ASSERT_TRUE(state.read(after));
+    EXPECT_GT(after.tick, before.tick);  // the loop kept ticking
+    EXPECT_EQ(after.fault, 0U);
+    bool still_there = false;
+    for (const auto& o : keeper.list()) still_there = still_there || o.id == kept.object_ids.at(0);
+    EXPECT_TRUE(still_there);  // nothing else lost
+    keeper.commit(cl::Batch().clear());
+}
+
+TEST_F(ServerProtocol, AClientCannotTouchAnotherClientsOrTheDaemonsObjects) {
+    cl::Client a = cl::Client::connect({.socket_path = n_->socket, .client_name = "a"});
+    cl::Client b = cl::Client::connect({.socket_path = n_->socket, .client_name = "b"});
+    const cl::Plane p{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(100.0, 1.0)};
+    const std::uint32_t id = a.commit(cl::Batch().add(p)).object_ids.at(0);
+    auto expect_code = [&](const cl::Batch& batch, cl::ErrorCode code) {
+        try {
+            b.commit(batch);
+            ADD_FAILURE() << "accepted";
+        } catch (const cl::Error& e) {
+            EXPECT_EQ(e.code(), code) << e.what();
+        }
+    };
+    expect_code(cl::Batch().remove(id), cl::ErrorCode::NotOwner);
+    expect_code(cl::Batch().modify(id, p), cl::ErrorCode::NotOwner);
+    expect_code(cl::Batch().remove(1), cl::ErrorCode::NotOwner);  // the config wall
+    expect_code(cl::Batch().remove(999999), cl::ErrorCode::UnknownObject);
+    // All-or-nothing: a valid add followed by a foreign remove adds nothing.
+    const std::size_t objects_before = b.list().size();
+    expect_code(cl::Batch().add(p).remove(id), cl::ErrorCode::NotOwner);
+    EXPECT_EQ(b.list().size(), objects_before);
+    b.commit(cl::Batch().clear());  // clear touches only b's objects
+    bool still_there = false;
+    for (const auto& o : a.list()) still_there = still_there || o.id == id;
+    EXPECT_TRUE(still_there);
+    a.commit(cl::Batch().remove(id));
+}
+
+bool running_as_root() { return ::geteuid() == 0; }
+
+TEST_F(ServerProtocol, SocketModeAndOwnerAndASecondUserIsRefused) {
+    struct stat st {};
+    ASSERT_EQ(::stat(n_->socket.c_str(), &st), 0);
+    EXPECT_TRUE(S_ISSOCK(st.st_mode));
+    EXPECT_EQ(st.st_mode & 0777, 0660U);
+    EXPECT_EQ(st.st_uid, ::geteuid());
+    EXPECT_EQ(st.st_gid, ::getegid());
+    if (!running_as_root()) GTEST_SKIP() << "the second-user check needs root (setuid to nobody)";
+    const passwd* nobody = ::getpwnam("nobody");
+    ASSERT_NE(nobody, nullptr);
+    // The directory must be traversable by nobody for the file mode to be what decides.
+    ::chmod(scratch().c_str(), 0755);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        if (::setgid(nobody->pw_gid) != 0 || ::setuid(nobody->pw_uid) != 0) ::_exit(3);
+        const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+        sockaddr_un addr{};
+        addr.sun_family = AF_UNIX;
+        std::strncpy(addr.sun_path, n_->socket.c_str(), sizeof(addr.sun_path) - 1);
+        const int r = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
+        ::_exit(r != 0 && errno == EACCES ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "nobody could connect to a 0660 root socket (3: setuid failed)";
+}
+
+// With --serve-mode 0666 the same second user is served: the mode, not the server, decides.
+TEST(ServerSocketMode, AWiderModeLetsTheSecondUserIn) {
+    if (!running_as_root()) GTEST_SKIP() << "needs root (setuid to nobody)";
+    const Names n = names("mode");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--serve-mode", "0666", "--scenario", "step", "--step-force", "0"}), "mode_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    struct stat st {};
+    ASSERT_EQ(::stat(n.socket.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0666U);
+    const passwd* nobody = ::getpwnam("nobody");
+    ASSERT_NE(nobody, nullptr);
+    ::chmod(scratch().c_str(), 0755);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        if (::setgid(nobody->pw_gid) != 0 || ::setuid(nobody->pw_uid) != 0) ::_exit(3);
+        try {
+            cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "nobody"});
+            ::_exit(c.welcome().protocol == 1 ? 0 : 1);
+        } catch (...) {
+            ::_exit(2);
+        }
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0);
+    EXPECT_NE(daemon.err().find("uid " + std::to_string(nobody->pw_uid)), std::string::npos);  // SO_PEERCRED logged
+}
+
+}  // namespace
+}  // namespace hapticd::server_test
