@@ -63,18 +63,19 @@ struct StepRun {
 };
 
 // The paper's step (1 N into a bilateral wall at rest) for `ticks` ticks, wall K, B, delay buffer `d`.
-StepRun step_run(double K, double B, std::size_t d, bool control, std::uint64_t ticks = 3000) {
+StepRun step_run(double K, double B, std::size_t d, bool control, double device_damping = 0.0,
+                 std::uint64_t ticks = 3000) {
     SimDeviceConfig c;
     c.capabilities.axes = 1;
     c.capabilities.max_force = kMaxForce;
-    c.plant = {kMass, 0.0, 0.0};
+    c.plant = {kMass, device_damping, 0.0};
     c.period = kT;
     c.scenario.kind = Scenario::Step;
     c.scenario.step_force = 1.0;
     SimDevice sim(c);
     PassivityControlConfig pcc;
     pcc.period = kT;
-    pcc.damping_cap = 4 * kMass / kT;  // hapticd's default
+    pcc.damping_cap = 2.0 / (double(d) + 1.0) * kMass / kT;  // hapticd's default: beta <= 2 / (N + 1)
     pcc.velocity_guard = 1e-4;
     pcc.max_force = kMaxForce;
     PassivityController pc(pcc);
@@ -102,7 +103,9 @@ StepRun step_run(double K, double B, std::size_t d, bool control, std::uint64_t 
         if (j >= n * 4 / 5) r.late_abs_x = std::max(r.late_abs_x, std::abs(x));
     }
     for (std::size_t j = 0; j < dev.port_energy.size(); ++j) {
-        r.worst_bound_violation = std::max(r.worst_bound_violation, dev.bound[j] - dev.port_energy[j]);
+        // Rounding allowance: 1e-12 J plus 1e-12 of the bound's terms (sums of ~3000 products, each exact to ~1e-16).
+        const double allowance = 1e-12 * (1 + std::abs(dev.bound[j]) + std::abs(dev.port_energy[j]));
+        r.worst_bound_violation = std::max(r.worst_bound_violation, dev.bound[j] - dev.port_energy[j] - allowance);
     }
     r.stats = pc.stats();
     return r;
@@ -113,30 +116,36 @@ struct Gains {
 };
 
 // alpha = factor * alpha_max at the beta of the region's tip (the damping that makes alpha_max reachable).
-Gains beyond(double factor, std::size_t d) {
-    const hapticopt::StabilityRegion region(hapticopt::NormalizedPlant{0, 0, double(d)});
+Gains beyond(double factor, std::size_t d, double device_damping) {
+    const hapticopt::StabilityRegion region(hapticopt::NormalizedPlant{0, device_damping * kT / kMass, double(d)});
     return {factor * region.alpha_max() * kMass / (kT * kT), region.beta_at_alpha_max() * kMass / kT};
 }
 
+// Device damping b = 0 and b = 6 N s/m (delta = 0.02), forces unsaturated (10 kN), the default cap.
 // Bounded: after 3 s the step response stays within 10x its final value 1 N / K over the last 0.6 s;
 // diverged: it left 1000x. (The unstable loop's amplitude grows geometrically, by the spectral radius per
 // tick; the controlled one settles near x_inf, see docs/passivity.md for the traces.)
 TEST(PassivityControl, WallBeyondAlphaMaxDivergesWithoutAndStaysBoundedWith) {
+    for (double b : {0.0, 6.0})
     for (std::size_t d : {0U, 1U, 3U}) {
-        const Gains g = beyond(1.5, d);
+        const Gains g = beyond(1.5, d, b);
         const double x_inf = 1.0 / g.K;
-        const StepRun off = step_run(g.K, g.B, d, false);
-        const StepRun on = step_run(g.K, g.B, d, true);
+        const StepRun off = step_run(g.K, g.B, d, false, b);
+        const StepRun on = step_run(g.K, g.B, d, true, b);
         EXPECT_TRUE(!off.finite || off.max_abs_x > 1000 * x_inf) << "d=" << d << " max|x| " << off.max_abs_x;
         EXPECT_TRUE(on.finite) << "d=" << d;
-        EXPECT_LT(on.late_abs_x, 10 * x_inf) << "d=" << d << " K=" << g.K << " B=" << g.B;
+        // Known limitation (docs/passivity.md): with device damping and no delay buffer the controller does not
+        // hold 1.5 alpha_max. Update the docs and this line together if the controller improves.
+        const bool expected_to_hold = !(b > 0 && d == 0);
+        EXPECT_EQ(on.late_abs_x < 10 * x_inf, expected_to_hold) << "b=" << b << " d=" << d << " late max|x| "
+                                                                << on.late_abs_x << " x_inf " << x_inf;
         EXPECT_GT(on.stats.damper_ticks, 0U) << "d=" << d;
         EXPECT_EQ(on.stats.nonfinite_events, 0U);
-        // The stated bound at every tick (rounding allowance 1e-12 J: the energies are ~1e-6 J).
-        EXPECT_LE(on.worst_bound_violation, 1e-12) << "d=" << d;
-        std::printf("d=%zu 1.5 alpha_max: off max|x| %.3g, on late max|x| %.3g (x_inf %.3g); damper %llu ticks, "
+        // The stated bound at every tick (with the rounding allowance of step_run).
+        EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d;
+        std::printf("b=%g d=%zu 1.5 alpha_max: off max|x| %.3g, on late max|x| %.3g (x_inf %.3g); damper %llu ticks, "
                     "capped %llu; port energy min %.3g J; bound terms: shortfall %.3g J, prediction error %.3g J\n",
-                    d, off.max_abs_x, on.late_abs_x, x_inf, static_cast<unsigned long long>(on.stats.damper_ticks),
+                    b, d, off.max_abs_x, on.late_abs_x, x_inf, static_cast<unsigned long long>(on.stats.damper_ticks),
                     static_cast<unsigned long long>(on.stats.capped_ticks), on.stats.min_port_energy,
                     on.stats.shortfall, on.stats.prediction_error);
     }
@@ -144,17 +153,22 @@ TEST(PassivityControl, WallBeyondAlphaMaxDivergesWithoutAndStaysBoundedWith) {
 
 // The largest factor of alpha_max the controller holds (bounded as above), on the grid 1.25 .. 32, per d.
 TEST(PassivityControl, LargestFactorItHolds) {
+    for (double b : {0.0, 6.0})
     for (std::size_t d : {0U, 1U, 3U}) {
         double held = 0;
         for (double factor : {1.25, 1.5, 1.75, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0}) {
-            const Gains g = beyond(factor, d);
-            const StepRun on = step_run(g.K, g.B, d, true);
+            const Gains g = beyond(factor, d, b);
+            const StepRun on = step_run(g.K, g.B, d, true, b);
             if (!(on.finite && on.late_abs_x < 10 / g.K)) break;
-            EXPECT_LE(on.worst_bound_violation, 1e-12) << "d=" << d << " factor " << factor;
+            EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d << " factor " << factor;
             held = factor;
         }
-        EXPECT_GE(held, 1.5) << "d=" << d;
-        std::printf("d=%zu: largest factor of alpha_max held (grid 1.25 .. 32): %.2f\n", d, held);
+        if (b > 0 && d == 0) {
+            EXPECT_EQ(held, 0.0) << "the known limitation of the test above";
+        } else {
+            EXPECT_GE(held, 1.5) << "b=" << b << " d=" << d;
+        }
+        std::printf("b=%g d=%zu: largest factor of alpha_max held (grid 1.25 .. 32): %.2f\n", b, d, held);
     }
 }
 
