@@ -92,13 +92,6 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
                  "Time-domain passivity control (Hannaford-Ryu observer + variable damper) on the force after the delay "
                  "buffer; explicit gains outside the stability region are then accepted (docs/passivity.md)");
     app.add_option("--passivity-damping-cap", o.passivity_damping_cap,
-                   "Largest damping the passivity controller adds, N s/m (default 0: 4 m / T)");
-    app.add_option("--passivity-velocity-guard", o.passivity_velocity_guard,
-                   "Speed below which the passivity controller adds no damping, m/s (default 1e-4)");
-    app.add_flag("--passivity-control", o.passivity_control,
-                 "Time-domain passivity control (Hannaford-Ryu observer + variable damper) on the force after the delay "
-                 "buffer; explicit gains outside the stability region are then accepted (docs/passivity.md)");
-    app.add_option("--passivity-damping-cap", o.passivity_damping_cap,
                    "Largest damping the passivity controller adds, N s/m (default 0: 2 m / ((N + 1) T), N the delay buffer)");
     app.add_option("--passivity-velocity-guard", o.passivity_velocity_guard,
                    "Speed below which the passivity controller adds no damping, m/s (default 1e-4)");
@@ -266,8 +259,6 @@ void validate_options(const Options& o) {
     check_range(w, "hold-force", o.hold_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "hold-distance", o.hold_distance, 0.0, 1e3, false, "0 .. 1000 m");
     check_range(w, "passivity-damping-cap", o.passivity_damping_cap, 0.0, 1e9, false, "0 (auto) .. 1e9 N s/m");
-    check_range(w, "passivity-velocity-guard", o.passivity_velocity_guard, 0.0, 1e3, true, "> 0 and <= 1000 m/s");
-    check_range(w, "passivity-damping-cap", o.passivity_damping_cap, 0.0, 1e9, false, "0 (auto: 4 m / T) .. 1e9 N s/m");
     check_range(w, "passivity-velocity-guard", o.passivity_velocity_guard, 0.0, 1e3, true, "> 0 and <= 1000 m/s");
     check_range(w, "identify-force", o.identify_force, 0.0, 1e6, false, "0 (auto) .. 1e6 N");
     check_range(w, "identify-distance", o.identify_distance, 0.0, 1e3, false, "0 (auto) .. 1000 m");

@@ -9,7 +9,6 @@
 
 #include "scene/delay_ring.hpp"
 #include "scene/passivity_controller.hpp"
-#include "scene/passivity_controller.hpp"
 #include "devices/device.hpp"
 #include "loop/realtime_loop.hpp"
 #include "scene/safety.hpp"

@@ -284,22 +284,6 @@ int run_main(int argc, const char* const* argv) {
     if (o.passivity_control) {
         PassivityControlConfig pc;
         pc.period = period;
-        pc.damping_cap = o.passivity_damping_cap > 0.0 ? o.passivity_damping_cap : 4.0 * profile.mass / period;
-        pc.velocity_guard = o.passivity_velocity_guard;
-        pc.max_force = profile.max_force;
-        pc.axes = static_cast<std::size_t>(profile.axes);
-        try {
-            passivity.emplace(pc);
-        } catch (const std::invalid_argument& e) {
-            throw StartupError(kExitInvalidParameter, e.what());
-        }
-        cfg.passivity = &*passivity;
-        if (!o.quiet) out << "hapticd: " << describe(pc) << "\n";
-    }
-    std::optional<PassivityController> passivity;
-    if (o.passivity_control) {
-        PassivityControlConfig pc;
-        pc.period = period;
         // Default cap beta <= 2 / (N + 1), N the delay buffer: measured in docs/passivity.md (larger caps chatter).
         pc.damping_cap = o.passivity_damping_cap > 0.0
                              ? o.passivity_damping_cap
@@ -375,10 +359,6 @@ int run_main(int argc, const char* const* argv) {
         }
     }
     report.saturated_ticks = scene.stats().saturated_ticks;
-    if (passivity) {
-        report.passivity_control = true;
-        report.passivity = passivity->stats();
-    }
     if (passivity) {
         report.passivity_control = true;
         report.passivity = passivity->stats();

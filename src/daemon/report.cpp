@@ -159,18 +159,6 @@ nlohmann::json summary_json(const RunReport& r) {
     } else {
         j["passivity_control"] = nullptr;
     }
-    if (r.passivity_control) {
-        const PassivityControlStats& p = r.passivity;
-        j["passivity_control"] = {{"damper_ticks", p.damper_ticks},         {"capped_ticks", p.capped_ticks},
-                                   {"guarded_ticks", p.guarded_ticks},       {"saturated_ticks", p.saturated_ticks},
-                                   {"nonfinite_events", p.nonfinite_events}, {"max_added_damping", p.max_added_damping},
-                                   {"dissipated", p.dissipated},             {"shortfall", p.shortfall},
-                                   {"prediction_error", p.prediction_error},
-                                   {"min_observed_energy", p.min_observed_energy},
-                                   {"min_port_energy", p.min_port_energy}};
-    } else {
-        j["passivity_control"] = nullptr;
-    }
     if (r.loop != nullptr) {
         j["wake_latency"] = r.loop->wake_latency().to_json();
         j["compute_time"] = r.loop->compute_time().to_json();

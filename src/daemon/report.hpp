@@ -36,8 +36,6 @@ struct RunReport {
     std::uint64_t saturated_ticks = 0;
     bool passivity_control = false;      // --passivity-control: `passivity` holds its counters
     PassivityControlStats passivity;
-    bool passivity_control = false;      // --passivity-control: `passivity` holds its counters
-    PassivityControlStats passivity;
     std::string device_error;            // device's last_error() after a device fault
     int exit_code = 0;
 };
