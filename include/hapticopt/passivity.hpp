@@ -39,7 +39,7 @@
 // |p'(hi_i)|); plus a rounding allowance of 8 (d + 2)^2 u sum |c_k| for Clenshaw's recurrence (its error
 // grows at most quadratically with the degree). The tests check the bound against an independent fine grid
 // of the complex form.
-// Cost: O(d^3) flops with ~60 bisection steps per bracket (d = 6: a few microseconds).
+// Cost: O(d^3) flops with ~60 bisection steps per bracket.
 //
 // Fractional delay d: not covered. The force then switches inside a period and H is not a rational
 // function of z; every function here throws InvalidParameter naming `delay` rather than report the integer
