@@ -348,7 +348,7 @@ DeviceProfile load_device_profile(const Options& o) {
     }
     check_range(where, "position_noise", p.position_noise, 0.0, 1.0, false, "0 .. 1 m");
     check_range(where, "position_resolution", p.position_resolution, 0.0, 1.0, false, "0 .. 1 m");
-    validate_real_device_keys("device profile '" + p.path + "': ", p.driver, p.real);
+    validate_real_device_keys(where, p.driver, p.real);
     struct RangeKey {
         const char* key;
         const std::vector<double>* range;

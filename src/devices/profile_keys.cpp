@@ -23,15 +23,15 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
 
 namespace {
 
-[[noreturn]] void invalid(const std::string& where, const std::string& key, const std::string& value, const std::string& range) {
-    throw StartupError(kExitInvalidParameter, where + key + " = " + value + " is invalid; accepted range: " + range);
+[[noreturn]] void invalid(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
+    throw StartupError(kExitInvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
 }
 
-void check_int(const std::string& where, const std::string& key, long long v, long long lo, long long hi) {
+void check_int(const KeyLocations& where, const std::string& key, long long v, long long lo, long long hi) {
     if (v < lo || v > hi) invalid(where, key, std::to_string(v), std::to_string(lo) + " .. " + std::to_string(hi));
 }
 
-void check_real(const std::string& where, const std::string& key, double v, double lo, double hi, bool nonzero) {
+void check_real(const KeyLocations& where, const std::string& key, double v, double lo, double hi, bool nonzero) {
     if (!std::isfinite(v) || v < lo || v > hi || (nonzero && v == 0.0)) {
         invalid(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
                                                    std::to_string(lo) + " .. " + std::to_string(hi));
@@ -40,7 +40,7 @@ void check_real(const std::string& where, const std::string& key, double v, doub
 
 }  // namespace
 
-void validate_real_device_keys(const std::string& where, const std::string& driver, const RealDeviceKeys& k) {
+void validate_real_device_keys(const KeyLocations& where, const std::string& driver, const RealDeviceKeys& k) {
     check_real(where, "homing_timeout", k.homing_timeout, 0.001, 3600.0, false);
     check_int(where, "device_index", k.device_index, 0, 127);
     if (!k.origin.empty() && k.origin.size() != 3) {
@@ -53,7 +53,7 @@ void validate_real_device_keys(const std::string& where, const std::string& driv
     }
     if (driver == "hid") {
         if (k.usb_vid < 0 || k.usb_pid < 0) {
-            throw StartupError(kExitBadConfig, where + "driver = \"hid\" needs usb_vid and usb_pid");
+            throw StartupError(kExitBadConfig, where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
         }
         check_int(where, "usb_vid", k.usb_vid, 0, 0xFFFF);
         check_int(where, "usb_pid", k.usb_pid, 0, 0xFFFF);

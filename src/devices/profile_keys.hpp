@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "config/key_locations.hpp"
+
 namespace CLI {
 class App;
 }
@@ -31,7 +33,8 @@ struct RealDeviceKeys {
 
 void add_real_device_keys(CLI::App& app, RealDeviceKeys& keys);
 
-// Range checks; throws StartupError(kExitInvalidParameter / kExitBadConfig) naming key, value and range.
-void validate_real_device_keys(const std::string& where, const std::string& driver, const RealDeviceKeys& keys);
+// Range checks; throws StartupError(kExitInvalidParameter / kExitBadConfig) naming key, value and range, and
+// where the profile wrote the key (`where`: from apply_config_file).
+void validate_real_device_keys(const KeyLocations& where, const std::string& driver, const RealDeviceKeys& keys);
 
 }  // namespace hapticd

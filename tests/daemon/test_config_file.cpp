@@ -419,7 +419,11 @@ TEST_F(ConfigFileTest, ProfileErrorsNameLineAndColumn) {
         {"mass = 0.3\nmax_force = 10.0.0\n", kExitBadConfig, {"device profile '", "is malformed: line 2, column "}},
         {kMinimalProfile + "mass_range = [0.2, 0.3, 0.4]\n", kExitInvalidParameter,
          {"line 3, column 1: mass_range = 3 values is invalid"}},
-        {kMinimalProfile + "driver = \"usb\"\n", kExitBadConfig, {"line 3, column 1: driver = \"usb\": "}}};
+        {kMinimalProfile + "driver = \"usb\"\n", kExitBadConfig, {"line 3, column 1: driver = \"usb\": "}},
+        // the real-device keys (devices/profile_keys.cpp)
+        {kMinimalProfile + "homing_timeout = 0.0\n", kExitInvalidParameter,
+         {"line 3, column 1: homing_timeout = 0.000000 is invalid; accepted range"}},
+        {kMinimalProfile + "driver = \"hid\"\n", kExitBadConfig, {"line 3, column 1: driver = \"hid\" needs usb_vid"}}};
     for (const BadFile& c : cases) {
         const auto r = load_profile(c.text);
         EXPECT_EQ(r.code, c.code) << c.text;
