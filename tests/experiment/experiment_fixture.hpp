@@ -98,6 +98,20 @@ inline BoundarySettings k_sweep(const Theory& theory, std::vector<double> b_valu
     return s;
 }
 
+// A plant's analysis, its simulated device in lockstep at 1 kHz and the standard setup homed where the
+// device starts: what every experiment test on the simulated device begins with.
+struct SimBench {
+    SimBench(const Plant& plant, std::size_t trial_ticks)
+        : theory(plant.theory()), sim(make_sim(plant)), runner(*sim, 1'000'000, true),
+          setup(make_setup(plant, theory, trial_ticks)) {
+        setup.settle.home = runner.read_position(0);
+    }
+    Theory theory;
+    std::unique_ptr<SimDevice> sim;
+    TrialRunner runner;
+    ExperimentSetup setup;
+};
+
 // run_boundary with the progress display going nowhere.
 inline BoundaryResult run_boundary_quietly(TrialRunner& runner, const ExperimentSetup& setup, const BoundarySettings& s,
                                            const Theory& theory) {

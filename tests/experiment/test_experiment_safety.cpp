@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "daemon/exit_codes.hpp"
@@ -12,41 +13,46 @@
 namespace hapticd::experiment::test {
 namespace {
 
-TEST(ExperimentSafety, ForceCapHitCountsAsUnstableAndLeavesZeroForce) {
+// One trial at B = 200 N s/m and K = 1.5 x the boundary stiffness there (unstable: its oscillation grows
+// until a limit stops it), instability detection off, on a device that records the last force written.
+struct UnstableTrial {
+    TrialRecord record;
+    double force_cap = 0.0;   // the trial's
+    double last_force = 0.0;  // the last force written to the device
+};
+
+UnstableTrial run_unstable_trial(double position_limit, std::optional<double> force_cap) {
     const Theory theory(kDefault.theory());
     auto sim = make_sim(kDefault);
     RecordingDevice dev(*sim);
     TrialRunner runner(dev, 1'000'000, true);
     TrialSettings t = make_setup(kDefault, theory, 2000).trial;
-    t.K = 1.5 * theory.boundary_stiffness(200.0);  // unstable: the force grows until the cap
+    t.K = 1.5 * theory.boundary_stiffness(200.0);
     t.B = 200.0;
     t.detect = false;
-    t.position_limit = 1.0;
-    TrialRecord rec;
-    runner.run(t, rec);
-    EXPECT_EQ(rec.outcome, TrialOutcome::ForceCap);
-    EXPECT_TRUE(counts_as_unstable(rec.outcome));
-    EXPECT_LE(rec.max_abs_force, t.force_cap);
-    EXPECT_EQ(rec.u[rec.end_tick], 0.0);
-    EXPECT_EQ(dev.last_force[0], 0.0);
+    t.position_limit = position_limit;
+    if (force_cap) t.force_cap = *force_cap;
+    UnstableTrial r;
+    r.force_cap = t.force_cap;
+    runner.run(t, r.record);
+    r.last_force = dev.last_force[0];
+    return r;
+}
+
+TEST(ExperimentSafety, ForceCapHitCountsAsUnstableAndLeavesZeroForce) {
+    const UnstableTrial r = run_unstable_trial(/*position_limit=*/1.0, std::nullopt);  // the force grows until the cap
+    EXPECT_EQ(r.record.outcome, TrialOutcome::ForceCap);
+    EXPECT_TRUE(counts_as_unstable(r.record.outcome));
+    EXPECT_LE(r.record.max_abs_force, r.force_cap);
+    EXPECT_EQ(r.record.u[r.record.end_tick], 0.0);
+    EXPECT_EQ(r.last_force, 0.0);
 }
 
 TEST(ExperimentSafety, PositionLimitHitCountsAsUnstableAndLeavesZeroForce) {
-    const Theory theory(kDefault.theory());
-    auto sim = make_sim(kDefault);
-    RecordingDevice dev(*sim);
-    TrialRunner runner(dev, 1'000'000, true);
-    TrialSettings t = make_setup(kDefault, theory, 2000).trial;
-    t.K = 1.5 * theory.boundary_stiffness(200.0);  // unstable: the oscillation grows until the limit
-    t.B = 200.0;
-    t.position_limit = 2e-5;
-    t.force_cap = 1e3;
-    t.detect = false;
-    TrialRecord rec;
-    runner.run(t, rec);
-    EXPECT_EQ(rec.outcome, TrialOutcome::PositionLimit);
-    EXPECT_TRUE(counts_as_unstable(rec.outcome));
-    EXPECT_EQ(dev.last_force[0], 0.0);
+    const UnstableTrial r = run_unstable_trial(/*position_limit=*/2e-5, /*force_cap=*/1e3);  // grows until the limit
+    EXPECT_EQ(r.record.outcome, TrialOutcome::PositionLimit);
+    EXPECT_TRUE(counts_as_unstable(r.record.outcome));
+    EXPECT_EQ(r.last_force, 0.0);
 }
 
 TEST(ExperimentSafety, DeviceFaultMidTrialStopsTheExperimentWithZeroForce) {

@@ -31,11 +31,10 @@ class BoundaryOnSim : public ::testing::TestWithParam<Plant> {};
 
 TEST_P(BoundaryOnSim, MeasuredBoundaryMatchesAnalysisWithinResolutionAndDetectionWindow) {
     const Plant plant = GetParam();
-    const Theory theory(plant.theory());
-    auto sim = make_sim(plant);
-    TrialRunner runner(*sim, 1'000'000, true);
-    ExperimentSetup setup = make_setup(plant, theory, 2000);
-    setup.settle.home = runner.read_position(0);
+    SimBench bench(plant, 2000);
+    const Theory& theory = bench.theory;
+    TrialRunner& runner = bench.runner;
+    ExperimentSetup& setup = bench.setup;
     const auto [b_lo, b_hi] = theory.damping_extent();
     std::vector<double> b_values;
     for (int i = 0; i < 5; ++i) b_values.push_back(b_lo + (b_hi - b_lo) * (0.1 + 0.2 * i));
@@ -62,11 +61,10 @@ class OptimalOnSim : public ::testing::TestWithParam<Plant> {};
 
 TEST_P(OptimalOnSim, MeasuredOptimalDampingMatchesTheOptimalCurveWithinTheGridStep) {
     const Plant plant = GetParam();
-    const Theory theory(plant.theory());
-    auto sim = make_sim(plant);
-    TrialRunner runner(*sim, 1'000'000, true);
-    ExperimentSetup setup = make_setup(plant, theory, 3000);
-    setup.settle.home = runner.read_position(0);
+    SimBench bench(plant, 3000);
+    const Theory& theory = bench.theory;
+    TrialRunner& runner = bench.runner;
+    ExperimentSetup& setup = bench.setup;
     OptimalSettings s;
     for (double f : {0.2, 0.4, 0.6}) s.k_values.push_back(f * theory.max_stiffness());
     s.b_points = 11;
