@@ -38,6 +38,7 @@ void SceneObjects::apply_commits() noexcept {
                 case SlotUpdate::Action::Set:
                     if (slot.current.active) {
                         slot.fading = slot.current;  // cross-fade from wherever the old one is
+                        slot.fading.active = ramp_step_ < 1.0;  // no ramp: replaced at once
                     }
                     slot.current.active = true;
                     slot.current.ramp = ramp_step_ >= 1.0 ? 1.0 : 0.0;
@@ -51,6 +52,7 @@ void SceneObjects::apply_commits() noexcept {
                 case SlotUpdate::Action::Remove:
                     if (slot.current.active) {
                         slot.fading = slot.current;
+                        slot.fading.active = ramp_step_ < 1.0;  // no ramp: removed at once
                         slot.current.active = false;
                     }
                     break;
