@@ -147,8 +147,15 @@ int run_session_script(hc::Client& client, std::istream& in, const std::string& 
                     << s.overruns << " commits_applied " << s.commits_applied << " fault " << s.fault << "\n";
             } else if (cmd == "state") {
                 if (!state) state.emplace(hc::StateReader::open(client.welcome().state_shm));
+                // A read fails only while the writer keeps overlapping it (lockstep, or the loop preempted
+                // mid-write): retry for up to 1 s.
                 hc::StateSample s;
-                if (!state->read(s)) throw hc::Error(hc::ErrorCode::Transport, "run_session_script: state: no consistent read");
+                bool ok = state->read(s);
+                for (int i = 0; !ok && i < 1000; ++i) {
+                    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+                    ok = state->read(s);
+                }
+                if (!ok) throw hc::Error(hc::ErrorCode::Transport, "run_session_script: state: no consistent read within 1 s");
                 out << state_line(s, client.welcome().device.axes) << "\n";
             } else if (cmd == "sleep") {
                 if (w.size() != 2) throw SpecError("run_session_script: sleep SECONDS");

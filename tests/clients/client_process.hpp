@@ -5,10 +5,13 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -113,10 +116,21 @@ public:
                     "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
                     "--hold-distance", "0.06", "--hold-force", "2"},
                    tag + "_daemon") {
+        // Ready when a connect succeeds (the socket file exists from bind(), before listen()).
         const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-        while (!std::filesystem::exists(socket_) && std::chrono::steady_clock::now() < end) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        while (!ready_ && std::chrono::steady_clock::now() < end) {
+            ready_ = connectable(socket_);
+            if (!ready_) std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
+    }
+    static bool connectable(const std::string& path) {
+        const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+        sockaddr_un addr{};
+        addr.sun_family = AF_UNIX;
+        std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+        const bool ok = fd >= 0 && ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+        if (fd >= 0) ::close(fd);
+        return ok;
     }
     ~LockstepDaemon() { stop(); }
     int stop() {
@@ -126,7 +140,7 @@ public:
         code_ = process_.wait();
         return code_;
     }
-    [[nodiscard]] bool ready() const { return std::filesystem::exists(socket_); }
+    [[nodiscard]] bool ready() const { return ready_; }
     [[nodiscard]] const std::string& socket() const { return socket_; }
     [[nodiscard]] const std::string& shm() const { return shm_; }
     [[nodiscard]] std::string log() const { return process_.out() + process_.err(); }
@@ -135,6 +149,7 @@ private:
     std::string socket_;
     std::string shm_;
     Process process_;
+    bool ready_ = false;
     bool stopped_ = false;
     int code_ = -1;
 };
