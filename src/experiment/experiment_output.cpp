@@ -73,41 +73,55 @@ svg::Axes& figure_axes(svg::Document& doc, const Theory& theory, const std::vect
     return ax;
 }
 
-std::filesystem::path prepare(const std::string& dir) {
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec) throw std::runtime_error("cannot create the output directory '" + dir + "': " + ec.message());
-    return std::filesystem::path(dir);
-}
+// The output directory (created) and the files written into it, in order.
+class OutputFiles {
+public:
+    explicit OutputFiles(const std::string& dir) : base_(dir) {
+        std::error_code ec;
+        std::filesystem::create_directories(dir, ec);
+        if (ec) throw std::runtime_error("cannot create the output directory '" + dir + "': " + ec.message());
+    }
+    // <dir>/<name>: `header`, then the rows `write_rows(std::ofstream&)` prints.
+    template <class WriteRows>
+    void csv(const char* name, const std::string& header, WriteRows&& write_rows) {
+        const std::string path = (base_ / name).string();
+        CsvFile f(path, header);
+        write_rows(f.out());
+        f.close();
+        written_.push_back(path);
+    }
+    void figure(const char* name, const svg::Document& doc) {
+        const std::string path = (base_ / name).string();
+        doc.save(path);
+        written_.push_back(path);
+    }
+    [[nodiscard]] std::vector<std::string> written() const { return written_; }
 
-void save(const svg::Document& doc, const std::string& path) { doc.save(path); }
+private:
+    std::filesystem::path base_;
+    std::vector<std::string> written_;
+};
 
 
 }  // namespace
 
 std::vector<std::string> write_boundary_outputs(const std::string& dir, const BoundaryResult& result,
                                                 const Theory& theory, const FigureCaption& caption) {
-    const auto base = prepare(dir);
-    std::vector<std::string> written;
-    {
-        CsvFile f((base / "boundary_trials.csv").string(), kTrialHeader);
+    OutputFiles files(dir);
+    files.csv("boundary_trials.csv", kTrialHeader, [&](std::ofstream& out) {
         for (const auto& r : result.trials) {
-            trial_columns(f.out(), r);
-            f.out() << "\n";
+            trial_columns(out, r);
+            out << "\n";
         }
-        f.close();
-        written.push_back((base / "boundary_trials.csv").string());
-    }
-    {
-        CsvFile f((base / "boundary.csv").string(),
-                  "B_Ns_per_m,K_last_stable_N_per_m,K_first_unstable_N_per_m,K_boundary_N_per_m,K_theory_N_per_m,trials");
-        for (const auto& p : result.points) {
-            f.out() << num(p.B) << "," << num(p.K_last_stable) << "," << num(p.K_first_unstable) << ","
-                    << num(p.K_boundary) << "," << num(p.K_theory) << "," << p.trials << "\n";
-        }
-        f.close();
-        written.push_back((base / "boundary.csv").string());
-    }
+    });
+    files.csv("boundary.csv",
+              "B_Ns_per_m,K_last_stable_N_per_m,K_first_unstable_N_per_m,K_boundary_N_per_m,K_theory_N_per_m,trials",
+              [&](std::ofstream& out) {
+                  for (const auto& p : result.points) {
+                      out << num(p.B) << "," << num(p.K_last_stable) << "," << num(p.K_first_unstable) << ","
+                          << num(p.K_boundary) << "," << num(p.K_theory) << "," << p.trials << "\n";
+                  }
+              });
     std::vector<std::pair<double, double>> measured;
     for (const auto& p : result.points) measured.emplace_back(p.K_boundary, p.B);
     svg::Document doc(800, 600, "Measured stability boundary, " + caption.text);
@@ -119,39 +133,33 @@ std::vector<std::string> write_boundary_outputs(const std::string& dir, const Bo
                   "B = " + short_num(p.B) + " N s/m", 4);
     }
     ax.legend_marker("measured boundary", svg::MarkerShape::Circle, marker);
-    save(doc, (base / "boundary.svg").string());
-    written.push_back((base / "boundary.svg").string());
-    return written;
+    files.figure("boundary.svg", doc);
+    return files.written();
 }
 
 std::vector<std::string> write_optimal_outputs(const std::string& dir, const OptimalResult& result,
                                                const OptimalSettings& settings, const Theory& theory,
                                                const FigureCaption& caption) {
-    const auto base = prepare(dir);
-    std::vector<std::string> written;
-    {
-        CsvFile f((base / "optimal_trials.csv").string(), std::string(kTrialHeader) + ",CE0,CE1,CE2,COV,tail_estimate");
+    OutputFiles files(dir);
+    files.csv("optimal_trials.csv", std::string(kTrialHeader) + ",CE0,CE1,CE2,COV,tail_estimate", [&](std::ofstream& out) {
         for (const auto& r : result.trials) {
-            trial_columns(f.out(), r);
+            trial_columns(out, r);
             const double nan = std::nan("");
             const MeasuredCosts& c = r.costs;
-            f.out() << "," << num(r.has_costs ? c.ce0 : nan) << "," << num(r.has_costs ? c.ce1 : nan) << ","
-                    << num(r.has_costs ? c.ce2 : nan) << "," << num(r.has_costs ? c.overshoot : nan) << ","
-                    << num(r.has_costs ? c.tail_estimate : nan) << "\n";
+            out << "," << num(r.has_costs ? c.ce0 : nan) << "," << num(r.has_costs ? c.ce1 : nan) << ","
+                << num(r.has_costs ? c.ce2 : nan) << "," << num(r.has_costs ? c.overshoot : nan) << ","
+                << num(r.has_costs ? c.tail_estimate : nan) << "\n";
         }
-        f.close();
-        written.push_back((base / "optimal_trials.csv").string());
-    }
-    {
-        CsvFile f((base / "optimal.csv").string(),
-                  "K_N_per_m,criterion,B_grid_Ns_per_m,cost_grid,B_refined_Ns_per_m,B_theory_Ns_per_m,B_step_Ns_per_m,on_edge");
-        for (const auto& p : result.points) {
-            f.out() << num(p.K) << ",CE" << p.criterion << "," << num(p.B_grid) << "," << num(p.cost_grid) << ","
-                    << num(p.B_refined) << "," << num(p.B_theory) << "," << num(p.b_step) << "," << (p.on_edge ? 1 : 0) << "\n";
-        }
-        f.close();
-        written.push_back((base / "optimal.csv").string());
-    }
+    });
+    files.csv("optimal.csv",
+              "K_N_per_m,criterion,B_grid_Ns_per_m,cost_grid,B_refined_Ns_per_m,B_theory_Ns_per_m,B_step_Ns_per_m,on_edge",
+              [&](std::ofstream& out) {
+                  for (const auto& p : result.points) {
+                      out << num(p.K) << ",CE" << p.criterion << "," << num(p.B_grid) << "," << num(p.cost_grid) << ","
+                          << num(p.B_refined) << "," << num(p.B_theory) << "," << num(p.b_step) << ","
+                          << (p.on_edge ? 1 : 0) << "\n";
+                  }
+              });
     std::vector<std::pair<double, double>> measured;
     for (const auto& p : result.points) measured.emplace_back(p.K, p.B_refined);
     svg::Document doc(800, 600, "Measured optimal curves, " + caption.text);
@@ -187,9 +195,8 @@ std::vector<std::string> write_optimal_outputs(const std::string& dir, const Opt
         }
     }
     if (any_plus) ax.legend_marker("no overshoot (C_OV <= " + short_num(settings.overshoot_tolerance) + ")", svg::MarkerShape::Plus, plus);
-    save(doc, (base / "optimal.svg").string());
-    written.push_back((base / "optimal.svg").string());
-    return written;
+    files.figure("optimal.svg", doc);
+    return files.written();
 }
 
 }  // namespace hapticd::experiment
