@@ -12,7 +12,10 @@
 
 #include <hapticopt/stability_region.hpp>
 
+#include <nlohmann/json.hpp>
+
 #include "daemon/daemon.hpp"
+#include "process_runner.hpp"
 #include "devices/sim_device.hpp"
 #include "scene/passivity_controller.hpp"
 #include "scene/scene.hpp"
@@ -207,6 +210,33 @@ TEST(PassivityControl, ZeroVelocityAndNonFiniteInput) {
     EXPECT_EQ(pc.stats().nonfinite_events, 1U);
     EXPECT_THROW(PassivityController(PassivityControlConfig{kT, 0.0, 1e-4, 10, 1}), std::invalid_argument);
     EXPECT_THROW(PassivityController(PassivityControlConfig{kT, 10.0, -1.0, 10, 1}), std::invalid_argument);
+}
+
+// The command line: hapticd refuses unstable explicit gains (exit 5) unless --passivity-control is given; then it
+// runs them, prints the counters and writes them to the summary; a bad cap is refused naming it (exit 4).
+TEST(PassivityControl, HapticdOption) {
+    const Gains g = beyond(1.5, 1, 0.0);
+    const std::string K = std::to_string(g.K), B = std::to_string(g.B);
+    const std::vector<std::string> common{"--device", "sim", "--lockstep", "--bilateral", "--stiffness", K, "--damping",
+                                          B, "--delay-buffer", "1", "--duration", "2", "--rt-priority", "0"};
+    const test::Result refused = test::run(common, "pc_refused");
+    EXPECT_EQ(refused.code, 5) << refused.err;
+    const std::string summary = (test::scratch_dir() / "pc_summary.json").string();
+    std::vector<std::string> with = common;
+    for (const char* a : {"--passivity-control", "--summary-json"}) with.emplace_back(a);
+    with.push_back(summary);
+    const test::Result run = test::run(with, "pc_run");
+    ASSERT_EQ(run.code, 0) << run.err;
+    EXPECT_NE(run.out.find("passivity control: damper on"), std::string::npos) << run.out;
+    const nlohmann::json j = nlohmann::json::parse(test::read_file(summary));
+    ASSERT_TRUE(j.at("passivity_control").is_object()) << j.dump();
+    EXPECT_GT(j["passivity_control"]["damper_ticks"].get<long long>(), 0);
+    EXPECT_EQ(j["passivity_control"]["nonfinite_events"].get<long long>(), 0);
+    std::vector<std::string> bad = common;
+    for (const char* a : {"--passivity-control", "--passivity-velocity-guard", "0"}) bad.emplace_back(a);
+    const test::Result rejected = test::run(bad, "pc_bad");
+    EXPECT_EQ(rejected.code, 4) << rejected.err;
+    EXPECT_NE(rejected.err.find("passivity-velocity-guard"), std::string::npos) << rejected.err;
 }
 
 }  // namespace
