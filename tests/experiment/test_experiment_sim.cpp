@@ -30,20 +30,17 @@ double stiffness_at_radius(const Theory& theory, double B, double rho) {
 class BoundaryOnSim : public ::testing::TestWithParam<Plant> {};
 
 TEST_P(BoundaryOnSim, MeasuredBoundaryMatchesAnalysisWithinResolutionAndDetectionWindow) {
-    const Plant plant = GetParam();
-    SimBench bench(plant, 2000);
-    const Theory& theory = bench.theory;
-    TrialRunner& runner = bench.runner;
-    ExperimentSetup& setup = bench.setup;
+    SimBench b(GetParam(), 2000);
+    const Theory& theory = b.theory;
     const auto [b_lo, b_hi] = theory.damping_extent();
     std::vector<double> b_values;
     for (int i = 0; i < 5; ++i) b_values.push_back(b_lo + (b_hi - b_lo) * (0.1 + 0.2 * i));
     const BoundarySettings s = k_sweep(theory, b_values, 20.0, 64.0);
-    const BoundaryResult r = run_boundary_quietly(runner, setup, s, theory);
+    const BoundaryResult r = run_boundary_quietly(b.runner, b.setup, s, theory);
     ASSERT_EQ(r.abort.outcome, TrialOutcome::Stable) << r.abort.detail;
     ASSERT_EQ(r.points.size(), s.b_values.size());
     // Window energy ratio of the dominant mode: rho^(2W); detected when > g: rho_detect = g^(1/(2W)).
-    const DetectionSettings& det = setup.trial.detection;
+    const DetectionSettings& det = b.setup.trial.detection;
     const double rho_detect = std::pow(det.growth, 1.0 / (2.0 * static_cast<double>(det.window)));
     for (const auto& p : r.points) {
         ASSERT_TRUE(std::isfinite(p.K_boundary)) << "B = " << p.B;
@@ -60,17 +57,14 @@ INSTANTIATE_TEST_SUITE_P(Plants, BoundaryOnSim, ::testing::Values(kDefault, kDel
 class OptimalOnSim : public ::testing::TestWithParam<Plant> {};
 
 TEST_P(OptimalOnSim, MeasuredOptimalDampingMatchesTheOptimalCurveWithinTheGridStep) {
-    const Plant plant = GetParam();
-    SimBench bench(plant, 3000);
-    const Theory& theory = bench.theory;
-    TrialRunner& runner = bench.runner;
-    ExperimentSetup& setup = bench.setup;
+    SimBench b(GetParam(), 3000);
+    const Theory& theory = b.theory;
     OptimalSettings s;
     for (double f : {0.2, 0.4, 0.6}) s.k_values.push_back(f * theory.max_stiffness());
     s.b_points = 11;
     std::ostringstream sink;
     Progress progress(sink, false, true);
-    const OptimalResult r = run_optimal(runner, setup, s, theory, progress);
+    const OptimalResult r = run_optimal(b.runner, b.setup, s, theory, progress);
     ASSERT_EQ(r.abort.outcome, TrialOutcome::Stable) << r.abort.detail;
     ASSERT_EQ(r.points.size(), 9U);
     for (const auto& p : r.points) {
