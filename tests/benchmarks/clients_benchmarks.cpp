@@ -3,7 +3,8 @@
 //    that moves a plane it presses on (modify of the offset only) and then spins on the shared-memory state
 //    until the tick that applied the batch is published (last_commit_seq >= the commit's seq). Per commit:
 //    from before the request is sent to that tick being visible; p50/p99/max over HAPTICD_LATENCY_COMMITS
-//    commits (default 10000), and the commit's own reply round trip. Baseline in the same run: a bare
+//    commits (default 10000), the commit's own reply round trip, and (1000 x) that of a status request,
+//    which the server answers without the commit's checks. Baseline in the same run: a bare
 //    SOCK_SEQPACKET ping-pong (socketpair + echo thread) with a message of the commit's size.
 //    Goal of issue 14: within one loop period plus the ping-pong time.
 //  * BM_TickOneWall / BM_Tick64Objects / BM_TickRatio64VsOneWall: the loop's compute for one tick without
@@ -152,6 +153,7 @@ void BM_CommandToForceLatency(benchmark::State& state) {
         }
         LatencyStats to_force;
         LatencyStats reply;
+        LatencyStats status_reply;
         std::uint64_t period_ns = 0;
         try {
             hc::ConnectOptions co;
@@ -162,6 +164,12 @@ void BM_CommandToForceLatency(benchmark::State& state) {
             period_ns = static_cast<std::uint64_t>(std::llround(reader.period_s() * 1e9));
             hc::Plane plane{{-1.0, 0.0, 0.0}, 0.005, true, hc::Gains::explicit_gains(1000.0, 5.0)};
             const std::uint32_t id = client.commit(hc::Batch().add(plane)).object_ids.front();
+            // A request without checks (status) for comparison with the commit's reply.
+            for (std::size_t i = 0; i < 1000; ++i) {
+                const auto t0 = RealtimeLoop::now_ns();
+                client.status();
+                status_reply.record(RealtimeLoop::now_ns() - t0);
+            }
             hc::StateSample s;
             for (std::size_t i = 0; i < commits; ++i) {
                 plane.offset = (i % 2 == 0) ? 0.0051 : 0.005;  // 0.1 mm steps: a 0.1 N change of the force
@@ -179,6 +187,7 @@ void BM_CommandToForceLatency(benchmark::State& state) {
         }
         report(state, "to_force", to_force);
         report(state, "reply", reply);
+        report(state, "status", status_reply);
         report(state, "pingpong", pingpong);
         state.counters["commits"] = static_cast<double>(to_force.count());
         state.counters["goal_us"] = static_cast<double>(period_ns) * 1e-3 + static_cast<double>(pingpong.percentile_ns(0.5)) * 1e-3;
