@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 
 #include "devices/ftdi_protocol.hpp"
@@ -197,13 +198,20 @@ void LibusbFtdiTransport::stop_streaming() noexcept {
 
 void LibusbFtdiTransport::event_loop() noexcept {
     std::array<pollfd, 16> fds{};
+    // On stop: cancel, then wait at most 500 ms for the cancellations; a transfer libusb never gives back
+    // (a device gone without notice) is left allocated rather than the close hanging.
+    std::chrono::steady_clock::time_point give_up{};
+    bool cancelled = false;
     while (true) {
         const bool stopping = stop_.load(std::memory_order_acquire);
-        if (stopping) {
+        if (stopping && !cancelled) {
             if (in_active_.load()) libusb_cancel_transfer(in_transfer_);
             if (out_active_.load()) libusb_cancel_transfer(out_transfer_);
+            cancelled = true;
+            give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
         }
         if (stopping && !in_active_.load() && !out_active_.load()) break;
+        if (stopping && std::chrono::steady_clock::now() > give_up) break;
         // Wait for a libusb fd (transfer completion) or the wake-up eventfd (a new command, a stop).
         std::size_t n = 0;
         fds[n++] = {wake_fd_, POLLIN, 0};

@@ -40,6 +40,7 @@ struct FakeFalcon {
     std::vector<falcon::Command> commands;  // decoded commands received in normal mode
     int upload_attempts = 0;
     int opens = 0;                      // open() calls (the firmware upload reopens between attempts)
+    int latency_ms = 16;                // FTDI latency timer (set by the emulated FTDI control requests)
     int empty_reads_served = 0;
     ScriptedTransport* transport = nullptr;
 

@@ -1,0 +1,75 @@
+// A Novint Falcon emulated under umockdev for the REAL libusb-1.0 (usbfs backend): the sysfs entry of an
+// FT232R with the Falcon's VID:PID 0403:cb48 (device and configuration descriptors, bus 001 device 002)
+// and an ioctl handler on /dev/bus/usb/001/002 that answers usbfs URBs the way the FTDI chip does
+// (pattern of libusb's own tests/umockdev.c): control requests go to the FTDI state (latency timer,
+// baud rate, modem lines), bulk OUT bytes go to the scripted Falcon (fake_falcon.hpp: loader,
+// firmware, one status packet per command), bulk IN URBs complete with the two FTDI status bytes plus
+// whatever the Falcon has sent, or with the status bytes alone when the latency timer (16 ms in the
+// loader mode, 1 ms in normal mode) runs out with nothing to send. Faults: unplug (every URB -> ENODEV),
+// a stalled IN endpoint (-EPIPE), garbage injected into the stream, silence (no status packets).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "fake_falcon.hpp"
+
+struct _UMockdevTestbed;
+struct _UMockdevIoctlBase;
+struct _UMockdevIoctlClient;
+struct _UMockdevIoctlData;
+
+namespace hapticd::test {
+
+class EmulatedFalcon {
+public:
+    EmulatedFalcon();
+    ~EmulatedFalcon();
+    EmulatedFalcon(const EmulatedFalcon&) = delete;
+    EmulatedFalcon& operator=(const EmulatedFalcon&) = delete;
+
+    [[nodiscard]] bool ok() const { return ok_; }
+    [[nodiscard]] const std::string& error() const { return error_; }
+
+    // The scripted Falcon behind the FTDI emulation; lock() around any access after the start.
+    std::unique_lock<std::mutex> lock() { return std::unique_lock<std::mutex>(mutex_); }
+    FakeFalcon& falcon() { return falcon_; }
+    // Unplug: the URBs in flight complete with -ESHUTDOWN and new ones are refused with ENODEV, as usbfs
+    // does after a disconnect. (usbfs also reports POLLERR on the node; umockdev's pty cannot.)
+    void unplug();
+    void set_stalled(bool v) { auto l = lock(); stalled_ = v; }
+    void set_silent(bool v) { auto l = lock(); silent_ = v; }
+    [[nodiscard]] std::uint64_t in_urbs_completed() { auto l = lock(); return in_completed_; }
+
+    bool on_ioctl(_UMockdevIoctlClient* client);
+
+private:
+    struct Flying {
+        _UMockdevIoctlData* urb = nullptr;  // referenced
+        unsigned long client_addr = 0;
+        bool in = false;
+        bool done = false;
+        std::chrono::steady_clock::time_point submitted;
+    };
+    bool complete_in(Flying& f, std::chrono::steady_clock::time_point now);
+
+    _UMockdevTestbed* testbed_ = nullptr;
+    _UMockdevIoctlBase* handler_ = nullptr;
+    bool ok_ = false;
+    std::string error_;
+    std::mutex mutex_;
+    FakeFalcon falcon_;
+    OpenedTransport model_;          // the ScriptedTransport the FakeFalcon answers into
+    std::deque<Flying> flying_;
+    std::deque<Flying> discarded_;
+    bool unplugged_ = false;
+    bool stalled_ = false;
+    bool silent_ = false;
+    std::uint64_t in_completed_ = 0;
+};
+
+}  // namespace hapticd::test
