@@ -1,5 +1,6 @@
 // hapticd --serve with real client processes: the analysed step response along an oblique plane, gains by
 // criterion, refusal of unstable gains, ramp-out after SIGKILL and after a lost lease, many clients.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -228,12 +229,19 @@ TEST(ServerProcess, AClientThatStopsHeartbeatingLosesItsObjects) {
 // accepted, the loop keeps ticking, the flooder's and the non-reader's excess costs only themselves.
 TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
     const Names n = names("many");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}), "many_daemon");
+    // The loop at SCHED_FIFO (as deployed; the server thread is started before and stays at normal
+    // priority): spawning 34 client processes on the shared 2-core machine must not starve it into the
+    // watchdog (it did at --rt-priority 0 under a parallel ctest run).
+    std::vector<std::string> args = daemon_args(n, {"--scenario", "step", "--step-force", "0"});
+    const auto rt = std::find(args.begin(), args.end(), "--rt-priority");
+    ASSERT_NE(rt, args.end());
+    *(rt + 1) = "80";
+    Child daemon(HAPTICD_BINARY, args, "many_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::StateReader state = cl::StateReader::open(n.shm);
     Child noread(HAPTICD_TEST_CLIENT, {n.socket, "noread"}, "many_noread");
     ASSERT_TRUE(noread.first_line());
-    Child flooder(HAPTICD_TEST_CLIENT, {n.socket, "flood", "5000"}, "many_flood");
+    Child flooder(HAPTICD_TEST_CLIENT, {n.socket, "flood", "2000"}, "many_flood");
     std::vector<std::unique_ptr<Child>> clients;
     for (int i = 0; i < 32; ++i) {
         const json ops = json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.051 - 1e-4 * i, {{"K", 50.0}, {"B", 0.5}})}}});
@@ -250,7 +258,7 @@ TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
     ASSERT_EQ(flooder.wait(120.0), 0) << flooder.out() << flooder.err();
     const json flood = json::parse(flooder.out());
     std::printf("[ many ] flooder: %lld accepted, %lld busy\n", flood["ok"].get<long long>(), flood["busy"].get<long long>());
-    EXPECT_EQ(flood["ok"].get<long long>() + flood["busy"].get<long long>(), 5000);
+    EXPECT_EQ(flood["ok"].get<long long>() + flood["busy"].get<long long>(), 2000);
     cl::StateSample later;
     ASSERT_TRUE(state.read(later));
     EXPECT_GT(later.tick, first.tick);
