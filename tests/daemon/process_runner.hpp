@@ -1,4 +1,4 @@
-// Runs the hapticd binary as a child process (posix_spawn), with stdout/stderr captured to files.
+// Runs hapticd (or another program) as a child process (posix_spawn), with stdout/stderr captured to files.
 #pragma once
 
 #include <fcntl.h>
@@ -35,20 +35,24 @@ inline std::filesystem::path scratch_dir() {
 
 class Process {
 public:
-    explicit Process(const std::vector<std::string>& args, const std::string& tag) {
-        const auto dir = scratch_dir();
+    // hapticd (HAPTICD_BINARY) with `args`; stdout and stderr in scratch_dir()/<tag>.stdout|.stderr.
+    explicit Process(const std::vector<std::string>& args, const std::string& tag) : Process(HAPTICD_BINARY, args, tag) {}
+    // Any program; stdin from `stdin_path` ("": /dev/null), stdout and stderr in <dir>/<tag>.stdout|.stderr.
+    Process(const std::string& binary, const std::vector<std::string>& args, const std::string& tag,
+            const std::string& stdin_path = "", const std::filesystem::path& dir = scratch_dir()) {
         out_path_ = (dir / (tag + ".stdout")).string();
         err_path_ = (dir / (tag + ".stderr")).string();
-        std::vector<std::string> full{HAPTICD_BINARY};
+        std::vector<std::string> full{binary};
         full.insert(full.end(), args.begin(), args.end());
         std::vector<char*> argv;
         for (auto& a : full) argv.push_back(a.data());
         argv.push_back(nullptr);
         posix_spawn_file_actions_t fa;
         posix_spawn_file_actions_init(&fa);
+        posix_spawn_file_actions_addopen(&fa, 0, stdin_path.empty() ? "/dev/null" : stdin_path.c_str(), O_RDONLY, 0);
         posix_spawn_file_actions_addopen(&fa, 1, out_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         posix_spawn_file_actions_addopen(&fa, 2, err_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (posix_spawn(&pid_, HAPTICD_BINARY, &fa, nullptr, argv.data(), environ) != 0) pid_ = -1;
+        if (posix_spawn(&pid_, binary.c_str(), &fa, nullptr, argv.data(), environ) != 0) pid_ = -1;
         posix_spawn_file_actions_destroy(&fa);
     }
     Process(const Process&) = delete;
