@@ -39,6 +39,7 @@ namespace cl = hapticd::client;
 
 constexpr std::size_t kMaxSessions = 256;
 constexpr int kMessagesPerRound = 16;
+constexpr int kHelloTimeoutS = 5;  // a connection that never says hello is closed (it would hold a session)
 constexpr std::uint64_t kNotPushed = ~std::uint64_t{0};
 
 std::string g(double v) {
@@ -826,6 +827,13 @@ struct Server::Impl {
             }
             const auto now = Clock::now();
             for (auto& [sid, s] : sessions) {
+                if (!s.closed && !s.welcomed && now - s.last_rx > std::chrono::seconds(kHelloTimeoutS)) {
+                    const std::string text = json{{"type", "refused"}, {"code", "bad_hello"}, {"server_protocol", server::kServerProtocol},
+                                                  {"message", "Server: no hello within " + std::to_string(kHelloTimeoutS) + " s"}}
+                                                 .dump();
+                    (void)::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+                    close_session(s, "no hello within " + std::to_string(kHelloTimeoutS) + " s");
+                }
                 if (s.closed || s.lease_s <= 0.0) continue;
                 if (now - s.last_rx > std::chrono::duration<double>(s.lease_s)) {
                     const std::string text = json{{"type", "expired"}, {"code", "lease_lost"},
