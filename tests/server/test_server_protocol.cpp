@@ -138,6 +138,39 @@ TEST_F(ServerProtocol, AClientCannotTouchAnotherClientsOrTheDaemonsObjects) {
     a.commit(cl::Batch().remove(id));
 }
 
+// Device limits (sim3.toml: max_force 10 N, workspace +-0.06 m) and a field's negative stiffness.
+TEST_F(ServerProtocol, ForcesAndPositionsBeyondTheDeviceAndNegativeStiffnessAreRefused) {
+    cl::Client c = cl::Client::connect({.socket_path = n_->socket, .client_name = "limits"});
+    auto expect_code = [&](const cl::ObjectDescription& object, cl::ErrorCode code) {
+        try {
+            c.commit(cl::Batch().add(object));
+            ADD_FAILURE() << "accepted";
+        } catch (const cl::Error& e) {
+            EXPECT_EQ(e.code(), code) << e.what();
+            EXPECT_EQ(e.op_index(), 0) << e.what();
+        }
+    };
+    cl::Field strong{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 12.0}, .jacobian = {}};
+    expect_code(strong, cl::ErrorCode::BeyondDeviceLimits);                      // |F0| = 12 N > 10 N
+    cl::Field steep{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 5.0},
+                    .jacobian = {cl::Vec3{-600, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}};
+    expect_code(steep, cl::ErrorCode::BeyondDeviceLimits);                       // 5 N + 600 N/m * 0.01 m = 11 N
+    cl::Field repulsive{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 0},
+                        .jacobian = {cl::Vec3{100, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}};
+    expect_code(repulsive, cl::ErrorCode::UnstableGains);                        // sym(J) has +100 N/m
+    expect_code(cl::Spring{.constraint = cl::Constraint::Point, .point = {0.1, 0, 0}, .direction = {1, 0, 0},
+                           .gains = cl::Gains::explicit_gains(100, 1)},
+                cl::ErrorCode::BeyondDeviceLimits);                              // outside +-0.06 m
+    // An attracting field is a spring without damping: the sampled loop with K > 0, B = 0 is not
+    // asymptotically stable (the largest stable K at B = 0 is 0), so it is refused too.
+    cl::Field attracting{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 1.0},
+                         .jacobian = {cl::Vec3{-100, 0, 0}, cl::Vec3{0, -100, 0}, cl::Vec3{0, 0, -100}}};
+    expect_code(attracting, cl::ErrorCode::UnstableGains);
+    cl::Field constant{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 1.0}, .jacobian = {}};
+    EXPECT_EQ(c.commit(cl::Batch().add(constant)).object_ids.size(), 1U);
+    c.commit(cl::Batch().clear());
+}
+
 bool running_as_root() { return ::geteuid() == 0; }
 
 TEST_F(ServerProtocol, SocketModeAndOwnerAndASecondUserIsRefused) {
