@@ -17,7 +17,7 @@ namespace hapticd::test {
 
 namespace {
 
-gboolean handle_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
+gboolean falcon_handle_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
     return static_cast<EmulatedFalcon*>(self)->on_ioctl(client) ? TRUE : FALSE;
 }
 
@@ -41,7 +41,7 @@ EmulatedFalcon::EmulatedFalcon() {
     model_ = falcon_.open();
     testbed_ = umockdev_testbed_new();
     handler_ = umockdev_ioctl_base_new();
-    g_signal_connect(handler_, "handle-ioctl", G_CALLBACK(handle_ioctl), this);
+    g_signal_connect(handler_, "handle-ioctl", G_CALLBACK(falcon_handle_ioctl), this);
     GError* err = nullptr;
     if (!umockdev_testbed_attach_ioctl(testbed_, "/dev/bus/usb/001/002", handler_, &err)) {
         error_ = std::string("umockdev_testbed_attach_ioctl: ") + (err != nullptr ? err->message : "?");

@@ -16,13 +16,13 @@ namespace hapticd::test {
 
 namespace {
 
-gboolean handle_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
+gboolean hid_handle_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
     return static_cast<EmulatedHidDevice*>(self)->on_ioctl(client) ? TRUE : FALSE;
 }
-gboolean handle_read(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
+gboolean hid_handle_read(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
     return static_cast<EmulatedHidDevice*>(self)->on_read(client) ? TRUE : FALSE;
 }
-gboolean handle_write(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
+gboolean hid_handle_write(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer self) {
     return static_cast<EmulatedHidDevice*>(self)->on_write(client) ? TRUE : FALSE;
 }
 
@@ -50,9 +50,9 @@ EmulatedHidDevice::EmulatedHidDevice() : descriptor_(openffboard_like_descriptor
     g_free(usb);
     g_free(iface);
     handler_ = umockdev_ioctl_base_new();
-    g_signal_connect(handler_, "handle-ioctl", G_CALLBACK(handle_ioctl), this);
-    g_signal_connect(handler_, "handle-read", G_CALLBACK(handle_read), this);
-    g_signal_connect(handler_, "handle-write", G_CALLBACK(handle_write), this);
+    g_signal_connect(handler_, "handle-ioctl", G_CALLBACK(hid_handle_ioctl), this);
+    g_signal_connect(handler_, "handle-read", G_CALLBACK(hid_handle_read), this);
+    g_signal_connect(handler_, "handle-write", G_CALLBACK(hid_handle_write), this);
     GError* err = nullptr;
     // As libusb's umockdev test: attach the handler first, then add the node with add_from_string ("N:"),
     // which creates the emulated device file (add_device does not).

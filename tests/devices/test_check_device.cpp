@@ -28,7 +28,7 @@ std::unique_ptr<Device> sim(std::size_t axes, double mass, double damping, doubl
     return std::make_unique<SimDevice>(c);
 }
 
-ForceSignResult run(Device& d) {
+ForceSignResult run_sign_check(Device& d) {
     EXPECT_EQ(d.open(), DeviceStatus::Ok);
     EXPECT_EQ(d.home(), DeviceStatus::Ok);
     ForceSignSettings s;
@@ -38,7 +38,7 @@ ForceSignResult run(Device& d) {
 
 TEST(CheckDevice, SimulatedDeviceHasSignPlusOneOnEveryAxis) {
     auto d = sim(3, 0.3, 0.0, 2e-6);
-    const ForceSignResult r = run(*d);
+    const ForceSignResult r = run_sign_check(*d);
     ASSERT_TRUE(r.ok) << r.message;
     ASSERT_EQ(r.axes.size(), 3U);
     for (const AxisSign& a : r.axes) {
@@ -51,7 +51,7 @@ TEST(CheckDevice, SimulatedDeviceHasSignPlusOneOnEveryAxis) {
 
 TEST(CheckDevice, FlippedDeviceIsReportedAsSignMinusOne) {
     ForceSignDevice flipped(sim(2, 0.3, 1.0), AxisVector{1.0, -1.0, 1.0});
-    const ForceSignResult r = run(flipped);
+    const ForceSignResult r = run_sign_check(flipped);
     ASSERT_TRUE(r.ok) << r.message;
     ASSERT_EQ(r.axes.size(), 2U);
     EXPECT_EQ(r.axes[0].sign, 1);
@@ -59,7 +59,7 @@ TEST(CheckDevice, FlippedDeviceIsReportedAsSignMinusOne) {
     EXPECT_LT(r.axes[1].displacement, -r.axes[1].threshold);
     // The profile fix (force_sign = [1, -1]) applied on top gives +1 again.
     ForceSignDevice fixed(std::make_unique<ForceSignDevice>(sim(2, 0.3, 1.0), AxisVector{1.0, -1.0, 1.0}), AxisVector{1.0, -1.0, 1.0});
-    const ForceSignResult again = run(fixed);
+    const ForceSignResult again = run_sign_check(fixed);
     ASSERT_TRUE(again.ok);
     EXPECT_EQ(again.axes[1].sign, 1);
 }
@@ -67,7 +67,7 @@ TEST(CheckDevice, FlippedDeviceIsReportedAsSignMinusOne) {
 TEST(CheckDevice, BlockedHandleIsInconclusive) {
     // 1e6 kg: 0.5 N moves it 1.25e-9 m, far below the 2e-5 m threshold.
     auto d = sim(1, 1e6, 0.0);
-    const ForceSignResult r = run(*d);
+    const ForceSignResult r = run_sign_check(*d);
     ASSERT_TRUE(r.ok);
     EXPECT_EQ(r.axes[0].sign, 0);
 }
@@ -75,7 +75,7 @@ TEST(CheckDevice, BlockedHandleIsInconclusive) {
 TEST(CheckDevice, RunawayHandleStopsWithZeroForce) {
     // 1 g: 0.5 N moves it 0.5 * 500 * 0.05^2 = 0.6 m, beyond the 0.02 m limit.
     auto d = sim(1, 1e-3, 0.0);
-    const ForceSignResult r = run(*d);
+    const ForceSignResult r = run_sign_check(*d);
     EXPECT_FALSE(r.ok);
     EXPECT_NE(r.message.find("moved more than"), std::string::npos) << r.message;
 }

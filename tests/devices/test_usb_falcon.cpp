@@ -23,7 +23,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-FalconDeviceConfig config() {
+FalconDeviceConfig falcon_usb_config() {
     FalconDeviceConfig c;
     c.capabilities.axes = 3;
     c.capabilities.max_force = 9.0;
@@ -62,7 +62,7 @@ std::vector<std::int64_t> run_ticks(FalconDevice& dev, int ticks, DeviceStatus& 
 }
 
 TEST_F(UsbFalcon, HomesThenTheLoopNeverWaitsForTheDevice) {
-    FalconDeviceConfig c = config();
+    FalconDeviceConfig c = falcon_usb_config();
     // Under umockdev every URB is an IPC round trip to the handler thread, and on the loaded 2-core VM the
     // handler was starved for > 100 ms now and then (1 run in 4 under ctest): this test is about the tick
     // not waiting, so it tolerates 1 s without a status packet instead of the default 100 ticks.
@@ -110,7 +110,7 @@ TEST_F(UsbFalcon, FirmwareIsUploadedThroughBulkTransfers) {
         emulated.falcon().firmware_running = false;
         emulated.falcon().firmware_size = 300;
     }
-    FalconDeviceConfig c = config();
+    FalconDeviceConfig c = falcon_usb_config();
     c.firmware_path = path.string();
     FalconDevice dev(c);
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
@@ -123,7 +123,7 @@ TEST_F(UsbFalcon, FirmwareIsUploadedThroughBulkTransfers) {
 }
 
 TEST_F(UsbFalcon, UnplugDuringTheRunIsADeviceErrorAndNothingHangs) {
-    FalconDevice dev(config());
+    FalconDevice dev(falcon_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
     DeviceStatus s = DeviceStatus::Ok;
@@ -139,7 +139,7 @@ TEST_F(UsbFalcon, UnplugDuringTheRunIsADeviceErrorAndNothingHangs) {
 }
 
 TEST_F(UsbFalcon, StalledEndpointIsAHardwareFault) {
-    FalconDevice dev(config());
+    FalconDevice dev(falcon_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
     emulated.set_stalled(true);
@@ -151,7 +151,7 @@ TEST_F(UsbFalcon, StalledEndpointIsAHardwareFault) {
 }
 
 TEST_F(UsbFalcon, SilentFalconTimesOut) {
-    FalconDevice dev(config());
+    FalconDevice dev(falcon_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
     emulated.set_silent(true);  // the FTDI chip still sends status-only packets; the Falcon says nothing

@@ -48,7 +48,7 @@ struct UmockdevPreload {
 using namespace hapticd;
 using Clock = std::chrono::steady_clock;
 
-HidDeviceConfig config() {
+HidDeviceConfig hid_usb_config() {
     HidDeviceConfig c;
     c.capabilities.axes = 1;
     c.capabilities.max_force = 20.0;
@@ -70,7 +70,7 @@ protected:
 };
 
 TEST_F(UsbHid, StartUpReportsAreWhatThePidFirmwareNeeds) {
-    HidFfbDevice dev(config());
+    HidFfbDevice dev(hid_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     EXPECT_EQ(dev.path(), "/dev/hidraw0");
     const auto out = emulated.output_reports();
@@ -104,7 +104,7 @@ TEST_F(UsbHid, StartUpReportsAreWhatThePidFirmwareNeeds) {
 }
 
 TEST_F(UsbHid, PositionFromReportsSentOnChangeOrEvery100ms) {
-    HidFfbDevice dev(config());
+    HidFfbDevice dev(hid_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     emulated.set_position(-1234);
     ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
@@ -130,7 +130,7 @@ TEST_F(UsbHid, PositionFromReportsSentOnChangeOrEvery100ms) {
 }
 
 TEST_F(UsbHid, ForceReportsUseTheDescriptorRange) {
-    HidFfbDevice dev(config());
+    HidFfbDevice dev(hid_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     ASSERT_EQ(dev.write_force({2.5, 0, 0}), DeviceStatus::Ok);  // 2.5 N m * 2000 = 5000 = 0x1388
     EXPECT_EQ(emulated.output_reports().back(), (std::vector<std::uint8_t>{0x05, 1, 0x88, 0x13}));
@@ -142,7 +142,7 @@ TEST_F(UsbHid, ForceReportsUseTheDescriptorRange) {
 }
 
 TEST_F(UsbHid, UnplugIsADisconnectAndSilenceATimeout) {
-    HidFfbDevice dev(config());
+    HidFfbDevice dev(hid_usb_config());
     ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
     ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
     AxisVector p{};
