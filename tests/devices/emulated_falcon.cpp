@@ -105,7 +105,7 @@ bool EmulatedFalcon::complete_in(Flying& f, std::chrono::steady_clock::time_poin
     const int latency_ms = std::max<int>(1, falcon_.latency_ms);
     const bool timer_expired = now - f.submitted >= std::chrono::milliseconds(latency_ms);
     if (rx.empty() && !timer_expired) return false;
-    auto* out = static_cast<std::uint8_t*>(urb->buffer);  // same address space: the client is this process
+    auto* out = f.buffer->data;  // the local copy of the client's buffer, synced back when it is reaped
     int written = 0;
     const int capacity = urb->buffer_length;
     do {
@@ -154,9 +154,14 @@ bool EmulatedFalcon::on_ioctl(UMockdevIoctlClient* client) {
             }
             UMockdevIoctlData* urb_data = umockdev_ioctl_data_resolve(arg, 0, sizeof(usbdevfs_urb), nullptr);
             auto* urb = reinterpret_cast<usbdevfs_urb*>(urb_data->data);
-            const auto* buffer = static_cast<const std::uint8_t*>(urb->buffer);
+            // The client may be another process (hapticd run by a test): never dereference its pointers,
+            // resolve them (umockdev copies the memory and syncs it back).
+            UMockdevIoctlData* buffer_data = umockdev_ioctl_data_resolve(
+                urb_data, offsetof(usbdevfs_urb, buffer), static_cast<gsize>(std::max(urb->buffer_length, 1)), nullptr);
+            const std::uint8_t* buffer = buffer_data->data;
             Flying f;
             f.urb = static_cast<UMockdevIoctlData*>(g_object_ref(urb_data));
+            f.buffer = buffer_data;
             f.client_addr = *reinterpret_cast<unsigned long*>(arg->data);
             f.submitted = std::chrono::steady_clock::now();
             auto& model = static_cast<ScriptedTransport&>(*model_.transport);

@@ -49,7 +49,8 @@ public:
 
 private:
     struct Flying {
-        _UMockdevIoctlData* urb = nullptr;  // referenced
+        _UMockdevIoctlData* urb = nullptr;     // referenced
+        _UMockdevIoctlData* buffer = nullptr;  // the URB's data buffer, resolved (synced back at reap)
         unsigned long client_addr = 0;
         bool in = false;
         bool done = false;
