@@ -101,12 +101,14 @@ struct Spring {
     Gains gains = Gains::explicit_gains(100.0, 0.0);
 };
 
-// Force field F0 + J (x - x0) inside the radius, zero outside.
+// Force field F0 + J (x - x0) - B v inside the radius, zero outside. The stiffness -sym(J) and the
+// damping B (isotropic, on the device's velocity) are checked together like a wall's (K, B).
 struct Field {
     Vec3 center{};
     double radius = 0.01;  // m
     Vec3 force{};          // F0, N
     std::array<Vec3, 3> jacobian{};  // J, N/m, rows
+    double damping = 0.0;  // B, N s/m
 };
 
 using ObjectDescription = std::variant<Plane, Spring, Field>;

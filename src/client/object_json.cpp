@@ -104,7 +104,8 @@ json object_to_json(const ObjectDescription& object) {
     }
     const auto& f = std::get<Field>(object);
     return json{{"kind", "field"}, {"center", vec(f.center)}, {"radius", f.radius}, {"force", vec(f.force)},
-                {"jacobian", json::array({vec(f.jacobian[0]), vec(f.jacobian[1]), vec(f.jacobian[2])})}};
+                {"jacobian", json::array({vec(f.jacobian[0]), vec(f.jacobian[1]), vec(f.jacobian[2])})},
+                {"damping", f.damping}};
 }
 
 std::optional<ObjectDescription> object_from_json(const json& j, std::string& error) {
@@ -164,7 +165,7 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
     if (k == "field") {
         Field f;
         if (!read_vec(j, "center", where, f.center, error) || !read_number(j, "radius", where, f.radius, error) ||
-            !read_vec(j, "force", where, f.force, error)) {
+            !read_vec(j, "force", where, f.force, error) || !read_number(j, "damping", where, f.damping, error, false)) {
             return std::nullopt;
         }
         const auto jac = j.find("jacobian");

@@ -111,7 +111,7 @@ AxisVector SceneObjects::entry_force(const ObjectParams& p, const AxisVector& x,
                 return f;
             }
             contact = true;
-            for (std::size_t a = 0; a < 3; ++a) f[a] = p.force[a] + dot(p.jacobian[a], d);
+            for (std::size_t a = 0; a < 3; ++a) f[a] = p.force[a] + dot(p.jacobian[a], d) - p.B * velocity_[a];
             return f;
         }
     }

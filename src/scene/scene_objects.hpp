@@ -8,7 +8,7 @@
 //   plane   p = offset - n.x_j, dp = -n.v_j T:   f = n (K p + B dp / T)   (unilateral: only p > 0, f.n >= 0)
 //           — for a fixed plane exactly the analysed wall law f_j = K x_j + B (x_j - x_{j-1}) / T along n;
 //   spring  r = P (x_j - point):                  f = -K r - B P v_j       (P: the constrained directions)
-//   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0)
+//   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0) - B v_j
 // The damping acts on the device's own velocity, never on the motion of offset/point/center, so moving an
 // object by Δ changes its force by K Δ at most (no step beyond what the motion implies).
 // Each entry's force is scaled by its ramp factor s in [0, 1], stepped by T / ramp_s per tick. The summed
@@ -44,7 +44,7 @@ struct ObjectParams {
     AxisVector force{};      // field F0, N
     std::array<AxisVector, 3> jacobian{};  // field J, N/m (rows)
     double K = 0.0;          // N/m (plane, spring)
-    double B = 0.0;          // N s/m
+    double B = 0.0;          // N s/m (plane, spring, field)
 };
 
 struct SlotUpdate {

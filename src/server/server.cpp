@@ -424,11 +424,15 @@ struct Server::Impl {
                                                        " N exceeds the device's max_force; accepted range: <= " + g(config.max_force) + " N",
                            std::nullopt};
         }
+        if (!(field.damping >= 0.0)) {
+            return Refusal{"bad_message", "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
+                           std::nullopt};
+        }
         if (fs.max_stiffness > scale) {
-            const PairVerdict v = checker.check_pair(fs.max_stiffness, 0.0);
+            const PairVerdict v = checker.check_pair(fs.max_stiffness, field.damping);
             if (!v.stable) {
-                return Refusal{"unstable_gains", "field: stiffness " + g(fs.max_stiffness) + " N/m (largest eigenvalue of -sym(J)) with B = 0 "
-                                                 "is outside the stability region; the largest stable K at B = 0 is " +
+                return Refusal{"unstable_gains", "field: stiffness " + g(fs.max_stiffness) + " N/m (largest eigenvalue of -sym(J)) with B = " +
+                                                     g(field.damping) + " N s/m is outside the stability region; the largest stable K at that B is " +
                                                      g(v.largest_stable_K) + " N/m",
                                v.largest_stable_K};
             }
@@ -437,9 +441,11 @@ struct Server::Impl {
         p.point = to_axis(field.center);
         p.radius = field.radius;
         p.force = to_axis(field.force);
+        p.B = field.damping;
         for (std::size_t i = 0; i < 3; ++i) p.jacobian[i] = AxisVector{J[i][0], J[i][1], J[i][2]};
         for (std::size_t i = 0; i < 3; ++i) {
             for (std::size_t j = 0; j < 3; ++j) out.K_matrix[i][j] = -0.5 * (J[i][j] + J[j][i]);
+            if (i < config.axes) out.B_matrix[i][i] = field.damping;
         }
         return std::nullopt;
     }

@@ -135,6 +135,21 @@ TEST(SceneObjects, AFieldActsOnlyInsideItsRadiusAndSetsTheContactFlag) {
     EXPECT_EQ(rig.objects.contact_mask(), 0U);
 }
 
+// A field's damping acts on the device's velocity (backward difference): f = F0 + J d - B v.
+TEST(SceneObjects, AFieldsDampingActsOnTheDeviceVelocity) {
+    Rig rig(0.0);
+    ObjectParams field;
+    field.id = 5;
+    field.kind = ObjectKind::Field;
+    field.radius = 1.0;
+    field.jacobian = {AxisVector{-100, 0, 0}, AxisVector{0, -100, 0}, AxisVector{0, 0, -100}};
+    field.B = 2.0;
+    rig.commit({{0, SlotUpdate::Action::Set, field}});
+    rig.tick({0.001, 0, 0});
+    const AxisVector f = rig.tick({0.002, 0, 0});  // v = 1 m/s
+    EXPECT_NEAR(f[0], -100.0 * 0.002 - 2.0 * 1.0, 1e-9);
+}
+
 // A batch lands whole in one tick: two objects committed together both act from the same tick.
 TEST(SceneObjects, ABatchIsAppliedWholeAtOneTick) {
     Rig rig(0.0);

@@ -161,11 +161,13 @@ TEST_F(ServerProtocol, ForcesAndPositionsBeyondTheDeviceAndNegativeStiffnessAreR
     expect_code(cl::Spring{.constraint = cl::Constraint::Point, .point = {0.1, 0, 0}, .direction = {1, 0, 0},
                            .gains = cl::Gains::explicit_gains(100, 1)},
                 cl::ErrorCode::BeyondDeviceLimits);                              // outside +-0.06 m
-    // An attracting field is a spring without damping: the sampled loop with K > 0, B = 0 is not
-    // asymptotically stable (the largest stable K at B = 0 is 0), so it is refused too.
+    // An attracting field without damping is a spring with B = 0: the sampled loop is then not
+    // asymptotically stable (the largest stable K at B = 0 is 0), so it is refused; with damping it passes.
     cl::Field attracting{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 1.0},
                          .jacobian = {cl::Vec3{-100, 0, 0}, cl::Vec3{0, -100, 0}, cl::Vec3{0, 0, -100}}};
     expect_code(attracting, cl::ErrorCode::UnstableGains);
+    attracting.damping = 1.0;
+    EXPECT_EQ(c.commit(cl::Batch().add(attracting)).object_ids.size(), 1U);
     cl::Field constant{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 1.0}, .jacobian = {}};
     EXPECT_EQ(c.commit(cl::Batch().add(constant)).object_ids.size(), 1U);
     c.commit(cl::Batch().clear());
