@@ -72,6 +72,72 @@ TEST(PassivityMaximum, AgreesWithDirectComplexEvaluationOnAFineGrid) {
               worst_gap, worst_bound);
 }
 
+/// The direct complex form of direct_condition in long double (u_ld = 2^-64), 0 < theta <= pi.
+long double direct_condition_ld(double alpha, double beta, int d, long double theta) {
+  const long double s = std::sin(theta / 2);
+  const std::complex<long double> u(2 * s * s, std::sin(theta));
+  const std::complex<long double> delay = std::polar(1.0L, -static_cast<long double>(d) * theta);
+  return std::real(u * delay * (static_cast<long double>(alpha) + static_cast<long double>(beta) * u)) / (4 * s * s);
+}
+
+// The stated error_bound at its own scale (the grid test above cannot see it: its grid error is ~1e-6). The exact
+// maximum is at theta = 0, theta = pi (R is even about both) or at an interior local maximum; R is a trigonometric
+// polynomial of degree d + 1 <= 9, so its local maxima are far more than 2 h apart on a grid of N = 1000 and each
+// lies within [theta_{k-1}, theta_{k+1}] of a local maximum k of the grid, where golden section (60 steps: width
+// 2 h 0.618^60 < 1e-15, so R there is within L 1e-30 of the peak) finds it. All in long double by the direct complex form; its rounding,
+// as in the grid test with u_ld = 2^-64: 8 u_ld (|alpha| + 2|beta|) / (2 sin(theta/2)) at the maximiser, and
+// 4 u_ld (d + 2)(|alpha| + |beta|) for the limit R(0) = alpha (d + 1/2) - beta. Check, both ways:
+// |exact maximum - value| <= error_bound + that rounding.
+TEST(PassivityMaximum, ErrorBoundHoldsAgainstALongDoubleMaximum) {
+  std::mt19937 rng(16);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int N = 1000;
+  const long double h = static_cast<long double>(kPi) / N, u_ld = std::ldexp(1.0L, -64);
+  double worst_ratio = 0, worst_gap = 0, worst_rounding = 0;
+  for (int d = 0; d <= 8; ++d) {
+    for (int i = 0; i < 40; ++i) {
+      const double alpha = i % 5 == 0 ? -0.2 * std::abs(u(rng)) : 0.5 * std::abs(u(rng));
+      const double beta = i % 7 == 0 ? 0.0 : u(rng);
+      const PassivityConditionMaximum m = passivity_condition_maximum({alpha, beta}, d);
+      long double best = static_cast<long double>(alpha) * (d + 0.5L) - beta;  // theta = 0
+      long double allowance = 4 * u_ld * (d + 2) * (std::abs(alpha) + std::abs(beta));
+      auto take = [&](long double theta) {
+        const long double v = direct_condition_ld(alpha, beta, d, theta);
+        if (v > best) {
+          best = v;
+          allowance = 8 * u_ld * (std::abs(alpha) + 2 * std::abs(beta)) / (2 * std::sin(theta / 2));
+        }
+      };
+      take(static_cast<long double>(kPi));
+      std::vector<long double> grid(N + 1);
+      for (int k = 1; k <= N; ++k) grid[k] = direct_condition_ld(alpha, beta, d, k * h);
+      grid[0] = best - 1;  // theta = 0 is handled exactly above; never an interior maximum of the grid
+      for (int k = 1; k < N; ++k) {
+        if (!(grid[k] >= grid[k - 1] && grid[k] >= grid[k + 1])) continue;
+        long double a = k == 1 ? h * 1e-3L : (k - 1) * h, b = (k + 1) * h;
+        const long double g = 0.6180339887498948482L;
+        for (int it = 0; it < 60; ++it) {
+          const long double x1 = b - g * (b - a), x2 = a + g * (b - a);
+          if (direct_condition_ld(alpha, beta, d, x1) < direct_condition_ld(alpha, beta, d, x2)) {
+            a = x1;  // the maximum is in [x1, b]
+          } else {
+            b = x2;
+          }
+        }
+        take((a + b) / 2);
+      }
+      const double gap = static_cast<double>(std::abs(best - static_cast<long double>(m.value)));
+      const double stated = m.error_bound + static_cast<double>(allowance);
+      EXPECT_LE(gap, stated) << "d=" << d << " alpha=" << alpha << " beta=" << beta << " value " << m.value;
+      worst_ratio = std::max(worst_ratio, gap / stated);
+      worst_gap = std::max(worst_gap, gap);
+      worst_rounding = std::max(worst_rounding, static_cast<double>(allowance));
+    }
+  }
+  std::printf("exact max vs long-double maximum: largest |difference| %.3g, largest long-double rounding allowance "
+              "%.3g, largest |difference| / (error_bound + rounding) %.3g\n", worst_gap, worst_rounding, worst_ratio);
+}
+
 // The closed form of the header, R = alpha D_d / 2 - beta cos((d+1) theta) with the Dirichlet kernel
 // D_d = 1 + 2 sum cos k theta, against the direct complex form (rounding allowance as above at theta >= 0.01).
 TEST(PassivityMaximum, ChebyshevFormIsTheColgateSchenkelExpression) {
