@@ -42,6 +42,11 @@ public:
         if (pc_ != nullptr) {
             port_energy.push_back(pc_->port_energy(0));
             bound.push_back(-(pc_->stats().shortfall + pc_->stats().prediction_error));
+            observed_energy.push_back(pc_->observed_energy(0));
+            const PassivityControlStats& s = pc_->stats();
+            const std::uint64_t shorts = s.capped_ticks + s.guarded_ticks + s.saturated_ticks + s.nonfinite_events;
+            unconstrained.push_back(shorts == shorts_);  // this tick neither capped, guarded, saturated nor zeroed
+            shorts_ = shorts;
         }
         return sim_.write_force(f);
     }
@@ -50,9 +55,11 @@ public:
     [[nodiscard]] std::string_view name() const noexcept override { return "recording-sim"; }
     [[nodiscard]] std::string last_error() const override { return sim_.last_error(); }
 
-    std::vector<double> positions, forces, port_energy, bound;
+    std::vector<double> positions, forces, port_energy, bound, observed_energy;
+    std::vector<bool> unconstrained;
 
 private:
+    std::uint64_t shorts_ = 0;
     SimDevice& sim_;
     PassivityController* pc_;
 };
@@ -63,6 +70,8 @@ struct StepRun {
     bool finite = true;
     PassivityControlStats stats;
     double worst_bound_violation = 0;  // max over ticks of (bound - W), > 0 violates
+    double worst_observed_deficit = 0;  // max over unconstrained ticks of (-P - allowance), > 0 violates
+    std::size_t unconstrained_ticks = 0;
 };
 
 // The paper's step (1 N into a bilateral wall at rest) for `ticks` ticks, wall K, B, delay buffer `d`.
@@ -110,6 +119,16 @@ StepRun step_run(double K, double B, std::size_t d, bool control, double device_
         const double allowance = 1e-12 * (1 + std::abs(dev.bound[j]) + std::abs(dev.port_energy[j]));
         r.worst_bound_violation = std::max(r.worst_bound_violation, dev.bound[j] - dev.port_energy[j] - allowance);
     }
+    // The controller's own invariant (the induction step of the bound): on a tick where the damper was neither
+    // capped, guarded off nor saturated, the observed energy P_j after the written force is >= 0. The damper makes
+    // P_j = P + b v^2 T with b = -P / (v^2 T), zero up to the rounding of that sum: a few ulp of |W| + |F v T|,
+    // allowed as 1e-12 (1 + |W|) J (the forces here are <= 10 kN over <= 1 m per tick).
+    for (std::size_t j = 0; j < dev.observed_energy.size(); ++j) {
+        if (!dev.unconstrained[j]) continue;
+        ++r.unconstrained_ticks;
+        const double allowance = 1e-12 * (1 + std::abs(dev.port_energy[j]));
+        r.worst_observed_deficit = std::max(r.worst_observed_deficit, -dev.observed_energy[j] - allowance);
+    }
     r.stats = pc.stats();
     return r;
 }
@@ -146,6 +165,8 @@ TEST(PassivityControl, WallBeyondAlphaMaxDivergesWithoutAndStaysBoundedWith) {
         EXPECT_EQ(on.stats.nonfinite_events, 0U);
         // The stated bound at every tick (with the rounding allowance of step_run).
         EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d;
+        EXPECT_LE(on.worst_observed_deficit, 0.0) << "b=" << b << " d=" << d;
+        EXPECT_GT(on.unconstrained_ticks, 0U);
         std::printf("b=%g d=%zu 1.5 alpha_max: off max|x| %.3g, on late max|x| %.3g (x_inf %.3g); damper %llu ticks, "
                     "capped %llu; port energy min %.3g J; bound terms: shortfall %.3g J, prediction error %.3g J\n",
                     b, d, off.max_abs_x, on.late_abs_x, x_inf, static_cast<unsigned long long>(on.stats.damper_ticks),
