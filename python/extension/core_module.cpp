@@ -429,7 +429,8 @@ PYBIND11_MODULE(_core, m) {
     return py::make_tuple(g.stiffness, g.damping);
   });
   m.def("validate_plant", [](double gamma, double delta, double delay) {
-    SampledPlant<double> check(plant_of(gamma, delta, delay));
+    validate(plant_of(gamma, delta, delay), "hapticopt.Plant");  // the user's call in the message, not ours
+    SampledPlant<double> check(plant_of(gamma, delta, delay));    // and the model's own limits (delay cap)
     (void)check;
   });
   m.def("stability", &stability_of);
