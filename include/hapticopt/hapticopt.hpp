@@ -11,6 +11,7 @@
 #include "impulse_costs.hpp"
 #include "impulse_optimum.hpp"
 #include "loop_schur_form.hpp"
+#include "matrix_gain_stability.hpp"
 #include "optimal_wall.hpp"
 #include "optimum.hpp"
 #include "overshoot.hpp"

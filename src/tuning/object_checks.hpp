@@ -8,12 +8,12 @@
 //    The largest stable K at that B: bisection in alpha on is_stable between a stable alpha and
 //    alpha_max (beyond which nothing is stable), 60 halvings (relative width 2^-60 of alpha_max).
 //  * By criterion: hapticopt::optimal_wall for the criterion, computed once per criterion and cached.
-//  * The sum: with K_sum = sum K_i P_i and B_sum = sum B_i P_i (3x3, symmetric), stable along every
-//    eigenvector u of K_sum and of B_sum with (u^T K_sum u, u^T B_sum u); when K_sum and B_sum do not commute
-//    also (lambda_max(K_sum), the smallest eigenvalue of B_sum restricted to the range of K_sum) and
-//    (lambda_max(K_sum), lambda_max(B_sum)). Exact when they commute (the loop then decouples along the
-//    common eigenvectors into the analysed scalar loops); for non-commuting sums it is a rule, not a proof.
-//    Cost: a 3x3 eigen-decomposition and at most 8 Schur-Cohn tests.
+//  * The sum: with K_sum = sum K_i P_i and B_sum = sum B_i P_i (3x3, symmetric), the coupled loop's exact
+//    verdict hapticopt::matrix_gain_stability (its matrix characteristic polynomial P0 I + Palpha A + Pbeta B
+//    restricted to the directions where a wall acts: per common eigenvector when K_sum and B_sum commute,
+//    block-companion eigenvalues with a 1e-6 margin to the unit circle otherwise). The refusal names the
+//    first eigen-direction whose pair alone is unstable, or the coupled spectral radius.
+//    Cost: 3x3 eigen-decompositions and at most 3 Schur-Cohn tests, or one ~3(d+3)-square eigenproblem.
 #pragma once
 
 #include <array>
@@ -65,7 +65,7 @@ public:
     };
     [[nodiscard]] static FieldStiffness field_stiffness(const Matrix3& J);
 
-    // The summed-gain rule above. On failure `why` names the direction and the pair.
+    // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
 
 private:
