@@ -57,6 +57,12 @@ void apply_entry(CLI::App& app, const ConfigEntry& entry, const std::string& at)
     if (entry.is_array && !many) {
         throw StartupError(kExitBadConfig, at + assignment + " is an array; accepted: " + accepted_text(takes, false));
     }
+    if (entry.values.empty() && entry.key == "wall") {  // wall = []: the scene starts empty (clients fill it)
+        CLI::Option* no_walls = app.get_option("--no-walls");
+        no_walls->add_result(std::string("true"));
+        no_walls->run_callback();
+        return;
+    }
     if (entry.values.empty()) {
         throw StartupError(kExitBadConfig, at + assignment + " is empty; accepted: " + accepted_text(takes, many));
     }

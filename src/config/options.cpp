@@ -65,6 +65,8 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     h.wall = app.add_option("--wall", o.walls,
                             "Wall 'axis=0 position=0.0 direction=+1 [mode=unilateral|bilateral] [criterion=..]' "
                             "(repeatable; replaces the configured walls)");
+    app.add_flag("--no-walls", o.no_walls,
+                 "Start with no walls: a scene that only clients fill (--serve); in the config file: wall = []");
     app.add_option("--rt-priority", o.rt_priority, "SCHED_FIFO priority 1..99, 0: do not ask (default 80)");
     app.add_option("--cpu", o.cpu, "Pin the loop thread to this CPU (default -1: no pinning)");
     app.add_option("--mlock", o.mlock, "Lock memory with mlockall (default true)");
@@ -225,6 +227,7 @@ Options parse_options(int argc, const char* const* argv) {
     }
     o.gains_set = k_set;
     o.walls_from_command_line = from_cli.wall;
+    if (o.no_walls && !from_cli.wall) o.walls.clear();  // --wall on the command line wins over wall = [] in a file
     return o;
 }
 

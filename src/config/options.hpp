@@ -33,6 +33,7 @@ struct Options {
     double damping = 0.0;             // explicit B, N s/m
     std::vector<std::string> walls{"axis=0 position=0.0 direction=+1"};
     bool walls_from_command_line = false;
+    bool no_walls = false;            // start with no config walls (--no-walls, or wall = [] in the file)
     bool dry_run = false;             // tune, print and exit without running the loop
     int rt_priority = 80;
     int cpu = -1;
@@ -55,6 +56,9 @@ struct Options {
     double identify_distance = 0.0;   // excitation position limit, m (0: 5 mm, 0.05 rad for rotary devices)
     double identify_duration = 2.0;   // s of excitation (plus 0.3 s of zero force)
     bool robust = false;              // tune for the worst case over the profile's parameter ranges (tuning.hpp)
+    bool passivity_control = false;   // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
+    double passivity_damping_cap = 0.0;        // N s/m; 0: 2 m / ((N + 1) T), N the delay buffer (beta <= 2 / (N + 1))
+    double passivity_velocity_guard = 1e-4;    // m/s: no damper below this speed
     // The control socket for client applications (docs/protocol.md, server/server.hpp).
     bool serve = false;
     std::string serve_socket;                 // "" : $RUNTIME_DIRECTORY or $XDG_RUNTIME_DIR /hapticd.sock, else /run/hapticd/
@@ -65,9 +69,6 @@ struct Options {
     double max_force_rate = 10000.0;          // N/s, limit on the change of the total force per tick
     bool serve_wait_commit = false;           // start the loop only once a client batch was accepted (tests)
     long long trace_axis = -1;                // axis the trace records (-1: the first wall's)
-    bool passivity_control = false;   // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
-    double passivity_damping_cap = 0.0;        // N s/m; 0: 2 m / ((N + 1) T), N the delay buffer (beta <= 2 / (N + 1))
-    double passivity_velocity_guard = 1e-4;    // m/s: no damper below this speed
     KeyLocations config_locations;    // where the config file wrote the values the command line did not override
 };
 
