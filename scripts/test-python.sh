@@ -7,12 +7,18 @@
 #   3. pytest python/tests against the C++ CLI (default build/release/apps/hapticopt/hapticopt).
 # Exit status: non-zero when any step fails, including pytest's 5 (no test collected).
 # Environment: HAPTICOPT_PYTHON (default /usr/bin/python3), HAPTICOPT_PY_VENV (default build/python-venv),
-# HAPTICOPT_CLI.
+# HAPTICOPT_CLI, HAPTICD_BINARY.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 python=${HAPTICOPT_PYTHON:-/usr/bin/python3}
 venv=${HAPTICOPT_PY_VENV:-build/python-venv}
 export HAPTICOPT_CLI=${HAPTICOPT_CLI:-$PWD/build/release/apps/hapticopt/hapticopt}
+# The hapticd_client tests start this daemon (they skip only when it is missing: it must exist here).
+export HAPTICD_BINARY=${HAPTICD_BINARY:-$PWD/build/release/apps/hapticd/hapticd}
+if [[ ! -x "$HAPTICD_BINARY" || ! -x "$HAPTICOPT_CLI" ]]; then
+  echo "test-python: $HAPTICD_BINARY or $HAPTICOPT_CLI is missing: build the release preset first" >&2
+  exit 1
+fi
 
 if [[ ! -x "$venv/bin/python" ]]; then
   "$python" -m venv --system-site-packages "$venv"

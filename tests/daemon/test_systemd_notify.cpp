@@ -229,9 +229,9 @@ TEST_F(SystemdNotify, WatchdogStopsWhileTheLoopStallsAndResumesWithIt) {
     // The read end is open before hapticd opens the write end (so its fopen does not wait for a reader).
     const int trace_fd = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     ASSERT_GE(trace_fd, 0) << std::strerror(errno);
-    // Lockstep: ticks back to back, paced only by the blocking trace ring; 600 s of ticks is far more than
+    // Lockstep: ticks back to back, paced only by the blocking trace ring; 10^6 s of ticks (10^9) is far more than
     // the test lets it run, SIGTERM ends it.
-    test::Process p(base_args({"--lockstep", "--stiffness", "3000", "--damping", "10", "--duration", "600", "--trace", fifo,
+    test::Process p(base_args({"--lockstep", "--stiffness", "3000", "--damping", "10", "--duration", "1e6", "--trace", fifo,
                                "--trace-capacity", "64"}),
                     "notify_stall");
     ASSERT_GT(p.pid(), 0);
