@@ -11,26 +11,13 @@
 
 namespace hapticd {
 
-namespace {
-
-hapticopt::PhysicalPlant physical(const GainCheckPlant& p) {
-    hapticopt::PhysicalPlant plant{};
-    plant.mass = p.mass;
-    plant.damping = p.damping;
-    plant.stiffness = p.stiffness;
-    plant.period = p.period;
-    plant.time_delay = p.time_delay;
-    return plant;
-}
-
-}  // namespace
 
 GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
-    alpha_max_ = hapticopt::StabilityRegion(hapticopt::normalize(physical(plant_))).alpha_max();
+    alpha_max_ = hapticopt::StabilityRegion(hapticopt::normalize(to_hapticopt(plant_))).alpha_max();
 }
 
 PairVerdict GainChecker::check_pair(double K, double B) const {
-    const hapticopt::NormalizedPlant np = hapticopt::normalize(physical(plant_));
+    const hapticopt::NormalizedPlant np = hapticopt::normalize(to_hapticopt(plant_));
     PairVerdict v;
     const double T = plant_.period, m = plant_.mass;
     v.alpha = K * T * T / m;
@@ -65,13 +52,7 @@ std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& cr
     std::lock_guard<std::mutex> lock(cache_mutex_);
     const auto it = cache_.find(criterion);
     if (it != cache_.end()) return it->second;
-    TuningPlant tp;
-    tp.mass = plant_.mass;
-    tp.damping = plant_.damping;
-    tp.stiffness = plant_.stiffness;
-    tp.period = plant_.period;
-    tp.time_delay = plant_.time_delay;
-    const TuningResult r = tune_wall(criterion, tp);
+    const TuningResult r = tune_wall(criterion, plant_);
     const CriterionGains g{r.K, r.B};
     cache_.emplace(criterion, g);
     return g;
@@ -106,7 +87,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     // The decision: the coupled loop's exact verdict (hapticopt::matrix_gain_stability).
     const double T = plant_.period, m = plant_.mass;
     const hapticopt::MatrixGainStability coupled = hapticopt::matrix_gain_stability(
-        hapticopt::normalize(physical(plant_)), Eigen::MatrixXd(K * (T * T / m)), Eigen::MatrixXd(B * (T / m)));
+        hapticopt::normalize(to_hapticopt(plant_)), Eigen::MatrixXd(K * (T * T / m)), Eigen::MatrixXd(B * (T / m)));
     if (coupled.stable) return true;
     // The explanation: a direction along which the pair alone is already unstable, if there is one.
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ek(K), eb(B);

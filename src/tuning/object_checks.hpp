@@ -22,17 +22,14 @@
 #include <optional>
 #include <string>
 
+#include "tuning/tuning.hpp"
+
 namespace hapticd {
 
 using Matrix3 = std::array<std::array<double, 3>, 3>;
 
-struct GainCheckPlant {
-    double mass = 0.3;        // kg, every axis
-    double damping = 0.0;     // N s/m
-    double stiffness = 0.0;   // N/m
-    double period = 1e-3;     // s
-    double time_delay = 0.0;  // s, device + buffer
-};
+// The plant the objects are checked for: the profile's mass, damping and stiffness, the period, the total delay.
+using GainCheckPlant = TuningPlant;
 
 struct PairVerdict {
     bool stable = false;

@@ -10,8 +10,6 @@
 
 namespace hapticd {
 
-namespace {
-
 hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& p) {
     hapticopt::PhysicalPlant plant{};
     plant.mass = p.mass;
@@ -21,6 +19,8 @@ hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& p) {
     plant.time_delay = p.time_delay;
     return plant;
 }
+
+namespace {
 
 hapticopt::Criterion parse(const std::string& name) {
     const auto c = hapticopt::parse_criterion(name);

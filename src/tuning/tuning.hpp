@@ -6,6 +6,10 @@
 #include <string>
 #include <vector>
 
+namespace hapticopt {
+struct PhysicalPlant;
+}
+
 namespace hapticd {
 
 struct TuningPlant {
@@ -51,6 +55,9 @@ struct TuningResult {
 // The criteria hapticd accepts (the paper's seven).
 const std::vector<std::string>& accepted_criteria();
 [[nodiscard]] bool is_accepted_criterion(const std::string& name);
+
+// The plant in hapticopt's terms (the same five numbers).
+hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
 
 // Optimal gains for the criterion (computes only that criterion). Throws StartupError
 // (kExitInvalidParameter) when hapticopt rejects a parameter.
