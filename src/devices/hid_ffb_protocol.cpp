@@ -124,6 +124,16 @@ bool build_pid_layout(const std::uint8_t* data, std::size_t size, PidLayout& p, 
         error = missing("Set Constant Force report");
         return false;
     }
+    // A constant force pushes both ways: its Magnitude's logical range must hold negative and positive
+    // values (OpenFFBoard: -32767..32767; hid-pidff.c scales a signed magnitude into it). An empty or one-sided
+    // range (a broken descriptor; found by the fuzz target) would make the clamp of encode_constant_force
+    // meaningless.
+    if (!(p.cf_magnitude->logical_min < 0 && p.cf_magnitude->logical_max > 0)) {
+        error = "build_pid_layout: the Set Constant Force report's Magnitude has logical range [" +
+                std::to_string(p.cf_magnitude->logical_min) + ", " + std::to_string(p.cf_magnitude->logical_max) +
+                "]; accepted: logical minimum < 0 < logical maximum";
+        return false;
+    }
     p.constant_id = p.cf_magnitude->report_id;
     p.constant_bytes = written_size(d, ReportType::Output, p.constant_id);
     p.cf_block = field_in(d, ReportType::Output, p.constant_id, kEffectBlockIndex);

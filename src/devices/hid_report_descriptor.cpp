@@ -163,12 +163,15 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
             std::uint32_t& bit = next_bit[{static_cast<int>(rt), g.report_id}];
             const bool constant = (raw & 1U) != 0;
             const bool variable = (raw & 2U) != 0;
-            const std::uint32_t total = g.report_size * g.report_count;
-            if (bit + total > kMaxReportBits) {
+            // In 64 bits: a Report Count of up to 2^32 - 1 times a size of 32 overflows 32 (found by the fuzz target:
+            // the wrapped product passed this check and the loop below made 2^28 fields).
+            const std::uint64_t total64 = std::uint64_t{g.report_size} * g.report_count;
+            if (std::uint64_t{bit} + total64 > kMaxReportBits) {
                 error = "parse_report_descriptor: report " + std::to_string(g.report_id) + " longer than 4096 bytes at byte " +
                         std::to_string(at);
                 return false;
             }
+            const auto total = static_cast<std::uint32_t>(total64);
             // A logical maximum written in fewer bytes than needed for an unsigned value (e.g. 0xFF in one
             // byte) is read as unsigned when the minimum is not negative (as Linux's hid-core does).
             std::int32_t lmax = g.logical_max;

@@ -4,7 +4,10 @@
 // numbers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -140,12 +143,35 @@ TEST(HidDescriptor, MalformedDescriptorsAreRefusedWithTheOffset) {
     const std::vector<std::uint8_t> huge_size{0x75, 0x40};  // Report Size 64
     EXPECT_FALSE(parse_report_descriptor(huge_size.data(), huge_size.size(), d, error));
     EXPECT_NE(error.find("1..32"), std::string::npos) << error;
+    // Report Size 16 x Report Count 0x1000040C: 2^32 + 16576 bits, which wraps to 16576 in 32-bit arithmetic
+    // (the fuzz target's find, tests/fuzz/corpus/hid_reports/regression-report-count-overflow).
+    const std::vector<std::uint8_t> wrapping{0x75, 0x10, 0x97, 0x0C, 0x04, 0x00, 0x10, 0x91, 0x02};
+    EXPECT_FALSE(parse_report_descriptor(wrapping.data(), wrapping.size(), d, error));
+    EXPECT_NE(error.find("longer than 4096 bytes"), std::string::npos) << error;
     // A keyboard: parses, but has no PID reports.
     const std::vector<std::uint8_t> keyboard{0x05, 0x01, 0x09, 0x06, 0xA1, 0x01, 0x05, 0x07, 0x19, 0xE0, 0x29, 0xE7,
                                              0x15, 0x00, 0x25, 0x01, 0x75, 0x01, 0x95, 0x08, 0x81, 0x02, 0xC0};
     PidLayout p;
     EXPECT_FALSE(build_pid_layout(keyboard.data(), keyboard.size(), p, error));
     EXPECT_NE(error.find("X axis"), std::string::npos) << error;
+}
+
+// The input the fuzz target found (tests/fuzz/corpus/hid_reports/regression-magnitude-range-inverted: a
+// 2-byte length, then the descriptor): its Set Constant Force Magnitude has Logical Minimum 32766 above
+// Logical Maximum 9471. The layout is refused, naming the field and the accepted range, instead of
+// clamping forces into an empty range.
+TEST(HidDescriptor, MagnitudeWithoutNegativeAndPositiveValuesIsRefused) {
+    std::ifstream in(std::string(HAPTICOPT_TEST_DATA_DIR) + "/../fuzz/corpus/hid_reports/regression-magnitude-range-inverted",
+                     std::ios::binary);
+    ASSERT_TRUE(in) << "corpus file missing";
+    const std::vector<std::uint8_t> input{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    ASSERT_GE(input.size(), 2U);
+    const std::size_t length = std::min<std::size_t>(input.size() - 2, input[0] | (input[1] << 8));
+    PidLayout p;
+    std::string error;
+    EXPECT_FALSE(build_pid_layout(input.data() + 2, length, p, error));
+    EXPECT_NE(error.find("Magnitude has logical range [32766, 9471]"), std::string::npos) << error;
+    EXPECT_NE(error.find("logical minimum < 0 < logical maximum"), std::string::npos) << error;
 }
 
 TEST(HidDescriptor, FieldsRoundTripAtAnyBitOffset) {
