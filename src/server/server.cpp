@@ -335,8 +335,8 @@ struct Server::Impl {
             return Refusal{"bad_message", kind + ".gains: K = " + g(K) + " N/m, B = " + g(B) +
                                               " N s/m are invalid; accepted range: K >= 0, B >= 0 (finite)", std::nullopt};
         }
-        const PairVerdict v = checker.check_pair(K, B);
-        if (!v.stable) {
+        if (!checker.pair_is_stable(K, B)) {  // the verdict alone; the largest stable K only for the refusal
+            const PairVerdict v = checker.check_pair(K, B);
             return Refusal{"unstable_gains",
                            kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
                                ") are outside the stability region for mass " + g(config.mass) + " kg, period " + g(config.period) +
@@ -429,8 +429,8 @@ struct Server::Impl {
                            std::nullopt};
         }
         if (fs.max_stiffness > scale) {
-            const PairVerdict v = checker.check_pair(fs.max_stiffness, field.damping);
-            if (!v.stable) {
+            if (!checker.pair_is_stable(fs.max_stiffness, field.damping)) {
+                const PairVerdict v = checker.check_pair(fs.max_stiffness, field.damping);
                 return Refusal{"unstable_gains", "field: stiffness " + g(fs.max_stiffness) + " N/m (largest eigenvalue of -sym(J)) with B = " +
                                                      g(field.damping) + " N s/m is outside the stability region; the largest stable K at that B is " +
                                                      g(v.largest_stable_K) + " N/m",

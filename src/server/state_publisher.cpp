@@ -99,7 +99,7 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
         for (std::size_t i = 0; i < kStateObjectCapacity; ++i) {
             const std::uint32_t id = objects->slot_object_id(i);
             put(l.slot_object_id[i], id);
-            put(l.slot_ramp[i], static_cast<std::uint8_t>(std::lround(255.0 * objects->slot_ramp(i))));
+            put(l.slot_ramp[i], static_cast<std::uint8_t>(255.0 * objects->slot_ramp(i) + 0.5));  // ramp in [0, 1]: rounds, no lround call
             n += id != 0 ? 1U : 0U;
         }
         put(l.objects, n);

@@ -16,6 +16,12 @@ GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
     alpha_max_ = hapticopt::StabilityRegion(hapticopt::normalize(to_hapticopt(plant_))).alpha_max();
 }
 
+bool GainChecker::pair_is_stable(double K, double B) const {
+    const double T = plant_.period, m = plant_.mass;
+    return hapticopt::is_stable(hapticopt::normalize(to_hapticopt(plant_)),
+                                hapticopt::NormalizedGains{K * T * T / m, B * T / m});
+}
+
 PairVerdict GainChecker::check_pair(double K, double B) const {
     const hapticopt::NormalizedPlant np = hapticopt::normalize(to_hapticopt(plant_));
     PairVerdict v;

@@ -48,7 +48,10 @@ public:
 
     [[nodiscard]] const GainCheckPlant& plant() const noexcept { return plant_; }
 
-    // Stability of one (K, B) (N/m, N s/m, finite) and the largest stable K at that B.
+    // Stability of one (K, B) (N/m, N s/m, finite): one Schur-Cohn verdict (what a commit needs).
+    [[nodiscard]] bool pair_is_stable(double K, double B) const;
+
+    // Stability of one (K, B) and the largest stable K at that B (61 verdicts: for a refusal's message).
     [[nodiscard]] PairVerdict check_pair(double K, double B) const;
 
     // The optimum of a criterion (CE0 .. CE2+OV): computed on first use, then cached. std::nullopt for

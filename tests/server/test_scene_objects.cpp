@@ -235,6 +235,7 @@ TEST(GainChecker, PairVerdictIsHapticoptsAndTheLargestStableKBracketsTheBoundary
     for (const double B : {5.0, 50.0, 150.0}) {
         const PairVerdict v = checker.check_pair(1e4, B);
         EXPECT_EQ(v.stable, hapticopt::is_stable(np, {1e4 * kT * kT / 0.3, B * kT / 0.3}));
+        EXPECT_EQ(checker.pair_is_stable(1e4, B), v.stable);
         ASSERT_GT(v.largest_stable_K, 0.0);
         const double beta = B * kT / 0.3;
         EXPECT_TRUE(hapticopt::is_stable(np, {v.largest_stable_K * (1 - 1e-9) * kT * kT / 0.3, beta})) << B;
