@@ -60,13 +60,13 @@ def wait_until(predicate, timeout_s=5.0, step_s=0.01):
     return False
 
 
-@pytest.fixture(scope="module")
-def daemon(tmp_path_factory):
-    directory = tmp_path_factory.mktemp("hapticd")
+def _served_daemon(tmp_path_factory, name, extra_args):
+    """A `hapticd --serve` on its own socket and shared memory; SIGTERM at the end must exit 0."""
+    directory = tmp_path_factory.mktemp(name)
     socket_path = str(directory / "hapticd.sock")
-    shm = f"/hapticd-pytest-{os.getpid()}"
+    shm = f"/{name}-pytest-{os.getpid()}"
     log = open(directory / "hapticd.log", "w+")
-    process = subprocess.Popen([HAPTICD, *DAEMON_ARGS, "--lockstep", "--serve", "--serve-socket", socket_path,
+    process = subprocess.Popen([HAPTICD, *DAEMON_ARGS, *extra_args, "--serve", "--serve-socket", socket_path,
                                 "--serve-shm", shm], stdout=log, stderr=subprocess.STDOUT)
     try:
         assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
@@ -79,6 +79,11 @@ def daemon(tmp_path_factory):
         text = log.read()
         log.close()
         assert code == 0, text
+
+
+@pytest.fixture(scope="module")
+def daemon(tmp_path_factory):
+    yield from _served_daemon(tmp_path_factory, "hapticd", ["--lockstep"])
 
 
 def connect(daemon, **kwargs) -> hc.Client:
@@ -173,24 +178,9 @@ def paced_daemon(tmp_path_factory):
     """The same scene at the real 1 kHz rate (SCHED_OTHER). In lockstep the loop rewrites the seqlock every
     ~0.2 us, faster than CPython copies the 448 bytes of a tick, so a Python reader retries in vain there;
     at 1 kHz a write occupies well under 1 % of each period."""
-    directory = tmp_path_factory.mktemp("hapticd_paced")
-    socket_path = str(directory / "hapticd.sock")
-    shm = f"/hapticd-pytest-paced-{os.getpid()}"
-    log = open(directory / "hapticd.log", "w+")
-    process = subprocess.Popen([HAPTICD, *DAEMON_ARGS, "--rt-priority", "0", "--watchdog-overruns", "1000000",
-                                "--watchdog-stall-periods", "1000000", "--serve", "--serve-socket", socket_path,
-                                "--serve-shm", shm], stdout=log, stderr=subprocess.STDOUT)
-    try:
-        assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
-        assert process.poll() is None, "hapticd ended at start-up"
-        yield {"socket": socket_path, "shm": shm, "process": process}
-    finally:
-        process.send_signal(signal.SIGTERM)
-        code = process.wait(20)
-        log.seek(0)
-        text = log.read()
-        log.close()
-        assert code == 0, text
+    yield from _served_daemon(tmp_path_factory, "hapticd_paced",
+                              ["--rt-priority", "0", "--watchdog-overruns", "1000000",
+                               "--watchdog-stall-periods", "1000000"])
 
 
 def test_the_shared_memory_state_advances_and_shows_applied_commits(paced_daemon):
