@@ -3,7 +3,12 @@
 #include <hidapi.h>
 #include <libusb.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -56,6 +61,20 @@ void list_falcons(std::vector<ListedDevice>& out, std::vector<std::string>& note
     libusb_exit(ctx);
 }
 
+// Why hid_open_path() failed: hidapi 0.13 keeps errno only in a wide-character message, so the node is
+// opened once more (hidapi's own open(O_RDWR), linux/hid.c) to get the errno. Only EACCES / EPERM are a
+// missing udev rule; anything else is named as it is.
+std::string hid_open_problem(const char* path) {
+    const int fd = ::open(path, O_RDWR | O_CLOEXEC);
+    if (fd >= 0) {
+        ::close(fd);
+        return "cannot open through hidapi (the node itself opens; is it a HID device?)";
+    }
+    const int e = errno;
+    if (e == EACCES || e == EPERM) return std::string("permission denied: ") + kUdevHint;
+    return std::string("cannot open: ") + std::strerror(e);
+}
+
 void list_hid(const std::vector<DeviceProfile>& profiles, std::vector<ListedDevice>& out, std::vector<std::string>& notes) {
     if (hid_init() != 0) {
         notes.push_back("hidapi unavailable: HID devices not listed");
@@ -81,7 +100,7 @@ void list_hid(const std::vector<DeviceProfile>& profiles, std::vector<ListedDevi
             d.location = it->path;
             hid_device* h = hid_open_path(it->path);
             d.accessible = h != nullptr;
-            if (h == nullptr) d.problem = std::string("cannot open (permission denied?): ") + kUdevHint;
+            if (h == nullptr) d.problem = hid_open_problem(it->path);
             if (h != nullptr) hid_close(h);
             out.push_back(d);
         }

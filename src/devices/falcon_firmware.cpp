@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 
@@ -98,8 +99,13 @@ bool configure(FtdiTransport& t, StepError& err) {
 bool handshake(FtdiTransport& t, const FirmwareUploadConfig& cfg, StepError& err) {
     static constexpr std::array<std::uint8_t, 3> kQuery{0x0A, 0x43, 0x0D};
     static constexpr std::array<std::uint8_t, 4> kAnswer{0x0A, 0x44, 0x2C, 0x0D};
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point start = Clock::now();
     TransportStatus last = TransportStatus::Timeout;
-    for (int i = 0; i < cfg.handshake_tries; ++i) {
+    int tries = 0;
+    int empty = 0;   // reads with nothing but the FTDI status bytes (the loader is silent)
+    int wrong = 0;   // reads with bytes that are not the answer
+    for (; tries < cfg.handshake_tries; ++tries) {
         const TransportResult w = t.write(kQuery, cfg.timeout_ms);
         if (w.status != TransportStatus::Ok) {
             last = w.status;
@@ -113,10 +119,16 @@ bool handshake(FtdiTransport& t, const FirmwareUploadConfig& cfg, StepError& err
         const bool plain = r.bytes == 4 && std::equal(kAnswer.begin(), kAnswer.end(), in.begin());
         const bool with_zero = r.bytes == 5 && in[0] == 0x00 && std::equal(kAnswer.begin(), kAnswer.end(), in.begin() + 1);
         if (plain || with_zero) return true;
+        ++(r.bytes == 0 ? empty : wrong);
     }
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    char took[32];
+    std::snprintf(took, sizeof took, "%.2f s", seconds);
     err = {FirmwareStage::Handshake, last == TransportStatus::Ok ? TransportStatus::Error : last,
-           "the Falcon's loader did not answer the handshake (" + std::to_string(cfg.handshake_tries) +
-               " tries; last: " + std::string(status_text(last)) + ")"};
+           "the Falcon's loader did not answer the handshake: " + std::to_string(tries) + " of " +
+               std::to_string(cfg.handshake_tries) + " tries in " + took + ", " + std::to_string(empty) +
+               " read(s) with no answer, " + std::to_string(wrong) + " with a wrong one" +
+               (last == TransportStatus::Ok ? std::string() : " (last transfer: " + std::string(status_text(last)) + ")")};
     return false;
 }
 

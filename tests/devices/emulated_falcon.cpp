@@ -87,6 +87,39 @@ EmulatedFalcon::~EmulatedFalcon() {
     if (handler_ != nullptr) g_object_unref(handler_);
 }
 
+std::string EmulatedFalcon::root_dir() const {
+    if (testbed_ == nullptr) return {};
+    gchar* root = umockdev_testbed_get_root_dir(testbed_);
+    std::string out = root != nullptr ? root : "";
+    g_free(root);
+    return out;
+}
+
+// Bytes from the host: to the scripted Falcon, except that a slow loader does not hear them while it
+// wakes up, and holds back the echo of a firmware chunk while it burns it.
+void EmulatedFalcon::loader_write(std::span<const std::uint8_t> data, std::chrono::steady_clock::time_point now) {
+    auto& model = static_cast<ScriptedTransport&>(*model_.transport);
+    const bool loader = !falcon_.firmware_running;
+    if (loader && slow_.wake_up.count() > 0 && dtr_high_ != std::chrono::steady_clock::time_point{} &&
+        now < dtr_high_ + slow_.wake_up) {
+        ++log_.ignored_while_waking;
+        return;
+    }
+    const std::size_t before = model.rx.size();
+    const int answers_before = falcon_.upload_attempts;  // the scripted loader counts its handshake answers
+    model.write(data, 0);
+    if (loader && falcon_.upload_attempts != answers_before) {
+        loader_answered_ = true;
+        log_.handshake_answered = now;
+    }
+    if (loader && slow_.burn_per_chunk.count() > 0 && falcon_.uploaded > 0 && model.rx.size() > before) {
+        HeldEcho h{now + slow_.burn_per_chunk, std::vector<std::uint8_t>(model.rx.begin() + static_cast<std::ptrdiff_t>(before), model.rx.end())};
+        model.rx.erase(model.rx.begin() + static_cast<std::ptrdiff_t>(before), model.rx.end());
+        held_.push_back(std::move(h));
+        ++log_.chunks_held;
+    }
+}
+
 void EmulatedFalcon::unplug() {
     auto l = lock();
     unplugged_ = true;
@@ -102,9 +135,21 @@ bool EmulatedFalcon::complete_in(Flying& f, std::chrono::steady_clock::time_poin
         return true;
     }
     auto& rx = static_cast<ScriptedTransport&>(*model_.transport).rx;
+    while (!held_.empty() && held_.front().release <= now) {  // a slow loader's echo, now burned
+        rx.insert(rx.end(), held_.front().bytes.begin(), held_.front().bytes.end());
+        held_.pop_front();
+        log_.last_echo_released = now;
+    }
     const int latency_ms = std::max<int>(1, falcon_.latency_ms);
     const bool timer_expired = now - f.submitted >= std::chrono::milliseconds(latency_ms);
     if (rx.empty() && !timer_expired) return false;
+    if (rx.empty()) {  // this packet carries the status bytes alone
+        if (!held_.empty()) {
+            ++log_.status_only_while_burning;
+        } else if (dtr_high_ != std::chrono::steady_clock::time_point{} && !loader_answered_ && !falcon_.firmware_running) {
+            ++log_.status_only_while_waking;
+        }
+    }
     auto* out = f.buffer->data;  // the local copy of the client's buffer, synced back when it is reaped
     int written = 0;
     const int capacity = urb->buffer_length;
@@ -174,13 +219,19 @@ bool EmulatedFalcon::on_ioctl(UMockdevIoctlClient* client) {
                 if (request_type == 0x40) {
                     model.control(req, value, index);
                     if (req == ftdi::kRequestLatency) falcon_.latency_ms = value;
+                    if (req == ftdi::kRequestModemCtrl && value == ftdi::modem_dtr(true)) {  // the loader restarts
+                        dtr_high_ = f.submitted;
+                        if (log_.first_dtr_high == std::chrono::steady_clock::time_point{}) log_.first_dtr_high = dtr_high_;
+                        loader_answered_ = false;
+                        held_.clear();
+                    }
                     if (req == ftdi::kRequestReset && (value == ftdi::kPurgeRx || value == ftdi::kResetSio)) model.rx.clear();
                 }
                 urb->actual_length = 0;
                 urb->status = 0;
                 f.done = true;
             } else if ((urb->endpoint & 0x80) == 0) {
-                if (!silent_) model.write(std::span<const std::uint8_t>(buffer, static_cast<std::size_t>(urb->buffer_length)), 0);
+                if (!silent_) loader_write(std::span<const std::uint8_t>(buffer, static_cast<std::size_t>(urb->buffer_length)), f.submitted);
                 urb->actual_length = urb->buffer_length;
                 urb->status = 0;
                 f.done = true;

@@ -7,12 +7,20 @@
 // whatever the Falcon has sent, or with the status bytes alone when the latency timer (16 ms in the
 // loader mode, 1 ms in normal mode) runs out with nothing to send. Faults: unplug (every URB -> ENODEV),
 // a stalled IN endpoint (-EPIPE), garbage injected into the stream, silence (no status packets).
+//
+// A loader that takes its time (set_slow_loader()): after DTR goes high (the end of the loader set-up,
+// FalconCommLibUSB.cpp setFirmwareMode()) the loader ignores what it is sent for `wake_up`, and it holds
+// the echo of every firmware chunk for `burn_per_chunk` (the chunk being written to the microcontroller's
+// memory). Meanwhile the FTDI chip answers each bulk IN with the 2 status bytes alone when its latency
+// timer (16 ms in the loader mode) runs out, which is what the driver's handshake tries and per-chunk
+// empty reads see. The emulation counts those status-only packets and times the load.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -44,6 +52,25 @@ public:
     void set_stalled(bool v) { auto l = lock(); stalled_ = v; }
     void set_silent(bool v) { auto l = lock(); silent_ = v; }
     [[nodiscard]] std::uint64_t in_urbs_completed() { auto l = lock(); return in_completed_; }
+    // umockdev's testbed directory (UMOCKDEV_DIR); the usbfs node is <root>/dev/bus/usb/001/002.
+    [[nodiscard]] std::string root_dir() const;
+    static constexpr const char* kNode = "/dev/bus/usb/001/002";
+
+    struct SlowLoader {
+        std::chrono::milliseconds wake_up{0};         // from DTR high until the loader listens
+        std::chrono::milliseconds burn_per_chunk{0};  // each firmware chunk's echo is held this long
+    };
+    void set_slow_loader(SlowLoader s) { auto l = lock(); slow_ = s; }
+    struct LoaderLog {
+        int ignored_while_waking = 0;            // writes the loader did not hear (handshake tries lost)
+        int status_only_while_waking = 0;        // status-only IN packets between DTR high and the handshake answer
+        int status_only_while_burning = 0;       // status-only IN packets while a chunk's echo was held
+        int chunks_held = 0;
+        std::chrono::steady_clock::time_point first_dtr_high{};  // the first load attempt's start
+        std::chrono::steady_clock::time_point handshake_answered{};
+        std::chrono::steady_clock::time_point last_echo_released{};
+    };
+    [[nodiscard]] LoaderLog loader_log() { auto l = lock(); return log_; }
 
     bool on_ioctl(_UMockdevIoctlClient* client);
 
@@ -57,6 +84,11 @@ private:
         std::chrono::steady_clock::time_point submitted;
     };
     bool complete_in(Flying& f, std::chrono::steady_clock::time_point now);
+    void loader_write(std::span<const std::uint8_t> data, std::chrono::steady_clock::time_point now);
+    struct HeldEcho {
+        std::chrono::steady_clock::time_point release;
+        std::vector<std::uint8_t> bytes;
+    };
 
     _UMockdevTestbed* testbed_ = nullptr;
     _UMockdevIoctlBase* handler_ = nullptr;
@@ -71,6 +103,11 @@ private:
     bool stalled_ = false;
     bool silent_ = false;
     std::uint64_t in_completed_ = 0;
+    SlowLoader slow_;
+    LoaderLog log_;
+    std::chrono::steady_clock::time_point dtr_high_{};  // of the current load attempt
+    bool loader_answered_ = false;                      // in the current attempt
+    std::deque<HeldEcho> held_;
 };
 
 }  // namespace hapticd::test

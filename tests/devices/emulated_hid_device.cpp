@@ -101,6 +101,13 @@ void EmulatedHidDevice::set_unplugged(bool unplugged) {
     std::lock_guard lock(mutex_);
     unplugged_ = unplugged;
 }
+std::string EmulatedHidDevice::root_dir() const {
+    if (testbed_ == nullptr) return {};
+    gchar* root = umockdev_testbed_get_root_dir(testbed_);
+    std::string out = root != nullptr ? root : "";
+    g_free(root);
+    return out;
+}
 std::vector<std::vector<std::uint8_t>> EmulatedHidDevice::output_reports() const {
     std::lock_guard lock(mutex_);
     return outputs_;

@@ -43,6 +43,9 @@ public:
     [[nodiscard]] std::vector<std::vector<std::uint8_t>> output_reports() const;
     [[nodiscard]] std::vector<std::vector<std::uint8_t>> feature_reports() const;
     [[nodiscard]] int input_reports_sent() const;
+    // umockdev's testbed directory (UMOCKDEV_DIR); the node is <root>/dev/hidraw0, a symlink to a pty.
+    [[nodiscard]] std::string root_dir() const;
+    static constexpr const char* kNode = "/dev/hidraw0";
 
     // Handler entry points (umockdev worker thread).
     bool on_ioctl(_UMockdevIoctlClient* client);

@@ -134,7 +134,10 @@ TEST(FalconFirmware, SilentLoaderFailsInTheHandshake) {
     EXPECT_EQ(r.stage, FirmwareStage::Handshake);
     EXPECT_EQ(r.attempts_used, 2);
     EXPECT_EQ(f.t.writes.size(), 10U);  // 5 handshake tries per attempt
-    EXPECT_NE(r.message.find("handshake"), std::string::npos);
+    EXPECT_NE(r.message.find("stage 'handshake'"), std::string::npos) << r.message;
+    // The message counts what the tries saw: the silent loader's reads all came back empty.
+    EXPECT_NE(r.message.find("5 of 5 tries"), std::string::npos) << r.message;
+    EXPECT_NE(r.message.find("5 read(s) with no answer, 0 with a wrong one"), std::string::npos) << r.message;
 }
 
 TEST(FalconFirmware, DisconnectStopsRetrying) {

@@ -1,6 +1,6 @@
 // The Falcon driver through the REAL libusb-1.0 on a Falcon emulated under umockdev (emulated_falcon.hpp):
-// enumeration by VID:PID, the FTDI control requests, the firmware upload through bulk transfers with
-// status-only packets, homing, then the asynchronous streaming of the 1 kHz loop, which must not block;
+// enumeration by VID:PID, the FTDI control requests, homing (the firmware upload through bulk transfers
+// with status-only packets is test_usb_falcon_loader.cpp), then the asynchronous streaming of the 1 kHz loop, which must not block;
 // unplug (ENODEV) and a stalled endpoint end the stream with a device error, and nothing hangs. Label usb
 // (the binary re-executes itself under libumockdev-preload, test_usb_hid.cpp).
 #include <gtest/gtest.h>
@@ -12,7 +12,6 @@
 #include <string>
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 #include <thread>
 #include <vector>
 
@@ -99,29 +98,6 @@ TEST_F(UsbFalcon, HomesThenTheLoopNeverWaitsForTheDevice) {
         EXPECT_TRUE(torque);  // the 0.5 N along z reached the motors
     }
     dev.close();
-}
-
-TEST_F(UsbFalcon, FirmwareIsUploadedThroughBulkTransfers) {
-    const auto path = std::filesystem::temp_directory_path() / "hapticd_test_usb_falcon_fw.bin";
-    {
-        std::ofstream out(path, std::ios::binary);
-        for (int i = 0; i < 300; ++i) out.put(static_cast<char>(i * 11));
-    }
-    {
-        auto l = emulated.lock();
-        emulated.falcon().firmware_running = false;
-        emulated.falcon().firmware_size = 300;
-    }
-    FalconDeviceConfig c = falcon_usb_config();
-    c.firmware_path = path.string();
-    FalconDevice dev(c);
-    ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
-    {
-        auto l = emulated.lock();
-        EXPECT_TRUE(emulated.falcon().firmware_running);
-        EXPECT_EQ(emulated.falcon().upload_attempts, 1);
-    }
-    std::filesystem::remove(path);
 }
 
 TEST_F(UsbFalcon, UnplugDuringTheRunIsADeviceErrorAndNothingHangs) {
