@@ -307,7 +307,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--name", p.name);
     app.add_option("--description", p.description);
     app.add_option("--driver", p.driver)->check(CLI::IsMember({"sim", "falcon", "hid", "lwr"}));
-    auto* mass = app.add_option("--mass", p.mass);
+    MassKeys mass_keys;
+    add_mass_keys(app, mass_keys);
     app.add_option("--damping", p.damping);
     app.add_option("--stiffness", p.stiffness);
     app.add_option("--inherent_delay", p.inherent_delay);
@@ -326,19 +327,37 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--inherent_delay_range", p.inherent_delay_range);
     add_real_device_keys(app, p.real);
     const KeyLocations where = apply_config_file(app, "device profile '" + p.path + "'", p.path, true);
-    for (auto [opt, key] : {std::pair{mass, "mass"}, std::pair{max_force, "max_force"}}) {
-        if (opt->count() == 0) {
-            throw StartupError(kExitBadConfig, "device profile '" + p.path + "': missing key '" + key + "'");
-        }
+    read_mass_keys_given(app, mass_keys);
+    if (max_force->count() == 0) {
+        throw StartupError(kExitBadConfig, "device profile '" + p.path + "': missing key 'max_force'");
     }
     if (p.name.empty()) p.name = fs::path(p.path).stem().string();
-    check_range(where, "mass", p.mass, 0.0, 1e6, true, "finite, > 0 kg (kg m^2 for rotary devices)");
     check_range(where, "damping", p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m");
     check_range(where, "stiffness", p.stiffness, 0.0, 1e12, false, "finite, >= 0 N/m");
     check_range(where, "inherent_delay", p.inherent_delay, 0.0, 1.0, false, "0 .. 1 s");
     check_range(where, "max_force", p.max_force, 0.0, 1e6, true, "finite, > 0 N (N m)");
     if (p.axes < 1 || p.axes > 3) invalid(where, "axes", std::to_string(p.axes), "1 .. 3");
     const auto axes = static_cast<std::size_t>(p.axes);
+    // The mass: one value, one per axis or a matrix (devices/profile_keys.hpp), and the stiffness limit.
+    const ProfileMass plant_mass = validate_mass_keys(where, axes, mass_keys, p.damping, p.stiffness);
+    p.mass_model = plant_mass.mass;
+    p.max_stiffness = plant_mass.max_stiffness;
+    p.mass = p.mass_model.of_axis(0);
+    if (!p.mass_model.isotropic) {
+        // These model one mass (identification fits one, the robust box and the passivity cap use one).
+        for (auto [set, option] : {std::pair{o.identify, "--identify"}, std::pair{o.robust, "--robust"},
+                                   std::pair{o.passivity_control, "--passivity-control"}}) {
+            if (set) {
+                throw StartupError(kExitUsage, where.prefix(mass_keys.mass_given ? "mass" : "mass_matrix") + std::string(option) +
+                                                   " models one mass for every axis; this profile's mass is anisotropic (" +
+                                                   p.mass_model.describe() + "); accepted: a profile with one mass");
+            }
+        }
+        if (!p.mass_range.empty()) {
+            invalid(where, "mass_range", "[" + std::to_string(p.mass_range[0]) + ", ...]",
+                    "no mass_range with an anisotropic mass (--robust models one mass)");
+        }
+    }
     for (auto* ws : {&p.workspace_min, &p.workspace_max}) {
         if (!ws->empty() && ws->size() != axes) {
             invalid(where, ws == &p.workspace_min ? "workspace_min" : "workspace_max",

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -77,7 +78,11 @@ struct DeviceProfile {
     std::string name;
     std::string driver = "sim";
     std::string description;
-    double mass = 0.0;            // kg (kg m^2), device + expected arm
+    // kg (kg m^2), device + expected arm: the one mass of every axis, or (anisotropic mass_model) the mass
+    // along axis 0, 1 / (M^-1)_00 — what the features that model one mass use (they refuse an anisotropic one).
+    double mass = 0.0;
+    DeviceMass mass_model;                // M from `mass` (one value or one per axis) or `mass_matrix`
+    std::optional<double> max_stiffness;  // N/m (N m/rad), `max_stiffness`; none: only the stability region limits K
     double damping = 0.0;         // N s/m
     double stiffness = 0.0;       // N/m
     double inherent_delay = 0.0;  // s

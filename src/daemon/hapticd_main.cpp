@@ -72,19 +72,34 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             throw StartupError(code, origin + " '" + text + "': criterion = " + criterion +
                                          " is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV");
         }
+        // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (devices/profile_keys.hpp).
+        TuningPlant wall_plant = plant;
+        std::string axis_key;
+        if (!p.mass_model.isotropic) {
+            wall_plant.mass = p.mass_model.of_axis(spec->axis);
+            axis_key = "@axis" + std::to_string(spec->axis);
+        }
         if (o.gains_set) {
-            auto it = tuned.find("explicit");
+            auto it = tuned.find("explicit" + axis_key);
             if (it == tuned.end()) {
-                it = tuned.emplace("explicit", check_explicit_gains(o.stiffness, o.damping, o.criterion, plant,
-                                                                         o.passivity_control)).first;
+                it = tuned.emplace("explicit" + axis_key, check_explicit_gains(o.stiffness, o.damping, o.criterion, wall_plant,
+                                                                                    o.passivity_control)).first;
             }
             w.tuning = it->second;
         } else {
-            auto it = tuned.find(criterion);
+            auto it = tuned.find(criterion + axis_key);
             if (it == tuned.end()) {
-                it = tuned.emplace(criterion, box ? tune_wall_robust(criterion, *box) : tune_wall(criterion, plant)).first;
+                it = tuned.emplace(criterion + axis_key, box ? tune_wall_robust(criterion, *box) : tune_wall(criterion, wall_plant)).first;
             }
             w.tuning = it->second;
+        }
+        if (p.max_stiffness && w.tuning.K > *p.max_stiffness) {
+            std::ostringstream m;
+            m << origin << " '" << text << "': K = " << w.tuning.K << " N/m"
+              << (o.gains_set ? std::string() : " (the optimum of criterion " + criterion + ")")
+              << " exceeds the device's stiffness limit (device profile '" << p.path << "': max_stiffness = " << *p.max_stiffness
+              << " N/m); accepted range: K <= " << *p.max_stiffness << " N/m";
+            throw StartupError(kExitInvalidParameter, m.str());
         }
         walls.push_back(w);
     }
@@ -177,7 +192,13 @@ int run_main(int argc, const char* const* argv) {
 
     if (!o.quiet) {
         out << "hapticd: device '" << profile.name << "' (" << profile.path << ")" << (o.simulate || profile.driver == "sim" ? ", simulated" : "")
-            << ": mass " << profile.mass << (profile.rotary ? " kg m^2" : " kg") << ", damping " << profile.damping
+            << ": mass ";
+        if (profile.mass_model.isotropic) {
+            out << profile.mass << (profile.rotary ? " kg m^2" : " kg");
+        } else {
+            out << profile.mass_model.describe();
+        }
+        out << ", damping " << profile.damping
             << ", stiffness " << profile.stiffness << "; rate " << o.rate << " Hz (T = " << period * 1e3
             << " ms), delay " << delay * 1e3 << " ms = " << delay / period << " periods (device " << profile.inherent_delay * 1e3
             << " ms + buffer " << o.delay_buffer << ")\n";

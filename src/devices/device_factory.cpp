@@ -111,6 +111,7 @@ std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, co
     cfg.capabilities = capabilities_from_profile(p);
     cfg.capabilities.measures_external_force = true;
     cfg.plant = PlantParameters{p.mass, p.damping, p.stiffness};
+    if (!p.mass_model.isotropic) cfg.mass_matrix = p.mass_model.matrix;  // per axis or coupled (sim_device.hpp)
     cfg.period = period;
     cfg.position_noise = p.position_noise;
     cfg.position_resolution = p.position_resolution;

@@ -1,7 +1,12 @@
 #include "devices/sim_device.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Cholesky>
 
 namespace hapticd {
 
@@ -23,10 +28,59 @@ SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
     delay_periods_ = static_cast<std::int64_t>(whole);
     const double phi = d - whole;
     fractional_ = std::abs(d - nearest) >= 1e-9;
-    full_ = discretize(config_.plant, T);
-    if (fractional_) {
-        first_ = discretize(config_.plant, phi * T);
-        second_ = discretize(config_.plant, (1.0 - phi) * T);
+    const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
+    std::array<PlantParameters, kMaxAxes> plants;
+    plants.fill(config_.plant);
+    if (config_.mass_matrix) {
+        const auto& M = *config_.mass_matrix;
+        bool diagonal = true;
+        for (std::size_t i = 0; i < axes; ++i) {
+            for (std::size_t j = 0; j < axes; ++j) diagonal = diagonal && (i == j || M[i][j] == 0.0);
+        }
+        if (diagonal) {
+            for (std::size_t a = 0; a < axes; ++a) {
+                if (!(M[a][a] > 0.0) || !std::isfinite(M[a][a])) {
+                    throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(a) + "][" + std::to_string(a) +
+                                                "] = " + std::to_string(M[a][a]) + " is invalid; accepted range: finite, > 0 kg");
+                }
+                plants[a].mass = M[a][a];
+            }
+        } else {
+            if (config_.plant.damping != 0.0 || config_.plant.stiffness != 0.0) {
+                throw std::invalid_argument("SimDevice: a non-diagonal mass_matrix needs damping = stiffness = 0 (got " +
+                                            std::to_string(config_.plant.damping) + " N s/m, " +
+                                            std::to_string(config_.plant.stiffness) + " N/m): its ZOH is then x+ = x + h v + "
+                                            "h^2/2 M^-1 u, v+ = v + h M^-1 u");
+            }
+            const auto n = static_cast<Eigen::Index>(axes);
+            Eigen::MatrixXd m(n, n);
+            for (Eigen::Index i = 0; i < n; ++i) {
+                for (Eigen::Index j = 0; j < n; ++j) {
+                    m(i, j) = 0.5 * (M[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] +
+                                     M[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)]);
+                }
+            }
+            const Eigen::LLT<Eigen::MatrixXd> llt(m);
+            if (llt.info() != Eigen::Success) {
+                throw std::invalid_argument("SimDevice: mass_matrix is invalid; accepted: symmetric positive definite");
+            }
+            const Eigen::MatrixXd inv = llt.solve(Eigen::MatrixXd::Identity(n, n));
+            for (std::size_t i = 0; i < axes; ++i) {
+                for (std::size_t j = 0; j < axes; ++j) {
+                    inverse_mass_[i][j] = 0.5 * (inv(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) +
+                                                 inv(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)));
+                }
+            }
+            coupled_ = true;
+            plants.fill(PlantParameters{1.0, 0.0, 0.0});  // the unit-mass ZOH of w = M^-1 u
+        }
+    }
+    for (std::size_t a = 0; a < kMaxAxes; ++a) {
+        full_[a] = discretize(plants[a], T);
+        if (fractional_) {
+            first_[a] = discretize(plants[a], phi * T);
+            second_[a] = discretize(plants[a], (1.0 - phi) * T);
+        }
     }
     history_.assign(static_cast<std::size_t>(delay_periods_ + 2), AxisVector{});
     rng_ = config_.noise_seed == 0 ? 0x9E3779B97F4A7C15ULL : config_.noise_seed;
@@ -90,20 +144,28 @@ const AxisVector& SimDevice::written(std::int64_t tick) const noexcept {
     return history_[static_cast<std::size_t>(tick) % history_.size()];
 }
 
-void SimDevice::advance_period(std::int64_t tick) noexcept {
+void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force) noexcept {
     const std::size_t axes = config_.capabilities.axes;
+    AxisVector u{};
+    for (std::size_t a = 0; a < axes; ++a) u[a] = external_[a] + written_force[a];
+    if (coupled_) {  // w = M^-1 u, then the unit-mass step per axis
+        AxisVector w{};
+        for (std::size_t i = 0; i < axes; ++i) {
+            for (std::size_t j = 0; j < axes; ++j) w[i] += inverse_mass_[i][j] * u[j];
+        }
+        u = w;
+    }
+    for (std::size_t a = 0; a < axes; ++a) steps[a].apply(x_[a], v_[a], u[a]);
+}
+
+void SimDevice::advance_period(std::int64_t tick) noexcept {
     const AxisVector& late = written(tick - delay_periods_);
     if (!fractional_) {
-        for (std::size_t a = 0; a < axes; ++a) {
-            full_.apply(x_[a], v_[a], external_[a] + late[a]);
-        }
+        apply(full_, late);
         return;
     }
-    const AxisVector& early = written(tick - delay_periods_ - 1);
-    for (std::size_t a = 0; a < axes; ++a) {
-        first_.apply(x_[a], v_[a], external_[a] + early[a]);
-        second_.apply(x_[a], v_[a], external_[a] + late[a]);
-    }
+    apply(first_, written(tick - delay_periods_ - 1));
+    apply(second_, late);
 }
 
 double SimDevice::noise() noexcept {

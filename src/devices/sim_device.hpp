@@ -1,11 +1,16 @@
-// The simulated device: per axis the continuous plant of eq. 1,  m x'' + b x' + k x = F_ext + u,
-// advanced exactly (zero-order hold) by one period per tick. u is the force written by the loop; it acts
+// The simulated device: the continuous plant of eq. 1,  M x'' + b x' + k x = F_ext + u,  advanced exactly
+// (zero-order hold) by one period per tick. M is one mass for every axis, a mass per axis (a diagonal M:
+// each axis its own exact ZOH of m_a x'' + b x' + k x = F), or a full symmetric positive-definite matrix
+// with b = k = 0, whose exact ZOH over h with u constant is  x+ = x + h v + h^2/2 M^-1 u,  v+ = v + h M^-1 u
+// (per axis the unit-mass ZOH of w = M^-1 u: the same numbers). u is the force written by the loop; it acts
 // after the device's inherent delay (which may be a non-integer number of periods: the period is then
 // split into two exactly-integrated sub-intervals). The spring's rest position is the wall surface of the
 // scenario axis (the analysis' x = 0) and 0 on the other axes.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,7 +42,10 @@ struct SimScenario {
 
 struct SimDeviceConfig {
     DeviceCapabilities capabilities;   // capabilities.inherent_delay is simulated
-    PlantParameters plant;
+    PlantParameters plant;             // b, k; and the mass of every axis unless mass_matrix is set
+    // M on the device's axes (rows/columns beyond them ignored), symmetric positive definite. Diagonal: per
+    // axis its own mass with plant's b and k; otherwise plant.damping = plant.stiffness = 0 is required.
+    std::optional<std::array<AxisVector, kMaxAxes>> mass_matrix;
     double period = 1e-3;              // s
     double position_noise = 0.0;       // standard deviation of additive Gaussian noise, m (0: off)
     double position_resolution = 0.0;  // quantisation step of the reported position, m (0: off)
@@ -48,6 +56,8 @@ struct SimDeviceConfig {
 
 class SimDevice final : public Device {
 public:
+    // Throws std::invalid_argument naming the parameter for a non-diagonal mass_matrix with b or k != 0, or
+    // one that is not positive definite.
     explicit SimDevice(const SimDeviceConfig& config);
 
     DeviceStatus open() override;
@@ -73,9 +83,13 @@ private:
     double noise() noexcept;
 
     SimDeviceConfig config_;
-    ZohStep full_;       // h = T
-    ZohStep first_;      // h = phi T       (fractional part of the delay)
-    ZohStep second_;     // h = (1 - phi) T
+    // Per axis (the same on every axis for one mass; unit mass when coupled_).
+    std::array<ZohStep, kMaxAxes> full_{};    // h = T
+    std::array<ZohStep, kMaxAxes> first_{};   // h = phi T       (fractional part of the delay)
+    std::array<ZohStep, kMaxAxes> second_{};  // h = (1 - phi) T
+    bool coupled_ = false;                    // a non-diagonal M: the input is u' = M^-1 u
+    std::array<AxisVector, kMaxAxes> inverse_mass_{};
+    void apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force) noexcept;
     std::int64_t delay_periods_ = 0;  // integer part n of t_inh / T
     bool fractional_ = false;
     std::vector<AxisVector> history_;  // written forces of ticks tick-n-1 .. tick, ring of n + 2

@@ -65,12 +65,14 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     device_options.quiet = o.quiet;
     const DeviceProfile profile = load_device_profile(device_options);
     validate_common(o, profile);
+    // The wall acts along axis o.axis: its loop's mass is 1 / (M^-1)_aa (the profile's one mass when isotropic).
+    const double mass = profile.mass_model.of_axis(static_cast<std::size_t>(o.axis));
     const bool simulated = o.simulate || profile.driver == "sim";
     const double T = 1.0 / o.rate;
     const double delay = profile.inherent_delay + static_cast<double>(o.delay_buffer) * T;
     std::unique_ptr<Theory> theory;
     try {
-        theory = std::make_unique<Theory>(TheoryPlant{profile.mass, profile.damping, profile.stiffness, T, delay});
+        theory = std::make_unique<Theory>(TheoryPlant{mass, profile.damping, profile.stiffness, T, delay});
     } catch (const hapticopt::InvalidParameter& e) {
         throw StartupError(kExitInvalidParameter, e.what());
     }
@@ -126,7 +128,7 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     t.axis = static_cast<std::size_t>(o.axis);
     t.period = T;
     t.delay_buffer = static_cast<std::size_t>(o.delay_buffer);
-    t.mass = profile.mass;
+    t.mass = mass;
     t.stiffness = profile.stiffness;
     t.step_force = step_force;
     t.ticks = trial_ticks;
@@ -145,7 +147,7 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     st.ticks = settle_ticks - st.zero_ticks;
     st.force_cap = force_cap;
     st.position_limit = 2.0 * o.position_limit;
-    setup.model = CostModel{profile.mass, profile.damping, profile.stiffness, T, profile.inherent_delay};
+    setup.model = CostModel{mass, profile.damping, profile.stiffness, T, profile.inherent_delay};
 
     // The device: external force zero (the step is applied through the actuator), spring rest at 0.
     SimScenario scenario;
@@ -164,7 +166,7 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     if (device->home() != DeviceStatus::Ok) {
         throw StartupError(kExitDeviceError, "device '" + profile.name + "': homing failed: " + device->last_error());
     }
-    const FigureCaption caption{"m = " + g(profile.mass) + " kg, T = " + g(T * 1e3) + " ms, t_d = " + g(delay * 1e3) +
+    const FigureCaption caption{"m = " + g(mass) + " kg, T = " + g(T * 1e3) + " ms, t_d = " + g(delay * 1e3) +
                                 " ms, k = " + g(profile.stiffness) + " N/m, b = " + g(profile.damping) + " N s/m"};
     if (!o.quiet) {
         std::cout << "hapticd experiment " << (boundary ? "boundary" : "optimal") << ": device '" << profile.name << "'"

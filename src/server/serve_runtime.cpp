@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <stdexcept>
 #include <thread>
 
 #include "daemon/exit_codes.hpp"
@@ -52,7 +53,13 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.stiffness = profile.stiffness;
     plant.period = period;
     plant.time_delay = delay;
-    checker_ = std::make_unique<GainChecker>(plant);
+    plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (devices/profile_keys.hpp)
+    plant.max_stiffness = profile.max_stiffness;  // none: no limit
+    try {
+        checker_ = std::make_unique<GainChecker>(plant);
+    } catch (const std::invalid_argument& e) {
+        throw StartupError(kExitInvalidParameter, e.what());
+    }
 
     ServerConfig sc;
     sc.socket_path = o.serve_socket;

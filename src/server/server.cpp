@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <deque>
 #include <iostream>
 #include <map>
@@ -311,12 +312,25 @@ struct Server::Impl {
         return std::nullopt;
     }
 
-    // Gains of an object: explicit (checked) or the cached optimum of the criterion.
-    std::optional<Refusal> resolve_gains(const cl::Gains& gains, const std::string& kind, double& K, double& B) {
+    // The profile's stiffness limit (beyond_device_limits); `what` names the stiffness ("plane: K").
+    std::optional<Refusal> check_stiffness_limit(double K, const std::string& what) const {
+        const std::optional<double> limit = checker.max_stiffness();
+        if (!limit || !(K > *limit)) return std::nullopt;
+        return Refusal{"beyond_device_limits", what + " = " + g(K) + " N/m exceeds the device's stiffness limit (device profile key "
+                                                      "max_stiffness = " + g(*limit) + " N/m); accepted range: <= " + g(*limit) + " N/m",
+                       std::nullopt};
+    }
+
+    // Gains of an object acting with gains (K P, B P) and the masses `masses` (GainChecker::masses_of):
+    // explicit or the cached optimum of the criterion for the lightest of them; then the stiffness limit
+    // and the exact verdict for every mass.
+    std::optional<Refusal> resolve_gains(const cl::Gains& gains, const std::string& kind, const std::vector<double>& masses,
+                                         double& K, double& B) {
+        const double lightest = masses.empty() ? checker.mass().smallest() : *std::min_element(masses.begin(), masses.end());
         if (!gains.criterion.empty()) {
             std::optional<CriterionGains> c;
             try {
-                c = checker.criterion_gains(gains.criterion);
+                c = checker.criterion_gains(gains.criterion, lightest);
             } catch (const std::exception& e) {
                 return Refusal{"bad_message", kind + ".gains.criterion = " + gains.criterion + ": " + e.what(), std::nullopt};
             }
@@ -327,21 +341,26 @@ struct Server::Impl {
             }
             K = c->K;
             B = c->B;
-            return std::nullopt;
+            if (auto r = check_stiffness_limit(K, kind + ": the optimal K of criterion " + gains.criterion)) return r;
+        } else {
+            K = gains.K.value_or(0.0);
+            B = gains.B.value_or(0.0);
+            if (!(K >= 0.0) || !(B >= 0.0)) {
+                return Refusal{"bad_message", kind + ".gains: K = " + g(K) + " N/m, B = " + g(B) +
+                                                  " N s/m are invalid; accepted range: K >= 0, B >= 0 (finite)", std::nullopt};
+            }
+            if (auto r = check_stiffness_limit(K, kind + ": K")) return r;
         }
-        K = gains.K.value_or(0.0);
-        B = gains.B.value_or(0.0);
-        if (!(K >= 0.0) || !(B >= 0.0)) {
-            return Refusal{"bad_message", kind + ".gains: K = " + g(K) + " N/m, B = " + g(B) +
-                                              " N s/m are invalid; accepted range: K >= 0, B >= 0 (finite)", std::nullopt};
-        }
-        if (!checker.pair_is_stable(K, B)) {  // the verdict alone; the largest stable K only for the refusal
-            const PairVerdict v = checker.check_pair(K, B);
+        // The verdict per mass (one Schur-Cohn test each); the largest stable K only for the refusal.
+        const PairVerdict v = checker.check_object(K, B, masses);
+        if (!v.stable) {
+            const std::string along = masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
             return Refusal{"unstable_gains",
                            kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
-                               ") are outside the stability region for mass " + g(config.mass) + " kg, period " + g(config.period) +
-                               " s, delay " + g(config.delay) + " s; the largest stable K at B = " + g(B) + " N s/m is " +
-                               g(v.largest_stable_K) + " N/m (alpha_max = " + g(v.alpha_max) + ")",
+                               ") are outside the stability region for " + along + ", " + g(v.mass) + " kg (device mass " +
+                               checker.mass().describe() + "), period " + g(config.period) + " s, delay " + g(config.delay) +
+                               " s; the largest stable K at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +
+                               " N/m (alpha_max = " + g(v.alpha_max) + ")",
                            v.largest_stable_K};
         }
         return std::nullopt;
@@ -356,7 +375,7 @@ struct Server::Impl {
             p.direction = to_axis(plane->normal);
             p.offset = plane->offset;
             p.bilateral = plane->bilateral;
-            if (auto r = resolve_gains(plane->gains, "plane", p.K, p.B)) return r;
+            if (auto r = resolve_gains(plane->gains, "plane", {checker.mass_along(p.direction)}, p.K, p.B)) return r;
             out.K_matrix = outer(p.direction, p.K);
             out.B_matrix = outer(p.direction, p.B);
             return std::nullopt;
@@ -373,7 +392,6 @@ struct Server::Impl {
                 p.direction = to_axis(spring->direction);
             }
             p.point = to_axis(spring->point);
-            if (auto r = resolve_gains(spring->gains, "spring", p.K, p.B)) return r;
             Matrix3 P{};
             if (p.constraint == SpringConstraint::Plane) {
                 P = outer(p.direction, 1.0);
@@ -384,6 +402,9 @@ struct Server::Impl {
                     add_to(P, dd);
                 }
             }
+            const std::vector<double> masses = p.constraint == SpringConstraint::Plane ? std::vector<double>{checker.mass_along(p.direction)}
+                                                                                       : checker.masses_of(P);
+            if (auto r = resolve_gains(spring->gains, "spring", masses, p.K, p.B)) return r;
             for (std::size_t i = 0; i < 3; ++i) {
                 for (std::size_t j = 0; j < 3; ++j) {
                     out.K_matrix[i][j] = p.K * P[i][j];
@@ -428,13 +449,29 @@ struct Server::Impl {
             return Refusal{"bad_message", "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
                            std::nullopt};
         }
-        if (fs.max_stiffness > scale) {
-            if (!checker.pair_is_stable(fs.max_stiffness, field.damping)) {
-                const PairVerdict v = checker.check_pair(fs.max_stiffness, field.damping);
+        if (auto r = check_stiffness_limit(fs.max_stiffness, "field: the stiffness of its Jacobian (largest eigenvalue of -sym(J))")) return r;
+        Matrix3 K_field{}, B_field{};
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) K_field[i][j] = -0.5 * (J[i][j] + J[j][i]);
+            if (i < config.axes) B_field[i][i] = field.damping;
+        }
+        if (fs.max_stiffness > scale && checker.mass().isotropic) {
+            // One mass: -sym(J) and B I commute; the stiffest eigen-direction with B is the verdict.
+            if (!checker.pair_is_stable(fs.max_stiffness, field.damping, checker.mass().smallest())) {
+                const PairVerdict v = checker.check_pair(fs.max_stiffness, field.damping, checker.mass().smallest());
                 return Refusal{"unstable_gains", "field: stiffness " + g(fs.max_stiffness) + " N/m (largest eigenvalue of -sym(J)) with B = " +
                                                      g(field.damping) + " N s/m is outside the stability region; the largest stable K at that B is " +
                                                      g(v.largest_stable_K) + " N/m",
                                v.largest_stable_K};
+            }
+        } else if (fs.max_stiffness > scale) {
+            // An anisotropic mass: the field alone is the coupled loop of its own gain matrices.
+            std::string why;
+            if (!checker.sum_is_stable(K_field, B_field, why)) {
+                return Refusal{"unstable_gains", "field: its stiffness -sym(J) (eigenvalues " + g(fs.min_stiffness) + " .. " + g(fs.max_stiffness) +
+                                                     " N/m) with B = " + g(field.damping) + " N s/m is unstable for the device mass " +
+                                                     checker.mass().describe() + ": " + why,
+                               std::nullopt};
             }
         }
         p.kind = ObjectKind::Field;
@@ -443,10 +480,8 @@ struct Server::Impl {
         p.force = to_axis(field.force);
         p.B = field.damping;
         for (std::size_t i = 0; i < 3; ++i) p.jacobian[i] = AxisVector{J[i][0], J[i][1], J[i][2]};
-        for (std::size_t i = 0; i < 3; ++i) {
-            for (std::size_t j = 0; j < 3; ++j) out.K_matrix[i][j] = -0.5 * (J[i][j] + J[j][i]);
-            if (i < config.axes) out.B_matrix[i][i] = field.damping;
-        }
+        out.K_matrix = K_field;
+        out.B_matrix = B_field;
         return std::nullopt;
     }
 
@@ -597,6 +632,22 @@ struct Server::Impl {
             add_to(K_sum, slot.resolved.K_matrix);
             add_to(B_sum, slot.resolved.B_matrix);
         }
+        // The stiffness limit holds for the sum as well: the device renders it when all are in contact.
+        if (const std::optional<double> limit = checker.max_stiffness()) {
+            const double largest = GainChecker::largest_stiffness(K_sum);
+            if (largest > *limit) {
+                {
+                    std::lock_guard<std::mutex> lock(counters_mutex);
+                    ++counters.commits_refused;
+                }
+                send_error(s, id, "beyond_device_limits",
+                           "commit: the summed stiffness of the scene along its stiffest direction, " + g(largest) +
+                               " N/m, exceeds the device's stiffness limit (device profile key max_stiffness = " + g(*limit) +
+                               " N/m); accepted range: <= " + g(*limit) + " N/m (all objects are counted as in contact at once)",
+                           -1);
+                return;
+            }
+        }
         std::string why;
         if (!checker.sum_is_stable(K_sum, B_sum, why)) {
             {
@@ -639,9 +690,20 @@ struct Server::Impl {
 
     // ---- other requests ------------------------------------------------------------------------
     json device_json() const {
+        // mass: per axis a, the mass along that axis 1 / (M^-1)_aa (axes beyond the device's: axis 0's);
+        // mass_matrix: M on the device's axes, row by row.
+        const DeviceMass& M = checker.mass();
+        json mass = json::array(), matrix = json::array();
+        for (std::size_t a = 0; a < 3; ++a) mass.push_back(M.of_axis(a < config.axes ? a : 0));
+        for (std::size_t i = 0; i < config.axes; ++i) {
+            json row = json::array();
+            for (std::size_t j = 0; j < config.axes; ++j) row.push_back(M.isotropic ? (i == j ? M.matrix[0][0] : 0.0) : M.matrix[i][j]);
+            matrix.push_back(row);
+        }
+        const std::optional<double> limit = checker.max_stiffness();
         return json{{"name", config.device_name}, {"axes", config.axes}, {"period_s", config.period},
-                    {"mass", json::array({config.mass, config.mass, config.mass})}, {"delay_s", config.delay},
-                    {"max_force", config.max_force}, {"max_stiffness", nullptr}};
+                    {"mass", mass}, {"mass_matrix", matrix}, {"delay_s", config.delay},
+                    {"max_force", config.max_force}, {"max_stiffness", limit ? json(*limit) : json(nullptr)}};
     }
 
     json list_json() const {

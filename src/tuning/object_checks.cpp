@@ -1,7 +1,9 @@
 #include "tuning/object_checks.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -11,32 +13,80 @@
 
 namespace hapticd {
 
+namespace {
+
+Eigen::Matrix3d to_eigen(const Matrix3& m) {
+    Eigen::Matrix3d e;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) e(i, j) = m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+    }
+    return e;
+}
+
+Eigen::Matrix3d symmetric(const Matrix3& m) {
+    const Eigen::Matrix3d e = to_eigen(m);
+    return 0.5 * (e + e.transpose());
+}
+
+std::string g(double v, int precision = 6) {
+    std::ostringstream s;
+    s.precision(precision);
+    s << v;
+    return s.str();
+}
+
+}  // namespace
 
 GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
-    alpha_max_ = hapticopt::StabilityRegion(hapticopt::normalize(to_hapticopt(plant_))).alpha_max();
+    mass_ = plant_.mass_matrix ? *plant_.mass_matrix : DeviceMass::isotropic_mass(plant_.mass, 3);
+    free_mass_plant_ = plant_.damping == 0.0 && plant_.stiffness == 0.0;
+    if (!mass_.isotropic && !free_mass_plant_) {
+        throw std::invalid_argument("GainChecker: an anisotropic mass (" + mass_.describe() + ") with damping = " +
+                                    g(plant_.damping) + " N s/m, stiffness = " + g(plant_.stiffness) +
+                                    " N/m has no scalar loop per direction; accepted: damping = stiffness = 0, or one mass");
+    }
+    if (mass_.isotropic) plant_.mass = mass_.matrix[0][0];
+    const Eigen::Matrix3d M = to_eigen(mass_.matrix), Mis = to_eigen(mass_.inverse_sqrt);
+    const Eigen::Matrix3d Ms = M * Mis;  // M^1/2 = M M^-1/2 (zero beyond the device's axes)
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) mass_sqrt_[i][j] = 0.5 * (Ms(static_cast<int>(i), static_cast<int>(j)) + Ms(static_cast<int>(j), static_cast<int>(i)));
+    }
+    alpha_max_ = hapticopt::StabilityRegion(normalized_for(plant_.mass)).alpha_max();
 }
 
-bool GainChecker::pair_is_stable(double K, double B) const {
-    const double T = plant_.period, m = plant_.mass;
-    return hapticopt::is_stable(hapticopt::normalize(to_hapticopt(plant_)),
-                                hapticopt::NormalizedGains{K * T * T / m, B * T / m});
+hapticopt::NormalizedPlant GainChecker::normalized_for(double m) const {
+    TuningPlant p = plant_;
+    p.mass = m;
+    return hapticopt::normalize(to_hapticopt(p));
 }
 
-PairVerdict GainChecker::check_pair(double K, double B) const {
-    const hapticopt::NormalizedPlant np = hapticopt::normalize(to_hapticopt(plant_));
+double GainChecker::alpha_max_for(double m) const {
+    if (free_mass_plant_ || m == plant_.mass) return alpha_max_;
+    return hapticopt::StabilityRegion(normalized_for(m)).alpha_max();
+}
+
+bool GainChecker::pair_is_stable(double K, double B, double m) const {
+    const double T = plant_.period;
+    return hapticopt::is_stable(normalized_for(m), hapticopt::NormalizedGains{K * T * T / m, B * T / m});
+}
+
+PairVerdict GainChecker::check_pair(double K, double B, double m) const {
+    const hapticopt::NormalizedPlant np = normalized_for(m);
+    const double alpha_max = alpha_max_for(m);
     PairVerdict v;
-    const double T = plant_.period, m = plant_.mass;
+    const double T = plant_.period;
+    v.mass = m;
     v.alpha = K * T * T / m;
     v.beta = B * T / m;
-    v.alpha_max = alpha_max_;
+    v.alpha_max = alpha_max;
     v.stable = hapticopt::is_stable(np, hapticopt::NormalizedGains{v.alpha, v.beta});
     // Largest stable alpha at this beta: bisection on is_stable over (0, alpha_max].
-    double lo = v.stable && v.alpha > 0.0 ? v.alpha : alpha_max_ * 1e-9;
+    double lo = v.stable && v.alpha > 0.0 ? v.alpha : alpha_max * 1e-9;
     if (!hapticopt::is_stable(np, hapticopt::NormalizedGains{lo, v.beta})) {
         v.largest_stable_K = 0.0;
         return v;
     }
-    double hi = alpha_max_ * (1.0 + 1e-9);
+    double hi = alpha_max * (1.0 + 1e-9);
     if (hapticopt::is_stable(np, hapticopt::NormalizedGains{hi, v.beta})) {
         lo = hi;  // cannot happen (alpha_max is the tip of the region); kept as a safe answer
     } else {
@@ -53,23 +103,73 @@ PairVerdict GainChecker::check_pair(double K, double B) const {
     return v;
 }
 
-std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& criterion) {
+std::vector<double> GainChecker::masses_of(const Matrix3& P) const {
+    const Eigen::Matrix3d p = symmetric(P);
+    if (mass_.isotropic) {  // S = P / m: the masses are m for each non-zero eigenvalue of P (a projector: 1)
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(p, Eigen::EigenvaluesOnly);
+        std::vector<double> out;
+        const double threshold = 1e-12 * std::max(1.0, es.eigenvalues().cwiseAbs().maxCoeff());
+        for (int i = 0; i < 3; ++i) {
+            if (es.eigenvalues()(i) > threshold) out.push_back(plant_.mass / es.eigenvalues()(i));
+        }
+        return out;
+    }
+    if (std::abs(p.trace() - 1.0) < 1e-12 && (p * p - p).norm() < 1e-12) {
+        // Rank one, P = n n^T: exactly 1 / (n^T M^-1 n), without an eigen-decomposition.
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(p);
+        const Eigen::Vector3d n = es.eigenvectors().col(2);
+        return {mass_.along({n(0), n(1), n(2)})};
+    }
+    const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(Mis * p * Mis, Eigen::EigenvaluesOnly);
+    std::vector<double> out;
+    const double threshold = 1e-12 * std::max(1.0, es.eigenvalues().cwiseAbs().maxCoeff());
+    for (int i = 2; i >= 0; --i) {  // descending s: ascending mass
+        if (es.eigenvalues()(i) > threshold) out.push_back(1.0 / es.eigenvalues()(i));
+    }
+    return out;
+}
+
+PairVerdict GainChecker::check_object(double K, double B, const std::vector<double>& masses) const {
+    PairVerdict worst;
+    bool failed = false;
+    for (const double m : masses) {
+        if (pair_is_stable(K, B, m)) continue;
+        const PairVerdict v = check_pair(K, B, m);
+        if (!failed || v.largest_stable_K < worst.largest_stable_K) worst = v;
+        failed = true;
+    }
+    if (failed) return worst;
+    PairVerdict ok;
+    ok.stable = true;
+    ok.mass = masses.empty() ? plant_.mass : *std::min_element(masses.begin(), masses.end());
+    const double T = plant_.period;
+    ok.alpha = K * T * T / ok.mass;
+    ok.beta = B * T / ok.mass;
+    ok.alpha_max = alpha_max_for(ok.mass);
+    return ok;
+}
+
+std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& criterion, double m) {
     if (!is_accepted_criterion(criterion)) return std::nullopt;
+    const double T = plant_.period;
     std::lock_guard<std::mutex> lock(cache_mutex_);
-    const auto it = cache_.find(criterion);
-    if (it != cache_.end()) return it->second;
-    const TuningResult r = tune_wall(criterion, plant_);
-    const CriterionGains g{r.K, r.B};
-    cache_.emplace(criterion, g);
-    return g;
+    const std::pair<std::string, double> key{criterion, free_mass_plant_ ? 0.0 : m};
+    auto it = cache_.find(key);
+    if (it == cache_.end()) {
+        TuningPlant p = plant_;
+        if (!free_mass_plant_) p.mass = m;
+        const TuningResult r = tune_wall(criterion, p);
+        // Free mass: store the normalised optimum (alpha*, beta*) in the K, B fields.
+        it = cache_.emplace(key, free_mass_plant_ ? CriterionGains{r.alpha, r.beta} : CriterionGains{r.K, r.B}).first;
+    }
+    if (!free_mass_plant_) return it->second;
+    return CriterionGains{it->second.K * m / (T * T), it->second.B * m / T};
 }
 
 GainChecker::FieldStiffness GainChecker::field_stiffness(const Matrix3& J) {
-    Eigen::Matrix3d m, s;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) m(i, j) = J[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
-    }
-    s = -0.5 * (m + m.transpose());
+    const Eigen::Matrix3d m = to_eigen(J);
+    const Eigen::Matrix3d s = -0.5 * (m + m.transpose());
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s, Eigen::EigenvaluesOnly);
     const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m);
     FieldStiffness f;
@@ -79,37 +179,50 @@ GainChecker::FieldStiffness GainChecker::field_stiffness(const Matrix3& J) {
     return f;
 }
 
+double GainChecker::largest_stiffness(const Matrix3& K) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(symmetric(K), Eigen::EigenvaluesOnly);
+    return es.eigenvalues().maxCoeff();
+}
+
+hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const Matrix3& B_sum) const {
+    const double T = plant_.period;
+    const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt);
+    Eigen::Matrix3d A = (T * T) * (Mis * symmetric(K_sum) * Mis);
+    Eigen::Matrix3d Bn = T * (Mis * symmetric(B_sum) * Mis);
+    A = 0.5 * (A + A.transpose()).eval();
+    Bn = 0.5 * (Bn + Bn.transpose()).eval();
+    return hapticopt::matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A), Eigen::MatrixXd(Bn));
+}
+
 bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const {
-    Eigen::Matrix3d K, B;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) {
-            K(i, j) = 0.5 * (K_sum[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] +
-                             K_sum[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)]);
-            B(i, j) = 0.5 * (B_sum[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] +
-                             B_sum[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)]);
-        }
-    }
+    const Eigen::Matrix3d K = symmetric(K_sum), B = symmetric(B_sum);
     if (K.isZero(0.0) && B.isZero(0.0)) return true;
     // The decision: the coupled loop's exact verdict (hapticopt::matrix_gain_stability).
-    const double T = plant_.period, m = plant_.mass;
-    const hapticopt::MatrixGainStability coupled = hapticopt::matrix_gain_stability(
-        hapticopt::normalize(to_hapticopt(plant_)), Eigen::MatrixXd(K * (T * T / m)), Eigen::MatrixXd(B * (T / m)));
-    if (coupled.stable) return true;
-    // The explanation: a direction along which the pair alone is already unstable, if there is one.
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ek(K), eb(B);
-    for (const auto* solver : {&ek, &eb}) {
+    const hapticopt::MatrixGainStability verdict = coupled(K_sum, B_sum);
+    if (verdict.stable) return true;
+    // The explanation: a direction along which the pair alone is already unstable, if there is one; in the
+    // unit-mass coordinates y = M^1/2 x the term alpha u u^T is rendered by a plane along n ~ M^1/2 u with
+    // K = alpha m_n / T^2 (m_n = 1 / (n^T M^-1 n)).
+    const double T = plant_.period;
+    const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt), Ms = to_eigen(mass_sqrt_);
+    const Eigen::Matrix3d A = (T * T) * (Mis * K * Mis), Bn = T * (Mis * B * Mis);
+    const hapticopt::NormalizedPlant np = normalized_for(plant_.mass);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ea(0.5 * (A + A.transpose())), eb(0.5 * (Bn + Bn.transpose()));
+    for (const auto* solver : {&ea, &eb}) {
         for (int c = 0; c < 3; ++c) {
             const Eigen::Vector3d u = solver->eigenvectors().col(c);
-            const double k = u.dot(K * u), b = u.dot(B * u);
-            if (k <= 1e-12 * (1.0 + K.norm()) && b <= 1e-12 * (1.0 + B.norm())) continue;  // nothing acts along u
-            const PairVerdict v = check_pair(k, b);
-            if (v.stable) continue;
+            const double alpha = u.dot(A * u), beta = u.dot(Bn * u);
+            if (alpha <= 1e-12 * (1.0 + A.norm()) && beta <= 1e-12 * (1.0 + Bn.norm())) continue;  // nothing acts along u
+            if (hapticopt::is_stable(np, hapticopt::NormalizedGains{alpha, beta})) continue;
+            const Eigen::Vector3d n = (Ms * u).normalized();
+            const double m_n = mass_.along({n(0), n(1), n(2)});
+            const PairVerdict v = check_pair(alpha * m_n / (T * T), beta * m_n / T, m_n);
             std::ostringstream s;
             s.precision(6);
-            s << "summed gains along u = (" << u(0) << ", " << u(1) << ", " << u(2) << "): K = " << k
-              << " N/m, B = " << b << " N s/m (alpha = " << v.alpha << ", beta = " << v.beta
-              << ") are outside the stability region; the largest stable K at that B is " << v.largest_stable_K
-              << " N/m";
+            s << "summed gains along n = (" << n(0) << ", " << n(1) << ", " << n(2) << "): K = " << alpha * m_n / (T * T)
+              << " N/m, B = " << beta * m_n / T << " N s/m with the mass along n " << m_n << " kg (alpha = " << alpha
+              << ", beta = " << beta << ") are outside the stability region; the largest stable K at that B is "
+              << v.largest_stable_K << " N/m";
             why = s.str();
             return false;
         }
@@ -118,7 +231,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     s.precision(10);
     s << "summed gains: each direction is stable on its own, but the coupled loop of the non-commuting K_sum and "
          "B_sum has spectral radius "
-      << coupled.spectral_radius << " (stable needs < 1 - " << hapticopt::kMatrixGainRadiusMargin << ")";
+      << verdict.spectral_radius << " (stable needs < 1 - " << hapticopt::kMatrixGainRadiusMargin << ")";
     why = s.str();
     return false;
 }

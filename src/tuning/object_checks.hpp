@@ -1,19 +1,36 @@
 // The checks of the clients' scene objects against hapticopt's exact stability region (docs/protocol.md,
 // section 5). Runs in the server thread (never in the loop).
 //
-//  * One object: the pair (K, B) with alpha = K T^2 / m, beta = B T / m, for the plant (m, b, k) of the
-//    device profile (isotropic: the profile gives one mass for every axis, so m = n^T M n = m for any unit n)
-//    and the total delay d = (device + buffer) / T, is stable iff the characteristic polynomial of the
-//    exact sampled-data loop has all roots inside the unit circle (hapticopt::is_stable, Schur-Cohn).
-//    The largest stable K at that B: bisection in alpha on is_stable between a stable alpha and
-//    alpha_max (beyond which nothing is stable), 60 halvings (relative width 2^-60 of alpha_max).
-//  * By criterion: hapticopt::optimal_wall for the criterion, computed once per criterion and cached.
+// The plant: M x'' + b x' + k x = F on the device's axes, M the profile's mass matrix (one mass, one per
+// axis, or a full symmetric positive-definite matrix: devices/profile_keys.hpp), b and k scalars (an
+// anisotropic M only with b = k = 0: the profile refuses anything else), period T, total delay d T.
+//
+//  * A pair (K, B) acting with the effective mass m: alpha = K T^2 / m, beta = B T / m, is stable iff the
+//    characteristic polynomial of the exact sampled-data loop has all roots inside the unit circle
+//    (hapticopt::is_stable, Schur-Cohn). The largest stable K at that B: bisection in alpha on is_stable
+//    between a stable alpha and alpha_max (beyond which nothing is stable), 60 halvings (2^-60 alpha_max).
+//  * One object with gains K P, B P (P symmetric: n n^T for a plane or a plane spring, I - d d^T for a line
+//    spring, I for a point spring): in y = M^1/2 x the plant has unit mass and the gains are K S, B S with
+//    S = M^-1/2 P M^-1/2 — two multiples of one symmetric matrix, so the loop decouples along S's
+//    eigenvectors into scalar loops of mass 1 / s_i (s_i > 0 its eigenvalues). The object is stable iff
+//    (K, B) is stable for every such mass; for a plane the one mass is m_n = 1 / (n^T M^-1 n) (computed
+//    in closed form). Cost: one 3x3 symmetric eigenproblem and <= 3 Schur-Cohn verdicts.
+//  * By criterion: the optimum of hapticopt::optimal_wall for the object's mass. With b = k = 0 the
+//    normalised plant (0, 0, d) does not depend on the mass, so the normalised optimum (alpha*, beta*) is
+//    computed once per criterion and K = alpha* m / T^2, B = beta* m / T for any mass (exact: optimal_wall
+//    scales back the same way); otherwise (one mass, b or k > 0) once per criterion for that mass. The
+//    cache holds at most 7 entries either way. Objects acting with several masses (line and point springs)
+//    get the optimum of the lightest: the other directions see the same (K, B) at a larger mass, and the
+//    object is then checked like explicit gains.
 //  * The sum: with K_sum = sum K_i P_i and B_sum = sum B_i P_i (3x3, symmetric), the coupled loop's exact
-//    verdict hapticopt::matrix_gain_stability (its matrix characteristic polynomial P0 I + Palpha A + Pbeta B
-//    restricted to the directions where a wall acts: per common eigenvector when K_sum and B_sum commute,
-//    block-companion eigenvalues with a 1e-6 margin to the unit circle otherwise). The refusal names the
-//    first eigen-direction whose pair alone is unstable, or the coupled spectral radius.
+//    verdict hapticopt::matrix_gain_stability for the unit-mass plant of the y coordinates, A = T^2
+//    M^-1/2 K_sum M^-1/2, B = T M^-1/2 B_sum M^-1/2 (symmetric still); the header of
+//    matrix_gain_stability.hpp normalises with m = 1, which these are. The refusal names the first
+//    eigen-direction whose pair alone is unstable, as the plane along n = M^1/2 u / |M^1/2 u| with mass
+//    m_n that renders that term (K = alpha m_n / T^2, B = beta m_n / T), or the coupled spectral radius.
 //    Cost: 3x3 eigen-decompositions and at most 3 Schur-Cohn tests, or one ~3(d+3)-square eigenproblem.
+//  * Device limits: the profile's max_stiffness (N/m) bounds each object's stiffness along every direction
+//    and the summed K_sum's largest eigenvalue (fields: the largest eigenvalue of -sym(J)).
 #pragma once
 
 #include <array>
@@ -21,18 +38,28 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
+#include <hapticopt/matrix_gain_stability.hpp>
+
+#include "devices/profile_keys.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd {
 
 using Matrix3 = std::array<std::array<double, 3>, 3>;
 
-// The plant the objects are checked for: the profile's mass, damping and stiffness, the period, the total delay.
-using GainCheckPlant = TuningPlant;
+// The plant the objects are checked for: TuningPlant's damping, stiffness, period and total delay, and
+// the mass matrix (none: TuningPlant::mass on every axis), and the stiffness limit (none: no limit).
+struct GainCheckPlant : TuningPlant {
+    std::optional<DeviceMass> mass_matrix;
+    std::optional<double> max_stiffness;  // N/m
+};
 
 struct PairVerdict {
     bool stable = false;
+    double mass = 0.0;              // kg, the effective mass the pair was checked with
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
     double largest_stable_K = 0.0;  // N/m at this B (0: none)
@@ -44,19 +71,31 @@ struct CriterionGains {
 
 class GainChecker {
 public:
+    // Throws std::invalid_argument naming the parameter for an anisotropic mass with b or k != 0.
     explicit GainChecker(const GainCheckPlant& plant);
 
     [[nodiscard]] const GainCheckPlant& plant() const noexcept { return plant_; }
+    [[nodiscard]] const DeviceMass& mass() const noexcept { return mass_; }
+    [[nodiscard]] std::optional<double> max_stiffness() const noexcept { return plant_.max_stiffness; }
 
-    // Stability of one (K, B) (N/m, N s/m, finite): one Schur-Cohn verdict (what a commit needs).
-    [[nodiscard]] bool pair_is_stable(double K, double B) const;
+    // Stability of one (K, B) (N/m, N s/m, finite) acting with mass m (kg): one Schur-Cohn verdict.
+    [[nodiscard]] bool pair_is_stable(double K, double B, double m) const;
+    // The same and the largest stable K at that B (61 verdicts: for a refusal's message).
+    [[nodiscard]] PairVerdict check_pair(double K, double B, double m) const;
 
-    // Stability of one (K, B) and the largest stable K at that B (61 verdicts: for a refusal's message).
-    [[nodiscard]] PairVerdict check_pair(double K, double B) const;
+    // The masses an object with gains (K P, B P) acts with: 1 / s_i for the eigenvalues s_i > 0 of
+    // M^-1/2 P M^-1/2 (relative threshold 1e-12), ascending; for P = n n^T exactly {1 / (n^T M^-1 n)}.
+    [[nodiscard]] std::vector<double> masses_of(const Matrix3& P) const;
+    [[nodiscard]] double mass_along(const std::array<double, 3>& n) const noexcept { return mass_.along(n); }
 
-    // The optimum of a criterion (CE0 .. CE2+OV): computed on first use, then cached. std::nullopt for
+    // The object (K P, B P): stable iff (K, B) is stable with each of masses_of(P). On failure the verdict
+    // of the mass with the smallest largest stable K (check_pair); on success stable = true and `mass` the
+    // lightest (no bisection).
+    [[nodiscard]] PairVerdict check_object(double K, double B, const std::vector<double>& masses) const;
+
+    // The optimum of a criterion (CE0 .. CE2+OV) for mass m (kg), cached as said above. std::nullopt for
     // an unknown name.
-    std::optional<CriterionGains> criterion_gains(const std::string& criterion);
+    std::optional<CriterionGains> criterion_gains(const std::string& criterion, double m);
 
     // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
     // and the spectral norm of J (for the force bound ||F0|| + ||J|| radius).
@@ -64,15 +103,25 @@ public:
         double min_stiffness = 0.0, max_stiffness = 0.0, jacobian_norm = 0.0;
     };
     [[nodiscard]] static FieldStiffness field_stiffness(const Matrix3& J);
+    // The largest eigenvalue of sym(K) (N/m): the stiffness along the stiffest direction.
+    [[nodiscard]] static double largest_stiffness(const Matrix3& K);
 
+    // The coupled loop's verdict for physical gain matrices (symmetrised), in the unit-mass coordinates.
+    [[nodiscard]] hapticopt::MatrixGainStability coupled(const Matrix3& K_sum, const Matrix3& B_sum) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
 
 private:
+    [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m) const;
+    [[nodiscard]] double alpha_max_for(double m) const;
+
     GainCheckPlant plant_;
-    double alpha_max_ = 0.0;
+    DeviceMass mass_;
+    MassMatrix mass_sqrt_{};   // M^1/2
+    bool free_mass_plant_ = false;  // b = k = 0: the normalised plant does not depend on the mass
+    double alpha_max_ = 0.0;       // for the profile's mass (any mass when free_mass_plant_)
     std::mutex cache_mutex_;
-    std::map<std::string, CriterionGains> cache_;
+    std::map<std::pair<std::string, double>, CriterionGains> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
 };
 
 }  // namespace hapticd

@@ -467,7 +467,8 @@ TEST_F(ConfigFileTest, EveryShippedProfileKeyRejectsTheWrongType) {
     }
     const auto mass = load_profile("mass = \"0.3\"\nmax_force = 10.0\n");
     EXPECT_EQ(mass.code, kExitBadConfig);
-    EXPECT_CONTAINS(mass.message, "line 1, column 1: mass = \"0.3\" has the wrong type (a string); accepted: a number");
+    EXPECT_CONTAINS(mass.message, "line 1, column 1: mass = \"0.3\" has the wrong type (a string); accepted: an array of "
+                                    "numbers ([a, b, ...]) or a number");  // one mass, or one per axis
 }
 
 }  // namespace

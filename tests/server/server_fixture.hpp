@@ -135,9 +135,11 @@ inline Names names(const std::string& tag) {
     return Names{(scratch() / (tag + ".sock")).string(), "/hapticd-test-" + std::to_string(::getpid()) + "-" + tag};
 }
 
-// hapticd --serve on tests/server/sim3.toml with a config wall that is never touched (x > 0.05 m).
-inline std::vector<std::string> daemon_args(const Names& n, const std::vector<std::string>& extra) {
-    std::vector<std::string> a{"--config", "", "--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml", "--serve",
+// hapticd --serve on tests/server/<profile> (default sim3.toml) with a config wall that is never touched
+// (x > 0.05 m).
+inline std::vector<std::string> daemon_args(const Names& n, const std::vector<std::string>& extra,
+                                            const std::string& profile = "sim3.toml") {
+    std::vector<std::string> a{"--config", "", "--device", std::string(HAPTICD_SERVER_TEST_DIR "/") + profile, "--serve",
                                "--serve-socket", n.socket, "--serve-shm", n.shm, "--rt-priority", "0", "--mlock", "false",
                                "--wall", "axis=0 position=0.05 direction=+1"};
     a.insert(a.end(), extra.begin(), extra.end());

@@ -1,12 +1,23 @@
 // The loop's side of client objects (scene/scene_objects.hpp) and the server's gain checks
 // (tuning/object_checks.hpp), in process: force laws, ramps, moving proxies, the rate limit, whole-batch
-// application; the pair and summed-gain checks against hapticopt::is_stable directly.
+// application; the pair and summed-gain checks against hapticopt::is_stable directly; with an anisotropic
+// mass matrix: the objects' effective masses, the summed check against an independently built 3-axis
+// state matrix, the criterion optimum per mass, the simulated device's exact ZOH, and the profile keys.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <Eigen/Dense>
+#include <unsupported/Eigen/MatrixFunctions>
 
 #include <hapticopt/hapticopt.hpp>
 
+#include "config/options.hpp"
+#include "devices/sim_device.hpp"
 #include "scene/scene_objects.hpp"
 #include "tuning/object_checks.hpp"
 
@@ -233,9 +244,9 @@ TEST(GainChecker, PairVerdictIsHapticoptsAndTheLargestStableKBracketsTheBoundary
     GainChecker checker(plant(kT));
     const hapticopt::NormalizedPlant np{0.0, 0.0, 1.0};
     for (const double B : {5.0, 50.0, 150.0}) {
-        const PairVerdict v = checker.check_pair(1e4, B);
+        const PairVerdict v = checker.check_pair(1e4, B, 0.3);
         EXPECT_EQ(v.stable, hapticopt::is_stable(np, {1e4 * kT * kT / 0.3, B * kT / 0.3}));
-        EXPECT_EQ(checker.pair_is_stable(1e4, B), v.stable);
+        EXPECT_EQ(checker.pair_is_stable(1e4, B, 0.3), v.stable);
         ASSERT_GT(v.largest_stable_K, 0.0);
         const double beta = B * kT / 0.3;
         EXPECT_TRUE(hapticopt::is_stable(np, {v.largest_stable_K * (1 - 1e-9) * kT * kT / 0.3, beta})) << B;
@@ -263,7 +274,7 @@ Matrix3 plus(const Matrix3& a, const Matrix3& b) {
 // must be hapticopt's for (2 alpha, 2 beta); two orthogonal planes are two independent loops.
 TEST(GainChecker, SummedGainsOfParallelPlanesAreCheckedAsTheirSum) {
     GainChecker checker(plant(0.0));
-    const auto ce2 = checker.criterion_gains("CE2");
+    const auto ce2 = checker.criterion_gains("CE2", 0.3);
     ASSERT_TRUE(ce2);
     const std::array<double, 3> n{0.0, 0.6, 0.8}, e{1.0, 0.0, 0.0};
     std::string why;
@@ -283,6 +294,286 @@ TEST(GainChecker, FieldStiffnessIsMinusTheSymmetricPartOfTheJacobian) {
     EXPECT_NEAR(fs.min_stiffness, -10.0, 1e-9);
     EXPECT_NEAR(fs.max_stiffness, 75.0 + std::sqrt(725.0), 1e-9);
     EXPECT_GT(fs.jacobian_norm, 100.0);
+}
+
+// --- an anisotropic mass ----------------------------------------------------------------------------
+
+// A full symmetric positive-definite mass matrix, b = k = 0 (tests/server/sim3_aniso.toml): along
+// n = (0, 0.6, 0.8) m_n = 1 / (n^T M^-1 n) = 0.2123 kg, against n^T M n = 0.268 kg and the mean 0.333 kg.
+MassMatrix anisotropic_matrix() {
+    return MassMatrix{std::array<double, 3>{0.45, 0.10, 0.12}, {0.10, 0.30, 0.0}, {0.12, 0.0, 0.25}};
+}
+
+Eigen::Matrix3d eigen_of(const MassMatrix& m) {
+    Eigen::Matrix3d e;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) e(i, j) = m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+    }
+    return e;
+}
+
+GainCheckPlant anisotropic_plant(double delay) {
+    GainCheckPlant p = plant(delay);
+    p.mass_matrix = DeviceMass::from_matrix(anisotropic_matrix(), 3);
+    p.mass = p.mass_matrix->of_axis(0);
+    return p;
+}
+
+// The directional masses against an independent inverse (Eigen's LU of M, not the eigen-decomposition the
+// checker uses): a plane's is 1 / (n^T M^-1 n), not n^T M n; a point spring's are M's eigenvalues; a line
+// spring's the inverses of the non-zero eigenvalues of M^-1/2 (I - d d^T) M^-1/2. Relative 1e-12: both are
+// a few double operations on a matrix of condition ~2.5.
+TEST(AnisotropicMass, DirectionalMassesAreThoseOfTheForceDirection) {
+    const GainChecker checker(anisotropic_plant(0.0));
+    const Eigen::Matrix3d M = eigen_of(anisotropic_matrix());
+    const Eigen::Matrix3d Minv = M.inverse();
+    const Eigen::Vector3d n = Eigen::Vector3d(0.0, 0.6, 0.8);
+    const double m_n = 1.0 / n.dot(Minv * n);
+    EXPECT_NEAR(checker.mass_along({0.0, 0.6, 0.8}), m_n, 1e-12 * m_n);
+    EXPECT_GT(std::abs(m_n - n.dot(M * n)), 0.05);  // the wrong reading differs by far more than rounding
+    Matrix3 P = outer({0.0, 0.6, 0.8}, 1.0);
+    const std::vector<double> plane_mass = checker.masses_of(P);
+    ASSERT_EQ(plane_mass.size(), 1U);
+    EXPECT_NEAR(plane_mass[0], m_n, 1e-12 * m_n);
+    Matrix3 I{};
+    for (std::size_t a = 0; a < 3; ++a) I[a][a] = 1.0;
+    const std::vector<double> point = checker.masses_of(I);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+    ASSERT_EQ(point.size(), 3U);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(point[static_cast<std::size_t>(i)], es.eigenvalues()(i), 1e-12) << i;
+    // Line spring along d: the two masses of the plane perpendicular to d, independently as the
+    // generalised eigenvalues of (Q^T M^-1 Q)^-1 with Q an orthonormal basis of that plane.
+    const Eigen::Vector3d d = Eigen::Vector3d(1.0, 1.0, 0.0).normalized();
+    const Matrix3 line = plus(I, outer({d(0), d(1), d(2)}, -1.0));
+    Eigen::Matrix<double, 3, 2> Q;
+    Q.col(0) = Eigen::Vector3d(1.0, -1.0, 0.0).normalized();
+    Q.col(1) = Eigen::Vector3d(0.0, 0.0, 1.0);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> el((Q.transpose() * Minv * Q).inverse());
+    const std::vector<double> line_masses = checker.masses_of(line);
+    ASSERT_EQ(line_masses.size(), 2U);
+    EXPECT_NEAR(line_masses[0], el.eigenvalues()(0), 1e-12);
+    EXPECT_NEAR(line_masses[1], el.eigenvalues()(1), 1e-12);
+}
+
+// A pair stable for the isotropic mean mass (trace / 3) but not for m_n is refused by the object check,
+// and the largest stable K brackets hapticopt's boundary for m_n (bisection width 2^-60 alpha_max, so
+// +-1e-9 relative is far outside it).
+TEST(AnisotropicMass, AnObjectIsCheckedWithItsOwnMass) {
+    const GainChecker checker(anisotropic_plant(kT));
+    const double m_n = checker.mass_along({0.0, 0.6, 0.8});
+    const double mean = (0.45 + 0.30 + 0.25) / 3.0;
+    ASSERT_LT(m_n, 0.95 * mean);
+    const hapticopt::NormalizedPlant np{0.0, 0.0, 1.0};
+    const double B = 0.4 * m_n / kT;  // beta = 0.4 at m_n
+    // Just beyond the boundary at m_n: bisect hapticopt directly for a K stable at the mean, unstable at m_n.
+    double K = 0.0;
+    for (double alpha = 0.01; alpha < 1.0; alpha += 0.001) {
+        const double k = alpha * m_n / (kT * kT);
+        if (!hapticopt::is_stable(np, {alpha, B * kT / m_n}) && hapticopt::is_stable(np, {k * kT * kT / mean, B * kT / mean})) {
+            K = k;
+            break;
+        }
+    }
+    ASSERT_GT(K, 0.0) << "no pair separates the two masses (the test would prove nothing)";
+    EXPECT_TRUE(checker.pair_is_stable(K, B, mean));
+    const PairVerdict v = checker.check_object(K, B, checker.masses_of(outer({0.0, 0.6, 0.8}, 1.0)));
+    EXPECT_FALSE(v.stable);
+    EXPECT_NEAR(v.mass, m_n, 1e-12 * m_n);
+    const double beta = B * kT / m_n;
+    EXPECT_TRUE(hapticopt::is_stable(np, {v.largest_stable_K * (1 - 1e-9) * kT * kT / m_n, beta}));
+    EXPECT_FALSE(hapticopt::is_stable(np, {v.largest_stable_K * (1 + 1e-9) * kT * kT / m_n, beta}));
+}
+
+// b = k = 0: the criterion optimum for any mass is optimal_wall's for that mass (the normalised optimum is
+// mass-independent; equal to rounding, 1e-12 relative).
+TEST(AnisotropicMass, CriterionGainsAreTheOptimumForTheObjectsMass) {
+    GainChecker checker(anisotropic_plant(kT));
+    for (const double m : {checker.mass_along({0.0, 0.6, 0.8}), checker.mass_along({1.0, 0.0, 0.0}), 0.45}) {
+        const auto g = checker.criterion_gains("CE1", m);
+        ASSERT_TRUE(g);
+        const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE1, hapticopt::PhysicalPlant{m, 0.0, 0.0, kT, kT});
+        EXPECT_NEAR(g->K, t.K, 1e-12 * t.K) << m;
+        EXPECT_NEAR(g->B, t.B, 1e-12 * t.B) << m;
+    }
+}
+
+// The loop state (x_j, v_j, x_{j-1} .. x_{j-d-1}) in physical units with M x'' = -u, u_j = K x_{j-d} +
+// B (x_{j-d} - x_{j-d-1}) / T held over the period; one period from Eigen's exponential of the 9 x 9
+// augmented matrix [[0, I, 0], [0, 0, -M^-1], [0, 0, 0]] T — no change of coordinates, no polynomial.
+double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B, int d) {
+    Eigen::Matrix<double, 9, 9> c = Eigen::Matrix<double, 9, 9>::Zero();
+    c.block<3, 3>(0, 3) = Eigen::Matrix3d::Identity();
+    c.block<3, 3>(3, 6) = -M.inverse();
+    const Eigen::Matrix<double, 9, 9> e = (c * kT).exp();
+    const Eigen::Matrix<double, 6, 6> phi = e.topLeftCorner<6, 6>();
+    const Eigen::Matrix<double, 6, 3> gamma = e.topRightCorner<6, 3>();
+    const int n = 6 + 3 * (d + 1);
+    auto x_block = [](int age) { return age == 0 ? 0 : 3 + 3 * age; };  // x_{j-age}
+    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, n);
+    S.topLeftCorner<6, 6>() = phi;
+    const Eigen::Matrix3d Kd = K + B / kT, Bd = -B / kT;
+    S.block(0, x_block(d), 6, 3) += gamma * Kd;
+    S.block(0, x_block(d + 1), 6, 3) += gamma * Bd;
+    for (int age = 1; age <= d + 1; ++age) S.block(x_block(age), x_block(age - 1), 3, 3) = Eigen::Matrix3d::Identity();
+    const Eigen::EigenSolver<Eigen::MatrixXd> es(S, false);
+    return es.eigenvalues().cwiseAbs().maxCoeff();
+}
+
+// The summed check with a matrix mass against that independent construction: spectral radius agreement and
+// "reported stable => radius < 1". Tolerance 1e-8 absolute on radii of order 1, as in
+// tests/beyond/matrix_gain_stability_test.cpp (eps times the conditioning of simple dominant roots of
+// ~15-square companion and state matrices).
+TEST(AnisotropicMass, SummedGainsAgreeWithThePhysicalStateMatrix) {
+    const Eigen::Matrix3d M = eigen_of(anisotropic_matrix());
+    std::mt19937 rng(20261201);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0), alpha_of(0.01, 0.45), beta_of(0.0, 1.2);
+    int stable = 0, unstable = 0, non_commuting = 0;
+    double largest_difference = 0.0;
+    for (int trial = 0; trial < 120; ++trial) {
+        const int d = trial % 3;
+        const GainChecker checker(anisotropic_plant(d * kT));
+        Matrix3 K{}, B{};
+        Eigen::Matrix3d Ke = Eigen::Matrix3d::Zero(), Be = Eigen::Matrix3d::Zero();
+        for (int object = 0; object < 3; ++object) {
+            const Eigen::Vector3d n = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+            const double m_n = 1.0 / n.dot(M.inverse() * n);
+            const double k = alpha_of(rng) / (1 + d) * m_n / (kT * kT), b = beta_of(rng) * m_n / kT;
+            K = plus(K, outer({n(0), n(1), n(2)}, k));
+            B = plus(B, outer({n(0), n(1), n(2)}, b));
+            Ke += k * n * n.transpose();
+            Be += b * n * n.transpose();
+        }
+        const hapticopt::MatrixGainStability v = checker.coupled(K, B);
+        const double reference = physical_state_spectral_radius(M, Ke, Be, d);
+        non_commuting += v.commuting ? 0 : 1;
+        EXPECT_NEAR(v.spectral_radius, reference, 1e-8) << "trial " << trial;
+        largest_difference = std::max(largest_difference, std::abs(v.spectral_radius - reference));
+        std::string why;
+        EXPECT_EQ(checker.sum_is_stable(K, B, why), v.stable) << trial;
+        if (v.stable) {
+            EXPECT_LT(reference, 1.0) << "trial " << trial;
+            ++stable;
+        } else {
+            EXPECT_GT(reference, 1.0 - 2 * hapticopt::kMatrixGainRadiusMargin) << "trial " << trial;
+            EXPECT_FALSE(why.empty());
+            ++unstable;
+        }
+    }
+    std::printf("[ anisotropic sums ] %d stable, %d unstable, %d non-commuting; max |radius - physical state matrix| = %.3g\n",
+                stable, unstable, non_commuting, largest_difference);
+    EXPECT_GT(stable, 15);
+    EXPECT_GT(unstable, 15);
+    EXPECT_GT(non_commuting, 100);
+}
+
+// One plane alone: the coupled verdict in the unit-mass coordinates is the scalar verdict for m_n.
+TEST(AnisotropicMass, OnePlaneAloneIsTheScalarVerdictForItsMass) {
+    const GainChecker checker(anisotropic_plant(kT));
+    const double m_n = checker.mass_along({0.0, 0.6, 0.8});
+    const hapticopt::NormalizedPlant np{0.0, 0.0, 1.0};
+    int both = 0;
+    for (double alpha = 0.02; alpha < 0.6; alpha += 0.04) {
+        for (double beta = 0.05; beta < 1.2; beta += 0.1) {
+            const double K = alpha * m_n / (kT * kT), B = beta * m_n / kT;
+            std::string why;
+            const bool expected = hapticopt::is_stable(np, {alpha, beta});
+            EXPECT_EQ(checker.sum_is_stable(outer({0.0, 0.6, 0.8}, K), outer({0.0, 0.6, 0.8}, B), why), expected) << alpha << " " << beta;
+            both += expected ? 1 : 0;
+        }
+    }
+    EXPECT_GT(both, 10);
+}
+
+// The simulated device with a full mass matrix (b = k = 0) against the exact solution of M x'' = u with
+// u constant per period, from the 9 x 9 matrix exponential: the same ZOH, so equal to rounding (1e-12 of
+// the motion's scale after 200 steps).
+TEST(AnisotropicMass, TheSimulatedDeviceRendersTheMassMatrixExactly) {
+    SimDeviceConfig cfg;
+    cfg.capabilities.axes = 3;
+    cfg.capabilities.max_force = 100.0;
+    cfg.plant = PlantParameters{1.0, 0.0, 0.0};
+    cfg.mass_matrix = anisotropic_matrix();
+    cfg.scenario.step_force = 0.0;
+    SimDevice sim(cfg);
+    ASSERT_EQ(sim.open(), DeviceStatus::Ok);
+    const Eigen::Matrix3d M = eigen_of(anisotropic_matrix());
+    Eigen::Matrix<double, 9, 9> c = Eigen::Matrix<double, 9, 9>::Zero();
+    c.block<3, 3>(0, 3) = Eigen::Matrix3d::Identity();
+    c.block<3, 3>(3, 6) = M.inverse();
+    const Eigen::Matrix<double, 9, 9> e = (c * kT).exp();
+    Eigen::Matrix<double, 6, 1> state = Eigen::Matrix<double, 6, 1>::Zero();
+    double scale = 0.0, worst = 0.0;
+    for (int j = 0; j < 200; ++j) {
+        AxisVector x{};
+        ASSERT_EQ(sim.read_position(x), DeviceStatus::Ok);
+        for (int a = 0; a < 3; ++a) {
+            worst = std::max(worst, std::abs(x[static_cast<std::size_t>(a)] - state(a)));
+            scale = std::max(scale, std::abs(state(a)));
+        }
+        const AxisVector u{std::sin(0.05 * j), 0.5 * std::cos(0.03 * j), j < 100 ? 1.0 : -1.0};
+        ASSERT_EQ(sim.write_force(u), DeviceStatus::Ok);
+        Eigen::Matrix<double, 9, 1> aug;
+        aug << state, u[0], u[1], u[2];
+        state = (e * aug).head<6>();
+    }
+    ASSERT_GT(scale, 1e-3);
+    std::printf("[ anisotropic sim ] max |x_sim - x_exact| = %.3g m over 200 ticks (motion up to %.3g m)\n", worst, scale);
+    EXPECT_LE(worst, 1e-12 * scale);
+    // A non-diagonal mass with damping is refused by name.
+    cfg.plant.damping = 1.0;
+    EXPECT_THROW({ SimDevice refused(cfg); }, std::invalid_argument);
+}
+
+// The profile keys: each bad value is refused naming the key and the accepted range, with its exit code.
+struct ProfileCase {
+    const char* keys;
+    int code;
+    const char* expected;
+};
+
+TEST(AnisotropicMass, ProfileKeysAreValidatedByName) {
+    const auto dir = std::filesystem::temp_directory_path() / ("hapticd_mass_keys_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string common = "driver = \"sim\"\nmax_force = 10.0\naxes = 3\n";
+    const ProfileCase cases[] = {
+        {"", kExitBadConfig, "missing key 'mass'"},
+        {"mass = 0.3\nmass_matrix = [0.3, 0, 0, 0, 0.3, 0, 0, 0, 0.3]\n", kExitBadConfig, "mass and mass_matrix are both given"},
+        {"mass = [0.3, 0.4]\n", kExitInvalidParameter, "one value (every axis) or one per axis (3)"},
+        {"mass = [0.3, -0.4, 0.4]\n", kExitInvalidParameter, "finite, > 0"},
+        {"mass_matrix = [0.3, 0, 0, 0, 0.3, 0]\n", kExitInvalidParameter, "3 x 3 = 9 values"},
+        {"mass_matrix = [0.3, 0.1, 0, 0, 0.3, 0, 0, 0, 0.3]\n", kExitInvalidParameter, "a symmetric matrix"},
+        {"mass_matrix = [0.3, 0.4, 0, 0.4, 0.3, 0, 0, 0, 0.3]\n", kExitInvalidParameter, "positive definite"},
+        {"mass = [0.3, 0.3, 0.45]\ndamping = 1.0\n", kExitInvalidParameter, "accepted: damping = 0 and stiffness = 0"},
+        {"mass = 0.3\nmax_stiffness = -5\n", kExitInvalidParameter, "max_stiffness = -5 is invalid; accepted range: finite, > 0"},
+    };
+    int i = 0;
+    for (const ProfileCase& c : cases) {
+        const auto path = dir / ("case" + std::to_string(i++) + ".toml");
+        std::ofstream(path) << common << c.keys;
+        Options o;
+        o.device = path.string();
+        try {
+            (void)load_device_profile(o);
+            ADD_FAILURE() << c.keys << " was accepted";
+        } catch (const StartupError& e) {
+            EXPECT_EQ(e.code(), c.code) << c.keys << ": " << e.what();
+            EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << c.keys << ": " << e.what();
+        }
+    }
+    // Accepted: a per-axis mass (the mass of axis a is M_aa) and a matrix (1 / (M^-1)_aa), and the limit.
+    const auto good = dir / "good.toml";
+    std::ofstream(good) << common << "mass = [0.3, 0.3, 0.45]\nmax_stiffness = 5e4\n";
+    Options o;
+    o.device = good.string();
+    const DeviceProfile p = load_device_profile(o);
+    EXPECT_FALSE(p.mass_model.isotropic);
+    EXPECT_TRUE(p.mass_model.diagonal);
+    EXPECT_EQ(p.mass_model.of_axis(2), 0.45);
+    ASSERT_TRUE(p.max_stiffness);
+    EXPECT_EQ(*p.max_stiffness, 5e4);
+    o.identify = true;  // one mass only
+    EXPECT_THROW((void)load_device_profile(o), StartupError);
+    std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include <Eigen/Dense>
 #include <hapticopt/hapticopt.hpp>
 
 #include "server_fixture.hpp"
@@ -70,6 +71,124 @@ TEST(ServerProcess, ObliquePlaneGivesTheAnalysedStepResponse) {
                 y.size());
     EXPECT_LE(worst, 1e-9);
     EXPECT_GT(-y[100] / 0.6, 0.5 * x_inf);  // it did move into the wall (the comparison is not against zeros)
+}
+
+// The mass matrix of tests/server/sim3_aniso.toml (kg).
+Eigen::Matrix3d anisotropic_mass() {
+    Eigen::Matrix3d M;
+    M << 0.45, 0.10, 0.12, 0.10, 0.30, 0.0, 0.12, 0.0, 0.25;
+    return M;
+}
+
+// An oblique plane on the 3-axis simulated device with a full mass matrix M (b = k = 0), n = (0, -0.6, -0.8):
+// the forces (the plane's and the field's -1 N n) act along n and depend only on p = -n.x, so
+// n^T x'' = (n^T M^-1 n) f and p is the scalar step response for m_n = 1 / (n^T M^-1 n) (CE2 for that
+// mass, by criterion). The hand moves along -M^-1 n (not along n; its x part is negative, away from the
+// config wall at the start position x = 0.05), so the traced axis y gives p = -y / ((M^-1 n)_y m_n). The daemon
+// integrates M x'' = u exactly (x+ = x + T v + T^2/2 M^-1 u, v+ = v + T M^-1 u) in physical units and
+// hapticopt the normalised scalar loop: the same exact discretisation, so they differ by rounding only;
+// relative 1e-9 of x_inf as above (the inverse of M adds ~1e-16 relative).
+TEST(ServerProcess, ObliquePlaneOnAnAnisotropicMassGivesTheStepResponseForItsMass) {
+    const Names n = names("aniso_step");
+    const std::string trace = (scratch() / "aniso_step.csv").string();
+    const Eigen::Vector3d normal(0.0, -0.6, -0.8);
+    const json ops = json::array({
+        {{"op", "add"}, {"object", plane({0.0, -0.6, -0.8}, 0.0, {{"criterion", "CE2"}}, true)}},
+        {{"op", "add"},
+         {"object", {{"kind", "field"}, {"center", {0, 0, 0}}, {"radius", 1.0}, {"force", {0.0, 0.6, 0.8}},
+                     {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}}}},
+    });
+    Child daemon(HAPTICD_BINARY,
+                 daemon_args(n, {"--lockstep", "--serve-wait-commit", "--scenario", "step", "--step-force", "0", "--ramp-time", "0",
+                                 "--duration", "0.3", "--trace", trace, "--trace-axis", "1"},
+                             "sim3_aniso.toml"),
+                 "aniso_step_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    Child client(HAPTICD_TEST_CLIENT, client_args(n, ops, {"--then", "hold-silent"}), "aniso_step_client");
+    const auto reply = client.first_line();
+    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << client.out() << client.err();
+    ASSERT_EQ(daemon.wait(), 0) << daemon.err();
+    ASSERT_LT(-(anisotropic_mass().inverse() * normal)(0), 0.0);  // the hand (along -M^-1 n) leaves the config wall
+
+    const Eigen::Matrix3d Minv = anisotropic_mass().inverse();
+    const double m_n = 1.0 / normal.dot(Minv * normal);
+    const double along_y = (Minv * normal)(1) * m_n;  // y = -along_y p
+    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{m_n, 0.0, 0.0, kT, 0.0});
+    const std::vector<double> y = trace_positions(trace);
+    ASSERT_EQ(y.size(), 300U);
+    const auto x = hapticopt::sampled_step_response(hapticopt::NormalizedPlant{0.0, 0.0, 0.0},
+                                                    hapticopt::NormalizedGains{t.alpha, t.beta}, y.size());
+    const double x_inf = 1.0 / t.K;
+    double worst = 0.0;
+    for (std::size_t j = 0; j < y.size(); ++j) {
+        const double p = -y[j] / along_y;
+        worst = std::max(worst, std::abs(p - x[j] * kT * kT / m_n) / x_inf);
+    }
+    std::printf("[ anisotropic step ] m_n %.6g kg, K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", m_n, t.K,
+                t.B, worst, y.size());
+    EXPECT_LE(worst, 1e-9);
+    EXPECT_GT(-y[100] / along_y, 0.5 * x_inf);  // it did move into the wall
+    // The response for n^T M n (the kinetic-energy mass along n) is a different curve: the test can tell.
+    const double wrong_mass = normal.dot(anisotropic_mass() * normal);
+    const hapticopt::WallTuning tw = hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{wrong_mass, 0.0, 0.0, kT, 0.0});
+    EXPECT_GT(std::abs(tw.K - t.K), 1e-3 * t.K);
+}
+
+// A pair stable for the isotropic mean mass (the diagonal's mean, 0.333 kg) but not for the plane's m_n
+// (0.212 kg) is refused naming K, B and the largest stable K at m_n, which brackets hapticopt's boundary
+// (+-1e-6 relative, far outside the bisection's 2^-60); nothing reaches the loop.
+TEST(ServerProcess, APairStableForTheMeanMassButNotForTheNormalsMassIsRefused) {
+    const Names n = names("aniso_refuse");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"), "aniso_refuse_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    const Eigen::Vector3d normal(0.0, 0.6, 0.8);
+    const double m_n = 1.0 / normal.dot(anisotropic_mass().inverse() * normal);
+    const double mean = anisotropic_mass().trace() / 3.0;
+    EXPECT_NEAR(c.welcome().device.mass[0], 1.0 / anisotropic_mass().inverse()(0, 0), 1e-12);  // mass along axis 0
+    const hapticopt::NormalizedPlant np{0.0, 0.0, 0.0};
+    // The first beta (at m_n) whose boundary K is below the profile's max_stiffness (100000 N/m), so the
+    // refusal is the stability region's, and the first alpha beyond it that is stable for the mean mass.
+    double K = 0.0, B = 0.0;
+    for (double beta = 0.05; beta < 1.0 && K == 0.0; beta += 0.05) {
+        for (double alpha = 0.01; alpha < 1.0; alpha += 0.001) {
+            if (!hapticopt::is_stable(np, {alpha, beta})) {
+                if (hapticopt::is_stable(np, {alpha * m_n / mean, beta * m_n / mean}) && alpha * m_n / (kT * kT) < 0.9e5) {
+                    K = alpha * m_n / (kT * kT);
+                    B = beta * m_n / kT;
+                }
+                break;
+            }
+        }
+    }
+    ASSERT_GT(K, 0.0) << "no pair separates the two masses below max_stiffness";
+    const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+    cl::StateSample before;
+    ASSERT_TRUE(state.read(before));
+    try {
+        c.commit(cl::Batch().add(cl::Plane{.normal = {0.0, 0.6, 0.8}, .offset = -0.05, .bilateral = false,
+                                           .gains = cl::Gains::explicit_gains(K, B)}));
+        ADD_FAILURE() << "a pair unstable for m_n was accepted";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::UnstableGains) << e.what();
+        const std::string what = e.what();
+        EXPECT_NE(what.find("K = "), std::string::npos) << what;
+        EXPECT_NE(what.find("B = "), std::string::npos) << what;
+        EXPECT_NE(what.find("0.212321 kg"), std::string::npos) << what;  // the mass along the normal
+        ASSERT_TRUE(e.largest_stable_K().has_value());
+        const double K_max = *e.largest_stable_K();
+        const double beta = B * kT / m_n;
+        EXPECT_TRUE(hapticopt::is_stable(np, {K_max * (1 - 1e-6) * kT * kT / m_n, beta}));
+        EXPECT_FALSE(hapticopt::is_stable(np, {K_max * (1 + 1e-6) * kT * kT / m_n, beta}));
+        EXPECT_LT(K_max, K);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    cl::StateSample after;
+    ASSERT_TRUE(state.read(after));
+    EXPECT_EQ(after.last_commit_seq, before.last_commit_seq);
+    EXPECT_EQ(c.list().size(), 1U);  // the config wall only
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
 
 // A criterion object gets the library's optimal gains for the profile's plant and the total delay

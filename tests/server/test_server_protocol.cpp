@@ -173,6 +173,68 @@ TEST_F(ServerProtocol, ForcesAndPositionsBeyondTheDeviceAndNegativeStiffnessAreR
     c.commit(cl::Batch().clear());
 }
 
+// The profile's stiffness limit (sim3_aniso.toml: max_stiffness = 100000 N/m): an explicit plane, a
+// spring, a criterion whose optimum is stiffer, a field's Jacobian and the sum of objects that are each
+// within it are refused with beyond_device_limits, naming K, the limit and the profile key; a stiffness
+// below it passes. The limit also appears in the welcome.
+TEST(ServerStiffnessLimit, StiffnessBeyondMaxStiffnessIsRefusedNamingTheKey) {
+    const Names n = names("stiff");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"), "stiff_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "stiff"});
+    ASSERT_TRUE(c.welcome().device.max_stiffness.has_value());
+    EXPECT_EQ(*c.welcome().device.max_stiffness, 100000.0);
+    auto expect_limit = [&](const cl::Batch& batch, int op_index, const std::string& k_text) {
+        try {
+            c.commit(batch);
+            ADD_FAILURE() << "accepted: " << k_text;
+        } catch (const cl::Error& e) {
+            const std::string what = e.what();
+            EXPECT_EQ(e.code(), cl::ErrorCode::BeyondDeviceLimits) << what;
+            EXPECT_EQ(e.op_index(), op_index) << what;
+            EXPECT_NE(what.find("max_stiffness = 100000 N/m"), std::string::npos) << what;
+            EXPECT_NE(what.find(k_text), std::string::npos) << what;
+        }
+    };
+    // Along x the mass is 0.359 kg: K = 120000 N/m (alpha = 0.334) with B = 100 N s/m is inside the
+    // stability region, so only the limit refuses it.
+    const cl::Plane stiff{.normal = {-1, 0, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(120000.0, 100.0)};
+    expect_limit(cl::Batch().add(stiff), 0, "K = 120000 N/m");
+    expect_limit(cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Point, .point = {0, 0, 0}, .direction = {1, 0, 0},
+                                            .gains = cl::Gains::explicit_gains(150000.0, 100.0)}),
+                 0, "K = 150000 N/m");
+    cl::Field steep{.center = {0, 0, 0}, .radius = 5e-5, .force = {0, 0, 0},
+                    .jacobian = {cl::Vec3{-120000, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}, .damping = 100.0};
+    expect_limit(cl::Batch().add(steep), 0, "-sym(J)) = 120000 N/m");
+    // Two planes along z of 60000 N/m each: each within the limit, their sum (120000) not.
+    const cl::Plane half{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(60000.0, 100.0)};
+    expect_limit(cl::Batch().add(half).add(half), -1, "120000 N/m");
+    // The config wall on axis 0 (CE2 for 0.359 kg, 88 840 N/m) plus a plane of 20000 N/m along x: over.
+    const cl::Plane small{.normal = {-1, 0, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(20000.0, 50.0)};
+    expect_limit(cl::Batch().add(small), -1, "summed stiffness");
+    // Within the limit: accepted (a plane along z, which the config wall does not share).
+    const cl::Plane fine{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(50000.0, 100.0)};
+    EXPECT_EQ(c.commit(cl::Batch().add(fine)).object_ids.size(), 1U);
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// A config wall above the profile's max_stiffness is refused at start-up (exit code 4), naming K, the
+// limit and the key; without the limit (sim3.toml) the same wall starts.
+TEST(ServerStiffnessLimit, AConfigWallAboveMaxStiffnessIsRefusedAtStartUp) {
+    const std::vector<std::string> args{"--config", "", "--dry-run", "--wall", "axis=0 position=0.05 direction=+1",
+                                        "--stiffness", "150000", "--damping", "150"};
+    std::vector<std::string> limited = args, unlimited = args;
+    limited.insert(limited.end(), {"--device", HAPTICD_SERVER_TEST_DIR "/sim3_aniso.toml"});
+    unlimited.insert(unlimited.end(), {"--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml"});
+    Child refused(HAPTICD_BINARY, limited, "stiff_wall_refused");
+    EXPECT_EQ(refused.wait(), 4) << refused.err();
+    EXPECT_NE(refused.err().find("max_stiffness = 100000"), std::string::npos) << refused.err();
+    EXPECT_NE(refused.err().find("K = 150000"), std::string::npos) << refused.err();
+    Child started(HAPTICD_BINARY, unlimited, "stiff_wall_unlimited");
+    EXPECT_EQ(started.wait(), 0) << started.err();
+}
+
 bool running_as_root() { return ::geteuid() == 0; }
 
 TEST_F(ServerProtocol, SocketModeAndOwnerAndASecondUserIsRefused) {
