@@ -68,7 +68,9 @@ ChildResult run_child(const std::vector<std::string>& argv, std::chrono::millise
             if (as->uid != 0 && ::setresuid(0, 0, 0) == 0) drop_failed("irreversibility check");
         }
         ::execv(args[0], args.data());
-        say("child_process: exec failed\n");
+        say(errno == EACCES ? "child_process: exec failed: permission denied (with dropped privileges: are the binary and "
+                              "every directory above it readable and searchable by that user?)\n"
+                            : "child_process: exec failed\n");
         _exit(127);
     }
     ::close(fds[1]);
