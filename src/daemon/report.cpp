@@ -121,7 +121,23 @@ nlohmann::json summary_json(const RunReport& r) {
     } else {
         j.update(tuning_json(r.walls.front().tuning));
     }
+    // mass: one number for compatibility — the profile's one mass, or for an anisotropic profile the mass
+    // along axis 0, 1 / (M^-1)_00. The full plant: mass_matrix, M on the device's axes row by row (m I for
+    // one mass), and axis_masses, per axis a the mass a wall on that axis acts with and was tuned for
+    // (unless --identify replaced the profile's one mass), 1 / (M^-1)_aa (= M_aa for a diagonal M;
+    // devices/profile_keys.hpp, hapticd_main.cpp). All the profile's values, not identified ones.
     j["mass"] = p.mass;
+    const DeviceMass& M = p.mass_model;
+    nlohmann::json matrix = nlohmann::json::array(), axis_masses = nlohmann::json::array();
+    for (std::size_t a = 0; a < M.axes; ++a) {
+        nlohmann::json row = nlohmann::json::array();
+        for (std::size_t b = 0; b < M.axes; ++b) row.push_back(M.matrix[a][b]);
+        matrix.push_back(row);
+        axis_masses.push_back(M.of_axis(a));
+    }
+    j["mass_matrix"] = matrix;
+    j["axis_masses"] = axis_masses;
+    j["max_stiffness"] = p.max_stiffness ? nlohmann::json(*p.max_stiffness) : nlohmann::json(nullptr);
     j["damping"] = p.damping;
     j["stiffness"] = p.stiffness;
     j["period"] = r.period;

@@ -103,6 +103,49 @@ TEST(HapticdProcess, LockstepDurationWritesSummary) {
     EXPECT_EQ(j["ticks"], 500);
     EXPECT_EQ(j["K"], 2000.0);
     EXPECT_DOUBLE_EQ(j["alpha"].get<double>(), 2000.0 * 1e-6 / 0.3);
+    // The shipped sim profile: one axis of 0.3 kg, no stiffness limit.
+    EXPECT_EQ(j["mass_matrix"], nlohmann::json::parse("[[0.3]]"));
+    EXPECT_EQ(j["axis_masses"], nlohmann::json::parse("[0.3]"));
+    EXPECT_TRUE(j["max_stiffness"].is_null()) << j["max_stiffness"];
+}
+
+// An anisotropic profile (a full mass matrix, the one of tests/server/sim3_aniso.toml: eigenvalues 0.176,
+// 0.283, 0.541 kg): the summary gives M as written, per axis the mass a wall on that axis acts with,
+// 1 / (M^-1)_aa, `mass` = axis 0's, and the limit. The reference for 1 / (M^-1)_aa is the closed form
+// det(M) / C_aa (C_aa the cofactor), independent of the daemon's Eigen inverse; a wall on axis 1 shows that
+// the tuning used axis_masses[1] (alpha = K T^2 / m_1). Tolerance 1e-12 relative: both sides round a 3 x 3
+// inverse of condition 3.1 (a few ulp each); mistaking M_aa for the mass along axis a is 9 % off on axis 1.
+TEST(HapticdProcess, SummaryGivesTheMassMatrixAndTheMassAlongEachAxis) {
+    const double M[3][3] = {{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}};
+    const std::string profile = write_file("aniso_summary_device.toml",
+                                           "name = \"aniso\"\nmass_matrix = [0.45, 0.10, 0.12, 0.10, 0.30, 0.00, 0.12, 0.00, 0.25]\n"
+                                           "damping = 0.0\nstiffness = 0.0\nmax_force = 10.0\nmax_stiffness = 100000.0\naxes = 3\n"
+                                           "workspace_min = [-0.06, -0.06, -0.06]\nworkspace_max = [0.06, 0.06, 0.06]\n");
+    const std::string summary = (test::scratch_dir() / "aniso_summary.json").string();
+    const auto r = run(args({"--device", profile, "--lockstep", "--duration", "0.05", "--wall", "axis=1 position=0.05 direction=+1",
+                             "--stiffness", "2000", "--damping", "5", "--summary-json", summary}),
+                       "aniso_summary");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto j = nlohmann::json::parse(test::read_file(summary));
+    ASSERT_TRUE(j["mass_matrix"].is_array() && j["mass_matrix"].size() == 3) << j.dump();
+    ASSERT_TRUE(j["axis_masses"].is_array() && j["axis_masses"].size() == 3) << j.dump();
+    for (std::size_t i = 0; i < 3; ++i) {
+        ASSERT_EQ(j["mass_matrix"][i].size(), 3U) << j["mass_matrix"];
+        for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(j["mass_matrix"][i][k].get<double>(), M[i][k]) << i << "," << k;
+    }
+    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                       M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+    const double cofactor[3] = {M[1][1] * M[2][2] - M[1][2] * M[2][1], M[0][0] * M[2][2] - M[0][2] * M[2][0],
+                                M[0][0] * M[1][1] - M[0][1] * M[1][0]};
+    for (std::size_t a = 0; a < 3; ++a) {
+        const double m_a = det / cofactor[a];
+        EXPECT_NEAR(j["axis_masses"][a].get<double>(), m_a, 1e-12 * m_a) << "axis " << a;
+    }
+    // Hand values (the profile's comment: 0.359 kg along axis 0).
+    EXPECT_NEAR(j["axis_masses"][0].get<double>(), 0.02693 / 0.075, 1e-12);
+    EXPECT_EQ(j["mass"].get<double>(), j["axis_masses"][0].get<double>());
+    EXPECT_NEAR(j["alpha"].get<double>(), 2000.0 * 1e-6 / j["axis_masses"][1].get<double>(), 1e-12 * j["alpha"].get<double>());
+    EXPECT_EQ(j["max_stiffness"].get<double>(), 100000.0);
 }
 
 struct BadCase {
