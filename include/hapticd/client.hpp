@@ -137,14 +137,20 @@ struct CommitResult {
     std::vector<std::uint32_t> object_ids;    // one per add, in order
 };
 
+// The welcome's `device` (docs/protocol.md, section 2).
 struct DeviceInfo {
     std::string name;
     std::size_t axes = 0;
     double period_s = 0.0;
+    // kg, per axis a the mass a plane along that axis acts with, 1 / (M^-1)_aa (= M_aa for a diagonal M;
+    // axes beyond the device's: axis 0's).
     Vec3 mass{};
+    // kg, the profile's mass matrix M on the device's axes (row i, column j; m I for one mass), 0 beyond
+    // them. A plane with unit normal n acts with the mass 1 / (n^T M^-1 n).
+    std::array<Vec3, 3> mass_matrix{};
     double delay_s = 0.0;  // total loop delay the gains are checked for
     double max_force = 0.0;
-    std::optional<double> max_stiffness;
+    std::optional<double> max_stiffness;  // N/m, the profile's limit; none: only the stability region bounds K
 };
 
 struct Welcome {

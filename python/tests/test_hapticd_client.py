@@ -105,7 +105,56 @@ def test_welcome_describes_the_device(daemon):
         assert w["device"]["period_s"] == pytest.approx(1e-3, rel=1e-12)
         assert w["device"]["mass"][0] == pytest.approx(0.3, rel=1e-12)
         assert w["max_message_bytes"] == hc.MAX_MESSAGE_BYTES
+        # The same as a DeviceInfo: the sim profile's one mass as a 1 x 1 matrix, no stiffness limit.
+        assert c.device.name == "sim" and c.device.axes == 1
+        assert c.device.mass_matrix == ((0.3,),)
+        assert c.device.max_stiffness is None
         c.bye()
+
+
+# tests/server/sim3_aniso.toml: 3 axes, the full mass matrix below (kg), max_stiffness = 100000 N/m.
+ANISO_PROFILE = REPOSITORY / "tests" / "server" / "sim3_aniso.toml"
+ANISO_MASS = ((0.45, 0.10, 0.12), (0.10, 0.30, 0.00), (0.12, 0.00, 0.25))
+
+
+@pytest.fixture(scope="module")
+def aniso_daemon(tmp_path_factory):
+    yield from _served_daemon(tmp_path_factory, "hapticd-aniso", ["--lockstep", "--device", str(ANISO_PROFILE)])
+
+
+def test_device_info_gives_the_mass_matrix_and_the_mass_along_each_axis(aniso_daemon):
+    # Reference for the mass along axis a, 1 / (M^-1)_aa: det(M) / C_aa with the cofactor C_aa, in closed
+    # form here (the daemon inverts M with Eigen). rel 1e-12: both round a 3 x 3 inverse of condition 3.1
+    # (a few ulp); mistaking M_aa for the mass along axis a is 9 % off on axis 1.
+    M = ANISO_MASS
+    det = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0])
+           + M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]))
+    cofactors = (M[1][1] * M[2][2] - M[1][2] * M[2][1], M[0][0] * M[2][2] - M[0][2] * M[2][0],
+                 M[0][0] * M[1][1] - M[0][1] * M[1][0])
+    with connect(aniso_daemon) as c:
+        d = c.device
+        assert isinstance(d, hc.DeviceInfo)
+        assert d.name == "sim3_aniso" and d.axes == 3
+        assert d.mass_matrix == ANISO_MASS  # as the profile writes it (JSON numbers round-trip exactly)
+        assert d.mass_matrix == tuple(tuple(row) for row in c.welcome["device"]["mass_matrix"])
+        for a in range(3):
+            assert d.mass[a] == pytest.approx(det / cofactors[a], rel=1e-12), a
+        assert d.mass[0] == pytest.approx(0.359, abs=5e-4)  # the profile's comment: 0.359 kg along axis 0
+        assert d.max_stiffness == 100000.0
+        c.bye()
+
+
+def test_a_welcome_whose_device_is_not_of_the_protocols_form_is_an_error():
+    good = {"name": "sim", "axes": 2, "period_s": 1e-3, "mass": [0.3, 0.4, 0.3], "mass_matrix": [[0.3, 0.0], [0.0, 0.4]],
+            "delay_s": 0.0, "max_force": 10.0, "max_stiffness": None}
+    assert hc.DeviceInfo.from_welcome({"device": good}).mass_matrix == ((0.3, 0.0), (0.0, 0.4))
+    for field, value in (("mass_matrix", [[0.3, 0.0, 0.0], [0.0, 0.4, 0.0]]), ("mass_matrix", [[0.3], [0.4]]),
+                         ("mass_matrix", [[0.3, "0"], [0.0, 0.4]]), ("mass_matrix", None), ("axes", 4),
+                         ("max_stiffness", "1e5"), ("mass", [0.3]), ("period_s", None)):
+        with pytest.raises(hc.HapticdError) as e:
+            hc.DeviceInfo.from_welcome({"device": {**good, field: value}})
+        assert e.value.code == "bad_message" and f"device.{field}" in str(e.value), (field, value)
+        assert str(e.value).startswith("DeviceInfo.from_welcome:")
 
 
 def test_another_protocol_version_is_refused_with_both_versions_named(daemon):

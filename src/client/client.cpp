@@ -61,6 +61,28 @@ Vec3 vec3(const json& j) {
     return v;
 }
 
+// The welcome's device.mass_matrix: `axes` rows of `axes` numbers (docs/protocol.md, section 2). A welcome
+// without it or of another shape is not protocol 1: Error(BadMessage) naming the field and the shape.
+std::array<Vec3, 3> mass_matrix_from_welcome(const json& device, std::size_t axes) {
+    const json m = device.value("mass_matrix", json());
+    auto shape_error = [&]() {
+        return Error(ErrorCode::BadMessage, "Client::connect: the welcome's device.mass_matrix = " + m.dump() +
+                                                " is not " + std::to_string(axes) + " rows of " + std::to_string(axes) +
+                                                " numbers (device.axes = " + std::to_string(axes) +
+                                                ", accepted 1 .. 3; docs/protocol.md, section 2)");
+    };
+    if (axes < 1 || axes > 3 || !m.is_array() || m.size() != axes) throw shape_error();
+    std::array<Vec3, 3> out{};
+    for (std::size_t i = 0; i < axes; ++i) {
+        if (!m[i].is_array() || m[i].size() != axes) throw shape_error();
+        for (std::size_t j = 0; j < axes; ++j) {
+            if (!m[i][j].is_number()) throw shape_error();
+            out[i][j] = m[i][j].get<double>();
+        }
+    }
+    return out;
+}
+
 StateSample state_from_json(const json& j) {
     StateSample s;
     s.tick = j.value("tick", std::uint64_t{0});
@@ -156,6 +178,7 @@ Client Client::connect(const ConnectOptions& options) {
     we.device.axes = d.value("axes", std::size_t{0});
     we.device.period_s = d.value("period_s", 0.0);
     we.device.mass = vec3(d.value("mass", json::array()));
+    we.device.mass_matrix = mass_matrix_from_welcome(d, we.device.axes);
     we.device.delay_s = d.value("delay_s", 0.0);
     we.device.max_force = d.value("max_force", 0.0);
     if (d.contains("max_stiffness") && d["max_stiffness"].is_number()) we.device.max_stiffness = d["max_stiffness"].get<double>();

@@ -235,6 +235,97 @@ TEST(ServerStiffnessLimit, AConfigWallAboveMaxStiffnessIsRefusedAtStartUp) {
     EXPECT_EQ(started.wait(), 0) << started.err();
 }
 
+// The welcome's device on a full mass matrix (sim3_aniso.toml, eigenvalues 0.176 .. 0.541 kg): the client's
+// DeviceInfo has M as the profile writes it (the JSON numbers round-trip exactly), per axis the mass along
+// it 1 / (M^-1)_aa, and the limit. The reference for 1 / (M^-1)_aa is the closed form det(M) / C_aa (C_aa
+// the cofactor), not the daemon's Eigen inverse; 1e-12 relative: both round a 3 x 3 inverse of condition
+// 3.1 (a few ulp), while M_aa in place of the mass along axis a is 9 % off on axis 1. On one mass
+// (sim3.toml, 0.30 kg) mass_matrix is 0.30 I.
+TEST(ServerWelcome, DeviceInfoGivesTheMassMatrixAndTheMassAlongEachAxis) {
+    const double M[3][3] = {{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}};
+    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                       M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+    const double cofactor[3] = {M[1][1] * M[2][2] - M[1][2] * M[2][1], M[0][0] * M[2][2] - M[0][2] * M[2][0],
+                                M[0][0] * M[1][1] - M[0][1] * M[1][0]};
+    for (const std::string profile : {"sim3_aniso.toml", "sim3.toml"}) {
+        SCOPED_TRACE(profile);
+        const bool aniso = profile == "sim3_aniso.toml";
+        const Names n = names(aniso ? "welcome_aniso" : "welcome_iso");
+        Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--stiffness", "2000", "--damping", "5"}, profile),
+                     aniso ? "welcome_aniso_daemon" : "welcome_iso_daemon");
+        ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+        const cl::DeviceInfo d = cl::Client::connect({.socket_path = n.socket, .client_name = "welcome"}).welcome().device;
+        ASSERT_EQ(d.axes, 3U);
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) {
+                EXPECT_EQ(d.mass_matrix[i][j], aniso ? M[i][j] : (i == j ? 0.30 : 0.0)) << i << "," << j;
+            }
+            const double m_i = aniso ? det / cofactor[i] : 0.30;
+            EXPECT_NEAR(d.mass[i], m_i, 1e-12 * m_i) << "axis " << i;
+        }
+        EXPECT_EQ(d.max_stiffness, aniso ? std::optional<double>(100000.0) : std::nullopt);
+        daemon.signal(SIGTERM);
+        EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+    }
+}
+
+// A welcome whose device.mass_matrix is not axes x axes numbers is not protocol 1: Client::connect throws
+// bad_message naming the field and the shape. The server is a socket of this test (hapticd never sends
+// such a welcome); the well-formed one it also sends is read, so the fake is a working server.
+TEST(ServerWelcome, AMassMatrixThatIsNotAxesByAxesNumbersIsAnError) {
+    const std::string path = (scratch() / "fake_welcome.sock").string();
+    const json good_device = {{"name", "fake"}, {"axes", 2}, {"period_s", 0.001}, {"mass", {0.3, 0.4, 0.3}},
+                              {"mass_matrix", {{0.3, 0.01}, {0.01, 0.4}}}, {"delay_s", 0.0}, {"max_force", 10.0},
+                              {"max_stiffness", nullptr}};
+    const std::vector<json> matrices{{{0.3, 0.01}, {0.01, 0.4}},  // well-formed: accepted
+                                     {{0.3, 0.0, 0.0}, {0.0, 0.4, 0.0}}, json::array({{0.3}, {0.4}}), {{0.3, "0"}, {0.0, 0.4}},
+                                     nullptr, json::array({0.3, 0.4})};
+    for (std::size_t k = 0; k < matrices.size(); ++k) {
+        SCOPED_TRACE(matrices[k].dump());
+        ::unlink(path.c_str());
+        const int listener = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+        ASSERT_GE(listener, 0);
+        sockaddr_un addr{};
+        addr.sun_family = AF_UNIX;
+        std::strncpy(addr.sun_path, path.c_str(), sizeof(addr.sun_path) - 1);
+        ASSERT_EQ(::bind(listener, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)), 0) << std::strerror(errno);
+        ASSERT_EQ(::listen(listener, 1), 0);
+        json device = good_device;
+        if (matrices[k].is_null()) {
+            device.erase("mass_matrix");
+        } else {
+            device["mass_matrix"] = matrices[k];
+        }
+        const std::string welcome = json{{"type", "welcome"}, {"protocol", 1}, {"session", 1}, {"lease_s", 0.0},
+                                         {"max_message_bytes", 65536}, {"capacity", 64}, {"state_shm", "/fake"},
+                                         {"ramp_s", 0.03}, {"max_force_rate", 10000}, {"device", device}}
+                                        .dump();
+        std::thread server([&] {
+            const int fd = ::accept(listener, nullptr, nullptr);
+            if (fd < 0) return;
+            std::vector<char> hello(70000);
+            if (::recv(fd, hello.data(), hello.size(), 0) > 0) (void)::send(fd, welcome.data(), welcome.size(), MSG_NOSIGNAL);
+            ::close(fd);
+        });
+        try {
+            const cl::Client c = cl::Client::connect({.socket_path = path, .client_name = "fake", .timeout_s = 5.0});
+            EXPECT_EQ(k, 0U) << "accepted";
+            EXPECT_EQ(c.welcome().device.mass_matrix[0][1], 0.01);
+            EXPECT_EQ(c.welcome().device.mass_matrix[1][1], 0.4);
+            EXPECT_EQ(c.welcome().device.mass_matrix[2][2], 0.0);
+        } catch (const cl::Error& e) {
+            const std::string what = e.what();
+            EXPECT_NE(k, 0U) << what;
+            EXPECT_EQ(e.code(), cl::ErrorCode::BadMessage) << what;
+            EXPECT_EQ(what.rfind("Client::connect: the welcome's device.mass_matrix", 0), 0U) << what;
+            EXPECT_NE(what.find("2 rows of 2 numbers"), std::string::npos) << what;
+        }
+        server.join();
+        ::close(listener);
+    }
+    ::unlink(path.c_str());
+}
+
 bool running_as_root() { return ::geteuid() == 0; }
 
 TEST_F(ServerProtocol, SocketModeAndOwnerAndASecondUserIsRefused) {

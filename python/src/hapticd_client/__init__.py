@@ -10,6 +10,7 @@ The protocol: docs/protocol.md; this module and its examples: docs/clients.md.
 """
 
 from .client import MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, default_socket_path
+from .device import DeviceInfo
 from .errors import HapticdError
 from .objects import Batch, field, gains, plane, spring
 from .state import FAULT_NAMES, StateReader, StateSample, shm_path
@@ -17,6 +18,7 @@ from .state import FAULT_NAMES, StateReader, StateSample, shm_path
 __all__ = [
     "Batch",
     "Client",
+    "DeviceInfo",
     "FAULT_NAMES",
     "HapticdError",
     "MAX_MESSAGE_BYTES",

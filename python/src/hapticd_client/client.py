@@ -21,6 +21,7 @@ import socket
 import time
 from typing import Dict, Iterable, List, Optional, Union
 
+from .device import DeviceInfo
 from .errors import HapticdError
 from .objects import Batch
 
@@ -41,7 +42,8 @@ def default_socket_path() -> str:
 
 class Client:
     """One session. Use ``Client.connect(...)``; the ``welcome`` dict holds the server's answer (device
-    name, axes, period, masses, delay, max force, capacity, ``state_shm``, ``ramp_s``, ``lease_s``)."""
+    name, axes, period, masses, delay, max force, capacity, ``state_shm``, ``ramp_s``, ``lease_s``), and
+    ``device`` its device as a ``DeviceInfo`` (with ``mass_matrix`` and ``max_stiffness``)."""
 
     def __init__(self, sock: socket.socket, timeout_s: float) -> None:
         self._sock = sock
@@ -49,6 +51,7 @@ class Client:
         self._next_id = 1
         self._pending_states: List[Dict] = []
         self.welcome: Dict = {}
+        self.device: Optional[DeviceInfo] = None
         self._last_sent = time.monotonic()
 
     # -- connection ------------------------------------------------------------------------------------
@@ -73,10 +76,12 @@ class Client:
             answer = c._decode("Client.connect", raw)
             if answer.get("type") != "welcome":
                 raise HapticdError.from_reply("Client.connect", answer)
+            device = DeviceInfo.from_welcome(answer)
         except BaseException:
             sock.close()
             raise
         c.welcome = answer
+        c.device = device
         return c
 
     def close(self) -> None:
