@@ -3,9 +3,9 @@
 // gains, the ramp-out on removal). Commits arrive from the server thread through a lock-free SPSC ring and
 // are applied whole at the start of a tick (all of a batch in the same tick).
 //
-// Per tick, with x_j the sampled position and v_j = (x_j - x_{j-1}) / T (backward difference; the first
-// tick takes v = 0):
-//   plane   p = offset - n.x_j, dp = -n.v_j T:   f = n (K p + B dp / T)   (unilateral: only p > 0, f.n >= 0)
+// Force laws, per tick, with x_j the sampled position and v_j = (x_j - x_{j-1}) / T (backward difference;
+// the first tick takes v = 0):
+//   plane   p = offset - n.x_j:                   f = n (K p - B n.v_j)    (unilateral: only p > 0, f.n >= 0)
 //           — for a fixed plane exactly the analysed wall law f_j = K x_j + B (x_j - x_{j-1}) / T along n;
 //   spring  r = P (x_j - point):                  f = -K r - B P v_j       (P: the constrained directions)
 //   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0) - B v_j
@@ -14,6 +14,27 @@
 // Each entry's force is scaled by its ramp factor s in [0, 1], stepped by T / ramp_s per tick. The summed
 // force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
 // (infinity norm, scaled as a whole so the direction is kept); a non-finite value latches a fault.
+//
+// How a tick is computed (the cost does not grow with the objects that cannot change the force law):
+//  * Linear part, in closed form. Springs, bilateral planes and fields with the handle inside them are
+//    affine in (x, v): f = s (c_i - K_i x - B_i v). Their sum is one affine law f = c - K x - B v (3-vectors
+//    and 3x3 matrices), summed when the scene changes (a commit, a ramp step, a move) and then evaluated in
+//    ~20 flops whatever the number of objects. It equals the per-object sum up to rounding (relative
+//    ~n eps of the sum of the magnitudes; tests/server/test_scene_objects.cpp compares the two).
+//  * Switching surfaces, by a safe radius. Each object whose law or contact flag switches with x has a
+//    surface: the plane (p = 0) or the field's sphere (||x - x0|| = radius). At each re-classification the
+//    handle's distance to every surface farther than kNearDistance is taken, and their minimum rho. While the
+//    handle stays within rho - tol of where it was classified (||x - x_ref||_2, one norm per tick), no such
+//    surface can have been crossed (each distance is 1-Lipschitz in x), so their flags and whether they act are
+//    unchanged and they cost nothing. tol = 16 eps (scale of offsets, centres, radii and x) bounds the
+//    rounding of the distances, so a flag so kept is the sign a direct evaluation would compute except within
+//    rounding of the surface itself. Leaving that radius re-classifies (O(n), once per kNearDistance of motion).
+//  * Moves (a commit of Move updates only: the same object, another place) do not re-classify: the moved
+//    objects' constant terms c_i are recomputed and c re-summed from the stored c_i, and the safe radius
+//    shrinks by how far their surfaces moved. A client moving a proxy every tick costs ~3 flops per object.
+//  * Near or nonlinear objects, one by one: unilateral planes the handle is in or near (the clamp f.n >= 0
+//    depends on v as well), and planes / fields within kNearDistance of their surface (for their flags; a near
+//    field's force too).
 // No allocation, lock, exception or I/O in anything called per tick.
 #pragma once
 
@@ -27,6 +48,9 @@
 namespace hapticd {
 
 inline constexpr std::size_t kSceneObjectCapacity = 64;
+// Objects whose switching surface is nearer than this to the handle at a classification are evaluated one
+// by one (m). Larger: fewer re-classifications (one per kNearDistance of hand motion), more objects per tick.
+inline constexpr double kNearDistance = 1e-3;
 
 enum class ObjectKind : std::uint8_t { Plane, Spring, Field };
 enum class SpringConstraint : std::uint8_t { Point, Line, Plane };
@@ -58,11 +82,23 @@ struct SlotUpdate {
     ObjectParams params;
 };
 
-// One batch: applied whole in one tick.
+// One batch: applied whole in one tick. Copying one (through the ring) copies its `count` updates only,
+// not the 64 slots' worth of storage (~14 KB): a one-object move costs one update's copy.
 struct ObjectCommit {
     std::uint64_t seq = 0;
     std::uint32_t count = 0;
     std::array<SlotUpdate, kSceneObjectCapacity> updates{};
+
+    ObjectCommit() = default;
+    ObjectCommit(const ObjectCommit& other) noexcept { *this = other; }
+    ObjectCommit& operator=(const ObjectCommit& other) noexcept {
+        if (this != &other) {
+            seq = other.seq;
+            count = other.count < kSceneObjectCapacity ? other.count : static_cast<std::uint32_t>(kSceneObjectCapacity);
+            for (std::uint32_t i = 0; i < count; ++i) updates[i] = other.updates[i];
+        }
+        return *this;
+    }
 };
 
 using CommitRing = SpscRing<ObjectCommit>;
@@ -101,7 +137,12 @@ public:
     [[nodiscard]] std::uint64_t contact_mask() const noexcept { return contact_mask_; }
     [[nodiscard]] std::uint32_t slot_object_id(std::size_t slot) const noexcept;
     [[nodiscard]] double slot_ramp(std::size_t slot) const noexcept;
-    [[nodiscard]] std::uint32_t occupied() const noexcept;
+    [[nodiscard]] std::uint32_t occupied() const noexcept { return occupied_; }
+    // Changes whenever a slot's object id or ramp factor changes (the state publisher rewrites the slot
+    // table only then).
+    [[nodiscard]] std::uint64_t slot_table_version() const noexcept { return slot_table_version_; }
+    // Re-classifications so far (commits, ramp steps, moves, leaving the safe radius): for the benchmarks.
+    [[nodiscard]] std::uint64_t classifications() const noexcept { return classifications_; }
     [[nodiscard]] const SceneObjectsStats& stats() const noexcept { return stats_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
 
@@ -115,20 +156,80 @@ private:
         Entry current;  // ramps in to 1 (or sits at 1)
         Entry fading;   // ramps out to 0, then inactive
     };
+    using Matrix3 = std::array<AxisVector, 3>;  // rows
+    // The summed affine law of the linear objects: f = c - K x - B v.
+    struct AffineLaw {
+        AxisVector c{};
+        Matrix3 K{};
+        Matrix3 B{};
+        bool any = false;
+    };
+    // Entries evaluated one by one each tick (see the header comment), as flat arrays for a tight loop.
+    // Unilateral planes in or near contact: force and flag. The ramp factor w is copied here; it changes
+    // only at a ramp step, which re-classifies.
+    struct NearPlanes {
+        std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{}, w{};
+        std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
+        std::size_t count = 0;
+    };
+    // Bilateral planes near their surface: the flag only (their force is in the affine law).
+    struct NearFlags {
+        std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{};
+        std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
+        std::size_t count = 0;
+    };
+    // Fields near their sphere: the whole law.
+    struct NearFields {
+        std::array<const ObjectParams*, 2 * kSceneObjectCapacity> params{};
+        std::array<double, 2 * kSceneObjectCapacity> w{};
+        std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
+        std::size_t count = 0;
+    };
 
     AxisVector entry_force(const ObjectParams& p, const AxisVector& x, bool& contact) const noexcept;
+    void step_ramps() noexcept;
+    void count_occupied() noexcept;
+    void add_linear(const ObjectParams& p, double w) noexcept;
+    static AxisVector linear_constant(const ObjectParams& p, double w) noexcept;
+    void apply_moves() noexcept;
+    void classify(const AxisVector& x) noexcept;
 
     SceneObjectsConfig config_;
     CommitRing& ring_;
     std::array<Slot, kSceneObjectCapacity> slots_{};
     ObjectCommit incoming_{};  // preallocated pop target
     double ramp_step_ = 1.0;
+    double inverse_period_ = 1e3;
     AxisVector previous_position_{};
     AxisVector velocity_{};
     bool primed_ = false;
     AxisVector previous_total_{};
     std::uint64_t contact_mask_ = 0;
     SceneObjectsStats stats_;
+
+    // The classification (rebuilt when the scene changes or the handle leaves the safe radius).
+    bool scene_changed_ = true;
+    std::uint32_t ramping_ = 0;           // entries whose ramp is still moving
+    std::uint32_t occupied_ = 0;          // slots with an object
+    std::uint64_t slot_table_version_ = 0;  // bumped when an id or a ramp factor changes
+    AffineLaw linear_;
+    // Where each entry (2 slot + 0 current / 1 fading) went at the last classification.
+    struct EntryPlace {
+        enum List : std::uint8_t { None, Linear, NearPlane, NearFlag, NearField } list = None;
+        std::uint8_t index = 0;  // in its near list
+    };
+    std::array<EntryPlace, 2 * kSceneObjectCapacity> place_{};
+    std::array<AxisVector, 2 * kSceneObjectCapacity> entry_c_{};  // w c_i of the entries in the affine law
+    std::array<bool, 2 * kSceneObjectCapacity> entry_in_sum_{};
+    std::uint64_t moved_mask_ = 0;  // slots moved (Move commits only) since the last classification
+    double moved_shift_ = 0.0;      // the sum of how far their surfaces moved (m)
+    NearPlanes near_planes_;
+    NearFlags near_flags_;
+    NearFields near_fields_;
+    std::uint64_t static_mask_ = 0;   // flags that stay as classified while inside the safe radius
+    AxisVector reference_{};          // x where the scene was classified
+    double safe_radius_ = 0.0;        // rho - tol (may be +inf: no far surface)
+    std::uint64_t classifications_ = 0;
 };
 
 }  // namespace hapticd

@@ -95,14 +95,17 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
     if (objects != nullptr) {
         put(l.contact_mask, objects->contact_mask());
         put(l.last_commit_seq, objects->stats().last_commit_seq);
-        std::uint32_t n = 0;
-        for (std::size_t i = 0; i < kStateObjectCapacity; ++i) {
-            const std::uint32_t id = objects->slot_object_id(i);
-            put(l.slot_object_id[i], id);
-            put(l.slot_ramp[i], static_cast<std::uint8_t>(255.0 * objects->slot_ramp(i) + 0.5));  // ramp in [0, 1]: rounds, no lround call
-            n += id != 0 ? 1U : 0U;
+        // The slot table changes only with a commit or a ramp step: rewritten then, otherwise what the
+        // segment holds is still this tick's (64 ids and ramps are most of a publication's cost).
+        if (objects->slot_table_version() != published_slot_table_ || !slot_table_written_) {
+            for (std::size_t i = 0; i < kStateObjectCapacity; ++i) {
+                put(l.slot_object_id[i], objects->slot_object_id(i));
+                put(l.slot_ramp[i], static_cast<std::uint8_t>(255.0 * objects->slot_ramp(i) + 0.5));  // ramp in [0, 1]: rounds, no lround call
+            }
+            put(l.objects, objects->occupied());
+            published_slot_table_ = objects->slot_table_version();
+            slot_table_written_ = true;
         }
-        put(l.objects, n);
     }
     l.sequence.store(s + 2, std::memory_order_release);
 }

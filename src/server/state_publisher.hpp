@@ -44,6 +44,8 @@ public:
 private:
     std::string name_;
     StateLayout* layout_ = nullptr;
+    std::uint64_t published_slot_table_ = 0;  // SceneObjects::slot_table_version() last written
+    bool slot_table_written_ = false;
 };
 
 }  // namespace hapticd

@@ -6,13 +6,17 @@
 //    commits (default 10000), the commit's own reply round trip, and (1000 x) that of a status request,
 //    which the server answers without the commit's checks. Baseline in the same run: a bare
 //    SOCK_SEQPACKET ping-pong (socketpair + echo thread) with a message of the commit's size.
-//    Goal of issue 14: within one loop period plus the ping-pong time.
-//  * BM_TickOneWall / BM_Tick64Objects / BM_TickRatio64VsOneWall: the loop's compute for one tick without
-//    sleeping: today's tick (simulated plant, one wall, delay ring; as daemon_tick.cpp) against the same
-//    tick plus 64 client objects (64 bilateral planes, all in contact so none is skipped: the worst case)
-//    with their ramps, saturation, the force-rate limit and the state publication. The ratio benchmark
-//    alternates blocks of 1000 ticks of each so that both see the same machine load. Goal: <= 2x.
-//    BM_TickObjects/N: the same tick with N = 0, 1, 8, 64 objects (the fixed cost and the cost per object).
+//    Goal of issue 14: within one loop period plus the ping-pong time. Also reported: the loop's worst
+//    wake-up lateness seen in the state stream during the commits, and period + that + the worst ping-pong
+//    (machine_bound_max_us): the worst a commit should take on this machine if the daemon's server added no
+//    stall of its own.
+//  * BM_TickOneWall / BM_Tick64Objects/S / BM_TickRatio64VsOneWall/S: the loop's compute for one tick
+//    without sleeping: today's tick (simulated plant, one wall, delay ring; as daemon_tick.cpp) against the
+//    same tick plus 64 client objects with their ramps, saturation, the force-rate limit and the state
+//    publication, for five scenes S (TickScene below: linear objects in contact, planes out of contact,
+//    unilateral planes all pressed — the worst case —, fields, and a proxy moved by a commit every tick).
+//    The ratio benchmark alternates blocks of 1000 ticks of each so that both see the same machine load.
+//    Goal: <= 2x. BM_TickObjects/N: the worst-case tick with N = 0, 1, 8, 64 objects (fixed cost, cost per object).
 //  * BM_StateRead*: StateReader::read (the C++ client's seqlock read of one tick) with no writer, with a
 //    writer at 1 kHz (the loop), and with a writer rewriting back to back (lockstep; reads then retry).
 //    Goal: <= 200 ns.
@@ -25,6 +29,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -54,6 +59,7 @@ namespace hc = hapticd::client;
 void report(benchmark::State& state, const std::string& prefix, const LatencyStats& s) {
     state.counters[prefix + "_p50_us"] = static_cast<double>(s.percentile_ns(0.50)) * 1e-3;
     state.counters[prefix + "_p99_us"] = static_cast<double>(s.percentile_ns(0.99)) * 1e-3;
+    state.counters[prefix + "_p999_us"] = static_cast<double>(s.percentile_ns(0.999)) * 1e-3;
     state.counters[prefix + "_max_us"] = static_cast<double>(s.max_ns()) * 1e-3;
     state.counters[prefix + "_mean_us"] = s.mean_ns() * 1e-3;
 }
@@ -155,6 +161,7 @@ void BM_CommandToForceLatency(benchmark::State& state) {
         LatencyStats reply;
         LatencyStats status_reply;
         std::uint64_t period_ns = 0;
+        std::int64_t loop_wake_max_ns = 0;  // the daemon's own worst wake-up lateness seen in the state stream
         try {
             hc::ConnectOptions co;
             co.socket_path = socket;
@@ -176,7 +183,11 @@ void BM_CommandToForceLatency(benchmark::State& state) {
                 const auto t0 = RealtimeLoop::now_ns();
                 const std::uint64_t seq = client.commit(hc::Batch().modify(id, plane)).commit_seq;
                 reply.record(RealtimeLoop::now_ns() - t0);
-                while (!(reader.read(s) && s.last_commit_seq >= seq)) {
+                for (;;) {
+                    if (reader.read(s)) {
+                        loop_wake_max_ns = std::max(loop_wake_max_ns, s.wake_latency_ns);
+                        if (s.last_commit_seq >= seq) break;
+                    }
                 }
                 to_force.record(RealtimeLoop::now_ns() - t0);
             }
@@ -191,6 +202,11 @@ void BM_CommandToForceLatency(benchmark::State& state) {
         report(state, "pingpong", pingpong);
         state.counters["commits"] = static_cast<double>(to_force.count());
         state.counters["goal_us"] = static_cast<double>(period_ns) * 1e-3 + static_cast<double>(pingpong.percentile_ns(0.5)) * 1e-3;
+        // The worst a commit should take here if the server added no stall of its own: one period, the
+        // loop's worst wake-up in the same run, and the worst bare ping-pong (the socket's own stalls).
+        state.counters["loop_wake_max_us"] = static_cast<double>(loop_wake_max_ns) * 1e-3;
+        state.counters["machine_bound_max_us"] = static_cast<double>(period_ns) * 1e-3 + static_cast<double>(loop_wake_max_ns) * 1e-3 +
+                                                 static_cast<double>(pingpong.max_ns()) * 1e-3;
     }
     state.counters["client_fifo"] = rt.fifo ? 1.0 : 0.0;
     std::filesystem::remove_all(dir);
@@ -232,13 +248,67 @@ struct OneWallTick {
     }
 };
 
-// The same plus 64 client objects and the state publication, as Daemon::tick does with --serve.
+// The scenes of 64 (or N) client objects the tick is measured with (scene_objects.hpp, "How a tick is
+// computed"): the normals of the planes go around the z axis, so their forces cancel at the origin and the
+// simulated handle stays within a fraction of a millimetre of it.
+enum class TickScene : int {
+    BilateralPlanes = 0,     // in contact, 5 mm inside: linear, summed in closed form
+    UnilateralOutside = 1,   // 2 mm out of contact: beyond the safe radius, skipped
+    UnilateralInside = 2,    // all pressed 1 mm deep: each evaluated every tick (the worst case)
+    FieldsInside = 3,        // the handle inside 64 fields of 1 cm radius: linear, summed
+    BilateralOneMoving = 4,  // 64 bilateral planes, one of them moved by a commit every tick (re-summed each tick)
+};
+const char* to_string(TickScene s) {
+    switch (s) {
+        case TickScene::BilateralPlanes: return "bilateral_planes_in_contact";
+        case TickScene::UnilateralOutside: return "unilateral_planes_out_of_contact";
+        case TickScene::UnilateralInside: return "unilateral_planes_all_pressed";
+        case TickScene::FieldsInside: return "fields_handle_inside";
+        case TickScene::BilateralOneMoving: return "bilateral_planes_one_moved_every_tick";
+    }
+    return "?";
+}
+
+ObjectParams tick_scene_object(TickScene scene, std::size_t i) {
+    ObjectParams o;
+    o.id = static_cast<std::uint32_t>(i + 1);
+    const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(kSceneObjectCapacity);
+    o.direction = {std::cos(a), std::sin(a), 0.0};
+    o.K = 10.0;
+    o.B = 0.1;
+    switch (scene) {
+        case TickScene::BilateralPlanes:
+        case TickScene::BilateralOneMoving:
+            o.kind = ObjectKind::Plane;
+            o.bilateral = true;
+            o.offset = 0.005;
+            break;
+        case TickScene::UnilateralOutside:
+            o.kind = ObjectKind::Plane;
+            o.offset = -0.002;
+            break;
+        case TickScene::UnilateralInside:
+            o.kind = ObjectKind::Plane;
+            o.offset = 0.001;
+            break;
+        case TickScene::FieldsInside:
+            o.kind = ObjectKind::Field;
+            o.radius = 0.01;
+            for (std::size_t r = 0; r < 3; ++r) o.jacobian[r][r] = -10.0;
+            break;
+    }
+    return o;
+}
+
+// The same plus N client objects and the state publication, as Daemon::tick does with --serve.
 struct ObjectsTick {
     OneWallTick base;
     CommitRing ring{4};
     SceneObjects objects;
     StatePublisher publisher;
+    TickScene scene;
     std::uint64_t ticks = 0;
+    ObjectCommit move{};
     static SceneObjectsConfig objects_config() {
         SceneObjectsConfig c;
         c.axes = 3;
@@ -246,8 +316,8 @@ struct ObjectsTick {
         c.max_force_rate = 1e4;
         return c;
     }
-    explicit ObjectsTick(const std::string& shm, std::size_t count = kSceneObjectCapacity)
-        : objects(objects_config(), ring), publisher(shm, 3, 1e-3, -1) {
+    ObjectsTick(const std::string& shm, TickScene scene_kind, std::size_t count = kSceneObjectCapacity)
+        : objects(objects_config(), ring), publisher(shm, 3, 1e-3, -1), scene(scene_kind) {
         ObjectCommit commit;
         commit.seq = 1;
         commit.count = static_cast<std::uint32_t>(count);
@@ -255,34 +325,36 @@ struct ObjectsTick {
             SlotUpdate& u = commit.updates[i];
             u.slot = static_cast<std::uint8_t>(i);
             u.action = SlotUpdate::Action::Set;
-            u.params.id = static_cast<std::uint32_t>(i + 1);
-            u.params.kind = ObjectKind::Plane;
-            u.params.bilateral = true;  // always in contact: every plane computes its force
-            const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(kSceneObjectCapacity);
-            u.params.direction = {std::cos(a), std::sin(a), 0.0};  // 64 normals around the z axis
-            u.params.offset = 0.001;
-            u.params.K = 10.0;
-            u.params.B = 0.1;
+            u.params = tick_scene_object(scene, i);
         }
         ring.try_push(commit);
         objects.apply_commits();
+        move.count = 1;
+        move.updates[0].slot = 0;
+        move.updates[0].action = SlotUpdate::Action::Move;
+        move.updates[0].params = tick_scene_object(scene, 0);
+        // Past the 30 ms ramps: the steady state is measured.
+        for (int i = 0; i < 100; ++i) tick();
     }
     double tick() noexcept {
-        AxisVector p{};
-        AxisVector f{};
-        base.device.read_position(p);
-        objects.apply_commits();
-        base.scene.evaluate(p, f);
-        objects.add_forces(p, f);
-        const AxisVector applied = base.delay.push_pop(f);
-        base.device.write_force(applied);
+        if (scene == TickScene::BilateralOneMoving) {  // a client moving its proxy every tick
+            move.seq = ticks + 2;
+            move.updates[0].params.offset = 0.005 + 1e-6 * static_cast<double>(ticks % 100);
+            ring.try_push(move);
+        }
+        // The sample is read into the published record itself (no copy of it; Daemon::tick copies it once).
         StateTick st;
+        AxisVector f{};
+        base.device.read_position(st.position);
+        objects.apply_commits();
+        base.scene.evaluate(st.position, f);
+        objects.add_forces(st.position, f);
+        st.force = base.delay.push_pop(f);
+        base.device.write_force(st.force);
         st.tick = ticks++;
-        st.position = p;
         st.velocity = objects.velocity();
-        st.force = applied;
         publisher.publish(st, &objects);
-        return p[0];
+        return st.position[0];
     }
 };
 
@@ -295,24 +367,33 @@ void BM_TickOneWall(benchmark::State& state) {
 BENCHMARK(BM_TickOneWall);
 
 void BM_Tick64Objects(benchmark::State& state) {
-    ObjectsTick rig(bench_shm("tick64"));
-    for (auto _ : state) benchmark::DoNotOptimize(rig.tick());
+    const auto scene = static_cast<TickScene>(state.range(0));
+    ObjectsTick rig(bench_shm("tick64"), scene);
+    const std::uint64_t c0 = rig.objects.classifications();
+    std::uint64_t n = 0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(rig.tick());
+        ++n;
+    }
+    state.SetLabel(to_string(scene));
     state.counters["objects"] = static_cast<double>(rig.objects.occupied());
+    state.counters["contacts"] = static_cast<double>(__builtin_popcountll(rig.objects.contact_mask()));
+    state.counters["classified_per_tick"] = static_cast<double>(rig.objects.classifications() - c0) / static_cast<double>(n);
 }
-BENCHMARK(BM_Tick64Objects);
+BENCHMARK(BM_Tick64Objects)->DenseRange(0, 4);
 
 // Where the time goes: the --serve tick with 0 (the fixed cost: commit poll, rate limit, publication), 1, 8
-// and 64 objects.
+// and 64 objects (unilateral planes, all pressed: each evaluated every tick).
 void BM_TickObjects(benchmark::State& state) {
-    ObjectsTick rig(bench_shm("tickn"), static_cast<std::size_t>(state.range(0)));
+    ObjectsTick rig(bench_shm("tickn"), TickScene::UnilateralInside, static_cast<std::size_t>(state.range(0)));
     for (auto _ : state) benchmark::DoNotOptimize(rig.tick());
     state.counters["objects"] = static_cast<double>(rig.objects.occupied());
 }
 BENCHMARK(BM_TickObjects)->Arg(0)->Arg(1)->Arg(8)->Arg(64);
 
-// The parts of the 64-object tick alone: SceneObjects::add_forces, StatePublisher::publish.
+// The parts of the worst-case 64-object tick alone: SceneObjects::add_forces, StatePublisher::publish.
 void BM_TickPartAddForces64(benchmark::State& state) {
-    ObjectsTick rig(bench_shm("partforces"));
+    ObjectsTick rig(bench_shm("partforces"), TickScene::UnilateralInside);
     AxisVector p{0.0005, 0.0, 0.0};
     for (auto _ : state) {
         AxisVector f{};
@@ -322,7 +403,7 @@ void BM_TickPartAddForces64(benchmark::State& state) {
 }
 BENCHMARK(BM_TickPartAddForces64);
 void BM_TickPartPublish64(benchmark::State& state) {
-    ObjectsTick rig(bench_shm("partpublish"));
+    ObjectsTick rig(bench_shm("partpublish"), TickScene::UnilateralInside);
     StateTick st;
     for (auto _ : state) {
         ++st.tick;
@@ -331,9 +412,12 @@ void BM_TickPartPublish64(benchmark::State& state) {
 }
 BENCHMARK(BM_TickPartPublish64);
 
+// The goal's measurement: blocks of 1000 ticks of today's one-wall tick and of the 64-object tick, alternated
+// so that both see the same machine load; per scene.
 void BM_TickRatio64VsOneWall(benchmark::State& state) {
+    const auto scene = static_cast<TickScene>(state.range(0));
     OneWallTick one;
-    ObjectsTick many(bench_shm("ratio"));
+    ObjectsTick many(bench_shm("ratio"), scene);
     constexpr int kBlock = 1000;
     double one_ns = 0.0, many_ns = 0.0;
     std::uint64_t blocks = 0;
@@ -347,11 +431,12 @@ void BM_TickRatio64VsOneWall(benchmark::State& state) {
         many_ns += static_cast<double>(t2 - t1);
         ++blocks;
     }
+    state.SetLabel(to_string(scene));
     state.counters["one_wall_ns"] = one_ns / static_cast<double>(blocks * kBlock);
     state.counters["objects64_ns"] = many_ns / static_cast<double>(blocks * kBlock);
     state.counters["ratio"] = many_ns / one_ns;
 }
-BENCHMARK(BM_TickRatio64VsOneWall)->MinTime(2.0);
+BENCHMARK(BM_TickRatio64VsOneWall)->DenseRange(0, 4)->MinTime(1.0);
 
 // ---------------------------------------------------------------------------------------------------------
 // State read cost.
