@@ -142,61 +142,6 @@ void SceneObjects::count_occupied() noexcept {
     occupied_ = n;
 }
 
-AxisVector SceneObjects::entry_force(const ObjectParams& p, const AxisVector& x, bool& contact) const noexcept {
-    AxisVector f{};
-    switch (p.kind) {
-        case ObjectKind::Plane: {
-            const double pen = p.offset - dot(p.direction, x);
-            const double dpen = -dot(p.direction, velocity_) * config_.period;
-            double fn = p.K * pen + p.B * dpen / config_.period;
-            if (!p.bilateral) {
-                if (!(pen > 0.0)) {
-                    contact = false;
-                    return f;
-                }
-                if (fn < 0.0) fn = 0.0;
-            }
-            contact = pen > 0.0;
-            for (std::size_t a = 0; a < 3; ++a) f[a] = fn * p.direction[a];
-            return f;
-        }
-        case ObjectKind::Spring: {
-            AxisVector r{}, v{};
-            for (std::size_t a = 0; a < 3; ++a) r[a] = x[a] - p.point[a];
-            if (p.constraint == SpringConstraint::Point) {
-                v = velocity_;
-            } else {
-                const double rd = dot(r, p.direction);
-                const double vd = dot(velocity_, p.direction);
-                for (std::size_t a = 0; a < 3; ++a) {
-                    if (p.constraint == SpringConstraint::Plane) {
-                        r[a] = rd * p.direction[a];
-                        v[a] = vd * p.direction[a];
-                    } else {
-                        r[a] -= rd * p.direction[a];
-                        v[a] = velocity_[a] - vd * p.direction[a];
-                    }
-                }
-            }
-            contact = true;
-            for (std::size_t a = 0; a < 3; ++a) f[a] = -p.K * r[a] - p.B * v[a];
-            return f;
-        }
-        case ObjectKind::Field: {
-            AxisVector d{};
-            for (std::size_t a = 0; a < 3; ++a) d[a] = x[a] - p.point[a];
-            if (!(dot(d, d) <= p.radius * p.radius)) {
-                contact = false;
-                return f;
-            }
-            contact = true;
-            for (std::size_t a = 0; a < 3; ++a) f[a] = p.force[a] + dot(p.jacobian[a], d) - p.B * velocity_[a];
-            return f;
-        }
-    }
-    return f;
-}
-
 namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
@@ -210,9 +155,12 @@ double norm1(const AxisVector& a) noexcept { return std::fabs(a[0]) + std::fabs(
 //   spring to a line (direction u):        K_i = k (I - u u^T), B_i = b (I - u u^T), c_i = k (point - u (u.point))
 //   spring to a point:                     K_i = k I,           B_i = b I,           c_i = k point
 //   field, handle inside:                  K_i = -J,            B_i = b I,           c_i = F0 - J x0
-// (a plane's u.point is its offset). add_linear adds w K_i and w B_i; linear_constant gives w c_i.
-void SceneObjects::add_linear(const ObjectParams& p, double w) noexcept {
-    const double wk = w * p.K, wb = w * p.B;
+// (a plane's u.point is its offset). With the ramp factor r the stiffness terms are weighted r^2, the
+// damping and a field's constant force r (ramp_weights): add_linear adds r^2 K_i and r B_i;
+// linear_constant gives r^2 k (..) or r F0 - r^2 J x0.
+void SceneObjects::add_linear(const ObjectParams& p, double r) noexcept {
+    const double w = r * r;  // the stiffness weight
+    const double wk = w * p.K, wb = r * p.B;
     const AxisVector& u = p.direction;
     AffineLaw& l = linear_;
     l.any = true;
@@ -249,12 +197,13 @@ void SceneObjects::add_linear(const ObjectParams& p, double w) noexcept {
     }
 }
 
-AxisVector SceneObjects::linear_constant(const ObjectParams& p, double w) noexcept {
+AxisVector SceneObjects::linear_constant(const ObjectParams& p, double ramp) noexcept {
     AxisVector c{};
+    const double w = ramp * ramp;  // the stiffness weight
     const double wk = w * p.K;
     const AxisVector& u = p.direction;
     if (p.kind == ObjectKind::Field) {
-        for (std::size_t r = 0; r < 3; ++r) c[r] = w * (p.force[r] - dot(p.jacobian[r], p.point));
+        for (std::size_t r = 0; r < 3; ++r) c[r] = ramp * p.force[r] - w * dot(p.jacobian[r], p.point);
     } else if (p.kind == ObjectKind::Spring && p.constraint == SpringConstraint::Point) {
         for (std::size_t r = 0; r < 3; ++r) c[r] = wk * p.point[r];
     } else {
@@ -325,9 +274,8 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                         n.ny[n.count] = p.direction[1];
                         n.nz[n.count] = p.direction[2];
                         n.offset[n.count] = p.offset;
-                        n.K[n.count] = p.K;
-                        n.B[n.count] = p.B;
-                        n.w[n.count] = w;
+                        n.K[n.count] = w * w * p.K;  // the ramp's weights: r^2 for the stiffness, r for the damping
+                        n.B[n.count] = w * p.B;
                         n.slot[n.count++] = static_cast<std::uint8_t>(s);
                     }
                     break;
@@ -431,7 +379,7 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
             const double vn = n.nx[i] * v0 + n.ny[i] * v1 + n.nz[i] * v2;
             const double fn = n.K[i] * pen - n.B[i] * vn;
             const bool contact = pen > 0.0;
-            const double s = contact && fn > 0.0 ? n.w[i] * fn : 0.0;  // unilateral: never pulls
+            const double s = contact && fn > 0.0 ? fn : 0.0;  // unilateral: never pulls
             f0 += s * n.nx[i];
             f1 += s * n.ny[i];
             f2 += s * n.nz[i];
@@ -448,11 +396,16 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     {
         const NearFields& n = near_fields_;
         for (std::size_t i = 0; i < n.count; ++i) {
-            bool contact = false;
-            const AxisVector f = entry_force(*n.params[i], x, contact);
-            f0 += n.w[i] * f[0];
-            f1 += n.w[i] * f[1];
-            f2 += n.w[i] * f[2];
+            // f = r F0 + r^2 J (x - x0) - r B v inside the radius (the field's law with the ramp's weights)
+            const ObjectParams& p = *n.params[i];
+            const double r = n.w[i], rr = r * r;
+            const AxisVector d{x0 - p.point[0], x1 - p.point[1], x2 - p.point[2]};
+            const bool contact = dot(d, d) <= p.radius * p.radius;
+            if (contact) {
+                f0 += r * p.force[0] + rr * dot(p.jacobian[0], d) - r * p.B * v0;
+                f1 += r * p.force[1] + rr * dot(p.jacobian[1], d) - r * p.B * v1;
+                f2 += r * p.force[2] + rr * dot(p.jacobian[2], d) - r * p.B * v2;
+            }
             mask |= static_cast<std::uint64_t>(contact) << n.slot[i];
         }
     }

@@ -11,7 +11,12 @@
 //   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0) - B v_j
 // The damping acts on the device's own velocity, never on the motion of offset/point/center, so moving an
 // object by Δ changes its force by K Δ at most (no step beyond what the motion implies).
-// Each entry's force is scaled by its ramp factor s in [0, 1], stepped by T / ramp_s per tick. The summed
+// Each entry ramps with a factor r in [0, 1], stepped by T / ramp_s per tick: its stiffness terms (K, a
+// field's J) are weighted r^2, its damping and a field's constant force F0 r. Damping leads stiffness so
+// that a ramp from zero starts damping-dominated: with a delay, small gains are stable only if
+// B / K > ~(t_d + T/2) (beta / alpha > d + 1/2), and a linear ramp of both would start outside the region
+// for every object with a lower ratio (tests/server/test_scene_objects.cpp). The server checks every scene
+// a ramp renders (docs/protocol.md, section 5). The summed
 // force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
 // (infinity norm, scaled as a whole so the direction is kept); a non-finite value latches a fault.
 //
@@ -168,7 +173,7 @@ private:
     // Unilateral planes in or near contact: force and flag. The ramp factor w is copied here; it changes
     // only at a ramp step, which re-classifies.
     struct NearPlanes {
-        std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{}, w{};
+        std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{};  // K, B: times the ramp's weights
         std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
         std::size_t count = 0;
     };
@@ -186,7 +191,6 @@ private:
         std::size_t count = 0;
     };
 
-    AxisVector entry_force(const ObjectParams& p, const AxisVector& x, bool& contact) const noexcept;
     void step_ramps() noexcept;
     void count_occupied() noexcept;
     void add_linear(const ObjectParams& p, double w) noexcept;

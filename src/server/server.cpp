@@ -659,6 +659,43 @@ struct Server::Impl {
             return;
         }
 
+        // The ramps between the scene before and after this batch (object_checks.hpp, ramp_is_stable): the
+        // batch's new and changed objects ramp in, the ones they replace or remove ramp out. Objects of an
+        // earlier batch whose ramps are still running count at their final weight. Moves have no ramp.
+        {
+            Matrix3 K_in{}, B_in{}, K_out{}, B_out{};
+            bool ramps = false;
+            for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+                if (!updates[i] || updates[i]->action == SlotUpdate::Action::Move) continue;
+                if (updates[i]->action == SlotUpdate::Action::Set) {
+                    add_to(K_in, proposal[i].resolved.K_matrix);
+                    add_to(B_in, proposal[i].resolved.B_matrix);
+                    ramps = true;
+                }
+                if (slots[i].state == ServerSlot::State::Used) {  // what was rendered there before the batch
+                    add_to(K_out, slots[i].resolved.K_matrix);
+                    add_to(B_out, slots[i].resolved.B_matrix);
+                    ramps = true;
+                }
+            }
+            Matrix3 K_base = K_sum, B_base = B_sum;  // K_sum = base + in
+            for (std::size_t r = 0; r < 3; ++r) {
+                for (std::size_t col = 0; col < 3; ++col) {
+                    K_base[r][col] -= K_in[r][col];
+                    B_base[r][col] -= B_in[r][col];
+                }
+            }
+            const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
+            if (ramps && !checker.ramp_is_stable(K_base, B_base, K_in, B_in, K_out, B_out, step, why)) {
+                {
+                    std::lock_guard<std::mutex> lock(counters_mutex);
+                    ++counters.commits_refused;
+                }
+                send_error(s, id, "unstable_sum", "commit: " + why + " (docs/protocol.md, section 5)", -1);
+                return;
+            }
+        }
+
         ObjectCommit c;
         for (const auto& u : updates) {
             if (u) c.updates[c.count++] = *u;

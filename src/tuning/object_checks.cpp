@@ -236,4 +236,29 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     return false;
 }
 
+bool GainChecker::ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in, const Matrix3& B_in,
+                                 const Matrix3& K_out, const Matrix3& B_out, double step, std::string& why) const {
+    if (!(step > 0.0) || step >= 1.0) return true;  // no ramp: the scene jumps from before to after
+    for (int j = 1;; ++j) {
+        const double s = static_cast<double>(j) * step;
+        if (s >= 1.0) return true;
+        Matrix3 K{}, B{};
+        for (std::size_t r = 0; r < 3; ++r) {
+            for (std::size_t c = 0; c < 3; ++c) {
+                K[r][c] = K_base[r][c] + s * s * K_in[r][c] + (1.0 - s) * (1.0 - s) * K_out[r][c];
+                B[r][c] = B_base[r][c] + s * B_in[r][c] + (1.0 - s) * B_out[r][c];
+            }
+        }
+        std::string reason;
+        if (!sum_is_stable(K, B, reason)) {
+            std::ostringstream o;
+            o.precision(4);
+            o << "during the ramp, " << j << " ticks after the batch (new or changed objects at weight s = " << s
+              << ", the ones they replace or remove at 1 - s): " << reason;
+            why = o.str();
+            return false;
+        }
+    }
+}
+
 }  // namespace hapticd

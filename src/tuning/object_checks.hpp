@@ -111,6 +111,15 @@ public:
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
 
+    // The scenes a batch's ramps render (docs/protocol.md, section 5): at tick j after the batch is applied
+    // the loop renders base + s_j (K_in, B_in) + (1 - s_j) (K_out, B_out) with s_j = j step (step = T /
+    // ramp_time, the loop's ramp increment), from the scene before the batch (s = 0) to the scene after it
+    // (s = 1). Sums of stable scenes need not be stable (the stable set of gain matrices is not convex when
+    // the directions do not commute), so every intermediate s_j, 0 < s_j < 1, is checked with sum_is_stable:
+    // at most 1 / step - 1 verdicts. On failure `why` says at which s and why.
+    [[nodiscard]] bool ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in, const Matrix3& B_in,
+                                      const Matrix3& K_out, const Matrix3& B_out, double step, std::string& why) const;
+
 private:
     [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m) const;
     [[nodiscard]] double alpha_max_for(double m) const;

@@ -312,6 +312,63 @@ Eigen::Matrix3d eigen_of(const MassMatrix& m) {
     return e;
 }
 
+// The ramps between two stable scenes can pass through unstable ones (docs/protocol.md, section 5). The
+// case: a plane along n1 (the scene before) and a second one along n2, nearly orthogonal (found by a random
+// search over normalised gains for d = 1). Normalised (m = T = 1): alpha1 = 0.0766, beta1 = 0.2424;
+// alpha2 = 0.103, beta2 = 0.1499; here m = 0.3 kg, T = 1 ms, K = alpha m / T^2, B = beta m / T.
+namespace ramp_case {
+const std::array<double, 3> n1{0.11098019180348687, 0.99382261849248599, 0.0};
+const std::array<double, 3> n2{-0.99931483376676711, -0.037011660509880265, 0.0};
+constexpr double m = 0.3;
+// hapticopt's own verdict on physical matrices (normalised here, independently of GainChecker).
+hapticopt::MatrixGainStability library_verdict(const Matrix3& K, const Matrix3& B) {
+    Eigen::MatrixXd A(3, 3), Bn(3, 3);
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            A(r, c) = K[r][c] * kT * kT / m;
+            Bn(r, c) = B[r][c] * kT / m;
+        }
+    }
+    return hapticopt::matrix_gain_stability(hapticopt::NormalizedPlant{0.0, 0.0, 1.0}, A, Bn);
+}
+Matrix3 scaled(const Matrix3& a, double s) {
+    Matrix3 r{};
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) r[i][j] = s * a[i][j];
+    }
+    return r;
+}
+}  // namespace ramp_case
+
+TEST(GainChecker, RampsAreCheckedAtEveryTickAndStiffnessFollowsDamping) {
+    using namespace ramp_case;
+    GainChecker checker(plant(kT));
+    const Matrix3 K1 = outer(n1, 0.0766 * m / (kT * kT)), B1 = outer(n1, 0.2424 * m / kT);
+    const Matrix3 K2 = outer(n2, 0.103 * m / (kT * kT)), B2 = outer(n2, 0.1499 * m / kT);
+    std::string why;
+    ASSERT_TRUE(checker.sum_is_stable(K1, B1, why)) << why;
+    ASSERT_TRUE(checker.sum_is_stable(plus(K1, K2), plus(B1, B2), why)) << why;
+    // A linear ramp (K and B both x s) of the second plane would pass through unstable scenes: at s = 2/3
+    // the spectral radius is 1.0036 (and 1.00009 at s = 1/30, where the plane alone is already unstable:
+    // beta / alpha = 1.46 < d + 1/2).
+    const auto linear_middle = library_verdict(plus(K1, scaled(K2, 2.0 / 3.0)), plus(B1, scaled(B2, 2.0 / 3.0)));
+    EXPECT_FALSE(linear_middle.stable);
+    EXPECT_GT(linear_middle.spectral_radius, 1.003);
+    EXPECT_FALSE(hapticopt::is_stable(hapticopt::NormalizedPlant{0.0, 0.0, 1.0}, {0.103 / 30.0, 0.1499 / 30.0}));
+    // The loop's ramp (K x s^2, B x s: damping first) stays inside at every tick of a 30 ms ramp at 1 kHz.
+    EXPECT_TRUE(hapticopt::is_stable(hapticopt::NormalizedPlant{0.0, 0.0, 1.0}, {0.103 / 900.0, 0.1499 / 30.0}));
+    const Matrix3 zero{};
+    EXPECT_TRUE(checker.ramp_is_stable(K1, B1, K2, B2, zero, zero, 1.0 / 30.0, why)) << why;
+    // Replacing the first plane by the second (a cross-fade, nothing else in the scene) does not: refused,
+    // naming the ramp. Independently: the scene at tick 26 (s = 26/30) is unstable for hapticopt.
+    EXPECT_FALSE(checker.ramp_is_stable(zero, zero, K2, B2, K1, B1, 1.0 / 30.0, why));
+    EXPECT_NE(why.find("during the ramp"), std::string::npos) << why;
+    const double s = 26.0 / 30.0;
+    EXPECT_FALSE(library_verdict(plus(scaled(K2, s * s), scaled(K1, (1 - s) * (1 - s))), plus(scaled(B2, s), scaled(B1, 1 - s))).stable);
+    // Without a ramp (step 1) the scene jumps from before to after: both stable, accepted.
+    EXPECT_TRUE(checker.ramp_is_stable(zero, zero, K2, B2, K1, B1, 1.0, why)) << why;
+}
+
 GainCheckPlant anisotropic_plant(double delay) {
     GainCheckPlant p = plant(delay);
     p.mass_matrix = DeviceMass::from_matrix(anisotropic_matrix(), 3);

@@ -27,12 +27,13 @@ struct Reference {
     double magnitude = 0.0;
 };
 
-Reference reference_force(const ObjectParams& p, const AxisVector& x, const AxisVector& v) {
+// sK, sB, sF: the ramp's weights of the stiffness, damping and constant-force terms (r^2, r, r).
+Reference reference_force(const ObjectParams& p, const AxisVector& x, const AxisVector& v, double sK, double sB, double sF) {
     Reference r;
     switch (p.kind) {
         case ObjectKind::Plane: {
             const double pen = p.offset - dot3(p.direction, x);
-            double fn = p.K * pen - p.B * dot3(p.direction, v);
+            double fn = sK * p.K * pen - sB * p.B * dot3(p.direction, v);
             r.magnitude = std::fabs(p.K) * (std::fabs(p.offset) + std::fabs(x[0]) + std::fabs(x[1]) + std::fabs(x[2])) +
                           std::fabs(p.B) * (std::fabs(v[0]) + std::fabs(v[1]) + std::fabs(v[2]));
             r.contact = pen > 0.0;
@@ -56,7 +57,7 @@ Reference reference_force(const ObjectParams& p, const AxisVector& x, const Axis
                     ra = d[a] - dn * p.direction[a];
                     va = v[a] - vn * p.direction[a];
                 }
-                r.f[a] = -p.K * ra - p.B * va;
+                r.f[a] = -sK * p.K * ra - sB * p.B * va;
                 r.magnitude += std::fabs(p.K) * (std::fabs(x[a]) + std::fabs(p.point[a])) + std::fabs(p.B) * std::fabs(v[a]);
             }
             r.contact = true;
@@ -68,7 +69,7 @@ Reference reference_force(const ObjectParams& p, const AxisVector& x, const Axis
             r.contact = std::sqrt(dot3(d, d)) <= p.radius;
             if (!r.contact) return r;
             for (std::size_t a = 0; a < 3; ++a) {
-                r.f[a] = p.force[a] + dot3(p.jacobian[a], d) - p.B * v[a];
+                r.f[a] = sF * p.force[a] + sK * dot3(p.jacobian[a], d) - sB * p.B * v[a];
                 r.magnitude += std::fabs(p.force[a]) + std::fabs(p.B * v[a]);
                 for (std::size_t c = 0; c < 3; ++c) r.magnitude += std::fabs(p.jacobian[a][c]) * (std::fabs(x[c]) + std::fabs(p.point[c]));
             }
@@ -184,8 +185,8 @@ void compare_on_random_scenes(double ramp_time, bool with_moves, std::uint64_t s
             std::uint64_t mask = 0;
             bool flag_decidable = true;
             for (std::size_t i = 0; i < n; ++i) {
-                const Reference r = reference_force(objs[i], x, v);
-                for (std::size_t a = 0; a < 3; ++a) expected[a] += s * r.f[a];
+                const Reference r = reference_force(objs[i], x, v, s * s, s, s);
+                for (std::size_t a = 0; a < 3; ++a) expected[a] += r.f[a];
                 magnitude += r.magnitude;
                 if (r.contact) mask |= std::uint64_t{1} << i;
                 const ObjectParams& p = objs[i];
