@@ -16,16 +16,16 @@
 // that a ramp from zero starts damping-dominated: with a delay, small gains are stable only if
 // B / K > ~(t_d + T/2) (beta / alpha > d + 1/2), and a linear ramp of both would start outside the region
 // for every object with a lower ratio (tests/server/test_scene_objects.cpp). The server checks every scene
-// a ramp renders (docs/protocol.md, section 5). The summed
-// force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
+// a ramp renders (docs/protocol.md, section 5).
+// The summed force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
 // (infinity norm, scaled as a whole so the direction is kept); a non-finite value latches a fault.
 //
 // How a tick is computed (the cost does not grow with the objects that cannot change the force law):
 //  * Linear part, in closed form. Springs, bilateral planes and fields with the handle inside them are
-//    affine in (x, v): f = s (c_i - K_i x - B_i v). Their sum is one affine law f = c - K x - B v (3-vectors
+//    affine in (x, v): f = r^2 (c_i - K_i x) - r B_i v (+ r F0 for a field). Their sum is one affine law f = c - K x - B v (3-vectors
 //    and 3x3 matrices), summed when the scene changes (a commit, a ramp step, a move) and then evaluated in
 //    ~20 flops whatever the number of objects. It equals the per-object sum up to rounding (relative
-//    ~n eps of the sum of the magnitudes; tests/server/test_scene_objects.cpp compares the two).
+//    ~n eps of the sum of the magnitudes; tests/server/test_scene_objects_closed_form.cpp compares the two).
 //  * Switching surfaces, by a safe radius. Each object whose law or contact flag switches with x has a
 //    surface: the plane (p = 0) or the field's sphere (||x - x0|| = radius). At each re-classification the
 //    handle's distance to every surface farther than kNearDistance is taken, and their minimum rho. While the
