@@ -214,6 +214,20 @@ AxisVector SceneObjects::linear_constant(const ObjectParams& p, double ramp) noe
     return c;
 }
 
+namespace {
+
+// A plane's geometry and slot appended to a near list (NearPlanes or NearFlags); count grows by one.
+template <class List>
+void append_plane(List& n, const ObjectParams& p, std::size_t slot) noexcept {
+    n.nx[n.count] = p.direction[0];
+    n.ny[n.count] = p.direction[1];
+    n.nz[n.count] = p.direction[2];
+    n.offset[n.count] = p.offset;
+    n.slot[n.count++] = static_cast<std::uint8_t>(slot);
+}
+
+}  // namespace
+
 void SceneObjects::classify(const AxisVector& x) noexcept {
     ++classifications_;
     linear_ = AffineLaw{};
@@ -257,26 +271,17 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                             if (d > 0.0) static_mask_ |= bit;
                             rho = ad < rho ? ad : rho;
                         } else {
-                            NearFlags& n = near_flags_;
-                            place_[k] = EntryPlace{EntryPlace::NearFlag, static_cast<std::uint8_t>(n.count)};
-                            n.nx[n.count] = p.direction[0];
-                            n.ny[n.count] = p.direction[1];
-                            n.nz[n.count] = p.direction[2];
-                            n.offset[n.count] = p.offset;
-                            n.slot[n.count++] = static_cast<std::uint8_t>(s);
+                            place_[k] = EntryPlace{EntryPlace::NearFlag, static_cast<std::uint8_t>(near_flags_.count)};
+                            append_plane(near_flags_, p, s);
                         }
                     } else if (d <= -kNearDistance) {
                         rho = ad < rho ? ad : rho;  // out of contact and far from it: no force, no flag
                     } else {
                         NearPlanes& n = near_planes_;
                         place_[k] = EntryPlace{EntryPlace::NearPlane, static_cast<std::uint8_t>(n.count)};
-                        n.nx[n.count] = p.direction[0];
-                        n.ny[n.count] = p.direction[1];
-                        n.nz[n.count] = p.direction[2];
-                        n.offset[n.count] = p.offset;
                         n.K[n.count] = w * w * p.K;  // the ramp's weights: r^2 for the stiffness, r for the damping
                         n.B[n.count] = w * p.B;
-                        n.slot[n.count++] = static_cast<std::uint8_t>(s);
+                        append_plane(n, p, s);
                     }
                     break;
                 }

@@ -29,6 +29,18 @@ std::vector<double> trace_positions(const std::string& path) {
     return x;
 }
 
+// The largest deviation of a traced step response from hapticopt's, relative to x_inf = 1 / K: the trace
+// `y` is one axis of the handle, y = -along p for the penetration p along the plane's normal; the plane has
+// the CE2 gains `t` for the mass m along its normal.
+double worst_step_deviation(const std::vector<double>& y, double along, double m, const hapticopt::WallTuning& t) {
+    const auto x = hapticopt::sampled_step_response(hapticopt::NormalizedPlant{0.0, 0.0, 0.0},
+                                                    hapticopt::NormalizedGains{t.alpha, t.beta}, y.size());
+    const double x_inf = 1.0 / t.K;
+    double worst = 0.0;
+    for (std::size_t j = 0; j < y.size(); ++j) worst = std::max(worst, std::abs(-y[j] / along - x[j] * kT * kT / m) / x_inf);
+    return worst;
+}
+
 // A bilateral plane with normal n = (0, 0.6, 0.8) and a client field F0 = -1 N n (the paper's unit step
 // force, applied from tick 0 like the simulated step: no delay in this profile) in lockstep: the
 // penetration p_j = -y_j / 0.6 must be hapticopt's sampled step response for (alpha, beta, d = 0).
@@ -59,14 +71,8 @@ TEST(ServerProcess, ObliquePlaneGivesTheAnalysedStepResponse) {
                                                             hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
     const std::vector<double> y = trace_positions(trace);
     ASSERT_EQ(y.size(), 300U);
-    const auto x = hapticopt::sampled_step_response(hapticopt::NormalizedPlant{0.0, 0.0, 0.0},
-                                                    hapticopt::NormalizedGains{t.alpha, t.beta}, y.size());
     const double x_inf = 1.0 / t.K;
-    double worst = 0.0;
-    for (std::size_t j = 0; j < y.size(); ++j) {
-        const double p = -y[j] / 0.6;
-        worst = std::max(worst, std::abs(p - x[j] * kT * kT / kMass) / x_inf);
-    }
+    const double worst = worst_step_deviation(y, 0.6, kMass, t);
     std::printf("[ oblique step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", t.K, t.B, worst,
                 y.size());
     EXPECT_LE(worst, 1e-9);
@@ -116,14 +122,8 @@ TEST(ServerProcess, ObliquePlaneOnAnAnisotropicMassGivesTheStepResponseForItsMas
     const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{m_n, 0.0, 0.0, kT, 0.0});
     const std::vector<double> y = trace_positions(trace);
     ASSERT_EQ(y.size(), 300U);
-    const auto x = hapticopt::sampled_step_response(hapticopt::NormalizedPlant{0.0, 0.0, 0.0},
-                                                    hapticopt::NormalizedGains{t.alpha, t.beta}, y.size());
     const double x_inf = 1.0 / t.K;
-    double worst = 0.0;
-    for (std::size_t j = 0; j < y.size(); ++j) {
-        const double p = -y[j] / along_y;
-        worst = std::max(worst, std::abs(p - x[j] * kT * kT / m_n) / x_inf);
-    }
+    const double worst = worst_step_deviation(y, along_y, m_n, t);
     std::printf("[ anisotropic step ] m_n %.6g kg, K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", m_n, t.K,
                 t.B, worst, y.size());
     EXPECT_LE(worst, 1e-9);
