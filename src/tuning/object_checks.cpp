@@ -28,7 +28,7 @@ Eigen::Matrix3d symmetric(const Matrix3& m) {
     return 0.5 * (e + e.transpose());
 }
 
-std::string g(double v, int precision = 6) {
+std::string number_text(double v, int precision = 6) {
     std::ostringstream s;
     s.precision(precision);
     s << v;
@@ -42,7 +42,7 @@ GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
     free_mass_plant_ = plant_.damping == 0.0 && plant_.stiffness == 0.0;
     if (!mass_.isotropic && !free_mass_plant_) {
         throw std::invalid_argument("GainChecker: an anisotropic mass (" + mass_.describe() + ") with damping = " +
-                                    g(plant_.damping) + " N s/m, stiffness = " + g(plant_.stiffness) +
+                                    number_text(plant_.damping) + " N s/m, stiffness = " + number_text(plant_.stiffness) +
                                     " N/m has no scalar loop per direction; accepted: damping = stiffness = 0, or one mass");
     }
     if (mass_.isotropic) plant_.mass = mass_.matrix[0][0];
