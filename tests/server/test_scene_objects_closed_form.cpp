@@ -12,7 +12,7 @@
 #include "scene/scene_objects.hpp"
 
 namespace hapticd {
-namespace {
+namespace closed_form {  // named: the sanitizer stage builds the tests as one unity file with test_scene_objects.cpp
 
 constexpr double kT = 1e-3;
 constexpr double kEps = 2.220446049250313e-16;
@@ -257,5 +257,5 @@ TEST(SceneObjectsClosedForm, AProxyMovedEveryTickIsFollowedAtOnce) {
     }
 }
 
-}  // namespace
+}  // namespace closed_form
 }  // namespace hapticd
