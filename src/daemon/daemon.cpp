@@ -70,11 +70,11 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
     }
 
     if (hooks_.state != nullptr) {
-        StateTick st;
+        StateTick& st = state_record_;
         st.tick = in.tick;
         st.time_s = static_cast<double>(RealtimeLoop::now_ns()) * 1e-9;
         st.position = position;
-        if (hooks_.objects != nullptr) st.velocity = hooks_.objects->velocity();
+        st.velocity = hooks_.objects != nullptr ? hooks_.objects->velocity() : AxisVector{};
         st.force = applied;
         st.overruns = loop_.counters().overruns;
         st.wake_latency_ns = in.wake_latency_ns;

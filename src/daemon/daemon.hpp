@@ -13,6 +13,7 @@
 #include "loop/realtime_loop.hpp"
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
+#include "server/state_publisher.hpp"
 #include "loop/trace.hpp"
 
 namespace hapticd {
@@ -73,6 +74,9 @@ private:
     Watchdog watchdog_;
     RunResult result_;
     ServerHooks hooks_;
+    // The published record, reused from tick to tick: every field is written before each publish, and a
+    // fresh zero-initialised one per tick cost a ~112-byte `rep stos` (~10 ns of a 50 ns tick, perf).
+    StateTick state_record_;
 };
 
 }  // namespace hapticd

@@ -1,5 +1,6 @@
 #include "scene/scene_objects.hpp"
 
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -105,33 +106,67 @@ void SceneObjects::apply_commits() noexcept {
     }
 }
 
-// After moves only: the moved objects' constant terms c_i are recomputed and c re-summed in slot order
-// from the stored c_i (the same sum a classification would form), their copies in the near lists are
-// updated, and the safe radius shrinks by the distance their surfaces moved (each object's distance to the
-// handle changes by at most that). K and B are unchanged. Cost: ~3 flops per object for the re-sum.
+namespace {
+
+// Knuth's TwoSum (TAOCP vol. 2, section 4.2.2, theorem B): s = fl(a + b) and the exact error e, a + b = s + e.
+// 6 flops, exact in any rounding-to-nearest arithmetic without reassociation.
+void two_sum(double a, double b, double& s, double& e) noexcept {
+    s = a + b;
+    const double bv = s - a;
+    e = (a - (s - bv)) + (b - bv);
+}
+
+}  // namespace
+
+// A moved entry's constant term replaced in its law's running sum: sum - before + after, each step by
+// TwoSum with the errors kept in carry, so that c = sum + carry is the exact sum of the entries' terms up to
+// eps |c| + (moves + 1) eps^2 (sum of the terms' magnitudes) — a compensated sum (Neumaier 1974, Higham 2002
+// section 4.3): a client moving a proxy every tick for days drifts by nothing that matters, without a
+// re-sum of the n entries (whose chain of additions cost ~70 ns for 64 entries).
+void SceneObjects::replace_constant(AffineLaw& l, AxisVector& stored, const AxisVector& now) noexcept {
+    for (std::size_t a = 0; a < 3; ++a) {
+        double s1 = 0.0, e1 = 0.0, s2 = 0.0, e2 = 0.0;
+        two_sum(l.sum[a], -stored[a], s1, e1);
+        two_sum(s1, now[a], s2, e2);
+        l.sum[a] = s2;
+        l.carry[a] += e1 + e2;
+        l.c[a] = l.sum[a] + l.carry[a];
+    }
+    stored = now;
+}
+
+void SceneObjects::start_constants(AffineLaw& l, const Members& m) const noexcept {
+    l.sum = sum_constants(m);
+    l.carry = AxisVector{};
+    l.c = l.sum;
+}
+
+// After moves only: the moved objects' constant terms c_i are recomputed and replaced in their law's sum
+// (replace_constant), their copies in the near lists are updated, and the safe radius shrinks by the
+// distance their surfaces moved (each object's distance to the handle changes by at most that). K and B
+// are unchanged. Cost: ~40 flops per moved object, whatever the number of objects.
 void SceneObjects::apply_moves() noexcept {
     for (std::uint64_t m = moved_mask_; m != 0; m &= m - 1) {
         const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
         const Entry& e = slots_[s].current;
         EntryPlace& place = place_[2 * s];
         switch (place.list) {
-            case EntryPlace::Linear: entry_c_[2 * s] = linear_constant(e.params, e.ramp); break;
+            case EntryPlace::Linear: replace_constant(linear_, entry_c_[2 * s], linear_constant(e.params, e.ramp)); break;
+            case EntryPlace::Pressed:
+                pressed_planes_.offset[place.index] = e.params.offset;
+                replace_constant(pressed_, entry_c_[2 * s], linear_constant(e.params, e.ramp));
+                break;
             case EntryPlace::NearPlane: near_planes_.offset[place.index] = e.params.offset; break;
             case EntryPlace::NearFlag:
                 near_flags_.offset[place.index] = e.params.offset;
-                entry_c_[2 * s] = linear_constant(e.params, e.ramp);
+                replace_constant(linear_, entry_c_[2 * s], linear_constant(e.params, e.ramp));
                 break;
             case EntryPlace::NearField: break;  // evaluated from its params, which the move has updated
             case EntryPlace::None: break;       // out of reach: its distance is covered by the radius below
         }
     }
-    AxisVector c{};
-    for (std::size_t i = 0; i < 2 * kSceneObjectCapacity; ++i) {
-        if (!entry_in_sum_[i]) continue;
-        for (std::size_t a = 0; a < 3; ++a) c[a] += entry_c_[i][a];
-    }
-    linear_.c = c;
     safe_radius_ -= moved_shift_;
+    pressed_depth_ -= moved_shift_;  // each pressed plane's penetration at x_ref changed by its own shift at most
     moved_mask_ = 0;
     moved_shift_ = 0.0;
 }
@@ -140,6 +175,30 @@ void SceneObjects::count_occupied() noexcept {
     std::uint32_t n = 0;
     for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) n += slot_object_id(s) != 0 ? 1U : 0U;
     occupied_ = n;
+}
+
+// The members' constant terms summed in four partial sums (entries i = 0, 1, 2, 3 mod 4), then
+// (s0 + s1) + (s2 + s3): four independent chains of additions instead of one (a classification's sum). Rounding: at most (n / 4 + 2) eps times the sum of
+// the magnitudes (Higham 2002, section 4.2), within the bound of recursive summation.
+AxisVector SceneObjects::sum_constants(const Members& m) const noexcept {
+    double s[4][3] = {};
+    std::size_t i = 0;
+    for (; i + 4 <= m.count; i += 4) {
+        for (std::size_t j = 0; j < 4; ++j) {
+            const AxisVector& c = entry_c_[m.entry[i + j]];
+            s[j][0] += c[0];
+            s[j][1] += c[1];
+            s[j][2] += c[2];
+        }
+    }
+    for (std::size_t j = 0; i < m.count; ++i, ++j) {
+        const AxisVector& c = entry_c_[m.entry[i]];
+        s[j][0] += c[0];
+        s[j][1] += c[1];
+        s[j][2] += c[2];
+    }
+    return {(s[0][0] + s[1][0]) + (s[2][0] + s[3][0]), (s[0][1] + s[1][1]) + (s[2][1] + s[3][1]),
+            (s[0][2] + s[1][2]) + (s[2][2] + s[3][2])};
 }
 
 namespace {
@@ -158,11 +217,10 @@ double norm1(const AxisVector& a) noexcept { return std::fabs(a[0]) + std::fabs(
 // (a plane's u.point is its offset). With the ramp factor r the stiffness terms are weighted r^2, the
 // damping and a field's constant force r (ramp_weights): add_linear adds r^2 K_i and r B_i;
 // linear_constant gives r^2 k (..) or r F0 - r^2 J x0.
-void SceneObjects::add_linear(const ObjectParams& p, double r) noexcept {
+void SceneObjects::add_linear(AffineLaw& l, const ObjectParams& p, double r) noexcept {
     const double w = r * r;  // the stiffness weight
     const double wk = w * p.K, wb = r * p.B;
     const AxisVector& u = p.direction;
-    AffineLaw& l = linear_;
     l.any = true;
     if (p.kind == ObjectKind::Field) {
         for (std::size_t r = 0; r < 3; ++r) {
@@ -228,18 +286,33 @@ void append_plane(List& n, const ObjectParams& p, std::size_t slot) noexcept {
 
 }  // namespace
 
+// Zero planes after the last, up to a multiple of four (add_unilateral takes four at a time); count is
+// unchanged. A zero plane has pen = 0: no contact, no force, a zero flag bit.
+void SceneObjects::pad_planes(NearPlanes& n) noexcept {
+    for (std::size_t i = n.count; i % 4 != 0; ++i) {
+        n.nx[i] = n.ny[i] = n.nz[i] = n.offset[i] = n.K[i] = n.B[i] = 0.0;
+        n.slot[i] = 0;
+    }
+}
+
 void SceneObjects::classify(const AxisVector& x) noexcept {
     ++classifications_;
     linear_ = AffineLaw{};
+    pressed_ = AffineLaw{};
+    linear_members_.count = 0;
+    pressed_members_.count = 0;
+    pressed_planes_.count = 0;
+    double least_pressed = std::numeric_limits<double>::infinity();
+    double tau = 0.0;
     near_planes_.count = 0;
     near_flags_.count = 0;
     near_fields_.count = 0;
     static_mask_ = 0;
+    pressed_mask_ = 0;
     ramping_ = 0;
     moved_mask_ = 0;
     moved_shift_ = 0.0;
     place_.fill(EntryPlace{});
-    entry_in_sum_.fill(false);
     double rho = std::numeric_limits<double>::infinity();
     const double x1 = norm1(x);
     double scale = x1;
@@ -254,9 +327,9 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
             const double w = e->ramp;
             const std::size_t k = 2 * s + which;
             auto sum_linear = [&] {
-                add_linear(p, w);
+                add_linear(linear_, p, w);
                 entry_c_[k] = linear_constant(p, w);
-                entry_in_sum_[k] = true;
+                linear_members_.entry[linear_members_.count++] = static_cast<std::uint8_t>(k);
                 place_[k] = EntryPlace{EntryPlace::Linear, 0};
             };
             switch (p.kind) {
@@ -276,6 +349,20 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                         }
                     } else if (d <= -kNearDistance) {
                         rho = ad < rho ? ad : rho;  // out of contact and far from it: no force, no flag
+                    } else if (d >= kNearDistance && w * w * p.K > 0.0 && std::isfinite(p.B / (w * p.K))) {
+                        // pressed deep: in contact within the safe radius; summed while its clamp is idle
+                        add_linear(pressed_, p, w);
+                        entry_c_[k] = linear_constant(p, w);
+                        pressed_members_.entry[pressed_members_.count++] = static_cast<std::uint8_t>(k);
+                        NearPlanes& n = pressed_planes_;
+                        place_[k] = EntryPlace{EntryPlace::Pressed, static_cast<std::uint8_t>(n.count)};
+                        n.K[n.count] = w * w * p.K;
+                        n.B[n.count] = w * p.B;
+                        append_plane(n, p, s);
+                        pressed_mask_ |= bit;  // their surfaces do not bound rho: the tick's test covers them
+                        least_pressed = ad < least_pressed ? ad : least_pressed;
+                        const double t = p.B / (w * p.K);  // b / k = r B / (r^2 K)
+                        tau = t > tau ? t : tau;
                     } else {
                         NearPlanes& n = near_planes_;
                         place_[k] = EntryPlace{EntryPlace::NearPlane, static_cast<std::uint8_t>(n.count)};
@@ -314,16 +401,16 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
             }
         }
     }
-    AxisVector c{};
-    for (std::size_t i = 0; i < 2 * kSceneObjectCapacity; ++i) {
-        if (!entry_in_sum_[i]) continue;
-        for (std::size_t a = 0; a < 3; ++a) c[a] += entry_c_[i][a];
-    }
-    linear_.c = c;
+    pad_planes(near_planes_);
+    pad_planes(pressed_planes_);
+    start_constants(linear_, linear_members_);
+    start_constants(pressed_, pressed_members_);
     // The distances above carry a rounding error below ~3 eps (scale + ||x - x_ref||_1); 16 eps (scale +
     // 2 rho) bounds it with room for the norm of the displacement.
     reference_ = x;
     safe_radius_ = std::isfinite(rho) ? rho - 16.0 * kEps * (scale + 2.0 * rho) : rho;
+    pressed_depth_ = pressed_.any ? least_pressed - 16.0 * kEps * (scale + 2.0 * least_pressed) : 0.0;
+    pressed_tau_ = tau;
     scene_changed_ = false;
 }
 
@@ -369,28 +456,24 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     // !(a < b) also re-classifies on a NaN (whose forces then fail the finite check below).
     if (scene_changed_ || !(moved2 < safe_radius_ * safe_radius_) || !(safe_radius_ > 0.0)) classify(x);
 
-    double f0 = force[0], f1 = force[1], f2 = force[2];
-    if (linear_.any) {
-        const AffineLaw& l = linear_;
-        f0 += l.c[0] - (l.K[0][0] * x0 + l.K[0][1] * x1 + l.K[0][2] * x2) - (l.B[0][0] * v0 + l.B[0][1] * v1 + l.B[0][2] * v2);
-        f1 += l.c[1] - (l.K[1][0] * x0 + l.K[1][1] * x1 + l.K[1][2] * x2) - (l.B[1][0] * v0 + l.B[1][1] * v1 + l.B[1][2] * v2);
-        f2 += l.c[2] - (l.K[2][0] * x0 + l.K[2][1] * x1 + l.K[2][2] * x2) - (l.B[2][0] * v0 + l.B[2][1] * v1 + l.B[2][2] * v2);
-    }
+    const double xs[3] = {x0, x1, x2}, vs[3] = {v0, v1, v2};
+    double fs[3] = {force[0], force[1], force[2]};
+    if (linear_.any) add_law(linear_, xs, vs, fs);
     std::uint64_t mask = static_mask_;
-    {
-        const NearPlanes& n = near_planes_;
-        for (std::size_t i = 0; i < n.count; ++i) {
-            const double pen = n.offset[i] - (n.nx[i] * x0 + n.ny[i] * x1 + n.nz[i] * x2);
-            const double vn = n.nx[i] * v0 + n.ny[i] * v1 + n.nz[i] * v2;
-            const double fn = n.K[i] * pen - n.B[i] * vn;
-            const bool contact = pen > 0.0;
-            const double s = contact && fn > 0.0 ? fn : 0.0;  // unilateral: never pulls
-            f0 += s * n.nx[i];
-            f1 += s * n.ny[i];
-            f2 += s * n.nz[i];
-            mask |= static_cast<std::uint64_t>(contact) << n.slot[i];
+    if (pressed_.any) {
+        // The clamp of every deeply pressed plane is idle if ||d||_1 + tau ||v||_1 <= P (header comment).
+        const double reach = std::fabs(d0) + std::fabs(d1) + std::fabs(d2) + pressed_tau_ * (std::fabs(v0) + std::fabs(v1) + std::fabs(v2));
+        if (reach <= pressed_depth_) {  // which also proves p > 0: all of them in contact
+            add_law(pressed_, xs, vs, fs);
+            mask |= pressed_mask_;
+            ++pressed_summed_;
+        } else {
+            add_unilateral(pressed_planes_, xs, vs, fs, mask);
+            ++pressed_fallbacks_;
         }
     }
+    if (near_planes_.count > 0) add_unilateral(near_planes_, xs, vs, fs, mask);
+    double f0 = fs[0], f1 = fs[1], f2 = fs[2];
     {
         const NearFlags& n = near_flags_;
         for (std::size_t i = 0; i < n.count; ++i) {
@@ -446,6 +529,58 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     previous_total_ = {f0, f1, f2};
     force = {f0, f1, f2};
     return true;
+}
+
+void SceneObjects::add_law(const AffineLaw& l, const double (&x)[3], const double (&v)[3], double (&f)[3]) noexcept {
+    for (std::size_t r = 0; r < 3; ++r) {
+        f[r] += l.c[r] - (l.K[r][0] * x[0] + l.K[r][1] * x[1] + l.K[r][2] * x[2]) - (l.B[r][0] * v[0] + l.B[r][1] * v[1] + l.B[r][2] * v[2]);
+    }
+}
+
+// f += sum_i max(k_i p_i - b_i n_i.v, 0) n_i over the planes with p_i = offset_i - n_i.x > 0, mask |= their
+// slots' bits. Four planes at a time in the lanes of a 4-double vector (GCC's vector extension: two SSE2
+// registers on baseline x86-64, one AVX2 register in the avx2 clone chosen at load time), with the clamp and
+// the contact test as lane masks, not branches: the flags of planes the handle moves across flip from tick
+// to tick and a branch on them mispredicts. The lists are padded with zero planes to a multiple of four
+// (pen = 0: no contact, no force). Each lane is its own partial sum, added (l0 + l1) + (l2 + l3) at the
+// end. Rounding: at most (n / 4 + 2) eps of the magnitudes (Higham 2002, section 4.2).
+namespace {
+using Lanes = double __attribute__((vector_size(32)));
+using LaneMask = std::int64_t __attribute__((vector_size(32)));
+// Into a reference, not returned: a 32-byte vector return value has another ABI with AVX than without.
+void load_lanes(Lanes& r, const double* p) noexcept { std::memcpy(&r, p, sizeof r); }
+}  // namespace
+
+__attribute__((target_clones("avx2", "default")))
+void SceneObjects::add_unilateral(const NearPlanes& n, const double (&x)[3], const double (&v)[3], double (&f)[3],
+                                  std::uint64_t& mask) noexcept {
+    const double x0 = x[0], x1 = x[1], x2 = x[2], v0 = v[0], v1 = v[1], v2 = v[2];
+    Lanes a0{}, a1{}, a2{};
+    std::uint64_t m = 0;
+    for (std::size_t i = 0; i < n.count; i += 4) {
+        Lanes nx, ny, nz, offset, K, B;
+        load_lanes(nx, &n.nx[i]);
+        load_lanes(ny, &n.ny[i]);
+        load_lanes(nz, &n.nz[i]);
+        load_lanes(offset, &n.offset[i]);
+        load_lanes(K, &n.K[i]);
+        load_lanes(B, &n.B[i]);
+        const Lanes pen = offset - (nx * x0 + ny * x1 + nz * x2);
+        const Lanes vn = nx * v0 + ny * v1 + nz * v2;
+        const Lanes fn = K * pen - B * vn;
+        const LaneMask contact = pen > 0.0;
+        const LaneMask keep = contact & (fn > 0.0);  // unilateral: never pulls
+        const Lanes s = reinterpret_cast<Lanes>(reinterpret_cast<LaneMask>(fn) & keep);
+        a0 += s * nx;
+        a1 += s * ny;
+        a2 += s * nz;
+        const auto bit = [&](std::size_t j) { return static_cast<std::uint64_t>(contact[j] & 1) << n.slot[i + j]; };
+        m |= (bit(0) | bit(1)) | (bit(2) | bit(3));
+    }
+    f[0] += (a0[0] + a0[1]) + (a0[2] + a0[3]);
+    f[1] += (a1[0] + a1[1]) + (a1[2] + a1[3]);
+    f[2] += (a2[0] + a2[1]) + (a2[2] + a2[3]);
+    mask |= m;
 }
 
 std::uint32_t SceneObjects::slot_object_id(std::size_t slot) const noexcept {

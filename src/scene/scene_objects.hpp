@@ -34,12 +34,23 @@
 //    unchanged and they cost nothing. tol = 16 eps (scale of offsets, centres, radii and x) bounds the
 //    rounding of the distances, so a flag so kept is the sign a direct evaluation would compute except within
 //    rounding of the surface itself. Leaving that radius re-classifies (O(n), once per kNearDistance of motion).
-//  * Moves (a commit of Move updates only: the same object, another place) do not re-classify: the moved
-//    objects' constant terms c_i are recomputed and c re-summed from the stored c_i, and the safe radius
-//    shrinks by how far their surfaces moved. A client moving a proxy every tick costs ~3 flops per object.
-//  * Near or nonlinear objects, one by one: unilateral planes the handle is in or near (the clamp f.n >= 0
-//    depends on v as well), and planes / fields within kNearDistance of their surface (for their flags; a near
-//    field's force too).
+//  * Moves (a commit of Move updates only: the same object, another place) do not re-classify: each moved
+//    object's constant term c_i is recomputed and replaced in c by a compensated update (TwoSum, the errors
+//    carried: exact up to eps |c| + moves eps^2 sum |c_i|), and the safe radius and P shrink by how far
+//    their surfaces moved. A client moving a proxy every tick costs ~40 flops, whatever the object count.
+//  * Unilateral planes pressed deeper than kNearDistance, in closed form while their clamp cannot act. Such a
+//    plane i (penetration p_i at the classification, gains k_i = r^2 K, b_i = r B) pushes k_i p - b_i n.v,
+//    affine in (x, v), as long as that is >= 0. At x = x_ref + d, p >= p_i - |n.d| >= p_i - ||d||_1 and
+//    n.v <= ||v||_1, so ||d||_1 + tau ||v||_1 <= P, with P = min p_i (less the rounding tol) and
+//    tau = max b_i / k_i, proves the clamp idle for all of them: their sum is then a second affine law, checked
+//    in 8 flops per tick; the test also proves p > 0, so their flags are set. A tick that fails it (a fast
+//    hand, a shallow press, the handle gone out) evaluates them one by one from flat arrays instead: the same
+//    force and flags, at the near planes' cost. So their surfaces need not bound the safe radius: pressing a
+//    wall never makes the other objects re-classify more often.
+//  * Near or nonlinear objects, one by one: unilateral planes the handle is in contact with less than
+//    kNearDistance deep or near (the clamp f.n >= 0 depends on v as well), and planes / fields within
+//    kNearDistance of their surface (for their flags; a near field's force too). The loop over unilateral
+//    planes is branch-free with four partial sums (no chain of dependent additions across planes).
 // No allocation, lock, exception or I/O in anything called per tick.
 #pragma once
 
@@ -148,6 +159,10 @@ public:
     [[nodiscard]] std::uint64_t slot_table_version() const noexcept { return slot_table_version_; }
     // Re-classifications so far (commits, ramp steps, moves, leaving the safe radius): for the benchmarks.
     [[nodiscard]] std::uint64_t classifications() const noexcept { return classifications_; }
+    // Ticks whose motion failed the pressed planes' test (they were evaluated one by one): for the tests.
+    [[nodiscard]] std::uint64_t pressed_fallbacks() const noexcept { return pressed_fallbacks_; }
+    // Ticks that used the pressed planes' summed law.
+    [[nodiscard]] std::uint64_t pressed_summed() const noexcept { return pressed_summed_; }
     [[nodiscard]] const SceneObjectsStats& stats() const noexcept { return stats_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
 
@@ -164,7 +179,9 @@ private:
     using Matrix3 = std::array<AxisVector, 3>;  // rows
     // The summed affine law of the linear objects: f = c - K x - B v.
     struct AffineLaw {
-        AxisVector c{};
+        AxisVector c{};      // sum + carry
+        AxisVector sum{};    // the running sum of the entries' w c_i (replaced one by one on moves)
+        AxisVector carry{};  // its rounding errors, kept exactly by TwoSum (replace_constant)
         Matrix3 K{};
         Matrix3 B{};
         bool any = false;
@@ -191,11 +208,25 @@ private:
         std::size_t count = 0;
     };
 
+    // The entries (2 slot + which) summed in linear_ and in pressed_, in slot order.
+    struct Members {
+        std::array<std::uint8_t, 2 * kSceneObjectCapacity> entry{};
+        std::size_t count = 0;
+    };
+
     void step_ramps() noexcept;
     void count_occupied() noexcept;
-    void add_linear(const ObjectParams& p, double w) noexcept;
+    static void add_linear(AffineLaw& law, const ObjectParams& p, double w) noexcept;
+    // Adds the unilateral planes' forces to f and their contact flags to mask (one by one, branch-free).
+    static void add_unilateral(const NearPlanes& n, const double (&x)[3], const double (&v)[3], double (&f)[3],
+                               std::uint64_t& mask) noexcept;
+    static void pad_planes(NearPlanes& n) noexcept;
+    static void add_law(const AffineLaw& l, const double (&x)[3], const double (&v)[3], double (&f)[3]) noexcept;
     static AxisVector linear_constant(const ObjectParams& p, double w) noexcept;
     void apply_moves() noexcept;
+    [[nodiscard]] AxisVector sum_constants(const Members& m) const noexcept;
+    void start_constants(AffineLaw& l, const Members& m) const noexcept;
+    static void replace_constant(AffineLaw& l, AxisVector& stored, const AxisVector& now) noexcept;
     void classify(const AxisVector& x) noexcept;
 
     SceneObjectsConfig config_;
@@ -219,21 +250,29 @@ private:
     AffineLaw linear_;
     // Where each entry (2 slot + 0 current / 1 fading) went at the last classification.
     struct EntryPlace {
-        enum List : std::uint8_t { None, Linear, NearPlane, NearFlag, NearField } list = None;
+        enum List : std::uint8_t { None, Linear, Pressed, NearPlane, NearFlag, NearField } list = None;
         std::uint8_t index = 0;  // in its near list
     };
     std::array<EntryPlace, 2 * kSceneObjectCapacity> place_{};
-    std::array<AxisVector, 2 * kSceneObjectCapacity> entry_c_{};  // w c_i of the entries in the affine law
-    std::array<bool, 2 * kSceneObjectCapacity> entry_in_sum_{};
+    std::array<AxisVector, 2 * kSceneObjectCapacity> entry_c_{};  // w c_i of the entries in an affine law
+    Members linear_members_;
+    Members pressed_members_;
+    AffineLaw pressed_;          // the deeply pressed unilateral planes' sum (used while their clamp is idle)
+    NearPlanes pressed_planes_;  // the same planes one by one (a tick whose motion fails the test)
+    double pressed_depth_ = 0.0;  // P: their least penetration at the classification, less the rounding tol
+    double pressed_tau_ = 0.0;    // tau: their largest b / k (s)
     std::uint64_t moved_mask_ = 0;  // slots moved (Move commits only) since the last classification
     double moved_shift_ = 0.0;      // the sum of how far their surfaces moved (m)
     NearPlanes near_planes_;
     NearFlags near_flags_;
     NearFields near_fields_;
     std::uint64_t static_mask_ = 0;   // flags that stay as classified while inside the safe radius
+    std::uint64_t pressed_mask_ = 0;  // the pressed planes' flags (set on a tick that passes their test)
     AxisVector reference_{};          // x where the scene was classified
     double safe_radius_ = 0.0;        // rho - tol (may be +inf: no far surface)
     std::uint64_t classifications_ = 0;
+    std::uint64_t pressed_fallbacks_ = 0;
+    std::uint64_t pressed_summed_ = 0;
 };
 
 }  // namespace hapticd

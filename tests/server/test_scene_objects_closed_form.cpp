@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "scene/scene_objects.hpp"
@@ -140,7 +141,7 @@ void compare_on_random_scenes(double ramp_time, bool with_moves, std::uint64_t s
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     const int ramp_ticks = ramp_time > 0.0 ? static_cast<int>(std::lround(ramp_time / kT)) : 0;
     std::size_t compared_flags = 0, ticks_total = 0;
-    std::uint64_t classified_total = 0;
+    std::uint64_t classified_total = 0, summed_total = 0, one_by_one_total = 0;
     for (int scene = 0; scene < 40; ++scene) {
         Rig rig(ramp_time);
         const std::size_t n = 1 + static_cast<std::size_t>(unit(rng) * kSceneObjectCapacity) % kSceneObjectCapacity;
@@ -210,8 +211,14 @@ void compare_on_random_scenes(double ramp_time, bool with_moves, std::uint64_t s
         }
         ticks_total += 400;
         classified_total += rig.objects.classifications() - c0;
+        summed_total += rig.objects.pressed_summed();
+        one_by_one_total += rig.objects.pressed_fallbacks();
     }
     EXPECT_GT(compared_flags, ticks_total * 9 / 10);
+    // Both ways of rendering deeply pressed unilateral planes were compared: their summed law (a slow hand)
+    // and one by one (a tick whose motion fails the test).
+    EXPECT_GT(summed_total, 100U);
+    EXPECT_GT(one_by_one_total, 100U);
     // The safe radius does skip: without ramps most ticks are small steps inside it.
     if (ramp_time == 0.0 && !with_moves) {
         EXPECT_LT(classified_total, ticks_total / 2) << "the safe radius never skipped a classification";
@@ -230,6 +237,103 @@ TEST(SceneObjectsClosedForm, TheSameWhileClientsMoveTheirObjects) {
 
 TEST(SceneObjectsClosedForm, TheSameDuringRampsIn) {
     compare_on_random_scenes(0.03, false, 7);
+}
+
+// A unilateral plane pressed 5 mm deep (K = 1000 N/m, B = 10 N s/m: b / k = 10 ms). Held still or moved
+// slowly, its clamp cannot act and the summed law renders it; pulled out at 1 m/s while still 4 mm in, the
+// damping term (10 N) exceeds the spring's (4 N): the force must be clamped to zero, which the summed law
+// would not do — the tick must fall back to the plane's own law. Each tick is compared with the law.
+TEST(SceneObjectsClosedForm, APressedPlaneIsSummedOnlyWhileItsClampCannotAct) {
+    Rig rig(0.0);
+    ObjectParams plane;
+    plane.id = 1;
+    plane.kind = ObjectKind::Plane;
+    plane.direction = {0.0, 0.0, 1.0};
+    plane.offset = 0.005;  // pressed 5 mm at x = 0
+    plane.K = 1000.0;
+    plane.B = 10.0;
+    ObjectCommit c;
+    c.seq = 1;
+    c.updates[c.count++] = SlotUpdate{0, SlotUpdate::Action::Set, plane};
+    ASSERT_TRUE(rig.ring.try_push(c));
+    rig.objects.apply_commits();
+    AxisVector x{0.0, 0.0, 0.0}, previous = x;
+    auto tick = [&](const AxisVector& to) {
+        AxisVector f{};
+        EXPECT_TRUE(rig.objects.add_forces(to, f));
+        AxisVector v{};
+        for (std::size_t a = 0; a < 3; ++a) v[a] = (to[a] - previous[a]) / kT;
+        previous = to;
+        const Reference r = reference_force(plane, to, v, 1.0, 1.0, 1.0);
+        for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(f[a], r.f[a], 1e-12) << "z = " << to[2];
+        EXPECT_EQ(rig.objects.contact_mask(), r.contact ? 1U : 0U) << "z = " << to[2];
+        return f;
+    };
+    for (int k = 0; k < 10; ++k) tick(x);  // still
+    for (int k = 0; k < 10; ++k) {         // 1 mm/s: b/k ||v|| = 10 um
+        x[2] += 1e-6;
+        tick(x);
+    }
+    EXPECT_EQ(rig.objects.pressed_summed(), 20U);
+    EXPECT_EQ(rig.objects.pressed_fallbacks(), 0U);
+    x[2] = 0.001;  // pulled out at 1 m/s: K p = 4 N < B v = ~10 N
+    const AxisVector f = tick(x);
+    EXPECT_EQ(f[2], 0.0);
+    EXPECT_EQ(rig.objects.pressed_fallbacks(), 1U);
+    tick(x);  // at rest again, 4 mm in: summed (the test holds again)
+    EXPECT_EQ(rig.objects.pressed_summed(), 21U);
+    x[2] = 0.006;  // out of the wall, 1 mm beyond it: no force, no contact, one by one
+    EXPECT_EQ(tick(x)[2], 0.0);
+    EXPECT_EQ(rig.objects.pressed_fallbacks(), 2U);
+}
+
+// A proxy moved every tick for 20 000 ticks among 63 still objects: the compensated update of the summed
+// constant (TwoSum, scene_objects.cpp) does not drift. Each tick is compared with the per-object sum,
+// within the bound of compare_on_random_scenes.
+TEST(SceneObjectsClosedForm, TwentyThousandMovesDoNotDriftFromThePerObjectSum) {
+    std::mt19937_64 rng(314);
+    Rig rig(0.0);
+    std::vector<ObjectParams> objs;
+    ObjectCommit commit;
+    commit.seq = 1;
+    for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+        ObjectParams o = random_object(rng, static_cast<std::uint32_t>(i + 1));
+        if (i == 0) {  // the proxy: a spring to a point
+            o.kind = ObjectKind::Spring;
+            o.constraint = SpringConstraint::Point;
+        }
+        objs.push_back(o);
+        commit.updates[commit.count++] = SlotUpdate{static_cast<std::uint8_t>(i), SlotUpdate::Action::Set, o};
+    }
+    ASSERT_TRUE(rig.ring.try_push(commit));
+    const AxisVector x{0.001, -0.002, 0.0005};  // held: no re-classification, every move is an update
+    std::uniform_real_distribution<double> pos(-0.01, 0.01);
+    double worst = 0.0;
+    const std::uint64_t c0 = rig.objects.classifications();
+    for (int k = 0; k < 20000; ++k) {
+        objs[0].point = {pos(rng), pos(rng), pos(rng)};
+        ObjectCommit move;
+        move.seq = static_cast<std::uint64_t>(k + 2);
+        move.updates[move.count++] = SlotUpdate{0, SlotUpdate::Action::Move, objs[0]};
+        ASSERT_TRUE(rig.ring.try_push(move));
+        rig.objects.apply_commits();
+        AxisVector f{};
+        ASSERT_TRUE(rig.objects.add_forces(x, f));
+        AxisVector expected{};
+        double magnitude = 0.0;
+        for (const ObjectParams& o : objs) {
+            const Reference r = reference_force(o, x, {0.0, 0.0, 0.0}, 1.0, 1.0, 1.0);
+            for (std::size_t a = 0; a < 3; ++a) expected[a] += r.f[a];
+            magnitude += r.magnitude;
+        }
+        const double bound = 2.0 * (4.0 * kSceneObjectCapacity + 10.0) * kEps * magnitude;
+        for (std::size_t a = 0; a < 3; ++a) {
+            ASSERT_LE(std::fabs(f[a] - expected[a]), bound) << "move " << k << " axis " << a;
+            worst = std::max(worst, std::fabs(f[a] - expected[a]) / (kEps * magnitude));
+        }
+    }
+    EXPECT_LE(rig.objects.classifications() - c0, 1U);  // the first tick's only
+    RecordProperty("worst_error_in_eps_of_magnitudes", std::to_string(worst));
 }
 
 // Moving an object (a Move commit every tick) re-sums the law: the force follows the moved object at once.
