@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -45,10 +46,41 @@ hc::Client connect(const Common& c, double lease) {
     return hc::Client::connect(o);
 }
 
+// The device's mass matrix on its axes (row by row), as the welcome gives it.
+nlohmann::json mass_matrix_json(const hc::DeviceInfo& d) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (std::size_t i = 0; i < d.axes && i < 3; ++i) {
+        nlohmann::json row = nlohmann::json::array();
+        for (std::size_t j = 0; j < d.axes && j < 3; ++j) row.push_back(d.mass_matrix[i][j]);
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+// "mass 0.3 kg" for one mass on every axis (M = m I), else the per-axis masses and the matrix.
+std::string mass_text(const hc::DeviceInfo& d) {
+    bool isotropic = true;
+    for (std::size_t i = 0; i < d.axes && i < 3; ++i) {
+        for (std::size_t j = 0; j < d.axes && j < 3; ++j) {
+            if (d.mass_matrix[i][j] != (i == j ? d.mass_matrix[0][0] : 0.0)) isotropic = false;
+        }
+    }
+    std::ostringstream out;
+    if (isotropic) {
+        out << "mass " << d.mass_matrix[0][0] << " kg";
+        return out.str();
+    }
+    out << "mass per axis [";
+    for (std::size_t a = 0; a < d.axes && a < 3; ++a) out << (a > 0 ? " " : "") << d.mass[a];
+    out << "] kg (1/(M^-1)_aa), mass matrix " << mass_matrix_json(d).dump() << " kg";
+    return out.str();
+}
+
 int cmd_status(const Common& common, bool json) {
     hc::Client client = connect(common, 0.0);
     const hc::Status s = client.status();
     const hc::Welcome& w = client.welcome();
+    const nlohmann::json max_stiffness = w.device.max_stiffness ? nlohmann::json(*w.device.max_stiffness) : nlohmann::json();
     if (json) {
         std::cout << nlohmann::json{{"tick", s.tick},
                                     {"sessions", s.sessions},
@@ -58,7 +90,9 @@ int cmd_status(const Common& common, bool json) {
                                     {"fault", s.fault},
                                     {"protocol", w.protocol},
                                     {"device", {{"name", w.device.name}, {"axes", w.device.axes}, {"period_s", w.device.period_s},
-                                                {"mass", w.device.mass}, {"delay_s", w.device.delay_s}, {"max_force", w.device.max_force}}},
+                                                {"mass", w.device.mass}, {"mass_matrix", mass_matrix_json(w.device)},
+                                                {"delay_s", w.device.delay_s}, {"max_force", w.device.max_force},
+                                                {"max_stiffness", max_stiffness}}},
                                     {"capacity", w.capacity},
                                     {"state_shm", w.state_shm},
                                     {"ramp_s", w.ramp_s}}
@@ -66,7 +100,14 @@ int cmd_status(const Common& common, bool json) {
                   << "\n";
     } else {
         std::cout << "device " << w.device.name << ": " << w.device.axes << " axes, period " << w.device.period_s * 1e3
-                  << " ms, delay " << w.device.delay_s * 1e3 << " ms, max force " << w.device.max_force << " N\n"
+                  << " ms, delay " << w.device.delay_s * 1e3 << " ms, max force " << w.device.max_force << " N, "
+                  << mass_text(w.device) << ", max stiffness ";
+        if (w.device.max_stiffness) {
+            std::cout << *w.device.max_stiffness << " N/m";
+        } else {
+            std::cout << "none (the stability region only)";
+        }
+        std::cout << "\n"
                   << "tick " << s.tick << ", sessions " << s.sessions << ", objects " << s.objects << " of " << w.capacity
                   << ", overruns " << s.overruns << ", commits applied " << s.commits_applied << ", fault " << s.fault
                   << "\nstate stream " << w.state_shm << ", ramp " << w.ramp_s * 1e3 << " ms, protocol " << w.protocol << "\n";

@@ -52,20 +52,24 @@ inline Result run(const std::string& binary, const std::vector<std::string>& arg
 // x = -1 cm and pushing towards +x with 2 N (scenario hold). Runs until SIGTERM.
 class LockstepDaemon {
 public:
-    explicit LockstepDaemon(const std::string& tag)
+    // extra: more hapticd arguments (e.g. --device PROFILE).
+    explicit LockstepDaemon(const std::string& tag, const std::vector<std::string>& extra = {})
         : socket_((scratch_dir() / (tag + ".sock")).string()),
           shm_("/hapticd-clients-" + std::to_string(::getpid()) + "-" + tag),
-          process_(HAPTICD_BINARY,
-                   {"--config", "", "--lockstep", "--serve", "--serve-socket", socket_, "--serve-shm", shm_, "--wall",
-                    "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
-                    "--hold-distance", "0.06", "--hold-force", "2"},
-                   tag + "_daemon") {
+          process_(HAPTICD_BINARY, arguments(socket_, shm_, extra), tag + "_daemon") {
         // Ready when a connect succeeds (the socket file exists from bind(), before listen()).
         const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
         while (!ready_ && std::chrono::steady_clock::now() < end) {
             ready_ = connectable(socket_);
             if (!ready_) std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
+    }
+    static std::vector<std::string> arguments(const std::string& socket, const std::string& shm, const std::vector<std::string>& extra) {
+        std::vector<std::string> a{"--config", "", "--lockstep", "--serve", "--serve-socket", socket, "--serve-shm", shm, "--wall",
+                                   "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
+                                   "--hold-distance", "0.06", "--hold-force", "2"};
+        a.insert(a.end(), extra.begin(), extra.end());
+        return a;
     }
     static bool connectable(const std::string& path) {
         const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);

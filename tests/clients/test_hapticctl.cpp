@@ -84,6 +84,42 @@ TEST_F(Hapticctl, StatusAndListShowTheDaemonAndItsConfigWall) {
     EXPECT_NE(table.out.find("daemon"), std::string::npos) << table.out;
 }
 
+// The device's mass as the daemon checks gains for it: one mass (the default simulated device) and the
+// mass matrix of tests/server/sim3_aniso.toml, with its stiffness limit, in both outputs.
+TEST_F(Hapticctl, StatusShowsTheMassTheGainsAreCheckedFor) {
+    const Result iso = ctl({"status", "--json"}, "status_mass_json");
+    ASSERT_EQ(iso.code, 0) << iso.err;
+    const auto d = nlohmann::json::parse(iso.out)["device"];
+    const double m = d["mass_matrix"][0][0].get<double>();
+    EXPECT_GT(m, 0.0);
+    const std::size_t axes = d["axes"].get<std::size_t>();  // the default simulated device: 1
+    nlohmann::json m_identity = nlohmann::json::array();
+    for (std::size_t i = 0; i < axes; ++i) {
+        m_identity.push_back(nlohmann::json::array());
+        for (std::size_t k = 0; k < axes; ++k) m_identity[i].push_back(i == k ? m : 0.0);
+    }
+    EXPECT_EQ(d["mass_matrix"], m_identity) << d.dump();
+    EXPECT_TRUE(d["max_stiffness"].is_null()) << d.dump();
+    const Result iso_text = ctl({"status"}, "status_mass");
+    EXPECT_NE(iso_text.out.find("max stiffness none"), std::string::npos) << iso_text.out;
+
+    LockstepDaemon aniso("hapticctl_aniso", {"--device", HAPTICD_ANISO_PROFILE});
+    ASSERT_TRUE(aniso.ready()) << aniso.log();
+    const Result j = clients_test::run(HAPTICCTL_BINARY, {"--socket", aniso.socket(), "status", "--json"}, "status_aniso_json");
+    ASSERT_EQ(j.code, 0) << j.err;
+    const auto a = nlohmann::json::parse(j.out)["device"];
+    // The profile's matrix, row by row (exact: the numbers are read and sent as doubles).
+    EXPECT_EQ(a["mass_matrix"], (nlohmann::json{{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}})) << a.dump();
+    EXPECT_EQ(a["max_stiffness"], 100000.0);
+    // Along axis 0 a plane acts with 1 / (M^-1)_00 = det M / (M_11 M_22 - M_12^2) = 0.0295 / 0.075 (cofactors).
+    const double det = 0.45 * (0.30 * 0.25) - 0.10 * (0.10 * 0.25) + 0.12 * (0.0 - 0.30 * 0.12);
+    EXPECT_NEAR(a["mass"][0].get<double>(), det / (0.30 * 0.25), 1e-12) << a.dump();
+    const Result t = clients_test::run(HAPTICCTL_BINARY, {"--socket", aniso.socket(), "status"}, "status_aniso");
+    EXPECT_NE(t.out.find("mass matrix [[0.45,0.1,0.12],[0.1,0.3,0.0],[0.12,0.0,0.25]] kg"), std::string::npos) << t.out;
+    EXPECT_NE(t.out.find("max stiffness 100000 N/m"), std::string::npos) << t.out;
+    EXPECT_EQ(aniso.stop(), 0) << aniso.log();
+}
+
 TEST_F(Hapticctl, EachFailureHasItsExitCode) {
     // 3: no daemon at that socket.
     const Result none = clients_test::run(HAPTICCTL_BINARY, {"--socket", "/nonexistent/hapticd.sock", "status"}, "nodaemon");
