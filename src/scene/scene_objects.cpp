@@ -1,7 +1,7 @@
 #include "scene/scene_objects.hpp"
 
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -178,8 +178,9 @@ void SceneObjects::count_occupied() noexcept {
 }
 
 // The members' constant terms summed in four partial sums (entries i = 0, 1, 2, 3 mod 4), then
-// (s0 + s1) + (s2 + s3): four independent chains of additions instead of one (a classification's sum). Rounding: at most (n / 4 + 2) eps times the sum of
-// the magnitudes (Higham 2002, section 4.2), within the bound of recursive summation.
+// (s0 + s1) + (s2 + s3): four independent chains of additions instead of one (a classification's sum).
+// Rounding: at most (n / 4 + 2) eps times the sum of the magnitudes (Higham 2002, section 4.2), within the
+// bound of recursive summation.
 AxisVector SceneObjects::sum_constants(const Members& m) const noexcept {
     double s[4][3] = {};
     std::size_t i = 0;
@@ -447,7 +448,14 @@ using LaneMask = std::int64_t __attribute__((vector_size(32)));
 void load_lanes(Lanes& r, const double* p) noexcept { std::memcpy(&r, p, sizeof r); }
 }  // namespace
 
-__attribute__((target_clones("avx2", "default")))
+// The sanitizers' runtimes are not set up when an ifunc resolver runs (at load time), so a TSan binary
+// with target_clones crashed before main: sanitizer builds take the baseline version only.
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+#define HAPTICD_UNILATERAL_CLONES
+#else
+#define HAPTICD_UNILATERAL_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+HAPTICD_UNILATERAL_CLONES
 void SceneObjects::add_unilateral(const NearPlanes& n, const double (&x)[3], const double (&v)[3], double (&f)[3],
                                   std::uint64_t& mask) noexcept {
     const double x0 = x[0], x1 = x[1], x2 = x[2], v0 = v[0], v1 = v[1], v2 = v[2];

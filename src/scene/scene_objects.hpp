@@ -187,8 +187,10 @@ private:
         bool any = false;
     };
     // Entries evaluated one by one each tick (see the header comment), as flat arrays for a tight loop.
-    // Unilateral planes in or near contact: force and flag. The ramp factor w is copied here; it changes
-    // only at a ramp step, which re-classifies.
+    // Unilateral planes: force and flag. near_planes_ holds those within kNearDistance of their surface
+    // (in contact or not), pressed_planes_ the deeper ones (used on a tick that fails their test). The ramp's
+    // weights are copied here; they change only at a ramp step, which re-classifies. Padded with zero
+    // planes to a multiple of four (add_unilateral).
     struct NearPlanes {
         std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{};  // K, B: times the ramp's weights
         std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
