@@ -13,8 +13,9 @@
 //  * BM_TickOneWall / BM_Tick64Objects/S / BM_TickRatio64VsOneWall/S: the loop's compute for one tick
 //    without sleeping: today's tick (simulated plant, one wall, delay ring; as daemon_tick.cpp) against the
 //    same tick plus 64 client objects with their ramps, saturation, the force-rate limit and the state
-//    publication, for five scenes S (TickScene below: linear objects in contact, planes out of contact,
-//    unilateral planes all pressed — the worst case —, fields, and a proxy moved by a commit every tick).
+//    publication, for six scenes S (TickScene below: linear objects in contact, planes out of contact,
+//    unilateral planes pressed 1 mm deep — the worst case —, fields, a proxy moved by a commit every tick,
+//    and unilateral planes pressed 5 mm deep).
 //    The ratio benchmark alternates blocks of 1000 ticks of each so that both see the same machine load.
 //    Goal: <= 2x. BM_TickObjects/N: the worst-case tick with N = 0, 1, 8, 64 objects (fixed cost, cost per object).
 //  * BM_StateRead*: StateReader::read (the C++ client's seqlock read of one tick) with no writer, with a
