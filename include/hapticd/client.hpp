@@ -193,7 +193,7 @@ struct StateSample {
     std::uint64_t contact_mask = 0;
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
-    std::uint64_t last_commit_seq = 0;
+    std::uint64_t last_commit_seq = 0;  // every batch up to this commit_seq is applied
     std::uint32_t fault = 0;
     std::uint32_t objects = 0;
     std::array<std::uint32_t, kStateObjectCapacity> slot_object_id{};

@@ -35,7 +35,7 @@ struct StateLayout {
     std::uint64_t contact_mask;
     std::uint64_t overruns;
     std::int64_t wake_latency_ns;
-    std::uint64_t last_commit_seq;
+    std::uint64_t last_commit_seq;  // every batch up to this commit_seq is applied
     std::uint32_t fault;    // 0 none, 1 device, 2 non-finite, 3 watchdog
     std::uint32_t objects;  // occupied slots
     std::uint32_t slot_object_id[kStateObjectCapacity];

@@ -1,5 +1,6 @@
 // Bounded lock-free single-producer single-consumer ring (capacity rounded up to a power of two),
-// preallocated at construction. try_push() is called by the real-time thread, try_pop() by one consumer.
+// preallocated at construction. try_push() is called by one producer; try_pop(), or front() and pop(), by
+// one consumer.
 #pragma once
 
 #include <atomic>
@@ -41,6 +42,23 @@ public:
         tail_.store(tail + 1, std::memory_order_release);
         return true;
     }
+
+    // Consumer: the oldest element, left in the ring (nullptr when empty). It stays valid and unchanged until
+    // pop(): the producer never writes a slot that has not been popped. Lets the consumer decide whether to
+    // take an element now without copying it out first.
+    [[nodiscard]] const T* front() noexcept {
+        const std::size_t tail = tail_.load(std::memory_order_relaxed);
+        if (tail == head_cache_) {
+            head_cache_ = head_.load(std::memory_order_acquire);
+            if (tail == head_cache_) {
+                return nullptr;
+            }
+        }
+        return &buffer_[tail & mask_];
+    }
+
+    // Consumer: removes the element front() returned (only after a non-null front()).
+    void pop() noexcept { tail_.store(tail_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
 
 private:
     static std::size_t round_up(std::size_t n) {

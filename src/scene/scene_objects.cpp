@@ -11,6 +11,8 @@ namespace hapticd {
 namespace {
 
 double dot(const AxisVector& a, const AxisVector& b) noexcept { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double norm1(const AxisVector& a) noexcept { return std::fabs(a[0]) + std::fabs(a[1]) + std::fabs(a[2]); }
+constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 }  // namespace
 
@@ -26,84 +28,146 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring) :
         throw std::invalid_argument("SceneObjects: max_force and max_force_rate must be > 0");
     }
     inverse_period_ = 1.0 / config_.period;
+    held_.resize(kHeldCommitCapacity);  // preallocated here, never in the loop
     ramp_step_ = config_.ramp_time > 0.0 ? config_.period / config_.ramp_time : 1.0;
     if (ramp_step_ > 1.0) ramp_step_ = 1.0;
 }
 
 namespace {
 
-// A Move keeps everything but where the object is (plane offset, spring point, field centre and F0); its
-// surface moves by at most the returned distance. Anything else changed is not a move.
-bool is_move_of(const ObjectParams& before, const ObjectParams& after, double& surface_shift) noexcept {
-    if (before.id != after.id || before.kind != after.kind || before.bilateral != after.bilateral ||
-        before.constraint != after.constraint || before.direction != after.direction || before.radius != after.radius ||
-        before.jacobian != after.jacobian || before.K != after.K || before.B != after.B) {
-        return false;
-    }
+// A Move keeps everything but where the object is (plane offset, spring point, field centre and F0).
+// Anything else changed is not a move. Only the fields the object's kind uses are compared (a move every
+// tick pays for ~8 comparisons, not for the whole description).
+bool is_move_of(const ObjectParams& before, const ObjectParams& after) noexcept {
+    if (before.id != after.id || before.kind != after.kind || before.K != after.K || before.B != after.B) return false;
     switch (after.kind) {
-        case ObjectKind::Plane: surface_shift = std::fabs(after.offset - before.offset); break;
-        case ObjectKind::Spring: surface_shift = 0.0; break;  // no switching surface
-        case ObjectKind::Field: {
-            double d2 = 0.0;
-            for (std::size_t a = 0; a < 3; ++a) d2 += (after.point[a] - before.point[a]) * (after.point[a] - before.point[a]);
-            surface_shift = std::sqrt(d2);
-            break;
-        }
+        case ObjectKind::Plane: return before.bilateral == after.bilateral && before.direction == after.direction;
+        case ObjectKind::Spring: return before.constraint == after.constraint && before.direction == after.direction;
+        case ObjectKind::Field: return before.radius == after.radius && before.jacobian == after.jacobian;
     }
-    return std::isfinite(surface_shift);
+    return false;
+}
+
+// True when the batch only moves objects: no Set, no Remove (a Move that is not a move of the slot's
+// object changes its gains without a ramp and counts as a change; the server never sends one).
+bool only_moves_in(const ObjectCommit& c) noexcept {
+    for (std::uint32_t i = 0; i < c.count && i < kSceneObjectCapacity; ++i) {
+        if (c.updates[i].action != SlotUpdate::Action::Move) return false;
+    }
+    return true;
+}
+
+std::uint64_t slots_of(const ObjectCommit& c) noexcept {
+    std::uint64_t m = 0;
+    for (std::uint32_t i = 0; i < c.count && i < kSceneObjectCapacity; ++i) {
+        if (c.updates[i].slot < kSceneObjectCapacity) m |= std::uint64_t{1} << c.updates[i].slot;
+    }
+    return m;
 }
 
 }  // namespace
 
+bool SceneObjects::ramp_running() const noexcept {
+    if (ramp_step_ >= 1.0) return false;  // no ramps at all
+    for (const Slot& slot : slots_) {
+        if (slot.fading.active || (slot.current.active && slot.current.ramp < 1.0)) return true;
+    }
+    return false;
+}
+
+// Batches are taken in ring order, at most commits_per_tick per tick. One that adds, changes or removes
+// objects (it starts ramps) while another batch's ramps are running, or while an earlier such batch is
+// held, is held (copied into held_, in order) and applied at the first tick with no ramp running: at most
+// one batch ramps at a time, from the scene every earlier batch has reached, which is what the server
+// checked (docs/protocol.md, section 5). Batches of moves only are never held: one whose slots no held
+// batch touches is applied at once (it changes no gain, and the held batches no slot of it); one that
+// moves an object a held batch adds or changes waits in the ring behind it, and the batches after it too.
+// last_commit_seq stays below the oldest held batch's seq until it is applied ("every batch up to this seq
+// is applied").
 void SceneObjects::apply_commits() noexcept {
     for (std::size_t n = 0; n < config_.commits_per_tick; ++n) {
-        if (!ring_.try_pop(incoming_)) return;
-        bool only_moves = true;
-        for (std::uint32_t i = 0; i < incoming_.count && i < kSceneObjectCapacity; ++i) {
-            const SlotUpdate& u = incoming_.updates[i];
-            if (u.slot >= kSceneObjectCapacity) continue;  // the server never sends one; ignore rather than crash
-            Slot& slot = slots_[u.slot];
-            switch (u.action) {
-                case SlotUpdate::Action::Set:
-                    only_moves = false;
-                    if (slot.current.active) {
-                        slot.fading = slot.current;  // cross-fade from wherever the old one is
-                        slot.fading.active = ramp_step_ < 1.0;  // no ramp: replaced at once
-                    }
-                    slot.current.active = true;
-                    slot.current.ramp = ramp_step_ >= 1.0 ? 1.0 : 0.0;
-                    slot.current.params = u.params;
-                    break;
-                case SlotUpdate::Action::Move:
-                    if (slot.current.active) {
-                        double shift = 0.0;
-                        if (is_move_of(slot.current.params, u.params, shift)) {
-                            moved_mask_ |= std::uint64_t{1} << u.slot;
-                            moved_shift_ += shift;
-                        } else {
-                            only_moves = false;
-                        }
-                        slot.current.params = u.params;  // same gains, new place: no ramp
-                    }
-                    break;
-                case SlotUpdate::Action::Remove:
-                    only_moves = false;
-                    if (slot.current.active) {
-                        slot.fading = slot.current;
-                        slot.fading.active = ramp_step_ < 1.0;  // no ramp: removed at once
-                        slot.current.active = false;
-                    }
-                    break;
-            }
+        if (held_count_ > 0 && !ramp_running()) {
+            apply(held_[held_first_]);
+            held_first_ = (held_first_ + 1) % held_.size();
+            --held_count_;
+            held_slots_ = 0;
+            for (std::size_t i = 0; i < held_count_; ++i) held_slots_ |= slots_of(held_[(held_first_ + i) % held_.size()]);
+            continue;
         }
-        if (!only_moves) {
-            scene_changed_ = true;
-            ++slot_table_version_;
-            count_occupied();
+        const ObjectCommit* c = ring_.front();
+        if (c == nullptr) break;
+        if (only_moves_in(*c)) {
+            if ((slots_of(*c) & held_slots_) != 0) break;  // waits behind the held batch that touches its slot
+        } else if (held_count_ > 0 || ramp_running()) {
+            if (held_count_ == held_.size()) break;  // full: it waits in the ring
+            held_[(held_first_ + held_count_) % held_.size()] = *c;
+            ++held_count_;
+            held_slots_ |= slots_of(*c);
+            ++stats_.commits_held;
+            ring_.pop();
+            continue;
         }
-        ++stats_.commits_applied;
-        stats_.last_commit_seq = incoming_.seq;
+        apply(*c);
+        ring_.pop();
     }
+    const std::uint64_t before_held = held_count_ > 0 ? held_[held_first_].seq - 1 : applied_seq_;
+    stats_.last_commit_seq = before_held < applied_seq_ ? before_held : applied_seq_;
+}
+
+// The slot's current object starts to fade out from its ramp factor now (1 unless a batch was applied
+// while its ramp ran, which apply_commits prevents); without ramps it is gone at once.
+void SceneObjects::start_fading(Slot& slot) noexcept {
+    slot.fading = slot.current;
+    slot.fading.active = ramp_step_ < 1.0;
+    slot.fading.start = slot.current.ramp;
+    slot.fading.steps = 0;
+}
+
+void SceneObjects::apply(const ObjectCommit& commit) noexcept {
+    bool only_moves = true;
+    for (std::uint32_t i = 0; i < commit.count && i < kSceneObjectCapacity; ++i) {
+        const SlotUpdate& u = commit.updates[i];
+        if (u.slot >= kSceneObjectCapacity) continue;  // the server never sends one; ignore rather than crash
+        Slot& slot = slots_[u.slot];
+        switch (u.action) {
+            case SlotUpdate::Action::Set:
+                only_moves = false;
+                if (slot.current.active) start_fading(slot);  // cross-fade from wherever the old one is
+                slot.current.active = true;
+                slot.current.ramp = ramp_step_ >= 1.0 ? 1.0 : 0.0;
+                slot.current.steps = 0;
+                slot.current.params = u.params;
+                break;
+            case SlotUpdate::Action::Move:
+                if (slot.current.active) {
+                    if (is_move_of(slot.current.params, u.params)) {  // same gains, new place: no ramp
+                        moved_mask_ |= std::uint64_t{1} << u.slot;
+                        ObjectParams& p = slot.current.params;
+                        p.offset = u.params.offset;
+                        p.point = u.params.point;
+                        p.force = u.params.force;
+                    } else {
+                        only_moves = false;
+                        slot.current.params = u.params;
+                    }
+                }
+                break;
+            case SlotUpdate::Action::Remove:
+                only_moves = false;
+                if (slot.current.active) {
+                    start_fading(slot);
+                    slot.current.active = false;
+                }
+                break;
+        }
+    }
+    if (!only_moves) {
+        scene_changed_ = true;
+        ++slot_table_version_;
+        count_occupied();
+    }
+    ++stats_.commits_applied;
+    applied_seq_ = commit.seq > applied_seq_ ? commit.seq : applied_seq_;
 }
 
 namespace {
@@ -142,33 +206,74 @@ void SceneObjects::start_constants(AffineLaw& l, const Members& m) const noexcep
 }
 
 // After moves only: the moved objects' constant terms c_i are recomputed and replaced in their law's sum
-// (replace_constant), their copies in the near lists are updated, and the safe radius shrinks by the
-// distance their surfaces moved (each object's distance to the handle changes by at most that). K and B
-// are unchanged. Cost: ~40 flops per moved object, whatever the number of objects.
+// (replace_constant), their copies in the near lists are updated, and each moved surface's distance to
+// the reference point x_ref is taken anew (one dot product or norm): a bound it kept at the classification
+// (the safe radius rho for a far surface, P for a pressed plane) becomes min(bound, new distance). The
+// others did not move, so their distances, and the minimum over them, are unchanged: the bounds stay
+// exact minima or become smaller, never too large. A surface that moved across x_ref, or to within
+// kNearDistance of it, changes how its object is classified (flag, near list): that re-classifies. K and B
+// are unchanged. Cost: ~50 flops per moved object, whatever the number of objects.
 void SceneObjects::apply_moves() noexcept {
     for (std::uint64_t m = moved_mask_; m != 0; m &= m - 1) {
         const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
-        const Entry& e = slots_[s].current;
+        const ObjectParams& p = slots_[s].current.params;
+        const double w = slots_[s].current.ramp;
         EntryPlace& place = place_[2 * s];
+        // The moved surface's signed distance at x_ref (plane: penetration; field: distance to the sphere,
+        // negative inside), as classify() computes it, and the rounding scale it needs.
+        double d = 0.0;
+        if (p.kind == ObjectKind::Plane) {
+            d = p.offset - dot(p.direction, reference_);
+            const double sc = std::fabs(p.offset) + reference_norm1_;
+            scale_ = sc > scale_ ? sc : scale_;
+        } else if (p.kind == ObjectKind::Field) {
+            AxisVector r{};
+            for (std::size_t a = 0; a < 3; ++a) r[a] = reference_[a] - p.point[a];
+            d = std::sqrt(dot(r, r)) - p.radius;
+            const double sc = norm1(p.point) + p.radius + reference_norm1_;
+            scale_ = sc > scale_ ? sc : scale_;
+        }
+        const double ad = std::fabs(d);
         switch (place.list) {
-            case EntryPlace::Linear: replace_constant(linear_, entry_c_[2 * s], linear_constant(e.params, e.ramp)); break;
-            case EntryPlace::Pressed:
-                pressed_planes_.offset[place.index] = e.params.offset;
-                replace_constant(pressed_, entry_c_[2 * s], linear_constant(e.params, e.ramp));
+            case EntryPlace::Linear:
+                replace_constant(linear_, entry_c_[2 * s], linear_constant(p, w));
+                if (p.kind == ObjectKind::Plane) {  // bilateral, far: its flag is d > 0
+                    if (!(ad >= kNearDistance) || (d > 0.0) != (((static_mask_ >> s) & 1U) != 0)) scene_changed_ = true;
+                    rho_ = ad < rho_ ? ad : rho_;
+                } else if (p.kind == ObjectKind::Field) {  // inside, far from its sphere
+                    if (!(d <= -kNearDistance)) scene_changed_ = true;
+                    rho_ = ad < rho_ ? ad : rho_;
+                }
                 break;
-            case EntryPlace::NearPlane: near_planes_.offset[place.index] = e.params.offset; break;
+            case EntryPlace::Pressed: {
+                pressed_planes_.offset[place.index] = p.offset;
+                replace_constant(pressed_, entry_c_[2 * s], linear_constant(p, w));
+                least_pressed_ = d < least_pressed_ ? d : least_pressed_;  // may fall to <= 0: the tick's test then fails
+                break;
+            }
+            case EntryPlace::NearPlane: near_planes_.offset[place.index] = p.offset; break;
             case EntryPlace::NearFlag:
-                near_flags_.offset[place.index] = e.params.offset;
-                replace_constant(linear_, entry_c_[2 * s], linear_constant(e.params, e.ramp));
+                near_flags_.offset[place.index] = p.offset;
+                replace_constant(linear_, entry_c_[2 * s], linear_constant(p, w));
                 break;
             case EntryPlace::NearField: break;  // evaluated from its params, which the move has updated
-            case EntryPlace::None: break;       // out of reach: its distance is covered by the radius below
+            case EntryPlace::None:              // a unilateral plane far out of contact, or a field far outside
+                if (p.kind == ObjectKind::Plane ? !(d <= -kNearDistance) : !(d >= kNearDistance)) scene_changed_ = true;
+                rho_ = ad < rho_ ? ad : rho_;
+                break;
         }
+        if (!std::isfinite(d)) scene_changed_ = true;
     }
-    safe_radius_ -= moved_shift_;
-    pressed_depth_ -= moved_shift_;  // each pressed plane's penetration at x_ref changed by its own shift at most
+    set_bounds();
     moved_mask_ = 0;
-    moved_shift_ = 0.0;
+}
+
+// The safe radius and P from the exact minima rho_ and least_pressed_, less the rounding tolerance: the
+// distances carry a rounding error below ~3 eps (scale + ||x - x_ref||_1); 16 eps (scale + 2 rho) bounds it
+// with room for the norm of the displacement.
+void SceneObjects::set_bounds() noexcept {
+    safe_radius_ = std::isfinite(rho_) ? rho_ - 16.0 * kEps * (scale_ + 2.0 * rho_) : rho_;
+    pressed_depth_ = pressed_.any ? least_pressed_ - 16.0 * kEps * (scale_ + 2.0 * std::fabs(least_pressed_)) : 0.0;
 }
 
 void SceneObjects::count_occupied() noexcept {
@@ -201,14 +306,6 @@ AxisVector SceneObjects::sum_constants(const Members& m) const noexcept {
     return {(s[0][0] + s[1][0]) + (s[2][0] + s[3][0]), (s[0][1] + s[1][1]) + (s[2][1] + s[3][1]),
             (s[0][2] + s[1][2]) + (s[2][2] + s[3][2])};
 }
-
-namespace {
-
-constexpr double kEps = std::numeric_limits<double>::epsilon();
-
-double norm1(const AxisVector& a) noexcept { return std::fabs(a[0]) + std::fabs(a[1]) + std::fabs(a[2]); }
-
-}  // namespace
 
 // One linear object's term w (c_i - K_i x - B_i v) of the affine law:
 //   plane (bilateral), spring to a plane:  K_i = k u u^T,       B_i = b u u^T,       c_i = k u (u.point)
@@ -282,7 +379,7 @@ void append_plane(List& n, const ObjectParams& p, std::size_t slot) noexcept {
     n.ny[n.count] = p.direction[1];
     n.nz[n.count] = p.direction[2];
     n.offset[n.count] = p.offset;
-    n.slot[n.count++] = static_cast<std::uint8_t>(slot);
+    n.slot_bit[n.count++] = std::uint64_t{1} << slot;
 }
 
 }  // namespace
@@ -292,7 +389,7 @@ void append_plane(List& n, const ObjectParams& p, std::size_t slot) noexcept {
 void SceneObjects::pad_planes(NearPlanes& n) noexcept {
     for (std::size_t i = n.count; i % 4 != 0; ++i) {
         n.nx[i] = n.ny[i] = n.nz[i] = n.offset[i] = n.K[i] = n.B[i] = 0.0;
-        n.slot[i] = 0;
+        n.slot_bit[i] = 0;
     }
 }
 
@@ -312,7 +409,6 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
     pressed_mask_ = 0;
     ramping_ = 0;
     moved_mask_ = 0;
-    moved_shift_ = 0.0;
     place_.fill(EntryPlace{});
     double rho = std::numeric_limits<double>::infinity();
     const double x1 = norm1(x);
@@ -406,27 +502,30 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
     pad_planes(pressed_planes_);
     start_constants(linear_, linear_members_);
     start_constants(pressed_, pressed_members_);
-    // The distances above carry a rounding error below ~3 eps (scale + ||x - x_ref||_1); 16 eps (scale +
-    // 2 rho) bounds it with room for the norm of the displacement.
     reference_ = x;
-    safe_radius_ = std::isfinite(rho) ? rho - 16.0 * kEps * (scale + 2.0 * rho) : rho;
-    pressed_depth_ = pressed_.any ? least_pressed - 16.0 * kEps * (scale + 2.0 * least_pressed) : 0.0;
+    reference_norm1_ = x1;
+    scale_ = scale;
+    rho_ = rho;
+    least_pressed_ = least_pressed;
+    set_bounds();
     pressed_tau_ = tau;
     scene_changed_ = false;
 }
 
+// Ramp factors are counted in whole ticks, r = j step (in) and start - j step (out), not summed step by
+// step: the same arithmetic as GainChecker::ramp_is_stable, so the loop renders the very weights the
+// server checked (a sum of j steps drifts by up to j eps and can take one tick more to reach 1).
 void SceneObjects::step_ramps() noexcept {
     for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
         Slot& slot = slots_[s];
         if (slot.current.active && slot.current.ramp < 1.0) {
-            slot.current.ramp = slot.current.ramp + ramp_step_ >= 1.0 ? 1.0 : slot.current.ramp + ramp_step_;
+            const double r = static_cast<double>(++slot.current.steps) * ramp_step_;
+            slot.current.ramp = r >= 1.0 ? 1.0 : r;
         }
         if (slot.fading.active) {
-            slot.fading.ramp -= ramp_step_;
-            if (slot.fading.ramp <= 0.0) {
-                slot.fading.active = false;
-                slot.fading.ramp = 0.0;
-            }
+            const double r = slot.fading.start - static_cast<double>(++slot.fading.steps) * ramp_step_;
+            slot.fading.ramp = r > 0.0 ? r : 0.0;
+            slot.fading.active = r > 0.0;
         }
     }
     scene_changed_ = true;
@@ -438,7 +537,8 @@ void SceneObjects::step_ramps() noexcept {
 // slots' bits. Four planes at a time in the lanes of a 4-double vector (GCC's vector extension: two SSE2
 // registers on baseline x86-64, one AVX2 register in the avx2 clone chosen at load time), with the clamp and
 // the contact test as lane masks, not branches: the flags of planes the handle moves across flip from tick
-// to tick and a branch on them mispredicts. The lists are padded with zero planes to a multiple of four
+// to tick and a branch on them mispredicts; the flags are each lane's slot bit ANDed with its contact mask
+// and ORed across lanes once at the end (a lane-by-lane shift was a third of the loop). The lists are padded with zero planes to a multiple of four
 // (pen = 0: no contact, no force). Each lane is its own partial sum, added (l0 + l1) + (l2 + l3) at the
 // end. Rounding: at most (n / 4 + 2) eps of the magnitudes (Higham 2002, section 4.2).
 namespace {
@@ -460,15 +560,17 @@ void SceneObjects::add_unilateral(const NearPlanes& n, const double (&x)[3], con
                                   std::uint64_t& mask) noexcept {
     const double x0 = x[0], x1 = x[1], x2 = x[2], v0 = v[0], v1 = v[1], v2 = v[2];
     Lanes a0{}, a1{}, a2{};
-    std::uint64_t m = 0;
+    LaneMask m{};
     for (std::size_t i = 0; i < n.count; i += 4) {
         Lanes nx, ny, nz, offset, K, B;
+        LaneMask bits;
         load_lanes(nx, &n.nx[i]);
         load_lanes(ny, &n.ny[i]);
         load_lanes(nz, &n.nz[i]);
         load_lanes(offset, &n.offset[i]);
         load_lanes(K, &n.K[i]);
         load_lanes(B, &n.B[i]);
+        std::memcpy(&bits, &n.slot_bit[i], sizeof bits);
         const Lanes pen = offset - (nx * x0 + ny * x1 + nz * x2);
         const Lanes vn = nx * v0 + ny * v1 + nz * v2;
         const Lanes fn = K * pen - B * vn;
@@ -478,13 +580,12 @@ void SceneObjects::add_unilateral(const NearPlanes& n, const double (&x)[3], con
         a0 += s * nx;
         a1 += s * ny;
         a2 += s * nz;
-        const auto bit = [&](std::size_t j) { return static_cast<std::uint64_t>(contact[j] & 1) << n.slot[i + j]; };
-        m |= (bit(0) | bit(1)) | (bit(2) | bit(3));
+        m |= contact & bits;  // a lane's contact mask is all ones or all zeros
     }
     f[0] += (a0[0] + a0[1]) + (a0[2] + a0[3]);
     f[1] += (a1[0] + a1[1]) + (a1[2] + a1[3]);
     f[2] += (a2[0] + a2[1]) + (a2[2] + a2[3]);
-    mask |= m;
+    mask |= static_cast<std::uint64_t>((m[0] | m[1]) | (m[2] | m[3]));
 }
 
 bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noexcept {
@@ -532,7 +633,7 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
         const NearFlags& n = near_flags_;
         for (std::size_t i = 0; i < n.count; ++i) {
             const bool contact = n.offset[i] - (n.nx[i] * x0 + n.ny[i] * x1 + n.nz[i] * x2) > 0.0;
-            mask |= static_cast<std::uint64_t>(contact) << n.slot[i];
+            mask |= (std::uint64_t{0} - static_cast<std::uint64_t>(contact)) & n.slot_bit[i];
         }
     }
     {

@@ -16,7 +16,8 @@
 // that a ramp from zero starts damping-dominated: with a delay, small gains are stable only if
 // B / K > ~(t_d + T/2) (beta / alpha > d + 1/2), and a linear ramp of both would start outside the region
 // for every object with a lower ratio (tests/server/test_scene_objects.cpp). The server checks every scene
-// a ramp renders (docs/protocol.md, section 5).
+// a ramp renders (docs/protocol.md, section 5); for those to be the scenes the loop renders, one batch ramps
+// at a time: a batch that starts ramps while another's run is held until they end (apply_commits).
 // The summed force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
 // (infinity norm, scaled as a whole so the direction is kept); a non-finite value latches a fault.
 //
@@ -36,8 +37,10 @@
 //    rounding of the surface itself. Leaving that radius re-classifies (O(n), once per kNearDistance of motion).
 //  * Moves (a commit of Move updates only: the same object, another place) do not re-classify: each moved
 //    object's constant term c_i is recomputed and replaced in c by a compensated update (TwoSum, the errors
-//    carried: exact up to eps |c| + moves eps^2 sum |c_i|), and the safe radius and P shrink by how far
-//    their surfaces moved. A client moving a proxy every tick costs ~40 flops, whatever the object count.
+//    carried: exact up to eps |c| + moves eps^2 sum |c_i|), and its surface's distance to x_ref is taken
+//    anew: the safe radius and P become the minimum of what they were and that distance (the other
+//    surfaces did not move). Only a surface moved across x_ref or to within kNearDistance of it
+//    re-classifies. A client moving a proxy every tick costs ~50 flops, whatever the object count.
 //  * Unilateral planes pressed deeper than kNearDistance, in closed form while their clamp cannot act. Such a
 //    plane i (penetration p_i at the classification, gains k_i = r^2 K, b_i = r B) pushes k_i p - b_i n.v,
 //    affine in (x, v), as long as that is >= 0. At x = x_ref + d, p >= p_i - |n.d| >= p_i - ||d||_1 and
@@ -57,6 +60,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "devices/device.hpp"
 #include "loop/spsc_ring.hpp"
@@ -67,6 +71,9 @@ inline constexpr std::size_t kSceneObjectCapacity = 64;
 // Objects whose switching surface is nearer than this to the handle at a classification are evaluated one
 // by one (m). Larger: fewer re-classifications (one per kNearDistance of hand motion), more objects per tick.
 inline constexpr double kNearDistance = 1e-3;
+// Batches the loop can hold while another batch's ramps run (SceneObjects::apply_commits): as many as the
+// server's queue to the loop holds (serve_runtime.cpp), so holding never makes the queue refuse sooner.
+inline constexpr std::size_t kHeldCommitCapacity = 64;
 
 enum class ObjectKind : std::uint8_t { Plane, Spring, Field };
 enum class SpringConstraint : std::uint8_t { Point, Line, Plane };
@@ -130,7 +137,8 @@ struct SceneObjectsConfig {
 
 struct SceneObjectsStats {
     std::uint64_t commits_applied = 0;
-    std::uint64_t last_commit_seq = 0;
+    std::uint64_t last_commit_seq = 0;  // every batch up to this seq is applied
+    std::uint64_t commits_held = 0;     // batches held until the ramps of an earlier one had ended
     std::uint64_t rate_limited_ticks = 0;
     std::uint64_t saturated_ticks = 0;
 };
@@ -140,7 +148,8 @@ public:
     // The ring must outlive this object; its consumer is the loop thread (apply_commits()).
     SceneObjects(const SceneObjectsConfig& config, CommitRing& ring);
 
-    // Start of a tick: applies up to commits_per_tick waiting batches. Real-time safe.
+    // Start of a tick: applies up to commits_per_tick waiting batches; one that starts ramps while another
+    // batch's ramps run is held until they have ended (apply_commits in scene_objects.cpp). Real-time safe.
     void apply_commits() noexcept;
 
     // Adds the objects' forces to `force` (the config walls' sum), then saturates and rate-limits the
@@ -164,12 +173,16 @@ public:
     // Ticks that used the pressed planes' summed law.
     [[nodiscard]] std::uint64_t pressed_summed() const noexcept { return pressed_summed_; }
     [[nodiscard]] const SceneObjectsStats& stats() const noexcept { return stats_; }
+    // Batches held now until the ramps in progress end (apply_commits).
+    [[nodiscard]] std::size_t held() const noexcept { return held_count_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
 
 private:
     struct Entry {
         bool active = false;
-        double ramp = 0.0;  // s in [0, 1]
+        double ramp = 0.0;        // r in [0, 1]: steps x step (ramping in), start - steps x step (fading)
+        double start = 1.0;       // fading: the factor it started from
+        std::uint32_t steps = 0;  // ticks since its ramp started
         ObjectParams params;
     };
     struct Slot {
@@ -191,15 +204,17 @@ private:
     // (in contact or not), pressed_planes_ the deeper ones (used on a tick that fails their test). The ramp's
     // weights are copied here; they change only at a ramp step, which re-classifies. Padded with zero
     // planes to a multiple of four (add_unilateral).
+    // slot_bit: 1 << the plane's slot (its contact flag's bit), so that four flags are set with one
+    // vector AND and OR.
     struct NearPlanes {
         std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{};  // K, B: times the ramp's weights
-        std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
+        std::array<std::uint64_t, 2 * kSceneObjectCapacity> slot_bit{};
         std::size_t count = 0;
     };
     // Bilateral planes near their surface: the flag only (their force is in the affine law).
     struct NearFlags {
         std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{};
-        std::array<std::uint8_t, 2 * kSceneObjectCapacity> slot{};
+        std::array<std::uint64_t, 2 * kSceneObjectCapacity> slot_bit{};
         std::size_t count = 0;
     };
     // Fields near their sphere: the whole law.
@@ -216,6 +231,10 @@ private:
         std::size_t count = 0;
     };
 
+    void apply(const ObjectCommit& commit) noexcept;
+    void start_fading(Slot& slot) noexcept;
+    [[nodiscard]] bool ramp_running() const noexcept;
+    void set_bounds() noexcept;
     void step_ramps() noexcept;
     void count_occupied() noexcept;
     static void add_linear(AffineLaw& law, const ObjectParams& p, double w) noexcept;
@@ -234,7 +253,13 @@ private:
     SceneObjectsConfig config_;
     CommitRing& ring_;
     std::array<Slot, kSceneObjectCapacity> slots_{};
-    ObjectCommit incoming_{};  // preallocated pop target
+    // Batches waiting for the ramps in progress to end (apply_commits), a circular queue preallocated in the
+    // constructor (~14 KB each: on the heap, not in the object).
+    std::vector<ObjectCommit> held_;
+    std::size_t held_first_ = 0;
+    std::size_t held_count_ = 0;
+    std::uint64_t held_slots_ = 0;   // the slots the held batches touch
+    std::uint64_t applied_seq_ = 0;  // the largest seq applied
     double ramp_step_ = 1.0;
     double inverse_period_ = 1e3;
     AxisVector previous_position_{};
@@ -264,13 +289,16 @@ private:
     double pressed_depth_ = 0.0;  // P: their least penetration at the classification, less the rounding tol
     double pressed_tau_ = 0.0;    // tau: their largest b / k (s)
     std::uint64_t moved_mask_ = 0;  // slots moved (Move commits only) since the last classification
-    double moved_shift_ = 0.0;      // the sum of how far their surfaces moved (m)
     NearPlanes near_planes_;
     NearFlags near_flags_;
     NearFields near_fields_;
     std::uint64_t static_mask_ = 0;   // flags that stay as classified while inside the safe radius
     std::uint64_t pressed_mask_ = 0;  // the pressed planes' flags (set on a tick that passes their test)
     AxisVector reference_{};          // x where the scene was classified
+    double reference_norm1_ = 0.0;    // ||x_ref||_1
+    double scale_ = 0.0;              // the rounding scale of the distances (offsets, centres, radii, x_ref)
+    double rho_ = 0.0;                // the least distance of a far surface to x_ref (+inf: none)
+    double least_pressed_ = 0.0;      // the least penetration of a pressed plane at x_ref
     double safe_radius_ = 0.0;        // rho - tol (may be +inf: no far surface)
     std::uint64_t classifications_ = 0;
     std::uint64_t pressed_fallbacks_ = 0;

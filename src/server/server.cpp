@@ -660,8 +660,9 @@ struct Server::Impl {
         }
 
         // The ramps between the scene before and after this batch (object_checks.hpp, ramp_is_stable): the
-        // batch's new and changed objects ramp in, the ones they replace or remove ramp out. Objects of an
-        // earlier batch whose ramps are still running count at their final weight. Moves have no ramp.
+        // batch's new and changed objects ramp in, the ones they replace or remove ramp out, everything else
+        // at its final weight — exactly what the loop renders, since it starts this batch's ramps only once
+        // every earlier batch's have ended (SceneObjects::apply_commits). Moves have no ramp.
         {
             Matrix3 K_in{}, B_in{}, K_out{}, B_out{};
             bool ramps = false;

@@ -64,6 +64,34 @@ TEST(SpscRing, TransfersInOrderAcrossThreads) {
     consumer.join();
 }
 
+// front() leaves the element in the ring: the producer must not overwrite it before pop(), even with the
+// ring full. Each element carries its index twice; a slot rewritten under the reader shows a mismatch.
+TEST(SpscRing, FrontStaysValidUntilPopAcrossThreads) {
+    struct Pair {
+        std::uint64_t a = 0, b = 0;
+    };
+    SpscRing<Pair> ring(8);
+    constexpr std::uint64_t n = 50000;
+    std::thread consumer([&] {
+        std::uint64_t expected = 0;
+        while (expected < n) {
+            const Pair* p = ring.front();
+            if (p == nullptr) continue;
+            const std::uint64_t a = p->a;
+            std::this_thread::yield();  // give the producer time to fill the ring behind it
+            ASSERT_EQ(a, expected);
+            ASSERT_EQ(p->b, expected);
+            ring.pop();
+            ++expected;
+        }
+    });
+    for (std::uint64_t i = 0; i < n;) {
+        if (ring.try_push(Pair{i, i})) ++i;
+    }
+    consumer.join();
+    EXPECT_EQ(ring.front(), nullptr);
+}
+
 TEST(SpscRing, FullRingRefuses) {
     SpscRing<int> ring(4);
     for (int i = 0; i < 4; ++i) EXPECT_TRUE(ring.try_push(i));

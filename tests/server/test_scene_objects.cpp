@@ -127,6 +127,76 @@ TEST(SceneObjects, RampInAndOutAreLinearAndTheSlotIsFreedAfterwards) {
     EXPECT_EQ(rig.objects.occupied(), 0U);
 }
 
+// One batch ramps at a time (SceneObjects::apply_commits): a batch that adds an object while another
+// object's 10-tick ramp-in runs is held until that ramp has ended, then ramps in itself; a batch of moves of
+// another object passes it at once; a move of the held object waits behind it. last_commit_seq means
+// "every batch up to it applied". So every tick renders the scene the server checked for it: the held
+// object's ramp starts from the scene in which the first has reached its final weight.
+TEST(SceneObjects, ABatchThatStartsRampsWaitsUntilTheRampsInProgressEnd) {
+    Rig rig(0.010);
+    ObjectParams a;  // a constant force of 1 N along x inside a sphere of 0.5 m around the origin
+    a.id = 1;
+    a.kind = ObjectKind::Field;
+    a.radius = 0.5;
+    a.force = {1.0, 0, 0};
+    ObjectParams c = a;  // the same along y
+    c.id = 2;
+    c.force = {0, 1.0, 0};
+    rig.commit({{0, SlotUpdate::Action::Set, a}}, 1);
+    const AxisVector x{0, 0, 0};
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(rig.tick(x)[0], 0.1 * k, 1e-12) << k;
+    rig.commit({{1, SlotUpdate::Action::Set, c}}, 2);  // while a ramps (0.3 now)
+    ObjectParams a_moved = a;
+    a_moved.point = {2.0, 0, 0};  // the handle is then outside a's sphere
+    rig.commit({{0, SlotUpdate::Action::Move, a_moved}}, 3);
+    ObjectParams c_moved = c;
+    c_moved.point = {0, 0, 0.1};  // still inside
+    rig.commit({{1, SlotUpdate::Action::Move, c_moved}}, 4);
+    // Tick 3: batch 2 held, batch 3 (a's move, another slot) applied, batch 4 (c's move) waits behind 2.
+    AxisVector f = rig.tick(x);
+    EXPECT_EQ(f[0], 0.0);  // a moved away at once
+    EXPECT_EQ(f[1], 0.0);  // c not there yet
+    EXPECT_EQ(rig.objects.held(), 1U);
+    EXPECT_EQ(rig.objects.stats().commits_held, 1U);
+    EXPECT_EQ(rig.objects.stats().last_commit_seq, 1U);  // batch 3 is applied, but batch 2 is not
+    EXPECT_EQ(rig.objects.slot_object_id(1), 0U);
+    // Until a's ramp has reached 1 (after its 10th tick), c stays out; batch 2 is applied at the next tick
+    // and batch 4 right after it, in the same tick.
+    int k = 4;
+    for (; rig.objects.slot_ramp(0) < 1.0 && k < 40; ++k) {
+        f = rig.tick(x);
+        EXPECT_EQ(f[1], 0.0) << k;
+        EXPECT_EQ(rig.objects.slot_object_id(1), 0U) << k;
+        EXPECT_EQ(rig.objects.stats().last_commit_seq, 1U) << k;
+    }
+    EXPECT_EQ(k, 10);  // a's ramp took its 10 ticks (k = 0 .. 9), counted in whole steps
+    for (int j = 0; j <= 11; ++j) {
+        f = rig.tick(x);
+        EXPECT_NEAR(f[1], std::min(1.0, 0.1 * j), 1e-12) << j;
+        EXPECT_EQ(rig.objects.slot_object_id(1), 2U) << j;
+        EXPECT_EQ(rig.objects.stats().last_commit_seq, 4U) << j;
+        EXPECT_EQ(rig.objects.held(), 0U) << j;
+    }
+    EXPECT_EQ(rig.objects.stats().commits_applied, 4U);
+}
+
+// Without ramps (ramp_s = 0) nothing is ever held: a batch is applied in the tick it arrives.
+TEST(SceneObjects, WithoutRampsNoBatchIsHeld) {
+    Rig rig(0.0);
+    ObjectParams a;
+    a.id = 1;
+    a.kind = ObjectKind::Field;
+    a.radius = 0.5;
+    a.force = {1.0, 0, 0};
+    rig.commit({{0, SlotUpdate::Action::Set, a}}, 1);
+    EXPECT_EQ(rig.tick({0, 0, 0})[0], 1.0);
+    a.id = 2;
+    rig.commit({{1, SlotUpdate::Action::Set, a}}, 2);
+    EXPECT_EQ(rig.tick({0, 0, 0})[0], 2.0);
+    EXPECT_EQ(rig.objects.stats().commits_held, 0U);
+    EXPECT_EQ(rig.objects.stats().last_commit_seq, 2U);
+}
+
 TEST(SceneObjects, AFieldActsOnlyInsideItsRadiusAndSetsTheContactFlag) {
     Rig rig(0.0);
     ObjectParams field;

@@ -361,5 +361,82 @@ TEST(SceneObjectsClosedForm, AProxyMovedEveryTickIsFollowedAtOnce) {
     }
 }
 
+// A move re-bounds the safe radius by the moved surface's own new distance to where the scene was
+// classified (not by how far it moved): each object here is classified 5 mm from its surface, moved to
+// 1.5 mm (still beyond kNearDistance, so it is not re-classified), and the handle then walks 2 mm towards
+// it in 0.1 mm steps — within the old 5 mm radius, across the new surface. Every tick is compared with the
+// object's own law (force within 1e-12 N, flag exact): a loop that kept the old radius would miss the
+// contact. Moves that carry a far surface across the handle, or within kNearDistance of it, re-classify.
+TEST(SceneObjectsClosedForm, AMovedSurfaceBoundsTheSafeRadiusByItsNewDistance) {
+    std::vector<ObjectParams> cases;
+    ObjectParams plane;  // unilateral, out of contact: the solid is x < offset
+    plane.id = 1;
+    plane.kind = ObjectKind::Plane;
+    plane.direction = {1.0, 0.0, 0.0};
+    plane.offset = -0.005;
+    plane.K = 1000.0;
+    plane.B = 1.0;
+    cases.push_back(plane);
+    ObjectParams bilateral = plane;  // its flag (p > 0) must follow, its force is linear anyway
+    bilateral.bilateral = true;
+    cases.push_back(bilateral);
+    ObjectParams field;  // the handle 5 mm outside a sphere of 5 mm radius
+    field.id = 1;
+    field.kind = ObjectKind::Field;
+    field.point = {-0.010, 0.0, 0.0};
+    field.radius = 0.005;
+    field.force = {1.0, 0.0, 0.0};
+    field.B = 0.5;
+    cases.push_back(field);
+    ObjectParams inside = field;  // the handle 5 mm inside a sphere of 10 mm radius, leaving it
+    inside.point = {0.005, 0.0, 0.0};
+    inside.radius = 0.010;
+    cases.push_back(inside);
+    for (std::size_t c = 0; c < cases.size(); ++c) {
+        Rig rig(0.0);
+        ObjectParams o = cases[c];
+        ObjectCommit set;
+        set.seq = 1;
+        set.updates[set.count++] = SlotUpdate{0, SlotUpdate::Action::Set, o};
+        ASSERT_TRUE(rig.ring.try_push(set));
+        AxisVector x{}, previous{};
+        auto tick = [&](const AxisVector& to, int k) {
+            rig.objects.apply_commits();
+            AxisVector f{};
+            ASSERT_TRUE(rig.objects.add_forces(to, f));
+            AxisVector v{};
+            for (std::size_t a = 0; a < 3; ++a) v[a] = (to[a] - previous[a]) / kT;
+            previous = to;
+            const Reference r = reference_force(o, to, v, 1.0, 1.0, 1.0);
+            for (std::size_t a = 0; a < 3; ++a) ASSERT_NEAR(f[a], r.f[a], 1e-12) << "case " << c << " tick " << k;
+            ASSERT_EQ(rig.objects.contact_mask(), r.contact ? 1U : 0U) << "case " << c << " tick " << k;
+        };
+        tick(x, 0);
+        tick(x, 1);
+        const std::uint64_t classified = rig.objects.classifications();
+        if (o.kind == ObjectKind::Plane) {
+            o.offset = -0.0015;
+        } else if (c == 2) {
+            o.point = {-0.0065, 0.0, 0.0};  // its sphere 1.5 mm from the handle
+        } else {
+            o.point = {0.0085, 0.0, 0.0};  // the handle 1.5 mm inside the sphere's surface (at x = -1.5 mm)
+        }
+        ObjectCommit move;
+        move.seq = 2;
+        move.updates[move.count++] = SlotUpdate{0, SlotUpdate::Action::Move, o};
+        ASSERT_TRUE(rig.ring.try_push(move));
+        tick(x, 2);
+        EXPECT_EQ(rig.objects.classifications(), classified) << "case " << c << ": a move 1.5 mm away re-classified";
+        bool contact_changed = false;
+        const bool before = rig.objects.contact_mask() != 0;
+        for (int k = 3; k < 23; ++k) {
+            x[0] -= 1e-4;
+            tick(x, k);
+            contact_changed = contact_changed || (rig.objects.contact_mask() != 0) != before;
+        }
+        EXPECT_TRUE(contact_changed) << "case " << c << ": the walk did not cross the moved surface";
+    }
+}
+
 }  // namespace closed_form
 }  // namespace hapticd

@@ -344,6 +344,67 @@ TEST(ServerProcess, AClientThatStopsHeartbeatingLosesItsObjects) {
     EXPECT_EQ(scene.daemon.wait(), 0);
 }
 
+// Two batches committed back to back, each adding a field of constant force (0.05 N along y, then z: the
+// state's force is then r F0 on each axis, r the object's ramp factor): the second reaches the loop while
+// the first ramps in, and must start ramping only once the first has ended, so that every tick renders a
+// scene the server checked (docs/protocol.md, section 5: one batch ramps at a time). Real time at 1 kHz
+// (the reader polls every 0.1 ms and sees most ticks); the ramp of 30 ticks gives each sample's ramp step
+// j = r 30 exactly (the force is F0 j / 30, no delay in this profile), so start = tick - j. The gap between
+// the two starts must be the 30 ticks of the first ramp (the batch is applied in the tick after the ramp
+// ends); up to 10 more are allowed for periods the loop skips on a loaded machine, which the tick counts
+// but the ramp does not.
+TEST(ServerProcess, OverlappingBatchesRampOneAtATime) {
+    const Names n = names("serial");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "0.03"}), "serial_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "serial"});
+    const cl::StateReader state = cl::StateReader::open(n.shm);
+    constexpr double kF = 0.05;
+    constexpr int kRampTicks = 30;
+    // Around the handle's start (x = 0.05 m, at the config wall's surface); 0.05 N moves the 0.3 kg handle
+    // by ~8 mm in the test's 0.3 s, well inside the 2 cm radius.
+    cl::Field a{.center = {0.05, 0, 0}, .radius = 0.02, .force = {0, kF, 0}};
+    cl::Field b{.center = {0.05, 0, 0}, .radius = 0.02, .force = {0, 0, kF}};
+    const std::uint64_t seq_a = c.commit(cl::Batch().add(a)).commit_seq;
+    const std::uint64_t seq_b = c.commit(cl::Batch().add(b)).commit_seq;
+    ASSERT_GT(seq_b, seq_a);
+    std::optional<std::int64_t> start_a, start_b;
+    std::size_t samples = 0, both_ramping = 0, b_before_a_done = 0, seq_b_while_a_ramps = 0;
+    const double end = monotonic_s() + 0.3;
+    cl::StateSample s;
+    while (monotonic_s() < end) {
+        if (state.read(s)) {
+            ++samples;
+            const double ra = s.force[1] / kF, rb = s.force[2] / kF;
+            const bool a_ramping = ra > 1e-9 && ra < 1.0 - 1e-9;
+            const bool b_ramping = rb > 1e-9 && rb < 1.0 - 1e-9;
+            if (a_ramping && b_ramping) ++both_ramping;
+            if (ra < 1.0 - 1e-9 && rb != 0.0) ++b_before_a_done;
+            if (a_ramping && s.last_commit_seq >= seq_b) ++seq_b_while_a_ramps;
+            // j = r 30 is an integer up to rounding (~1e-15): the tick the ramp started.
+            if (a_ramping) start_a = static_cast<std::int64_t>(s.tick) - std::lround(ra * kRampTicks);
+            if (b_ramping) start_b = static_cast<std::int64_t>(s.tick) - std::lround(rb * kRampTicks);
+        }
+        std::this_thread::sleep_for(std::chrono::microseconds(100));
+    }
+    ASSERT_TRUE(start_a.has_value()) << "no sample during the first ramp (" << samples << " samples)";
+    ASSERT_TRUE(start_b.has_value()) << "no sample during the second ramp (" << samples << " samples)";
+    std::printf("[ serial ] %zu samples; ramps started at ticks %lld and %lld (gap %lld ticks)\n", samples,
+                static_cast<long long>(*start_a), static_cast<long long>(*start_b), static_cast<long long>(*start_b - *start_a));
+    EXPECT_EQ(both_ramping, 0U);
+    EXPECT_EQ(b_before_a_done, 0U);
+    EXPECT_EQ(seq_b_while_a_ramps, 0U);  // last_commit_seq: "every batch up to it applied"
+    EXPECT_GE(*start_b - *start_a, kRampTicks);
+    EXPECT_LE(*start_b - *start_a, kRampTicks + 10);
+    ASSERT_TRUE(state.read(s));
+    EXPECT_EQ(s.force[1], kF);
+    EXPECT_EQ(s.force[2], kF);
+    EXPECT_GE(s.last_commit_seq, seq_b);
+    c.bye();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
 // 32 clients at once, one flooding commits, one that never reads its subscription: every client's batch is
 // accepted, the loop keeps ticking, the flooder's and the non-reader's excess costs only themselves.
 TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {

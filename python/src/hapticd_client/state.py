@@ -47,7 +47,7 @@ class StateSample:
     contact_mask: int = 0  # bit s: the object in slot s is in contact
     overruns: int = 0
     wake_latency_ns: int = 0
-    last_commit_seq: int = 0  # the last batch applied
+    last_commit_seq: int = 0  # every batch up to this one is applied
     fault: int = 0  # 0 none, 1 device, 2 non-finite, 3 watchdog
     objects: int = 0
     slot_object_id: List[int] = field(default_factory=lambda: [0] * CAPACITY)
