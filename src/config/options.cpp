@@ -68,6 +68,9 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_flag("--no-walls", o.no_walls,
                  "Start with no walls: a scene that only clients fill (--serve); in the config file: wall = []");
     app.add_option("--rt-priority", o.rt_priority, "SCHED_FIFO priority 1..99, 0: do not ask (default 80)");
+    app.add_option("--spin-us", o.spin_us,
+                   "Sleep until this long before each tick's deadline, then busy-wait for it: the tick starts on time "
+                   "whatever the kernel's wake-up latency, for this much CPU per period (default 0: sleep until the deadline)");
     app.add_option("--cpu", o.cpu, "Pin the loop thread to this CPU (default -1: no pinning)");
     app.add_option("--mlock", o.mlock, "Lock memory with mlockall (default true)");
     app.add_option("--watchdog-overruns", o.watchdog_overruns,
@@ -246,6 +249,11 @@ void validate_options(const Options& o) {
     }
     if (o.rt_priority < 0 || o.rt_priority > 99) invalid(w, "rt-priority", std::to_string(o.rt_priority), "0 .. 99");
     if (o.cpu < -1 || o.cpu >= 1024) invalid(w, "cpu", std::to_string(o.cpu), "-1 (no pinning) .. 1023");
+    check_range(w, "spin-us", o.spin_us, 0.0, 1e6, false, "0 .. 1e6 us, and less than one period");
+    if (o.spin_us * o.rate >= 1e6) {
+        invalid(w, "spin-us", shortest_text(o.spin_us), "0 .. less than one period (" + shortest_text(1e6 / o.rate) + " us at rate " +
+                                                            shortest_text(o.rate) + " Hz)");
+    }
     if (o.watchdog_overruns < 0 || o.watchdog_overruns > 1000000000) {
         invalid(w, "watchdog-overruns", std::to_string(o.watchdog_overruns), "0 .. 1e9");
     }

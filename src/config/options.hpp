@@ -37,6 +37,7 @@ struct Options {
     bool no_walls = false;            // start with no config walls (--no-walls, or wall = [] in the file)
     bool dry_run = false;             // tune, print and exit without running the loop
     int rt_priority = 80;
+    double spin_us = 0.0;             // busy-wait this long before each deadline (0: sleep until it)
     int cpu = -1;
     bool mlock = true;
     long long watchdog_overruns = 50;

@@ -295,6 +295,7 @@ int run_main(int argc, const char* const* argv) {
     DaemonConfig cfg;
     cfg.loop.period_ns = period_ns;
     cfg.loop.lockstep = o.lockstep;
+    cfg.loop.spin_ns = static_cast<std::int64_t>(std::llround(o.spin_us * 1e3));
     cfg.max_ticks = max_ticks;
     cfg.delay_samples = static_cast<std::size_t>(o.delay_buffer);
     cfg.watchdog.max_consecutive_overruns = static_cast<std::uint32_t>(o.watchdog_overruns);
@@ -339,7 +340,9 @@ int run_main(int argc, const char* const* argv) {
         if (!o.quiet) {
             out << "hapticd: real-time: SCHED_FIFO " << (report.realtime.fifo ? "priority " + std::to_string(o.rt_priority) : std::string("off"))
                 << ", memory " << (report.realtime.memory_locked ? "locked" : "not locked") << ", CPU "
-                << (report.realtime.pinned ? std::to_string(o.cpu) : std::string("not pinned")) << "\n";
+                << (report.realtime.pinned ? std::to_string(o.cpu) : std::string("not pinned"))
+                << (o.spin_us > 0.0 ? ", spinning the last " + std::to_string(std::llround(o.spin_us)) + " us before each tick" : std::string())
+                << "\n";
         }
         if (!report.realtime.failures.empty()) {
             std::cerr << "hapticd: warning: real-time setup did not take effect: " << report.realtime.failures

@@ -149,6 +149,7 @@ nlohmann::json summary_json(const RunReport& r) {
     j["device_profile"] = p.path;
     j["scenario"] = o.scenario;
     j["lockstep"] = o.lockstep;
+    j["spin_us"] = o.spin_us;
     nlohmann::json walls = nlohmann::json::array();
     for (const auto& w : r.walls) {
         nlohmann::json wj = tuning_json(w.tuning);

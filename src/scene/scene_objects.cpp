@@ -85,6 +85,7 @@ bool SceneObjects::ramp_running() const noexcept {
 // last_commit_seq stays below the oldest held batch's seq until it is applied ("every batch up to this seq
 // is applied").
 void SceneObjects::apply_commits() noexcept {
+    if (held_count_ == 0 && ring_.front() == nullptr) return;  // the usual tick: nothing to do
     for (std::size_t n = 0; n < config_.commits_per_tick; ++n) {
         if (held_count_ > 0 && !ramp_running()) {
             apply(held_[held_first_]);

@@ -6,7 +6,8 @@
 //    commits (default 10000), the commit's own reply round trip, and (1000 x) that of a status request,
 //    which the server answers without the commit's checks. Baseline in the same run: a bare
 //    SOCK_SEQPACKET ping-pong (socketpair + echo thread) with a message of the commit's size.
-//    Goal of issue 14: within one loop period plus the ping-pong time. Also reported: the loop's worst
+//    Goal of issue 14: within one loop period plus the ping-pong time. Run twice: the daemon's loop sleeping
+//    until each deadline, and with --spin-us 300 (docs/hapticd.md). Also reported: the loop's worst
 //    wake-up lateness seen in the state stream during the commits, and period + that + the worst ping-pong
 //    (machine_bound_max_us): the worst a commit should take on this machine if the daemon's server added no
 //    stall of its own.
@@ -70,8 +71,9 @@ void report(benchmark::State& state, const std::string& prefix, const LatencySta
 
 class DaemonProcess {
 public:
-    DaemonProcess(const std::string& socket, const std::string& shm) {
+    DaemonProcess(const std::string& socket, const std::string& shm, long spin_us) {
         std::vector<std::string> args{HAPTICD_BINARY, "--config", "", "--serve", "--serve-socket", socket, "--serve-shm", shm,
+                                      "--spin-us", std::to_string(spin_us),
                                       "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1",
                                       "--scenario", "hold", "--hold-distance", "0.06", "--hold-force", "2",
                                       "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000", "--quiet"};
@@ -153,7 +155,7 @@ void BM_CommandToForceLatency(benchmark::State& state) {
             ::close(sv[1]);
         }
         // The daemon.
-        DaemonProcess daemon(socket, shm);
+        DaemonProcess daemon(socket, shm, static_cast<long>(state.range(0)));
         if (!daemon.started()) {
             state.SkipWithError("hapticd did not start");
             return;
@@ -212,7 +214,9 @@ void BM_CommandToForceLatency(benchmark::State& state) {
     state.counters["client_fifo"] = rt.fifo ? 1.0 : 0.0;
     std::filesystem::remove_all(dir);
 }
-BENCHMARK(BM_CommandToForceLatency)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+// Arg: the daemon's --spin-us (0: the loop sleeps until each deadline; 300: it busy-waits the last 300 us,
+// so the kernel's wake-up latency no longer delays the tick that applies the commit).
+BENCHMARK(BM_CommandToForceLatency)->Arg(0)->Arg(300)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // ---------------------------------------------------------------------------------------------------------
 // Tick compute: one wall against one wall + 64 objects.
@@ -310,7 +314,7 @@ ObjectParams tick_scene_object(TickScene scene, std::size_t i) {
 // The same plus N client objects and the state publication, as Daemon::tick does with --serve.
 struct ObjectsTick {
     OneWallTick base;
-    CommitRing ring;
+    CommitRing ring{4};
     SceneObjects objects;
     StatePublisher publisher;
     TickScene scene;
@@ -324,14 +328,8 @@ struct ObjectsTick {
         c.max_force_rate = 1e4;
         return c;
     }
-    // push_in_tick: the moving scene's tick pushes its move itself (the server thread's part, in this
-    // thread); otherwise queue_moves() pushes them ahead, outside the timed ticks.
-    ObjectsTick(const std::string& shm, TickScene scene_kind, std::size_t count = kSceneObjectCapacity, bool push_in_tick = true)
-        : ring(scene_kind == TickScene::BilateralOneMoving && !push_in_tick ? 1024 : 4),
-          objects(objects_config(), ring),
-          publisher(shm, 3, 1e-3, -1),
-          scene(scene_kind),
-          push_in_tick_(push_in_tick) {
+    ObjectsTick(const std::string& shm, TickScene scene_kind, std::size_t count = kSceneObjectCapacity)
+        : objects(objects_config(), ring), publisher(shm, 3, 1e-3, -1), scene(scene_kind) {
         ObjectCommit commit;
         commit.seq = 1;
         commit.count = static_cast<std::uint32_t>(count);
@@ -350,20 +348,12 @@ struct ObjectsTick {
         // Past the 30 ms ramps: the steady state is measured.
         for (int i = 0; i < 100; ++i) tick();
     }
-    bool push_in_tick_ = true;
-    std::uint64_t pushed = 0;
-    void push_move() noexcept {  // a client moving its proxy: what the server thread hands over
-        move.seq = pushed + 2;
-        move.updates[0].params.offset = 0.005 + 1e-6 * static_cast<double>(pushed % 100);
-        if (ring.try_push(move)) ++pushed;
-    }
-    // The moves of the next n ticks, queued ahead (the ring holds 1024).
-    void queue_moves(int n) noexcept {
-        if (scene != TickScene::BilateralOneMoving) return;
-        for (int i = 0; i < n; ++i) push_move();
-    }
     double tick() noexcept {
-        if (scene == TickScene::BilateralOneMoving && push_in_tick_) push_move();
+        if (scene == TickScene::BilateralOneMoving) {  // a client moving its proxy every tick
+            move.seq = ticks + 2;
+            move.updates[0].params.offset = 0.005 + 1e-6 * static_cast<double>(ticks % 100);
+            ring.try_push(move);
+        }
         // The sample is read into the published record itself (no copy of it; Daemon::tick copies it once),
         // a member reused from tick to tick as Daemon::tick does.
         StateTick& st = record;
@@ -445,20 +435,16 @@ BENCHMARK(BM_TickPartPublish64);
 
 // The goal's measurement: blocks of 1000 ticks of today's one-wall tick and of the 64-object tick, alternated
 // so that both see the same machine load; per scene.
-// In the moving scene the block's 1000 moves are queued before it, untimed: the loop's tick pops and
-// applies one (from memory written 1000 ticks earlier, not hot in the cache); pushing it is the server
-// thread's work, on another core in the daemon (BM_Tick64Objects/4 times both in one thread).
 void BM_TickRatio64VsOneWall(benchmark::State& state) {
     const auto scene = static_cast<TickScene>(state.range(0));
     OneWallTick one;
-    ObjectsTick many(bench_shm("ratio"), scene, kSceneObjectCapacity, false);
+    ObjectsTick many(bench_shm("ratio"), scene);
     constexpr int kBlock = 1000;
     double one_ns = 0.0, many_ns = 0.0;
     std::uint64_t blocks = 0;
     for (auto _ : state) {
         auto t0 = RealtimeLoop::now_ns();
         for (int i = 0; i < kBlock; ++i) benchmark::DoNotOptimize(one.tick());
-        many.queue_moves(kBlock);
         auto t1 = RealtimeLoop::now_ns();
         for (int i = 0; i < kBlock; ++i) benchmark::DoNotOptimize(many.tick());
         auto t2 = RealtimeLoop::now_ns();

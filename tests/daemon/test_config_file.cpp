@@ -396,7 +396,7 @@ TEST_F(ConfigFileTest, RangeErrorsOfFileValuesNameLineAndColumn) {
         {"watchdog-overruns", "-1"}, {"watchdog-stall-periods", "-1"}, {"trace-capacity", "1"},
         {"step-force", "nan"}, {"push-speed", "-1"}, {"push-distance", "-1"}, {"push-force", "1e7"},
         {"hold-force", "-1e7"}, {"hold-distance", "-1"}, {"identify-force", "-1"}, {"identify-distance", "-1"},
-        {"identify-duration", "0.01"}};
+        {"identify-duration", "0.01"}, {"spin-us", "-1"}, {"spin-us", "1000"}};  // 1000 us: a whole period at 1 kHz
     for (const auto& [key, value] : out_of_range) {
         SCOPED_TRACE(key);
         const auto r = load_config("\n\n   " + std::string(key) + " = " + value + "\n");

@@ -55,6 +55,31 @@ TEST(RealtimeLoop, SleepingLoopRecordsStatisticsAndSkipsWholePeriods) {
     EXPECT_GE(loop.compute_time().max_ns(), 2'000'000U);
 }
 
+// With spin_ns the loop sleeps until spin_ns before each deadline and busy-waits the rest: no tick starts
+// before its deadline, the schedule and the overrun accounting are those of the sleeping loop.
+TEST(RealtimeLoop, SpinningLoopStartsNoTickEarlyAndSkipsWholePeriods) {
+    RealtimeLoop loop({500'000, false, 400'000});  // 0.5 ms, spinning the last 0.4 ms
+    std::uint64_t last_slot = 0;
+    const auto c = loop.run([&](const TickInput& in) -> TickOutput {
+        const auto slot = static_cast<std::uint64_t>(std::llround(in.time_s / 0.5e-3));
+        if (in.tick > 0) {
+            EXPECT_EQ(slot, last_slot + 1 + in.skipped_periods);
+        }
+        last_slot = slot;
+        EXPECT_GE(in.wake_latency_ns, 0);
+        if (in.tick == 5) {
+            const auto until = RealtimeLoop::now_ns() + 2'000'000;
+            while (RealtimeLoop::now_ns() < until) {
+            }
+        }
+        return {.stop = in.tick == 19};
+    });
+    EXPECT_EQ(c.ticks, 20U);
+    EXPECT_GE(c.overruns, 1U);
+    EXPECT_GE(c.skipped_periods, 4U);
+    EXPECT_EQ(loop.wake_latency().count(), 20U);
+}
+
 TEST(Watchdog, RunOfOverrunsOrStallIsAFault) {
     Watchdog w({3, 10});
     EXPECT_FALSE(w.check(3, 1));
