@@ -132,16 +132,20 @@ TEST(SceneObjects, RampInAndOutAreLinearAndTheSlotIsFreedAfterwards) {
 // another object passes it at once; a move of the held object waits behind it. last_commit_seq means
 // "every batch up to it applied". So every tick renders the scene the server checked for it: the held
 // object's ramp starts from the scene in which the first has reached its final weight.
+// A field of constant force F0 inside a sphere of 0.5 m around the origin (its force is r F0 while it ramps).
+ObjectParams constant_field(std::uint32_t id, const AxisVector& F0) {
+    ObjectParams o;
+    o.id = id;
+    o.kind = ObjectKind::Field;
+    o.radius = 0.5;
+    o.force = F0;
+    return o;
+}
+
 TEST(SceneObjects, ABatchThatStartsRampsWaitsUntilTheRampsInProgressEnd) {
     Rig rig(0.010);
-    ObjectParams a;  // a constant force of 1 N along x inside a sphere of 0.5 m around the origin
-    a.id = 1;
-    a.kind = ObjectKind::Field;
-    a.radius = 0.5;
-    a.force = {1.0, 0, 0};
-    ObjectParams c = a;  // the same along y
-    c.id = 2;
-    c.force = {0, 1.0, 0};
+    const ObjectParams a = constant_field(1, {1.0, 0, 0});
+    const ObjectParams c = constant_field(2, {0, 1.0, 0});
     rig.commit({{0, SlotUpdate::Action::Set, a}}, 1);
     const AxisVector x{0, 0, 0};
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(rig.tick(x)[0], 0.1 * k, 1e-12) << k;
@@ -183,15 +187,9 @@ TEST(SceneObjects, ABatchThatStartsRampsWaitsUntilTheRampsInProgressEnd) {
 // Without ramps (ramp_s = 0) nothing is ever held: a batch is applied in the tick it arrives.
 TEST(SceneObjects, WithoutRampsNoBatchIsHeld) {
     Rig rig(0.0);
-    ObjectParams a;
-    a.id = 1;
-    a.kind = ObjectKind::Field;
-    a.radius = 0.5;
-    a.force = {1.0, 0, 0};
-    rig.commit({{0, SlotUpdate::Action::Set, a}}, 1);
+    rig.commit({{0, SlotUpdate::Action::Set, constant_field(1, {1.0, 0, 0})}}, 1);
     EXPECT_EQ(rig.tick({0, 0, 0})[0], 1.0);
-    a.id = 2;
-    rig.commit({{1, SlotUpdate::Action::Set, a}}, 2);
+    rig.commit({{1, SlotUpdate::Action::Set, constant_field(2, {1.0, 0, 0})}}, 2);
     EXPECT_EQ(rig.tick({0, 0, 0})[0], 2.0);
     EXPECT_EQ(rig.objects.stats().commits_held, 0U);
     EXPECT_EQ(rig.objects.stats().last_commit_seq, 2U);

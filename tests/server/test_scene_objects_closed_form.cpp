@@ -130,6 +130,33 @@ struct Rig {
     }
 };
 
+// One object in a rig without ramps, ticked along a path, each tick compared with the object's own law:
+// force within 1e-12 N (a few roundings of terms of ~10 N), contact flag exact. `object` is what the law
+// is evaluated for: a test that moves the object updates it as it pushes the Move.
+struct LawCheck {
+    Rig rig{0.0};
+    ObjectParams object;
+    AxisVector previous{};
+    explicit LawCheck(const ObjectParams& o) : object(o) {
+        ObjectCommit c;
+        c.seq = 1;
+        c.updates[c.count++] = SlotUpdate{0, SlotUpdate::Action::Set, o};
+        EXPECT_TRUE(rig.ring.try_push(c));
+    }
+    AxisVector tick(const AxisVector& to, const std::string& where) {
+        rig.objects.apply_commits();
+        AxisVector f{};
+        EXPECT_TRUE(rig.objects.add_forces(to, f)) << where;
+        AxisVector v{};
+        for (std::size_t a = 0; a < 3; ++a) v[a] = (to[a] - previous[a]) / kT;
+        previous = to;
+        const Reference r = reference_force(object, to, v, 1.0, 1.0, 1.0);
+        for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(f[a], r.f[a], 1e-12) << where;
+        EXPECT_EQ(rig.objects.contact_mask(), r.contact ? 1U : 0U) << where;
+        return f;
+    }
+};
+
 // The summed law and the safe radius give the per-object sum: force within the rounding bound of the two
 // ways of summing, and the contact flags identical. Bound: each way sums at most ~4n + 10 products, so
 // each differs from the exact sum by at most (4n + 10) eps times the sum of the magnitudes of the terms
@@ -244,7 +271,6 @@ TEST(SceneObjectsClosedForm, TheSameDuringRampsIn) {
 // damping term (10 N) exceeds the spring's (4 N): the force must be clamped to zero, which the summed law
 // would not do — the tick must fall back to the plane's own law. Each tick is compared with the law.
 TEST(SceneObjectsClosedForm, APressedPlaneIsSummedOnlyWhileItsClampCannotAct) {
-    Rig rig(0.0);
     ObjectParams plane;
     plane.id = 1;
     plane.kind = ObjectKind::Plane;
@@ -252,23 +278,10 @@ TEST(SceneObjectsClosedForm, APressedPlaneIsSummedOnlyWhileItsClampCannotAct) {
     plane.offset = 0.005;  // pressed 5 mm at x = 0
     plane.K = 1000.0;
     plane.B = 10.0;
-    ObjectCommit c;
-    c.seq = 1;
-    c.updates[c.count++] = SlotUpdate{0, SlotUpdate::Action::Set, plane};
-    ASSERT_TRUE(rig.ring.try_push(c));
-    rig.objects.apply_commits();
-    AxisVector x{0.0, 0.0, 0.0}, previous = x;
-    auto tick = [&](const AxisVector& to) {
-        AxisVector f{};
-        EXPECT_TRUE(rig.objects.add_forces(to, f));
-        AxisVector v{};
-        for (std::size_t a = 0; a < 3; ++a) v[a] = (to[a] - previous[a]) / kT;
-        previous = to;
-        const Reference r = reference_force(plane, to, v, 1.0, 1.0, 1.0);
-        for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(f[a], r.f[a], 1e-12) << "z = " << to[2];
-        EXPECT_EQ(rig.objects.contact_mask(), r.contact ? 1U : 0U) << "z = " << to[2];
-        return f;
-    };
+    LawCheck check(plane);
+    Rig& rig = check.rig;
+    AxisVector x{0.0, 0.0, 0.0};
+    auto tick = [&](const AxisVector& to) { return check.tick(to, "z = " + std::to_string(to[2])); };
     for (int k = 0; k < 10; ++k) tick(x);  // still
     for (int k = 0; k < 10; ++k) {         // 1 mm/s: b/k ||v|| = 10 um
         x[2] += 1e-6;
@@ -393,24 +406,11 @@ TEST(SceneObjectsClosedForm, AMovedSurfaceBoundsTheSafeRadiusByItsNewDistance) {
     inside.radius = 0.010;
     cases.push_back(inside);
     for (std::size_t c = 0; c < cases.size(); ++c) {
-        Rig rig(0.0);
-        ObjectParams o = cases[c];
-        ObjectCommit set;
-        set.seq = 1;
-        set.updates[set.count++] = SlotUpdate{0, SlotUpdate::Action::Set, o};
-        ASSERT_TRUE(rig.ring.try_push(set));
-        AxisVector x{}, previous{};
-        auto tick = [&](const AxisVector& to, int k) {
-            rig.objects.apply_commits();
-            AxisVector f{};
-            ASSERT_TRUE(rig.objects.add_forces(to, f));
-            AxisVector v{};
-            for (std::size_t a = 0; a < 3; ++a) v[a] = (to[a] - previous[a]) / kT;
-            previous = to;
-            const Reference r = reference_force(o, to, v, 1.0, 1.0, 1.0);
-            for (std::size_t a = 0; a < 3; ++a) ASSERT_NEAR(f[a], r.f[a], 1e-12) << "case " << c << " tick " << k;
-            ASSERT_EQ(rig.objects.contact_mask(), r.contact ? 1U : 0U) << "case " << c << " tick " << k;
-        };
+        LawCheck check(cases[c]);
+        Rig& rig = check.rig;
+        ObjectParams& o = check.object;
+        AxisVector x{};
+        auto tick = [&](const AxisVector& to, int k) { check.tick(to, "case " + std::to_string(c) + " tick " + std::to_string(k)); };
         tick(x, 0);
         tick(x, 1);
         const std::uint64_t classified = rig.objects.classifications();
