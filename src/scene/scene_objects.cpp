@@ -14,6 +14,24 @@ double dot(const AxisVector& a, const AxisVector& b) noexcept { return a[0] * b[
 double norm1(const AxisVector& a) noexcept { return std::fabs(a[0]) + std::fabs(a[1]) + std::fabs(a[2]); }
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
+// An object's switching surface seen from x: the signed distance (plane: the penetration offset - n.x;
+// field: ||x - x0|| - radius, negative inside; a spring has none: 0) and the scale of the terms it is
+// computed from, for the rounding tolerance (x1 = ||x||_1). Used by classify() and, for a moved object,
+// by apply_moves(), so that both bound the same distance.
+struct SurfaceDistance {
+    double d = 0.0;
+    double scale = 0.0;
+};
+SurfaceDistance surface_distance(const ObjectParams& p, const AxisVector& x, double x1) noexcept {
+    if (p.kind == ObjectKind::Plane) return {p.offset - dot(p.direction, x), std::fabs(p.offset) + x1};
+    if (p.kind == ObjectKind::Field) {
+        AxisVector r{};
+        for (std::size_t a = 0; a < 3; ++a) r[a] = x[a] - p.point[a];
+        return {std::sqrt(dot(r, r)) - p.radius, norm1(p.point) + p.radius + x1};
+    }
+    return {};
+}
+
 }  // namespace
 
 SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring) : config_(config), ring_(ring) {
@@ -220,21 +238,10 @@ void SceneObjects::apply_moves() noexcept {
         const ObjectParams& p = slots_[s].current.params;
         const double w = slots_[s].current.ramp;
         EntryPlace& place = place_[2 * s];
-        // The moved surface's signed distance at x_ref (plane: penetration; field: distance to the sphere,
-        // negative inside), as classify() computes it, and the rounding scale it needs.
-        double d = 0.0;
-        if (p.kind == ObjectKind::Plane) {
-            d = p.offset - dot(p.direction, reference_);
-            const double sc = std::fabs(p.offset) + reference_norm1_;
-            scale_ = sc > scale_ ? sc : scale_;
-        } else if (p.kind == ObjectKind::Field) {
-            AxisVector r{};
-            for (std::size_t a = 0; a < 3; ++a) r[a] = reference_[a] - p.point[a];
-            d = std::sqrt(dot(r, r)) - p.radius;
-            const double sc = norm1(p.point) + p.radius + reference_norm1_;
-            scale_ = sc > scale_ ? sc : scale_;
-        }
+        const SurfaceDistance sd = surface_distance(p, reference_, reference_norm1_);
+        const double d = sd.d;
         const double ad = std::fabs(d);
+        scale_ = sd.scale > scale_ ? sd.scale : scale_;
         switch (place.list) {
             case EntryPlace::Linear:
                 replace_constant(linear_, entry_c_[2 * s], linear_constant(p, w));
@@ -432,10 +439,10 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
             };
             switch (p.kind) {
                 case ObjectKind::Plane: {
-                    const double d = p.offset - dot(p.direction, x);
+                    const SurfaceDistance sd = surface_distance(p, x, x1);
+                    const double d = sd.d;
                     const double ad = std::fabs(d);
-                    const double sc = std::fabs(p.offset) + x1;
-                    scale = sc > scale ? sc : scale;
+                    scale = sd.scale > scale ? sd.scale : scale;
                     if (p.bilateral) {
                         sum_linear();
                         if (ad >= kNearDistance) {
@@ -475,12 +482,10 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                     static_mask_ |= bit;
                     break;
                 case ObjectKind::Field: {
-                    AxisVector r{};
-                    for (std::size_t a = 0; a < 3; ++a) r[a] = x[a] - p.point[a];
-                    const double e_dist = std::sqrt(dot(r, r)) - p.radius;
+                    const SurfaceDistance sd = surface_distance(p, x, x1);
+                    const double e_dist = sd.d;
                     const double ae = std::fabs(e_dist);
-                    const double sc = norm1(p.point) + p.radius + x1;
-                    scale = sc > scale ? sc : scale;
+                    scale = sd.scale > scale ? sd.scale : scale;
                     if (e_dist <= -kNearDistance) {
                         sum_linear();
                         static_mask_ |= bit;
