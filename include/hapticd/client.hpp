@@ -48,6 +48,8 @@ enum class ErrorCode {
     Busy,
     LeaseLost,
     SlowConsumer,
+    SessionLimit,  // this session's object or in-flight limit (docs/protocol.md, section 7)
+    Internal,      // the server failed while handling the request; the session goes on
     Transport,
     Unknown,
 };
@@ -194,10 +196,16 @@ struct StateSample {
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
     std::uint64_t last_commit_seq = 0;  // every batch up to this commit_seq is applied
-    std::uint32_t fault = 0;
+    std::uint32_t fault = 0;  // 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
     std::uint32_t objects = 0;
     std::array<std::uint32_t, kStateObjectCapacity> slot_object_id{};
     std::uint64_t dropped = 0;  // subscribed messages dropped before this one (socket only)
+    // Shared memory only (docs/protocol.md, section 6): the writer's liveness. stale: the heartbeat is older
+    // than state_stale_after_s(period) (10 periods, at least 50 ms) or was never written; the daemon is dead
+    // or stalled and the sample is not the device's present state. fatal_signal: with fault 4 or 5.
+    bool stale = false;
+    double heartbeat_age_s = 0.0;  // s; -1: never written
+    std::uint32_t fatal_signal = 0;
 };
 
 struct ConnectOptions {
@@ -265,6 +273,10 @@ public:
     bool read(StateSample& out, int max_attempts = 1000) const noexcept;
     [[nodiscard]] std::size_t axes() const noexcept;
     [[nodiscard]] double period_s() const noexcept;
+    // The age after which read() flags a sample stale: state_stale_after_s(period_s()).
+    [[nodiscard]] double stale_after_s() const noexcept;
+    // The daemon's process id as it wrote it at start-up.
+    [[nodiscard]] long writer_pid() const noexcept;
 
 private:
     explicit StateReader(const StateLayout* layout) : layout_(layout) {}

@@ -1,6 +1,9 @@
 // The shared-memory state of hapticd (docs/protocol.md, section 6): one struct written once per tick by
-// the loop under a seqlock, read by any process without a system call. Layout version 1; the offsets are
+// the loop under a seqlock, read by any process without a system call. Layout version 2; the offsets are
 // part of the protocol and checked by static_asserts below.
+// Liveness (docs/protocol.md, section 6): the loop stores CLOCK_MONOTONIC into heartbeat_ns after every
+// tick; a reader calls the state stale when it is older than state_stale_after_s(period_s), and a fault of
+// kFaultFatalSignal / kFaultTerminate says the daemon died (the segment is left for the readers to see).
 #pragma once
 
 #include <atomic>
@@ -9,8 +12,16 @@
 
 namespace hapticd {
 
+inline constexpr std::uint32_t kFaultFatalSignal = 4;  // SIGSEGV, SIGBUS, SIGFPE, SIGILL or SIGABRT ended the daemon
+inline constexpr std::uint32_t kFaultTerminate = 5;    // std::terminate ended the daemon
+
+// How old the heartbeat may be before a reader calls the state stale: 10 periods, at least 50 ms. A live
+// loop has published 10 times by then; a loop that has not published for 50 ms has stopped rendering for
+// 50 ticks at 1 kHz (the handle is not held), and 50 ms is 5 frames of a 100 Hz display.
+inline constexpr double state_stale_after_s(double period_s) noexcept { return 10.0 * period_s > 0.05 ? 10.0 * period_s : 0.05; }
+
 inline constexpr std::uint32_t kStateMagic = 0x54535048U;  // "HPST" in little-endian bytes
-inline constexpr std::uint32_t kStateLayoutVersion = 1;
+inline constexpr std::uint32_t kStateLayoutVersion = 2;
 inline constexpr std::size_t kStateObjectCapacity = 64;
 
 struct StateLayout {
@@ -22,7 +33,8 @@ struct StateLayout {
     double period_s;
     std::uint32_t capacity;
     std::uint32_t header_padding;
-    std::uint8_t header_reserved[32];
+    std::int32_t writer_pid;  // the daemon's process id
+    std::uint8_t header_reserved[28];
     // Seqlock sequence: odd while the loop writes the fields below.
     alignas(64) std::atomic<std::uint64_t> sequence;
     std::uint8_t sequence_padding[56];
@@ -36,11 +48,15 @@ struct StateLayout {
     std::uint64_t overruns;
     std::int64_t wake_latency_ns;
     std::uint64_t last_commit_seq;  // every batch up to this commit_seq is applied
-    std::uint32_t fault;    // 0 none, 1 device, 2 non-finite, 3 watchdog
+    std::uint32_t fault;    // 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
     std::uint32_t objects;  // occupied slots
     std::uint32_t slot_object_id[kStateObjectCapacity];
     std::uint8_t slot_ramp[kStateObjectCapacity];  // ramp factor x 255
-    std::uint8_t reserved[576];
+    // Outside the seqlock (one atomic word each).
+    std::atomic<std::int64_t> heartbeat_ns;  // CLOCK_MONOTONIC of the writer's last tick, ns; 0: none yet
+    std::atomic<std::uint32_t> fatal_signal;  // the signal that ended the daemon (fault 4 or 5), else 0
+    std::uint32_t liveness_padding;
+    std::uint8_t reserved[560];
 };
 
 static_assert(std::atomic<std::uint64_t>::is_always_lock_free, "the seqlock needs a lock-free 64-bit atomic");
@@ -60,6 +76,11 @@ static_assert(offsetof(StateLayout, fault) == 248);
 static_assert(offsetof(StateLayout, objects) == 252);
 static_assert(offsetof(StateLayout, slot_object_id) == 256);
 static_assert(offsetof(StateLayout, slot_ramp) == 512);
+static_assert(offsetof(StateLayout, writer_pid) == 32);
+static_assert(offsetof(StateLayout, heartbeat_ns) == 576);
+static_assert(offsetof(StateLayout, fatal_signal) == 584);
+static_assert(std::atomic<std::int64_t>::is_always_lock_free && std::atomic<std::uint32_t>::is_always_lock_free,
+              "the liveness words are written from a signal handler");
 static_assert(sizeof(StateLayout) == 1152);
 
 }  // namespace hapticd

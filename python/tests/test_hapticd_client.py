@@ -316,3 +316,36 @@ def test_objects_are_built_and_checked_for_form_locally():
     assert hc.shm_path("/hapticd-state") == "/dev/shm/hapticd-state"
     with pytest.raises(hc.HapticdError):
         hc.shm_path("no-slash")
+
+
+def test_a_dead_daemon_reads_stale_and_a_live_one_does_not(tmp_path):
+    """Liveness (docs/protocol.md, section 6): the heartbeat older than max(10 periods, 50 ms), or fault 4/5."""
+    socket_path, shm = str(tmp_path / "hapticd.sock"), f"/hapticd-fatal-pytest-{os.getpid()}"
+    with open(tmp_path / "hapticd.log", "w+") as log:
+        process = subprocess.Popen([HAPTICD, *DAEMON_ARGS, "--rt-priority", "0", "--watchdog-overruns", "1000000",
+                                    "--watchdog-stall-periods", "1000000", "--serve", "--serve-socket", socket_path,
+                                    "--serve-shm", shm], stdout=log, stderr=subprocess.STDOUT)
+        try:
+            assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
+            with hc.StateReader(shm) as state:
+                assert state.writer_pid == process.pid
+                assert state.stale_after_s == pytest.approx(0.05)
+                assert wait_until(lambda: state.read().tick > 10)
+                live = state.read(require_live=True)
+                assert not live.stale and 0.0 <= live.heartbeat_age_s < 0.05
+                process.send_signal(signal.SIGSEGV)
+                assert process.wait(20) == -signal.SIGSEGV
+                dead = state.read()
+                assert dead.stale and dead.fault == hc.FAULT_FATAL_SIGNAL and dead.fatal_signal == signal.SIGSEGV
+                assert hc.FAULT_NAMES[dead.fault] == "fatal_signal"
+                with pytest.raises(hc.HapticdError) as e:
+                    state.read(require_live=True)
+                assert e.value.code == "stale_state" and "died" in str(e.value)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+            try:
+                os.unlink(hc.shm_path(shm))
+            except FileNotFoundError:
+                pass

@@ -35,6 +35,7 @@ constexpr CodeName kCodeNames[] = {
     {ErrorCode::NotOwner, "not_owner"},               {ErrorCode::Capacity, "capacity"},
     {ErrorCode::Busy, "busy"},                        {ErrorCode::LeaseLost, "lease_lost"},
     {ErrorCode::SlowConsumer, "slow_consumer"},       {ErrorCode::Transport, "transport"},
+    {ErrorCode::SessionLimit, "session_limit"},       {ErrorCode::Internal, "internal"},
     {ErrorCode::Unknown, "unknown"},
 };
 

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "client/text_limits.hpp"
+
 namespace hapticd::client {
 
 namespace {
@@ -24,7 +26,7 @@ bool read_number(const json& j, const char* key, const std::string& where, doubl
         return false;
     }
     if (!it->is_number() || !std::isfinite(it->get<double>())) {
-        error = where + "." + key + ": expected a finite number, got " + it->dump();
+        error = where + "." + key + ": expected a finite number, got " + truncate_utf8(it->dump(), 40);
         return false;
     }
     out = it->get<double>();
@@ -40,13 +42,13 @@ bool read_vec(const json& j, const char* key, const std::string& where, Vec3& ou
         return false;
     }
     if (!it->is_array() || it->size() != 3) {
-        error = where + "." + key + ": expected an array of 3 finite numbers, got " + it->dump().substr(0, 80);
+        error = where + "." + key + ": expected an array of 3 finite numbers, got " + truncate_utf8(it->dump(), 80);
         return false;
     }
     for (std::size_t i = 0; i < 3; ++i) {
         const json& e = (*it)[i];
         if (!e.is_number() || !std::isfinite(e.get<double>())) {
-            error = where + "." + key + "[" + std::to_string(i) + "]: expected a finite number, got " + e.dump().substr(0, 40);
+            error = where + "." + key + "[" + std::to_string(i) + "]: expected a finite number, got " + truncate_utf8(e.dump(), 40);
             return false;
         }
         out[i] = e.get<double>();
@@ -61,13 +63,17 @@ bool read_gains(const json& j, const std::string& where, Gains& out, std::string
         return false;
     }
     if (!it->is_object()) {
-        error = where + ".gains: expected an object {\"K\", \"B\"} or {\"criterion\"}, got " + it->dump().substr(0, 80);
+        error = where + ".gains: expected an object {\"K\", \"B\"} or {\"criterion\"}, got " + truncate_utf8(it->dump(), 80);
         return false;
     }
     const auto c = it->find("criterion");
     if (c != it->end()) {
         if (!c->is_string() || it->contains("K") || it->contains("B")) {
             error = where + ".gains: expected either {\"criterion\": name} or {\"K\", \"B\"}, not both";
+            return false;
+        }
+        if (c->get_ref<const std::string&>().empty()) {
+            error = where + ".gains.criterion: \"\" is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV";
             return false;
         }
         out = Gains::by_criterion(c->get<std::string>());
@@ -132,7 +138,7 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
             } else if (*m == "bilateral") {
                 p.bilateral = true;
             } else {
-                error = "object.mode: " + m->dump().substr(0, 40) + " is invalid; accepted: unilateral, bilateral";
+                error = "object.mode: " + truncate_utf8(m->dump(), 40) + " is invalid; accepted: unilateral, bilateral";
                 return std::nullopt;
             }
         }
@@ -152,7 +158,7 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
         } else if (*c == "plane") {
             s.constraint = Constraint::Plane;
         } else {
-            error = "object.constraint: " + c->dump().substr(0, 40) + " is invalid; accepted: point, line, plane";
+            error = "object.constraint: " + truncate_utf8(c->dump(), 40) + " is invalid; accepted: point, line, plane";
             return std::nullopt;
         }
         if (!read_vec(j, "point", where, s.point, error) ||
@@ -181,7 +187,7 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
         }
         return ObjectDescription{f};
     }
-    error = "object.kind: \"" + k.substr(0, 40) + "\" is invalid; accepted: plane, spring, field";
+    error = "object.kind: \"" + truncate_utf8(k, 40) + "\" is invalid; accepted: plane, spring, field";
     return std::nullopt;
 }
 

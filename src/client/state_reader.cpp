@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <ctime>
 
 #include "hapticd/client.hpp"
 
@@ -48,6 +49,8 @@ StateReader::~StateReader() {
 
 std::size_t StateReader::axes() const noexcept { return layout_->axes; }
 double StateReader::period_s() const noexcept { return layout_->period_s; }
+double StateReader::stale_after_s() const noexcept { return state_stale_after_s(layout_->period_s); }
+long StateReader::writer_pid() const noexcept { return layout_->writer_pid; }
 
 bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
     const StateLayout& l = *layout_;
@@ -69,7 +72,16 @@ bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
         out.objects = l.objects;
         std::memcpy(out.slot_object_id.data(), l.slot_object_id, sizeof(l.slot_object_id));
         std::atomic_thread_fence(std::memory_order_acquire);
-        if (l.sequence.load(std::memory_order_relaxed) == s1) return true;
+        if (l.sequence.load(std::memory_order_relaxed) == s1) {
+            const std::int64_t beat = l.heartbeat_ns.load(std::memory_order_acquire);
+            timespec ts{};
+            ::clock_gettime(CLOCK_MONOTONIC, &ts);
+            const std::int64_t now = static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+            out.heartbeat_age_s = beat == 0 ? -1.0 : 1e-9 * static_cast<double>(now - beat);
+            out.stale = beat == 0 || out.heartbeat_age_s > stale_after_s() || out.fault == kFaultFatalSignal || out.fault == kFaultTerminate;
+            out.fatal_signal = l.fatal_signal.load(std::memory_order_relaxed);
+            return true;
+        }
     }
     return false;
 }

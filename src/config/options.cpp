@@ -111,6 +111,10 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");
     app.add_option("--ramp-time", o.ramp_time, "Ramp in/out time of client objects in s (default 0.03; 0: none)");
     app.add_option("--max-force-rate", o.max_force_rate, "Limit on the change of the total force in N/s (default 10000)");
+    app.add_option("--session-max-objects", o.session_max_objects,
+                   "Objects one client session may hold, 1 .. 64 (default 32; the scene holds 64; docs/protocol.md, section 7)");
+    app.add_option("--session-max-in-flight", o.session_max_in_flight,
+                   "Batches of one client session handed to the loop and not yet applied, 1 .. 64 (default 8; docs/protocol.md, section 7)");
     app.add_flag("--serve-wait-commit", o.serve_wait_commit, "Start the loop only once a client batch was accepted (tests)");
     app.add_option("--trace-axis", o.trace_axis, "Axis the trace records (default -1: the first wall's)");
     app.add_option("--falcon-firmware", o.falcon_firmware,
@@ -281,6 +285,12 @@ void validate_options(const Options& o) {
     }
     if (o.serve_shm.size() < 2 || o.serve_shm[0] != '/' || o.serve_shm.find('/', 1) != std::string::npos) {
         invalid(w, "serve-shm", o.serve_shm, "'/' followed by a name without '/', e.g. /hapticd-state");
+    }
+    if (o.session_max_objects < 1 || o.session_max_objects > 64) {
+        invalid(w, "session-max-objects", std::to_string(o.session_max_objects), "1 .. 64 objects");
+    }
+    if (o.session_max_in_flight < 1 || o.session_max_in_flight > 64) {
+        invalid(w, "session-max-in-flight", std::to_string(o.session_max_in_flight), "1 .. 64 batches");
     }
     if (o.trace_axis < -1 || o.trace_axis > 2) invalid(w, "trace-axis", std::to_string(o.trace_axis), "-1 (the first wall's), 0, 1, 2");
 }

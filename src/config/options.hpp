@@ -69,6 +69,8 @@ struct Options {
     std::string serve_shm = "/hapticd-state"; // POSIX shared-memory name of the state stream
     double ramp_time = 0.03;                  // s, ramp in/out of client objects
     double max_force_rate = 10000.0;          // N/s, limit on the change of the total force per tick
+    int session_max_objects = 32;             // --serve: objects one session may hold (of the scene's 64)
+    int session_max_in_flight = 8;            // --serve: one session's batches handed to the loop, not yet applied
     bool serve_wait_commit = false;           // start the loop only once a client batch was accepted (tests)
     long long trace_axis = -1;                // axis the trace records (-1: the first wall's)
     KeyLocations config_locations;    // where the config file wrote the values the command line did not override

@@ -15,6 +15,7 @@
 #include "daemon/daemon.hpp"
 #include "devices/device_factory.hpp"
 #include "devices/device_list.hpp"
+#include "daemon/fatal_signal.hpp"
 #include "devices/check_device.hpp"
 #include "experiment/experiment_main.hpp"
 #include "identification/identification_run.hpp"
@@ -333,6 +334,12 @@ int run_main(int argc, const char* const* argv) {
         daemon->attach(serving->hooks());
         serving->start();
     }
+    // From here a fatal signal or std::terminate zeroes the device where the driver can and marks the state
+    // (daemon/fatal_signal.hpp); the targets are cleared before the state and the device go away.
+    install_fatal_signal_handlers(device.get(), serving ? serving->hooks().state : nullptr);
+    struct FatalTargetsCleared {
+        ~FatalTargetsCleared() { clear_fatal_signal_targets(); }
+    } fatal_targets_cleared;
 
     if (!o.lockstep) {
         report.realtime_requested = true;
@@ -370,6 +377,7 @@ int run_main(int argc, const char* const* argv) {
     report.ran = true;
     report.loop = &daemon->loop();
     if (report.run.fault == Fault::Device) report.device_error = device->last_error();
+    clear_fatal_signal_targets();
     device->close();  // zero force (the last tick already wrote zero when the device still listened)
     closer.device = nullptr;
     if (trace) {

@@ -188,6 +188,8 @@ nlohmann::json summary_json(const RunReport& r) {
     if (r.run.fault == Fault::NonFinite) j["fault_detail"] = std::string(to_string(r.run.scene_fault));
     if (r.run.fault == Fault::Device) j["fault_detail"] = r.device_error;
     j["stopped_by_signal"] = r.run.stopped_by_signal;
+    j["session_max_objects"] = o.session_max_objects;
+    j["session_max_in_flight"] = o.session_max_in_flight;
     j["realtime"] = {{"requested", r.realtime_requested},
                      {"sched_fifo", r.realtime.fifo},
                      {"mlockall", r.realtime.memory_locked},

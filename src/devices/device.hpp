@@ -8,6 +8,8 @@
 //    device transfer itself.
 //  * open(), home() and close() run outside the real-time loop and may allocate.
 //  * close() must leave the device with zero force, whatever state it is in.
+//  * zero_force_from_signal_handler() is called from a fatal-signal handler (daemon/fatal_signal.hpp):
+//    only async-signal-safe work; false when the driver cannot command zero force that way.
 //  * After a non-Ok status, last_error() describes it (read it outside the loop).
 #pragma once
 
@@ -66,6 +68,9 @@ public:
     virtual DeviceStatus open() = 0;
     virtual DeviceStatus home() = 0;
     virtual void close() noexcept = 0;
+    // Zero force without locks, allocation or library calls that are not async-signal-safe; the default:
+    // the driver cannot (libusb and hidapi transfers take locks and allocate).
+    virtual bool zero_force_from_signal_handler() noexcept { return false; }
 
     virtual DeviceStatus read_position(AxisVector& position) noexcept = 0;
     virtual DeviceStatus write_force(const AxisVector& force) noexcept = 0;

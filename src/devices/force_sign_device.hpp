@@ -17,6 +17,7 @@ public:
     DeviceStatus open() override { return inner_->open(); }
     DeviceStatus home() override { return inner_->home(); }
     void close() noexcept override { inner_->close(); }
+    bool zero_force_from_signal_handler() noexcept override { return inner_->zero_force_from_signal_handler(); }
     DeviceStatus read_position(AxisVector& position) noexcept override { return inner_->read_position(position); }
     DeviceStatus write_force(const AxisVector& force) noexcept override {
         AxisVector f{};

@@ -240,6 +240,11 @@ DeviceStatus SimDevice::write_force(const AxisVector& force) noexcept {
     return DeviceStatus::Ok;
 }
 
+bool SimDevice::zero_force_from_signal_handler() noexcept {
+    for (AxisVector& slot : history_) slot = AxisVector{};  // the delayed forces too: nothing more is applied
+    return true;
+}
+
 DeviceStatus SimDevice::read_external_force(AxisVector& force) noexcept {
     force = external_;
     return DeviceStatus::Ok;

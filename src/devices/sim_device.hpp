@@ -66,6 +66,8 @@ public:
 
     DeviceStatus read_position(AxisVector& position) noexcept override;
     DeviceStatus write_force(const AxisVector& force) noexcept override;
+    // The simulated plant's commanded force is memory of this process: zeroing it is a store.
+    bool zero_force_from_signal_handler() noexcept override;
     DeviceStatus read_external_force(AxisVector& force) noexcept override;
 
     [[nodiscard]] const DeviceCapabilities& capabilities() const noexcept override { return config_.capabilities; }

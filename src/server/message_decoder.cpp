@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/object_json.hpp"
+#include "client/text_limits.hpp"
 
 namespace hapticd::server {
 
@@ -90,7 +91,7 @@ DecodeResult decode_commit(const json& j, std::uint64_t id) {
         } else if (kind == "clear") {
             o.kind = CommitOperation::Kind::Clear;
         } else {
-            return fail(".op: \"" + kind.substr(0, 40) + "\" is invalid; accepted: add, modify, remove, clear");
+            return fail(".op: \"" + client::truncate_utf8(kind, 40) + "\" is invalid; accepted: add, modify, remove, clear");
         }
         if (o.kind == CommitOperation::Kind::Modify || o.kind == CommitOperation::Kind::Remove) {
             const auto oid = op.find("object_id");
@@ -121,9 +122,28 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
             return error("oversized", "decode_message: message of " + std::to_string(bytes.size()) +
                                           " bytes; accepted: at most 65536 bytes");
         }
-        const json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
-        if (j.is_discarded()) {
-            return error(expect_hello ? "bad_hello" : "bad_json", "decode_message: not valid UTF-8 JSON (one JSON object per message)");
+        const std::string bad = expect_hello ? "bad_hello" : "bad_json";
+        if (bytes.empty()) return error(bad, "decode_message: an empty message; expected one JSON object per message");
+        // nlohmann's lexer reads a NUL byte as the end of the input: a message with one would be cut there.
+        if (const auto nul = bytes.find('\0'); nul != std::string_view::npos) {
+            return error(bad, "decode_message: a NUL byte at byte " + std::to_string(nul) +
+                                  "; expected one UTF-8 JSON object without NUL bytes");
+        }
+        json j;
+        std::string last_key;  // the key whose value was being read when the parse failed
+        const json::parser_callback_t track_keys = [&last_key](int, json::parse_event_t event, json& parsed) {
+            if (event == json::parse_event_t::key && parsed.is_string()) last_key = client::truncate_utf8(parsed.get_ref<const std::string&>(), 40);
+            return true;
+        };
+        try {
+            j = json::parse(bytes.begin(), bytes.end(), track_keys, true);
+        } catch (const json::out_of_range&) {  // 406: a number beyond the range of a double (1e400)
+            return error(bad, "decode_message: " + (last_key.empty() ? std::string("a number") : "the value of \"" + last_key + "\"") +
+                                  " is beyond the range of a double; accepted: finite numbers, |x| <= 1.7976931348623157e308");
+        } catch (const json::parse_error& e) {
+            return error(bad, "decode_message: not valid UTF-8 JSON at byte " + std::to_string(e.byte) +
+                                  (last_key.empty() ? std::string() : " (after the key \"" + last_key + "\")") +
+                                  "; expected one JSON object per message");
         }
         if (!j.is_object()) {
             return error(expect_hello ? "bad_hello" : "bad_json", "decode_message: expected a JSON object, got " + std::string(j.type_name()));
@@ -153,7 +173,7 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
             return Request{id, SubscribeRequest{r->get<double>()}};
         }
         if (t == "hello") return error("bad_message", "decode_message: hello: already welcomed (hello only once)", id);
-        return error("bad_message", "decode_message: type = \"" + t.substr(0, 40) +
+        return error("bad_message", "decode_message: type = \"" + client::truncate_utf8(t, 40) +
                                         "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, bye",
                      id);
     } catch (const std::exception& e) {

@@ -42,6 +42,13 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     oc.max_force_rate = o.max_force_rate;
     oc.axes = axes;
     objects_ = std::make_unique<SceneObjects>(oc, *ring_);
+    // The socket path first: a second daemon started on a live one's names stops here, before it replaces
+    // the live one's state segment.
+    try {
+        remove_stale_socket(o.serve_socket.empty() ? default_server_socket_path() : o.serve_socket);
+    } catch (const SocketPathError& e) {
+        throw StartupError(kExitSocketPathInUse, e.what());
+    }
     try {
         state_ = std::make_unique<StatePublisher>(o.serve_shm, axes, period, gid);
     } catch (const std::exception& e) {
@@ -78,9 +85,13 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
         if (a < profile.workspace_max.size()) sc.workspace_max[a] = profile.workspace_max[a];
     }
     sc.config_walls = config_walls;
+    sc.session_max_objects = static_cast<std::size_t>(o.session_max_objects);
+    sc.session_max_in_flight = static_cast<std::size_t>(o.session_max_in_flight);
     sc.log_connections = !o.quiet;
     try {
         server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_);
+    } catch (const SocketPathError& e) {
+        throw StartupError(kExitSocketPathInUse, e.what());
     } catch (const std::exception& e) {
         throw StartupError(kExitServerError, e.what());
     }
@@ -91,7 +102,10 @@ ServeRuntime::~ServeRuntime() { stop(); }
 void ServeRuntime::start() { server_->start(); }
 
 void ServeRuntime::wait_for_first_commit() const {
-    while (server_->commits_pushed() == 0 && !stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    while (server_->commits_pushed() == 0 && !stop_requested()) {
+        state_->beat();  // alive before the loop's first tick
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
 }
 
 void ServeRuntime::stop() {

@@ -25,7 +25,10 @@
 #include <nlohmann/json.hpp>
 
 #include "client/object_json.hpp"
+#include "client/text_limits.hpp"
 #include "server/message_decoder.hpp"
+#include "server/object_limits.hpp"
+#include "server/reply_text.hpp"
 #include "server/state_publisher.hpp"
 #include "tuning/object_checks.hpp"
 #include "tuning/tuning.hpp"
@@ -43,12 +46,7 @@ constexpr int kMessagesPerRound = 16;
 constexpr int kHelloTimeoutS = 5;  // a connection that never says hello is closed (it would hold a session)
 constexpr std::uint64_t kNotPushed = ~std::uint64_t{0};
 
-std::string g(double v) {
-    std::ostringstream s;
-    s.precision(6);
-    s << v;
-    return s.str();
-}
+std::string g(double v) { return server::short_number(v); }
 
 
 Matrix3 outer(const AxisVector& u, double scale) {
@@ -104,6 +102,7 @@ struct Session {
     Clock::time_point next_state;
     std::uint64_t dropped = 0;
     bool closed = false;
+    std::deque<std::uint64_t> in_flight;  // commit_seq of this session's batches the loop has not applied yet
 };
 
 }  // namespace
@@ -112,6 +111,38 @@ std::string default_server_socket_path() {
     if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
     if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
     return "/run/hapticd/hapticd.sock";
+}
+
+void remove_stale_socket(const std::string& path) {
+    sockaddr_un addr{};
+    if (path.size() >= sizeof(addr.sun_path)) return;  // refused by the bind with the accepted length
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0) {
+        if (errno == ENOENT) return;
+        throw SocketPathError("Server: socket path '" + path + "': lstat: " + std::strerror(errno));
+    }
+    if (!S_ISSOCK(st.st_mode)) {
+        throw SocketPathError("Server: socket path '" + path + "' exists and is not a socket; hapticd replaces only a stale socket "
+                              "of its own: remove the file or choose another --serve-socket");
+    }
+    const int probe = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+    if (probe < 0) throw SocketPathError(std::string("Server: socket: ") + std::strerror(errno));
+    addr.sun_family = AF_UNIX;
+    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+    const int c = ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
+    const int connect_errno = errno;
+    ::close(probe);
+    if (c == 0) {
+        throw SocketPathError("Server: socket path '" + path + "' is in use: a process is listening on it (another hapticd?); "
+                              "stop it or choose another --serve-socket");
+    }
+    if (connect_errno != ECONNREFUSED) {
+        throw SocketPathError("Server: socket path '" + path + "' is a socket hapticd cannot tell is stale (connect: " +
+                              std::strerror(connect_errno) + "); remove it or choose another --serve-socket");
+    }
+    if (::unlink(path.c_str()) != 0 && errno != ENOENT) {
+        throw SocketPathError("Server: cannot remove the stale socket '" + path + "': " + std::strerror(errno));
+    }
 }
 
 struct Server::Impl {
@@ -162,7 +193,7 @@ struct Server::Impl {
         std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
         listen_fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
         if (listen_fd < 0) throw std::runtime_error(std::string("Server: socket: ") + std::strerror(errno));
-        ::unlink(path.c_str());  // a stale socket of a previous run
+        remove_stale_socket(path);
         // Bind with a restrictive umask so the file never exists with a wider mode than asked for.
         const mode_t old = ::umask(0177);
         const int b = ::bind(listen_fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
@@ -182,9 +213,9 @@ struct Server::Impl {
 
     // ---- sending -------------------------------------------------------------------------------
     // Replies: a full socket means the client does not read -> disconnect (never block).
-    void send_reply(Session& s, const json& message) {
+    void send_reply(Session& s, json message) {
         if (s.closed) return;
-        const std::string text = message.dump();
+        const std::string text = server::reply_text(std::move(message));
         const ssize_t n = ::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
         if (n < 0) {
             if (errno == EAGAIN || errno == EWOULDBLOCK) {
@@ -300,15 +331,24 @@ struct Server::Impl {
         return std::nullopt;
     }
 
-    std::optional<Refusal> check_in_workspace(const cl::Vec3& v, const std::string& field) const {
-        for (std::size_t a = 0; a < config.axes; ++a) {
-            if (v[a] < config.workspace_min[a] || v[a] > config.workspace_max[a]) {
-                return Refusal{"beyond_device_limits", field + "[" + std::to_string(a) + "] = " + g(v[a]) +
-                                                           " m is outside the device's workspace; accepted range: " +
-                                                           g(config.workspace_min[a]) + " .. " + g(config.workspace_max[a]) + " m",
-                               std::nullopt};
-            }
+    server::WorkspaceBox workspace() const {
+        server::WorkspaceBox box;
+        box.axes = config.axes;
+        for (std::size_t a = 0; a < 3; ++a) {
+            box.min[a] = config.workspace_min[a];
+            box.max[a] = config.workspace_max[a];
         }
+        return box;
+    }
+
+    std::optional<Refusal> check_in_workspace(const cl::Vec3& v, const std::string& field) const {
+        if (auto r = server::check_in_workspace(v, field, workspace())) return Refusal{r->code, r->message, std::nullopt};
+        return std::nullopt;
+    }
+
+    // A plane outside the workspace is refused (docs/protocol.md, section 5).
+    std::optional<Refusal> check_plane_in_workspace(const cl::Vec3& n, double offset) const {
+        if (auto r = server::check_plane_in_workspace(n, offset, workspace())) return Refusal{r->code, r->message, std::nullopt};
         return std::nullopt;
     }
 
@@ -332,10 +372,10 @@ struct Server::Impl {
             try {
                 c = checker.criterion_gains(gains.criterion, lightest);
             } catch (const std::exception& e) {
-                return Refusal{"bad_message", kind + ".gains.criterion = " + gains.criterion + ": " + e.what(), std::nullopt};
+                return Refusal{"bad_message", kind + ".gains.criterion = " + cl::truncate_utf8(gains.criterion, 40) + ": " + e.what(), std::nullopt};
             }
             if (!c) {
-                return Refusal{"unknown_criterion", kind + ".gains.criterion = \"" + gains.criterion.substr(0, 40) +
+                return Refusal{"unknown_criterion", kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
                                                         "\" is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV",
                                std::nullopt};
             }
@@ -345,10 +385,7 @@ struct Server::Impl {
         } else {
             K = gains.K.value_or(0.0);
             B = gains.B.value_or(0.0);
-            if (!(K >= 0.0) || !(B >= 0.0)) {
-                return Refusal{"bad_message", kind + ".gains: K = " + g(K) + " N/m, B = " + g(B) +
-                                                  " N s/m are invalid; accepted range: K >= 0, B >= 0 (finite)", std::nullopt};
-            }
+            if (auto r = server::check_explicit_gains(K, B, kind)) return Refusal{r->code, r->message, std::nullopt};
             if (auto r = check_stiffness_limit(K, kind + ": K")) return r;
         }
         // The verdict per mass (one Schur-Cohn test each); the largest stable K only for the refusal.
@@ -371,6 +408,7 @@ struct Server::Impl {
         ObjectParams& p = out.params;
         if (const auto* plane = std::get_if<cl::Plane>(&d)) {
             if (auto r = check_vector(plane->normal, "plane.normal", true)) return r;
+            if (auto r = check_plane_in_workspace(plane->normal, plane->offset)) return r;
             p.kind = ObjectKind::Plane;
             p.direction = to_axis(plane->normal);
             p.offset = plane->offset;
@@ -485,6 +523,32 @@ struct Server::Impl {
         return std::nullopt;
     }
 
+    // Per-session limits (docs/protocol.md, section 7): one session may not hold every slot nor fill the
+    // hand-over ring. Objects ramping out do not count: they are no longer the session's.
+    static std::size_t objects_held(const std::array<ServerSlot, kSceneObjectCapacity>& slots_of, std::uint64_t session) {
+        std::size_t n = 0;
+        for (const auto& slot : slots_of) n += slot.state == ServerSlot::State::Used && slot.owner == session ? 1U : 0U;
+        return n;
+    }
+
+    bool refuse_over_in_flight_limit(Session& s, std::uint64_t id) {
+        state.read(snapshot);
+        while (!s.in_flight.empty() && s.in_flight.front() <= snapshot.last_commit_seq) s.in_flight.pop_front();
+        if (s.in_flight.size() < config.session_max_in_flight) return false;
+        {
+            std::lock_guard<std::mutex> lock(counters_mutex);
+            ++counters.commits_refused;
+        }
+        send_error(s, id, "session_limit",
+                   "commit: this session has " + std::to_string(s.in_flight.size()) +
+                       " batches handed to the loop and not yet applied (the loop has applied up to commit_seq " +
+                       std::to_string(snapshot.last_commit_seq) + "); accepted: at most " + std::to_string(config.session_max_in_flight) +
+                       " in flight per session (option session-max-in-flight); retry when commit_seq " + std::to_string(s.in_flight.front()) +
+                       " is applied",
+                   -1);
+        return true;
+    }
+
     // A modify that keeps everything but where the object is: applied at once, without a ramp.
     static bool is_move(const ObjectParams& a, const ObjectParams& b) {
         if (a.kind != b.kind || a.K != b.K || a.B != b.B) return false;
@@ -498,6 +562,7 @@ struct Server::Impl {
 
     // ---- commit --------------------------------------------------------------------------------
     void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req) {
+        if (refuse_over_in_flight_limit(s, id)) return;
         std::array<ServerSlot, kSceneObjectCapacity> proposal = slots;
         std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates{};
         std::vector<std::uint32_t> new_ids;
@@ -563,6 +628,13 @@ struct Server::Impl {
                             free_slot = static_cast<int>(i);
                             break;
                         }
+                    }
+                    if (const std::size_t held = objects_held(proposal, s.id); held >= config.session_max_objects) {
+                        refuse("session_limit", "this session holds " + std::to_string(held) + " objects; accepted: at most " +
+                                                    std::to_string(config.session_max_objects) +
+                                                    " per session (option session-max-objects; the scene holds " +
+                                                    std::to_string(kSceneObjectCapacity) + ")", op_index);
+                        return;
                     }
                     if (free_slot < 0) {
                         refuse("capacity", "the scene holds " + std::to_string(kSceneObjectCapacity) +
@@ -723,6 +795,7 @@ struct Server::Impl {
         }
         slots = proposal;
         next_object_id = next_id;
+        if (c.count > 0) s.in_flight.push_back(seq);
         send_reply(s, json{{"type", "ok"}, {"id", id}, {"commit_seq", seq}, {"object_ids", new_ids}});
     }
 
@@ -773,6 +846,8 @@ struct Server::Impl {
             case 1: return "device";
             case 2: return "non-finite";
             case 3: return "watchdog";
+            case kFaultFatalSignal: return "fatal_signal";
+            case kFaultTerminate: return "terminate";
             default: return "unknown";
         }
     }
@@ -784,10 +859,10 @@ struct Server::Impl {
             if (e->code == "protocol_version") {
                 send_reply(s, json{{"type", "refused"}, {"code", e->code}, {"server_protocol", server::kServerProtocol},
                                    {"client_protocol", e->client_protocol}, {"message", e->message}});
-                close_session(s, "refused: " + e->message);
+                close_session(s, "refused: " + cl::escape_for_log(e->message, 256));
             } else if (e->code == "bad_hello") {
                 send_reply(s, json{{"type", "refused"}, {"code", e->code}, {"server_protocol", server::kServerProtocol}, {"message", e->message}});
-                close_session(s, "refused: " + e->message);
+                close_session(s, "refused: " + cl::escape_for_log(e->message, 256));
             } else {
                 send_error(s, e->id, e->code, e->message, e->op_index);
                 if (e->code == "oversized") close_session(s, "oversized message");
@@ -797,7 +872,7 @@ struct Server::Impl {
         const auto& req = std::get<server::Request>(result);
         if (const auto* hello = std::get_if<server::HelloRequest>(&req.body)) {
             s.welcomed = true;
-            s.name = hello->client;
+            s.name = cl::escape_for_log(hello->client, 64);  // only ever logged: one line, no control bytes
             s.lease_s = hello->lease_s;
             log("session " + std::to_string(s.id) + " is '" + s.name + "', lease " + g(s.lease_s) + " s");
             send_reply(s, json{{"type", "welcome"}, {"protocol", server::kServerProtocol}, {"session", s.id}, {"lease_s", s.lease_s},
@@ -842,6 +917,33 @@ struct Server::Impl {
             req.body);
     }
 
+    static bool peer_hung_up(int fd) {
+        pollfd p{fd, POLLRDHUP, 0};
+        const int r = ::poll(&p, 1, 0);
+        return r < 0 || (r > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0);
+    }
+
+    // The last resort: whatever escapes a request's handling is answered `internal` and logged; the session
+    // and the daemon go on.
+    void handle_guarded(Session& s, std::string_view bytes) {
+        try {
+            handle_message(s, bytes);
+        } catch (const std::exception& e) {
+            internal_error(s, e.what());
+        } catch (...) {
+            internal_error(s, "an unknown exception");
+        }
+    }
+
+    void internal_error(Session& s, const char* what) noexcept {
+        try {
+            log("session " + std::to_string(s.id) + ": internal error while handling a request: " + cl::escape_for_log(what, 256));
+            send_error(s, std::nullopt, "internal", std::string("Server: internal error while handling the request (") +
+                                                         cl::truncate_utf8(what, 256) + "); the session goes on");
+        } catch (...) {
+        }
+    }
+
     void read_session(Session& s) {
         for (int i = 0; i < kMessagesPerRound && !s.closed; ++i) {
             const ssize_t n = ::recv(s.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
@@ -850,11 +952,13 @@ struct Server::Impl {
                 close_session(s, std::string("recv failed: ") + std::strerror(errno));
                 return;
             }
-            if (n == 0) {
+            // SOCK_SEQPACKET: 0 is both an empty message and the end of the stream; the peer has hung up
+            // only in the second case.
+            if (n == 0 && peer_hung_up(s.fd)) {
                 close_session(s, "disconnected (EOF)");
                 return;
             }
-            handle_message(s, std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+            handle_guarded(s, std::string_view(buffer.data(), static_cast<std::size_t>(n)));
         }
     }
 
@@ -900,6 +1004,23 @@ struct Server::Impl {
             ServerSlot& slot = slots[i];
             if (slot.state != ServerSlot::State::Draining || slot.drain_seq == kNotPushed) continue;
             if (snapshot.last_commit_seq >= slot.drain_seq && snapshot.slot_object_id[i] == 0) slot = ServerSlot{};
+        }
+    }
+
+    // run() again after anything that escaped a round outside a request (logged): the server thread never
+    // ends by an exception while the daemon runs.
+    void run_guarded() noexcept {
+        while (!stop.load(std::memory_order_acquire)) {
+            try {
+                run();
+                return;
+            } catch (const std::exception& e) {
+                try {
+                    log(std::string("internal error in the server loop (it goes on): ") + cl::escape_for_log(e.what(), 256));
+                } catch (...) {
+                }
+            } catch (...) {
+            }
         }
     }
 
@@ -983,7 +1104,7 @@ Server::~Server() {
 void Server::start() {
     if (thread_.joinable()) return;
     impl_->stop.store(false, std::memory_order_release);
-    thread_ = std::thread([this] { impl_->run(); });
+    thread_ = std::thread([this] { impl_->run_guarded(); });
 }
 
 void Server::stop() {

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -49,9 +50,22 @@ struct ServerConfig {
     AxisVector workspace_max{1e9, 1e9, 1e9};
     std::vector<ConfigWallInfo> config_walls;
     bool log_connections = true;  // SO_PEERCRED lines on stderr
+    std::size_t session_max_objects = 32;    // objects one session may hold (used, not ramping out)
+    std::size_t session_max_in_flight = 8;   // one session's batches pushed to the loop and not yet applied
 };
 
 [[nodiscard]] std::string default_server_socket_path();
+
+// The socket path holds something that is not a stale hapticd socket (a file, a live socket): left alone.
+class SocketPathError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Removes what is at `path` only when it is a stale hapticd socket: a Unix socket nobody listens on (connect
+// gives ECONNREFUSED); nothing there is fine. Anything else (a regular file, a directory, a socket of another
+// type or one that accepts) is left alone: SocketPathError naming the path.
+void remove_stale_socket(const std::string& path);
 
 struct ServerCounters {
     std::uint64_t sessions_opened = 0;

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <new>
 #include <stdexcept>
 
@@ -49,6 +50,9 @@ StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, do
     layout_->capacity = static_cast<std::uint32_t>(kStateObjectCapacity);
     layout_->size = sizeof(StateLayout);
     layout_->layout_version = kStateLayoutVersion;
+    layout_->writer_pid = static_cast<std::int32_t>(::getpid());
+    layout_->heartbeat_ns.store(0, std::memory_order_relaxed);
+    layout_->fatal_signal.store(0, std::memory_order_relaxed);
     layout_->sequence.store(0, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
     layout_->magic = kStateMagic;  // last: a reader that sees the magic sees a complete header
@@ -62,6 +66,12 @@ StatePublisher::~StatePublisher() {
 }
 
 namespace {
+
+std::int64_t monotonic_ns() noexcept {
+    timespec ts{};
+    ::clock_gettime(CLOCK_MONOTONIC, &ts);  // vDSO on x86-64 and arm64: no system call
+    return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
 
 // The fields are written by the loop and read by the server thread of the same process under the seqlock:
 // relaxed atomic accesses (std::atomic_ref) make that well-defined (and visible to ThreadSanitizer);
@@ -77,7 +87,28 @@ T get(const T& field) noexcept {
 
 }  // namespace
 
+void StatePublisher::beat() noexcept {
+    if (!fatal_.load(std::memory_order_acquire)) layout_->heartbeat_ns.store(monotonic_ns(), std::memory_order_release);
+}
+
+void StatePublisher::mark_fatal(std::uint32_t fault, int signal_number) noexcept {
+    fatal_.store(true, std::memory_order_seq_cst);
+    StateLayout& l = *layout_;
+    // A publication in progress on the loop's thread ends within microseconds; on this thread (the signal
+    // interrupted it) it never ends: give up after ~2 ms and close the seqlock ourselves.
+    const std::int64_t until = monotonic_ns() + 2000000;
+    while ((l.sequence.load(std::memory_order_acquire) & 1U) != 0U && monotonic_ns() < until) {
+    }
+    const std::uint64_t s = l.sequence.load(std::memory_order_relaxed) | 1U;  // odd: writing
+    l.sequence.store(s, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    put(l.fault, fault);
+    l.fatal_signal.store(static_cast<std::uint32_t>(signal_number), std::memory_order_relaxed);
+    l.sequence.store(s + 1, std::memory_order_release);
+}
+
 void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) noexcept {
+    if (fatal_.load(std::memory_order_acquire)) return;  // the daemon is dying: mark_fatal's fault stays
     StateLayout& l = *layout_;
     const std::uint64_t s = l.sequence.load(std::memory_order_relaxed);
     l.sequence.store(s + 1, std::memory_order_relaxed);
@@ -108,6 +139,7 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
         }
     }
     l.sequence.store(s + 2, std::memory_order_release);
+    l.heartbeat_ns.store(monotonic_ns(), std::memory_order_release);
 }
 
 bool StatePublisher::read(StateLayout& out) const noexcept {

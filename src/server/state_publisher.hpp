@@ -5,6 +5,7 @@
 // (release store). publish() does not allocate, lock, throw or make a system call.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 
@@ -36,6 +37,15 @@ public:
 
     void publish(const StateTick& tick, const SceneObjects* objects) noexcept;
 
+    // The heartbeat alone (CLOCK_MONOTONIC now), for the time before the loop's first tick (a daemon
+    // waiting for its first commit is alive). Only while the loop does not publish.
+    void beat() noexcept;
+
+    // From a fatal-signal handler or std::terminate (daemon/fatal_signal.hpp); async-signal-safe: stops
+    // further publication, waits at most ~2 ms for a publication in progress on another thread, then
+    // writes `fault` and the signal under the seqlock. The heartbeat stops with it.
+    void mark_fatal(std::uint32_t fault, int signal_number) noexcept;
+
     // For the server thread: a consistent copy of the last tick (seqlock read).
     bool read(StateLayout& out) const noexcept;
 
@@ -46,6 +56,7 @@ private:
     StateLayout* layout_ = nullptr;
     std::uint64_t published_slot_table_ = 0;  // SceneObjects::slot_table_version() last written
     bool slot_table_written_ = false;
+    std::atomic<bool> fatal_{false};
 };
 
 }  // namespace hapticd

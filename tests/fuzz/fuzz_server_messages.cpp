@@ -4,16 +4,28 @@
 // protocol's codes and a message naming the function; a decoded hello speaks protocol 1 with a lease of 0 or
 // 0.01 .. 60 s; a decoded request after the handshake has an id <= 2^53; a commit has 1 .. 64 operations,
 // adds and modifies carry an object, modifies and removes an id >= 1; every decoded object re-encodes
-// (object_to_json) and decodes again to the same kind.
+// (object_to_json) and decodes again to the same kind. Then the server's range checks
+// (src/server/object_limits.*, on the 3-axis test profile's +-0.06 m workspace: an accepted plane meets
+// it, an accepted point lies in it, accepted explicit gains are within the plausibility bounds) and the
+// reply path (src/server/reply_text.*): the error reply for a decode error or a refusal, and an ok reply
+// echoing every decoded object, are encoded without an exception, at most 65536 bytes, valid UTF-8 JSON
+// that parses back. (The stability verdicts need the gain checker and are tested in tests/server/.)
 #include <cstddef>
 #include <cstdint>
+#include <algorithm>
 #include <cstdlib>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
 
+#include <nlohmann/json.hpp>
+
 #include "client/object_json.hpp"
+#include "hapticd/client.hpp"
 #include "server/message_decoder.hpp"
+#include "server/object_limits.hpp"
+#include "server/reply_text.hpp"
 
 namespace {
 
@@ -21,10 +33,61 @@ void check(bool ok) {
     if (!ok) std::abort();
 }
 
+// The bytes the server would send for `reply`: within the limit and parsing back (the strict parse
+// rejects invalid UTF-8).
+void check_reply(const nlohmann::json& reply) {
+    const std::string text = hapticd::server::reply_text(reply);
+    check(text.size() <= hapticd::client::kMaxMessageBytes);
+    const nlohmann::json back = nlohmann::json::parse(text, nullptr, false);
+    check(!back.is_discarded() && back.is_object());
+}
+
+// The range checks of one decoded object; a refusal goes through the reply path, an acceptance is checked.
+void check_limits(const hapticd::client::ObjectDescription& object, std::uint64_t id) {
+    using namespace hapticd::server;
+    namespace cl = hapticd::client;
+    const WorkspaceBox box{3, {-0.06, -0.06, -0.06}, {0.06, 0.06, 0.06}};
+    std::optional<LimitRefusal> refusal;
+    const cl::Gains* gains = nullptr;
+    if (const auto* p = std::get_if<cl::Plane>(&object)) {
+        refusal = check_plane_in_workspace(p->normal, p->offset, box);
+        if (!refusal) {
+            double n_lo = 0.0;  // the plane meets the box: some corner on each side (or on it)
+            double n_hi = 0.0;
+            for (std::size_t a = 0; a < 3; ++a) {
+                n_lo += std::min(p->normal[a] * box.min[a], p->normal[a] * box.max[a]);
+                n_hi += std::max(p->normal[a] * box.min[a], p->normal[a] * box.max[a]);
+            }
+            check(p->offset >= n_lo && p->offset <= n_hi);
+        }
+        gains = &p->gains;
+    } else if (const auto* s = std::get_if<cl::Spring>(&object)) {
+        refusal = check_in_workspace(s->point, "spring.point", box);
+        if (!refusal) {
+            for (std::size_t a = 0; a < 3; ++a) check(s->point[a] >= -0.06 && s->point[a] <= 0.06);
+        }
+        gains = &s->gains;
+    } else {
+        refusal = check_in_workspace(std::get<cl::Field>(object).center, "field.center", box);
+    }
+    if (!refusal && gains != nullptr && gains->criterion.empty()) {
+        refusal = check_explicit_gains(gains->K.value_or(0.0), gains->B.value_or(0.0), cl::kind_name(object));
+        if (!refusal) check(*gains->K <= kMaxGainK && *gains->B <= kMaxGainB && *gains->K >= 0.0 && *gains->B >= 0.0);
+    }
+    if (refusal) {
+        check(refusal->code == "beyond_device_limits" || refusal->code == "bad_message");
+        check_reply(nlohmann::json{{"type", "error"}, {"id", id}, {"code", refusal->code}, {"message", "commit: ops[0]: " + refusal->message},
+                                   {"op_index", 0}});
+    }
+}
+
 void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
     using namespace hapticd::server;
     static const std::set<std::string> codes{"bad_json", "bad_message", "bad_hello", "protocol_version", "oversized"};
     if (const auto* e = std::get_if<DecodeError>(&r)) {
+        nlohmann::json reply{{"type", "error"}, {"code", e->code}, {"message", e->message}, {"op_index", e->op_index}};
+        reply["id"] = e->id ? nlohmann::json(*e->id) : nlohmann::json(nullptr);
+        check_reply(reply);
         check(codes.count(e->code) == 1);
         check(!e->message.empty());
         check(e->message.rfind("decode_message", 0) == 0 || e->message.rfind("hello:", 0) == 0);
@@ -53,6 +116,9 @@ void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
                 std::string why;
                 const auto again = hapticd::client::object_from_json(hapticd::client::object_to_json(*op.object), why);
                 check(again.has_value() && again->index() == op.object->index());
+                check_limits(*op.object, *req.id);
+                // A list reply quotes the object back (criterion names are client text).
+                check_reply(nlohmann::json{{"type", "ok"}, {"id", *req.id}, {"objects", nlohmann::json::array({hapticd::client::object_to_json(*op.object)})}});
             }
         }
     }

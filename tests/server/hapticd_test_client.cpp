@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
                     c.commit(cl::Batch().modify(id, p));
                     ++ok;
                 } catch (const cl::Error& e) {
-                    if (e.code() != cl::ErrorCode::Busy) throw;
+                    if (e.code() != cl::ErrorCode::Busy && e.code() != cl::ErrorCode::SessionLimit) throw;  // both: retry
                     ++busy;
                 }
             }

@@ -224,6 +224,26 @@ std::optional<cl::StateSample> wait_state(const cl::StateReader& r, Pred pred, d
     return std::nullopt;
 }
 
+// One hapticd --serve (step scenario, zero force) shared by every test of a suite; it must end with exit
+// code 0 on SIGTERM. Tag names its socket, shared memory and log files.
+template <const char* Tag>
+class SharedDaemonTest : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        n_ = new Names(names(Tag));
+        daemon_ = new Child(HAPTICD_BINARY, daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}), std::string(Tag) + "_daemon");
+        ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
+    }
+    static void TearDownTestSuite() {
+        daemon_->signal(SIGTERM);
+        EXPECT_EQ(daemon_->wait(), 0) << daemon_->err();
+        delete daemon_;
+        delete n_;
+    }
+    static inline Names* n_ = nullptr;
+    static inline Child* daemon_ = nullptr;
+};
+
 inline json plane(const std::array<double, 3>& n, double offset, const json& gains, bool bilateral = false) {
     return json{{"kind", "plane"}, {"normal", n}, {"offset", offset}, {"mode", bilateral ? "bilateral" : "unilateral"}, {"gains", gains}};
 }

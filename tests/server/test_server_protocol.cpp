@@ -10,24 +10,8 @@
 namespace hapticd::server_test {
 namespace {
 
-class ServerProtocol : public ::testing::Test {
-protected:
-    static void SetUpTestSuite() {
-        n_ = new Names(names("proto"));
-        daemon_ = new Child(HAPTICD_BINARY, daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}), "proto_daemon");
-        ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
-    }
-    static void TearDownTestSuite() {
-        daemon_->signal(SIGTERM);
-        EXPECT_EQ(daemon_->wait(), 0) << daemon_->err();
-        delete daemon_;
-        delete n_;
-    }
-    static Names* n_;
-    static Child* daemon_;
-};
-Names* ServerProtocol::n_ = nullptr;
-Child* ServerProtocol::daemon_ = nullptr;
+constexpr char kProtoTag[] = "proto";
+class ServerProtocol : public SharedDaemonTest<kProtoTag> {};
 
 TEST_F(ServerProtocol, WrongVersionIsRefusedNamingBothVersionsAndClosed) {
     RawConnection c(n_->socket);

@@ -13,13 +13,15 @@ from .client import MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, default_socket_
 from .device import DeviceInfo
 from .errors import HapticdError
 from .objects import Batch, field, gains, plane, spring
-from .state import FAULT_NAMES, StateReader, StateSample, shm_path
+from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateReader, StateSample, shm_path, stale_after_s
 
 __all__ = [
     "Batch",
     "Client",
     "DeviceInfo",
+    "FAULT_FATAL_SIGNAL",
     "FAULT_NAMES",
+    "FAULT_TERMINATE",
     "HapticdError",
     "MAX_MESSAGE_BYTES",
     "PROTOCOL_VERSION",
@@ -31,4 +33,5 @@ __all__ = [
     "plane",
     "shm_path",
     "spring",
+    "stale_after_s",
 ]

@@ -12,7 +12,8 @@ class HapticdError(Exception):
     Attributes:
         code: "protocol_version", "bad_hello", "oversized", "bad_json", "bad_message", "unstable_gains",
             "unstable_sum", "beyond_device_limits", "unknown_criterion", "unknown_object", "not_owner",
-            "capacity", "busy", "lease_lost", "slow_consumer" (the protocol's), or "transport".
+            "capacity", "session_limit", "busy", "internal", "lease_lost", "slow_consumer" (the protocol's),
+            "transport", or "stale_state" (StateReader.read(require_live=True): the daemon is dead or stalled).
         op_index: the failing operation of a commit (-1: the summed-gain check, or not a commit).
         largest_stable_K: for "unstable_gains", the largest stable stiffness at the object's damping, N/m.
         reply: the server's reply as a dict (None for a transport failure).

@@ -1,5 +1,10 @@
 """The daemon's state stream read from POSIX shared memory without a system call per read
-(docs/protocol.md, section 6: layout version 1, 1152 bytes, a seqlock written once per tick by the loop).
+(docs/protocol.md, section 6: layout version 2, 1152 bytes, a seqlock written once per tick by the loop).
+
+Liveness: the loop stores CLOCK_MONOTONIC (ns) into ``heartbeat_ns`` after every tick. A sample is
+``stale`` when that is older than ``stale_after_s(period_s)`` (10 periods, at least 50 ms), was never
+written, or the fault says the daemon died (4 fatal signal, 5 std::terminate): the daemon is dead or
+stalled and the sample is not the device's present state.
 
 Seqlock read: s1 = sequence; if odd, retry; copy the fields; s2 = sequence; equal: the copy is one tick.
 The sequence is read with one aligned 8-byte load (a memoryview of native 'Q' items), never byte by byte.
@@ -14,13 +19,14 @@ import mmap
 import os
 import struct
 import sys
+import time
 from dataclasses import dataclass, field
 from typing import List, Optional, Tuple
 
 from .errors import HapticdError
 
 MAGIC = 0x54535048  # "HPST"
-LAYOUT_VERSION = 1
+LAYOUT_VERSION = 2
 LAYOUT_SIZE = 1152
 CAPACITY = 64
 _HEADER = struct.Struct("<IIIId I")  # magic, layout_version, size, axes, period_s, capacity (offsets 0..27)
@@ -30,6 +36,16 @@ _FIELDS_OFFSET = 128
 # fault, objects, slot_object_id[64], slot_ramp[64]   (offsets 128 .. 575)
 _FIELDS = struct.Struct("<Qd3d3d3dQQqQII64I64B")
 assert _HEADER.size == 28 and _FIELDS.size == 576 - 128
+_WRITER_PID = struct.Struct("<i")  # offset 32
+_HEARTBEAT_INDEX = 576 // 8  # heartbeat_ns (int64, CLOCK_MONOTONIC ns; 0: never written), one aligned load
+_FATAL_SIGNAL = struct.Struct("<I")  # offset 584
+FAULT_FATAL_SIGNAL = 4
+FAULT_TERMINATE = 5
+
+
+def stale_after_s(period_s: float) -> float:
+    """The heartbeat age beyond which a sample is stale: 10 periods, at least 50 ms (state_layout.hpp)."""
+    return max(10.0 * period_s, 0.05)
 
 if sys.byteorder != "little":  # pragma: no cover - the layout is native, hapticd runs on little-endian hosts
     raise ImportError("hapticd_client.state: the state layout is little-endian; this host is big-endian")
@@ -48,17 +64,20 @@ class StateSample:
     overruns: int = 0
     wake_latency_ns: int = 0
     last_commit_seq: int = 0  # every batch up to this one is applied
-    fault: int = 0  # 0 none, 1 device, 2 non-finite, 3 watchdog
+    fault: int = 0  # 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
     objects: int = 0
     slot_object_id: List[int] = field(default_factory=lambda: [0] * CAPACITY)
     slot_ramp: List[int] = field(default_factory=lambda: [0] * CAPACITY)
+    stale: bool = False  # the writer is dead or stalled (module docstring)
+    heartbeat_age_s: float = 0.0  # s since the loop's last tick; -1: never written
+    fatal_signal: int = 0  # the signal that ended the daemon (fault 4 or 5)
 
     def contacts(self) -> List[int]:
         """The ids of the objects in contact."""
         return [self.slot_object_id[s] for s in range(CAPACITY) if (self.contact_mask >> s) & 1]
 
 
-FAULT_NAMES = {0: "none", 1: "device", 2: "non-finite", 3: "watchdog"}
+FAULT_NAMES = {0: "none", 1: "device", 2: "non-finite", 3: "watchdog", 4: "fatal_signal", 5: "terminate"}
 
 
 def shm_path(name: str) -> str:
@@ -92,6 +111,8 @@ class StateReader:
         self.axes = axes
         self.period_s = period_s
         self.capacity = capacity
+        self.writer_pid = _WRITER_PID.unpack_from(self._map, 32)[0]
+        self.stale_after_s = stale_after_s(period_s)
         self._words = memoryview(self._map).cast("Q")  # native uint64 items: one 8-byte load each
 
     def close(self) -> None:
@@ -119,12 +140,27 @@ class StateReader:
                 return block
         return None
 
-    def read(self, max_attempts: int = 1000) -> StateSample:
-        """One consistent tick. Raises HapticdError("transport") if every attempt overlapped a write."""
+    def read(self, max_attempts: int = 1000, require_live: bool = False) -> StateSample:
+        """One consistent tick. Raises HapticdError("transport") if every attempt overlapped a write, and
+        with ``require_live`` HapticdError("stale_state") when the sample is stale (module docstring)."""
         block = self.read_raw(max_attempts)
         if block is None:
             raise HapticdError("transport", f"StateReader.read: {max_attempts} reads in a row overlapped the loop's writes")
         v = _FIELDS.unpack(block)
-        return StateSample(tick=v[0], time_s=v[1], position=tuple(v[2:5]), velocity=tuple(v[5:8]), force=tuple(v[8:11]),
-                           contact_mask=v[11], overruns=v[12], wake_latency_ns=v[13], last_commit_seq=v[14], fault=v[15],
-                           objects=v[16], slot_object_id=list(v[17:81]), slot_ramp=list(v[81:145]))
+        beat = self._words[_HEARTBEAT_INDEX]
+        if beat >= 1 << 63:
+            beat -= 1 << 64
+        age = -1.0 if beat == 0 else 1e-9 * (time.clock_gettime_ns(time.CLOCK_MONOTONIC) - beat)
+        fault = v[15]
+        stale = beat == 0 or age > self.stale_after_s or fault in (FAULT_FATAL_SIGNAL, FAULT_TERMINATE)
+        sample = StateSample(tick=v[0], time_s=v[1], position=tuple(v[2:5]), velocity=tuple(v[5:8]), force=tuple(v[8:11]),
+                             contact_mask=v[11], overruns=v[12], wake_latency_ns=v[13], last_commit_seq=v[14], fault=fault,
+                             objects=v[16], slot_object_id=list(v[17:81]), slot_ramp=list(v[81:145]), stale=stale,
+                             heartbeat_age_s=age, fatal_signal=_FATAL_SIGNAL.unpack_from(self._map, 584)[0])
+        if require_live and stale:
+            why = (f"the daemon died (fault {FAULT_NAMES.get(fault, fault)}, signal {sample.fatal_signal})"
+                   if fault in (FAULT_FATAL_SIGNAL, FAULT_TERMINATE)
+                   else "the loop never ticked" if beat == 0
+                   else f"no tick for {age:.3f} s > {self.stale_after_s:.3f} s")
+            raise HapticdError("stale_state", f"StateReader.read: the state of {self.name} is stale: {why}")
+        return sample

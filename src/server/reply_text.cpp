@@ -1,0 +1,36 @@
+#include "server/reply_text.hpp"
+
+#include "client/text_limits.hpp"
+#include "hapticd/client.hpp"
+
+namespace hapticd::server {
+
+namespace {
+
+using nlohmann::json;
+
+std::string dump_replacing(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
+
+}  // namespace
+
+std::string reply_text(json message) noexcept {
+    try {
+        if (message.is_object()) {
+            const auto m = message.find("message");
+            if (m != message.end() && m->is_string() && m->get_ref<const std::string&>().size() > kMaxErrorMessageBytes) {
+                *m = client::truncate_utf8(m->get_ref<const std::string&>(), kMaxErrorMessageBytes);
+            }
+        }
+        std::string text = dump_replacing(message);
+        if (text.size() <= client::kMaxMessageBytes) return text;
+        json internal{{"type", "error"}, {"code", "internal"},
+                      {"message", "reply_text: the reply of " + std::to_string(text.size()) +
+                                      " bytes exceeds the protocol's limit of 65536 bytes"}};
+        internal["id"] = message.is_object() && message.contains("id") && message["id"].is_number_unsigned() ? message["id"] : json(nullptr);
+        return dump_replacing(internal);
+    } catch (...) {
+        return R"({"type":"error","code":"internal","id":null,"message":"reply_text: the reply could not be encoded"})";
+    }
+}
+
+}  // namespace hapticd::server

@@ -1,0 +1,186 @@
+// The daemon's life as a client sees it (docs/protocol.md, sections 6 and 7; docs/hapticd.md): a daemon
+// killed by a fatal signal leaves a state that says so (fault, signal, a heartbeat that stops) after
+// zeroing the simulated device; a stopped daemon reads stale, a quiet one does not; --serve-socket never
+// removes what is not a stale hapticd socket; one session cannot take every slot or fill the hand-over.
+#include <sys/mman.h>
+#include <sys/stat.h>
+
+#include "server_fixture.hpp"
+
+namespace hapticd::server_test {
+namespace {
+
+// Under a loaded machine the watchdog would end a daemon the test means to kill or stop itself.
+const std::vector<std::string> kNoWatchdog{"--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000"};
+
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
+}
+
+// Waits until the state has ticked and is not stale.
+std::optional<cl::StateSample> wait_live(const cl::StateReader& r) {
+    return wait_state(r, [](const cl::StateSample& s) { return s.tick > 10 && !s.stale; }, 20.0);
+}
+
+class FatalSignal : public ::testing::TestWithParam<int> {};
+
+TEST_P(FatalSignal, TheStateSaysTheDaemonDiedAndTheSimulatedDeviceWasZeroed) {
+    const int sig = GetParam();
+    const Names n = names("fatal" + std::to_string(sig));
+    Child daemon(HAPTICD_BINARY, daemon_args(n, with({"--scenario", "step", "--step-force", "0"}, kNoWatchdog)), "fatal_daemon" + std::to_string(sig));
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    const cl::StateReader state = cl::StateReader::open(n.shm);
+    ASSERT_TRUE(wait_live(state).has_value()) << daemon.err();
+    daemon.signal(sig);
+    EXPECT_EQ(daemon.wait(), 128 + sig) << daemon.err();
+    cl::StateSample s;
+    ASSERT_TRUE(state.read(s));
+    EXPECT_EQ(s.fault, kFaultFatalSignal);
+    EXPECT_EQ(s.fatal_signal, static_cast<std::uint32_t>(sig));
+    EXPECT_TRUE(s.stale);
+    EXPECT_NE(daemon.err().find("zero force written to the device"), std::string::npos) << daemon.err();
+    // The heartbeat stopped with the daemon: its age only grows.
+    std::this_thread::sleep_for(std::chrono::milliseconds(60));
+    cl::StateSample later;
+    ASSERT_TRUE(state.read(later));
+    EXPECT_EQ(later.tick, s.tick);
+    EXPECT_GT(later.heartbeat_age_s, state.stale_after_s());
+    ::shm_unlink(n.shm.c_str());  // the dead daemon left it for its readers
+}
+INSTANTIATE_TEST_SUITE_P(Signals, FatalSignal, ::testing::Values(SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT));
+
+TEST(StateLiveness, AStoppedDaemonReadsStaleAQuietOneDoesNot) {
+    const Names n = names("liveness");
+    // --serve-wait-commit: the loop has not started (no client yet), the daemon is alive and quiet.
+    Child daemon(HAPTICD_BINARY, daemon_args(n, with({"--scenario", "step", "--step-force", "0", "--serve-wait-commit"}, kNoWatchdog)), "liveness_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    const cl::StateReader state = cl::StateReader::open(n.shm);
+    EXPECT_EQ(state.writer_pid(), daemon.pid());
+    EXPECT_DOUBLE_EQ(state.stale_after_s(), 0.05);  // 10 periods of 1 ms is less than the 50 ms floor
+    const auto quiet = wait_state(state, [](const cl::StateSample& s) { return !s.stale; }, 5.0);
+    ASSERT_TRUE(quiet.has_value()) << "a daemon waiting for its first commit reads stale";
+    EXPECT_EQ(quiet->tick, 0U);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    cl::StateSample s;
+    ASSERT_TRUE(state.read(s));
+    EXPECT_FALSE(s.stale) << "age " << s.heartbeat_age_s;
+    // A stopped process: stale after 50 ms, live again after SIGCONT.
+    daemon.signal(SIGSTOP);
+    std::this_thread::sleep_for(std::chrono::milliseconds(120));
+    ASSERT_TRUE(state.read(s));
+    EXPECT_TRUE(s.stale) << "age " << s.heartbeat_age_s;
+    EXPECT_EQ(s.fault, 0U);
+    daemon.signal(SIGCONT);
+    EXPECT_TRUE(wait_state(state, [](const cl::StateSample& x) { return !x.stale; }, 5.0).has_value());
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+TEST(ServeSocketPath, OnlyAStaleHapticdSocketIsReplaced) {
+    // A regular file: left alone, exit 9, the message names the path.
+    const Names file_names = names("notasocket");
+    { std::ofstream(file_names.socket) << "precious\n"; }
+    Child refused(HAPTICD_BINARY, daemon_args(file_names, {"--scenario", "step", "--step-force", "0"}), "socket_file");
+    EXPECT_EQ(refused.wait(), 9) << refused.err();
+    EXPECT_EQ(read_text(file_names.socket), "precious\n");
+    EXPECT_NE(refused.err().find(file_names.socket), std::string::npos) << refused.err();
+    EXPECT_NE(refused.err().find("not a socket"), std::string::npos) << refused.err();
+    std::filesystem::remove(file_names.socket);
+
+    // A live daemon's socket: the second daemon stops before touching the first's socket or state.
+    const Names n = names("twice");
+    Child first(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}), "socket_first");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << first.err();
+    const cl::StateReader state = cl::StateReader::open(n.shm);
+    ASSERT_TRUE(wait_live(state).has_value());
+    Child second(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}), "socket_second");
+    EXPECT_EQ(second.wait(), 9) << second.err();
+    EXPECT_NE(second.err().find("in use"), std::string::npos) << second.err();
+    EXPECT_TRUE(first.running());
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "after"});  // the socket still works
+    const cl::StateReader again = cl::StateReader::open(c.welcome().state_shm);              // and the state is the first's
+    EXPECT_EQ(again.writer_pid(), first.pid());
+    first.signal(SIGTERM);
+    EXPECT_EQ(first.wait(), 0) << first.err();
+
+    // A stale socket (its daemon was killed): replaced.
+    const Names stale = names("stale");
+    Child killed(HAPTICD_BINARY, daemon_args(stale, {"--scenario", "step", "--step-force", "0"}), "socket_killed");
+    ASSERT_TRUE(wait_for_socket(stale.socket)) << killed.err();
+    killed.signal(SIGKILL);
+    killed.wait();
+    ASSERT_TRUE(std::filesystem::exists(stale.socket));
+    Child next(HAPTICD_BINARY, daemon_args(stale, {"--scenario", "step", "--step-force", "0"}), "socket_next");
+    EXPECT_TRUE(wait_for_socket(stale.socket)) << next.err();
+    next.signal(SIGTERM);
+    EXPECT_EQ(next.wait(), 0) << next.err();
+}
+
+cl::Plane far_plane(double offset) {
+    return cl::Plane{.normal = {0.0, 0.0, -1.0}, .offset = offset, .bilateral = false, .gains = cl::Gains::explicit_gains(100.0, 1.0)};
+}
+
+TEST(SessionLimits, OneSessionCannotTakeEverySlotNorFillTheHandOver) {
+    const Names n = names("limits");
+    const std::string summary_path = (scratch() / "limits_summary.json").string();
+    // Ramps of 1 s: a batch waits in the loop's queue until the earlier batches' ramps have ended.
+    Child daemon(HAPTICD_BINARY,
+                 daemon_args(n, {"--scenario", "step", "--step-force", "0", "--session-max-objects", "3", "--session-max-in-flight", "2",
+                                 "--ramp-time", "1", "--summary-json", summary_path}),
+                 "limits_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client greedy = cl::Client::connect({.socket_path = n.socket, .client_name = "greedy"});
+    int accepted = 0, limited = 0;
+    std::string message;
+    for (int i = 0; i < 4; ++i) {
+        try {
+            greedy.commit(cl::Batch().add(far_plane(-0.05 - 0.001 * i)));
+            ++accepted;
+        } catch (const cl::Error& e) {
+            ASSERT_EQ(e.code(), cl::ErrorCode::SessionLimit) << e.what();
+            ++limited;
+            message = e.what();
+        }
+    }
+    // The first two are accepted; the first batch is applied at once, the second waits 1 s for its ramp:
+    // at most 2 in flight lets a third through only when the first had been applied when it came.
+    EXPECT_GE(accepted, 2);
+    EXPECT_GE(limited, 1);
+    EXPECT_NE(message.find("session-max-in-flight"), std::string::npos) << message;
+    // Another session is not limited by the greedy one's queue.
+    cl::Client other = cl::Client::connect({.socket_path = n.socket, .client_name = "other"});
+    EXPECT_NO_THROW(other.commit(cl::Batch().add(far_plane(-0.04))));
+    // The object limit: once the queue has drained, a fourth object of the greedy session is refused.
+    std::this_thread::sleep_for(std::chrono::milliseconds(4500));
+    while (accepted < 3) {
+        greedy.commit(cl::Batch().add(far_plane(-0.045)));
+        ++accepted;
+    }
+    try {
+        greedy.commit(cl::Batch().add(far_plane(-0.046)));
+        ADD_FAILURE() << "a fourth object was accepted";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::SessionLimit) << e.what();
+        EXPECT_NE(std::string(e.what()).find("session-max-objects"), std::string::npos) << e.what();
+    }
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+    const json summary = json::parse(read_text(summary_path), nullptr, false);
+    EXPECT_EQ(summary.value("session_max_objects", 0), 3) << summary.dump();
+    EXPECT_EQ(summary.value("session_max_in_flight", 0), 2) << summary.dump();
+}
+
+TEST(SessionLimits, OutOfRangeLimitsAreRefusedNamingTheOption) {
+    const Names n = names("limits_bad");
+    Child objects(HAPTICD_BINARY, daemon_args(n, {"--session-max-objects", "0"}), "limits_bad_objects");
+    EXPECT_EQ(objects.wait(), 4) << objects.err();
+    EXPECT_NE(objects.err().find("session-max-objects"), std::string::npos) << objects.err();
+    EXPECT_NE(objects.err().find("1 .. 64"), std::string::npos) << objects.err();
+    Child flight(HAPTICD_BINARY, daemon_args(n, {"--session-max-in-flight", "65"}), "limits_bad_flight");
+    EXPECT_EQ(flight.wait(), 4) << flight.err();
+    EXPECT_NE(flight.err().find("session-max-in-flight"), std::string::npos) << flight.err();
+}
+
+}  // namespace
+}  // namespace hapticd::server_test
