@@ -41,7 +41,9 @@ inline int exit_code_for(const hapticd::client::Error& e, bool connected) noexce
         case ErrorCode::UnknownObject:
         case ErrorCode::NotOwner: return kExitNotOwner;
         case ErrorCode::Capacity:
+        case ErrorCode::SessionLimit:
         case ErrorCode::Busy: return kExitBusy;
+        case ErrorCode::Internal: return kExitInternal;
         case ErrorCode::LeaseLost:
         case ErrorCode::SlowConsumer: return kExitSessionLost;
         case ErrorCode::Transport: return connected ? kExitSessionLost : kExitNoDaemon;

@@ -28,6 +28,8 @@ std::string fault_name(std::uint32_t fault) {
         case 1: return "device";
         case 2: return "non-finite";
         case 3: return "watchdog";
+        case hapticd::kFaultFatalSignal: return "fatal_signal";
+        case hapticd::kFaultTerminate: return "terminate";
         default: return std::to_string(fault);
     }
 }

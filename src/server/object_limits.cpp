@@ -42,4 +42,10 @@ std::optional<LimitRefusal> check_explicit_gains(double K, double B, const std::
                                            " N/m, 0 <= B <= " + short_number(kMaxGainB) + " N s/m (finite)"};
 }
 
+std::optional<LimitRefusal> check_field_damping(double B) {
+    if (B >= 0.0 && B <= kMaxGainB) return std::nullopt;
+    return LimitRefusal{"bad_message", "field.damping = " + short_number(B) + " N s/m is invalid; accepted range: 0 .. " +
+                                           short_number(kMaxGainB) + " N s/m (finite)"};
+}
+
 }  // namespace hapticd::server

@@ -42,4 +42,7 @@ inline constexpr double kMaxGainB = 1e9;   // N s/m
 // `kind` names the object ("plane") in the message.
 [[nodiscard]] std::optional<LimitRefusal> check_explicit_gains(double K, double B, const std::string& kind);
 
+// A field's damping: 0 <= B <= kMaxGainB (a field without stiffness has no per-object stability test).
+[[nodiscard]] std::optional<LimitRefusal> check_field_damping(double B);
+
 }  // namespace hapticd::server

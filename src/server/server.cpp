@@ -455,6 +455,7 @@ struct Server::Impl {
         if (auto r = check_vector(field.center, "field.center", false)) return r;
         if (auto r = check_vector(field.force, "field.force", false)) return r;
         if (auto r = check_in_workspace(field.center, "field.center")) return r;
+        if (auto r = server::check_field_damping(field.damping)) return Refusal{r->code, r->message, std::nullopt};
         if (!(field.radius > 0.0) || !std::isfinite(field.radius)) {
             return Refusal{"bad_message", "field.radius = " + g(field.radius) + " is invalid; accepted range: finite, > 0 m", std::nullopt};
         }

@@ -68,7 +68,10 @@ void check_limits(const hapticd::client::ObjectDescription& object, std::uint64_
         }
         gains = &s->gains;
     } else {
-        refusal = check_in_workspace(std::get<cl::Field>(object).center, "field.center", box);
+        const auto& f = std::get<cl::Field>(object);
+        refusal = check_in_workspace(f.center, "field.center", box);
+        if (!refusal) refusal = check_field_damping(f.damping);
+        if (!refusal) check(f.damping >= 0.0 && f.damping <= kMaxGainB);
     }
     if (!refusal && gains != nullptr && gains->criterion.empty()) {
         refusal = check_explicit_gains(gains->K.value_or(0.0), gains->B.value_or(0.0), cl::kind_name(object));

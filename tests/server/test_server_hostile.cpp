@@ -82,6 +82,11 @@ TEST_F(HostileClient, APlaneOutsideTheWorkspaceIsRefusedNamingOffsetAndTheRange)
     r = commit_one(c, 4, plane({0, 0, 1}, -0.05, json{{"K", 1e300}, {"B", 1e300}}));
     EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
     EXPECT_NE(r.value("message", "").find("K <= 1e+12"), std::string::npos) << r.dump();
+    json f{{"kind", "field"}, {"center", {0, 0, 0}}, {"radius", 0.01}, {"force", {0, 0, 0}},
+           {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}, {"damping", 1e300}};
+    r = commit_one(c, 7, f);
+    EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
+    EXPECT_NE(r.value("message", "").find("field.damping"), std::string::npos) << r.dump();
     expect_alive(c, 5);
     c.send(R"({"type":"commit","id":6,"ops":[{"op":"clear"}]})");
     EXPECT_EQ(c.receive_json().value("type", ""), "ok");
