@@ -180,6 +180,18 @@ TEST(SessionLimits, OutOfRangeLimitsAreRefusedNamingTheOption) {
     Child flight(HAPTICD_BINARY, daemon_args(n, {"--session-max-in-flight", "65"}), "limits_bad_flight");
     EXPECT_EQ(flight.wait(), 4) << flight.err();
     EXPECT_NE(flight.err().find("session-max-in-flight"), std::string::npos) << flight.err();
+    // The same keys in a config file: refused with the file's line, accepted ones reach the summary.
+    const std::string config = (scratch() / "limits.toml").string();
+    { std::ofstream(config) << "session-max-objects = 70\n"; }
+    Child from_file(HAPTICD_BINARY, {"--config", config, "--dry-run"}, "limits_bad_file");
+    EXPECT_EQ(from_file.wait(), 4) << from_file.err();
+    EXPECT_NE(from_file.err().find("line 1"), std::string::npos) << from_file.err();
+    EXPECT_NE(from_file.err().find("session-max-objects = 70"), std::string::npos) << from_file.err();
+    { std::ofstream(config) << "session-max-in-flight = 3\n"; }
+    const std::string summary_path = (scratch() / "limits_file_summary.json").string();
+    Child accepted(HAPTICD_BINARY, {"--config", config, "--dry-run", "--summary-json", summary_path}, "limits_file");
+    EXPECT_EQ(accepted.wait(), 0) << accepted.err();
+    EXPECT_EQ(json::parse(read_text(summary_path), nullptr, false).value("session_max_in_flight", 0), 3);
 }
 
 }  // namespace
