@@ -26,7 +26,8 @@ std::string reply_text(json message) noexcept {
         json internal{{"type", "error"}, {"code", "internal"},
                       {"message", "reply_text: the reply of " + std::to_string(text.size()) +
                                       " bytes exceeds the protocol's limit of 65536 bytes"}};
-        internal["id"] = message.is_object() && message.contains("id") && message["id"].is_number_unsigned() ? message["id"] : json(nullptr);
+        const bool has_id = message.is_object() && message.contains("id") && message["id"].is_number_integer() && message["id"] >= 0;
+        internal["id"] = has_id ? message["id"] : json(nullptr);
         return dump_replacing(internal);
     } catch (...) {
         return R"({"type":"error","code":"internal","id":null,"message":"reply_text: the reply could not be encoded"})";
