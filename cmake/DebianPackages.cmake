@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Debian packages with CPack's DEB generator, one per install component (docs/building.md, "Debian packages"):
 #   hapticd                 component runtime: hapticd, hapticctl, hapticopt, /usr/share/hapticd (config and
 #                           device profiles), the systemd unit, the sysusers.d file, the udev rules

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The whole test suite (what CI runs through .ci/run):
 #   1. install what is missing (scripts/install-deps.sh);
 #   2. configure + build the `release` preset (build/release) and run ctest: every label

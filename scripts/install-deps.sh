@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Install the Debian 12 packages needed to build and test hapticopt/hapticd.
 # Idempotent: if everything is already installed it returns immediately
 # without touching apt (no `apt-get update`, no network).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The Debian packages (cmake/DebianPackages.cmake) checked as a user gets them (docs/building.md, "Debian packages"):
 #   1. cpack -G DEB in the release tree that scripts/build-and-test.sh has built (no second build);
 #   2. lintian on the three .deb: any error or warning fails (overrides: packaging/debian/*.lintian-overrides);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #pragma once
 // Where hapticd finds hapticd.toml and the device profiles devices/<name>.toml when the command line does not
 // name them. The search order, first match wins (docs/hapticd.md, "Where the config comes from"):

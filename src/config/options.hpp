@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd's options: command line (CLI11) over the config file (TOML read with toml++, applied to the same
 // CLI11 options: config/apply_config_file.hpp) over built-in defaults; and the device profile (a TOML file
 // of its own).

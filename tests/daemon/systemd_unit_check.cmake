@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest script: the unit configured from config/hapticd.service.in is a valid unit (`systemd-analyze verify`,
 # with ExecStart pointing at the built hapticd in place of the installed one, so that the executable check
 # applies) and stays sandboxed (`systemd-analyze security --offline=yes`: overall exposure at most 2.0 on systemd's 0-10 scale; the shipped unit measures 1.4).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd's TOML files: the reader (config/config_file.hpp, toml++) and the loaders that apply a file to the
 // options (config/apply_config_file.hpp through parse_options and load_device_profile): TOML syntax a new
 // user writes loads, errors name file, line, column, key, value and what is accepted, unknown keys and wrong

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where hapticd finds its config in a build tree (config/config_locations.hpp): the repository's config/, found
 // through the build tree's hapticd-build-tree.txt, no system dir; $HAPTICD_CONFIG over it, --config over both;
 // device profiles by name from the config file's devices/ first. The installed layout (/etc/hapticd over

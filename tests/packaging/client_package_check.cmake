@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.client_install_consumer -- run with cmake -P.
 # Installs only the hapticd_client_dev component (include/hapticd, libhapticd_client.a, the hapticd CMake
 # package) of BINARY_DIR into a fresh PREFIX, checks the files, then configures, builds and runs

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.install -- run with cmake -P.
 # Installs only the hapticopt_dev component (headers + CMake package) of the
 # build tree BINARY_DIR into a fresh PREFIX and checks the installed files.

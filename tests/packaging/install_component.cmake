@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # include()d by the packaging check scripts (cmake -P): installs one install component of a build tree into a
 # fresh prefix, as a user or packager would (`cmake --install <build> --prefix <prefix> --component <name>`).
 function(hapticopt_install_component binary_dir prefix component config)

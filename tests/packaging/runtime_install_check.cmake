@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.runtime_install -- run with cmake -P.
 # Installs the runtime component of BINARY_DIR into a fresh PREFIX and checks the GNU layout (docs/building.md,
 # "Installing"): the programs, share/hapticd's config and profiles, the unit with ExecStart at PREFIX/bin/hapticd,
