@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The whole test suite (what CI runs through .ci/run):
 #   1. install what is missing (scripts/install-deps.sh);
 #   2. configure + build the `release` preset (build/release) and run ctest: every label
 #      (core, paper, packaging, daemon, devices, identification, beyond, plots, stress, fuzz);
+#   2a. the Debian packages from that tree: lintian, installed and run with the checkout hidden, purged
+#       (scripts/test-debian-packages.sh, as root);
 #   2b. the Python package: pip install ./python into build/python-venv, pytest python/tests (scripts/test-python.sh);
 #   3. the same tests under ASan + UBSan, and the daemon's threaded tests under TSan (scripts/sanitize.sh);
 #   4. each libFuzzer target for a bounded time over its corpus (scripts/fuzz.sh, clang).
@@ -23,6 +26,13 @@ cmake --build --preset release -j"$(nproc)"
 
 step "ctest (release)"
 ctest --preset release --output-on-failure -j2
+
+step "Debian packages (cpack, lintian, install, run with the checkout hidden, purge)"
+if [[ $(id -u) -eq 0 ]]; then
+  scripts/test-debian-packages.sh build/release
+else
+  sudo scripts/test-debian-packages.sh build/release
+fi
 
 step "python package (pip install ./python, pytest python/tests)"
 HAPTICOPT_CLI="$PWD/build/release/apps/hapticopt/hapticopt" scripts/test-python.sh

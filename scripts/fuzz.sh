@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # libFuzzer run of hapticd's parsers and decoders (issue 6): builds every target of tests/fuzz/ with clang
 # (-fsanitize=fuzzer,address,undefined) into build/fuzz and runs each for a bounded time over its seed
 # corpus tests/fuzz/corpus/<target>/ (read only; new inputs go to build/fuzz/corpus/<target>/, crashes to

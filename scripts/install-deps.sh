@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Install the Debian 12 packages needed to build and test hapticopt/hapticd.
 # Idempotent: if everything is already installed it returns immediately
 # without touching apt (no `apt-get update`, no network).
@@ -25,6 +26,8 @@ PACKAGES=(
   chromium  # headless SVG rendering in tests/plots (the test is SKIPPED without it)
   python3-dev python3-venv python3-pip pybind11-dev  # the Python package (python/, scripts/test-python.sh)
   python3-numpy python3-scipy python3-matplotlib python3-pytest  # its run time, reference and tests
+  dpkg-dev lintian  # the Debian packages: dpkg-shlibdeps (CPack), lintian (scripts/test-debian-packages.sh)
+  systemd           # systemd-analyze verify, systemd-sysusers (the package's postinst)
 )
 
 missing=()

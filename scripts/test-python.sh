@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The hapticopt Python package's test step (part of scripts/build-and-test.sh, after the release ctest):
 #   1. a venv from Debian's python3 with the system site packages (numpy, scipy, matplotlib, pytest
 #      from apt: scripts/install-deps.sh);

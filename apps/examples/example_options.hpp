@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The options of the examples: `--key value` pairs of numbers or comma-separated vectors, with defaults.
 // Unknown keys and malformed values end the program with exit code 2 and a message naming them.
 #pragma once

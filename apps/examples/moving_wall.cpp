@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A wall that moves sinusoidally (docs/clients.md): one plane whose offset follows
 //   offset(t) = offset + amplitude sin(2 pi frequency t)
 // sent at --update-rate. Changing only where a plane is applies at the next tick without a ramp

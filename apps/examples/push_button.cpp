@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A virtual push-button (docs/clients.md): a unilateral plane of stiffness K with a detent. Pressing it
 // past --click-depth makes the surface give way by --drop (the force falls by K drop: the click you feel)
 // and prints "pressed"; coming back above --release-depth restores it and prints "released" (hysteresis,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticctl's exit codes (docs/clients.md): one per kind of failure, so that scripts can tell a daemon
 // that is not running from an object the daemon refused.
 #pragma once

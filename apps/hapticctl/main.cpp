@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticctl: the command-line client of `hapticd --serve` (docs/clients.md), on the C++ client library.
 //   hapticctl status | list [--json]
 //   hapticctl add plane normal=0,0,1 offset=0.01 criterion=CE2 [--for SECONDS]

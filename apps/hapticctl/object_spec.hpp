@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Scene objects written as words, for the command line and session scripts (docs/clients.md):
 //   plane  normal=NX,NY,NZ [offset=M] [mode=unilateral|bilateral] [criterion=C | K=N/m B=Ns/m]
 //   spring [constraint=point|line|plane] point=X,Y,Z [direction=DX,DY,DZ] (K=N/m [B=Ns/m] | criterion=C)

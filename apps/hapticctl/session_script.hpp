@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `hapticctl session [FILE]`: one client session driven by commands, one per line ('#' starts a comment):
 //   add SPEC                 add an object (object_spec.hpp); prints "added ID"
 //   modify ID SPEC           replace one of this session's objects

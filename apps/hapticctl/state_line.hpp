@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One line of text for a state sample (`hapticctl watch`):
 //   tick 1234 t 1.234 s x [+1.000 +0.000 -0.250] mm v [...] mm/s F [+0.500 +0.000 +0.000] N contact {3,7} objects 2 overruns 0 fault none
 // Only the device's axes are shown; contact lists the ids of the objects in contact (the slots of the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt boundary: the exact stability boundary in the (alpha, beta) plane; with --passivity the
 // boundary of the passive set (delay-aware Colgate-Schenkel condition, passivity.hpp) instead.
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared pieces of the hapticopt subcommands: exit codes, number formatting, plant options.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The hapticopt subcommands; each registers itself on the app and runs when selected.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt cost: stability and the criteria C_E0, C_E1, C_E2, C_OV at one gain pair.
 #include <cmath>
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt: stability, step-response costs and optimal virtual-wall gains from the command line.
 #include <iostream>
 #include <vector>

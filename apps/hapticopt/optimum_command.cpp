@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt optimum: the optimal point of one criterion, normalised or physical; the collision
 // criteria CI0..2; the robust optimum over a box of physical parameters (--robust, ranges MIN:MAX);
 // every answer reports the delay-aware Colgate-Schenkel passivity margin (passivity.hpp; null for a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tables III and IV of Hulin et al. (IROS 2011) as printed, parsed from the embedded CSV.
 #pragma once
 

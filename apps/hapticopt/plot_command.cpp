@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt plot: the paper's figures as SVG files (region: Fig. 3, costs: Fig. 4, step: Fig. 5,
 // overshoot: Fig. 6; collision: step against collision optima, beyond the paper). Each figure is its
 // own subcommand in plot_<name>.cpp.

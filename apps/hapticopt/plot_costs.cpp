@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt plot costs: contour lines of an energy criterion C_E0..2 over the stable region, its
 // optimal curve beta_opt(alpha) and its optimal point (Fig. 4 of the paper), and below, the cost along
 // the optimal curve.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt plot overshoot: the region without overshoot (C_OV <= tolerance) inside the stable region,
 // the optimal curves of C_E0, C_E1, C_E2 over it and their C_Ex+OV points (Fig. 6 of the paper), and
 // the OV point (largest alpha without overshoot).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt plot region: the stability boundaries in the (alpha, beta) plane for the corners of a
 // (gamma, delta) box (Fig. 3 of the paper), with each region's tip (alpha_max) marked, and optionally
 // the passive set of the Colgate-Schenkel condition with the loop delay (passivity.hpp) for comparison.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt plot step: continuous-time step responses x(t)/x_inf at the optima of chosen criteria
 // (Fig. 5 of the paper), each maximum overshoot marked where it falls inside the time span.
 //

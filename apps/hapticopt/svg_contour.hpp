@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Contour lines of a function sampled on a rectangular grid (marching squares), for the cost
 // contours of `hapticopt plot costs`.
 //

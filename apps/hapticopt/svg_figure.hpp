@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared pieces of the `hapticopt plot` figures: the plant and output options, normalised or physical
 // axes, the standard panel layout, the exact stability boundary as a closed curve, and the
 // registration of the four plot subcommands (plot_region.cpp, plot_costs.cpp, plot_step.cpp,

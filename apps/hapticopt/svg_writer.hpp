@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A small SVG writer for the `hapticopt plot` figures: linear scales with "nice" ticks, axes with
 // tick labels and axis labels, polylines, filled polygons, markers and a legend.
 //

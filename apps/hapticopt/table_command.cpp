@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt table: recompute all 64 rows of Tables III and IV beside the printed values.
 #include <cmath>
 #include <cstdio>

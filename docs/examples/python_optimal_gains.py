@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Optimal wall gains of a device at T = 0.5 ms with 2 ms loop delay, and the cost map around them.
 
 Run:  build/py-venv/bin/python docs/examples/python_optimal_gains.py docs/figures/python-example.png

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The random search of docs/protocol.md, section 5 ("The ramps"): 3-axis scenes of 0-2 planes ("rest", stable
 // alone) plus an old and a new plane, both endpoint scenes stable by hapticopt::matrix_gain_stability; counts
 // the linear blends rest + (1-s) old + s new (s = k/30) and ramp-ins rest + s new that are not certifiably stable.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The C++ client library of hapticd (protocol version 1, docs/protocol.md): connect and handshake, keep a
 // lease, commit batches of typed scene objects (all-or-nothing, applied at one tick boundary), read the
 // state from shared memory without a system call, or subscribe to it over the socket.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The shared-memory state of hapticd (docs/protocol.md, section 6): one struct written once per tick by
 // the loop under a seqlock, read by any process without a system call. Layout version 2; the offsets are
 // part of the protocol and checked by static_asserts below.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Per-point cost of C_E2 (d = 1, gamma = 0.001, delta = 0.02) in one run, four ways:
 
   1. the C++ Google Benchmark (hapticopt_benchmarks: BM_EnergyCostSingleIndex/1/2, plant precomputed,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt._core: the pybind11 extension over the header library include/hapticopt/ (one
 // implementation, two languages). It takes and returns plain numbers, tuples, dicts and numpy
 // arrays; the Python package (python/src/hapticopt/) wraps them in dataclasses and documents the

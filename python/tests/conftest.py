@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Shared fixtures of the hapticopt Python tests: repository paths, the C++ CLI, the Agg backend."""
 from __future__ import annotations
 

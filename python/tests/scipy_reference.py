@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """An independent reference of the loop's costs, written from the model notes with scipy only.
 
 Model (normalised, m = T = 1; /work/shared/notes/model.md): x'' + delta x' + gamma x = F - f_w;

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The Python API: version from the one source, conversions, dataclasses, optima, passivity."""
 from __future__ import annotations
 

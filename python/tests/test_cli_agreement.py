@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Python against the C++ CLI's JSON/CSV (apps/hapticopt): the same library behind both.
 
 Agreement: the extension is compiled by pip (-O3) and the CLI by CMake (-O2), so the compiler may

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Bad input raises ValueError (InvalidParameterError) naming the parameter and the accepted range."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """hapticd_client (the dependency-free Python client) against a real ``hapticd --serve``.
 
 The daemon runs in lockstep on the simulated device (1 axis, 0.3 kg, T = 1 ms, no delay) with one soft

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """All 64 rows of Tables III and IV (tests/data/paper_tables.csv, as printed) through Python.
 
 Tolerances are the C++ test's (tests/core/paper_tables_test.cpp), from the model notes:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The figures render with Agg and their artists carry the computed data."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The library's closed-form costs against the independent scipy reference (scipy_reference.py).
 
 Agreement, stated per point: |library - reference| / reference <= 1e-10 + 1e-12 + 100 eps kappa, where

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The vectorised costs: equal to the point-wise calls, broadcasting, NaN cells, the GIL released."""
 from __future__ import annotations
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Client side of protocol version 1 (docs/protocol.md): SOCK_SEQPACKET, one JSON object per message.
 #include "hapticd/client.hpp"
 

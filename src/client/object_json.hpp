@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scene-object descriptions of include/hapticd/client.hpp to and from the protocol's JSON
 // (docs/protocol.md, section 4). Shared by the client library and the server's decoder: the decoder checks
 // structure and types (every field named in the error with its accepted form); the server checks the

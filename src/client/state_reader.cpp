@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reader side of the state seqlock (docs/protocol.md, section 6).
 #include <fcntl.h>
 #include <sys/mman.h>

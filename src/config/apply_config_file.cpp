@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "config/apply_config_file.hpp"
 
 #include <CLI/CLI.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Applies a hapticd TOML file (read by config/config_file.hpp) to the CLI11 options that define its
 // keys: the options are the single list of keys (a key is a long option name without "--"), so an option
 // added to the command line is a key of the file with the same type. Per key: unknown keys, wrong types

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reads hapticd's TOML files (the config file and the device profiles) with toml++ (Debian's
 // libtomlplusplus-dev, TOML v1.0.0: multi-line arrays, 1_000.0, triple-quoted strings, hex integers...).
 // hapticd's files are flat: every key at the top level, each value a string, an integer, a float, a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where the keys of a config or profile file were written, so that a value's range error can say
 // "config file 'F', line 3, column 1: rate = -5 is invalid; accepted range: ...".
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "config/options.hpp"
 
 #include <charconv>
@@ -9,10 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include "config/apply_config_file.hpp"
-
-#ifndef HAPTICD_CONFIG_DIR
-#error "HAPTICD_CONFIG_DIR must be defined (the repository's config/ directory)"
-#endif
+#include "config/config_locations.hpp"
 
 namespace hapticd {
 
@@ -152,7 +150,12 @@ void check_range(const KeyLocations& where, const std::string& name, double v, d
 
 }  // namespace
 
-std::string default_config_dir() { return HAPTICD_CONFIG_DIR; }
+std::vector<std::string> device_profile_dirs(const Options& o) {
+    std::vector<std::string> dirs;
+    if (!o.config_path.empty()) dirs.push_back((fs::path(o.config_path).parent_path() / "devices").string());
+    for (const auto& dir : config_search_dirs()) dirs.push_back((fs::path(dir) / "devices").string());
+    return dirs;
+}
 
 Options parse_options(int argc, const char* const* argv) {
     // Pass 1: the command line alone (usage errors, --help, where the config file is).
@@ -164,11 +167,10 @@ Options parse_options(int argc, const char* const* argv) {
         CLI::App app{"hapticd: a virtual wall at a fixed rate, with K and B tuned optimally for the device's mass, "
                      "period and delay (Hulin et al., IROS 2011)",
                      "hapticd"};
-        app.footer(std::string("Config: ") + default_config_dir() + "/hapticd.toml unless --config FILE; keys are "
-                   "the long option names.\n" + kExitCodeHelp);
+        app.footer(config_search_help() + " Keys are the long option names.\n" + kExitCodeHelp);
         app.set_version_flag("--version", kVersion);
         define_common(app, scratch, h);
-        auto* cfg = app.add_option("--config", config_arg, "Config file (TOML; default <config dir>/hapticd.toml)");
+        auto* cfg = app.add_option("--config", config_arg, "Config file (TOML; default: the search below)");
         app.add_flag("--dry-run", scratch.dry_run, "Tune, print and exit without running the loop");
         app.add_flag("--list-devices", scratch.list_devices, "List the USB/HID devices hapticd can drive and exit");
         try {
@@ -191,12 +193,13 @@ Options parse_options(int argc, const char* const* argv) {
     Options o;
     Given from_file;
     Given from_cli;
-    std::string config_path = config_given ? config_arg : default_config_dir() + "/hapticd.toml";
-    if (config_given && config_path.empty()) {
-        // --config "" : no config file at all, built-in defaults only.
-    } else if (config_given || fs::exists(config_path)) {
+    bool from_environment = false;
+    const std::string config_path = config_given ? config_arg : default_config_file(from_environment);
+    if (!config_path.empty()) {  // "": --config "" or nothing found, built-in defaults only
         if (!fs::is_regular_file(config_path)) {
-            throw StartupError(kExitBadConfig, "config file '" + config_path + "' does not exist or is not a file");
+            throw StartupError(kExitBadConfig, "config file '" + config_path + "'" +
+                                                   (from_environment ? " (from $HAPTICD_CONFIG)" : "") +
+                                                   " does not exist or is not a file");
         }
         from_file = load_config_file(config_path, o);
         o.config_path = config_path;
@@ -305,12 +308,14 @@ std::string resolve_device_profile_path(const Options& o) {
         throw StartupError(kExitUsage, "device = '" + d +
                                            "' is invalid; accepted: a profile name ([A-Za-z0-9_-]+) or a path to a .toml file");
     }
-    // Profiles next to the config file in use, else in the built-in config dir.
-    if (!o.config_path.empty()) {
-        const fs::path candidate = fs::path(o.config_path).parent_path() / "devices" / (d + ".toml");
-        if (fs::exists(candidate)) return candidate.string();
+    // The first devices/<name>.toml of device_profile_dirs(); the last candidate (for the error) when none exists.
+    const std::vector<std::string> dirs = device_profile_dirs(o);
+    for (const auto& dir : dirs) {
+        const fs::path candidate = fs::path(dir) / (d + ".toml");
+        std::error_code ec;
+        if (fs::exists(candidate, ec)) return candidate.string();
     }
-    return default_config_dir() + "/devices/" + d + ".toml";
+    return (fs::path(dirs.back()) / (d + ".toml")).string();
 }
 
 DeviceProfile load_device_profile(const Options& o) {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd's options: command line (CLI11) over the config file (TOML read with toml++, applied to the same
 // CLI11 options: config/apply_config_file.hpp) over built-in defaults; and the device profile (a TOML file
 // of its own).
@@ -126,7 +127,9 @@ DeviceProfile load_device_profile(const Options& options);
 // Range checks of the options (code 4, message naming parameter, value and accepted range).
 void validate_options(const Options& options);
 
-[[nodiscard]] std::string default_config_dir();
+// Where a device profile given by name is looked for, first match wins: devices/ next to the config file in use,
+// then devices/ in each of config_search_dirs() (config/config_locations.hpp).
+[[nodiscard]] std::vector<std::string> device_profile_dirs(const Options& options);
 [[nodiscard]] std::string resolve_device_profile_path(const Options& options);
 
 }  // namespace hapticd

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One run of the wall: per tick read the device position, compute the scene's force, delay it by the
 // delay buffer, write it to the device, trace. Every path out of the loop ends with a tick that writes
 // zero force: the last tick of --duration, the tick after SIGINT/SIGTERM, and the tick of a fault

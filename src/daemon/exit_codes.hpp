@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Process exit codes of hapticd (documented in docs/hapticd.md and in the --help footer).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The whole hapticd program (apps/hapticd/main.cpp only calls this; tests call it in-process too).
 #pragma once
 

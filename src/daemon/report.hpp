@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What hapticd prints and writes at the end: the tuning lines, the loop statistics and the summary JSON.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd under systemd's Type=notify (sd_notify(3), systemd.service(5) "WatchdogSec="):
 //   * READY=1 (with a STATUS= line) once the tuning is done and the device is open and homed, sent by
 //     hapticd_main just before the loop starts;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `hapticd check-device`: pushes the device gently along each axis and reports the measured force sign,
 // i.e. whether a positive force command moves the handle towards positive positions. A wall rendered
 // with the wrong sign pushes the hand INTO the wall and is unstable, so this is checked before the first

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Device interface of hapticd: what the real-time loop needs from a haptic device.
 //
 // Conventions

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Builds the device named by a profile: driver "sim" -> SimDevice, "falcon" -> FalconDevice (libusb),
 // "hid" -> HidFfbDevice (hidapi); with --simulate every profile runs on the simulated device. Drivers
 // without an implementation ("lwr") are refused (kExitDeviceError) unless simulated. Real devices get

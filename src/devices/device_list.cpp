@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "devices/device_list.hpp"
 
 #include <hidapi.h>
@@ -111,9 +112,7 @@ void list_hid(const std::vector<DeviceProfile>& profiles, std::vector<ListedDevi
 }  // namespace
 
 std::vector<DeviceProfile> discover_hid_profiles(const Options& o, std::vector<std::string>& warnings) {
-    std::vector<fs::path> dirs;
-    if (!o.config_path.empty()) dirs.push_back(fs::path(o.config_path).parent_path() / "devices");
-    dirs.push_back(fs::path(default_config_dir()) / "devices");
+    const std::vector<std::string> dirs = device_profile_dirs(o);
     std::vector<DeviceProfile> found;
     std::set<std::string> names;
     for (const auto& dir : dirs) {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `hapticd --list-devices`: the USB (libusb) and HID (hidapi) devices hapticd can drive.
 #pragma once
 

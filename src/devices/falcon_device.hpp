@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Novint Falcon as a hapticd Device: firmware upload and homing at start, then per tick one status
 // packet in (encoders -> motor angles -> forward kinematics) and one command packet out (Cartesian
 // force -> Jacobian-transpose torques -> clamped protocol values). The transport is injected, so the

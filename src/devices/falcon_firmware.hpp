@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Firmware upload to the Novint Falcon (pure logic over an FtdiTransport; no libusb here).
 //
 // The Falcon boots into a loader and needs its firmware on every power-up. Sequence (source: libnifalcon

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Falcon's homing gate (pure state machine): no force until the firmware reports every axis homed.
 //
 // Homing procedure (source: libnifalcon include/falcon/core/FalconFirmware.h, "Homing Mode" section):

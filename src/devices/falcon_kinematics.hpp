@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Delta kinematics of the Novint Falcon: encoder counts -> motor (upper-arm) angles -> Cartesian
 // position, and Cartesian force -> motor torques by the Jacobian transpose.
 //

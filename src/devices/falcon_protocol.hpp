@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Novint Falcon's framed 16-byte packet protocol (Novint SDK firmware), both directions.
 //
 // Format (source: libnifalcon include/falcon/firmware/FalconFirmwareNovintSDK.h, "Input Layout" and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // First-run safety for real devices: until `hapticd check-device` has measured that the device's force
 // acts along its position axes (sign +1 on every axis, after the profile's `force_sign`), hapticd caps
 // the force at kFirstRunMaxForce. The confirmation is a small file per profile in hapticd's state

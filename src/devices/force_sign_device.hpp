@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A Device whose force commands are multiplied by a sign per axis before they reach the wrapped device:
 // the fix for a device whose force acts against its position axis (measured by `hapticd check-device`,
 // set with the profile key `force_sign`). Everything else is passed through. No allocation, noexcept on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FTDI FT232R "SIO" vendor requests used to drive the Novint Falcon (all bmRequestType 0x40, no data).
 // Facts from: Linux drivers/usb/serial/ftdi_sio.h (request numbers, modem-control and purge values),
 // FTDI application note AN232B-05 (baud divisor encoding), libnifalcon src/comm/FalconCommLibUSB.cpp

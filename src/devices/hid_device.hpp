@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A USB HID force-feedback device (HID PID, e.g. OpenFFBoard) as a hapticd Device, over hidapi (hidraw):
 // position from the X axis of an input report, force through one constant-force effect whose magnitude
 // is updated every tick. One axis (axis 0). Report ids, offsets and ranges come from the device's

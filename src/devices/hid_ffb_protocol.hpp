@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // USB HID force-feedback (HID PID) reports used by hapticd, laid out from the device's own report
 // descriptor (hid_report_descriptor.hpp): report ids, lengths, bit offsets and logical ranges are those
 // the device declares, so that firmware versions with different layouts (OpenFFBoard's 32- or 64-bit

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "devices/hid_report_descriptor.hpp"
 
 #include <array>

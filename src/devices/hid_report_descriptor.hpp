@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // USB HID report descriptor parser: where each field of each report is, so that hapticd reads the
 // position and writes the force-feedback (PID) reports at the offsets, lengths and logical ranges the
 // device itself declares, instead of offsets fixed for one firmware version.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Device-profile keys registered with the profile reader in options.cpp, documented in docs/devices.md:
 // the real-device drivers' keys (Falcon, HID), and the plant's mass keys (one mass, a mass per axis or a
 // full mass matrix) with the stiffness limit.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The simulated device: the continuous plant of eq. 1,  M x'' + b x' + k x = F_ext + u,  advanced exactly
 // (zero-order hold) by one period per tick. M is one mass for every axis, a mass per axis (a diagonal M:
 // each axis its own exact ZOH of m_a x'' + b x' + k x = F), or a full symmetric positive-definite matrix

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Byte transport to an FTDI-based device (the Novint Falcon's FT232R), separated from the protocol so
 // that the protocol, firmware upload and homing logic can run against a scripted in-memory transport
 // in tests and against libusb on hardware (transport_libusb.hpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FtdiTransport over libusb-1.0 for the Novint Falcon's FT232R: synchronous transfers for the set-up
 // (firmware upload, homing) and, once streaming, asynchronous ones for the 1 kHz loop.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An in-memory FtdiTransport for tests: records every control request and write, and serves reads from
 // a byte queue that a reply generator (on_write) fills in response to what the host wrote.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "devices/zoh_plant.hpp"
 
 #include <Eigen/Core>

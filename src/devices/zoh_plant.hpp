@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact zero-order-hold discretisation of the mass-damper-spring plant  m x'' + b x' + k x = u.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `hapticd experiment boundary|optimal ...`: the paper's Sect. V experiments (docs/experiments.md).
 #pragma once
 

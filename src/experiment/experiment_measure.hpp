@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The step-response criteria (Hulin et al., IROS 2011, eqs. 4-9) measured from a recorded trial.
 //
 // Between two samples the motion is reconstructed from the samples themselves and the force known to act

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Outputs of the experiments: CSV files (values with 17 significant digits, units in the header, "nan"
 // where a value does not exist) and an SVG figure like the paper's Fig. 8 (measured points beside the
 // theoretical stability boundary and optimal curves, K [N/m] across, B [N s/m] up).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two experiments of Sect. V (Hulin et al., IROS 2011) on the current device.
 //
 // Boundary: for each B of the set, K is raised from k_min in steps of k_step until a trial counts as

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Progress of the long experiment runs on stderr: one line rewritten in place ('\r') when stderr is a
 // terminal, otherwise a plain line at most every `plain_interval` seconds (and at the end); nothing when
 // quiet. Called between trials, never from the real-time loop.

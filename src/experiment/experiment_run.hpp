@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The experiment command after parsing: validation of every parameter (exit 4 naming it and its accepted
 // range), the device, the analysis, the run, the files and the summary.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The analysis side of the experiments (hapticopt): the stability boundary and the optimal curves for the
 // profile's plant, in physical units (K = alpha m / T^2, B = beta m / T; eq. 3). One Eigen-heavy TU.
 #pragma once

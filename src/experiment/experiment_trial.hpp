@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One trial of the Sect. V experiments (Hulin et al., IROS 2011): the bilateral wall
 //     f_j = K x_j + B (x_j - x_{j-1}) / T          (x: penetration, along the wall's axis)
 // behind the delay buffer, plus the paper's step input F (the external force of Fig. 2) applied through

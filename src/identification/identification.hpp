@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Identification of the device's plant from a recorded excitation (pure estimation, no device).
 //
 // Model (eq. 1 of the paper, per axis):  m x'' + b x' + k x = u(t - tau) + F0,  tau = d T = (n + f) T,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Identification on a device at start-up (before rendering): the excitation, the tuning from the
 // estimates with propagated uncertainty, and the identification file (save, reuse, compare).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The periodic loop, with a typed callback:
 //     RealtimeLoop loop(config);
 //     loop.run([&](const TickInput& in) -> TickOutput { ...; return {.stop = false}; });

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Process set-up for real-time operation: SCHED_FIFO, mlockall and optional CPU pinning, each tried
 // when requested; what did not take effect is reported (one warning line, by the caller).
 #pragma once

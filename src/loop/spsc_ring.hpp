@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Bounded lock-free single-producer single-consumer ring (capacity rounded up to a power of two),
 // preallocated at construction. try_push() is called by one producer; try_pop(), or front() and pop(), by
 // one consumer.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Timing statistics of the loop (wake latency, compute time) in preallocated storage: min, mean and max
 // exactly, percentiles from a log-linear histogram (32 sub-buckets per power of two: values below 32 ns
 // exact, above within 1/32 = 3 %; a percentile is reported as the upper edge of its bucket, capped by

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Per-tick trace: the loop pushes records into a preallocated lock-free SPSC ring; a writer thread
 // drains it into a CSV file. In real-time mode a full ring drops the record (counted and reported);
 // in blocking mode (used with --lockstep, where nothing is real-time) the producer waits instead, so the

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Prints the run-time-against-error tables (docs/accuracy.md) from hapticopt_accuracy_benchmarks and,
 with --svg, draws them as a log-log figure (time per evaluation against error).
 

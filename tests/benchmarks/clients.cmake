@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Client-interface benchmarks (docs/clients.md), included by tests/benchmarks/CMakeLists.txt with the daemon:
 #   <build>/tests/benchmarks/hapticd_client_benchmarks --benchmark_counters_tabular=true
 if(TARGET hapticd_core AND TARGET hapticd_client)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Benchmarks of the client interface (docs/clients.md, "Measured"), each beside its baseline in the same run:
 //  * BM_CommandToForceLatency: a real `hapticd --serve` at 1 kHz (SCHED_FIFO when permitted) and a client
 //    that moves a plane it presses on (modify of the offset only) and then spins on the shared-memory state

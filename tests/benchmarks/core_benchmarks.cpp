@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Speed of the closed forms and the optimisers (issues 2 and 3). Run:
 //   build/release/tests/benchmarks/hapticopt_benchmarks --benchmark_min_time=0.2
 // Figures go in the README with the machine they were measured on.

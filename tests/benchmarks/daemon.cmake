@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # hapticd benchmarks; included by tests/benchmarks/CMakeLists.txt when the daemon is built:
 #   include("${CMAKE_CURRENT_LIST_DIR}/daemon.cmake")
 # Target: hapticd_benchmarks (Google Benchmark). Run it with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd benchmarks.
 //  * BM_TickCompute: one tick of the real-time path without sleeping: simulated plant (exact ZOH step),
 //    one bilateral wall, a delay buffer of 4 samples, saturation/finiteness checks, force write.

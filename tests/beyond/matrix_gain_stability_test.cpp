@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // matrix_gain_stability (several objects in contact along different directions) checked two ways:
 //  * against the scalar verdict where the matrices commute (one oblique plane, parallel planes);
 //  * against an independent construction: the loop's full state-transition matrix for three axes, built

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs a program as a child process (posix_spawn) with stdout/stderr captured to files, and a hapticd
 // --serve daemon in lockstep for the client tests (stopped with SIGTERM).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The two examples of docs/clients.md run for a bounded time against a real hapticd --serve (lockstep,
 // simulated device; the simulated hand starts 1 cm before x = 0 and pushes towards +x with 2 N).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticctl against a real hapticd --serve (lockstep, simulated device): every subcommand, the exit code of
 // each kind of failure, and that an object lives exactly as long as the session that added it.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // C_E0..2 in closed form, checked against (1) values from the model notes, (2) the independent
 // time-stepping method converging as its step shrinks, (3) the same algorithm in long double
 // (rounding error), and for continuity in a fractional delay.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Optimal curves and points beyond the tables: global optimality against a dense grid, curve
 // accuracy against dC/dbeta in long double, eq. 3 scaling, fractional delays.
 #include <gtest/gtest.h>

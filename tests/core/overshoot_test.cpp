@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // C_OV from the exact continuous maximum, against sample-based maxima of the independent
 // time-stepping method, and the meaning of the tolerance; plus the step response.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Every row of Tables III and IV (tests/data/paper_tables.csv, transcribed as printed).
 //
 // Tolerances, from ../shared/notes/model.md (the facts verified against the tables):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The slower, independent method used to check the closed forms: time-stepping of the loop of
 // Fig. 2 with the exact zero-order-hold map of each sub-step (Eigen's unsupported matrix
 // exponential, not the library's Taylor code), the wall force from the samples, and composite

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stability: the Schur-Cohn verdict against the exact d = 0 boundary, the alpha_max rows of the
 // tables, the loop matrix's eigenvalues, and the exact region's polygon.
 #include <gtest/gtest.h>

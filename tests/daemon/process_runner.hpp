@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs hapticd (or another program) as a child process (posix_spawn), with stdout/stderr captured to files.
 #pragma once
 

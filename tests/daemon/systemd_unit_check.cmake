@@ -1,7 +1,9 @@
-# ctest script: config/hapticd.service is a valid unit (`systemd-analyze verify`, with ExecStart pointing at
-# the built hapticd so that the executable check applies) and stays sandboxed (`systemd-analyze security
-# --offline=yes`: overall exposure at most 2.0 on systemd's 0-10 scale; the shipped unit measures 1.4).
-# Usage: cmake -DUNIT=<config/hapticd.service> -DHAPTICD=<binary> -DOUT_DIR=<dir> -P systemd_unit_check.cmake
+# SPDX-License-Identifier: Apache-2.0
+# ctest script: the unit configured from config/hapticd.service.in is a valid unit (`systemd-analyze verify`,
+# with ExecStart pointing at the built hapticd in place of the installed one, so that the executable check
+# applies) and stays sandboxed (`systemd-analyze security --offline=yes`: overall exposure at most 2.0 on systemd's 0-10 scale; the shipped unit measures 1.4).
+# Usage: cmake -DUNIT=<build>/config/hapticd.service -DHAPTICD=<binary> -DINSTALLED_HAPTICD=<bindir>/hapticd
+#        -DOUT_DIR=<dir> -P systemd_unit_check.cmake
 # Prints "SKIPPED" (the test's SKIP_REGULAR_EXPRESSION) when systemd-analyze is not installed.
 find_program(SYSTEMD_ANALYZE systemd-analyze)
 if(NOT SYSTEMD_ANALYZE)
@@ -9,10 +11,10 @@ if(NOT SYSTEMD_ANALYZE)
   return()
 endif()
 file(READ "${UNIT}" unit)
-string(REPLACE "/usr/local/bin/hapticd" "${HAPTICD}" unit "${unit}")
-if(NOT unit MATCHES "ExecStart=${HAPTICD} ")
-  message(FATAL_ERROR "systemd_unit_check: ExecStart of ${UNIT} does not start /usr/local/bin/hapticd")
+if(NOT unit MATCHES "\nExecStart=${INSTALLED_HAPTICD} ")
+  message(FATAL_ERROR "systemd_unit_check: ExecStart of ${UNIT} does not start ${INSTALLED_HAPTICD}")
 endif()
+string(REPLACE "ExecStart=${INSTALLED_HAPTICD} " "ExecStart=${HAPTICD} " unit "${unit}")
 file(MAKE_DIRECTORY "${OUT_DIR}")
 set(copy "${OUT_DIR}/hapticd.service")
 file(WRITE "${copy}" "${unit}")

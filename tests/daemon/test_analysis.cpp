@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The daemon against the analysis: hapticd in lockstep on the simulated device, step scenario,
 // bilateral wall, must reproduce hapticopt's step response and energy costs.
 #include <gtest/gtest.h>

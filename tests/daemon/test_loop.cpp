@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The loop and the daemon's tick logic (lockstep or scripted devices: no timing assertions).
 #include <gtest/gtest.h>
 

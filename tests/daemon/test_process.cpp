@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd as a process: SIGTERM, bad configuration, bad parameters, exit codes.
 #include <fcntl.h>
 

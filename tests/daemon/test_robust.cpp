@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd --robust as a process: the gains it renders are the library's robust optimum for the profile's
 // box, stable over the whole box, and their worst case is no worse than the nominal optimum's.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The simulated device against closed-form solutions of the continuous plant.
 #include <gtest/gtest.h>
 

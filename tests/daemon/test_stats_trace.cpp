@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Loop statistics, the SPSC ring and the trace writer.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd under systemd's notify protocol, for real: the test owns the datagram socket that NOTIFY_SOCKET
 // names (as systemd's manager does), sets WATCHDOG_USEC, runs the hapticd binary and reads what it sends.
 //  * READY=1 comes once, after the tuning (its line is already on stdout) and only when the device opened

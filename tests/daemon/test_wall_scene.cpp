@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The wall law, the delay ring and the scene (saturation, finiteness, fault latch).
 #include <gtest/gtest.h>
 

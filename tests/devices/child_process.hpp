@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs a program (hapticd) as a child process of a test, with its stdout and stderr captured, a hard time
 // limit (the child is killed with SIGKILL when it runs out, so a hanging child fails the test instead of
 // hanging it), and optionally with the privileges of an unprivileged user: the child drops to that uid/gid

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A Novint Falcon emulated under umockdev for the REAL libusb-1.0 (usbfs backend): the sysfs entry of an
 // FT232R with the Falcon's VID:PID 0403:cb48 (device and configuration descriptors, bus 001 device 002)
 // and an ioctl handler on /dev/bus/usb/001/002 that answers usbfs URBs the way the FTDI chip does

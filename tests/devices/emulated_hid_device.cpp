@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "emulated_hid_device.hpp"
 
 #include <linux/hidraw.h>

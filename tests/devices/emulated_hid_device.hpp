@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An OpenFFBoard-like USB HID PID device emulated under umockdev (Debian's umockdev 0.17): sysfs entries
 // (usb device, interface, hid device with its report descriptor and uevent, hidraw node) in a
 // UMockdevTestbed, and an ioctl handler attached to /dev/hidraw0 that answers what the REAL hidapi

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A scripted Novint Falcon for tests, behind ScriptedTransport: the loader (handshake, echo at the
 // bootloader baud rate) and, after a complete firmware upload and the switch to normal mode, the
 // firmware answering every 16-byte command with a status packet. Behaviour from libnifalcon

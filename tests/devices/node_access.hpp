@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Sets who may open an emulated device node (in a umockdev testbed), so that the REAL open() in a child
 // process fails with EACCES as on a machine without hapticd's udev rule, or succeeds as with it.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A HID PID report descriptor laid out like OpenFFBoard's default 2-axis one (Firmware/FFBoard/Inc/
 // ffb_defs.h report ids: Set Effect 0x01, Set Constant Force 0x05, Effect Operation 0x0A, Block Free
 // 0x0B, Device Control 0x0C, Device Gain 0x0D, Create New Effect 0x11, Block Load 0x12; input report 1

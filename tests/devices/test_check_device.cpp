@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `hapticd check-device` (measure_force_sign) on the simulated device, on a simulated device whose force
 // acts against its position axis (a miswired device, ForceSignDevice with -1), and the first-run limit.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd's command line for real devices: --list-devices, a missing device, profile keys.
 #include <gtest/gtest.h>
 

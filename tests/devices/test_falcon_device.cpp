@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FalconDevice against the scripted Falcon: firmware detection/upload, the homing gate, positions,
 // torques and their clamping, malformed packets, disconnects.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Firmware-upload state machine against the scripted Falcon loader (fake_falcon.hpp).
 #include <gtest/gtest.h>
 

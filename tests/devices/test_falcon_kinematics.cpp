@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Falcon delta kinematics (geometry: libnifalcon FalconGeometry.h; model: Stamper, as in
 // falcon_kinematics.hpp).
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Falcon packet codec: byte vectors worked out by hand from the format in libnifalcon
 // include/falcon/firmware/FalconFirmwareNovintSDK.h ("Input Layout", "Output Layout", "Motor Value
 // Extraction Example") and src/firmware/FalconFirmwareNovintSDK.cpp (nibble order, byte 13 bits).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // FTDI helpers. Baud values: FTDI AN232B-05 (divisor of 3 MHz, eighths in bits 14..15);
 // libnifalcon FalconCommLibUSB.cpp: "Baud for 9600 is 0x4138".
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hardware test: runs only when a supported device is plugged in and accessible; otherwise it is
 // reported as SKIPPED with the reason (never as passed). Zero force only: safe without a human.
 // A Falcon whose firmware is not running needs HAPTICD_FALCON_FIRMWARE=/path/to/firmware.bin.

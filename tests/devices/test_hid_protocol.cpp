@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // HID PID reports laid out from the report descriptor (hid_report_descriptor.hpp, hid_ffb_protocol.hpp)
 // against an OpenFFBoard-like descriptor (pid_descriptor.hpp). Expected bytes are worked out by hand from
 // the descriptor's items (field order, sizes, logical ranges); the parser is the second way to the same

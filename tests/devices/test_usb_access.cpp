@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Without hapticd's udev rule the device node refuses the user: `hapticd --list-devices` still lists the
 // device and says how to fix it (the udev rule, the plugdev group), exit code 0 (docs/devices.md), and
 // `hapticd --device ...` fails to open it with the same hint and exit code 6. Tested through the REAL

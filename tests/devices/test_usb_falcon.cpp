@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Falcon driver through the REAL libusb-1.0 on a Falcon emulated under umockdev (emulated_falcon.hpp):
 // enumeration by VID:PID, the FTDI control requests, homing (the firmware upload through bulk transfers
 // with status-only packets is test_usb_falcon_loader.cpp), then the asynchronous streaming of the 1 kHz loop, which must not block;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Falcon's firmware loader through the REAL libusb-1.0 on the emulated FT232R (emulated_falcon.hpp),
 // with a loader that takes its time: while it wakes up and while it burns each chunk, every bulk IN
 // comes back with the 2 FTDI status bytes alone, one per 16 ms latency period, which the driver's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The HID driver through the REAL hidapi (hidraw backend) on an emulated OpenFFBoard-like device under
 // umockdev (emulated_hid_device.hpp): enumeration, the report descriptor ioctls, the start-up and effect
 // reports as the firmware receives them, input reports only on change or every ~100 ms, the magnitude

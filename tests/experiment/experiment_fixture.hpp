@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared pieces of the experiment tests: simulated devices for a plant, a device wrapper that remembers the
 // last force command, and the standard setup of the experiments.
 #pragma once

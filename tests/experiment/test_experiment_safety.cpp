@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Abort paths of the experiments (limits, device fault) and the command end to end (exit codes, files).
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Sect. V experiments on the exact ZOH simulated device against the analysis (hapticopt), for the
 // default profile (0.3 kg, no delay) and a plant with physical damping, stiffness and delay (device 1
 // period + buffer 1).

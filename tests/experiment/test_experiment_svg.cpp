@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The experiment figures' content: the measured markers sit at the CSV values and the theory path lies on
 // the library's stability boundary. Plain string scanning (no std::regex).
 #include <gtest/gtest.h>

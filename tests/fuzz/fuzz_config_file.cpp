@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: hapticd's TOML reader (src/config/config_file.*, toml++ underneath), fed the input
 // as text in memory (the same path as read_config_file after reading the file). Invariants: no crash and
 // no exception (none is documented: any exception aborts); an issue has a message and a position inside

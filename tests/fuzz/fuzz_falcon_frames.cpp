@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the Novint Falcon's packet decoders (src/devices/falcon_protocol.*): the frame
 // parser fed the input in chunks whose sizes come from the input itself, and decode_status() on every
 // 16-byte window. Invariants: no crash; the parser's counters account for bytes (frames * 16 <= bytes

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: FTDI status-byte stripping (src/devices/ftdi_protocol.*). Invariants: no
 // out-of-bounds access (the output buffer is exactly as large as the input), the result equals a
 // naive reference (drop the first 2 bytes of every 64-byte chunk), and the in-place (aliased) call

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the HID report descriptor parser and the PID layout built from it
 // (src/devices/hid_report_descriptor.*, hid_ffb_protocol.*). The input is a 2-byte little-endian length,
 // that many bytes of report descriptor, then an input report. Invariants: no out-of-bounds read or

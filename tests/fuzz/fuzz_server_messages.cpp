@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the server's message decoder (src/server/message_decoder.*, nlohmann-json underneath)
 // on arbitrary bytes, both before the handshake (only hello accepted) and after it. Invariants: no crash
 // and no exception (decode_message is noexcept: anything escaping aborts); an error carries one of the

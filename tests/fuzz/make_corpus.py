@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes the small seed corpora of tests/fuzz/corpus/<target>/ (run from anywhere; deterministic).
 The config corpus also takes the repository's own config files. Re-run after changing a format."""
 import pathlib

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Corpus-replay driver for the fuzz targets when built without libFuzzer (GCC, the normal ctest run):
 // runs LLVMFuzzerTestOneInput once on every file of the directories or files named on the command
 // line. A target aborts on a violated invariant, so a failing input fails the test.

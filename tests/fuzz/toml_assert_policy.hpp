@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Force-included (clang -include) into the config_file target by scripts/fuzz.sh, before toml++. toml++ 3.3.0
 // (Debian 12's) has debug-only assertions that malformed input reaches: "[&" or "[\0" enters parse_key()
 // with a character that cannot start a key (upstream issue #294, fixed by pull request #301), a NUL inside

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Identification of the device at start-up: estimation (identification.hpp), excitation safety, tuning
 // from the estimates and the identification file (identification_run.hpp), and hapticd --identify.
 //

@@ -1,28 +1,29 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.client_install_consumer -- run with cmake -P.
 # Installs only the hapticd_client_dev component (include/hapticd, libhapticd_client.a, the hapticd CMake
 # package) of BINARY_DIR into a fresh PREFIX, checks the files, then configures, builds and runs
 # client_consumer/ against PREFIX (find_package(hapticd) -> hapticd::client, found inside PREFIX).
-# Inputs: BINARY_DIR PREFIX SOURCE_DIR CONSUMER_BINARY_DIR GENERATOR [MAKE_PROGRAM] [CXX_COMPILER] [CONFIG]
+# Without BINARY_DIR, PREFIX is an existing installation (the Debian package's /usr,
+# scripts/test-debian-packages.sh): nothing is installed or removed, the same checks and consumer run on it.
+# Inputs: [BINARY_DIR] PREFIX SOURCE_DIR CONSUMER_BINARY_DIR GENERATOR [MAKE_PROGRAM] [CXX_COMPILER] [CONFIG]
 cmake_minimum_required(VERSION 3.25)
-foreach(_var BINARY_DIR PREFIX SOURCE_DIR CONSUMER_BINARY_DIR GENERATOR)
+foreach(_var PREFIX SOURCE_DIR CONSUMER_BINARY_DIR GENERATOR)
   if(NOT DEFINED ${_var} OR "${${_var}}" STREQUAL "")
     message(FATAL_ERROR "client_package_check.cmake: -D${_var}=... is required")
   endif()
 endforeach()
-file(REMOVE_RECURSE "${PREFIX}" "${CONSUMER_BINARY_DIR}")
-set(_config_args "")
-if(CONFIG)
-  set(_config_args --config "${CONFIG}")
+file(REMOVE_RECURSE "${CONSUMER_BINARY_DIR}")
+if(BINARY_DIR)
+  include("${CMAKE_CURRENT_LIST_DIR}/install_component.cmake")
+  hapticopt_install_component("${BINARY_DIR}" "${PREFIX}" hapticd_client_dev "${CONFIG}")
 endif()
-execute_process(COMMAND "${CMAKE_COMMAND}" --install "${BINARY_DIR}" --prefix "${PREFIX}" --component hapticd_client_dev ${_config_args}
-                COMMAND_ERROR_IS_FATAL ANY)
 foreach(_f include/hapticd/client.hpp include/hapticd/state_layout.hpp share/cmake/hapticd/hapticdConfig.cmake
            share/cmake/hapticd/hapticdConfigVersion.cmake share/cmake/hapticd/hapticdTargets.cmake)
   if(NOT EXISTS "${PREFIX}/${_f}")
     message(FATAL_ERROR "missing from the install prefix: ${_f}")
   endif()
 endforeach()
-file(GLOB_RECURSE _libs "${PREFIX}/*/libhapticd_client.a")
+file(GLOB _libs "${PREFIX}/lib*/libhapticd_client.a" "${PREFIX}/lib*/*/libhapticd_client.a")  # lib, lib64 or a multiarch lib/<triplet>
 if(NOT _libs)
   message(FATAL_ERROR "libhapticd_client.a missing from the install prefix")
 endif()

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.consumer_configure_build_run -- run with cmake -P.
 # Configures the outside project SOURCE_DIR against the install PREFIX (fresh
 # build dir BINARY_DIR), builds it, runs it and checks that the package was

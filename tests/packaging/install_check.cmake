@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.install -- run with cmake -P.
 # Installs only the hapticopt_dev component (headers + CMake package) of the
 # build tree BINARY_DIR into a fresh PREFIX and checks the installed files.
@@ -10,17 +11,8 @@ foreach(_var BINARY_DIR PREFIX HEADER_SOURCE_DIR INCLUDEDIR CMAKEDIR)
   endif()
 endforeach()
 
-file(REMOVE_RECURSE "${PREFIX}")
-
-set(_config_args "")
-if(CONFIG)
-  set(_config_args --config "${CONFIG}")
-endif()
-execute_process(
-  COMMAND "${CMAKE_COMMAND}" --install "${BINARY_DIR}" --prefix "${PREFIX}"
-          --component hapticopt_dev ${_config_args}
-  COMMAND_ECHO STDOUT
-  COMMAND_ERROR_IS_FATAL ANY)
+include("${CMAKE_CURRENT_LIST_DIR}/install_component.cmake")
+hapticopt_install_component("${BINARY_DIR}" "${PREFIX}" hapticopt_dev "${CONFIG}")
 
 set(_missing "")
 foreach(_f hapticoptConfig.cmake hapticoptConfigVersion.cmake hapticoptTargets.cmake)

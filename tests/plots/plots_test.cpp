@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tests of `hapticopt plot`: each figure is written by the real CLI, parsed back (svg_reader.hpp), and
 // its content is checked against the library: boundary vertices on the exact boundary, markers at the
 // computed optima / overshoot maxima, contour vertices at their cost level, physical axis scaling.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A minimal reader for the SVG files written by `hapticopt plot` (see apps/hapticopt/svg_writer.hpp
 // for the conventions it relies on): well-formedness, elements with their attributes and text, panel
 // extraction, and the axis scales recovered from the tick marks and their labels. Plain scanning, no

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A real client process for the server tests, on the installed-style client library (hapticd::client).
 //   hapticd_test_client SOCKET commit '<ops JSON array>' [--lease S] [--then exit|hold|hold-silent|bye]
 //       commits one batch, prints one JSON line {"ok":..., "code":..., "object_ids":[...], "largest_stable_K":...},

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Real processes for the server tests: hapticd --serve on the 3-axis simulated device, and test clients
 // (hapticd_test_client, on the client library). Each test gets its own socket path and shared-memory name.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The loop's side of client objects (scene/scene_objects.hpp) and the server's gain checks
 // (tuning/object_checks.hpp), in process: force laws, ramps, moving proxies, the rate limit, whole-batch
 // application; the pair and summed-gain checks against hapticopt::is_stable directly; with an anisotropic

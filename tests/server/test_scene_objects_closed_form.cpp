@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The loop's evaluation of client objects (scene/scene_objects.hpp, "How a tick is computed") against an
 // independent, slower evaluation written here from the force laws of docs/protocol.md section 4: every
 // object one by one, every tick, no summed law, no safe radius. Random scenes of every kind of object, on

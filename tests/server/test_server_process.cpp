@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd --serve with real client processes: the analysed step response along an oblique plane, gains by
 // criterion, refusal of unstable gains, ramp-out after SIGKILL and after a lost lease, many clients.
 #include <algorithm>

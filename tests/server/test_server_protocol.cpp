@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The protocol's error paths against a running hapticd --serve (docs/protocol.md, section 8): wrong
 // version, malformed, truncated and oversized messages, ownership; the socket's mode and owner and a
 // second user's client; the loop undisturbed and nothing else lost.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Numerical stress tests of the analysis library's public API (issue 6, item 2): random and
 // adversarial parameter sets over (alpha, beta, gamma, delta, d), checked against an independent
 // long double model of the loop. See docs/stress-and-fuzz.md for what is asserted and why.

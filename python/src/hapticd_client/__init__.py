@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """hapticd_client: the dependency-free Python client of ``hapticd --serve`` (protocol version 1).
 
     from hapticd_client import Client, StateReader, plane

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A session with ``hapticd --serve`` (docs/protocol.md): a Unix-domain SOCK_SEQPACKET socket carrying one
 UTF-8 JSON object per message (at most 65536 bytes), the versioned ``hello``/``welcome`` handshake, requests
 with ids and their replies, batches, leases and subscriptions. Standard library only.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``DeviceInfo``: the welcome's ``device`` (docs/protocol.md, section 2), checked for form when it is read."""
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The error of every hapticd_client call: the protocol's error code (docs/protocol.md, section 8) or
 "transport" when the socket failed, and the server's message, which names the field and its accepted range."""
 

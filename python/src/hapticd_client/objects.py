@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Scene objects as the protocol's JSON (docs/protocol.md, section 4), SI units: m, N, N/m, N s/m.
 
 Gains are explicit (``K``, ``B``; checked by the daemon against the exact stability region) or by

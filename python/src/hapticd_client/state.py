@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The daemon's state stream read from POSIX shared memory without a system call per read
 (docs/protocol.md, section 6: layout version 2, 1152 bytes, a seqlock written once per tick by the loop).
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """hapticopt: exact stability region, energy costs and optimal gains of a sampled-data virtual wall
 (Hulin, Gonzalez Camarero, Albu-Schaeffer, "Optimal Control for Haptic Rendering", IROS 2011).
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Stability and the step/collision criteria at a point, and vectorised over numpy arrays.
 
 Model (normalised, m = T = 1; model notes and Hulin et al. 2011): plant x'' + delta x' + gamma x =

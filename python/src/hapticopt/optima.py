@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Optimal curves and optimal points of every criterion; robust and passive optima.
 
 Definitions (model notes; optimum.hpp, impulse_optimum.hpp): optimal curve of C: beta_opt(alpha) =

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Plant and gain parameters, physical and normalised (Hulin et al. 2011, Table I and eq. 3).
 
     alpha = K T^2/m,  beta = B T/m,  gamma = k T^2/m,  delta = b T/m,  d = t_d/T;

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The paper's figures on a matplotlib Axes (needs matplotlib: `pip install hapticopt[plot]`).
 
 Every function draws on `ax` (a new figure's Axes when None) and returns it, as a notebook user

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The exact stable region in the (alpha, beta) plane (stability_region.hpp).
 
 D-decomposition: on the boundary a characteristic root lies on the unit circle; for z = e^{i theta}

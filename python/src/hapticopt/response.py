@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The unit step response of the loop, exact at any time (step_response.hpp).
 
 Normalised units (m = T = 1, F = 1): physical x = x_n F T^2/m, x' = x'_n F T/m, E = E_n F^2 T^2/m,

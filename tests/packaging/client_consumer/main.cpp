@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Uses the installed client library without a daemon: builds a batch, and gets the documented typed
 // errors for a socket and a shared-memory state that do not exist.
 #include <cstdio>
