@@ -14,7 +14,8 @@
 #        scripts/measure-compile-time.sh --project-sample BASE_REVISION [BUILD_DIR]
 # compiles instead a fixed sample of the project's own translation units (the list below), each with its
 # command from BUILD_DIR/compile_commands.json, ccache disabled, once against include/ of BASE_REVISION
-# (git archive) and once against the working tree's include/, and prints CPU seconds of each.
+# (git archive), once against the working tree's include/ and once more with -DHAPTICOPT_COMPILED (compile
+# only: what a TU would cost if its target linked hapticopt::compiled), and prints CPU seconds of each.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 if [[ "${1:-}" == --project-sample ]]; then
@@ -23,7 +24,7 @@ if [[ "${1:-}" == --project-sample ]]; then
   old=$(mktemp -d)
   trap 'rm -rf "$old"' EXIT
   git archive "$base" include | tar -x -C "$old"
-  sample=(src/tuning/tuning.cpp src/tuning/object_checks.cpp apps/hapticopt/table_command.cpp
+  sample=(src/tuning/tuning.cpp apps/hapticopt/table_command.cpp
           tests/core/stability_test.cpp tests/core/paper_tables_test.cpp tests/server/test_scene_objects.cpp
           tests/daemon/test_robust.cpp)
   CCACHE_DISABLE=1 python3 - "$build_dir" "$PWD/include" "$old/include" "$base" "${sample[@]}" <<'PY'
@@ -35,9 +36,9 @@ def cpu(cmd, cwd):
     subprocess.run(cmd, cwd=cwd, check=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
-print(f"| translation unit | CPU s with include/ of {base} | CPU s now |")
-print("|---|---|---|")
-total = [0.0, 0.0]
+print(f"| translation unit | CPU s with include/ of {base} | CPU s now, header-only | CPU s now, -DHAPTICOPT_COMPILED |")
+print("|---|---|---|---|")
+total = [0.0, 0.0, 0.0]
 for f in files:
     c = commands[f]
     args = shlex.split(c["command"])
@@ -45,12 +46,12 @@ for f in files:
     out = ["-o", "/dev/null"]
     i = args.index("-o"); args[i:i + 2] = out
     row = []
-    for k, inc in enumerate((old_inc, new_inc)):
-        a = [("-I" + inc) if x in ("-I" + new_inc, "-I../../include") else x for x in args]
-        if "-I" + inc not in a: a = [a[0], "-I" + inc] + a[1:]
+    for k, (inc, extra) in enumerate(((old_inc, []), (new_inc, []), (new_inc, ["-DHAPTICOPT_COMPILED"]))):
+        a = [("-I" + inc) if x == "-I" + new_inc else x for x in args]
+        a = [a[0], "-I" + inc] + extra + a[1:]
         t = cpu(a, c["directory"]); total[k] += t; row.append(t)
-    print(f"| {f} | {row[0]:.1f} | {row[1]:.1f} |")
-print(f"| total of the sample | {total[0]:.1f} | {total[1]:.1f} |")
+    print(f"| {f} | {row[0]:.1f} | {row[1]:.1f} | {row[2]:.1f} |")
+print(f"| total of the sample | {total[0]:.1f} | {total[1]:.1f} | {total[2]:.1f} |")
 PY
   exit 0
 fi
