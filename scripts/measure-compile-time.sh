@@ -12,7 +12,7 @@
 # Usage: scripts/measure-compile-time.sh [BUILD_DIR]   (default build/release; CXX defaults to g++)
 #
 #        scripts/measure-compile-time.sh --project-sample BASE_REVISION [BUILD_DIR]
-# compiles instead a fixed sample of the project's own translation units (the list below), each with its
+# compiles instead a sample of the project's own translation units (the list below, or $SAMPLE), each with its
 # command from BUILD_DIR/compile_commands.json, ccache disabled, once against include/ of BASE_REVISION
 # (git archive), once against the working tree's include/ and once more with -DHAPTICOPT_COMPILED (compile
 # only: what a TU would cost if its target linked hapticopt::compiled), and prints CPU seconds of each.
@@ -24,9 +24,10 @@ if [[ "${1:-}" == --project-sample ]]; then
   old=$(mktemp -d)
   trap 'rm -rf "$old"' EXIT
   git archive "$base" include | tar -x -C "$old"
-  sample=(src/tuning/tuning.cpp apps/hapticopt/table_command.cpp
-          tests/core/stability_test.cpp tests/core/paper_tables_test.cpp tests/server/test_scene_objects.cpp
-          tests/daemon/test_robust.cpp)
+  sample=(src/tuning/tuning.cpp tests/core/stability_test.cpp tests/core/paper_tables_test.cpp
+          tests/daemon/test_robust.cpp "$build_dir/tests/packaging/generated/two_tu_a.cpp"
+          "$build_dir/tests/packaging/generated/selfcontained_hapticopt_robust_optimum_hpp.cpp")
+  if [[ -n "${SAMPLE:-}" ]]; then read -ra sample <<< "$SAMPLE"; fi  # another list, space-separated
   CCACHE_DISABLE=1 python3 - "$build_dir" "$PWD/include" "$old/include" "$base" "${sample[@]}" <<'PY'
 import json, os, resource, shlex, subprocess, sys
 build, new_inc, old_inc, base, files = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5:]
@@ -47,8 +48,9 @@ for f in files:
     i = args.index("-o"); args[i:i + 2] = out
     row = []
     for k, (inc, extra) in enumerate(((old_inc, []), (new_inc, []), (new_inc, ["-DHAPTICOPT_COMPILED"]))):
-        a = [("-I" + inc) if x == "-I" + new_inc else x for x in args]
-        a = [a[0], "-I" + inc] + extra + a[1:]
+        # The base revision's headers come first; the current include/ stays behind them, for the
+        # headers the base revision does not have (the generated TUs include every current header).
+        a = [args[0], "-I" + inc] + extra + args[1:]
         t = cpu(a, c["directory"]); total[k] += t; row.append(t)
     print(f"| {f} | {row[0]:.1f} | {row[1]:.1f} | {row[2]:.1f} |")
 print(f"| total of the sample | {total[0]:.1f} | {total[1]:.1f} | {total[2]:.1f} |")
