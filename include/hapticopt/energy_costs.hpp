@@ -30,6 +30,7 @@
 #include <cmath>
 #include <limits>
 
+#include "config.hpp"
 #include "loop_schur_form.hpp"
 
 namespace hapticopt {
@@ -189,9 +190,14 @@ EnergyCostsT<Scalar> energy_costs_complex_schur(const SampledPlant<Scalar>& plan
 
 /// Convenience: C_E0..2 at (gamma, delta, d) and (alpha, beta). Throws InvalidParameter for NaN or
 /// infinite gains and for invalid plant parameters.
-inline EnergyCosts energy_costs(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC EnergyCosts energy_costs(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::energy_costs");
   return energy_costs(SampledPlant<double>(plant), gains.alpha, gains.beta);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

@@ -36,6 +36,7 @@
 #include <cmath>
 #include <limits>
 
+#include "config.hpp"
 #include "criterion.hpp"
 #include "energy_costs.hpp"
 #include "overshoot.hpp"
@@ -116,10 +117,15 @@ ImpulseCostsT<Scalar> impulse_costs(const SampledPlant<Scalar>& plant, Scalar al
 
 /// Convenience: C_I0..2 at (gamma, delta, d) and (alpha, beta). Throws InvalidParameter for NaN or
 /// infinite gains and invalid plant parameters.
-inline ImpulseCosts impulse_costs(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC ImpulseCosts impulse_costs(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::impulse_costs");
   return impulse_costs(SampledPlant<double>(plant), gains.alpha, gains.beta);
 }
+#else
+;
+#endif
 
 template <typename Scalar>
 struct PenetrationResultT {
@@ -159,9 +165,14 @@ PenetrationResultT<Scalar> penetration(const SampledPlant<Scalar>& plant, Scalar
 }
 
 /// Convenience: penetration depth at (gamma, delta, d) and (alpha, beta).
-inline PenetrationResult penetration(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC PenetrationResult penetration(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::penetration");
   return penetration(SampledPlant<double>(plant), gains.alpha, gains.beta);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

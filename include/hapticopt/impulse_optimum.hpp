@@ -15,6 +15,7 @@
 // region is better). Also reports the penetration depth at the optimum.
 #pragma once
 
+#include "config.hpp"
 #include "impulse_costs.hpp"
 #include "region_minimum.hpp"
 #include "stability_region.hpp"
@@ -35,6 +36,7 @@ struct ImpulseOptimum {
 
 class ImpulseOptimizer {
  public:
+  HAPTICOPT_DEFERRED
   explicit ImpulseOptimizer(const NormalizedPlant& plant, const RegionSearchOptions& options = {})
       : region_(plant), sampled_(plant), options_(options) {}
 
@@ -42,17 +44,20 @@ class ImpulseOptimizer {
   const SampledPlant<double>& sampled_plant() const { return sampled_; }
 
   /// C_I<index>(alpha, beta), +inf when unstable.
+  HAPTICOPT_DEFERRED
   double cost(int index, double alpha, double beta) const {
     return impulse_costs(sampled_, alpha, beta)[index];
   }
 
   /// beta_opt(alpha) of C_I<index>; alpha in (-gamma, alpha_max].
+  HAPTICOPT_DEFERRED
   double optimal_beta(int index, double alpha) const {
     auto c = [&](double a, double b) { return cost(index, a, b); };
     auto interval = [&](double a) { return region_.beta_range(a); };
     return detail::minimize_over_beta(c, interval, alpha, options_.beta_grid).x;
   }
 
+  HAPTICOPT_DEFERRED
   ImpulseOptimum optimum(ImpulseCriterion criterion) const {
     const int index = energy_index(criterion);
     auto c = [&](double a, double b) { return cost(index, a, b); };
@@ -78,9 +83,14 @@ class ImpulseOptimizer {
 };
 
 /// The optimum of one collision criterion for a normalised plant.
-inline ImpulseOptimum optimal_point(ImpulseCriterion criterion, const NormalizedPlant& plant,
-                                    const RegionSearchOptions& options = {}) {
+HAPTICOPT_FUNC ImpulseOptimum optimal_point(ImpulseCriterion criterion, const NormalizedPlant& plant,
+                                            const RegionSearchOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   return ImpulseOptimizer(plant, options).optimum(criterion);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

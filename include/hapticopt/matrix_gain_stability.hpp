@@ -42,6 +42,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "config.hpp"
 #include "characteristic_polynomial.hpp"
 #include "stability.hpp"
 
@@ -60,8 +61,10 @@ struct MatrixGainStability {
 /// Stability of the loop with symmetric normalised gain matrices `A` (stiffness) and `B` (damping), same
 /// plant on every axis. Throws InvalidParameter for a non-square, non-symmetric (beyond 1e-9 relative) or
 /// non-finite matrix, matrices of different size, and the plant's own invalid parameters.
-inline MatrixGainStability matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
-                                                 const Eigen::MatrixXd& B) {
+HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
+                                                         const Eigen::MatrixXd& B)
+#if HAPTICOPT_DEFINITIONS
+{
   const char* fn = "hapticopt::matrix_gain_stability";
   validate(plant, fn);
   if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
@@ -134,5 +137,8 @@ inline MatrixGainStability matrix_gain_stability(const NormalizedPlant& plant, c
   result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
   return result;
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

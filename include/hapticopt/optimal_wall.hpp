@@ -2,6 +2,7 @@
 // optimal wall gains K and B of one criterion (eq. 3: K = alpha m / T^2, B = beta m / T).
 #pragma once
 
+#include "config.hpp"
 #include "optimum.hpp"
 
 namespace hapticopt {
@@ -22,8 +23,10 @@ struct WallTuning {
 
 /// Optimal (K, B) for `criterion`; only that criterion is computed. Throws InvalidParameter for
 /// invalid physical parameters (message names the parameter and the accepted range).
-inline WallTuning optimal_wall(Criterion criterion, const PhysicalPlant& plant,
-                               const OptimumOptions& options = {}) {
+HAPTICOPT_FUNC WallTuning optimal_wall(Criterion criterion, const PhysicalPlant& plant,
+                                       const OptimumOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   WallTuning t;
   t.criterion = criterion;
   t.plant = plant;
@@ -39,5 +42,8 @@ inline WallTuning optimal_wall(Criterion criterion, const PhysicalPlant& plant,
   t.K_max = o.alpha_max * plant.mass / (plant.period * plant.period);
   return t;
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

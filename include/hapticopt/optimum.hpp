@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <optional>
 
+#include "config.hpp"
 #include "criterion.hpp"
 #include "energy_costs.hpp"
 #include "overshoot.hpp"
@@ -51,6 +52,7 @@ struct Optimum {
 
 class WallOptimizer {
  public:
+  HAPTICOPT_DEFERRED
   explicit WallOptimizer(const NormalizedPlant& plant, const OptimumOptions& options = {})
       : region_(plant), sampled_(plant), options_(options) {
     const char* fn = "hapticopt::WallOptimizer";
@@ -66,11 +68,13 @@ class WallOptimizer {
   const SampledPlant<double>& sampled_plant() const { return sampled_; }
 
   /// C_E<index>(alpha, beta), +inf when unstable (solves only the index + 1 Stein equations needed).
+  HAPTICOPT_DEFERRED
   double energy_cost(int index, double alpha, double beta) const {
     return hapticopt::energy_cost(sampled_, alpha, beta, index);
   }
 
   /// C_OV(alpha, beta) with the configured tolerance, +inf when unstable.
+  HAPTICOPT_DEFERRED
   double overshoot_cost(double alpha, double beta) const {
     OvershootOptions o;
     o.tolerance = options_.overshoot_tolerance;
@@ -79,10 +83,12 @@ class WallOptimizer {
 
   /// beta_opt(alpha) of C_E<index> (0..2), or of C_OV for index 3 (where a whole beta interval has
   /// no overshoot the minimiser is not unique and one point of the interval is returned).
+  HAPTICOPT_DEFERRED
   double optimal_beta(int index, double alpha) const {
     return curve_point(index, alpha, /*polish=*/index < 3).x;
   }
 
+  HAPTICOPT_DEFERRED
   Optimum optimum(Criterion criterion) const {
     Optimum out;
     out.criterion = criterion;
@@ -123,12 +129,14 @@ class WallOptimizer {
   }
 
  private:
+  HAPTICOPT_DEFERRED
   double criterion_value(int index, double alpha, double beta) const {
     return index < 3 ? energy_cost(index, alpha, beta) : overshoot_cost(alpha, beta);
   }
 
   /// Coarse grid over the stable beta interval at alpha; Brent on the best point's neighbours;
   /// optional Newton polish. Returns (beta, value).
+  HAPTICOPT_DEFERRED
   detail::ScalarMinimum curve_point(int index, double alpha, bool polish) const {
     const auto [lo, hi] = region_.beta_range(alpha);
     const int n = options_.beta_grid;
@@ -171,6 +179,7 @@ class WallOptimizer {
   }
 
   /// (alpha, min over beta) of C_E<index> over the region: coarse grid, then Brent over alpha.
+  HAPTICOPT_DEFERRED
   std::pair<double, double> global_energy_minimum(int index) const {
     const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
     const int n = options_.alpha_grid;
@@ -214,9 +223,14 @@ class WallOptimizer {
 };
 
 /// The optimum of one criterion for a normalised plant (only that criterion is computed).
-inline Optimum optimal_point(Criterion criterion, const NormalizedPlant& plant,
-                             const OptimumOptions& options = {}) {
+HAPTICOPT_FUNC Optimum optimal_point(Criterion criterion, const NormalizedPlant& plant,
+                                     const OptimumOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   return WallOptimizer(plant, options).optimum(criterion);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

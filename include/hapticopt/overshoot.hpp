@@ -28,6 +28,7 @@
 #include <cmath>
 #include <limits>
 
+#include "config.hpp"
 #include "loop_schur_form.hpp"
 
 namespace hapticopt {
@@ -231,10 +232,15 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
 }
 
 /// Convenience: C_OV at (gamma, delta, d) and (alpha, beta).
-inline OvershootResult overshoot(const NormalizedPlant& plant, const NormalizedGains& gains,
-                                 const OvershootOptions& options = {}) {
+HAPTICOPT_FUNC OvershootResult overshoot(const NormalizedPlant& plant, const NormalizedGains& gains,
+                                         const OvershootOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::overshoot");
   return overshoot(SampledPlant<double>(plant), gains.alpha, gains.beta, options);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

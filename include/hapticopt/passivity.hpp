@@ -67,6 +67,7 @@
 #include <utility>
 #include <vector>
 
+#include "config.hpp"
 #include "impulse_costs.hpp"
 #include "region_minimum.hpp"
 #include "stability_region.hpp"
@@ -156,7 +157,9 @@ struct PassivityConditionMaximum {
 };
 
 /// The exact maximum of R over frequency by the derivative cascade (header comment).
-inline PassivityConditionMaximum passivity_condition_maximum(const NormalizedGains& gains, double delay) {
+HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const NormalizedGains& gains, double delay)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::passivity_condition_maximum");
   const int d = detail::integer_delay(delay, "hapticopt::passivity_condition_maximum");
   const int n = d + 2;  // number of coefficients, degree d + 1
@@ -216,33 +219,53 @@ inline PassivityConditionMaximum passivity_condition_maximum(const NormalizedGai
   best.error_bound = bracket_error + 8.0 * (d + 2) * (d + 2) * u * sum_abs;
   return best;
 }
+#else
+;
+#endif
 
 /// mu = delta - max R (alpha >= 0), min(delta - max R, alpha) (alpha < 0); > 0 iff passive. Throws
 /// InvalidParameter for a fractional delay (header comment).
-inline double passivity_margin(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC double passivity_margin(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(plant, "hapticopt::passivity_margin");
   validate(gains, "hapticopt::passivity_margin");
   detail::integer_delay(plant.delay, "hapticopt::passivity_margin");
   const double mu = plant.delta - passivity_condition_maximum(gains, plant.delay).value;
   return gains.alpha < 0 ? std::min(mu, gains.alpha) : mu;
 }
+#else
+;
+#endif
 
 /// Colgate-Schenkel with the delay: delta > max_theta R(theta) and alpha >= 0.
-inline bool is_passive(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC bool is_passive(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   return passivity_margin(plant, gains) > 0;
 }
+#else
+;
+#endif
 
 /// Physical margin [N s/m] = passivity_margin(normalised) m / T; > 0 iff passive.
-inline double passivity_margin(const PhysicalPlant& plant, const WallGains& gains) {
+HAPTICOPT_FUNC double passivity_margin(const PhysicalPlant& plant, const WallGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(plant, "hapticopt::passivity_margin");
   detail::require_finite("hapticopt::passivity_margin", "stiffness", gains.stiffness);
   detail::require_finite("hapticopt::passivity_margin", "damping", gains.damping);
   const NormalizedPlant np = normalize(plant);
   return passivity_margin(np, normalize(gains, plant.mass, plant.period)) * plant.mass / plant.period;
 }
+#else
+;
+#endif
 
 /// The open beta interval (lo, hi) of passive gains at alpha (empty: hi <= lo; alpha < 0: empty).
-inline std::pair<double, double> passive_beta_interval(const NormalizedPlant& plant, double alpha) {
+HAPTICOPT_FUNC std::pair<double, double> passive_beta_interval(const NormalizedPlant& plant, double alpha)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(plant, "hapticopt::passive_beta_interval");
   detail::require_finite("hapticopt::passive_beta_interval", "alpha", alpha);
   const double d = detail::integer_delay(plant.delay, "hapticopt::passive_beta_interval");
@@ -257,6 +280,9 @@ inline std::pair<double, double> passive_beta_interval(const NormalizedPlant& pl
   const auto hi = detail::bisect(passive, m.x, reach, 0.0, 80);
   return {lo.second, hi.first};  // the passive ends of the brackets
 }
+#else
+;
+#endif
 
 struct PassiveAlphaLimit {
   double alpha = 0;  ///< sup of the passive alpha (open: alpha < this)
@@ -264,7 +290,9 @@ struct PassiveAlphaLimit {
 };
 
 /// The largest passive alpha over all beta, and its beta (bisection on h(alpha) = min_beta max R).
-inline PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& plant) {
+HAPTICOPT_FUNC PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& plant)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(plant, "hapticopt::largest_passive_alpha");
   const double d = detail::integer_delay(plant.delay, "hapticopt::largest_passive_alpha");
   if (!(plant.delta > 0)) return {};
@@ -277,6 +305,9 @@ inline PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& plant) {
                                       2 * plant.delta, 0.0, 80);
   return {bracket.first, h(bracket.first).x};
 }
+#else
+;
+#endif
 
 struct PassivePoint {
   double alpha;
@@ -286,7 +317,9 @@ struct PassivePoint {
 /// The passive set's boundary as a closed polygon (counter-clockwise from (0, lo(0))): `points` alphas
 /// per side, clustered at both ends (alpha_i = alpha_top (1 - cos(pi i / (points - 1))) / 2); the first
 /// point is not repeated at the end. Empty when delta = 0.
-inline std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, int points = 64) {
+HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, int points = 64)
+#if HAPTICOPT_DEFINITIONS
+{
   detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
   const PassiveAlphaLimit top = largest_passive_alpha(plant);
   std::vector<PassivePoint> lower, upper;
@@ -306,15 +339,23 @@ inline std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, i
   for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
   return out;
 }
+#else
+;
+#endif
 
 /// The stable beta interval at alpha clipped to the passive set (empty: hi <= lo).
-inline std::pair<double, double> passive_beta_range(const StabilityRegion& region, double alpha) {
+HAPTICOPT_FUNC std::pair<double, double> passive_beta_range(const StabilityRegion& region, double alpha)
+#if HAPTICOPT_DEFINITIONS
+{
   if (!(alpha > region.alpha_min()) || alpha > region.alpha_max()) return {0.0, 0.0};
   const auto [plo, phi] = passive_beta_interval(region.plant(), alpha);
   if (!(phi > plo)) return {0.0, 0.0};
   const auto [lo, hi] = region.beta_range(alpha);
   return {std::max(lo, plo), std::min(hi, phi)};
 }
+#else
+;
+#endif
 
 struct PassiveOptimum {
   double alpha = 0;
@@ -339,8 +380,10 @@ std::optional<PassiveOptimum> passive_minimum(const StabilityRegion& region, Cos
 }
 
 /// Best passive gains for the step criterion C_E<index> (index 0..2).
-inline std::optional<PassiveOptimum> passive_optimum(int index, const NormalizedPlant& plant,
-                                                     const RegionSearchOptions& options = {}) {
+HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_optimum(int index, const NormalizedPlant& plant,
+                                                             const RegionSearchOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   detail::require_in_range("hapticopt::passive_optimum", "index", index, 0, false, 2, "0, 1 or 2");
   detail::integer_delay(plant.delay, "hapticopt::passive_optimum");
   const StabilityRegion region(plant);
@@ -351,10 +394,15 @@ inline std::optional<PassiveOptimum> passive_optimum(int index, const Normalized
   };
   return passive_minimum(region, c, options);
 }
+#else
+;
+#endif
 
 /// Best passive gains for the collision criterion C_I<index> (index 0..2).
-inline std::optional<PassiveOptimum> passive_impulse_optimum(int index, const NormalizedPlant& plant,
-                                                             const RegionSearchOptions& options = {}) {
+HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_impulse_optimum(int index, const NormalizedPlant& plant,
+                                                                     const RegionSearchOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   detail::require_in_range("hapticopt::passive_impulse_optimum", "index", index, 0, false, 2, "0, 1 or 2");
   detail::integer_delay(plant.delay, "hapticopt::passive_impulse_optimum");
   const StabilityRegion region(plant);
@@ -362,5 +410,8 @@ inline std::optional<PassiveOptimum> passive_impulse_optimum(int index, const No
   auto c = [&](double a, double b) { return impulse_costs(sampled, a, b)[index]; };
   return passive_minimum(region, c, options);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

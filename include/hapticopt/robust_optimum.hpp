@@ -46,6 +46,7 @@
 #include <string>
 #include <vector>
 
+#include "config.hpp"
 #include "impulse_optimum.hpp"
 #include "optimum.hpp"
 
@@ -143,21 +144,33 @@ struct RobustOptimum {
 
 namespace detail {
 
-inline double criterion_cost(const RobustCriterion& c, const SampledPlant<double>& plant, double alpha,
-                             double beta) {
+HAPTICOPT_FUNC double criterion_cost(const RobustCriterion& c, const SampledPlant<double>& plant, double alpha,
+                                     double beta)
+#if HAPTICOPT_DEFINITIONS
+{
   if (c.impulse) return impulse_costs(plant, alpha, beta)[c.index];
   const EnergyCosts e = energy_costs(plant, alpha, beta);
   return c.index == 0 ? e.ce0 : c.index == 1 ? e.ce1 : e.ce2;
 }
+#else
+;
+#endif
 
 /// Cost at physical gains for a physical plant (normalising both).
-inline double physical_cost(const RobustCriterion& c, const PhysicalPlant& p, const SampledPlant<double>& sp,
-                            double K, double B) {
+HAPTICOPT_FUNC double physical_cost(const RobustCriterion& c, const PhysicalPlant& p, const SampledPlant<double>& sp,
+                                    double K, double B)
+#if HAPTICOPT_DEFINITIONS
+{
   return criterion_cost(c, sp, K * p.period * p.period / p.mass, B * p.period / p.mass);
 }
+#else
+;
+#endif
 
 /// The grid of (b, k, t_d) combinations, each with `nm` masses.
-inline std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, int nm, int no, int nd) {
+HAPTICOPT_FUNC std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, int nm, int no, int nd)
+#if HAPTICOPT_DEFINITIONS
+{
   std::vector<PhysicalPlant> out;
   for (int ib = 0; ib < no; ++ib) {
     if (ib > 0 && box.damping.min == box.damping.max) break;
@@ -175,11 +188,16 @@ inline std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, int nm, in
   }
   return out;
 }
+#else
+;
+#endif
 
 /// Exact unit-circle crossing test along the mass segment for b = k = 0 (header comment, step 4).
 /// Returns true when no root crosses the unit circle for m in [m_min, m_max] and the loop is stable
 /// at the mid mass.
-inline bool mass_segment_certified_stable(const UncertainPlant& box, double time_delay, double K, double B) {
+HAPTICOPT_FUNC bool mass_segment_certified_stable(const UncertainPlant& box, double time_delay, double K, double B)
+#if HAPTICOPT_DEFINITIONS
+{
   const double T = box.period;
   const SampledPlant<double> sp(NormalizedPlant{0.0, 0.0, time_delay / T});
   const AffineCharacteristicPolynomial<double> poly = characteristic_polynomial(sp);
@@ -231,12 +249,17 @@ inline bool mass_segment_certified_stable(const UncertainPlant& box, double time
   }
   return true;
 }
+#else
+;
+#endif
 
 }  // namespace detail
 
 /// Stability of (K, B) over the box (header comment, step 4) on the verification grid.
-inline RobustStability robust_stability(const UncertainPlant& box, const WallGains& gains,
-                                        const RobustOptions& options = {}) {
+HAPTICOPT_FUNC RobustStability robust_stability(const UncertainPlant& box, const WallGains& gains,
+                                                const RobustOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   validate(box, "hapticopt::robust_stability");
   RobustStability out;
   out.stable = true;
@@ -268,11 +291,16 @@ inline RobustStability robust_stability(const UncertainPlant& box, const WallGai
   }
   return out;
 }
+#else
+;
+#endif
 
 /// Worst case of the criterion at (K, B) over the box: the verification grid, then Brent over the
 /// mass around the worst grid point (other parameters fixed there).
-inline BoxWorstCase robust_worst_case(const RobustCriterion& criterion, const UncertainPlant& box,
-                                      const WallGains& gains, const RobustOptions& options = {}) {
+HAPTICOPT_FUNC BoxWorstCase robust_worst_case(const RobustCriterion& criterion, const UncertainPlant& box,
+                                              const WallGains& gains, const RobustOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   validate(box, "hapticopt::robust_worst_case");
   const int nm = options.verify_mass_points;
   const std::vector<PhysicalPlant> grid =
@@ -304,11 +332,16 @@ inline BoxWorstCase robust_worst_case(const RobustCriterion& criterion, const Un
   }
   return worst;
 }
+#else
+;
+#endif
 
 namespace detail {
 
-inline RobustOptimum robust_optimum_impl(const RobustCriterion& criterion, const UncertainPlant& box,
-                                         const RobustOptions& options) {
+HAPTICOPT_FUNC RobustOptimum robust_optimum_impl(const RobustCriterion& criterion, const UncertainPlant& box,
+                                                 const RobustOptions& options)
+#if HAPTICOPT_DEFINITIONS
+{
   const char* fn = "hapticopt::robust_optimum";
   validate(box, fn);
   require_in_range(fn, "mass_points", options.mass_points, 2, false, 1e4, "2 <= mass_points <= 10^4");
@@ -379,19 +412,32 @@ inline RobustOptimum robust_optimum_impl(const RobustCriterion& criterion, const
   out.nominal_stability = robust_stability(box, out.nominal_gains, options);
   return out;
 }
+#else
+;
+#endif
 
 }  // namespace detail
 
 /// Robust optimum of a step energy criterion (CE0, CE1, CE2) over the box.
-inline RobustOptimum robust_optimum(Criterion criterion, const UncertainPlant& box,
-                                    const RobustOptions& options = {}) {
+HAPTICOPT_FUNC RobustOptimum robust_optimum(Criterion criterion, const UncertainPlant& box,
+                                            const RobustOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   return detail::robust_optimum_impl(RobustCriterion::step(criterion), box, options);
 }
+#else
+;
+#endif
 
 /// Robust optimum of a collision criterion (CI0, CI1, CI2) over the box.
-inline RobustOptimum robust_optimum(ImpulseCriterion criterion, const UncertainPlant& box,
-                                    const RobustOptions& options = {}) {
+HAPTICOPT_FUNC RobustOptimum robust_optimum(ImpulseCriterion criterion, const UncertainPlant& box,
+                                            const RobustOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
   return detail::robust_optimum_impl(RobustCriterion::collision(criterion), box, options);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

@@ -11,6 +11,7 @@
 // Schur-Cohn margin and the spectral radius from the loop matrix's eigenvalues as a second opinion.
 #pragma once
 
+#include "config.hpp"
 #include "loop_schur_form.hpp"
 
 namespace hapticopt {
@@ -22,7 +23,9 @@ struct StabilityReport {
   bool refined = false;          ///< verdict recomputed in long double (|margin| < 1e-4 in double)
 };
 
-inline StabilityReport stability(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC StabilityReport stability(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::stability");
   const SampledPlant<double> sampled(plant);
   StabilityReport report;
@@ -34,10 +37,18 @@ inline StabilityReport stability(const NormalizedPlant& plant, const NormalizedG
       loop_schur_form(make_closed_loop(sampled, gains.alpha, gains.beta).transition).spectral_radius;
   return report;
 }
+#else
+;
+#endif
 
-inline bool is_stable(const NormalizedPlant& plant, const NormalizedGains& gains) {
+HAPTICOPT_FUNC bool is_stable(const NormalizedPlant& plant, const NormalizedGains& gains)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::is_stable");
   return loop_is_stable(SampledPlant<double>(plant), gains.alpha, gains.beta);
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "characteristic_polynomial.hpp"
+#include "config.hpp"
 #include "scalar_search.hpp"
 
 namespace hapticopt {
@@ -33,6 +34,7 @@ struct BoundaryPoint {
 
 class StabilityRegion {
  public:
+  HAPTICOPT_DEFERRED
   explicit StabilityRegion(const NormalizedPlant& plant)
       : plant_(plant), sampled_(plant), poly_(characteristic_polynomial(sampled_)) {
     constexpr int kScan = 512;

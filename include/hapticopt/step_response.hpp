@@ -12,6 +12,7 @@
 #include <numeric>
 #include <vector>
 
+#include "config.hpp"
 #include "closed_loop.hpp"
 
 namespace hapticopt {
@@ -59,16 +60,23 @@ std::vector<StepResponsePointT<Scalar>> step_response(const SampledPlant<Scalar>
 }
 
 /// x at t (normalised); see step_response above.
-inline StepResponsePoint step_response_at(const NormalizedPlant& plant, const NormalizedGains& gains,
-                                          double time) {
+HAPTICOPT_FUNC StepResponsePoint step_response_at(const NormalizedPlant& plant, const NormalizedGains& gains,
+                                                  double time)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::step_response_at");
   return step_response(SampledPlant<double>(plant), gains.alpha, gains.beta, std::vector<double>{time})
       .front();
 }
+#else
+;
+#endif
 
 /// x_j = x(j), j = 0 .. samples-1 (normalised; physical x_j F T^2 / m).
-inline std::vector<double> sampled_step_response(const NormalizedPlant& plant,
-                                                 const NormalizedGains& gains, std::size_t samples) {
+HAPTICOPT_FUNC std::vector<double> sampled_step_response(const NormalizedPlant& plant,
+                                                         const NormalizedGains& gains, std::size_t samples)
+#if HAPTICOPT_DEFINITIONS
+{
   validate(gains, "hapticopt::sampled_step_response");
   const SampledPlant<double> sampled(plant);
   const ClosedLoop<double> loop = make_closed_loop(sampled, gains.alpha, gains.beta);
@@ -80,5 +88,8 @@ inline std::vector<double> sampled_step_response(const NormalizedPlant& plant,
   }
   return x;
 }
+#else
+;
+#endif
 
 }  // namespace hapticopt
