@@ -2,7 +2,8 @@
 # Debian packages with CPack's DEB generator, one per install component (docs/building.md, "Debian packages"):
 #   hapticd                 component runtime: hapticd, hapticctl, hapticopt, /usr/share/hapticd (config and
 #                           device profiles), the systemd unit, the sysusers.d file, the udev rules
-#   libhapticopt-dev        component hapticopt_dev: the header-only library and its CMake package (Architecture: all)
+#   libhapticopt-dev        component hapticopt_dev: the header-only library, its compiled mode (a static library,
+#                           so the package is architecture-specific) and its CMake package
 #   libhapticd-client-dev   component hapticd_client_dev: the client library (static), its headers and CMake package
 # Build them from a configured and built tree:  cd <build> && cpack -G DEB   (scripts/test-debian-packages.sh).
 # Run-time dependencies come from dpkg-shlibdeps; the maintainer scripts are packaging/debian/hapticd/.
@@ -72,7 +73,6 @@ service (disabled until enabled), its system user and the udev rules.")
 
 set(CPACK_DEBIAN_HAPTICOPT_DEV_PACKAGE_NAME libhapticopt-dev)
 set(CPACK_DEBIAN_HAPTICOPT_DEV_PACKAGE_SECTION libdevel)
-set(CPACK_DEBIAN_HAPTICOPT_DEV_PACKAGE_ARCHITECTURE all)
 set(CPACK_DEBIAN_HAPTICOPT_DEV_PACKAGE_DEPENDS "libeigen3-dev (>= 3.4)")
 set(CPACK_COMPONENT_HAPTICOPT_DEV_DESCRIPTION "optimal virtual-wall tuning for haptic rendering (C++17 headers)
 hapticopt is a header-only C++17 library on Eigen that computes the
@@ -80,8 +80,9 @@ stability region and the optimal stiffness and damping of a sampled virtual
 wall with delay for the criteria of Hulin, Gonzalez Camarero and
 Albu-Schaeffer (IROS 2011).
 
-This package holds the headers and the CMake package:
-find_package(hapticopt) gives the target hapticopt::hapticopt.")
+This package holds the headers, the compiled-mode static library and the
+CMake package: find_package(hapticopt) gives the targets hapticopt::hapticopt
+(header-only) and hapticopt::compiled (the same API, built once).")
 
 set(CPACK_DEBIAN_HAPTICD_CLIENT_DEV_PACKAGE_NAME libhapticd-client-dev)
 set(CPACK_DEBIAN_HAPTICD_CLIENT_DEV_PACKAGE_SECTION libdevel)
