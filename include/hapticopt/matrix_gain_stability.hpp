@@ -80,6 +80,19 @@ struct MatrixGainStability {
 
 namespace detail {
 
+// The plant's parameters, then A and B square, of one size >= 1, finite; InvalidParameter from `fn`.
+inline void validate_gain_matrices(const NormalizedPlant& plant, const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                   const char* fn) {
+  validate(plant, fn);
+  if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
+    throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
+                           "A and B square, of the same size >= 1");
+  }
+  if (!A.allFinite() || !B.allFinite()) {
+    throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
+  }
+}
+
 // An orthonormal basis (columns) of the row space of [A; B]: the directions where a wall acts.
 inline Eigen::MatrixXd acting_basis(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) {
   Eigen::MatrixXd stacked(2 * A.rows(), A.cols());
@@ -118,14 +131,7 @@ inline double companion_spectral_radius(const AffineCharacteristicPolynomial<dou
 inline MatrixGainStability matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
                                                  const Eigen::MatrixXd& B) {
   const char* fn = "hapticopt::matrix_gain_stability";
-  validate(plant, fn);
-  if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
-    throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
-                           "A and B square, of the same size >= 1");
-  }
-  if (!A.allFinite() || !B.allFinite()) {
-    throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
-  }
+  detail::validate_gain_matrices(plant, A, B, fn);
   const double scale = 1.0 + A.norm() + B.norm();
   if ((A - A.transpose()).norm() > 1e-9 * scale || (B - B.transpose()).norm() > 1e-9 * scale) {
     throw InvalidParameter(fn, "gain matrix asymmetry", std::max((A - A.transpose()).norm(), (B - B.transpose()).norm()),
@@ -177,14 +183,7 @@ inline MatrixGainStability matrix_gain_stability(const NormalizedPlant& plant, c
 inline MatrixGainStability general_matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
                                                          const Eigen::MatrixXd& B) {
   const char* fn = "hapticopt::general_matrix_gain_stability";
-  validate(plant, fn);
-  if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
-    throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
-                           "A and B square, of the same size >= 1");
-  }
-  if (!A.allFinite() || !B.allFinite()) {
-    throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
-  }
+  detail::validate_gain_matrices(plant, A, B, fn);
   const double scale = A.norm() + B.norm();
   if ((A - A.transpose()).norm() <= kMatrixGainRoundingLevel * scale &&
       (B - B.transpose()).norm() <= kMatrixGainRoundingLevel * scale) {

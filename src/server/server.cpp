@@ -248,6 +248,16 @@ struct Server::Impl {
         ++counters.sessions_closed;
     }
 
+    // The config walls' gains (the daemon's, along their axes) added to K and B.
+    void add_config_walls(Matrix3& K, Matrix3& B) const {
+        for (const auto& w : config.config_walls) {
+            AxisVector e{};
+            e[w.axis] = 1.0;
+            add_to(K, outer(e, w.K));
+            add_to(B, outer(e, w.B));
+        }
+    }
+
     // A session's objects ramp out by the departure rule (departure_plan.hpp, docs/protocol.md section 5):
     // with them, if the scene they leave or a ramp scene would be unstable, the fewest further client
     // objects (or all of them, or all cut at once); the owners of those get an event with the reason.
@@ -261,12 +271,7 @@ struct Server::Impl {
         }
         if (leaving.empty()) return;
         Matrix3 fixed_K{}, fixed_B{};
-        for (const auto& w : config.config_walls) {
-            AxisVector e{};
-            e[w.axis] = 1.0;
-            add_to(fixed_K, outer(e, w.K));
-            add_to(fixed_B, outer(e, w.B));
-        }
+        add_config_walls(fixed_K, fixed_B);
         const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
         const DeparturePlan plan = plan_departure(checker, fixed_K, fixed_B, leaving, staying, step);
         ObjectCommit c;
@@ -636,12 +641,7 @@ struct Server::Impl {
 
         // The summed gains of the scene that would result (every session's objects and the config walls).
         Matrix3 K_sum{}, B_sum{};
-        for (const auto& w : config.config_walls) {
-            AxisVector e{};
-            e[w.axis] = 1.0;
-            add_to(K_sum, outer(e, w.K));
-            add_to(B_sum, outer(e, w.B));
-        }
+        add_config_walls(K_sum, B_sum);
         for (const auto& slot : proposal) {
             if (slot.state != ServerSlot::State::Used) continue;
             add_to(K_sum, slot.resolved.K_matrix);

@@ -39,6 +39,8 @@
 #include <gtest/gtest.h>
 #include <unsupported/Eigen/MatrixFunctions>
 
+#include <hapticopt/stability.hpp>
+
 #include "hapticd/client.hpp"
 #include "scene/scene_objects.hpp"
 #include "server/server.hpp"
@@ -114,7 +116,7 @@ struct Session {
 };
 
 struct Tally {
-    std::size_t scenes = 0, ticks = 0, accepted = 0, refused = 0, departures = 0, expiries = 0, curl_fields = 0;
+    std::size_t scenes = 0, ticks = 0, accepted = 0, refused = 0, departures = 0, expiries = 0, curl_fields = 0, patterns = 0;
     double worst = 0.0;
 };
 
@@ -228,9 +230,12 @@ private:
             f.damping = uniform(1.0, 25.0);
             return f;
         }
-        // A plane touching weakly: alpha 1e-12 .. 1e-8 with some damping (a root within 1e-6 of z = 1).
+        // A plane touching weakly: alpha 1e-12 .. 1e-10 and beta 20 .. 100 times that (stable alone, by the
+        // scalar verdict, but with roots within ~beta / 2 < 1e-8 of z = 1); beside the config wall its gains
+        // are below 1e-6 of the largest (the old threshold for a free direction).
         const cl::Vec3 n = unit_vector();
-        return cl::Plane{.normal = n, .offset = 0.0, .bilateral = true, .gains = normalised(n, std::pow(10.0, uniform(-12, -8)), uniform(0.01, 0.5))};
+        const double alpha = std::pow(10.0, uniform(-12, -10));
+        return cl::Plane{.normal = n, .offset = 0.0, .bilateral = true, .gains = normalised(n, alpha, alpha * std::pow(10.0, uniform(1.3, 2.0)))};
     }
 
     Session* live_session() {
@@ -264,6 +269,43 @@ private:
         }
     }
 
+    // A departure that would leave an unstable pair: a new session adds a plane spring C along n, session
+    // `s` two identical bilateral planes A, B along n whose sum alone is unstable (2 % beyond the boundary)
+    // but stable with C; then C's session leaves. n lies in the y-z plane (away from the config wall's axis).
+    // Gains in the normalised units of the mass along n, found with hapticopt::is_stable for this d.
+    void departure_pattern(Session& s) {
+        const hapticopt::NormalizedPlant plant{0.0, 0.0, static_cast<double>(d_)};
+        double alpha_p = 0.0, beta_p = 0.0, alpha_c = 0.0, beta_c = 0.0;
+        for (double beta2 = 0.1; beta2 < 1.0 && alpha_p == 0.0; beta2 += 0.05) {
+            double lo = 0.0, hi = 1.0;  // the boundary alpha at beta2 (alpha_max < 0.69 for every d)
+            for (int i = 0; i < 50; ++i) (hapticopt::is_stable(plant, {0.5 * (lo + hi), beta2}) ? lo : hi) = 0.5 * (lo + hi);
+            const double a = 0.51 * hi, b = 0.5 * beta2, ac = 0.05 * a, bc = 0.5 * beta2;
+            if (lo > 0.0 && hapticopt::is_stable(plant, {a, b}) && !hapticopt::is_stable(plant, {2 * a, 2 * b}) &&
+                hapticopt::is_stable(plant, {2 * a + ac, 2 * b + bc}) && hapticopt::is_stable(plant, {ac, bc})) {
+                alpha_p = a, beta_p = b, alpha_c = ac, beta_c = bc;
+            }
+        }
+        if (alpha_p == 0.0) return;
+        Session c;
+        try {
+            c.client = std::make_unique<cl::Client>(cl::Client::connect({.socket_path = socket_, .client_name = "pattern"}));
+        } catch (const cl::Error&) {
+            return;
+        }
+        const double angle = uniform(0.0, 6.283185307179586);
+        const cl::Vec3 n{0.0, std::cos(angle), std::sin(angle)};
+        commit(c, cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Plane, .point = point(), .direction = n,
+                                             .gains = normalised(n, alpha_c, beta_c)}), true);
+        ticks(35);
+        const cl::Plane p{.normal = n, .offset = 1e-4, .bilateral = true, .gains = normalised(n, alpha_p, beta_p)};
+        commit(s, cl::Batch().add(p).add(p), true);
+        ticks(35);
+        ++tally_.departures;
+        ++tally_.patterns;
+        c.client.reset();  // C's session leaves: the departure rule must not leave A + B alone
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the server notices the EOF
+    }
+
     void act() {
         sessions_.erase(std::remove_if(sessions_.begin(), sessions_.end(), [](const Session& s) { return !s.client; }), sessions_.end());
         heartbeat_all();
@@ -283,13 +325,7 @@ private:
         if (what <= 8) {
             commit(*s, cl::Batch().add(random_object()), true);
         } else if (what == 9) {
-            // The departure pattern: a spring here, two planes at once elsewhere whose pair needs it.
-            Session* other = live_session();
-            const cl::Vec3 n = unit_vector();
-            commit(*s, cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Point, .point = point(),
-                                                  .gains = normalised(n, 0.005, 0.1)}), true);
-            const cl::Plane p{.normal = n, .offset = 1e-4, .bilateral = true, .gains = normalised(n, 0.06 / (1.0 + 0.5 * d_), 0.12)};
-            if (other != nullptr && other != s) commit(*other, cl::Batch().add(p).add(p), true);
+            departure_pattern(*s);
         } else if (what <= 12 && !s->ids.empty()) {
             const std::uint32_t id = s->ids[std::uniform_int_distribution<std::size_t>(0, s->ids.size() - 1)(rng_)];
             commit(*s, cl::Batch().modify(id, random_object()), false);  // unknown_object when it is gone: refused
@@ -362,22 +398,24 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
                           std::to_string(isotropic) + "_" + std::to_string(d));
             const Tally t = driver.run(kActions);
             std::printf("[ property ] %s mass, d = %d: %zu scenes in %zu ticks, %zu commits accepted, %zu refused, %zu disconnects, "
-                        "%zu lost leases, %zu curl fields; largest radius %.9f\n",
+                        "%zu lost leases, %zu curl fields, %zu departure patterns; largest radius %.9f\n",
                         isotropic ? "one" : "matrix", d, t.scenes, t.ticks, t.accepted, t.refused, t.departures, t.expiries,
-                        t.curl_fields, t.worst);
+                        t.curl_fields, t.patterns, t.worst);
             total.scenes += t.scenes;
             total.accepted += t.accepted;
             total.departures += t.departures;
             total.expiries += t.expiries;
+            total.patterns += t.patterns;
             total.worst = std::max(total.worst, t.worst);
         }
     }
-    std::printf("[ property ] %zu rendered scenes, all below 1 - %.0e by the reference (largest %.9f)\n", total.scenes, kReferenceMargin,
+    std::printf("[ property ] %zu rendered scenes; must be below 1 - %.0e by the reference; largest %.9f\n", total.scenes, kReferenceMargin,
                 total.worst);
     EXPECT_GE(total.scenes, kMinimumScenes);
     EXPECT_GT(total.accepted, 100U);  // the driver exercised the server, not only its refusals
     EXPECT_GT(total.departures, 10U);
     EXPECT_GT(total.expiries, 5U);
+    EXPECT_GT(total.patterns, 8U);
 }
 
 }  // namespace
