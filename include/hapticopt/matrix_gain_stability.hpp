@@ -19,20 +19,38 @@
 // eigenvalues of the block companion matrix of P (size r (n + 3), n + 4 for a fractional d), computed with
 // Eigen's real EigenSolver.
 //
-// Free directions: on null(A) ∩ null(B) no wall acts and P(z) u = P_0(z) u gives the free plant's roots
-// (z = 1, and exp(-delta) or a double root at 1): these are the device's own, not the wall's. Because A
-// and B are symmetric, the orthogonal complement of that null space is invariant under both, so P is
-// restricted to it (basis from the eigenvectors of A^2 + B^2 above a relative threshold of 1e-12) and only
-// that part is judged. A direction with damping but no stiffness keeps a root at z = 1 (the position
-// integrates) and is therefore not asymptotically stable — as alpha + gamma > 0 is required in the scalar
-// verdict.
+// Free directions: on N = null(A) ∩ null(B) no wall acts and P(z) u = P_0(z) u gives the free plant's roots
+// (z = 1, and exp(-delta) or a double root at 1): these are the device's own, not the wall's. With
+// x = Q a + U b (U an orthonormal basis of N, Q of its orthogonal complement, the row space of [A; B]) the
+// wall force A x + B (x - x_-1) depends on a only, so the loop is block-triangular: a evolves with the gains
+// Q^T A Q, Q^T B Q alone, b is driven by it, and the roots are those of the restricted polynomial and the
+// free plant's. This holds for any A and B, symmetric or not, so P is restricted to Q and only that part is
+// judged. Q: the right singular vectors of the stacked [A; B] whose singular value exceeds
+// kMatrixGainRoundingLevel (64 eps) times the largest — the rounding level of the matrices themselves
+// (a plane's K n n^T has a second singular value of ~eps K from rounding alone), not a threshold on
+// gains: every direction touched above rounding is judged, with the margin below. A direction left out
+// has gains below 1.5e-14 of the largest, which move the free plant's roots at 1 by at most ~sqrt(1.5e-14)
+// = 1.2e-7 (a double root) in either direction: no growth faster than e-fold per 8e6 ticks, and the device's
+// own free motion is not asymptotically stable anyway. A direction with damping but no stiffness keeps a
+// root at z = 1 (the position integrates) and is therefore not asymptotically stable — as alpha + gamma > 0
+// is required in the scalar verdict.
 //
 // Accuracy and the verdict: the eigenvalues have a backward error of ~eps ||companion||; a root of
-// multiplicity two moves by ~sqrt(eps) ~ 1.5e-8 times its conditioning. The non-commuting verdict is
-// therefore "stable" only for a spectral radius below 1 - kMatrixGainRadiusMargin (1e-6): gain sets
-// within that distance of the boundary are refused as not certifiably stable. The tests compare the
-// spectral radius with long double eigenvalues of the loop's state-transition matrix built independently
-// from the matrix exponential of the 3-axis plant (tests/beyond/matrix_gain_stability_test.cpp).
+// multiplicity two moves by ~sqrt(eps) ~ 1.5e-8 times its conditioning. The verdict is therefore "stable"
+// only for a spectral radius below 1 - kMatrixGainRadiusMargin (1e-6), in both paths (the commuting path
+// takes the Schur-Cohn verdict and the radius of the scalar loops' transition matrices): gain sets within
+// that distance of the boundary, or so weakly acting along some direction that a root lies within 1e-6 of
+// z = 1 (a time constant above 1e6 periods), are refused as not certifiably stable. The tests compare the
+// spectral radius with the eigenvalues of the loop's state-transition matrix built independently from the
+// matrix exponential of the 3-axis plant (tests/beyond/matrix_gain_stability_test.cpp).
+//
+// Gains as rendered (general_matrix_gain_stability): a force field f = J (x - x0) - B v renders the
+// stiffness matrix -J, whose antisymmetric part (a curl) stores no energy but, with sampling, damping and
+// delay, can destabilise the loop (follower-force flutter). The matrix polynomial above is derived with
+// scalar polynomials times A and B only, so it holds for non-symmetric A and B: the roots of det P are the
+// closed loop's, and the block companion matrix gives them. Symmetric A and B (to the rounding level) are
+// handed to matrix_gain_stability (exact per-direction verdicts when they commute); anything else is
+// decided by the companion eigenvalues with the margin. The same state-matrix comparison covers it.
 //
 // Cost: a symmetric r x r eigen-decomposition, then either r Schur-Cohn tests (commuting) or one
 // non-symmetric eigenvalue problem of size r (n + 3): ~15 x 15 for r = 3, d = 2 (tens of microseconds).
@@ -40,6 +58,7 @@
 #pragma once
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 #include <cmath>
 
 #include "config.hpp"
@@ -48,8 +67,10 @@
 
 namespace hapticopt {
 
-/// Distance from the unit circle below which a non-commuting gain set is not reported stable.
+/// Distance from the unit circle below which no gain set is reported stable (both paths).
 inline constexpr double kMatrixGainRadiusMargin = 1e-6;
+/// Relative singular value of the stacked gains [A; B] at or below which a direction counts as free (64 eps).
+inline constexpr double kMatrixGainRoundingLevel = 64 * 2.220446049250313e-16;
 
 struct MatrixGainStability {
   bool stable = false;            ///< every root of the restricted loop strictly inside the unit circle
@@ -57,6 +78,63 @@ struct MatrixGainStability {
   int active_directions = 0;      ///< rank of the part where a wall acts (0: nothing to judge, stable)
   double spectral_radius = 0.0;   ///< largest |root| of the restricted loop (0 when nothing acts)
 };
+
+namespace detail {
+
+// The plant's parameters, then A and B square, of one size >= 1, finite; InvalidParameter from `fn`.
+inline void validate_gain_matrices(const NormalizedPlant& plant, const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                   const char* fn) {
+  validate(plant, fn);
+  if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
+    throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
+                           "A and B square, of the same size >= 1");
+  }
+  if (!A.allFinite() || !B.allFinite()) {
+    throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
+  }
+}
+
+// An orthonormal basis (columns) of the row space of [A; B]: the directions where a wall acts.
+HAPTICOPT_FUNC Eigen::MatrixXd acting_basis(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B)
+#if HAPTICOPT_DEFINITIONS
+{
+  Eigen::MatrixXd stacked(2 * A.rows(), A.cols());
+  stacked << A, B;
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked, Eigen::ComputeFullV);
+  const Eigen::VectorXd& sigma = svd.singularValues();
+  const double threshold = kMatrixGainRoundingLevel * (sigma.size() > 0 ? sigma(0) : 0.0);
+  Eigen::Index rank = 0;
+  while (rank < sigma.size() && sigma(rank) > threshold) ++rank;
+  return svd.matrixV().leftCols(rank);
+}
+#else
+;
+#endif
+
+// Largest |root| of det(P_0(z) I + P_alpha(z) A + P_beta(z) B) (A, B any r x r matrices): the eigenvalues
+// of the block companion matrix (first block row -C_{degree-1} ... -C_0, identity blocks below the
+// diagonal), C_k = base_k I + alpha_k A + beta_k B, C_degree = I. HUGE_VAL if the eigen-solver fails.
+HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolynomial<double>& p, const Eigen::MatrixXd& A,
+                                                const Eigen::MatrixXd& B)
+#if HAPTICOPT_DEFINITIONS
+{
+  const Eigen::Index r = A.rows();
+  const int degree = p.degree();
+  Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(r * degree, r * degree);
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(r, r);
+  for (int k = 0; k < degree; ++k) {
+    companion.block(0, r * (degree - 1 - k), r, r) = -(p.base(k) * I + p.alpha(k) * A + p.beta(k) * B);
+  }
+  for (int b = 1; b < degree; ++b) companion.block(r * b, r * (b - 1), r, r) = I;
+  const Eigen::EigenSolver<Eigen::MatrixXd> roots(companion, /*computeEigenvectors=*/false);
+  if (roots.info() != Eigen::Success) return HUGE_VAL;
+  return roots.eigenvalues().cwiseAbs().maxCoeff();
+}
+#else
+;
+#endif
+
+}  // namespace detail
 
 /// Stability of the loop with symmetric normalised gain matrices `A` (stiffness) and `B` (damping), same
 /// plant on every axis. Throws InvalidParameter for a non-square, non-symmetric (beyond 1e-9 relative) or
@@ -66,14 +144,7 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
 #if HAPTICOPT_DEFINITIONS
 {
   const char* fn = "hapticopt::matrix_gain_stability";
-  validate(plant, fn);
-  if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
-    throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
-                           "A and B square, of the same size >= 1");
-  }
-  if (!A.allFinite() || !B.allFinite()) {
-    throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
-  }
+  detail::validate_gain_matrices(plant, A, B, fn);
   const double scale = 1.0 + A.norm() + B.norm();
   if ((A - A.transpose()).norm() > 1e-9 * scale || (B - B.transpose()).norm() > 1e-9 * scale) {
     throw InvalidParameter(fn, "gain matrix asymmetry", std::max((A - A.transpose()).norm(), (B - B.transpose()).norm()),
@@ -82,16 +153,8 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
   const Eigen::MatrixXd As = (A + A.transpose()) / 2, Bs = (B + B.transpose()) / 2;
   MatrixGainStability result;
 
-  // The part where a wall acts: the range of A^2 + B^2.
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> active(As * As + Bs * Bs);
-  const double threshold = 1e-12 * std::max(1.0, active.eigenvalues().cwiseAbs().maxCoeff());
-  Eigen::MatrixXd Q(As.rows(), 0);
-  for (Eigen::Index c = 0; c < As.rows(); ++c) {
-    if (active.eigenvalues()(c) > threshold) {
-      Q.conservativeResize(Eigen::NoChange, Q.cols() + 1);
-      Q.col(Q.cols() - 1) = active.eigenvectors().col(c);
-    }
-  }
+  // The part where a wall acts: the row space of [A; B] above the rounding level.
+  const Eigen::MatrixXd Q = detail::acting_basis(As, Bs);
   result.active_directions = static_cast<int>(Q.cols());
   if (Q.cols() == 0) {
     result.stable = true;
@@ -113,27 +176,43 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
       result.stable = result.stable && s.stable;
       result.spectral_radius = std::max(result.spectral_radius, s.spectral_radius);
     }
+    result.stable = result.stable && result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
     return result;
   }
 
-  const AffineCharacteristicPolynomial<double> p = characteristic_polynomial(SampledPlant<double>(plant));
-  const int degree = p.degree();
-  // Block companion matrix of P(z) = sum_k C_k z^k with C_degree = I: the roots z of det P are its
-  // eigenvalues (first block row -C_{degree-1} ... -C_0, identity blocks below the diagonal).
-  Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(r * degree, r * degree);
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(r, r);
-  for (int k = 0; k < degree; ++k) {
-    const Eigen::MatrixXd Ck = p.base(k) * I + p.alpha(k) * Ar + p.beta(k) * Br;
-    companion.block(0, r * (degree - 1 - k), r, r) = -Ck;
+  result.spectral_radius =
+      detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
+  result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+  return result;
+}
+#else
+;
+#endif
+
+/// Stability of the loop with any real normalised gain matrices `A` (stiffness, e.g. -J of a force field
+/// with a curl) and `B` (damping), same plant on every axis: the gains as the loop renders them. Symmetric
+/// A and B (asymmetry at most kMatrixGainRoundingLevel relative) go to matrix_gain_stability; otherwise the
+/// restricted block companion matrix decides, stable only for a spectral radius below 1 -
+/// kMatrixGainRadiusMargin (commuting = false). Throws InvalidParameter for non-square, differently sized
+/// or non-finite matrices and the plant's own invalid parameters. Cost: one SVD of a 2r x r matrix and one
+/// non-symmetric eigenproblem of size r (n + 3) (~18 x 18 for r = 3, d = 3).
+HAPTICOPT_FUNC MatrixGainStability general_matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
+                                                                 const Eigen::MatrixXd& B)
+#if HAPTICOPT_DEFINITIONS
+{
+  const char* fn = "hapticopt::general_matrix_gain_stability";
+  detail::validate_gain_matrices(plant, A, B, fn);
+  const double scale = A.norm() + B.norm();
+  if ((A - A.transpose()).norm() <= kMatrixGainRoundingLevel * scale &&
+      (B - B.transpose()).norm() <= kMatrixGainRoundingLevel * scale) {
+    return matrix_gain_stability(plant, (A + A.transpose()) / 2, (B + B.transpose()) / 2);
   }
-  for (int b = 1; b < degree; ++b) companion.block(r * b, r * (b - 1), r, r) = I;
-  const Eigen::EigenSolver<Eigen::MatrixXd> roots(companion, /*computeEigenvectors=*/false);
-  if (roots.info() != Eigen::Success) {
-    result.stable = false;
-    result.spectral_radius = HUGE_VAL;
-    return result;
-  }
-  result.spectral_radius = roots.eigenvalues().cwiseAbs().maxCoeff();
+  MatrixGainStability result;
+  const Eigen::MatrixXd Q = detail::acting_basis(A, B);
+  result.active_directions = static_cast<int>(Q.cols());
+  const Eigen::MatrixXd Ar = Q.transpose() * A * Q, Br = Q.transpose() * B * Q;
+  result.spectral_radius =
+      detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
   result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
   return result;
 }

@@ -178,6 +178,11 @@ void SceneObjects::apply(const ObjectCommit& commit) noexcept {
                     slot.current.active = false;
                 }
                 break;
+            case SlotUpdate::Action::Cut:
+                only_moves = false;
+                slot.current.active = false;
+                slot.fading.active = false;
+                break;
         }
     }
     if (!only_moves) {
@@ -696,6 +701,16 @@ void SceneObjects::add_law(const AffineLaw& l, const double (&x)[3], const doubl
     for (std::size_t r = 0; r < 3; ++r) {
         f[r] += l.c[r] - (l.K[r][0] * x[0] + l.K[r][1] * x[1] + l.K[r][2] * x[2]) - (l.B[r][0] * v[0] + l.B[r][1] * v[1] + l.B[r][2] * v[2]);
     }
+}
+
+void SceneObjects::rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept {
+    AffineLaw l;
+    for (const Slot& slot : slots_) {
+        if (slot.current.active) add_linear(l, slot.current.params, slot.current.ramp);
+        if (slot.fading.active) add_linear(l, slot.fading.params, slot.fading.ramp);
+    }
+    K = l.K;
+    B = l.B;
 }
 
 std::uint32_t SceneObjects::slot_object_id(std::size_t slot) const noexcept {

@@ -99,6 +99,7 @@ struct SlotUpdate {
         Set,       // a new object, or another description: the old one (if any) fades out, this one ramps in
         Move,      // the same object moved (offset / point / center / F0 only): applied at once, no ramp
         Remove,    // ramp out, then free the slot
+        Cut,       // gone at once, its fading entry too (no ramp): a departure with no stable ramp-out
     };
     std::uint8_t slot = 0;
     Action action = Action::Set;
@@ -176,6 +177,11 @@ public:
     // Batches held now until the ramps in progress end (apply_commits).
     [[nodiscard]] std::size_t held() const noexcept { return held_count_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
+    // The linear gains of the scene the next add_forces() renders (call it after apply_commits()), every
+    // object counted as in contact, as the server checks it: the sum over the active entries (current and
+    // fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
+    // tests (tests/server/test_rendered_scene_property.cpp); O(64), never called by the loop.
+    void rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept;
 
 private:
     struct Entry {

@@ -26,6 +26,7 @@
 
 #include "client/object_json.hpp"
 #include "client/text_limits.hpp"
+#include "server/departure_plan.hpp"
 #include "server/message_decoder.hpp"
 #include "server/object_limits.hpp"
 #include "server/reply_text.hpp"
@@ -278,21 +279,59 @@ struct Server::Impl {
         ++counters.sessions_closed;
     }
 
+    // The config walls' gains (the daemon's, along their axes) added to K and B.
+    void add_config_walls(Matrix3& K, Matrix3& B) const {
+        for (const auto& w : config.config_walls) {
+            AxisVector e{};
+            e[w.axis] = 1.0;
+            add_to(K, outer(e, w.K));
+            add_to(B, outer(e, w.B));
+        }
+    }
+
+    // A session's objects ramp out by the departure rule (departure_plan.hpp, docs/protocol.md section 5):
+    // with them, if the scene they leave or a ramp scene would be unstable, the fewest further client
+    // objects (or all of them, or all cut at once); the owners of those get an event with the reason.
     void ramp_out_objects_of(std::uint64_t session) {
-        ObjectCommit c;
+        std::vector<DepartureObject> leaving, staying;
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+            const ServerSlot& slot = slots[i];
+            if (slot.state != ServerSlot::State::Used) continue;
+            (slot.owner == session ? leaving : staying)
+                .push_back(DepartureObject{i, slot.owner, slot.resolved.K_matrix, slot.resolved.B_matrix});
+        }
+        if (leaving.empty()) return;
+        Matrix3 fixed_K{}, fixed_B{};
+        add_config_walls(fixed_K, fixed_B);
+        const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
+        const DeparturePlan plan = plan_departure(checker, fixed_K, fixed_B, leaving, staying, step);
+        ObjectCommit c;
+        std::map<std::uint64_t, std::vector<std::uint32_t>> further_by_owner;
+        for (const std::size_t i : plan.out) {
             ServerSlot& slot = slots[i];
-            if (slot.state != ServerSlot::State::Used || slot.owner != session) continue;
+            if (slot.owner != session) further_by_owner[slot.owner].push_back(slot.id);
             slot.state = ServerSlot::State::Draining;
             slot.drain_seq = kNotPushed;
             SlotUpdate& u = c.updates[c.count++];
             u.slot = static_cast<std::uint8_t>(i);
-            u.action = SlotUpdate::Action::Remove;
+            u.action = plan.cut ? SlotUpdate::Action::Cut : SlotUpdate::Action::Remove;
             u.params = slot.resolved.params;
         }
-        if (c.count == 0) return;
-        pending.push_back(c);
+        pending.push_back(c);  // before the events: a send may close another session, whose batch must follow
         push_pending();
+        if (!plan.further.empty()) {
+            const std::string how = plan.cut ? "removed at once (no ramp-out of them all is stable either)" : "ramped out with them";
+            log("session " + std::to_string(session) + " left; " + std::to_string(plan.further.size()) + " objects of other sessions " +
+                how + ": " + plan.reason);
+            for (const auto& [owner, ids] : further_by_owner) {
+                const auto it = sessions.find(owner);
+                if (it == sessions.end() || it->second.closed) continue;
+                send_reply(it->second, json{{"type", "event"}, {"code", "objects_removed"}, {"object_ids", ids},
+                                            {"message", "objects " + json(ids).dump() + " are " + how + " because session " +
+                                                            std::to_string(session) + " left and, without them, " + plan.reason +
+                                                            " (docs/protocol.md, section 5)"}});
+            }
+        }
     }
 
     // Pushes waiting ramp-out batches in order; assigns their sequence numbers when they enter the ring.
@@ -489,37 +528,18 @@ struct Server::Impl {
                            std::nullopt};
         }
         if (auto r = check_stiffness_limit(fs.max_stiffness, "field: the stiffness of its Jacobian (largest eigenvalue of -sym(J))")) return r;
-        Matrix3 K_field{}, B_field{};
-        for (std::size_t i = 0; i < 3; ++i) {
-            for (std::size_t j = 0; j < 3; ++j) K_field[i][j] = -0.5 * (J[i][j] + J[j][i]);
-            if (i < config.axes) B_field[i][i] = field.damping;
-        }
-        if (fs.max_stiffness > scale && checker.mass().isotropic) {
-            // One mass: -sym(J) and B I commute; the stiffest eigen-direction with B is the verdict.
-            if (!checker.pair_is_stable(fs.max_stiffness, field.damping, checker.mass().smallest())) {
-                const PairVerdict v = checker.check_pair(fs.max_stiffness, field.damping, checker.mass().smallest());
-                return Refusal{"unstable_gains", "field: stiffness " + g(fs.max_stiffness) + " N/m (largest eigenvalue of -sym(J)) with B = " +
-                                                     g(field.damping) + " N s/m is outside the stability region; the largest stable K at that B is " +
-                                                     g(v.largest_stable_K) + " N/m",
-                               v.largest_stable_K};
-            }
-        } else if (fs.max_stiffness > scale) {
-            // An anisotropic mass: the field alone is the coupled loop of its own gain matrices.
-            std::string why;
-            if (!checker.sum_is_stable(K_field, B_field, why)) {
-                return Refusal{"unstable_gains", "field: its stiffness -sym(J) (eigenvalues " + g(fs.min_stiffness) + " .. " + g(fs.max_stiffness) +
-                                                     " N/m) with B = " + g(field.damping) + " N s/m is unstable for the device mass " +
-                                                     checker.mass().describe() + ": " + why,
-                               std::nullopt};
-            }
-        }
+        Matrix3 B_field{};
+        for (std::size_t i = 0; i < config.axes; ++i) B_field[i][i] = field.damping;
+        std::string why;
+        std::optional<double> largest_stable_K;
+        if (!checker.field_is_stable(J, B_field, why, largest_stable_K)) return Refusal{"unstable_gains", why, largest_stable_K};
         p.kind = ObjectKind::Field;
         p.point = to_axis(field.center);
         p.radius = field.radius;
         p.force = to_axis(field.force);
         p.B = field.damping;
         for (std::size_t i = 0; i < 3; ++i) p.jacobian[i] = AxisVector{J[i][0], J[i][1], J[i][2]};
-        out.K_matrix = K_field;
+        out.K_matrix = GainChecker::field_stiffness_matrix(J);
         out.B_matrix = B_field;
         return std::nullopt;
     }
@@ -694,12 +714,7 @@ struct Server::Impl {
 
         // The summed gains of the scene that would result (every session's objects and the config walls).
         Matrix3 K_sum{}, B_sum{};
-        for (const auto& w : config.config_walls) {
-            AxisVector e{};
-            e[w.axis] = 1.0;
-            add_to(K_sum, outer(e, w.K));
-            add_to(B_sum, outer(e, w.B));
-        }
+        add_config_walls(K_sum, B_sum);
         for (const auto& slot : proposal) {
             if (slot.state != ServerSlot::State::Used) continue;
             add_to(K_sum, slot.resolved.K_matrix);

@@ -185,21 +185,70 @@ double GainChecker::largest_stiffness(const Matrix3& K) {
 }
 
 hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const Matrix3& B_sum) const {
+    // The gains as rendered: K_sum may carry a field's curl (antisymmetric part), kept as it is.
     const double T = plant_.period;
     const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt);
-    Eigen::Matrix3d A = (T * T) * (Mis * symmetric(K_sum) * Mis);
-    Eigen::Matrix3d Bn = T * (Mis * symmetric(B_sum) * Mis);
-    A = 0.5 * (A + A.transpose()).eval();
-    Bn = 0.5 * (Bn + Bn.transpose()).eval();
-    return hapticopt::matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A), Eigen::MatrixXd(Bn));
+    const Eigen::Matrix3d A = (T * T) * (Mis * to_eigen(K_sum) * Mis);
+    const Eigen::Matrix3d Bn = T * (Mis * to_eigen(B_sum) * Mis);
+    return hapticopt::general_matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A), Eigen::MatrixXd(Bn));
+}
+
+Matrix3 GainChecker::field_stiffness_matrix(const Matrix3& J) {
+    Matrix3 K{};
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) K[i][j] = -J[i][j];
+    }
+    return K;
+}
+
+bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std::string& why,
+                                  std::optional<double>& largest_stable_K) const {
+    largest_stable_K.reset();
+    const FieldStiffness fs = field_stiffness(J);
+    const Eigen::Matrix3d j = to_eigen(J);
+    const bool curl = (j - j.transpose()).norm() > hapticopt::kMatrixGainRoundingLevel * j.norm();
+    if (!curl && mass_.isotropic) {
+        // One mass, J symmetric: -J and B I commute; the stiffest eigen-direction with B is the verdict.
+        const double B = B_field[0][0];
+        if (fs.max_stiffness <= 1e-12 * (1.0 + fs.jacobian_norm) || pair_is_stable(fs.max_stiffness, B, mass_.smallest())) {
+            return sum_is_stable(field_stiffness_matrix(J), B_field, why);  // the margin and the free directions
+        }
+        const PairVerdict v = check_pair(fs.max_stiffness, B, mass_.smallest());
+        why = "field: stiffness " + number_text(fs.max_stiffness) + " N/m (largest eigenvalue of -J) with B = " + number_text(B) +
+              " N s/m is outside the stability region; the largest stable K at that B is " + number_text(v.largest_stable_K) + " N/m";
+        largest_stable_K = v.largest_stable_K;
+        return false;
+    }
+    std::string reason;
+    if (sum_is_stable(field_stiffness_matrix(J), B_field, reason)) return true;
+    std::ostringstream s;
+    s.precision(6);
+    s << "field: the loop it renders, stiffness -J (symmetric part with eigenvalues " << fs.min_stiffness << " .. "
+      << fs.max_stiffness << " N/m";
+    if (curl) s << ", and a curl (antisymmetric part) of norm " << 0.5 * (j - j.transpose()).norm() << " N/m";
+    s << ") with B = " << B_field[0][0] << " N s/m, is unstable for the device mass " << mass_.describe() << ": " << reason;
+    why = s.str();
+    return false;
 }
 
 bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const {
     const Eigen::Matrix3d K = symmetric(K_sum), B = symmetric(B_sum);
-    if (K.isZero(0.0) && B.isZero(0.0)) return true;
+    if (to_eigen(K_sum).isZero(0.0) && to_eigen(B_sum).isZero(0.0)) return true;
     // The decision: the coupled loop's exact verdict (hapticopt::matrix_gain_stability).
     const hapticopt::MatrixGainStability verdict = coupled(K_sum, B_sum);
     if (verdict.stable) return true;
+    const Eigen::Matrix3d Kr = to_eigen(K_sum);
+    const double curl = 0.5 * (Kr - Kr.transpose()).norm();
+    if (curl > hapticopt::kMatrixGainRoundingLevel * Kr.norm()) {
+        // A curl couples the directions: no direction alone explains the verdict.
+        std::ostringstream s;
+        s.precision(10);
+        s << "summed gains with a curl (antisymmetric part of the summed stiffness, from force fields' Jacobians, norm "
+          << curl << " N/m): the coupled loop as rendered has spectral radius " << verdict.spectral_radius
+          << " (stable needs < 1 - " << hapticopt::kMatrixGainRadiusMargin << ")";
+        why = s.str();
+        return false;
+    }
     // The explanation: a direction along which the pair alone is already unstable, if there is one; in the
     // unit-mass coordinates y = M^1/2 x the term alpha u u^T is rendered by a plane along n ~ M^1/2 u with
     // K = alpha m_n / T^2 (m_n = 1 / (n^T M^-1 n)).
@@ -229,8 +278,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     }
     std::ostringstream s;
     s.precision(10);
-    s << "summed gains: each direction is stable on its own, but the coupled loop of the non-commuting K_sum and "
-         "B_sum has spectral radius "
+    s << "summed gains: each direction is stable on its own, but the coupled loop of K_sum and B_sum has spectral radius "
       << verdict.spectral_radius << " (stable needs < 1 - " << hapticopt::kMatrixGainRadiusMargin << ")";
     why = s.str();
     return false;

@@ -22,15 +22,23 @@
 //    cache holds at most 7 entries either way. Objects acting with several masses (line and point springs)
 //    get the optimum of the lightest: the other directions see the same (K, B) at a larger mass, and the
 //    object is then checked like explicit gains.
-//  * The sum: with K_sum = sum K_i P_i and B_sum = sum B_i P_i (3x3, symmetric), the coupled loop's exact
-//    verdict hapticopt::matrix_gain_stability for the unit-mass plant of the y coordinates, A = T^2
-//    M^-1/2 K_sum M^-1/2, B = T M^-1/2 B_sum M^-1/2 (symmetric still); the header of
-//    matrix_gain_stability.hpp normalises with m = 1, which these are. The refusal names the first
-//    eigen-direction whose pair alone is unstable, as the plane along n = M^1/2 u / |M^1/2 u| with mass
-//    m_n that renders that term (K = alpha m_n / T^2, B = beta m_n / T), or the coupled spectral radius.
+//  * The sum: with K_sum = sum K_i P_i - sum J_f (planes and springs: K_i P_i, symmetric; a force field
+//    f = J (x - x0) - B v renders the stiffness -J, its whole Jacobian: the antisymmetric part, a curl, is
+//    rendered too and can destabilise the sampled, delayed loop although it stores no energy) and B_sum =
+//    sum B_i P_i (symmetric), the coupled loop's verdict hapticopt::general_matrix_gain_stability for the
+//    unit-mass plant of the y coordinates, A = T^2 M^-1/2 K_sum M^-1/2, B = T M^-1/2 B_sum M^-1/2: for
+//    symmetric A, B the exact per-direction verdict when they commute, otherwise the eigenvalues of the
+//    block companion matrix of the 3-axis loop with the delay, both with the margin 1 - 1e-6 on the spectral
+//    radius and every direction touched above the rounding level judged (matrix_gain_stability.hpp). The
+//    header normalises with m = 1, which these are. The refusal names the first eigen-direction whose pair
+//    alone is unstable, as the plane along n = M^1/2 u / |M^1/2 u| with mass m_n that renders that term
+//    (K = alpha m_n / T^2, B = beta m_n / T), or the coupled spectral radius (always, with a curl).
 //    Cost: 3x3 eigen-decompositions and at most 3 Schur-Cohn tests, or one ~3(d+3)-square eigenproblem.
+//  * A field alone: the same coupled verdict of (-J, B I); with one mass and a symmetric J the stiffest
+//    eigenvalue of -J with B gets the scalar verdict first (for the largest stable K in the refusal).
 //  * Device limits: the profile's max_stiffness (N/m) bounds each object's stiffness along every direction
-//    and the summed K_sum's largest eigenvalue (fields: the largest eigenvalue of -sym(J)).
+//    and the summed K_sum's largest eigenvalue of sym(K_sum) (fields: the largest eigenvalue of -sym(J);
+//    the curl stores no energy and is bounded by the force limit instead).
 #pragma once
 
 #include <array>
@@ -106,7 +114,15 @@ public:
     // The largest eigenvalue of sym(K) (N/m): the stiffness along the stiffest direction.
     [[nodiscard]] static double largest_stiffness(const Matrix3& K);
 
-    // The coupled loop's verdict for physical gain matrices (symmetrised), in the unit-mass coordinates.
+    // The stiffness matrix a field renders, f = J (x - x0) - B v: K = -J, the whole Jacobian with its curl.
+    [[nodiscard]] static Matrix3 field_stiffness_matrix(const Matrix3& J);
+    // The field alone as rendered: stiffness -J and damping B_field. On failure `why` names the reason and,
+    // for a symmetric J with one mass, `largest_stable_K` the largest stable stiffness at that B.
+    [[nodiscard]] bool field_is_stable(const Matrix3& J, const Matrix3& B_field, std::string& why,
+                                       std::optional<double>& largest_stable_K) const;
+
+    // The coupled loop's verdict for physical gain matrices as rendered (K_sum may be non-symmetric: a
+    // field's curl), in the unit-mass coordinates (hapticopt::general_matrix_gain_stability).
     [[nodiscard]] hapticopt::MatrixGainStability coupled(const Matrix3& K_sum, const Matrix3& B_sum) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;

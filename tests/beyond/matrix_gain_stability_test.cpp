@@ -8,6 +8,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <hapticopt/matrix_gain_stability.hpp>
+#include <cstdio>
 #include <random>
 #include <unsupported/Eigen/MatrixFunctions>
 
@@ -106,6 +107,105 @@ TEST(MatrixGainStability, NonCommutingSumsAgreeWithTheFullStateMatrix) {
   EXPECT_GT(stable, 30);
   EXPECT_GT(unstable, 30);
   EXPECT_GT(non_commuting, 250);
+}
+
+// Gains as rendered: a force field f = J (x - x0) - B v renders the stiffness -J with its curl. Random
+// stiffness matrices with a symmetric part (three planes) and an antisymmetric part (a curl of up to
+// 0.06 / (1 + d) per entry): general_matrix_gain_stability's radius must equal the full state matrix's (the reference
+// builds u = A x + B (x - x_-1) for any A), tolerance 1e-8 as above; and the curl must matter: some
+// samples are stable by their symmetric part and unstable as rendered.
+TEST(MatrixGainStability, CurlFieldsAgreeWithTheFullStateMatrix) {
+  std::mt19937 rng(20261202);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), alpha_of(0.01, 0.3), beta_of(0.05, 1.2);
+  int stable = 0, unstable = 0, curl_decides = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const NormalizedPlant plant{0.0, trial % 3 == 0 ? 0.0 : 0.02, static_cast<double>(trial % 4)};
+    const double scale = 1.0 / (1 + plant.delay);
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero(), B = Eigen::Matrix3d::Zero(), W = Eigen::Matrix3d::Zero();
+    for (int object = 0; object < 3; ++object) {
+      const Eigen::Vector3d n(unit(rng), unit(rng), unit(rng));
+      A += scale * alpha_of(rng) * projector(n);
+      B += beta_of(rng) * projector(n);
+    }
+    const double curl = scale * 0.06 * std::abs(unit(rng));
+    W(0, 1) = curl * unit(rng);
+    W(0, 2) = curl * unit(rng);
+    W(1, 2) = curl * unit(rng);
+    W -= W.transpose().eval();
+    const auto rendered = hapticopt::general_matrix_gain_stability(plant, A + W, B);
+    const auto symmetric_only = hapticopt::general_matrix_gain_stability(plant, A, B);
+    const double reference = full_state_spectral_radius(plant, A + W, B);
+    ASSERT_EQ(rendered.active_directions, 3);
+    EXPECT_FALSE(rendered.commuting);
+    EXPECT_NEAR(rendered.spectral_radius, reference, 1e-8) << "trial " << trial;
+    if (rendered.stable) {
+      EXPECT_LT(reference, 1.0 - hapticopt::kMatrixGainRadiusMargin / 2) << "trial " << trial;
+      ++stable;
+    } else {
+      ++unstable;
+    }
+    if (symmetric_only.stable && !rendered.stable) ++curl_decides;
+  }
+  std::printf("[ curl ] %d stable, %d unstable, %d stable by the symmetric part alone but not as rendered\n", stable, unstable,
+              curl_decides);
+  EXPECT_GT(stable, 30);
+  EXPECT_GT(unstable, 30);
+  EXPECT_GT(curl_decides, 5);
+}
+
+// The field of the reproduction on tests/server/sim3_aniso.toml at d = 1 (J = [[-3000, 2000, 0],
+// [-2000, -3000, 0], [0, 0, -3000]] N/m, B = 10 N s/m, T = 1 ms): in y = M^1/2 x the normalised gains
+// are A = T^2 M^-1/2 (-J) M^-1/2, B = T M^-1/2 (10 I) M^-1/2. Its symmetric part alone is stable (radius
+// 0.9949), the loop as rendered is not (1.0128): both by the independent state matrix, to 1e-8.
+TEST(MatrixGainStability, TheReproducedCurlFieldIsUnstableAsRendered) {
+  Eigen::Matrix3d M;
+  M << 0.45, 0.10, 0.12, 0.10, 0.30, 0.0, 0.12, 0.0, 0.25;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+  const Eigen::Matrix3d Mis = es.operatorInverseSqrt();
+  Eigen::Matrix3d J;
+  J << -3000, 2000, 0, -2000, -3000, 0, 0, 0, -3000;
+  const double T = 1e-3;
+  const Eigen::Matrix3d A = T * T * Mis * (-J) * Mis, As = T * T * Mis * (-0.5 * (J + J.transpose())) * Mis;
+  const Eigen::Matrix3d B = T * Mis * (10.0 * Eigen::Matrix3d::Identity()) * Mis;
+  const NormalizedPlant plant{0.0, 0.0, 1.0};
+  const auto rendered = hapticopt::general_matrix_gain_stability(plant, A, B);
+  const auto symmetric_only = hapticopt::general_matrix_gain_stability(plant, As, B);
+  EXPECT_FALSE(rendered.stable);
+  EXPECT_TRUE(symmetric_only.stable);
+  EXPECT_NEAR(rendered.spectral_radius, full_state_spectral_radius(plant, A, B), 1e-8);
+  EXPECT_NEAR(symmetric_only.spectral_radius, full_state_spectral_radius(plant, As, B), 1e-8);
+  EXPECT_NEAR(rendered.spectral_radius, 1.0128, 1e-4);       // the figures, four digits
+  EXPECT_NEAR(symmetric_only.spectral_radius, 0.9949, 1e-4);
+}
+
+// Directions touched only weakly are judged, not dropped as free: a stiffness of 1e-9 without damping
+// along y (a sampled, delayed spring without damping: unstable, radius > 1 by the state matrix), or 1e-10
+// with damping 0.01 (a root at ~1 - alpha / beta = 1 - 1e-8, inside the margin), next to a strong plane
+// along x. Both must be refused; a scene touched only at the rounding level (1e-17) is the plane alone.
+TEST(MatrixGainStability, WeaklyTouchedDirectionsAreJudgedWithTheMargin) {
+  const NormalizedPlant plant{0.0, 0.0, 1.0};
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero(), B = Eigen::Matrix3d::Zero();
+  A(0, 0) = 0.05;
+  B(0, 0) = 0.4;
+  ASSERT_TRUE(hapticopt::matrix_gain_stability(plant, A, B).stable);
+  Eigen::Matrix3d A1 = A;
+  A1(1, 1) = 1e-9;
+  const auto undamped = hapticopt::matrix_gain_stability(plant, A1, B);
+  EXPECT_EQ(undamped.active_directions, 2);
+  EXPECT_FALSE(undamped.stable);
+  EXPECT_GT(full_state_spectral_radius(plant, A1, B), 1.0);
+  Eigen::Matrix3d A2 = A, B2 = B;
+  A2(1, 1) = 1e-10;
+  B2(1, 1) = 0.01;
+  const auto slow = hapticopt::matrix_gain_stability(plant, A2, B2);
+  EXPECT_EQ(slow.active_directions, 2);
+  EXPECT_FALSE(slow.stable);
+  EXPECT_GT(full_state_spectral_radius(plant, A2, B2), 1.0 - hapticopt::kMatrixGainRadiusMargin);
+  Eigen::Matrix3d A3 = A;
+  A3(1, 1) = 1e-17;
+  const auto rounding = hapticopt::matrix_gain_stability(plant, A3, B);
+  EXPECT_EQ(rounding.active_directions, 1);
+  EXPECT_TRUE(rounding.stable);
 }
 
 TEST(MatrixGainStability, RejectsAsymmetricAndNonFiniteMatrices) {

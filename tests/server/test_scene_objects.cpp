@@ -128,6 +128,36 @@ TEST(SceneObjects, RampInAndOutAreLinearAndTheSlotIsFreedAfterwards) {
     EXPECT_EQ(rig.objects.occupied(), 0U);
 }
 
+// A departure with no stable ramp-out (docs/protocol.md, section 5, step 4): Cut removes the object at
+// once, with no intermediate scene (a Remove would render 9 more ticks of ramp-out here); rendered_gains
+// reports the spring's gains before and nothing after. Like every batch that changes gains it waits for the
+// ramps in progress (the order the server checked).
+TEST(SceneObjects, ACutRemovesAnObjectAtOnce) {
+    Rig rig(0.010);
+    ObjectParams spring;
+    spring.id = 4;
+    spring.kind = ObjectKind::Spring;
+    spring.K = 100.0;
+    spring.B = 2.0;
+    rig.commit({{2, SlotUpdate::Action::Set, spring}});
+    for (int k = 0; k < 12; ++k) rig.tick({0.01, 0, 0});
+    std::array<AxisVector, 3> K{}, B{};
+    rig.objects.apply_commits();
+    rig.objects.rendered_gains(K, B);
+    EXPECT_EQ(K[0][0], 100.0);
+    EXPECT_EQ(K[2][2], 100.0);
+    EXPECT_EQ(B[1][1], 2.0);
+    rig.commit({{2, SlotUpdate::Action::Cut, spring}}, 2);
+    rig.objects.apply_commits();
+    EXPECT_EQ(rig.objects.slot_object_id(2), 0U);
+    rig.objects.rendered_gains(K, B);
+    EXPECT_EQ(K, (std::array<AxisVector, 3>{}));
+    EXPECT_EQ(B, (std::array<AxisVector, 3>{}));
+    AxisVector f{};
+    EXPECT_TRUE(rig.objects.add_forces({0.01, 0, 0}, f));
+    EXPECT_EQ(f, AxisVector{});
+}
+
 // One batch ramps at a time (SceneObjects::apply_commits): a batch that adds an object while another
 // object's 10-tick ramp-in runs is held until that ramp has ended, then ramps in itself; a batch of moves of
 // another object passes it at once; a move of the held object waits behind it. last_commit_seq means

@@ -1,0 +1,54 @@
+// What ramps out when a session ends (a disconnect, a lost lease, a closed slow consumer): the rule of
+// docs/protocol.md, section 5, "A client that leaves". Runs in the server thread, never in the loop.
+//
+// The loop renders, from the tick the departure batch is applied, base + (1 - s_j)^2 K_out and
+// base + (1 - s_j) B_out (s_j = j T / ramp_s, the loop's ramp weights r^2 for stiffness, r for damping),
+// then base alone: "out" the objects that ramp out, "base" the config walls and every object that stays,
+// at its final weight (the loop starts the batch's ramps only once every earlier batch's have ended, so
+// base is the scene the server's slots describe). The departing session's objects alone need not leave a
+// stable scene: a sum may be stable only with them (A + B unstable, A + B + C stable). So:
+//   1. out = the departing objects; accepted if base and every ramp scene pass GainChecker::sum_is_stable
+//      (ramp_is_stable and the remainder's check: every scene the loop will render).
+//   2. Otherwise the fewest further client objects ramp out with them: every set of 1, then 2, ... of the
+//      staying client objects (slot order), until one passes or kDepartureSearchBudget sets have been
+//      tried (each costs up to 1 / step scene checks, ~30 x ~20 us).
+//   3. Otherwise every client object ramps out (base = the config walls, checked at start-up), if its
+//      ramp scenes pass.
+//   4. Otherwise every client object is cut at once (SlotUpdate::Action::Cut, no ramp): the loop jumps from
+//      the scene before (checked when it was committed) to the config walls alone (checked at start-up),
+//      and renders no scene in between.
+// The owners of objects removed in 2-4 get an event naming them and the reason (server.cpp).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tuning/object_checks.hpp"
+
+namespace hapticd {
+
+// Scene checks a departure may spend on finding the fewest further objects (step 2 above): bounds the
+// server thread's pause to ~64 x 30 x 20 us ~ 40 ms at the default 30 ms ramp.
+inline constexpr std::size_t kDepartureSearchBudget = 64;
+
+struct DepartureObject {
+    std::size_t slot = 0;
+    std::uint64_t owner = 0;
+    Matrix3 K{};  // the stiffness matrix it renders (GainChecker's convention: f = -K x - B v)
+    Matrix3 B{};
+};
+
+struct DeparturePlan {
+    std::vector<std::size_t> out;          // slots that ramp out (or are cut): the departing ones first
+    std::vector<std::size_t> further;      // of those, the staying objects removed with them (steps 2-4)
+    bool cut = false;                      // step 4: removed at once, no ramp
+    std::string reason;                    // why the departing objects alone could not ramp out (steps 2-4)
+};
+
+// The rule above. `fixed_K`, `fixed_B`: the config walls' summed gains; `step` = T / ramp_s (>= 1: no ramp).
+DeparturePlan plan_departure(const GainChecker& checker, const Matrix3& fixed_K, const Matrix3& fixed_B,
+                             const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying, double step);
+
+}  // namespace hapticd
