@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # CPU seconds (user + system) and maximum resident set size of compiling, one after the other:
 #   1. the README example through the umbrella header, header-only;
 #   2. the same example through hapticopt/optimal_wall.hpp alone, header-only;

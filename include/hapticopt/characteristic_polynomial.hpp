@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The characteristic polynomial of the sampled-data loop, which is affine in the wall gains:
 //
 //   p(z) = P_0(z) + alpha P_alpha(z) + beta P_beta(z).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The closed loop of Fig. 2 for given wall gains: the exact one-period transition of the loop
 // state and the unit-step initial condition, in deviation coordinates.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How the library's non-template functions are provided: header-only (the default) or compiled.
 //
 // Header-only: every function is defined in the headers. The functions whose bodies use heavy

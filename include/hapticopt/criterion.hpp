@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The optimisation criteria of Tables III and IV (model notes, "Optimal curves and points").
 #pragma once
 

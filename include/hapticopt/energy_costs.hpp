@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The energy criteria C_E0, C_E1, C_E2 of the unit step response (Hulin et al. 2011, eqs. 4-8),
 // in closed form: exact integrals within each period and exact infinite sums over periods.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exceptions thrown by hapticopt's public functions (never inside a real-time loop: the
 // analysis runs at startup).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Exact discretisation of a linear ODE over one interval: the matrix exponential and the
 // time-weighted Gramian integrals used by the energy criteria.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt: stability, step-response criteria and optimal gains of a sampled-data virtual wall
 // (Hulin, Gonzalez Camarero, Albu-Schaeffer, IROS 2011), header-only. Include this for everything.
 #pragma once

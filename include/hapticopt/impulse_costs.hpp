@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Collision (impulse-response) criteria of the sampled-data wall, beyond Hulin et al. 2011 (whose
 // conclusion leaves the impulse response to future work): the device hits the wall with velocity v0.
 //

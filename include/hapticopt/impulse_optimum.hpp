@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Optimal curves and points of the collision criteria C_I0, C_I1, C_I2 (impulse_costs.hpp).
 //
 // Definitions, as for the step criteria (model notes, "Optimal curves and points"): the optimal

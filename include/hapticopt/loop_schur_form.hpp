@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The complex Schur form of the loop transition M = U T U^H (Eigen::ComplexSchur: Hessenberg
 // reduction + shifted QR, ~25 N^3 flops), plus the stability verdict (Schur-Cohn) that gates the
 // closed forms. The Schur form gives the spectral radius of StabilityReport and the complex-Schur

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stability of a multi-axis wall with matrix gains: several objects in contact at once, along directions
 // that need not be parallel.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The physical answer: from the device (m, b, k), the period T and the loop delay t_d to the
 // optimal wall gains K and B of one criterion (eq. 3: K = alpha m / T^2, B = beta m / T).
 #pragma once

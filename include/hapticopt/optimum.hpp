@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Optimal curves beta_opt(alpha) and optimal points of the eight criteria of Tables III and IV.
 //
 // Definitions (model notes): optimal curve of C = argmin over stable beta of C(alpha, beta); CEx

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The overshoot criterion C_OV = (max_t x(t) - x_inf) / x_inf (Hulin et al. 2011, eq. 9) of the
 // continuous-time unit step response, with the maximum found exactly inside each period.
 //

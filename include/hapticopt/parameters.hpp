@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Physical and normalised parameters of the haptic loop (Hulin et al., IROS 2011, Table I, eq. 3).
 //
 //   alpha = K T^2 / m,  beta = B T / m,  gamma = k T^2 / m,  delta = b T / m,  d = t_d / T.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Passivity of the sampled-data wall with an integer loop delay: the Colgate-Schenkel condition with
 // H(z) = z^-d (K + B (1 - z^-1) / T), its exact maximum over frequency, the passive set, and the best
 // passive gains.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Global minimum of a cost c(a, b) over a region { a0 < a < a1, lo(a) < b < hi(a) } of the gain
 // plane: the search of optimum.hpp, for any cost and any region given by its b interval per a
 // (the exact stable region, the passive part of it, the robustly stable set).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Robust wall gains: (K, B) minimising the worst case of an energy criterion (C_E0..2 of the step,
 // C_I0..2 of the collision) over a box of uncertain physical parameters, with stability over the
 // whole box. Beyond Hulin et al. 2011, who name robustness (their objective 4) but do not optimise it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The plant of Fig. 2 sampled exactly, in normalised units (m = T = 1), for a real delay d >= 0.
 //
 // Plant (eq. 1 normalised): x'' + delta x' + gamma x = F - f(t). The wall force f_j, computed at

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One-dimensional searches used by the optimisers: Brent's minimiser (golden section with
 // parabolic interpolation; R. P. Brent, "Algorithms for Minimization without Derivatives", 1973,
 // ch. 5) and bisection on a sign change. Both treat non-finite values as "worse than any finite".

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Schur stability of a real polynomial by the Schur-Cohn (Jury) recursion.
 //
 // For p(z) = sum_i a_i z^i of degree n with a_n != 0, let k = a_0 / a_n (reflection coefficient)

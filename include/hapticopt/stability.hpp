@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stability of the sampled-data wall: all roots of the characteristic polynomial
 // (characteristic_polynomial.hpp) strictly inside the unit circle.
 //

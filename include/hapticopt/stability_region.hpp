@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stable region of the wall gains in the (alpha, beta) plane, computed exactly by
 // D-decomposition (parameter-space method; Hulin, Preusche, Hirzinger, IROS 2006/2008 use the same
 // characteristic equation).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Discrete Lyapunov (Stein) equations  X = M X M^T + C  solved on the complex Schur form
 // M = U T U^H (T upper triangular), column by column by back substitution
 // (Bartels-Stewart, CACM 15(9), 1972; Kitagawa, Int. J. Control 25(5), 1977).

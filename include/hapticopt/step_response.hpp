@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The continuous-time unit step response x(t), x'(t), E(t) of the loop, exact at any t >= 0
 // (normalised units: m = T = 1, F = 1; physical x = x_n F T^2/m, x' = x'_n F T/m,
 // E = E_n F^2 T^2/m, t = t_n T).

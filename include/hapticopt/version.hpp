@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticopt: optimal virtual-wall tuning for sampled-data haptic rendering.
 #pragma once
 

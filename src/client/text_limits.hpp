@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Bounded, printable copies of client-supplied text for error replies and log lines (docs/protocol.md,
 // section 8): a cut never splits a UTF-8 character, and a log line never carries a client's control bytes.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The daemon's last act when it dies anyway (docs/protocol.md, section 6; docs/hapticd.md): on SIGSEGV,
 // SIGBUS, SIGFPE, SIGILL, SIGABRT or std::terminate, zero force on the device where its driver can do it
 // async-signal-safely (Device::zero_force_from_signal_handler: the simulated device; not the Falcon over

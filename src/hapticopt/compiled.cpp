@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The compiled mode of the hapticopt library (include/hapticopt/config.hpp): this translation unit
 // defines, once, every function the headers declare through HAPTICOPT_FUNC. Programs that link the
 // CMake target hapticopt::compiled get HAPTICOPT_COMPILED defined and see only their declarations.

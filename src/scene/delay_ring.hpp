@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The delay buffer of the wall: a preallocated ring of N samples. The value pushed at tick j comes out
 // at tick j + N; the first N values out are zero (no wall force before the first one arrives).
 // N = 0 passes the value through. No allocation after construction.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Time-domain passivity control at the device port (after Hannaford and Ryu, "Time-domain passivity control of
 // haptic interfaces", IEEE Trans. Robotics and Automation 18(1), 1-10, 2002): a passivity observer
 // integrates the energy that flows into the rendered environment, a variable damper dissipates what the

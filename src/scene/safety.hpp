@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Safety pieces of the daemon: the stop request from SIGINT/SIGTERM (an async-signal-safe atomic flag
 // set by a sigaction handler) and the watchdog over the loop's timing.
 #pragma once

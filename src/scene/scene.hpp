@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scene: the walls of the configuration and what one tick of wall rendering does with them.
 // Each tick: check the sampled position, let every wall add its force on its axis (a unilateral wall
 // out of contact costs one subtraction and a comparison), saturate per axis to the device maximum and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The clients' scene objects as the loop renders them (docs/protocol.md, section 4): 64 preallocated
 // slots, each with the object it renders now and the object it is fading out (a cross-fade on a change of
 // gains, the ramp-out on removal). Commits arrive from the server thread through a lock-free SPSC ring and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One virtual wall: exactly the analysed discrete spring-damper (backward difference),
 //     f_j = K x_j + B (x_j - x_{j-1}) / T,
 // with x the penetration along the wall normal (x > 0 inside the wall) and f > 0 pushing out.

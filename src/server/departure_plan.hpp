@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What ramps out when a session ends (a disconnect, a lost lease, a closed slow consumer): the rule of
 // docs/protocol.md, section 5, "A client that leaves". Runs in the server thread, never in the loop.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Decodes one client message of protocol version 1 (docs/protocol.md) into a typed request, checking
 // structure, types and ranges (the physics of objects is checked by the server afterwards). Never throws:
 // bad input gives a DecodeError with the protocol's error code and a message naming the field and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The range checks of one object against the device, before any stability test (docs/protocol.md,
 // section 5): positions inside the profile's workspace box, planes that meet it, explicit gains below the
 // plausibility bounds that keep the stability test's arithmetic finite. Pure functions (the fuzz target

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "server/reply_text.hpp"
 
 #include "client/text_limits.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The bytes of one server message (docs/protocol.md, section 8): a reply never exceeds the protocol's
 // 65536 bytes, never carries invalid UTF-8 and its encoding never throws.
 #pragma once

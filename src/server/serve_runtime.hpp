@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What `hapticd --serve` adds to a run, built from the options and the profile before the loop starts:
 // the hand-over ring, the loop's object slots, the shared-memory state, the gain checker and the server
 // thread. hapticd_main attaches hooks() to the daemon, start()s the server, runs the loop, then stop()s.

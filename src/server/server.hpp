@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // hapticd's control server (docs/protocol.md): a Unix-domain SOCK_SEQPACKET socket served by one thread
 // of its own. It decodes requests (server/message_decoder.hpp), checks every object against the exact
 // stability region (tuning/object_checks.hpp) and hands whole batches to the loop through the lock-free

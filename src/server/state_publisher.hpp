@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The loop's side of the shared-memory state (docs/protocol.md, section 6; layout
 // include/hapticd/state_layout.hpp): created (shm_open, mode 0640, the socket's group) before the loop
 // starts, written once per tick under a seqlock, unlinked at shut-down.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The checks of the clients' scene objects against hapticopt's exact stability region (docs/protocol.md,
 // section 5). Runs in the server thread (never in the loop).
 //

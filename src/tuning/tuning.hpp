@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The daemon's adapter to hapticopt: optimal wall gains for a criterion and a device, or the check of
 // explicit gains against the stability region. Runs at start-up only.
 #pragma once

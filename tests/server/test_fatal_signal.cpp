@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // In a forked process (gtest death test, "fast" style: the state segment is mapped before the fork):
 // std::terminate with the daemon's fatal handlers installed writes fault 5 and SIGABRT into the state,
 // calls the device's signal-safe zero, and ends the process by SIGABRT. The fatal signals themselves are

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The invariant of docs/protocol.md, section 5, as a property: every scene the loop renders, tick by tick,
 // is stable — judged by an independent model, not by the code path that decided it.
 //

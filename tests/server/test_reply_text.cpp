@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The reply encoder and the client-text helpers (src/server/reply_text.*, src/client/text_limits.*): a
 // cut never splits a UTF-8 character, log text has no control bytes, and no reply exceeds 65536 bytes or
 // fails to encode, whatever text it carries.

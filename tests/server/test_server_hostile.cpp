@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A hostile or careless client against a running hapticd --serve (docs/protocol.md, sections 5 and 8):
 // messages that used to end the daemon (a reply cut inside a UTF-8 character, a plane at offset 1e308),
 // replies beyond the size limit, and the protocol's edges (NUL bytes, empty messages, an empty criterion,

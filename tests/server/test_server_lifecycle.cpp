@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The daemon's life as a client sees it (docs/protocol.md, sections 6 and 7; docs/hapticd.md): a daemon
 // killed by a fatal signal leaves a state that says so (fault, signal, a heartbeat that stops) after
 // zeroing the simulated device; a stopped daemon reads stale, a quiet one does not; --serve-socket never

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stability as rendered, with real processes (docs/protocol.md, section 5): a force field whose Jacobian
 // has a curl is checked with its whole Jacobian, and a client that leaves (killed, or its lease lost)
 // never makes the loop render an unchecked scene — the objects whose absence would leave an unstable sum

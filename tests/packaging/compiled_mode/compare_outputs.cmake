@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest packaging.compiled_mode_same_numbers -- run with cmake -P.
 # Runs the header-only build HEADER_ONLY and the compiled-mode build COMPILED of the same program and
 # requires both to succeed with byte-identical output.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The README's example extended to every criterion, printed to full precision (%.17g). Built twice by
 // tests/packaging/CMakeLists.txt, header-only and against hapticopt::compiled, and the two outputs must be
 // identical (packaging.compiled_mode_same_numbers): the same source compiled with the same flags.

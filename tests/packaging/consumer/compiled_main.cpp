@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Outside consumer of the installed compiled-mode library hapticopt::compiled (see CMakeLists.txt).
 #include <hapticopt/hapticopt.hpp>
 
