@@ -7,12 +7,6 @@ namespace hapticd {
 
 namespace {
 
-void add_to(Matrix3& a, const Matrix3& b) {
-    for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) a[i][j] += b[i][j];
-    }
-}
-
 // Base (fixed + the staying objects not in `removed`) and every ramp scene of `out` fading over it.
 bool departure_is_stable(const GainChecker& checker, const Matrix3& fixed_K, const Matrix3& fixed_B,
                          const std::vector<const DepartureObject*>& out, const std::vector<DepartureObject>& staying,

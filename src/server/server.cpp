@@ -59,12 +59,6 @@ Matrix3 outer(const AxisVector& u, double scale) {
     return m;
 }
 
-void add_to(Matrix3& a, const Matrix3& b) {
-    for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) a[i][j] += b[i][j];
-    }
-}
-
 AxisVector to_axis(const cl::Vec3& v) { return AxisVector{v[0], v[1], v[2]}; }
 
 // A checked object: what the loop renders and what the summed-gain check adds.

@@ -59,6 +59,13 @@ namespace hapticd {
 
 using Matrix3 = std::array<std::array<double, 3>, 3>;
 
+// a += b, entry by entry: gain matrices sum as the loop sums the objects' forces.
+inline void add_to(Matrix3& a, const Matrix3& b) {
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) a[i][j] += b[i][j];
+    }
+}
+
 // The plant the objects are checked for: TuningPlant's damping, stiffness, period and total delay, and
 // the mass matrix (none: TuningPlant::mass on every axis), and the stiffness limit (none: no limit).
 struct GainCheckPlant : TuningPlant {
