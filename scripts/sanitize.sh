@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 # The test suite under sanitizers (issue 6): every test executable built with ASan + UBSan
 # (build/asan) and run with ctest; then the daemon's threaded code (the loop, the SPSC trace ring and its
-# writer thread, the daemon as a process, the server thread's hand-over to the loop) built with TSan (build/tsan) and run with ctest -L daemon.
+# writer thread, the daemon as a process, the server thread's hand-over to the loop, the rendered-scene property test) built with TSan (build/tsan) and run with ctest -L daemon.
 # Any sanitizer report aborts the test that triggered it (-fno-sanitize-recover=all), so ctest fails.
 # The packaging tests (compile-only) and the benchmarks are left out: they run nothing a sanitizer sees.
 # Usage: scripts/sanitize.sh [asan|tsan|all]   (default all; dependencies are assumed installed)
@@ -32,7 +32,8 @@ fi
 if [[ "$what" == tsan || "$what" == all ]]; then
   cmake -S . -B build/tsan "${common[@]}" -DHAPTICOPT_SANITIZE=thread
   cmake --build build/tsan -j"$jobs" --target hapticd hapticd_unit_tests hapticd_analysis_tests hapticd_process_tests \
-    hapticd_experiment_tests hapticd_systemd_tests hapticd_server_tests hapticd_test_client
+    hapticd_experiment_tests hapticd_systemd_tests hapticd_server_tests hapticd_server_stability_tests \
+    hapticd_rendered_scene_tests hapticd_test_client
   TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
     "${norandom[@]}" ctest --test-dir build/tsan --output-on-failure -j2 -L daemon
 fi
