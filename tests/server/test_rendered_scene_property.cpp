@@ -415,7 +415,9 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
     std::printf("[ property ] %zu rendered scenes; must be below 1 - %.0e by the reference; largest %.9f\n", total.scenes, kReferenceMargin,
                 total.worst);
     EXPECT_GE(total.scenes, kMinimumScenes);
-    EXPECT_GT(total.accepted, 100U);  // the driver exercised the server, not only its refusals
+    // The driver exercised the server, not only its refusals: about one action in five is an accepted commit
+    // (release and sanitizer runs alike, 20-21 %); the floor is half that rate, scaled with kActions.
+    EXPECT_GE(total.accepted, static_cast<std::size_t>(8 * kActions / 10));
     // The driver exercised every kind of departure (release: 6 .. 13 patterns, 4 .. 8 lost leases per plant).
     EXPECT_GE(total.departures, 8 * kMinimumEach);
     EXPECT_GE(total.expiries, kMinimumEach);
