@@ -35,7 +35,8 @@ SurfaceDistance surface_distance(const ObjectParams& p, const AxisVector& x, dou
 
 }  // namespace
 
-SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring) : config_(config), ring_(ring) {
+SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, CommitRing* departures)
+    : config_(config), ring_(ring), departures_(departures) {
     if (!(config_.period > 0.0) || !std::isfinite(config_.period)) {
         throw std::invalid_argument("SceneObjects: period = " + std::to_string(config_.period) + " is invalid; accepted range: finite, > 0");
     }
@@ -102,19 +103,22 @@ bool SceneObjects::ramp_running() const noexcept {
 // batch touches is applied at once (it changes no gain, and the held batches no slot of it); one that
 // moves an object a held batch adds or changes waits in the ring behind it, and the batches after it too.
 // last_commit_seq stays below the oldest held batch's seq until it is applied ("every batch up to this seq
-// is applied").
+// is applied"). Departures go first (take_departures), at every step: the ring's front is read before the
+// departure ring is looked at, so a departure the server sent before that batch is seen first.
 void SceneObjects::apply_commits() noexcept {
-    if (held_count_ == 0 && ring_.front() == nullptr) return;  // the usual tick: nothing to do
+    if (departures_ != nullptr) (void)take_departures();
+    if (held_count_ == 0 && ring_.front() == nullptr) {
+        stats_.last_commit_seq = applied_seq_;
+        return;  // the usual tick: nothing to do
+    }
     for (std::size_t n = 0; n < config_.commits_per_tick; ++n) {
+        const ObjectCommit* c = ring_.front();
+        if (departures_ != nullptr && take_departures()) continue;
         if (held_count_ > 0 && !ramp_running()) {
             apply(held_[held_first_]);
-            held_first_ = (held_first_ + 1) % held_.size();
-            --held_count_;
-            held_slots_ = 0;
-            for (std::size_t i = 0; i < held_count_; ++i) held_slots_ |= slots_of(held_[(held_first_ + i) % held_.size()]);
+            pop_held();
             continue;
         }
-        const ObjectCommit* c = ring_.front();
         if (c == nullptr) break;
         if (only_moves_in(*c)) {
             if ((slots_of(*c) & held_slots_) != 0) break;  // waits behind the held batch that touches its slot
@@ -134,6 +138,61 @@ void SceneObjects::apply_commits() noexcept {
     stats_.last_commit_seq = before_held < applied_seq_ ? before_held : applied_seq_;
 }
 
+void SceneObjects::pop_held() noexcept {
+    held_first_ = (held_first_ + 1) % held_.size();
+    --held_count_;
+    held_slots_ = 0;
+    for (std::size_t i = 0; i < held_count_; ++i) held_slots_ |= slots_of(held_[(held_first_ + i) % held_.size()]);
+}
+
+// Every departure waiting in the second ring, in order. For each: the ramps in progress jump to their end,
+// every batch the server sent before it (held here, or still in the ring: seq below the departure's) is
+// applied at once, in order, at its final state — the scene the server's model had when it planned the
+// departure, which it checked — and then the departure's ramp-out starts from there, the scenes
+// plan_departure checked. Bounded: each batch is applied once, the rings and held_ hold 64 each.
+bool SceneObjects::take_departures() noexcept {
+    bool any = false;
+    for (const ObjectCommit* d = departures_->front(); d != nullptr; d = departures_->front()) {
+        finish_ramps();
+        while (held_count_ > 0) {
+            apply(held_[held_first_], true);
+            ++stats_.commits_jumped;
+            pop_held();
+        }
+        for (const ObjectCommit* c = ring_.front(); c != nullptr && c->seq < d->seq; c = ring_.front()) {
+            apply(*c, true);
+            ++stats_.commits_jumped;
+            ring_.pop();
+        }
+        apply(*d);
+        ++stats_.departures_applied;
+        departures_->pop();
+        any = true;
+    }
+    if (any) stats_.last_commit_seq = applied_seq_;
+    return any;
+}
+
+// Every ramp in progress at its end: objects ramping in at weight 1, fading ones gone.
+void SceneObjects::finish_ramps() noexcept {
+    bool changed = false;
+    for (Slot& slot : slots_) {
+        if (slot.fading.active) {
+            slot.fading.active = false;
+            changed = true;
+        }
+        if (slot.current.active && slot.current.ramp < 1.0) {
+            slot.current.ramp = 1.0;
+            changed = true;
+        }
+    }
+    if (changed) {
+        scene_changed_ = true;
+        ++slot_table_version_;
+        count_occupied();
+    }
+}
+
 // The slot's current object starts to fade out from its ramp factor now (1 unless a batch was applied
 // while its ramp ran, which apply_commits prevents); without ramps it is gone at once.
 void SceneObjects::start_fading(Slot& slot) noexcept {
@@ -143,7 +202,7 @@ void SceneObjects::start_fading(Slot& slot) noexcept {
     slot.fading.steps = 0;
 }
 
-void SceneObjects::apply(const ObjectCommit& commit) noexcept {
+void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
     bool only_moves = true;
     for (std::uint32_t i = 0; i < commit.count && i < kSceneObjectCapacity; ++i) {
         const SlotUpdate& u = commit.updates[i];
@@ -153,8 +212,9 @@ void SceneObjects::apply(const ObjectCommit& commit) noexcept {
             case SlotUpdate::Action::Set:
                 only_moves = false;
                 if (slot.current.active) start_fading(slot);  // cross-fade from wherever the old one is
+                if (at_once) slot.fading.active = false;
                 slot.current.active = true;
-                slot.current.ramp = ramp_step_ >= 1.0 ? 1.0 : 0.0;
+                slot.current.ramp = ramp_step_ >= 1.0 || at_once ? 1.0 : 0.0;
                 slot.current.steps = 0;
                 slot.current.params = u.params;
                 break;
@@ -178,6 +238,7 @@ void SceneObjects::apply(const ObjectCommit& commit) noexcept {
                     start_fading(slot);
                     slot.current.active = false;
                 }
+                if (at_once) slot.fading.active = false;
                 break;
             case SlotUpdate::Action::Cut:
                 only_moves = false;

@@ -19,6 +19,9 @@
 // for every object with a lower ratio (tests/server/test_scene_objects.cpp). The server checks every scene
 // a ramp renders (docs/protocol.md, section 5); for those to be the scenes the loop renders, one batch ramps
 // at a time: a batch that starts ramps while another's run is held until they end (apply_commits).
+// A departure (a client that left) comes through a second ring and is never queued behind other batches:
+// the loop brings every batch sent before it to its final state at once (take_departures), then starts
+// its ramp-out.
 // The summed force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
 // (infinity norm, scaled as a whole so the direction is kept); a non-finite value latches a fault.
 //
@@ -141,14 +144,19 @@ struct SceneObjectsStats {
     std::uint64_t commits_applied = 0;
     std::uint64_t last_commit_seq = 0;  // every batch up to this seq is applied
     std::uint64_t commits_held = 0;     // batches held until the ramps of an earlier one had ended
+    std::uint64_t departures_applied = 0;  // departure batches (the second ring)
+    std::uint64_t commits_jumped = 0;   // batches brought to their final state at once ahead of a departure
     std::uint64_t rate_limited_ticks = 0;
     std::uint64_t saturated_ticks = 0;
 };
 
 class SceneObjects {
 public:
-    // The ring must outlive this object; its consumer is the loop thread (apply_commits()).
-    SceneObjects(const SceneObjectsConfig& config, CommitRing& ring);
+    // The rings must outlive this object; their consumer is the loop thread (apply_commits()). `departures`
+    // (optional) carries the server's departure batches (a client that left): each is applied within the
+    // tick it is seen, ahead of the batches held or waiting in `ring` (take_departures). Without it the
+    // server sends departures through `ring` and they queue like any batch.
+    SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, CommitRing* departures = nullptr);
 
     // Start of a tick: applies up to commits_per_tick waiting batches; one that starts ramps while another
     // batch's ramps run is held until they have ended (apply_commits in scene_objects.cpp). Real-time safe.
@@ -238,7 +246,12 @@ private:
         std::size_t count = 0;
     };
 
-    void apply(const ObjectCommit& commit) noexcept;
+    // at_once: every ramp the batch would start is at its end already (a Set's object at weight 1 and what it
+    // replaces gone, a Remove's object gone): the batch's final scene, which the server checked.
+    void apply(const ObjectCommit& commit, bool at_once = false) noexcept;
+    bool take_departures() noexcept;
+    void finish_ramps() noexcept;
+    void pop_held() noexcept;
     void start_fading(Slot& slot) noexcept;
     [[nodiscard]] bool ramp_running() const noexcept;
     void set_bounds() noexcept;
@@ -259,6 +272,7 @@ private:
 
     SceneObjectsConfig config_;
     CommitRing& ring_;
+    CommitRing* departures_ = nullptr;
     std::array<Slot, kSceneObjectCapacity> slots_{};
     // Batches waiting for the ramps in progress to end (apply_commits), a circular queue preallocated in the
     // constructor (~14 KB each: on the heap, not in the object).

@@ -36,13 +36,15 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     const std::size_t axes = static_cast<std::size_t>(profile.axes);
 
     ring_ = std::make_unique<CommitRing>(kCommitRingCapacity);
+    // One departure per slot at most is in flight (a slot is reused only once its departure was applied).
+    departure_ring_ = std::make_unique<CommitRing>(kSceneObjectCapacity);
     SceneObjectsConfig oc;
     oc.period = period;
     oc.ramp_time = o.ramp_time;
     oc.max_force = profile.max_force;
     oc.max_force_rate = o.max_force_rate;
     oc.axes = axes;
-    objects_ = std::make_unique<SceneObjects>(oc, *ring_);
+    objects_ = std::make_unique<SceneObjects>(oc, *ring_, departure_ring_.get());
     // The socket path first: a second daemon started on a live one's names stops here, before it replaces
     // the live one's state segment.
     try {
@@ -90,7 +92,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     sc.session_max_in_flight = static_cast<std::size_t>(o.session_max_in_flight);
     sc.log_connections = !o.quiet;
     try {
-        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_);
+        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_, departure_ring_.get());
     } catch (const SocketPathError& e) {
         throw StartupError(kExitSocketPathInUse, e.what());
     } catch (const std::exception& e) {

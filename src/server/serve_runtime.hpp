@@ -34,6 +34,7 @@ public:
 
 private:
     std::unique_ptr<CommitRing> ring_;
+    std::unique_ptr<CommitRing> departure_ring_;  // clients that left: taken by the loop ahead of ring_
     std::unique_ptr<SceneObjects> objects_;
     std::unique_ptr<StatePublisher> state_;
     std::unique_ptr<GainChecker> checker_;

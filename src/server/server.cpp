@@ -142,12 +142,14 @@ void remove_stale_socket(const std::string& path) {
 }
 
 struct Server::Impl {
-    Impl(const ServerConfig& c, GainChecker& k, CommitRing& r, const StatePublisher& s, std::atomic<std::uint64_t>& pushed)
-        : config(c), checker(k), ring(r), state(s), commits_pushed(pushed) {}
+    Impl(const ServerConfig& c, GainChecker& k, CommitRing& r, CommitRing* d, const StatePublisher& s,
+         std::atomic<std::uint64_t>& pushed)
+        : config(c), checker(k), ring(r), departure_ring(d != nullptr ? *d : r), state(s), commits_pushed(pushed) {}
 
     ServerConfig config;
     GainChecker& checker;
     CommitRing& ring;
+    CommitRing& departure_ring;  // `ring` itself when the loop has no departure ring
     const StatePublisher& state;
     std::atomic<std::uint64_t>& commits_pushed;
     int listen_fd = -1;
@@ -155,7 +157,7 @@ struct Server::Impl {
     std::atomic<bool> stop{false};
     std::map<std::uint64_t, Session> sessions;
     std::array<ServerSlot, kSceneObjectCapacity> slots{};
-    std::deque<ObjectCommit> pending;  // ramp-out batches that did not fit in the ring yet
+    std::deque<ObjectCommit> pending;  // departure batches that did not fit in the departure ring yet
     std::uint32_t next_object_id = 1;
     std::uint64_t next_session_id = 1;
     std::uint64_t next_commit_seq = 1;
@@ -329,12 +331,14 @@ struct Server::Impl {
         }
     }
 
-    // Pushes waiting ramp-out batches in order; assigns their sequence numbers when they enter the ring.
+    // Pushes waiting departure batches in order; assigns their sequence numbers when they enter the ring.
+    // The loop applies every batch with a smaller seq (sent before) at once when it takes a departure, and
+    // none with a larger one before it: the departure was planned on exactly that scene (`slots` now).
     void push_pending() {
         while (!pending.empty()) {
             ObjectCommit& c = pending.front();
             c.seq = next_commit_seq;
-            if (!ring.try_push(c)) return;
+            if (!departure_ring.try_push(c)) return;
             ++next_commit_seq;
             for (std::uint32_t i = 0; i < c.count; ++i) slots[c.updates[i].slot].drain_seq = c.seq;
             commits_pushed.fetch_add(1, std::memory_order_release);
@@ -1093,8 +1097,8 @@ struct Server::Impl {
     }
 };
 
-Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state)
-    : impl_(std::make_unique<Impl>(config, checker, ring, state, commits_pushed_)) {
+Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state, CommitRing* departures)
+    : impl_(std::make_unique<Impl>(config, checker, ring, departures, state, commits_pushed_)) {
     impl_->open_socket();
     impl_->log("listening on " + impl_->config.socket_path + " (mode 0" +
                [&] {

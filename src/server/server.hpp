@@ -79,8 +79,11 @@ struct ServerCounters {
 class Server {
 public:
     // Creates and binds the socket (mode, group), throws std::runtime_error naming the path on failure.
-    // checker, ring (producer side) and state must outlive the server.
-    Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state);
+    // checker, the rings (producer side) and state must outlive the server. `departures`: the ring the
+    // departure batches of clients that left go through, which the loop takes ahead of every other batch
+    // (SceneObjects, take_departures); without it they go through `ring` and queue behind earlier batches.
+    Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state,
+           CommitRing* departures = nullptr);
     ~Server();  // stop() + remove the socket file
     Server(const Server&) = delete;
     Server& operator=(const Server&) = delete;
