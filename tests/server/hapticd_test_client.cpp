@@ -5,6 +5,10 @@
 //       then exits, holds (heartbeat every lease/4), holds without heartbeats, or says bye.
 //   hapticd_test_client SOCKET flood N OBJECT_ID_PLANE_OFFSETS
 //       adds a plane, then N modify commits moving it as fast as it can; prints {"ok":n_ok,"busy":n_busy,...}.
+//   hapticd_test_client SOCKET gainflood SECONDS
+//       adds a plane away from the hand (n = -z at z = 0.05), then for SECONDS changes its gains back and forth
+//       (each change a cross-fade ramp in the loop) as fast as the server accepts; busy and session_limit
+//       are retried after 0.5 ms. Prints {"ok":n_ok,"refused":n_refused} (no line until then).
 //   hapticd_test_client SOCKET noread
 //       subscribes at 1000 Hz and never reads again (sleeps until killed).
 #include <chrono>
@@ -121,6 +125,29 @@ int main(int argc, char** argv) {
                 }
             }
             print({{"ok", ok}, {"busy", busy}});
+            return 0;
+        }
+        if (mode == "gainflood") {
+            const double seconds = argc > 3 ? std::atof(argv[3]) : 1.0;
+            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder"});
+            cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
+                        .gains = cl::Gains::explicit_gains(100.0, 1.0)};
+            const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
+            long ok = 0, refused = 0;
+            const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+            for (long i = 0; std::chrono::steady_clock::now() < end; ++i) {
+                p.gains = i % 2 == 0 ? cl::Gains::explicit_gains(150.0, 1.5) : cl::Gains::explicit_gains(100.0, 1.0);
+                try {
+                    c.commit(cl::Batch().modify(id, p));
+                    ++ok;
+                } catch (const cl::Error& e) {
+                    if (e.code() != cl::ErrorCode::Busy && e.code() != cl::ErrorCode::SessionLimit) throw;
+                    ++refused;
+                    --i;  // the same change again
+                    std::this_thread::sleep_for(std::chrono::microseconds(500));
+                }
+            }
+            print({{"ok", ok}, {"refused", refused}});
             return 0;
         }
         if (mode == "noread") {

@@ -311,6 +311,55 @@ TEST(ServerProcess, SigkillOfAPressingClientRampsItsForceOut) {
     EXPECT_EQ(scene.daemon.wait(), 0);
 }
 
+// Isolation (docs/protocol.md, section 5, "A client that leaves"): six other clients change the gains of
+// their own planes as fast as the server accepts (each change a 30 ms cross-fade; each client up to its 8
+// batches in flight, so ~48 batches wait in the loop's queue, ~1.4 s of ramps one after the other) when the
+// pressing client is SIGKILLed. Its ramp-out must not wait behind them: the force is zero within ramp_s +
+// one period + kDetectionAllowance of the kill (the same bound as without traffic). The flood goes on
+// meanwhile and is accepted.
+TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChanges) {
+    const double ramp = 0.03;
+    PressScene scene("isolation", ramp);
+    ASSERT_TRUE(wait_for_socket(scene.n.socket)) << scene.daemon.err();
+    Child presser(HAPTICD_TEST_CLIENT, client_args(scene.n, PressScene::press_ops(), {"--then", "hold"}), "isolation_client");
+    const auto reply = presser.first_line();
+    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << presser.out();
+    const cl::StateReader state = cl::StateReader::open(scene.n.shm);
+    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
+        return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0; }, 10.0))
+        << "the hand never pressed on the plane";
+    std::vector<std::unique_ptr<Child>> flooders;
+    for (int i = 0; i < 6; ++i) {
+        flooders.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, std::vector<std::string>{scene.n.socket, "gainflood", "1.5"},
+                                                   "isolation_flood" + std::to_string(i)));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the queue fills
+    cl::StateSample before;
+    ASSERT_TRUE(state.read(before));
+    const double t_kill = monotonic_s();
+    presser.signal(SIGKILL);
+    const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
+                                 5.0);
+    ASSERT_TRUE(zero.has_value()) << "the force never reached zero";
+    const double took = zero->time_s - t_kill;
+    long accepted = 0;
+    for (auto& f : flooders) {
+        ASSERT_EQ(f->wait(30.0), 0) << f->out() << f->err();
+        accepted += json::parse(f->out())["ok"].get<long>();
+    }
+    std::printf("[ isolation ] force zero %.1f ms after the SIGKILL (ramp %.0f ms; bound %.0f ms) while 6 clients changed gains "
+                "(%ld changes accepted in 1.5 s; %llu batches applied before the kill)\n",
+                took * 1e3, ramp * 1e3, (ramp + 1e-3 + kDetectionAllowance) * 1e3, accepted,
+                static_cast<unsigned long long>(before.last_commit_seq));
+    EXPECT_LE(took, ramp + 1e-3 + kDetectionAllowance);
+    EXPECT_GE(took, 0.5 * ramp) << "no ramp (a step to zero)";
+    EXPECT_GE(accepted, 6 * 8) << "the flood did not fill the queue";
+    cl::Client other = cl::Client::connect({.socket_path = scene.n.socket, .client_name = "other"});
+    EXPECT_EQ(other.status().fault, "none");
+    scene.daemon.signal(SIGTERM);
+    EXPECT_EQ(scene.daemon.wait(), 0);
+}
+
 TEST(ServerProcess, AClientThatStopsHeartbeatingLosesItsObjects) {
     const double ramp = 0.03, lease = 0.2;
     PressScene scene("lease", ramp);
