@@ -8,7 +8,9 @@
 // planes (unilateral, bilateral), springs (point, line, plane), force fields with a curl, weakly touching
 // planes and pairs of near-boundary planes beside another session's spring (a departure that would leave an
 // unstable pair); modify (gains: a ramp; place: a move), remove, disconnect, go silent (the lease runs
-// out). Before every tick the loop's linear gains are read (SceneObjects::rendered_gains: every object at
+// out), and floods of gain changes from every other session left waiting in the loop's queue (one ramping,
+// the rest held or still in the ring) when a session leaves, so that the loop takes the departure ahead of
+// them. Before every tick the loop's linear gains are read (SceneObjects::rendered_gains: every object at
 // its ramp weights, all in contact, as the server checks them) and the config wall's added, as the daemon
 // renders it every tick.
 //
@@ -116,10 +118,13 @@ struct Session {
     double lease = 0.0;
     bool silent = false;
     std::vector<std::uint32_t> ids;
+    std::uint32_t gentle_id = 0;  // a soft plane whose gains the floods change (flood_then_departure)
+    cl::Vec3 gentle_normal{};
 };
 
 struct Tally {
-    std::size_t scenes = 0, ticks = 0, accepted = 0, refused = 0, departures = 0, expiries = 0, curl_fields = 0, patterns = 0;
+    std::size_t scenes = 0, ticks = 0, accepted = 0, refused = 0, departures = 0, expiries = 0, curl_fields = 0, patterns = 0, floods = 0;
+    std::uint64_t jumped = 0;  // batches the loop brought to their final state ahead of a departure
     double worst = 0.0;
 };
 
@@ -138,11 +143,12 @@ public:
         plant.mass_matrix = isotropic ? DeviceMass::isotropic_mass(M(0, 0), 3) : DeviceMass::from_matrix(mm, 3);
         checker_ = std::make_unique<GainChecker>(plant);
         ring_ = std::make_unique<CommitRing>(64);
+        departure_ring_ = std::make_unique<CommitRing>(64);
         SceneObjectsConfig oc;
         oc.period = kT;
         oc.ramp_time = 0.03;
         oc.axes = 3;
-        objects_ = std::make_unique<SceneObjects>(oc, *ring_);
+        objects_ = std::make_unique<SceneObjects>(oc, *ring_, departure_ring_.get());
         const std::string shm = "/hapticd-property-" + std::to_string(::getpid()) + "-" + tag;
         state_ = std::make_unique<StatePublisher>(shm, 3, kT, -1);
         ServerConfig sc;
@@ -164,7 +170,7 @@ public:
         wall_K_(0, 0) = wall.K;
         wall_B_(0, 0) = wall.B;
         sc.log_connections = false;
-        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_);
+        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_, departure_ring_.get());
         server_->start();
     }
     ~Driver() {
@@ -180,6 +186,7 @@ public:
         for (auto& s : sessions_) s.client.reset();  // every one leaves: the last departures
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
         ticks(40);
+        tally_.jumped = objects_->stats().commits_jumped;
         return tally_;
     }
 
@@ -309,6 +316,59 @@ private:
         std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the server notices the EOF
     }
 
+    // A flood of gain changes coinciding with a departure: every other live session with objects sends up to
+    // 6 changes (each a cross-fade) without the loop ticking; a few ticks start the first ramp and hold the
+    // rest; then more changes wait in the ring, and `leaving` leaves (EOF). The loop must take its departure
+    // ahead of them, and every scene it renders must still be one the server checked.
+    // Sessions are added first when fewer than two others are live (so `leaving` is found again by its client).
+    void flood_then_departure(Session& leaving_session) {
+        ++tally_.floods;
+        ++tally_.departures;
+        const cl::Client* leaving_client = leaving_session.client.get();
+        for (std::size_t live = 0; live < 3;) {
+            live = 0;
+            for (const auto& s : sessions_) live += s.client && !s.silent ? 1U : 0U;
+            if (live >= 3) break;
+            Session n;
+            try {
+                n.client = std::make_unique<cl::Client>(cl::Client::connect({.socket_path = socket_, .client_name = "flooder"}));
+            } catch (const cl::Error&) {
+                break;
+            }
+            sessions_.push_back(std::move(n));
+        }
+        Session& leaving = *std::find_if(sessions_.begin(), sessions_.end(), [&](const Session& s) { return s.client.get() == leaving_client; });
+        const int burst = std::uniform_int_distribution<int>(2, 6)(rng_);
+        const double scale = 1.0 / (1.0 + d_);
+        for (int round = 0; round < 2; ++round) {
+            for (auto& s : sessions_) {
+                if (&s == &leaving || !s.client || s.silent) continue;
+                for (int k = 0; k < burst / 2 + round; ++k) {
+                    if (s.gentle_id == 0) {  // a soft bilateral plane: its gain changes are mostly accepted
+                        s.gentle_normal = unit_vector();
+                        try {
+                            s.gentle_id = s.client->commit(cl::Batch().add(cl::Plane{.normal = s.gentle_normal, .offset = 0.0, .bilateral = true,
+                                                                                     .gains = normalised(s.gentle_normal, 0.004 * scale, 0.3)}))
+                                              .object_ids.at(0);
+                            ++tally_.accepted;
+                            s.ids.push_back(s.gentle_id);
+                        } catch (const cl::Error&) {
+                            ++tally_.refused;
+                        }
+                        continue;
+                    }
+                    const double alpha = uniform(0.002, 0.02) * scale;
+                    commit(s, cl::Batch().modify(s.gentle_id, cl::Plane{.normal = s.gentle_normal, .offset = 0.0, .bilateral = true,
+                                                                       .gains = normalised(s.gentle_normal, alpha, uniform(0.2, 0.6))}),
+                           false);
+                }
+            }
+            if (round == 0) ticks(std::uniform_int_distribution<int>(1, 12)(rng_));
+        }
+        leaving.client.reset();
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the server notices the EOF
+    }
+
     void act() {
         sessions_.erase(std::remove_if(sessions_.begin(), sessions_.end(), [](const Session& s) { return !s.client; }), sessions_.end());
         heartbeat_all();
@@ -335,10 +395,13 @@ private:
         } else if (what <= 14 && !s->ids.empty()) {
             const std::size_t i = std::uniform_int_distribution<std::size_t>(0, s->ids.size() - 1)(rng_);
             commit(*s, cl::Batch().remove(s->ids[i]), false);
+            if (s->ids[i] == s->gentle_id) s->gentle_id = 0;
             s->ids.erase(s->ids.begin() + static_cast<std::ptrdiff_t>(i));
-        } else if (what <= 16) {
+        } else if (what <= 15) {
             ++tally_.departures;
             s->client.reset();  // EOF: the server's departure rule
+        } else if (what == 16) {
+            flood_then_departure(*s);
         } else if (what <= 18 && s->lease > 0.0) {
             ++tally_.expiries;
             s->silent = true;
@@ -380,6 +443,7 @@ private:
     std::mt19937 rng_;
     std::unique_ptr<GainChecker> checker_;
     std::unique_ptr<CommitRing> ring_;
+    std::unique_ptr<CommitRing> departure_ring_;
     std::unique_ptr<SceneObjects> objects_;
     std::unique_ptr<StatePublisher> state_;
     std::unique_ptr<Server> server_;
@@ -401,14 +465,17 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
                           std::to_string(isotropic) + "_" + std::to_string(d));
             const Tally t = driver.run(kActions);
             std::printf("[ property ] %s mass, d = %d: %zu scenes in %zu ticks, %zu commits accepted, %zu refused, %zu disconnects, "
-                        "%zu lost leases, %zu curl fields, %zu departure patterns; largest radius %.9f\n",
+                        "%zu lost leases, %zu curl fields, %zu departure patterns, %zu floods at a departure (%llu batches jumped); "
+                        "largest radius %.9f\n",
                         isotropic ? "one" : "matrix", d, t.scenes, t.ticks, t.accepted, t.refused, t.departures, t.expiries,
-                        t.curl_fields, t.patterns, t.worst);
+                        t.curl_fields, t.patterns, t.floods, static_cast<unsigned long long>(t.jumped), t.worst);
             total.scenes += t.scenes;
             total.accepted += t.accepted;
             total.departures += t.departures;
             total.expiries += t.expiries;
             total.patterns += t.patterns;
+            total.floods += t.floods;
+            total.jumped += t.jumped;
             total.worst = std::max(total.worst, t.worst);
         }
     }
@@ -422,6 +489,8 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
     EXPECT_GE(total.departures, 8 * kMinimumEach);
     EXPECT_GE(total.expiries, kMinimumEach);
     EXPECT_GE(total.patterns, kMinimumEach);
+    EXPECT_GE(total.floods, kMinimumEach);
+    EXPECT_GE(total.jumped, kMinimumEach);  // departures were taken ahead of waiting batches
 }
 
 }  // namespace
