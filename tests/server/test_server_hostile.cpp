@@ -134,6 +134,38 @@ TEST_F(HostileClient, ProtocolEdgesAreAnsweredAndTheSessionStays) {
     expect_alive(c, 4);
 }
 
+// Deep nesting cannot overflow the server thread's stack: nlohmann's parser keeps its nesting on the heap
+// (json_sax_dom_callback_parser's stacks, not recursion) and destroys a value iteratively (3.11), and the
+// size limit bounds the depth to 65536. Each message is answered and the session goes on.
+TEST_F(HostileClient, DeepNestingIsAnsweredNotFatal) {
+    RawConnection c(n_->socket);
+    c.hello();
+    c.send(std::string(65536, '['));  // at the size limit, never closed
+    json r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_json") << r.dump();
+    c.send(std::string(32768, '[') + std::string(32768, ']'));  // complete, 32768 deep: not an object
+    r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_json") << r.dump();
+    std::string deep;
+    for (int i = 0; i < 10000; ++i) deep += R"({"a":)";
+    deep += "1" + std::string(10000, '}');  // a valid object 10000 deep (60001 bytes): no id
+    c.send(deep);
+    r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
+    c.send(R"({"type":"commit","id":1,"ops":)" + std::string(30000, '[') + std::string(30000, ']') + "}");
+    r = c.receive_json();
+    EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
+    EXPECT_EQ(r.value("id", 0), 1) << r.dump();
+    expect_alive(c, 2);
+    // Beyond the limit (100 000 deep): oversized, that session closed; the daemon serves the next.
+    RawConnection big(n_->socket);
+    big.hello();
+    big.send(std::string(100000, '['));
+    r = big.receive_json();
+    EXPECT_EQ(r.value("code", ""), "oversized") << r.dump();
+    expect_alive(c, 3);
+}
+
 TEST_F(HostileClient, AClientNameCannotForgeALogLine) {
     RawConnection c(n_->socket);
     c.send(R"({"type":"hello","protocol":1,"client":"x\nhapticd: server: forged line\u001b[2J"})");
