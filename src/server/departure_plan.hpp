@@ -5,8 +5,8 @@
 // The loop renders, from the tick the departure batch is applied, base + (1 - s_j)^2 K_out and
 // base + (1 - s_j) B_out (s_j = j T / ramp_s, the loop's ramp weights r^2 for stiffness, r for damping),
 // then base alone: "out" the objects that ramp out, "base" the config walls and every object that stays,
-// at its final weight (the loop starts the batch's ramps only once every earlier batch's have ended, so
-// base is the scene the server's slots describe). The departing session's objects alone need not leave a
+// at its final weight (the loop brings every batch sent before the departure to its final state before it
+// starts the ramp-out, SceneObjects::take_departures, so base is the scene the server's slots describe). The departing session's objects alone need not leave a
 // stable scene: a sum may be stable only with them (A + B unstable, A + B + C stable). So:
 //   1. out = the departing objects; accepted if base and every ramp scene pass GainChecker::sum_is_stable
 //      (ramp_is_stable and the remainder's check: every scene the loop will render).
