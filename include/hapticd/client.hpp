@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -209,12 +210,29 @@ struct StateSample {
     std::uint32_t fatal_signal = 0;
 };
 
+// An unsolicited message of the server (docs/protocol.md, section 3, "Events"): {"type":"event","code":...}
+// without an id. `code` says what happened — "objects_removed": another session left and these objects of
+// this session had to ramp out with its own (section 5). `object_ids`: the objects it concerns (empty when
+// the event names none); `message`: the server's explanation; `json`: the whole message as received, for
+// the fields a later event carries that this struct does not name.
+struct Event {
+    std::string code;
+    std::string message;
+    std::vector<std::uint32_t> object_ids;
+    std::string json;
+};
+
+// Events a Client keeps until the application takes them (ConnectOptions::event_queue_capacity).
+inline constexpr std::size_t kDefaultEventQueueCapacity = 256;
+
 struct ConnectOptions {
     std::string socket_path;       // empty: default_socket_path()
     std::string client_name = "hapticd-client";
     double lease_s = 0.0;          // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
     int protocol = kProtocolVersion;  // for tests of the refusal
     double timeout_s = 5.0;        // for each reply
+    // Events kept until poll_event() / next_event() takes them; more are dropped (counted: events_dropped()).
+    std::size_t event_queue_capacity = kDefaultEventQueueCapacity;
 };
 
 // $HAPTICD_SOCKET, else $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock.
@@ -243,6 +261,18 @@ public:
     std::optional<StateSample> next_state(double timeout_s);
     void bye();                                 // orderly end of the session
 
+    // Events (the server's unsolicited `event` messages), in the order they arrived. Every call that reads
+    // the socket (a request waiting for its reply, next_state) queues the events it reads, so none is lost
+    // while a request waits. poll_event(): the oldest queued event; with none queued, it first reads what
+    // has arrived, without waiting (std::nullopt: no event). next_event(): waits up to timeout_s for one. Polled, not called
+    // back: a callback run inside commit() could call commit() again. The queue holds
+    // ConnectOptions::event_queue_capacity events; further ones are dropped and counted — after a drop,
+    // list() tells the scene as it is.
+    std::optional<Event> poll_event();
+    std::optional<Event> next_event(double timeout_s);
+    [[nodiscard]] std::size_t events_queued() const noexcept { return events_.size(); }
+    [[nodiscard]] std::uint64_t events_dropped() const noexcept { return events_dropped_; }
+
     // Low level, for tests and other encodings: send one raw message, receive one raw message.
     void send_raw(const std::string& message);
     std::optional<std::string> receive_raw(double timeout_s);
@@ -256,6 +286,12 @@ private:
     std::uint64_t next_id_ = 1;
     Welcome welcome_;
     std::vector<std::string> pending_states_;  // state messages received while waiting for a reply
+    // A message that is not the reply awaited: a state (kept for next_state), an event (queued), `expired`
+    // (thrown as Error from `function`); others (a late reply) are ignored. Returns true for an event.
+    bool keep_unsolicited(const std::string& raw, const std::string& function);
+    std::deque<Event> events_;
+    std::size_t event_capacity_ = kDefaultEventQueueCapacity;
+    std::uint64_t events_dropped_ = 0;
 };
 
 // Read-only view of the daemon's shared-memory state.

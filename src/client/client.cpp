@@ -159,6 +159,7 @@ Client Client::connect(const ConnectOptions& options) {
                                                      " (is hapticd running with --serve? may this user open the socket?)");
     }
     Client c(fd, options.timeout_s);
+    c.event_capacity_ = options.event_queue_capacity;
     json hello{{"type", "hello"}, {"protocol", options.protocol}, {"client", options.client_name}, {"lease_s", options.lease_s}};
     c.send_raw(hello.dump());
     const auto raw = c.receive_raw(options.timeout_s);
@@ -189,7 +190,8 @@ Client Client::connect(const ConnectOptions& options) {
 
 Client::Client(Client&& other) noexcept
     : fd_(other.fd_), timeout_s_(other.timeout_s_), next_id_(other.next_id_), welcome_(std::move(other.welcome_)),
-      pending_states_(std::move(other.pending_states_)) {
+      pending_states_(std::move(other.pending_states_)), events_(std::move(other.events_)), event_capacity_(other.event_capacity_),
+      events_dropped_(other.events_dropped_) {
     other.fd_ = -1;
 }
 
@@ -201,6 +203,9 @@ Client& Client::operator=(Client&& other) noexcept {
         next_id_ = other.next_id_;
         welcome_ = std::move(other.welcome_);
         pending_states_ = std::move(other.pending_states_);
+        events_ = std::move(other.events_);
+        event_capacity_ = other.event_capacity_;
+        events_dropped_ = other.events_dropped_;
         other.fd_ = -1;
     }
     return *this;
@@ -253,11 +258,10 @@ std::string Client::request(const std::string& type, const std::string& body_jso
         json reply = json::parse(*raw, nullptr, false);
         if (reply.is_discarded() || !reply.is_object()) throw Error(ErrorCode::BadJson, function + ": the reply is not JSON");
         const std::string t = reply.value("type", std::string());
-        if (t == "state") {
-            pending_states_.push_back(*raw);
+        if (t == "state" || t == "event" || t == "expired") {
+            keep_unsolicited(*raw, function);
             continue;
         }
-        if (t == "expired") throw error_from_reply(function, reply);
         if (!reply.contains("id") || !reply["id"].is_number_unsigned() || reply["id"].get<std::uint64_t>() != id) {
             if (t == "error") throw error_from_reply(function, reply);  // an error about an earlier message
             continue;
@@ -340,7 +344,58 @@ std::optional<StateSample> Client::next_state(double timeout_s) {
         if (!raw) return std::nullopt;
         const json j = json::parse(*raw, nullptr, false);
         if (j.is_object() && j.value("type", std::string()) == "state") return state_from_json(j);
-        if (j.is_object() && j.value("type", std::string()) == "expired") throw error_from_reply("Client::next_state", j);
+        keep_unsolicited(*raw, "Client::next_state");
+    }
+}
+
+bool Client::keep_unsolicited(const std::string& raw, const std::string& function) {
+    const json j = json::parse(raw, nullptr, false);
+    if (!j.is_object()) return false;
+    const std::string t = j.value("type", std::string());
+    if (t == "state") {
+        pending_states_.push_back(raw);
+        return false;
+    }
+    if (t == "expired") throw error_from_reply(function, j);
+    if (t != "event") return false;
+    if (events_.size() >= event_capacity_) {
+        ++events_dropped_;
+        return true;
+    }
+    Event e;
+    e.code = j.value("code", std::string());
+    e.message = j.value("message", std::string());
+    if (const auto ids = j.find("object_ids"); ids != j.end() && ids->is_array()) {
+        for (const auto& id : *ids) {
+            if (id.is_number_unsigned() && id.get<std::uint64_t>() <= 0xffffffffULL) e.object_ids.push_back(id.get<std::uint32_t>());
+        }
+    }
+    e.json = raw;
+    events_.push_back(std::move(e));
+    return true;
+}
+
+std::optional<Event> Client::poll_event() {
+    while (events_.empty()) {
+        const auto raw = receive_raw(0.0);
+        if (!raw) break;
+        keep_unsolicited(*raw, "Client::poll_event");
+    }
+    if (events_.empty()) return std::nullopt;
+    Event e = std::move(events_.front());
+    events_.pop_front();
+    return e;
+}
+
+std::optional<Event> Client::next_event(double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    for (;;) {
+        if (auto e = poll_event()) return e;
+        const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+        if (left <= 0.0) return std::nullopt;
+        const auto raw = receive_raw(left);
+        if (!raw) return std::nullopt;
+        keep_unsolicited(*raw, "Client::next_event");
     }
 }
 

@@ -53,30 +53,52 @@ TEST(ServerStability, AFieldWithAnUnstableCurlIsRefusedNamingTheFieldAndTheCurl)
 // objects ramp out with it, here one of client 2's planes, and client 2 gets an `objects_removed` event
 // naming it. Checked: the event, one object left, no saturated or non-finite force for 3 s (10 N is the
 // profile's max_force) and the force decayed in the last of them.
+// The daemon of the scene above (sim3_aniso.toml, d = 1, no config wall) and client 1 holding C.
+struct DepartureScene {
+    std::string tag;
+    Names n;
+    std::unique_ptr<Child> daemon;
+    std::unique_ptr<Child> first;
+    double t_first = 0.0;  // when client 1's commit was answered
+    static json planes() { return plane({0.0, -0.6, -0.8}, 1e-4, json{{"K", 12739.29}, {"B", 25.4786}}, true); }
+    explicit DepartureScene(const std::string& tag_) : tag(tag_), n(names(tag_)) {
+        // No config wall (daemon_args adds one along axis 0, with which A + B + C is not stable).
+        std::vector<std::string> args = daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--ramp-time",
+                                                        "0.03", "--no-walls"},
+                                                    "sim3_aniso.toml");
+        const auto wall = std::find(args.begin(), args.end(), "--wall");
+        if (wall != args.end()) args.erase(wall, wall + 2);
+        daemon = std::make_unique<Child>(HAPTICD_BINARY, args, tag + "_daemon");
+    }
+    // Starts client 1 (C); false when the daemon or the client failed (the reason in their output).
+    bool start_first(bool lease) {
+        if (!wait_for_socket(n.socket)) return false;
+        const json spring{{"kind", "spring"}, {"constraint", "point"}, {"point", {0.049, 0.0, 0.0}}, {"gains", {{"K", 1000.0}, {"B", 30.0}}}};
+        std::vector<std::string> extra{"--then", lease ? "hold-silent" : "hold"};
+        if (lease) extra.insert(extra.begin(), {"--lease", "0.3"});
+        first = std::make_unique<Child>(HAPTICD_TEST_CLIENT, client_args(n, json::array({{{"op", "add"}, {"object", spring}}}), extra),
+                                        tag + "_first");
+        const auto reply = first->first_line();
+        t_first = monotonic_s();
+        return reply && (*reply)["ok"].get<bool>();
+    }
+    ~DepartureScene() {
+        daemon->signal(SIGTERM);
+        EXPECT_EQ(daemon->wait(), 0) << daemon->err();
+    }
+};
+
 void expect_safe_departure(const std::string& tag, bool lease) {
-    const Names n = names(tag);
-    // No config wall (daemon_args adds one along axis 0, with which A + B + C is not stable).
-    std::vector<std::string> args = daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--ramp-time", "0.03",
-                                                    "--no-walls"},
-                                                "sim3_aniso.toml");
-    const auto wall = std::find(args.begin(), args.end(), "--wall");
-    ASSERT_NE(wall, args.end());
-    args.erase(wall, wall + 2);
-    Child daemon(HAPTICD_BINARY, args, tag + "_daemon");
-    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
-    const json spring{{"kind", "spring"}, {"constraint", "point"}, {"point", {0.049, 0.0, 0.0}}, {"gains", {{"K", 1000.0}, {"B", 30.0}}}};
-    std::vector<std::string> extra{"--then", lease ? "hold-silent" : "hold"};
-    if (lease) extra.insert(extra.begin(), {"--lease", "0.3"});
-    Child first(HAPTICD_TEST_CLIENT, client_args(n, json::array({{{"op", "add"}, {"object", spring}}}), extra), tag + "_first");
-    const auto reply = first.first_line();
-    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << first.out() << first.err();
-    const double t_first = monotonic_s();
+    DepartureScene scene(tag);
+    ASSERT_TRUE(scene.start_first(lease)) << scene.daemon->err() << (scene.first ? scene.first->out() + scene.first->err() : "");
+    const Names& n = scene.n;
+    Child& first = *scene.first;
+    const double t_first = scene.t_first;
 
     RawConnection second(n.socket);
     ASSERT_TRUE(second.connected());
     second.hello();
-    const json gains{{"K", 12739.29}, {"B", 25.4786}};
-    const json planes = plane({0.0, -0.6, -0.8}, 1e-4, gains, true);
+    const json planes = DepartureScene::planes();
     second.send(json{{"type", "commit"}, {"id", 1}, {"ops", json::array({{{"op", "add"}, {"object", planes}}, {{"op", "add"}, {"object", planes}}})}}
                     .dump());
     const json ok = second.receive_json();
@@ -128,8 +150,6 @@ void expect_safe_departure(const std::string& tag, bool lease) {
     EXPECT_LT(last_second, 0.05);
     EXPECT_EQ(s.objects, 1U);
     EXPECT_EQ(s.fault, 0U);
-    daemon.signal(SIGTERM);
-    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
 
 TEST(ServerStability, AKilledClientsDepartureTakesTheFewestFurtherObjectsThatKeepTheSceneStable) {
@@ -139,6 +159,51 @@ TEST(ServerStability, AKilledClientsDepartureTakesTheFewestFurtherObjectsThatKee
 TEST(ServerStability, ALostLeaseTakesTheFewestFurtherObjectsThatKeepTheSceneStable) {
     expect_safe_departure("depart_lease", true);
 }
+
+// The client library delivers the `objects_removed` event (docs/clients.md, "Events"): client 2 on
+// hapticd::client; client 1 is killed and the event is in client 2's socket before it sends a request, so
+// the request reads the event while it waits for its reply: it must be queued, not dropped. With a queue of
+// capacity 0 the same event is counted as dropped.
+void expect_event_delivered(const std::string& tag, std::size_t capacity) {
+    DepartureScene scene(tag);
+    ASSERT_TRUE(scene.start_first(false)) << scene.daemon->err();
+    cl::Client second = cl::Client::connect({.socket_path = scene.n.socket, .client_name = "events", .event_queue_capacity = capacity});
+    const cl::Plane planes{.normal = {0.0, -0.6, -0.8}, .offset = 1e-4, .bilateral = true,
+                           .gains = cl::Gains::explicit_gains(12739.29, 25.4786)};  // DepartureScene::planes()
+    const cl::CommitResult r = second.commit(cl::Batch().add(planes).add(planes));
+    ASSERT_EQ(r.object_ids.size(), 2U);
+    EXPECT_FALSE(second.poll_event().has_value());  // nothing happened yet
+    const cl::StateReader state = cl::StateReader::open(scene.n.shm);
+    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 3; }, 5.0));
+    scene.first->signal(SIGKILL);
+    // The server sends the event when it closes client 1's session; 300 ms is ample on a loaded machine.
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    const cl::Status status = second.status();  // reads the event first, then its reply
+    EXPECT_EQ(status.fault, "none");
+    EXPECT_EQ(second.events_queued(), capacity > 0 ? 1U : 0U);
+    const std::optional<cl::Event> e = second.poll_event();
+    if (capacity == 0) {
+        EXPECT_FALSE(e.has_value());
+        EXPECT_EQ(second.events_dropped(), 1U);
+        return;
+    }
+    ASSERT_TRUE(e.has_value());
+    EXPECT_EQ(e->code, "objects_removed");
+    ASSERT_EQ(e->object_ids.size(), 1U);
+    EXPECT_TRUE(e->object_ids[0] == r.object_ids[0] || e->object_ids[0] == r.object_ids[1]);
+    EXPECT_NE(e->message.find("unstable"), std::string::npos) << e->message;
+    EXPECT_EQ(json::parse(e->json).value("code", ""), "objects_removed");
+    EXPECT_EQ(second.events_dropped(), 0U);
+    EXPECT_FALSE(second.poll_event().has_value());
+    EXPECT_FALSE(second.next_event(0.05).has_value());
+    // The removed object is gone; the other is still this session's.
+    const auto objects = second.list();
+    EXPECT_EQ(objects.size(), 1U);
+}
+
+TEST(ServerStability, TheClientLibraryQueuesAnEventThatArrivesWhileARequestWaits) { expect_event_delivered("events", cl::kDefaultEventQueueCapacity); }
+
+TEST(ServerStability, AnEventBeyondTheQueuesCapacityIsCountedAsDropped) { expect_event_delivered("events_full", 0); }
 
 }  // namespace
 }  // namespace hapticd::server_test
