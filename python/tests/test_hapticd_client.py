@@ -61,13 +61,13 @@ def wait_until(predicate, timeout_s=5.0, step_s=0.01):
     return False
 
 
-def _served_daemon(tmp_path_factory, name, extra_args):
+def _served_daemon(tmp_path_factory, name, extra_args, base_args=DAEMON_ARGS):
     """A `hapticd --serve` on its own socket and shared memory; SIGTERM at the end must exit 0."""
     directory = tmp_path_factory.mktemp(name)
     socket_path = str(directory / "hapticd.sock")
     shm = f"/{name}-pytest-{os.getpid()}"
     log = open(directory / "hapticd.log", "w+")
-    process = subprocess.Popen([HAPTICD, *DAEMON_ARGS, *extra_args, "--serve", "--serve-socket", socket_path,
+    process = subprocess.Popen([HAPTICD, *base_args, *extra_args, "--serve", "--serve-socket", socket_path,
                                 "--serve-shm", shm], stdout=log, stderr=subprocess.STDOUT)
     try:
         assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
@@ -278,6 +278,60 @@ def test_only_the_owner_may_change_an_object_and_it_goes_with_its_session(daemon
     finally:
         owner.close()
         other.close()
+
+
+@pytest.fixture(scope="module")
+def departure_daemon(tmp_path_factory):
+    # The departure of docs/protocol.md, section 5 ("A client that leaves"): sim3_aniso.toml, d = 1, no
+    # config wall (tests/server/test_server_stability.cpp has the same scene).
+    yield from _served_daemon(tmp_path_factory, "hapticd-departure",
+                              ["--lockstep", "--device", str(ANISO_PROFILE), "--delay-buffer", "1", "--ramp-time", "0.03"],
+                              base_args=["--config", "", "--no-walls", "--scenario", "step", "--step-force", "0"])
+
+
+def _depart_and_request(daemon, capacity):
+    """Client 1 holds a point spring C; client 2 two bilateral planes A, B (A + B alone unstable, A + B + C
+    stable). Client 1 leaves: one of client 2's planes must ramp out with C and client 2 gets an
+    ``objects_removed`` event, which is in its socket before it sends a request (the request reads it
+    while waiting for its reply)."""
+    first = connect(daemon)
+    second = connect(daemon, event_queue_capacity=capacity)
+    try:
+        first.add(hc.spring(point=(0.049, 0.0, 0.0), K=1000, B=30))
+        both = hc.plane(normal=(0.0, -0.6, -0.8), offset=1e-4, bilateral=True, K=12739.29, B=25.4786)
+        ids = second.commit(hc.Batch().add(both).add(both))["object_ids"]
+        assert second.poll_event() is None  # nothing happened yet
+        first.close()  # EOF: the departure rule
+        time.sleep(0.3)  # the server sends the event when it closes client 1's session
+        assert second.status()["fault"] == "none"
+        return second, ids
+    except BaseException:
+        second.close()
+        raise
+    finally:
+        first.close()
+
+
+def test_an_event_that_arrives_while_a_request_waits_is_queued(departure_daemon):
+    second, ids = _depart_and_request(departure_daemon, hc.EVENT_QUEUE_CAPACITY)
+    with second:
+        assert second.events_queued == 1
+        event = second.poll_event()
+        assert isinstance(event, hc.Event)
+        assert event.code == "objects_removed"
+        assert len(event.object_ids) == 1 and event.object_ids[0] in ids
+        assert "unstable" in event.message
+        assert event.fields["type"] == "event" and "id" not in event.fields
+        assert second.events_dropped == 0
+        assert second.poll_events() == [] and second.next_event(0.05) is None
+        assert [o["id"] for o in second.list()] == [i for i in ids if i != event.object_ids[0]]
+
+
+def test_an_event_beyond_the_queues_capacity_is_counted_as_dropped(departure_daemon):
+    second, _ = _depart_and_request(departure_daemon, 0)
+    with second:
+        assert second.poll_event() is None
+        assert second.events_dropped == 1
 
 
 def test_a_lost_lease_removes_the_objects(daemon):

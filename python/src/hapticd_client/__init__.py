@@ -10,7 +10,7 @@
 The protocol: docs/protocol.md; this module and its examples: docs/clients.md.
 """
 
-from .client import MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, default_socket_path
+from .client import EVENT_QUEUE_CAPACITY, MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, Event, default_socket_path
 from .device import DeviceInfo
 from .errors import HapticdError
 from .objects import Batch, field, gains, plane, spring
@@ -20,6 +20,8 @@ __all__ = [
     "Batch",
     "Client",
     "DeviceInfo",
+    "EVENT_QUEUE_CAPACITY",
+    "Event",
     "FAULT_FATAL_SIGNAL",
     "FAULT_NAMES",
     "FAULT_TERMINATE",

@@ -15,12 +15,14 @@ Not thread-safe: one Client per thread.
 
 from __future__ import annotations
 
+import collections
 import json
 import os
 import select
 import socket
 import time
-from typing import Dict, Iterable, List, Optional, Union
+from dataclasses import dataclass, field
+from typing import Deque, Dict, Iterable, List, Optional, Tuple, Union
 
 from .device import DeviceInfo
 from .errors import HapticdError
@@ -28,6 +30,27 @@ from .objects import Batch
 
 PROTOCOL_VERSION = 1
 MAX_MESSAGE_BYTES = 65536
+EVENT_QUEUE_CAPACITY = 256
+
+
+@dataclass(frozen=True)
+class Event:
+    """An unsolicited message of the server (docs/protocol.md, section 3, "Events"): ``{"type": "event",
+    "code": ...}`` without an id. ``code`` says what happened (``objects_removed``: another session left and
+    these objects of this session had to ramp out with its own); ``object_ids`` the objects it concerns
+    (empty when it names none); ``message`` the server's explanation; ``fields`` the whole message, for the
+    fields a later event carries that this class does not name."""
+    code: str
+    message: str = ""
+    object_ids: Tuple[int, ...] = ()
+    fields: Dict = field(default_factory=dict)
+
+    @classmethod
+    def from_message(cls, message: Dict) -> "Event":
+        ids = message.get("object_ids")
+        ids = tuple(int(i) for i in ids if isinstance(i, int) and not isinstance(i, bool)) if isinstance(ids, list) else ()
+        return cls(code=str(message.get("code", "")), message=str(message.get("message", "")), object_ids=ids,
+                   fields=dict(message))
 
 
 def default_socket_path() -> str:
@@ -46,11 +69,14 @@ class Client:
     name, axes, period, masses, delay, max force, capacity, ``state_shm``, ``ramp_s``, ``lease_s``), and
     ``device`` its device as a ``DeviceInfo`` (with ``mass_matrix`` and ``max_stiffness``)."""
 
-    def __init__(self, sock: socket.socket, timeout_s: float) -> None:
+    def __init__(self, sock: socket.socket, timeout_s: float, event_queue_capacity: int = EVENT_QUEUE_CAPACITY) -> None:
         self._sock = sock
         self._timeout_s = timeout_s
         self._next_id = 1
         self._pending_states: List[Dict] = []
+        self._events: Deque[Event] = collections.deque()
+        self._event_capacity = max(0, int(event_queue_capacity))
+        self.events_dropped = 0  # events beyond the queue's capacity (then list() tells the scene as it is)
         self.welcome: Dict = {}
         self.device: Optional[DeviceInfo] = None
         self._last_sent = time.monotonic()
@@ -58,8 +84,11 @@ class Client:
     # -- connection ------------------------------------------------------------------------------------
     @classmethod
     def connect(cls, socket_path: Optional[str] = None, client: str = "hapticd_client.py", lease_s: float = 0.0,
-                timeout_s: float = 5.0, protocol: int = PROTOCOL_VERSION) -> "Client":
-        """Connects and performs the handshake; raises HapticdError ("transport", "protocol_version", ...)."""
+                timeout_s: float = 5.0, protocol: int = PROTOCOL_VERSION,
+                event_queue_capacity: int = EVENT_QUEUE_CAPACITY) -> "Client":
+        """Connects and performs the handshake; raises HapticdError ("transport", "protocol_version", ...).
+        ``event_queue_capacity``: events kept until ``poll_event``/``next_event`` takes them (more are
+        dropped and counted in ``events_dropped``)."""
         path = socket_path or default_socket_path()
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
         try:
@@ -68,7 +97,7 @@ class Client:
             sock.close()
             raise HapticdError("transport", f"Client.connect: connect to {path!r}: {e.strerror} "
                                             "(is hapticd running with --serve? may this user open the socket?)") from e
-        c = cls(sock, timeout_s)
+        c = cls(sock, timeout_s, event_queue_capacity)
         try:
             c.send_raw(json.dumps({"type": "hello", "protocol": protocol, "client": client, "lease_s": lease_s}))
             raw = c.receive_raw(timeout_s)
@@ -150,11 +179,9 @@ class Client:
                 raise HapticdError("transport", f"{function}: no reply within {self._timeout_s} s")
             reply = self._decode(function, raw)
             kind = reply.get("type")
-            if kind == "state":
-                self._pending_states.append(reply)
+            if kind in ("state", "event", "expired"):
+                self._keep_unsolicited(function, reply)
                 continue
-            if kind == "expired":
-                raise HapticdError.from_reply(function, reply)
             if reply.get("id") != request_id:
                 if kind == "error":  # about an earlier message without an id the server could echo
                     raise HapticdError.from_reply(function, reply)
@@ -225,8 +252,62 @@ class Client:
             message = self._decode("Client.next_state", raw)
             if message.get("type") == "state":
                 return message
-            if message.get("type") == "expired":
-                raise HapticdError.from_reply("Client.next_state", message)
+            self._keep_unsolicited("Client.next_state", message)
+
+    # -- events ----------------------------------------------------------------------------------------
+    def _keep_unsolicited(self, function: str, message: Dict) -> None:
+        """A message that is not the reply awaited: a state (kept for next_state), an event (queued),
+        ``expired`` (raised); anything else (a late reply) is ignored."""
+        kind = message.get("type")
+        if kind == "state":
+            self._pending_states.append(message)
+        elif kind == "expired":
+            raise HapticdError.from_reply(function, message)
+        elif kind == "event":
+            if len(self._events) >= self._event_capacity:
+                self.events_dropped += 1
+            else:
+                self._events.append(Event.from_message(message))
+
+    @property
+    def events_queued(self) -> int:
+        return len(self._events)
+
+    def poll_event(self) -> Optional[Event]:
+        """The oldest queued event; with none queued, first reads what has arrived without waiting. None: no
+        event. Every call that reads the socket (a request waiting for its reply, ``next_state``) queues the
+        events it reads, so none is lost while a request waits. Polled, not called back: a callback run
+        inside ``commit`` could call ``commit`` again."""
+        while not self._events:
+            raw = self.receive_raw(0.0)
+            if raw is None:
+                break
+            self._keep_unsolicited("Client.poll_event", self._decode("Client.poll_event", raw))
+        return self._events.popleft() if self._events else None
+
+    def poll_events(self) -> List[Event]:
+        """Every event queued or arrived so far, oldest first (an empty list: none)."""
+        events = []
+        while True:
+            event = self.poll_event()
+            if event is None:
+                return events
+            events.append(event)
+
+    def next_event(self, timeout_s: float) -> Optional[Event]:
+        """The next event, waiting up to ``timeout_s``; None when none came."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            event = self.poll_event()
+            if event is not None:
+                return event
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            raw = self.receive_raw(left)
+            if raw is None:
+                return None
+            self._keep_unsolicited("Client.next_event", self._decode("Client.next_event", raw))
 
     def bye(self) -> None:
         """Orderly end of the session (its objects ramp out)."""
