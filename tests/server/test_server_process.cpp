@@ -266,6 +266,18 @@ struct PressScene {
     static json press_ops() {
         return json::array({{{"op", "add"}, {"object", plane({1.0, 0.0, 0.0}, 0.048, {{"K", 20000.0}, {"B", 100.0}})}}});
     }
+    // Starts the pressing client (heartbeating) and waits until the hand presses at rest on its plane: the
+    // wall holds the hand's 2 N (not saturated at the device's 10 N).
+    void start_presser(const std::string& tag, std::unique_ptr<Child>& presser) {
+        ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+        presser = std::make_unique<Child>(HAPTICD_TEST_CLIENT, client_args(n, press_ops(), {"--then", "hold"}), tag);
+        const auto reply = presser->first_line();
+        ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << presser->out();
+        const cl::StateReader state = cl::StateReader::open(n.shm);
+        ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
+            return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0; }, 10.0))
+            << "the hand never pressed on the plane";
+    }
 };
 
 // Allowance beyond the ramp: the kernel closing the killed client's socket, the server thread (not
@@ -291,17 +303,11 @@ void expect_ramp_out(const cl::StateReader& state, double t_start, double ramp_s
 TEST(ServerProcess, SigkillOfAPressingClientRampsItsForceOut) {
     const double ramp = 0.03;
     PressScene scene("kill", ramp);
-    ASSERT_TRUE(wait_for_socket(scene.n.socket)) << scene.daemon.err();
-    Child presser(HAPTICD_TEST_CLIENT, client_args(scene.n, PressScene::press_ops(), {"--then", "hold"}), "kill_client");
-    const auto reply = presser.first_line();
-    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << presser.out();
+    std::unique_ptr<Child> presser;
+    ASSERT_NO_FATAL_FAILURE(scene.start_presser("kill_client", presser));
     const cl::StateReader state = cl::StateReader::open(scene.n.shm);
-    // Pressing at rest: the wall holds the hand's 2 N (not saturated at the device's 10 N).
-    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
-        return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0; }, 10.0))
-        << "the hand never pressed on the plane";
     const double t_kill = monotonic_s();
-    presser.signal(SIGKILL);
+    presser->signal(SIGKILL);
     expect_ramp_out(state, t_kill, ramp, 0.0, "SIGKILL");
     // The daemon keeps serving the others.
     cl::Client other = cl::Client::connect({.socket_path = scene.n.socket, .client_name = "other"});
@@ -320,14 +326,9 @@ TEST(ServerProcess, SigkillOfAPressingClientRampsItsForceOut) {
 TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChanges) {
     const double ramp = 0.03;
     PressScene scene("isolation", ramp);
-    ASSERT_TRUE(wait_for_socket(scene.n.socket)) << scene.daemon.err();
-    Child presser(HAPTICD_TEST_CLIENT, client_args(scene.n, PressScene::press_ops(), {"--then", "hold"}), "isolation_client");
-    const auto reply = presser.first_line();
-    ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << presser.out();
+    std::unique_ptr<Child> presser;
+    ASSERT_NO_FATAL_FAILURE(scene.start_presser("isolation_client", presser));
     const cl::StateReader state = cl::StateReader::open(scene.n.shm);
-    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
-        return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0; }, 10.0))
-        << "the hand never pressed on the plane";
     std::vector<std::unique_ptr<Child>> flooders;
     for (int i = 0; i < 6; ++i) {
         flooders.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, std::vector<std::string>{scene.n.socket, "gainflood", "1.5"},
@@ -337,7 +338,7 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
     cl::StateSample before;
     ASSERT_TRUE(state.read(before));
     const double t_kill = monotonic_s();
-    presser.signal(SIGKILL);
+    presser->signal(SIGKILL);
     const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
                                  5.0);
     ASSERT_TRUE(zero.has_value()) << "the force never reached zero";

@@ -239,20 +239,21 @@ class Client:
 
     def next_state(self, timeout_s: float) -> Optional[Dict]:
         """The next subscribed ``state`` message (a dict), or None after ``timeout_s``."""
-        if self._pending_states:
-            return self._pending_states.pop(0)
+        return self._read_until("Client.next_state", timeout_s,
+                                lambda: self._pending_states.pop(0) if self._pending_states else None)
+
+    def _read_until(self, function: str, timeout_s: float, take):
+        """Reads messages (keeping each, _keep_unsolicited) until ``take()`` gives one or ``timeout_s`` has
+        passed; with ``timeout_s`` 0, only what has arrived, without waiting."""
         deadline = time.monotonic() + timeout_s
         while True:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return None
-            raw = self.receive_raw(left)
+            value = take()
+            if value is not None:
+                return value
+            raw = self.receive_raw(max(0.0, deadline - time.monotonic()))
             if raw is None:
                 return None
-            message = self._decode("Client.next_state", raw)
-            if message.get("type") == "state":
-                return message
-            self._keep_unsolicited("Client.next_state", message)
+            self._keep_unsolicited(function, self._decode(function, raw))
 
     # -- events ----------------------------------------------------------------------------------------
     def _keep_unsolicited(self, function: str, message: Dict) -> None:
@@ -278,11 +279,9 @@ class Client:
         event. Every call that reads the socket (a request waiting for its reply, ``next_state``) queues the
         events it reads, so none is lost while a request waits. Polled, not called back: a callback run
         inside ``commit`` could call ``commit`` again."""
-        while not self._events:
-            raw = self.receive_raw(0.0)
-            if raw is None:
-                break
-            self._keep_unsolicited("Client.poll_event", self._decode("Client.poll_event", raw))
+        return self._read_until("Client.poll_event", 0.0, self._take_event)
+
+    def _take_event(self) -> Optional[Event]:
         return self._events.popleft() if self._events else None
 
     def poll_events(self) -> List[Event]:
@@ -296,18 +295,7 @@ class Client:
 
     def next_event(self, timeout_s: float) -> Optional[Event]:
         """The next event, waiting up to ``timeout_s``; None when none came."""
-        deadline = time.monotonic() + timeout_s
-        while True:
-            event = self.poll_event()
-            if event is not None:
-                return event
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return None
-            raw = self.receive_raw(left)
-            if raw is None:
-                return None
-            self._keep_unsolicited("Client.next_event", self._decode("Client.next_event", raw))
+        return self._read_until("Client.next_event", timeout_s, self._take_event)
 
     def bye(self) -> None:
         """Orderly end of the session (its objects ramp out)."""
