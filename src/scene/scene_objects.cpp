@@ -107,10 +107,7 @@ bool SceneObjects::ramp_running() const noexcept {
 // departure ring is looked at, so a departure the server sent before that batch is seen first.
 void SceneObjects::apply_commits() noexcept {
     if (departures_ != nullptr) (void)take_departures();
-    if (held_count_ == 0 && ring_.front() == nullptr) {
-        stats_.last_commit_seq = applied_seq_;
-        return;  // the usual tick: nothing to do
-    }
+    if (held_count_ == 0 && ring_.front() == nullptr) return;  // the usual tick: nothing to do
     for (std::size_t n = 0; n < config_.commits_per_tick; ++n) {
         const ObjectCommit* c = ring_.front();
         if (departures_ != nullptr && take_departures()) continue;
