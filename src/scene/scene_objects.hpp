@@ -95,6 +95,14 @@ struct ObjectParams {
     double B = 0.0;          // N s/m (plane, spring, field)
 };
 
+// Whether the object renders its law only at some handle positions: a unilateral plane (while the handle is
+// behind its surface and the law pushes out) and a field (inside its radius). Bilateral planes and springs
+// act everywhere. The server checks every pattern of these engaging and not (docs/protocol.md, section 5,
+// tuning/engagement_patterns.hpp); anything that changes when an object engages asks this.
+[[nodiscard]] constexpr bool engages_conditionally(const ObjectParams& p) noexcept {
+    return (p.kind == ObjectKind::Plane && !p.bilateral) || p.kind == ObjectKind::Field;
+}
+
 struct SlotUpdate {
     enum class Action : std::uint8_t {
         Set,       // a new object, or another description: the old one (if any) fades out, this one ramps in
