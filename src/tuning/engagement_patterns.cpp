@@ -94,8 +94,7 @@ std::size_t pattern_count(const std::vector<PatternUnit>& units) {
 
 std::string term_label(const SceneTerm& t) {
     std::string s = std::to_string(t.object_id);
-    if (t.role == SceneTerm::Role::Out) s += " (ramping out)";
-    if (t.role == SceneTerm::Role::In) s += " (ramping in)";
+    if (t.role == SceneTerm::Role::Out) s += " (ramping out)";  // the object it is replaced by has the same id
     return s;
 }
 
