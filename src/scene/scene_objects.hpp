@@ -191,6 +191,14 @@ public:
     // fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
     // tests (tests/server/test_rendered_scene_property.cpp); O(64), never called by the loop.
     void rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept;
+    // The same for the handle at x with the velocity estimate v (the tick's add_forces(x) computes v =
+    // (x - x_prev) / T): only the entries whose law acts there — bilateral planes and springs, unilateral
+    // planes with p > 0 whose law r^2 K p - r B n.v pushes out (a clamped plane renders nothing), fields with
+    // ||x - x0|| <= radius: the engagement pattern the loop renders at that tick. `engaged`: the slots of
+    // the conditional entries among them (engages_conditionally; each has its flag in contact_mask() after
+    // that tick). O(64), never called by the loop.
+    void rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B,
+                        std::uint64_t& engaged) const noexcept;
 
 private:
     struct Entry {
