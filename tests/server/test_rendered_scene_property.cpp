@@ -29,9 +29,10 @@
 //
 // Size: 8 plants (one mass, a mass matrix; d = 0 .. 3), kActions random actions each, >= 10 000 distinct
 // rendered scenes in all, and >= 10 % of them partial (some conditional client object out of contact and
-// something rendered: scenes the all-in-contact check never saw) (asserted). Under ASan/TSan a quarter of the actions (and
-// >= 2 500 scenes). The reference's verdicts are cached per scene (the same gains recur as the handle
-// moves back and forth).
+// something rendered: scenes the all-in-contact check never saw) (asserted). Under ASan/TSan a quarter of the
+// actions (and >= 2 000 scenes: fewer distinct scenes per action than with every object counted in contact,
+// since an object ramping while out of contact changes nothing rendered). The reference's verdicts are
+// cached per scene (the same gains recur as the handle moves back and forth).
 #include <algorithm>
 #include <chrono>
 #include <complex>
@@ -63,11 +64,11 @@ namespace cl = hapticd::client;
 
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 constexpr int kActions = 60;
-constexpr std::size_t kMinimumScenes = 2500;
+constexpr std::size_t kMinimumScenes = 2000;  // 2558 measured at this size in a release build
 constexpr std::size_t kMinimumEach = 1;  // departures, lost leases and departure patterns, each at least
 #else
 constexpr int kActions = 240;
-constexpr std::size_t kMinimumScenes = 10000;
+constexpr std::size_t kMinimumScenes = 10000;  // 12555 measured
 constexpr std::size_t kMinimumEach = 5;
 #endif
 constexpr double kReferenceMargin = 1e-7;
