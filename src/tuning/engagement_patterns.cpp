@@ -247,7 +247,7 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
                          " (unilateral planes, fields, unilateral config walls) act on coupled directions, giving more than " +
                          std::to_string(kMaxEngagementPatterns) +
                          " engagement patterns to check; accepted: at most " + std::to_string(kMaxEngagementPatterns) +
-                         " patterns per group of coupled objects (2 per conditional object, 3 per pair of facing config walls: e.g. 8 "
+                         " patterns per group of coupled objects (2 per conditional object, 3 per pair of facing config walls: e.g. 7 "
                          "conditional objects); make some bilateral, remove some, or place them on M-orthogonal directions";
             return result;
         }

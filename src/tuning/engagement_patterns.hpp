@@ -41,10 +41,11 @@
 namespace hapticd {
 
 // Engagement patterns one group of coupled terms may have (the product over its conditional terms of 2, or
-// 3 for a pair of config walls that are never engaged together): 8 conditional objects on coupled
-// directions, or the 6 walls of a box (27 patterns) and 3 more. Bounds the check of one commit to
-// kMaxEngagementPatterns x (1 + ramp_s / T - 1) verdicts per group (docs/protocol.md, section 5, measured).
-inline constexpr std::size_t kMaxEngagementPatterns = 256;
+// 3 for a pair of config walls that are never engaged together): 7 conditional objects on coupled
+// directions, or the 6 walls of a box (27 patterns) and 2 more (108). Bounds the check of one commit to
+// kMaxEngagementPatterns x ramp_s / T verdicts per group: 3840 at the default 30 ms ramp, 58 ms (d = 1) to
+// 117 ms (d = 3) of the server thread (docs/protocol.md, section 5: hapticd_benchmarks BM_CommitCheck*).
+inline constexpr std::size_t kMaxEngagementPatterns = 128;
 
 // One object of a scene as the checks see it.
 struct SceneTerm {

@@ -178,13 +178,13 @@ TEST(EngagementPatterns, FacingConfigWallsAreNeverEngagedTogether) {
     }
 }
 
-// Nine conditional planes on coupled directions: 512 patterns, beyond kMaxEngagementPatterns (256): refused
-// without a verdict, the message naming the limit. Eight are checked (256 patterns).
+// Eight conditional planes on coupled directions: 256 patterns, beyond kMaxEngagementPatterns (128): refused
+// without a verdict, the message naming the limit. Seven are checked (128 patterns).
 TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
-    static_assert(kMaxEngagementPatterns == 256);
+    static_assert(kMaxEngagementPatterns == 128);
     const GainChecker checker(pattern_plant(0.0, false));
     std::vector<SceneTerm> terms;
-    for (std::uint32_t i = 0; i < 9; ++i) {
+    for (std::uint32_t i = 0; i < 8; ++i) {
         const double a = 0.3 * i;
         terms.push_back(plane_term({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.2 * 0.3 / kPeriod, true, i + 1));
     }
@@ -192,12 +192,12 @@ TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
     EXPECT_FALSE(over.stable);
     EXPECT_TRUE(over.over_limit);
     EXPECT_EQ(over.checks, 0U);
-    EXPECT_NE(over.why.find("at most 256 patterns per group of coupled objects"), std::string::npos) << over.why;
+    EXPECT_NE(over.why.find("at most 128 patterns per group of coupled objects"), std::string::npos) << over.why;
     terms.pop_back();
     const EngagementCheck at = check_engagement_patterns(checker, terms, 1.0);
     EXPECT_TRUE(at.stable) << at.why;
-    EXPECT_EQ(at.largest_group_patterns, 256U);
-    EXPECT_EQ(at.checks, 256U);  // every sum distinct (the empty one too: zero, trivially stable)
+    EXPECT_EQ(at.largest_group_patterns, 128U);
+    EXPECT_EQ(at.checks, 128U);  // every sum distinct (the empty one too: zero, trivially stable)
 }
 
 }  // namespace engagement_test
