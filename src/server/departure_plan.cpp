@@ -22,10 +22,11 @@ bool departure_is_stable(const GainChecker& checker, const std::vector<SceneTerm
         terms.push_back(o->term);
         terms.back().role = SceneTerm::Role::Out;
     }
-    const EngagementCheck verdict = check_engagement_patterns(checker, terms, step);
+    // No pattern limit: the scene was accepted with its patterns; its departure removes terms, never adds any.
+    const EngagementCheck verdict = check_engagement_patterns(checker, terms, step, PatternLimit::None);
     checks += verdict.checks;
     if (verdict.stable) return true;
-    why = verdict.over_limit ? verdict.why : "the scene left behind or its ramp-out is unstable: " + verdict.why;
+    why = "the scene left behind or its ramp-out is unstable: " + verdict.why;
     return false;
 }
 

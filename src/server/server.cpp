@@ -1102,7 +1102,7 @@ struct Server::Impl {
 };
 
 std::string config_walls_unstable(const GainChecker& checker, const std::vector<ConfigWallInfo>& walls) {
-    const EngagementCheck verdict = check_engagement_patterns(checker, terms_of_config_walls(walls), 1.0);
+    const EngagementCheck verdict = check_engagement_patterns(checker, terms_of_config_walls(walls), 1.0, PatternLimit::None);
     return verdict.stable ? std::string() : verdict.why;
 }
 

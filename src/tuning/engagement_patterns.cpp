@@ -2,6 +2,7 @@
 #include "tuning/engagement_patterns.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstring>
 #include <numeric>
@@ -9,6 +10,7 @@
 #include <sstream>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 
 namespace hapticd {
 
@@ -52,14 +54,23 @@ void add_weighted(Matrix3& to, const Matrix3& m, double w) {
     }
 }
 
-// One unit of a pattern: a conditional term alone (engaged or not), or an exclusive pair (neither, the
-// first or the second engaged).
+// One unit of a pattern: an exclusive pair (neither, the first or the second engaged), or a class of m
+// identical conditional terms (the same K, B and role, bitwise; m = 1 for most): k = 0 .. m of them engaged,
+// m + 1 sums — which k of them does not change the sum, so the 2^m subsets give exactly these m + 1 scenes.
 struct PatternUnit {
-    std::size_t first = 0;
-    std::size_t second = 0;
+    std::vector<std::size_t> members;
     bool pair = false;
-    [[nodiscard]] std::size_t options() const { return pair ? 3 : 2; }
+    [[nodiscard]] std::size_t options() const { return pair ? 3 : members.size() + 1; }
+    // The terms engaged for a digit (0 .. options() - 1).
+    [[nodiscard]] std::vector<std::size_t> engaged(std::size_t digit) const {
+        if (pair) return digit == 0 ? std::vector<std::size_t>{} : std::vector<std::size_t>{members[digit - 1]};
+        return std::vector<std::size_t>(members.begin(), members.begin() + static_cast<std::ptrdiff_t>(digit));
+    }
 };
+
+bool identical_terms(const SceneTerm& a, const SceneTerm& b) {
+    return a.role == b.role && a.K == b.K && a.B == b.B;
+}
 
 std::vector<PatternUnit> pattern_units(const std::vector<SceneTerm>& terms, const std::vector<std::size_t>& conditional) {
     std::vector<PatternUnit> units;
@@ -67,14 +78,20 @@ std::vector<PatternUnit> pattern_units(const std::vector<SceneTerm>& terms, cons
     for (std::size_t a = 0; a < conditional.size(); ++a) {
         if (used[a]) continue;
         used[a] = true;
-        PatternUnit u{conditional[a], conditional[a], false};
+        PatternUnit u{{conditional[a]}, false};
         const int id = terms[conditional[a]].exclusive_pair;
-        for (std::size_t b = a + 1; id >= 0 && b < conditional.size(); ++b) {
-            if (!used[b] && terms[conditional[b]].exclusive_pair == id) {
+        for (std::size_t b = a + 1; b < conditional.size(); ++b) {
+            if (used[b]) continue;
+            const SceneTerm& other = terms[conditional[b]];
+            if (id >= 0 && other.exclusive_pair == id) {  // the pair: never both engaged
                 used[b] = true;
-                u.second = conditional[b];
+                u.members.push_back(conditional[b]);
                 u.pair = true;
                 break;
+            }
+            if (id < 0 && other.exclusive_pair < 0 && identical_terms(terms[conditional[a]], other)) {
+                used[b] = true;
+                u.members.push_back(conditional[b]);
             }
         }
         units.push_back(u);
@@ -82,12 +99,14 @@ std::vector<PatternUnit> pattern_units(const std::vector<SceneTerm>& terms, cons
     return units;
 }
 
-// The number of patterns of the units, saturating just above the limit (2^64 and beyond are not counted).
+// The number of patterns of the units, exact up to kPatternCountCeiling (far above any limit), which it
+// saturates at (2^64 and beyond are not counted).
+constexpr std::size_t kPatternCountCeiling = std::size_t{1} << 40;
 std::size_t pattern_count(const std::vector<PatternUnit>& units) {
     std::size_t n = 1;
     for (const PatternUnit& u : units) {
         n *= u.options();
-        if (n > kMaxEngagementPatterns) return kMaxEngagementPatterns + 1;
+        if (n > kPatternCountCeiling) return kPatternCountCeiling;
     }
     return n;
 }
@@ -136,8 +155,9 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
     }
     const std::vector<PatternUnit> units = pattern_units(terms, conditional);
     const std::size_t count = pattern_count(units);
-    // Patterns as mixed-radix numbers, digit u in 0 .. options(u) - 1 (0: none of the unit engaged; 1: its
-    // first term; 2: a pair's second), counted down from the largest: the all-engaged pattern first.
+    // Patterns as mixed-radix numbers, digit u in 0 .. options(u) - 1 (a class: that many of its terms
+    // engaged; a pair: neither, the first, the second), counted down from the largest: the all-engaged
+    // pattern first.
     std::set<SumKey> checked;
     std::vector<std::size_t> digits(units.size());
     for (std::size_t code = count; code-- > 0;) {
@@ -146,10 +166,10 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
         for (std::size_t u = 0; u < units.size(); ++u) {
             digits[u] = rest % units[u].options();
             rest /= units[u].options();
-            if (digits[u] == 0) continue;
-            const std::size_t i = digits[u] == 1 ? units[u].first : units[u].second;
-            add_weighted(K, terms[i].K, weight[i].first);
-            add_weighted(B, terms[i].B, weight[i].second);
+            for (const std::size_t i : units[u].engaged(digits[u])) {
+                add_weighted(K, terms[i].K, weight[i].first);
+                add_weighted(B, terms[i].B, weight[i].second);
+            }
         }
         if (!checked.insert(sum_key(K, B)).second) continue;  // the same sum as a pattern checked already
         ++result.checks;
@@ -157,10 +177,8 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
         if (checker.sum_is_stable(K, B, reason)) continue;
         std::vector<std::size_t> engaged, free;
         for (std::size_t u = 0; u < units.size(); ++u) {
-            for (std::size_t option = 1; option < units[u].options(); ++option) {
-                const std::size_t i = option == 1 ? units[u].first : units[u].second;
-                (digits[u] == option ? engaged : free).push_back(i);
-            }
+            const std::vector<std::size_t> in = units[u].engaged(digits[u]);
+            for (const std::size_t i : units[u].members) (std::find(in.begin(), in.end(), i) != in.end() ? engaged : free).push_back(i);
         }
         if (free.empty()) {
             why = reason + " (every object in contact at once)";
@@ -199,7 +217,7 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // then have orthogonal spans up to that level: the coupling neglected is below 64 eps of the gains, which
 // moves a root by at most ~sqrt(1.5e-14) = 1.2e-7 (a double root), below the verdict's margin of 1e-6 —
 // the same bound by which matrix_gain_stability.hpp leaves out directions touched below rounding.
-EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step) {
+EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step, PatternLimit limit) {
     EngagementCheck result;
     const Eigen::Matrix3d Mis = as_eigen3(checker.mass().inverse_sqrt);
     std::vector<Eigen::Matrix3d> span(terms.size());
@@ -232,25 +250,47 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
     }
     result.groups = groups.size();
 
-    // The limit first, before any verdict: the patterns of each group with every conditional term present.
+    // The limit first, before any verdict: each group's patterns (every conditional term present) times its
+    // scenes (the final one, and the ramp's when the group has a ramping term), those of a group acting along
+    // one direction (scalar verdicts) weighted 1 / kOneDirectionPatternsPerUnit, summed over the groups.
+    const bool ramp = step > 0.0 && step < 1.0;
+    const double ramp_scenes = ramp ? std::ceil(1.0 / step) - 1.0 : 0.0;
+    double units = 0.0, largest_scenes = 1.0;
+    std::vector<std::size_t> all_conditional;
     for (const auto& group : groups) {
         std::vector<std::size_t> conditional;
         for (const std::size_t i : group) {
             if (terms[i].conditional) conditional.push_back(i);
         }
+        all_conditional.insert(all_conditional.end(), conditional.begin(), conditional.end());
         const std::size_t count = pattern_count(pattern_units(terms, conditional));
         result.largest_group_patterns = std::max(result.largest_group_patterns, count);
-        if (count > kMaxEngagementPatterns) {
-            result.stable = false;
-            result.over_limit = true;
-            result.why = std::to_string(conditional.size()) + " conditionally engaged objects " + id_list(terms, conditional) +
-                         " (unilateral planes, fields, unilateral config walls) act on coupled directions, giving more than " +
-                         std::to_string(kMaxEngagementPatterns) +
-                         " engagement patterns to check; accepted: at most " + std::to_string(kMaxEngagementPatterns) +
-                         " patterns per group of coupled objects (2 per conditional object, 3 per pair of facing config walls: e.g. 7 "
-                         "conditional objects); make some bilateral, remove some, or place them on M-orthogonal directions";
-            return result;
-        }
+        // The group's dimension: the rank of the sum of its span operators (relative 64 eps, as the groups).
+        Eigen::Matrix3d spans = Eigen::Matrix3d::Zero();
+        for (const std::size_t i : group) spans += span[i] / size[i];
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(spans, Eigen::EigenvaluesOnly);
+        const bool one_direction = es.eigenvalues()(1) <= hapticopt::kMatrixGainRoundingLevel * es.eigenvalues()(2);
+        const bool ramps = std::any_of(group.begin(), group.end(), [&](std::size_t i) { return terms[i].role != SceneTerm::Role::Base; });
+        const double scenes = 1.0 + (ramps ? ramp_scenes : 0.0);
+        largest_scenes = std::max(largest_scenes, scenes);
+        units += static_cast<double>(count) * scenes / (one_direction ? static_cast<double>(kOneDirectionPatternsPerUnit) : 1.0);
+    }
+    if (limit == PatternLimit::Enforced && units > static_cast<double>(kMaxEngagementPatternScenes) &&
+        units > largest_scenes) {  // a scene without conditional objects is always checked, whatever its ramp
+        std::ostringstream o;
+        o << all_conditional.size() << " conditionally engaged objects " << id_list(terms, all_conditional)
+          << " (unilateral planes, fields, unilateral config walls) give " << units
+          << " pattern-scenes to check (each group's engagement patterns times its scenes, the final one and "
+          << ramp_scenes << " ramp scenes; a group acting along one direction counts 1/" << kOneDirectionPatternsPerUnit
+          << "); accepted: at most " << kMaxEngagementPatternScenes << " (" << kMaxEngagementPatterns
+          << " patterns at the default 30 ms ramp: a group's patterns are the product of 2 per conditional object, m + 1 per m "
+             "identical ones, 3 per pair of facing config walls; e.g. 7 different conditional objects on coupled directions, or 9 "
+             "along one direction; fewer with a longer ramp-time); make some bilateral, remove some, or place them on "
+             "M-orthogonal directions";
+        result.stable = false;
+        result.over_limit = true;
+        result.why = o.str();
+        return result;
     }
 
     // The final scene of every group, then the ramp scenes of the groups the batch touches.

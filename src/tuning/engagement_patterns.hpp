@@ -21,13 +21,14 @@
 //    stable iff each group's part is. A pattern is one choice per group, so "every pattern stable" is
 //    "every pattern of each group stable": sum_k n_k checks instead of prod_k n_k.
 //  * Terms at weight 0 in a scene (an object ramped fully out) contribute nothing: left out of that scene.
-//  * Patterns whose sums are bitwise identical to one already checked in that scene (identical objects)
-//    are the same scene: checked once.
+//  * Identical conditional terms (the same K, B and role, bitwise): which k of m are engaged does not change
+//    the sum, so a class of m gives m + 1 patterns, not 2^m (32 identical planes: 33). Patterns whose sums
+//    are bitwise identical to one already checked in that scene are the same scene: checked once.
 //  * The device's stiffness limit needs no enumeration: every term's symmetric stiffness is positive
 //    semi-definite (planes, springs; a field's -sym(J) is required to be), so the largest eigenvalue of a
 //    sub-sum never exceeds the full sum's (Loewner order); the server checks the full sum.
 // Cost: one GainChecker::coupled verdict per pattern per scene (tens of microseconds for a 3-axis
-// non-commuting sum); a group may have at most kMaxEngagementPatterns patterns, else the check refuses
+// non-commuting sum); a check may have at most kMaxEngagementPatterns (weighted) patterns, else it refuses
 // (over_limit) rather than spend unbounded time.
 #pragma once
 
@@ -40,12 +41,23 @@
 
 namespace hapticd {
 
-// Engagement patterns one group of coupled terms may have (the product over its conditional terms of 2, or
-// 3 for a pair of config walls that are never engaged together): 7 conditional objects on coupled
-// directions, or the 6 walls of a box (27 patterns) and 2 more (108). Bounds the check of one commit to
-// kMaxEngagementPatterns x ramp_s / T verdicts per group: 3840 at the default 30 ms ramp, 58 ms (d = 1) to
-// 117 ms (d = 3) of the server thread (docs/protocol.md, section 5: hapticd_benchmarks BM_CommitCheck*).
+// Engagement patterns one check may have, summed over its groups (a group's patterns: the product over its
+// conditional terms of 2, m + 1 for a class of m identical ones, 3 for a pair of config walls never engaged
+// together): 7 different conditional objects on coupled directions, or the 6 walls of a box (27 patterns)
+// and 2 more (108). A group acting along one direction only (parallel planes) counts
+// 1 / kOneDirectionPatternsPerUnit per pattern: each of its verdicts is one scalar Schur-Cohn test (~5 us),
+// not a companion eigenproblem (~15-30 us). Bounds a commit's check to ~60 ms (d = 1) .. ~115 ms (d = 3) of
+// the server thread at the default 30 ms ramp (docs/protocol.md, section 5: hapticd_benchmarks BM_CommitCheck*).
 inline constexpr std::size_t kMaxEngagementPatterns = 128;
+inline constexpr std::size_t kOneDirectionPatternsPerUnit = 4;
+// The limit itself, in patterns times scenes (a group's scenes: the final one, and 1 / step - 1 ramp scenes
+// when the batch ramps one of its objects): kMaxEngagementPatterns at the default ramp (30 scenes); a longer
+// ramp allows proportionally fewer patterns (a scene with no conditional object is always checked).
+inline constexpr std::size_t kMaxEngagementPatternScenes = kMaxEngagementPatterns * 30;
+enum class PatternLimit : std::uint8_t {
+    Enforced,  // a commit: refused (over_limit) beyond kMaxEngagementPatternScenes
+    None,      // a departure or the config walls: every pattern of an accepted scene is checked, whatever it costs
+};
 
 // One object of a scene as the checks see it.
 struct SceneTerm {
@@ -65,7 +77,7 @@ struct SceneTerm {
 
 struct EngagementCheck {
     bool stable = true;
-    bool over_limit = false;        // a group has more than kMaxEngagementPatterns patterns: not checked
+    bool over_limit = false;        // more than kMaxEngagementPatternScenes (weighted as above): not checked
     std::size_t checks = 0;         // scene verdicts computed
     std::size_t largest_group_patterns = 0;
     std::size_t groups = 0;
@@ -89,6 +101,7 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // group; in each scene every engagement pattern of the conditional terms, each judged by
 // GainChecker::coupled (the verdict of sum_is_stable; on failure sum_is_stable's explanation). Groups are
 // checked independently (header comment). The all-engaged pattern of each scene is checked first.
-EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step);
+EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step,
+                                          PatternLimit limit = PatternLimit::Enforced);
 
 }  // namespace hapticd

@@ -178,26 +178,65 @@ TEST(EngagementPatterns, FacingConfigWallsAreNeverEngagedTogether) {
     }
 }
 
-// Eight conditional planes on coupled directions: 256 patterns, beyond kMaxEngagementPatterns (128): refused
-// without a verdict, the message naming the limit. Seven are checked (128 patterns).
+// Eight conditional planes on coupled directions (the x-y plane), one ramping in (30 scenes at the default
+// ramp): 256 patterns x 30 = 7680 pattern-scenes, beyond kMaxEngagementPatternScenes (3840): refused without a
+// verdict, the message naming the limit. Seven are checked (128 x 30). Along one direction a pattern counts
+// 1/4: 9 different parallel planes (512 patterns) are checked, 10 are refused.
 TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
-    static_assert(kMaxEngagementPatterns == 128);
+    static_assert(kMaxEngagementPatternScenes == 3840 && kOneDirectionPatternsPerUnit == 4);
     const GainChecker checker(pattern_plant(0.0, false));
+    const double ramp = 1.0 / 30.0;
     std::vector<SceneTerm> terms;
     for (std::uint32_t i = 0; i < 8; ++i) {
         const double a = 0.3 * i;
-        terms.push_back(plane_term({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.2 * 0.3 / kPeriod, true, i + 1));
+        terms.push_back(plane_term({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.1 * 0.3 / kPeriod, true, i + 1,
+                                   i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
     }
-    const EngagementCheck over = check_engagement_patterns(checker, terms, 1.0);
+    const EngagementCheck over = check_engagement_patterns(checker, terms, ramp);
     EXPECT_FALSE(over.stable);
     EXPECT_TRUE(over.over_limit);
     EXPECT_EQ(over.checks, 0U);
-    EXPECT_NE(over.why.find("at most 128 patterns per group of coupled objects"), std::string::npos) << over.why;
+    EXPECT_NE(over.why.find("give 7680 pattern-scenes"), std::string::npos) << over.why;
+    EXPECT_NE(over.why.find("accepted: at most 3840 (128 patterns at the default 30 ms ramp"), std::string::npos) << over.why;
+    // A departure (no limit) checks them all.
+    EXPECT_FALSE(check_engagement_patterns(checker, terms, ramp, PatternLimit::None).over_limit);
     terms.pop_back();
-    const EngagementCheck at = check_engagement_patterns(checker, terms, 1.0);
+    const EngagementCheck at = check_engagement_patterns(checker, terms, ramp);
     EXPECT_TRUE(at.stable) << at.why;
     EXPECT_EQ(at.largest_group_patterns, 128U);
-    EXPECT_EQ(at.checks, 128U);  // every sum distinct (the empty one too: zero, trivially stable)
+    EXPECT_EQ(at.checks, 3840U);  // every sum of a scene distinct (the empty one too: zero, trivially stable)
+
+    std::vector<SceneTerm> parallel;
+    for (std::uint32_t i = 0; i < 10; ++i) {
+        parallel.push_back(plane_term({0.0, 0.6, 0.8}, (0.001 + 0.0002 * i) * 0.3 / (kPeriod * kPeriod), 0.015 * 0.3 / kPeriod, true, i + 1,
+                                      i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
+    }
+    const EngagementCheck over_parallel = check_engagement_patterns(checker, parallel, ramp);
+    EXPECT_TRUE(over_parallel.over_limit);
+    EXPECT_NE(over_parallel.why.find("give 7680 pattern-scenes"), std::string::npos) << over_parallel.why;
+    parallel.pop_back();
+    const EngagementCheck at_parallel = check_engagement_patterns(checker, parallel, ramp);
+    EXPECT_TRUE(at_parallel.stable) << at_parallel.why;
+    EXPECT_EQ(at_parallel.largest_group_patterns, 512U);
+}
+
+// Identical conditional objects (32 clients each adding the same unilateral plane): which k of the 32 are
+// engaged does not change the sum, so 33 patterns, each checked once — and the brute force over the
+// subsets of 6 of them agrees.
+TEST(EngagementPatterns, IdenticalObjectsCountOncePerNumberEngaged) {
+    const GainChecker checker(pattern_plant(kPeriod, false));
+    std::vector<SceneTerm> terms;
+    for (std::uint32_t i = 0; i < 32; ++i) terms.push_back(plane_term({0.0, 0.0, -1.0}, 50.0, 0.5, true, i + 1));
+    const EngagementCheck all = check_engagement_patterns(checker, terms, 1.0);
+    EXPECT_TRUE(all.stable) << all.why;
+    EXPECT_EQ(all.largest_group_patterns, 33U);
+    EXPECT_EQ(all.checks, 33U);
+    // Stiff enough that several together are unstable (alpha = 0.1, beta = 0.3 each at d = 1): refused.
+    std::vector<SceneTerm> stiff(6, plane_term({0.0, 0.0, -1.0}, 0.1 * 0.3 / (kPeriod * kPeriod), 0.3 * 0.3 / kPeriod, true, 1));
+    std::string why;
+    ASSERT_TRUE(checker.sum_is_stable(stiff[0].K, stiff[0].B, why)) << why;
+    EXPECT_EQ(check_engagement_patterns(checker, stiff, 1.0).stable, every_pattern_stable(checker, stiff, 1.0));
+    EXPECT_FALSE(check_engagement_patterns(checker, stiff, 1.0).stable);
 }
 
 }  // namespace engagement_test
