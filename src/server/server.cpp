@@ -71,11 +71,9 @@ std::vector<SceneTerm> terms_of_config_walls(const std::vector<ConfigWallInfo>& 
     std::vector<SceneTerm> terms;
     for (std::size_t i = 0; i < config_walls.size(); ++i) {
         const auto& w = config_walls[i];
-        AxisVector e{};
+        std::array<double, 3> e{};
         e[w.axis] = 1.0;
-        SceneTerm t;
-        t.K = outer(e, w.K);
-        t.B = outer(e, w.B);
+        SceneTerm t = plane_term(e, w.K, w.B);
         t.conditional = !w.bilateral;
         t.exclusive_pair = pairs[i];
         t.object_id = static_cast<std::uint32_t>(i + 1);

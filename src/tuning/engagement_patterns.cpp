@@ -16,20 +16,12 @@ namespace hapticd {
 
 namespace {
 
-Eigen::Matrix3d as_eigen3(const Matrix3& m) {
-    Eigen::Matrix3d e;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) e(i, j) = m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
-    }
-    return e;
-}
-
 // The span operator of a term in the unit-mass coordinates: S = A A^T + A^T A + Bn Bn^T (positive
 // semi-definite; its range is the span of the ranges and row spaces of A = M^-1/2 K M^-1/2 and
 // Bn = M^-1/2 B M^-1/2, the directions the term acts on and from).
 Eigen::Matrix3d span_operator(const Eigen::Matrix3d& mass_inverse_sqrt, const SceneTerm& t) {
-    const Eigen::Matrix3d A = mass_inverse_sqrt * as_eigen3(t.K) * mass_inverse_sqrt;
-    const Eigen::Matrix3d Bn = mass_inverse_sqrt * as_eigen3(t.B) * mass_inverse_sqrt;
+    const Eigen::Matrix3d A = mass_inverse_sqrt * as_eigen(t.K) * mass_inverse_sqrt;
+    const Eigen::Matrix3d Bn = mass_inverse_sqrt * as_eigen(t.B) * mass_inverse_sqrt;
     return A * A.transpose() + A.transpose() * A + Bn * Bn.transpose();
 }
 
@@ -194,6 +186,17 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
 
 }  // namespace
 
+SceneTerm plane_term(const std::array<double, 3>& n, double K, double B) {
+    SceneTerm t;
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) {
+            t.K[i][j] = K * n[i] * n[j];
+            t.B[i][j] = B * n[i] * n[j];
+        }
+    }
+    return t;
+}
+
 std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int first_id) {
     std::vector<int> pair(walls.size(), -1);
     int next = first_id;
@@ -219,7 +222,7 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // the same bound by which matrix_gain_stability.hpp leaves out directions touched below rounding.
 EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step, PatternLimit limit) {
     EngagementCheck result;
-    const Eigen::Matrix3d Mis = as_eigen3(checker.mass().inverse_sqrt);
+    const Eigen::Matrix3d Mis = as_eigen(checker.mass().inverse_sqrt);
     std::vector<Eigen::Matrix3d> span(terms.size());
     std::vector<double> size(terms.size());
     std::vector<std::size_t> parent(terms.size());

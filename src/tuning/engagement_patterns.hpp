@@ -33,6 +33,7 @@
 #pragma once
 
 #include <cstddef>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -74,6 +75,10 @@ struct SceneTerm {
     Role role = Role::Base;
     std::uint32_t object_id = 0;  // for messages
 };
+
+// The term of a plane (or a spring to a plane) along the unit normal n with gains K, B: K n n^T, B n n^T,
+// always engaged, role Base (set the rest).
+SceneTerm plane_term(const std::array<double, 3>& n, double K, double B);
 
 struct EngagementCheck {
     bool stable = true;

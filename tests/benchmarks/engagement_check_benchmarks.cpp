@@ -42,13 +42,7 @@ GainCheckPlant bench_plant(int d, bool anisotropic) {
 }
 
 SceneTerm bench_plane(const std::array<double, 3>& n, double K, double B, bool conditional, SceneTerm::Role role = SceneTerm::Role::Base) {
-    SceneTerm t;
-    for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) {
-            t.K[i][j] = K * n[i] * n[j];
-            t.B[i][j] = B * n[i] * n[j];
-        }
-    }
+    SceneTerm t = plane_term(n, K, B);
     t.conditional = conditional;
     t.role = role;
     return t;

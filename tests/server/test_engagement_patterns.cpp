@@ -24,15 +24,9 @@ GainCheckPlant pattern_plant(double delay, bool anisotropic) {
     return p;
 }
 
-SceneTerm plane_term(const std::array<double, 3>& n, double K, double B, bool conditional, std::uint32_t id,
-                     SceneTerm::Role role = SceneTerm::Role::Base) {
-    SceneTerm t;
-    for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) {
-            t.K[i][j] = K * n[i] * n[j];
-            t.B[i][j] = B * n[i] * n[j];
-        }
-    }
+SceneTerm plane(const std::array<double, 3>& n, double K, double B, bool conditional, std::uint32_t id,
+                SceneTerm::Role role = SceneTerm::Role::Base) {
+    SceneTerm t = plane_term(n, K, B);
     t.conditional = conditional;
     t.object_id = id;
     t.role = role;
@@ -46,8 +40,8 @@ SceneTerm plane_term(const std::array<double, 3>& n, double K, double B, bool co
 TEST(EngagementPatterns, ASubsetUnstableWhileTheFullSumIsStableIsRefused) {
     const GainChecker checker(pattern_plant(kPeriod, true));
     const std::array<double, 3> n{0.0, -0.6, -0.8};
-    std::vector<SceneTerm> terms{plane_term(n, 12739.29, 25.4786, false, 11), plane_term(n, 12739.29, 25.4786, false, 12),
-                                 plane_term(n, 1000.0, 30.0, false, 13)};
+    std::vector<SceneTerm> terms{plane(n, 12739.29, 25.4786, false, 11), plane(n, 12739.29, 25.4786, false, 12),
+                                 plane(n, 1000.0, 30.0, false, 13)};
     std::string why;
     for (const SceneTerm& t : terms) ASSERT_TRUE(checker.sum_is_stable(t.K, t.B, why)) << why;
     EngagementCheck bilateral = check_engagement_patterns(checker, terms, 1.0);
@@ -123,7 +117,7 @@ TEST(EngagementPatterns, GroupsGiveTheVerdictOfEveryPatternOfTheWholeScene) {
                 const double m = checker.mass_along(n);
                 const double alpha = 0.01 + 0.1 * u(rng), beta = 0.05 + 0.4 * u(rng);
                 const SceneTerm::Role role = u(rng) < 0.2 ? SceneTerm::Role::In : u(rng) < 0.1 ? SceneTerm::Role::Out : SceneTerm::Role::Base;
-                terms.push_back(plane_term(n, alpha * m / (kPeriod * kPeriod), beta * m / kPeriod, u(rng) < 0.6,
+                terms.push_back(plane(n, alpha * m / (kPeriod * kPeriod), beta * m / kPeriod, u(rng) < 0.6,
                                            static_cast<std::uint32_t>(i + 1), role));
             }
             const EngagementCheck grouped = check_engagement_patterns(checker, terms, 0.25);
@@ -164,7 +158,7 @@ TEST(EngagementPatterns, FacingConfigWallsAreNeverEngagedTogether) {
             std::array<double, 3> e{};
             e[box[i].axis] = 1.0;
             const double m = checker.mass().of_axis(box[i].axis);
-            terms.push_back(plane_term(e, 0.05 * m / (kPeriod * kPeriod), 0.3 * m / kPeriod, true, static_cast<std::uint32_t>(i + 1)));
+            terms.push_back(plane(e, 0.05 * m / (kPeriod * kPeriod), 0.3 * m / kPeriod, true, static_cast<std::uint32_t>(i + 1)));
             terms.back().exclusive_pair = pairs[i];
         }
         const EngagementCheck c = check_engagement_patterns(checker, terms, 1.0);
@@ -189,7 +183,7 @@ TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
     std::vector<SceneTerm> terms;
     for (std::uint32_t i = 0; i < 8; ++i) {
         const double a = 0.3 * i;
-        terms.push_back(plane_term({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.1 * 0.3 / kPeriod, true, i + 1,
+        terms.push_back(plane({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.1 * 0.3 / kPeriod, true, i + 1,
                                    i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
     }
     const EngagementCheck over = check_engagement_patterns(checker, terms, ramp);
@@ -208,7 +202,7 @@ TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
 
     std::vector<SceneTerm> parallel;
     for (std::uint32_t i = 0; i < 10; ++i) {
-        parallel.push_back(plane_term({0.0, 0.6, 0.8}, (0.001 + 0.0002 * i) * 0.3 / (kPeriod * kPeriod), 0.015 * 0.3 / kPeriod, true, i + 1,
+        parallel.push_back(plane({0.0, 0.6, 0.8}, (0.001 + 0.0002 * i) * 0.3 / (kPeriod * kPeriod), 0.015 * 0.3 / kPeriod, true, i + 1,
                                       i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
     }
     const EngagementCheck over_parallel = check_engagement_patterns(checker, parallel, ramp);
@@ -226,13 +220,13 @@ TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
 TEST(EngagementPatterns, IdenticalObjectsCountOncePerNumberEngaged) {
     const GainChecker checker(pattern_plant(kPeriod, false));
     std::vector<SceneTerm> terms;
-    for (std::uint32_t i = 0; i < 32; ++i) terms.push_back(plane_term({0.0, 0.0, -1.0}, 50.0, 0.5, true, i + 1));
+    for (std::uint32_t i = 0; i < 32; ++i) terms.push_back(plane({0.0, 0.0, -1.0}, 50.0, 0.5, true, i + 1));
     const EngagementCheck all = check_engagement_patterns(checker, terms, 1.0);
     EXPECT_TRUE(all.stable) << all.why;
     EXPECT_EQ(all.largest_group_patterns, 33U);
     EXPECT_EQ(all.checks, 33U);
     // Stiff enough that several together are unstable (alpha = 0.1, beta = 0.3 each at d = 1): refused.
-    std::vector<SceneTerm> stiff(6, plane_term({0.0, 0.0, -1.0}, 0.1 * 0.3 / (kPeriod * kPeriod), 0.3 * 0.3 / kPeriod, true, 1));
+    std::vector<SceneTerm> stiff(6, plane({0.0, 0.0, -1.0}, 0.1 * 0.3 / (kPeriod * kPeriod), 0.3 * 0.3 / kPeriod, true, 1));
     std::string why;
     ASSERT_TRUE(checker.sum_is_stable(stiff[0].K, stiff[0].B, why)) << why;
     EXPECT_EQ(check_engagement_patterns(checker, stiff, 1.0).stable, every_pattern_stable(checker, stiff, 1.0));
