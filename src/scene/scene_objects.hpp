@@ -187,7 +187,7 @@ public:
     [[nodiscard]] std::size_t held() const noexcept { return held_count_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
     // The linear gains of the scene the next add_forces() renders (call it after apply_commits()), every
-    // object counted as in contact, as the server checks it: the sum over the active entries (current and
+    // object counted as in contact (the all-engaged pattern the server checks): the sum over the active entries (current and
     // fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
     // tests (tests/server/test_rendered_scene_property.cpp); O(64), never called by the loop.
     void rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept;
