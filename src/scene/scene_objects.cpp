@@ -772,6 +772,31 @@ void SceneObjects::rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisV
     B = l.B;
 }
 
+void SceneObjects::rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B,
+                                  std::uint64_t& engaged) const noexcept {
+    AffineLaw l;
+    engaged = 0;
+    for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
+        for (const Entry* e : {&slots_[s].current, &slots_[s].fading}) {
+            if (!e->active) continue;
+            const ObjectParams& p = e->params;
+            bool acts = true;
+            if (p.kind == ObjectKind::Plane && !p.bilateral) {
+                const double pen = p.offset - dot(p.direction, x);
+                acts = pen > 0.0 && e->ramp * e->ramp * p.K * pen - e->ramp * p.B * dot(p.direction, v) > 0.0;
+            } else if (p.kind == ObjectKind::Field) {
+                const AxisVector d{x[0] - p.point[0], x[1] - p.point[1], x[2] - p.point[2]};
+                acts = dot(d, d) <= p.radius * p.radius;
+            }
+            if (!acts) continue;
+            add_linear(l, p, e->ramp);
+            if (engages_conditionally(p)) engaged |= std::uint64_t{1} << s;
+        }
+    }
+    K = l.K;
+    B = l.B;
+}
+
 std::uint32_t SceneObjects::slot_object_id(std::size_t slot) const noexcept {
     const Slot& s = slots_[slot];
     if (s.current.active) return s.current.params.id;

@@ -98,6 +98,14 @@ struct ObjectParams {
     double B = 0.0;          // N s/m (plane, spring, field)
 };
 
+// Whether the object renders its law only at some handle positions: a unilateral plane (while the handle is
+// behind its surface and the law pushes out) and a field (inside its radius). Bilateral planes and springs
+// act everywhere. The server checks every pattern of these engaging and not (docs/protocol.md, section 5,
+// tuning/engagement_patterns.hpp); anything that changes when an object engages asks this.
+[[nodiscard]] constexpr bool engages_conditionally(const ObjectParams& p) noexcept {
+    return (p.kind == ObjectKind::Plane && !p.bilateral) || p.kind == ObjectKind::Field;
+}
+
 struct SlotUpdate {
     enum class Action : std::uint8_t {
         Set,       // a new object, or another description: the old one (if any) fades out, this one ramps in
@@ -187,10 +195,18 @@ public:
     [[nodiscard]] std::size_t held() const noexcept { return held_count_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
     // The linear gains of the scene the next add_forces() renders (call it after apply_commits()), every
-    // object counted as in contact, as the server checks it: the sum over the active entries (current and
+    // object counted as in contact (the all-engaged pattern the server checks): the sum over the active entries (current and
     // fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
     // tests (tests/server/test_rendered_scene_property.cpp); O(64), never called by the loop.
     void rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept;
+    // The same for the handle at x with the velocity estimate v (the tick's add_forces(x) computes v =
+    // (x - x_prev) / T): only the entries whose law acts there — bilateral planes and springs, unilateral
+    // planes with p > 0 whose law r^2 K p - r B n.v pushes out (a clamped plane renders nothing), fields with
+    // ||x - x0|| <= radius: the engagement pattern the loop renders at that tick. `engaged`: the slots of
+    // the conditional entries among them (engages_conditionally; each has its flag in contact_mask() after
+    // that tick). O(64), never called by the loop.
+    void rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B,
+                        std::uint64_t& engaged) const noexcept;
 
 private:
     struct Entry {

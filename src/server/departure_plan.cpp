@@ -7,30 +7,27 @@ namespace hapticd {
 
 namespace {
 
-// Base (fixed + the staying objects not in `removed`) and every ramp scene of `out` fading over it.
-bool departure_is_stable(const GainChecker& checker, const Matrix3& fixed_K, const Matrix3& fixed_B,
-                         const std::vector<const DepartureObject*>& out, const std::vector<DepartureObject>& staying,
-                         const std::vector<bool>& removed, double step, std::string& why) {
-    Matrix3 K_base = fixed_K, B_base = fixed_B, K_out{}, B_out{};
+// Base (fixed + the staying objects not in `removed`) and every ramp scene of `out` fading over it, each with
+// every engagement pattern; `checks` counts the verdicts spent.
+bool departure_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& fixed, const std::vector<const DepartureObject*>& out,
+                         const std::vector<DepartureObject>& staying, const std::vector<bool>& removed, double step, std::string& why,
+                         std::size_t& checks) {
+    std::vector<SceneTerm> terms = fixed;
     for (std::size_t i = 0; i < staying.size(); ++i) {
         if (removed[i]) continue;
-        add_to(K_base, staying[i].K);
-        add_to(B_base, staying[i].B);
+        terms.push_back(staying[i].term);
+        terms.back().role = SceneTerm::Role::Base;
     }
     for (const DepartureObject* o : out) {
-        add_to(K_out, o->K);
-        add_to(B_out, o->B);
+        terms.push_back(o->term);
+        terms.back().role = SceneTerm::Role::Out;
     }
-    std::string reason;
-    if (!checker.sum_is_stable(K_base, B_base, reason)) {
-        why = "the scene left behind is unstable: " + reason;
-        return false;
-    }
-    if (!checker.ramp_is_stable(K_base, B_base, Matrix3{}, Matrix3{}, K_out, B_out, step, reason)) {
-        why = "the ramp-out is unstable " + reason;
-        return false;
-    }
-    return true;
+    // No pattern limit: the scene was accepted with its patterns; its departure removes terms, never adds any.
+    const EngagementCheck verdict = check_engagement_patterns(checker, terms, step, PatternLimit::None);
+    checks += verdict.checks;
+    if (verdict.stable) return true;
+    why = "the scene left behind or its ramp-out is unstable: " + verdict.why;
+    return false;
 }
 
 // The next k-subset of {0 .. n-1} in lexicographic order; false after the last.
@@ -48,21 +45,24 @@ bool next_combination(std::vector<std::size_t>& c, std::size_t n) {
 
 }  // namespace
 
-DeparturePlan plan_departure(const GainChecker& checker, const Matrix3& fixed_K, const Matrix3& fixed_B,
-                             const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying, double step) {
+DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed, const std::vector<DepartureObject>& leaving,
+                             const std::vector<DepartureObject>& staying, double step) {
     DeparturePlan plan;
     for (const DepartureObject& o : leaving) plan.out.push_back(o.slot);
     std::vector<const DepartureObject*> out;
     for (const DepartureObject& o : leaving) out.push_back(&o);
     std::vector<bool> removed(staying.size(), false);
-    if (departure_is_stable(checker, fixed_K, fixed_B, out, staying, removed, step, plan.reason)) {
+    std::size_t checks = 0;
+    if (departure_is_stable(checker, fixed, out, staying, removed, step, plan.reason, checks)) {
         plan.reason.clear();
         return plan;
     }
     const std::size_t departing = out.size();
     std::size_t tried = 0;
+    checks = 0;
     std::string ignored;
-    for (std::size_t k = 1; k < staying.size() && tried < kDepartureSearchBudget; ++k) {
+    auto within_budget = [&] { return tried < kDepartureSearchBudget && checks < kDepartureCheckBudget; };
+    for (std::size_t k = 1; k < staying.size() && within_budget(); ++k) {
         std::vector<std::size_t> c(k);
         std::iota(c.begin(), c.end(), std::size_t{0});
         do {
@@ -73,14 +73,14 @@ DeparturePlan plan_departure(const GainChecker& checker, const Matrix3& fixed_K,
                 removed[i] = true;
             }
             ++tried;
-            if (departure_is_stable(checker, fixed_K, fixed_B, out, staying, removed, step, ignored)) {
+            if (departure_is_stable(checker, fixed, out, staying, removed, step, ignored, checks)) {
                 for (const std::size_t i : c) {
                     plan.out.push_back(staying[i].slot);
                     plan.further.push_back(staying[i].slot);
                 }
                 return plan;
             }
-        } while (tried < kDepartureSearchBudget && next_combination(c, staying.size()));
+        } while (within_budget() && next_combination(c, staying.size()));
     }
     // Every client object.
     out.resize(departing);
@@ -90,7 +90,7 @@ DeparturePlan plan_departure(const GainChecker& checker, const Matrix3& fixed_K,
         plan.further.push_back(o.slot);
     }
     std::fill(removed.begin(), removed.end(), true);
-    if (!departure_is_stable(checker, fixed_K, fixed_B, out, staying, removed, step, ignored)) plan.cut = true;
+    if (!departure_is_stable(checker, fixed, out, staying, removed, step, ignored, checks)) plan.cut = true;
     return plan;
 }
 

@@ -8,11 +8,12 @@
 // at its final weight (the loop brings every batch sent before the departure to its final state before it
 // starts the ramp-out, SceneObjects::take_departures, so base is the scene the server's slots describe). The departing session's objects alone need not leave a
 // stable scene: a sum may be stable only with them (A + B unstable, A + B + C stable). So:
-//   1. out = the departing objects; accepted if base and every ramp scene pass GainChecker::sum_is_stable
-//      (ramp_is_stable and the remainder's check: every scene the loop will render).
+//   1. out = the departing objects; accepted if base and every ramp scene pass, each with every engagement
+//      pattern of the conditional objects (check_engagement_patterns: every scene the loop will render).
 //   2. Otherwise the fewest further client objects ramp out with them: every set of 1, then 2, ... of the
-//      staying client objects (slot order), until one passes or kDepartureSearchBudget sets have been
-//      tried (each costs up to 1 / step scene checks, ~30 x ~20 us).
+//      staying client objects (slot order), until one passes, kDepartureSearchBudget sets have been
+//      tried, or the sets tried have cost kDepartureCheckBudget scene verdicts (each set up to 1 / step
+//      scenes times its patterns, ~20-60 us a verdict).
 //   3. Otherwise every client object ramps out (base = the config walls, checked at start-up), if its
 //      ramp scenes pass.
 //   4. Otherwise every client object is cut at once (SlotUpdate::Action::Cut, no ramp): the loop jumps from
@@ -26,19 +27,21 @@
 #include <string>
 #include <vector>
 
+#include "tuning/engagement_patterns.hpp"
 #include "tuning/object_checks.hpp"
 
 namespace hapticd {
 
-// Scene checks a departure may spend on finding the fewest further objects (step 2 above): bounds the
-// server thread's pause to ~64 x 30 x 20 us ~ 40 ms at the default 30 ms ramp.
+// Sets a departure may try, and scene verdicts it may spend, on finding the fewest further objects (step 2
+// above): bounds the server thread's pause in step 2 to ~2048 x 20-60 us ~ 40-120 ms (the sets' count
+// alone, 64 x 30 scenes at the default 30 ms ramp, was the bound before engagement patterns).
 inline constexpr std::size_t kDepartureSearchBudget = 64;
+inline constexpr std::size_t kDepartureCheckBudget = 2048;
 
 struct DepartureObject {
     std::size_t slot = 0;
     std::uint64_t owner = 0;
-    Matrix3 K{};  // the stiffness matrix it renders (GainChecker's convention: f = -K x - B v)
-    Matrix3 B{};
+    SceneTerm term;  // what it renders (its role is set by the plan)
 };
 
 struct DeparturePlan {
@@ -48,8 +51,8 @@ struct DeparturePlan {
     std::string reason;                    // why the departing objects alone could not ramp out (steps 2-4)
 };
 
-// The rule above. `fixed_K`, `fixed_B`: the config walls' summed gains; `step` = T / ramp_s (>= 1: no ramp).
-DeparturePlan plan_departure(const GainChecker& checker, const Matrix3& fixed_K, const Matrix3& fixed_B,
-                             const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying, double step);
+// The rule above. `fixed`: the config walls (Base terms); `step` = T / ramp_s (>= 1: no ramp).
+DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed, const std::vector<DepartureObject>& leaving,
+                             const std::vector<DepartureObject>& staying, double step);
 
 }  // namespace hapticd

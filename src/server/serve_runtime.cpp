@@ -71,6 +71,11 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
         throw StartupError(kExitInvalidParameter, e.what());
     }
 
+    if (const std::string why = config_walls_unstable(*checker_, config_walls); !why.empty()) {
+        throw StartupError(kExitInvalidParameter, "the config walls are not stable in every combination the handle can engage "
+                                                  "(docs/protocol.md, section 5): " + why);
+    }
+
     ServerConfig sc;
     sc.socket_path = o.serve_socket;
     sc.socket_mode = mode;

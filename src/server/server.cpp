@@ -28,6 +28,7 @@
 #include "client/object_json.hpp"
 #include "client/text_limits.hpp"
 #include "server/departure_plan.hpp"
+#include "tuning/engagement_patterns.hpp"
 #include "server/message_decoder.hpp"
 #include "server/object_limits.hpp"
 #include "server/reply_text.hpp"
@@ -60,6 +61,26 @@ Matrix3 outer(const AxisVector& u, double scale) {
 }
 
 AxisVector to_axis(const cl::Vec3& v) { return AxisVector{v[0], v[1], v[2]}; }
+
+// The config walls as terms of the checks (ids 1 .. n, as in `list`): unilateral ones engage conditionally,
+// and two facing each other on one axis with disjoint solids are never engaged together.
+std::vector<SceneTerm> terms_of_config_walls(const std::vector<ConfigWallInfo>& config_walls) {
+    std::vector<AxisWall> walls;
+    for (const auto& w : config_walls) walls.push_back(AxisWall{w.axis, w.position, w.direction, w.bilateral});
+    const std::vector<int> pairs = exclusive_wall_pairs(walls);
+    std::vector<SceneTerm> terms;
+    for (std::size_t i = 0; i < config_walls.size(); ++i) {
+        const auto& w = config_walls[i];
+        std::array<double, 3> e{};
+        e[w.axis] = 1.0;
+        SceneTerm t = plane_term(e, w.K, w.B);
+        t.conditional = !w.bilateral;
+        t.exclusive_pair = pairs[i];
+        t.object_id = static_cast<std::uint32_t>(i + 1);
+        terms.push_back(t);
+    }
+    return terms;
+}
 
 // A checked object: what the loop renders and what the summed-gain check adds.
 struct Resolved {
@@ -286,6 +307,18 @@ struct Server::Impl {
         }
     }
 
+    std::vector<SceneTerm> config_wall_terms() const { return terms_of_config_walls(config.config_walls); }
+
+    static SceneTerm slot_term(const ServerSlot& slot, SceneTerm::Role role) {
+        SceneTerm t;
+        t.K = slot.resolved.K_matrix;
+        t.B = slot.resolved.B_matrix;
+        t.conditional = engages_conditionally(slot.resolved.params);
+        t.role = role;
+        t.object_id = slot.id;
+        return t;
+    }
+
     // A session's objects ramp out by the departure rule (departure_plan.hpp, docs/protocol.md section 5):
     // with them, if the scene they leave or a ramp scene would be unstable, the fewest further client
     // objects (or all of them, or all cut at once); the owners of those get an event with the reason.
@@ -295,13 +328,11 @@ struct Server::Impl {
             const ServerSlot& slot = slots[i];
             if (slot.state != ServerSlot::State::Used) continue;
             (slot.owner == session ? leaving : staying)
-                .push_back(DepartureObject{i, slot.owner, slot.resolved.K_matrix, slot.resolved.B_matrix});
+                .push_back(DepartureObject{i, slot.owner, slot_term(slot, SceneTerm::Role::Base)});
         }
         if (leaving.empty()) return;
-        Matrix3 fixed_K{}, fixed_B{};
-        add_config_walls(fixed_K, fixed_B);
         const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
-        const DeparturePlan plan = plan_departure(checker, fixed_K, fixed_B, leaving, staying, step);
+        const DeparturePlan plan = plan_departure(checker, config_wall_terms(), leaving, staying, step);
         ObjectCommit c;
         std::map<std::uint64_t, std::vector<std::uint32_t>> further_by_owner;
         for (const std::size_t i : plan.out) {
@@ -711,15 +742,14 @@ struct Server::Impl {
             ++op_index;
         }
 
-        // The summed gains of the scene that would result (every session's objects and the config walls).
-        Matrix3 K_sum{}, B_sum{};
-        add_config_walls(K_sum, B_sum);
+        // The summed stiffness of the scene that would result (every session's objects and the config walls).
+        Matrix3 K_sum{}, B_unused{};
+        add_config_walls(K_sum, B_unused);
         for (const auto& slot : proposal) {
-            if (slot.state != ServerSlot::State::Used) continue;
-            add_to(K_sum, slot.resolved.K_matrix);
-            add_to(B_sum, slot.resolved.B_matrix);
+            if (slot.state == ServerSlot::State::Used) add_to(K_sum, slot.resolved.K_matrix);
         }
-        // The stiffness limit holds for the sum as well: the device renders it when all are in contact.
+        // The stiffness limit holds for the sum as well: the device renders it when all are in contact. Every
+        // term's symmetric stiffness is positive semi-definite, so no engagement pattern's sum is stiffer.
         if (const std::optional<double> limit = checker.max_stiffness()) {
             const double largest = GainChecker::largest_stiffness(K_sum);
             if (largest > *limit) {
@@ -735,53 +765,29 @@ struct Server::Impl {
                 return;
             }
         }
-        std::string why;
-        if (!checker.sum_is_stable(K_sum, B_sum, why)) {
+        // Every scene the loop can render from this batch (tuning/engagement_patterns.hpp): the final scene and
+        // every ramp scene, each with every engagement pattern of the conditional objects. The batch's new and
+        // changed objects ramp in, the ones they replace or remove ramp out, everything else sits at its final
+        // weight — exactly what the loop renders, since it starts this batch's ramps only once every earlier
+        // batch's have ended (SceneObjects::apply_commits). Moves have no ramp.
+        std::vector<SceneTerm> terms = config_wall_terms();
+        for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
+            if (updates[i] && updates[i]->action != SlotUpdate::Action::Move) {
+                if (updates[i]->action == SlotUpdate::Action::Set) terms.push_back(slot_term(proposal[i], SceneTerm::Role::In));
+                if (slots[i].state == ServerSlot::State::Used) terms.push_back(slot_term(slots[i], SceneTerm::Role::Out));
+            } else if (proposal[i].state == ServerSlot::State::Used) {
+                terms.push_back(slot_term(proposal[i], SceneTerm::Role::Base));
+            }
+        }
+        const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
+        const EngagementCheck verdict = check_engagement_patterns(checker, terms, step);
+        if (!verdict.stable) {
             {
                 std::lock_guard<std::mutex> lock(counters_mutex);
                 ++counters.commits_refused;
             }
-            send_error(s, id, "unstable_sum", "commit: " + why + " (all objects are counted as in contact at once; docs/protocol.md, section 5)",
-                       -1);
+            send_error(s, id, verdict.over_limit ? "capacity" : "unstable_sum", "commit: " + verdict.why + " (docs/protocol.md, section 5)", -1);
             return;
-        }
-
-        // The ramps between the scene before and after this batch (object_checks.hpp, ramp_is_stable): the
-        // batch's new and changed objects ramp in, the ones they replace or remove ramp out, everything else
-        // at its final weight — exactly what the loop renders, since it starts this batch's ramps only once
-        // every earlier batch's have ended (SceneObjects::apply_commits). Moves have no ramp.
-        {
-            Matrix3 K_in{}, B_in{}, K_out{}, B_out{};
-            bool ramps = false;
-            for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
-                if (!updates[i] || updates[i]->action == SlotUpdate::Action::Move) continue;
-                if (updates[i]->action == SlotUpdate::Action::Set) {
-                    add_to(K_in, proposal[i].resolved.K_matrix);
-                    add_to(B_in, proposal[i].resolved.B_matrix);
-                    ramps = true;
-                }
-                if (slots[i].state == ServerSlot::State::Used) {  // what was rendered there before the batch
-                    add_to(K_out, slots[i].resolved.K_matrix);
-                    add_to(B_out, slots[i].resolved.B_matrix);
-                    ramps = true;
-                }
-            }
-            Matrix3 K_base = K_sum, B_base = B_sum;  // K_sum = base + in
-            for (std::size_t r = 0; r < 3; ++r) {
-                for (std::size_t col = 0; col < 3; ++col) {
-                    K_base[r][col] -= K_in[r][col];
-                    B_base[r][col] -= B_in[r][col];
-                }
-            }
-            const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
-            if (ramps && !checker.ramp_is_stable(K_base, B_base, K_in, B_in, K_out, B_out, step, why)) {
-                {
-                    std::lock_guard<std::mutex> lock(counters_mutex);
-                    ++counters.commits_refused;
-                }
-                send_error(s, id, "unstable_sum", "commit: " + why + " (docs/protocol.md, section 5)", -1);
-                return;
-            }
         }
 
         ObjectCommit c;
@@ -1096,6 +1102,11 @@ struct Server::Impl {
         sessions.clear();
     }
 };
+
+std::string config_walls_unstable(const GainChecker& checker, const std::vector<ConfigWallInfo>& walls) {
+    const EngagementCheck verdict = check_engagement_patterns(checker, terms_of_config_walls(walls), 1.0, PatternLimit::None);
+    return verdict.stable ? std::string() : verdict.why;
+}
 
 Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state, CommitRing* departures)
     : impl_(std::make_unique<Impl>(config, checker, ring, departures, state, commits_pushed_)) {

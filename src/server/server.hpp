@@ -76,6 +76,12 @@ struct ServerCounters {
     std::uint64_t states_dropped = 0;
 };
 
+// Every engagement pattern of the config walls alone (a unilateral wall acts only beyond its position;
+// tuning/engagement_patterns.hpp): the scene the loop renders with no client object, and the one a departure
+// that cuts every client object jumps to. Empty when every pattern is stable, else why not (for the start-up
+// error).
+std::string config_walls_unstable(const GainChecker& checker, const std::vector<ConfigWallInfo>& walls);
+
 class Server {
 public:
     // Creates and binds the socket (mode, group), throws std::runtime_error naming the path on failure.

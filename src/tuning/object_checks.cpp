@@ -16,16 +16,8 @@ namespace hapticd {
 
 namespace {
 
-Eigen::Matrix3d to_eigen(const Matrix3& m) {
-    Eigen::Matrix3d e;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) e(i, j) = m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
-    }
-    return e;
-}
-
 Eigen::Matrix3d symmetric(const Matrix3& m) {
-    const Eigen::Matrix3d e = to_eigen(m);
+    const Eigen::Matrix3d e = as_eigen(m);
     return 0.5 * (e + e.transpose());
 }
 
@@ -47,7 +39,7 @@ GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
                                     " N/m has no scalar loop per direction; accepted: damping = stiffness = 0, or one mass");
     }
     if (mass_.isotropic) plant_.mass = mass_.matrix[0][0];
-    const Eigen::Matrix3d M = to_eigen(mass_.matrix), Mis = to_eigen(mass_.inverse_sqrt);
+    const Eigen::Matrix3d M = as_eigen(mass_.matrix), Mis = as_eigen(mass_.inverse_sqrt);
     const Eigen::Matrix3d Ms = M * Mis;  // M^1/2 = M M^-1/2 (zero beyond the device's axes)
     for (std::size_t i = 0; i < 3; ++i) {
         for (std::size_t j = 0; j < 3; ++j) mass_sqrt_[i][j] = 0.5 * (Ms(static_cast<int>(i), static_cast<int>(j)) + Ms(static_cast<int>(j), static_cast<int>(i)));
@@ -121,7 +113,7 @@ std::vector<double> GainChecker::masses_of(const Matrix3& P) const {
         const Eigen::Vector3d n = es.eigenvectors().col(2);
         return {mass_.along({n(0), n(1), n(2)})};
     }
-    const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt);
+    const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(Mis * p * Mis, Eigen::EigenvaluesOnly);
     std::vector<double> out;
     const double threshold = 1e-12 * std::max(1.0, es.eigenvalues().cwiseAbs().maxCoeff());
@@ -169,7 +161,7 @@ std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& cr
 }
 
 GainChecker::FieldStiffness GainChecker::field_stiffness(const Matrix3& J) {
-    const Eigen::Matrix3d m = to_eigen(J);
+    const Eigen::Matrix3d m = as_eigen(J);
     const Eigen::Matrix3d s = -0.5 * (m + m.transpose());
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s, Eigen::EigenvaluesOnly);
     const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m);
@@ -188,9 +180,9 @@ double GainChecker::largest_stiffness(const Matrix3& K) {
 hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const Matrix3& B_sum) const {
     // The gains as rendered: K_sum may carry a field's curl (antisymmetric part), kept as it is.
     const double T = plant_.period;
-    const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt);
-    const Eigen::Matrix3d A = (T * T) * (Mis * to_eigen(K_sum) * Mis);
-    const Eigen::Matrix3d Bn = T * (Mis * to_eigen(B_sum) * Mis);
+    const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
+    const Eigen::Matrix3d A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
+    const Eigen::Matrix3d Bn = T * (Mis * as_eigen(B_sum) * Mis);
     return hapticopt::general_matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A), Eigen::MatrixXd(Bn));
 }
 
@@ -206,7 +198,7 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
                                   std::optional<double>& largest_stable_K) const {
     largest_stable_K.reset();
     const FieldStiffness fs = field_stiffness(J);
-    const Eigen::Matrix3d j = to_eigen(J);
+    const Eigen::Matrix3d j = as_eigen(J);
     const bool curl = (j - j.transpose()).norm() > hapticopt::kMatrixGainRoundingLevel * j.norm();
     if (!curl && mass_.isotropic) {
         // One mass, J symmetric: -J and B I commute; the stiffest eigen-direction with B is the verdict.
@@ -234,11 +226,11 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
 
 bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const {
     const Eigen::Matrix3d K = symmetric(K_sum), B = symmetric(B_sum);
-    if (to_eigen(K_sum).isZero(0.0) && to_eigen(B_sum).isZero(0.0)) return true;
+    if (as_eigen(K_sum).isZero(0.0) && as_eigen(B_sum).isZero(0.0)) return true;
     // The decision: the coupled loop's exact verdict (hapticopt::matrix_gain_stability).
     const hapticopt::MatrixGainStability verdict = coupled(K_sum, B_sum);
     if (verdict.stable) return true;
-    const Eigen::Matrix3d Kr = to_eigen(K_sum);
+    const Eigen::Matrix3d Kr = as_eigen(K_sum);
     const double curl = 0.5 * (Kr - Kr.transpose()).norm();
     if (curl > hapticopt::kMatrixGainRoundingLevel * Kr.norm()) {
         // A curl couples the directions: no direction alone explains the verdict.
@@ -254,7 +246,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     // unit-mass coordinates y = M^1/2 x the term alpha u u^T is rendered by a plane along n ~ M^1/2 u with
     // K = alpha m_n / T^2 (m_n = 1 / (n^T M^-1 n)).
     const double T = plant_.period;
-    const Eigen::Matrix3d Mis = to_eigen(mass_.inverse_sqrt), Ms = to_eigen(mass_sqrt_);
+    const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt), Ms = as_eigen(mass_sqrt_);
     const Eigen::Matrix3d A = (T * T) * (Mis * K * Mis), Bn = T * (Mis * B * Mis);
     const hapticopt::NormalizedPlant np = normalized_for(plant_.mass);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ea(0.5 * (A + A.transpose())), eb(0.5 * (Bn + Bn.transpose()));

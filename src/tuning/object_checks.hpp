@@ -59,6 +59,15 @@ namespace hapticd {
 
 using Matrix3 = std::array<std::array<double, 3>, 3>;
 
+// The same matrix as an Eigen matrix.
+inline Eigen::Matrix3d as_eigen(const Matrix3& m) {
+    Eigen::Matrix3d e;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) e(i, j) = m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+    }
+    return e;
+}
+
 // a += b, entry by entry: gain matrices sum as the loop sums the objects' forces.
 inline void add_to(Matrix3& a, const Matrix3& b) {
     for (std::size_t i = 0; i < 3; ++i) {

@@ -205,5 +205,48 @@ TEST(ServerStability, TheClientLibraryQueuesAnEventThatArrivesWhileARequestWaits
 
 TEST(ServerStability, AnEventBeyondTheQueuesCapacityIsCountedAsDropped) { expect_event_delivered("events_full", 0); }
 
+// The engagement-pattern gap, on sim3_aniso.toml, d = 1, no config wall: bilateral planes A, B along
+// n = (0, -0.6, -0.8) (K 12739.29, B 25.4786; A + B alone: spectral radius 1.00397) and C along n with K 1000,
+// B 30 (A + B + C: 0.9762; each alone stable). With C a unilateral plane (or a field of stiffness 1000 I,
+// damping 30) the loop renders A + B whenever the handle is out of C — at any time, since a move of C is
+// applied unchecked: refused (`unstable_sum`, naming the pattern). With C bilateral every rendered scene is
+// A + B + C: accepted. (Before the pattern check, all three were accepted.)
+TEST(ServerStability, ASceneStableOnlyWhileAConditionalObjectIsEngagedIsRefused) {
+    const Names n = names("patterns");
+    std::vector<std::string> args = daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--no-walls"},
+                                                "sim3_aniso.toml");
+    const auto wall = std::find(args.begin(), args.end(), "--wall");
+    ASSERT_NE(wall, args.end());
+    args.erase(wall, wall + 2);
+    Child daemon(HAPTICD_BINARY, args, "patterns_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "patterns"});
+    const cl::Vec3 normal{0.0, -0.6, -0.8};
+    const cl::Plane a{.normal = normal, .offset = 1e-4, .bilateral = true, .gains = cl::Gains::explicit_gains(12739.29, 25.4786)};
+    cl::Plane unilateral_c{.normal = normal, .offset = 1e-4, .bilateral = false, .gains = cl::Gains::explicit_gains(1000.0, 30.0)};
+    cl::Field field_c{.center = {0.0, 0.0, 0.0}, .radius = 0.005, .force = {0.0, 0.0, 0.0}};
+    field_c.jacobian = {{{-1000, 0, 0}, {0, -1000, 0}, {0, 0, -1000}}};
+    field_c.damping = 30.0;
+    for (const cl::ObjectDescription& conditional : {cl::ObjectDescription(unilateral_c), cl::ObjectDescription(field_c)}) {
+        try {
+            c.commit(cl::Batch().add(a).add(a).add(conditional));
+            ADD_FAILURE() << "a scene unstable while the conditional object is not engaged was accepted";
+        } catch (const cl::Error& e) {
+            EXPECT_EQ(e.code(), cl::ErrorCode::UnstableSum) << e.what();
+            const std::string what = e.what();
+            EXPECT_NE(what.find("in contact and ["), std::string::npos) << what;
+            EXPECT_NE(what.find("in contact and [3] not"), std::string::npos) << what;  // A, B, C: ids 1, 2, 3
+        }
+    }
+    EXPECT_EQ(c.list().size(), 0U);
+    cl::Plane bilateral_c = unilateral_c;
+    bilateral_c.bilateral = true;
+    EXPECT_GT(c.commit(cl::Batch().add(a).add(a).add(bilateral_c)).commit_seq, 0U);
+    EXPECT_EQ(c.status().fault, "none");
+    c.bye();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
 }  // namespace
 }  // namespace hapticd::server_test
