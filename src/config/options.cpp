@@ -21,7 +21,7 @@ namespace {
 constexpr const char* kVersion = "hapticd 0.1.0";
 
 const std::vector<std::string> kCriteria{"CE0", "CE1", "CE2", "OV", "CE0+OV", "CE1+OV", "CE2+OV"};
-const std::vector<std::string> kScenarios{"step", "push", "hold"};
+const std::vector<std::string> kScenarios{"auto", "rest", "step", "push", "hold", "path"};
 
 struct Handles {
     CLI::Option* duration = nullptr;
@@ -54,8 +54,16 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--trace", o.trace, "Write a per-tick CSV trace to FILE");
     app.add_option("--summary-json", o.summary_json, "Write the tuning and loop statistics as JSON to FILE at exit");
     app.add_flag("--lockstep", o.lockstep, "No sleeping: run ticks back to back (simulated device, tests)");
-    app.add_option("--scenario", o.scenario, "Simulated device scenario: step, push, hold (default step)")
+    app.add_option("--scenario", o.scenario,
+                   "Simulated hand's intent: rest, step, push, hold, path (default auto: rest with --serve, else step)")
         ->check(CLI::IsMember(kScenarios));
+    app.add_option("--hand-mass", o.hand_mass, "Simulated hand: mass added to the profile's (which includes the arm), kg (default 0)");
+    app.add_option("--hand-damping", o.hand_damping,
+                   "Simulated hand: damping b_H, N s/m (default -1: 13.3 s^-1 times the profile's mass; 0: no hand)");
+    app.add_option("--hand-stiffness", o.hand_stiffness,
+                   "Simulated hand: stiffness k_H around its rest position, N/m (default -1: 667 s^-2 times the profile's mass; 0: no hand)");
+    app.add_option("--path-amplitude", o.path_amplitude, "path intent: amplitude of the hand's rest position, m (default 0.01)");
+    app.add_option("--path-frequency", o.path_frequency, "path intent: frequency, Hz (default 0.5)");
     app.add_flag("--bilateral", o.bilateral, "Walls without a mode render bilaterally (as analysed in the paper)");
     app.add_flag("--simulate", o.simulate, "Simulate the profile's physics even if its driver is a real device");
     h.stiffness = app.add_option("--stiffness", o.stiffness, "Explicit wall stiffness K in N/m (needs --damping)");
@@ -276,6 +284,11 @@ void validate_options(const Options& o) {
     check_range(w, "push-force", o.push_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "hold-force", o.hold_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "hold-distance", o.hold_distance, 0.0, 1e3, false, "0 .. 1000 m");
+    check_range(w, "hand-mass", o.hand_mass, 0.0, 1e3, false, "0 .. 1000 kg");
+    if (o.hand_damping != -1.0) check_range(w, "hand-damping", o.hand_damping, 0.0, 1e6, false, "0 .. 1e6 N s/m, or -1 (default)");
+    if (o.hand_stiffness != -1.0) check_range(w, "hand-stiffness", o.hand_stiffness, 0.0, 1e9, false, "0 .. 1e9 N/m, or -1 (default)");
+    check_range(w, "path-amplitude", o.path_amplitude, 0.0, 1e3, false, "0 .. 1000 m");
+    check_range(w, "path-frequency", o.path_frequency, 0.0, 1e3, false, "0 .. 1000 Hz");
     check_range(w, "passivity-damping-cap", o.passivity_damping_cap, 0.0, 1e9, false, "0 (auto) .. 1e9 N s/m");
     check_range(w, "passivity-velocity-guard", o.passivity_velocity_guard, 0.0, 1e3, true, "> 0 and <= 1000 m/s");
     check_range(w, "identify-force", o.identify_force, 0.0, 1e6, false, "0 (auto) .. 1e6 N");

@@ -228,7 +228,7 @@ int run_main(int argc, const char* const* argv) {
     }
 
     SimScenario scenario;
-    scenario.kind = o.scenario == "push" ? Scenario::Push : o.scenario == "hold" ? Scenario::Hold : Scenario::Step;
+    scenario.kind = scenario_kind(o);
     if (!walls.empty()) {
         scenario.axis = walls.front().geometry.axis;
         scenario.surface = walls.front().geometry.position;
@@ -240,6 +240,12 @@ int run_main(int argc, const char* const* argv) {
     scenario.push_force = o.push_force;
     scenario.hold_force = o.hold_force;
     scenario.hold_distance = o.hold_distance;
+    scenario.path_amplitude = o.path_amplitude;
+    scenario.path_frequency = o.path_frequency;
+    scenario.hand = simulated_hand(o, profile);
+    for (std::size_t a = 0; a < kMaxAxes && a < profile.workspace_min.size() && a < profile.workspace_max.size(); ++a) {
+        scenario.centre[a] = 0.5 * (profile.workspace_min[a] + profile.workspace_max[a]);
+    }
 
     std::ofstream summary;
     if (!o.summary_json.empty()) {
@@ -360,7 +366,12 @@ int run_main(int argc, const char* const* argv) {
     if (!o.quiet) {
         out << "hapticd: running" << (o.lockstep ? " in lockstep" : "")
             << (max_ticks ? " for " + std::to_string(max_ticks) + " ticks" : std::string(" until SIGINT/SIGTERM"))
-            << ", scenario " << o.scenario << std::endl;
+            << ", scenario " << to_string(scenario.kind);
+        if (profile.driver == "sim" || o.simulate) {
+            out << " (simulated hand: b_H " << scenario.hand.damping << " N s/m, k_H " << scenario.hand.stiffness << " N/m"
+                << (scenario.hand.mass > 0.0 ? ", m_H +" + std::to_string(scenario.hand.mass) + " kg" : std::string()) << ")";
+        }
+        out << std::endl;
     }
 
     // Under systemd (Type=notify): READY=1 now that tuning, device open and homing are done; WATCHDOG=1 while
