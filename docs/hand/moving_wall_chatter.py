@@ -20,6 +20,8 @@ def main():
     ap.add_argument("--example")
     ap.add_argument("--duration", type=float, default=2.0)
     ap.add_argument("--daemon-args", default="")
+    ap.add_argument("--keep-trace", help="copy the daemon's trace CSV here")
+    ap.add_argument("--rt-priority", default="0", help="the daemon's SCHED_FIFO priority (0: none; needs the privilege)")
     a = ap.parse_args()
     hapticd = a.hapticd or os.path.join(a.build, "apps/hapticd/hapticd")
     example = a.example or os.path.join(a.build, "apps/examples/example_moving_wall")
@@ -27,7 +29,7 @@ def main():
         sock, trace = os.path.join(d, "h.sock"), os.path.join(d, "trace.csv")
         shm = "/hapticd-chatter-%d" % os.getpid()
         daemon = subprocess.Popen([hapticd, "--config", "", "--serve", "--no-walls", "--serve-socket", sock, "--serve-shm", shm,
-                                   "--rt-priority", "0", "--mlock", "false", "--trace", trace, "--quiet"] + shlex.split(a.daemon_args))
+                                   "--rt-priority", a.rt_priority, "--mlock", "false", "--trace", trace, "--quiet"] + shlex.split(a.daemon_args))
         for _ in range(500):
             if os.path.exists(sock):
                 break
@@ -39,6 +41,8 @@ def main():
         daemon.wait(timeout=10)
         print(out.stdout.strip())
         rows = list(csv.DictReader(open(trace)))
+        if a.keep_trace:
+            open(a.keep_trace, "w").write(open(trace).read())
     f = [-float(r["wall_force_N"]) for r in rows]  # along the normal -x
     x = [float(r["position_m"]) for r in rows]
     on = [i for i, v in enumerate(f) if v != 0.0]
@@ -49,6 +53,8 @@ def main():
     pairs = sum(1 for i in range(1, len(f)) if f[i - 1] == 0.0 and f[i] > 0.0)
     d2 = [f[i] - 2 * f[i - 1] + f[i - 2] for i in range(2, len(f))]
     rms = math.sqrt(sum(v * v for v in d2) / len(d2))
+    late = sum(1 for r in rows[lo:hi] if float(r["wake_latency_us"]) > 1000.0)
+    print("ticks woken more than a period late: %d" % late)
     print("ticks %d: contact/release pairs %d, in contact %d ticks, roughness (RMS second difference) %.4f N, "
           "force %.3f .. %.3f N, position %.3f .. %.3f mm" % (len(f), pairs, sum(1 for v in f if v > 0), rms, min(f), max(f),
                                                              1e3 * min(x), 1e3 * max(x)))

@@ -117,6 +117,12 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");
     app.add_option("--ramp-time", o.ramp_time, "Ramp in/out time of client objects in s (default 0.03; 0: none)");
     app.add_option("--max-force-rate", o.max_force_rate, "Limit on the change of the total force in N/s (default 10000)");
+    app.add_option("--move-interval-max", o.move_interval_max,
+                   "Client moves are interpolated over their measured update interval, at most this long, s "
+                   "(default 0.05; 0: applied at once; docs/protocol.md, section 4)");
+    app.add_option("--activation-speed", o.activation_speed,
+                   "A unilateral plane added with the handle behind its surface starts at the handle and moves out at this "
+                   "speed, m/s (default 0.01; 0: at once; docs/protocol.md, section 4)");
     app.add_option("--session-max-objects", o.session_max_objects,
                    "Objects one client session may hold, 1 .. 64 (default 32; the scene holds 64; docs/protocol.md, section 7)");
     app.add_option("--session-max-in-flight", o.session_max_in_flight,
@@ -296,6 +302,8 @@ void validate_options(const Options& o) {
     check_range(w, "identify-duration", o.identify_duration, 0.1, 600.0, false, "0.1 .. 600 s");
     check_range(w, "ramp-time", o.ramp_time, 0.0, 10.0, false, "0 .. 10 s");
     check_range(w, "max-force-rate", o.max_force_rate, 0.0, 1e9, true, "> 0 and <= 1e9 N/s");
+    check_range(w, "move-interval-max", o.move_interval_max, 0.0, 10.0, false, "0 .. 10 s");
+    check_range(w, "activation-speed", o.activation_speed, 0.0, 1e3, false, "0 .. 1000 m/s");
     if (o.serve_mode.empty() || o.serve_mode.size() > 4 || o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
         invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
     }

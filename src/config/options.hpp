@@ -75,6 +75,8 @@ struct Options {
     std::string serve_shm = "/hapticd-state"; // POSIX shared-memory name of the state stream
     double ramp_time = 0.03;                  // s, ramp in/out of client objects
     double max_force_rate = 10000.0;          // N/s, limit on the change of the total force per tick
+    double move_interval_max = 0.05;          // s, longest first-order hold of a client's move (0: at once)
+    double activation_speed = 0.01;           // m/s, a plane appearing around the handle moves out at this speed (0: at once)
     int session_max_objects = 32;             // --serve: objects one session may hold (of the scene's 64)
     int session_max_in_flight = 8;            // --serve: one session's batches handed to the loop, not yet applied
     bool serve_wait_commit = false;           // start the loop only once a client batch was accepted (tests)
