@@ -121,10 +121,16 @@ double SimDevice::physical(const AxisVector& modal, std::size_t axis) const noex
 AxisVector SimDevice::hand_force(std::int64_t tick) const noexcept {
     AxisVector f = external_;
     const SimScenario& s = config_.scenario;
+    const double t = (static_cast<double>(tick) + 0.5) * config_.period;
     if (s.kind == Scenario::Path && s.axis < kMaxAxes) {
         const double w = 2.0 * std::numbers::pi * s.path_frequency;
-        const double t = (static_cast<double>(tick) + 0.5) * config_.period;
         f[s.axis] += total_.stiffness * s.path_amplitude * std::sin(w * t) + total_.damping * s.path_amplitude * w * std::cos(w * t);
+    }
+    if (s.kind == Scenario::Push && s.axis < kMaxAxes && s.push_speed > 0.0) {
+        // The hand moves in at push_speed until its rest position is on the wall surface, then stays there.
+        const bool moving = s.push_speed * t < s.push_distance;
+        const double travelled = moving ? s.push_speed * t : s.push_distance;
+        f[s.axis] += s.direction * (total_.stiffness * travelled + (moving ? total_.damping * s.push_speed : 0.0));
     }
     return f;
 }
@@ -133,6 +139,7 @@ void SimDevice::reset_state() noexcept {
     AxisVector x{}, v{};
     external_ = {};
     const SimScenario& s = config_.scenario;
+    // The hand's rest position is where the handle starts (hand_force moves it for Path and Push).
     rest_ = s.centre;
     if (s.kind != Scenario::Rest && s.kind != Scenario::Path) rest_[s.axis] = s.surface;
     switch (s.kind) {
@@ -140,12 +147,12 @@ void SimDevice::reset_state() noexcept {
             external_[s.axis] = s.direction * s.step_force;
             break;
         case Scenario::Push:
-            x[s.axis] = -s.direction * s.push_distance;
+            rest_[s.axis] -= s.direction * s.push_distance;
             v[s.axis] = s.direction * s.push_speed;
             external_[s.axis] = s.direction * s.push_force;
             break;
         case Scenario::Hold:
-            x[s.axis] = -s.direction * s.hold_distance;
+            rest_[s.axis] -= s.direction * s.hold_distance;
             external_[s.axis] = s.direction * s.hold_force;
             break;
         case Scenario::Rest:

@@ -30,10 +30,12 @@ struct SimHand {
     double stiffness = 0.0;  // k_H, N/m
 };
 
-// The hand's intent (the scenario): where it holds the handle and what force it adds.
+// The hand's intent (the scenario): where it holds the handle and what force it adds. The hand's rest
+// position is where the handle starts, on the scenario axis relative to the first wall's surface.
 enum class Scenario : std::uint8_t {
     Step,  // at rest on the wall surface; external force step_force into the wall from t = 0 (the paper's step)
-    Push,  // starts push_distance outside the wall moving towards it at push_speed (a collision)
+    Push,  // starts push_distance outside the wall moving towards it at push_speed (a collision); the hand's
+           // rest moves with it until it is on the surface
     Hold,  // starts at rest hold_distance outside; the human pushes with hold_force from t = 0
     Rest,  // at rest in the workspace centre, no force: the hand only holds the handle
     Path,  // the hand's rest position follows centre + path_amplitude sin(2 pi path_frequency t) along the axis
