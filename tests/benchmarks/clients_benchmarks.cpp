@@ -78,7 +78,7 @@ public:
         std::vector<std::string> args{HAPTICD_BINARY, "--config", "", "--serve", "--serve-socket", socket, "--serve-shm", shm,
                                       "--spin-us", std::to_string(spin_us),
                                       "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1",
-                                      "--scenario", "hold", "--hold-distance", "0.06", "--hold-force", "2",
+                                      "--scenario", "hold", "--hold-distance", "0.055", "--hold-force", "2",
                                       "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000", "--quiet"};
         std::vector<char*> argv;
         for (auto& a : args) argv.push_back(a.data());

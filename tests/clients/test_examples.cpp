@@ -41,7 +41,8 @@ TEST(Examples, MovingWallRunsForItsDurationAndTheLoopAppliesEveryUpdate) {
 TEST(Examples, PushButtonPrintsPressedWhenTheHandPushesPastTheClick) {
     LockstepDaemon daemon("push_button");
     ASSERT_TRUE(daemon.ready()) << daemon.log();
-    // K = 1000 N/m against the hand's 2 N: 2 mm deep at rest, past the 1.5 mm click; --presses 1 ends it.
+    // K = 1000 N/m against the hand's 2 N less its spring (k_H = 200 N/m, held at the surface): 1000 d = 2 - 200 d,
+    // 1.67 mm deep at rest, past the 1.5 mm click; --presses 1 ends it.
     const Result r = clients_test::run(PUSH_BUTTON_BINARY, {"--socket", daemon.socket(), "--duration", "10", "--presses", "1"},
                                        "push_button");
     ASSERT_EQ(r.code, 0) << r.out << r.err;
