@@ -748,8 +748,7 @@ void SceneObjects::add_law(const AffineLaw& l, const double (&x)[3], const doubl
 // poses, an exponential average with weight 1/4 (two poses applied in one tick count 0 and the late one
 // before them its whole wait, so the mean stays the true one while one interval alone would have jumped a
 // whole interval ahead), rounded, 1 .. the largest hold. The damping's reference rate is the commanded
-// poses' velocity, (new - previous commanded pose) / (n T). An approaching plane (activation) keeps
-// approaching, now towards this pose.
+// poses' velocity (below). An approaching plane (activation) keeps approaching, now towards this pose.
 void SceneObjects::begin_glide(std::size_t s, const ObjectParams& commanded) noexcept {
     const std::uint64_t bit = std::uint64_t{1} << s;
     ObjectParams& p = slots_[s].current.params;
@@ -777,11 +776,21 @@ void SceneObjects::begin_glide(std::size_t s, const ObjectParams& commanded) noe
     }
     g.from = pose_of(p);
     g.step = 0;
+    g.settling = false;
     g.steps = interval < 1.0 ? 1U : interval > move_hold_max_ ? move_hold_max_ : static_cast<std::uint32_t>(interval);
     g.approaching = false;
-    const double per_second = inverse_period_ / static_cast<double>(g.steps);
-    g.offset_rate = (g.to.offset - previous.offset) * per_second;
-    for (std::size_t a = 0; a < 3; ++a) g.point_rate[a] = (g.to.point[a] - previous.point[a]) * per_second;
+    // The reference rate: the commanded poses' velocity over the ticks that really passed between them (a
+    // client samples its path when it sends), averaged with the previous estimate (weight 1/2 each: one
+    // pose's timing noise halved); two poses in one tick keep the estimate.
+    if (since >= 1.0) {
+        const double per_second = inverse_period_ / since;
+        const bool first = (gliding_mask_ & bit) == 0 && g.offset_rate == 0.0;
+        const double keep = first ? 0.0 : 0.5;
+        g.offset_rate = keep * g.offset_rate + (1.0 - keep) * (g.to.offset - previous.offset) * per_second;
+        for (std::size_t a = 0; a < 3; ++a) {
+            g.point_rate[a] = keep * g.point_rate[a] + (1.0 - keep) * (g.to.point[a] - previous.point[a]) * per_second;
+        }
+    }
     gliding_mask_ |= bit;
 }
 
@@ -801,6 +810,8 @@ void SceneObjects::cancel_glide(std::size_t s) noexcept {
     gliding_mask_ &= ~bit;
     activation_mask_ &= ~bit;
     glides_[s].approaching = false;
+    glides_[s].offset_rate = 0.0;
+    glides_[s].point_rate = AxisVector{};
     slots_[s].current.params.offset_rate = 0.0;
     slots_[s].current.params.point_rate = AxisVector{};
 }
@@ -826,13 +837,56 @@ void SceneObjects::activate_new_planes(const AxisVector& x) noexcept {
     activation_mask_ = 0;
 }
 
+// One tick of a first-order hold (returns true when it has ended):
+//  * ticks 1 .. n: from + (to - from) k / n, the rates those of the commanded poses;
+//  * ticks n + 1 .. 2n, while no next pose has come: on along the same line, to + rate (k - n) T (a pose
+//    one tick late would otherwise stop the surface for a tick: at 12.6 mm/s that is 12.6 um, as much as a
+//    hand's contact deflection on a CE2 wall, and the contact tears open);
+//  * no pose after 2n ticks (the client stopped): back to the last commanded pose in a straight line over n
+//    ticks, the rates those of that return, then at rest. The overshoot is at most one interval's motion.
+bool SceneObjects::advance_hold(Glide& g, ObjectParams& p) const noexcept {
+    ++g.step;
+    const double n = static_cast<double>(g.steps);
+    if (g.step <= g.steps) {
+        const bool there = g.step == g.steps;
+        const double w = static_cast<double>(g.step) / n;
+        p.offset = there ? g.to.offset : g.from.offset + w * (g.to.offset - g.from.offset);
+        for (std::size_t a = 0; a < 3; ++a) {
+            p.point[a] = there ? g.to.point[a] : g.from.point[a] + w * (g.to.point[a] - g.from.point[a]);
+            p.force[a] = there ? g.to.force[a] : g.from.force[a] + w * (g.to.force[a] - g.from.force[a]);
+        }
+        p.offset_rate = g.offset_rate;
+        p.point_rate = g.point_rate;
+        if (there && g.settling) {
+            p.offset_rate = g.offset_rate = 0.0;
+            p.point_rate = g.point_rate = AxisVector{};
+            return true;
+        }
+        return false;
+    }
+    if (g.step <= 2 * g.steps && !g.settling) {
+        const double ahead = static_cast<double>(g.step - g.steps) * config_.period;
+        p.offset = g.to.offset + g.offset_rate * ahead;
+        for (std::size_t a = 0; a < 3; ++a) p.point[a] = g.to.point[a] + g.point_rate[a] * ahead;
+        if (g.step < 2 * g.steps) return false;
+    }
+    // Back to the commanded pose.
+    g.from = pose_of(p);
+    g.step = 0;
+    g.settling = true;
+    const double per_second = inverse_period_ / n;
+    g.offset_rate = (g.to.offset - g.from.offset) * per_second;
+    for (std::size_t a = 0; a < 3; ++a) g.point_rate[a] = (g.to.point[a] - g.from.point[a]) * per_second;
+    p.offset_rate = g.offset_rate;
+    p.point_rate = g.point_rate;
+    return false;
+}
+
 // One tick of every glide, written into the object's params and handed to apply_moves as a move (~20 flops
 // per gliding object):
 //  * approach (activation): the offset advances by activation_speed T towards its target (at once if the
 //    target is behind the rendered surface), offset_rate = activation_speed;
-//  * first-order hold: from + (to - from) step / steps, the rates those of the commanded poses; the rates are
-//    held for `steps` ticks more at the target (the next pose normally arrives within one of them; a client
-//    that stopped sending leaves the object at rest one interval later).
+//  * first-order hold (advance_hold).
 void SceneObjects::advance_glides() noexcept {
     for (std::uint64_t m = gliding_mask_; m != 0; m &= m - 1) {
         const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
@@ -847,17 +901,7 @@ void SceneObjects::advance_glides() noexcept {
             p.offset_rate = done ? 0.0 : config_.activation_speed;
             g.approaching = !done;
         } else {
-            ++g.step;
-            const bool there = g.step >= g.steps;
-            done = g.step >= 2 * g.steps;
-            const double w = static_cast<double>(g.step) / static_cast<double>(g.steps);
-            p.offset = there ? g.to.offset : g.from.offset + w * (g.to.offset - g.from.offset);
-            p.offset_rate = done ? 0.0 : g.offset_rate;
-            for (std::size_t a = 0; a < 3; ++a) {
-                p.point[a] = there ? g.to.point[a] : g.from.point[a] + w * (g.to.point[a] - g.from.point[a]);
-                p.force[a] = there ? g.to.force[a] : g.from.force[a] + w * (g.to.force[a] - g.from.force[a]);
-                p.point_rate[a] = done ? 0.0 : g.point_rate[a];
-            }
+            done = advance_hold(g, p);
         }
         if (done) gliding_mask_ &= ~bit;
         moved_mask_ |= bit;

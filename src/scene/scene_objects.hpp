@@ -60,7 +60,8 @@
 //    planes is branch-free with four partial sums (no chain of dependent additions across planes).
 //  * Moves are rendered through a first-order hold (advance_glides): a client's new pose is reached along a
 //    straight line over the object's measured update interval (the mean of the ticks between its poses, at
-//    most move_interval_max), starting from the pose rendered now. A client sending poses every
+//    most move_interval_max), starting from the pose rendered now, and on along that line for up to one
+//    more interval while the next pose is late (then back to the last pose). A client sending poses every
 //    5 ms sees each rendered 4 ticks later than a direct application would (one interval less the tick it
 //    arrives in); the surface's path is continuous and piecewise linear instead of a staircase of K Delta steps.
 //    Each tick of a glide is a move (positions only), handled as above.
@@ -287,8 +288,8 @@ private:
     };
     struct Glide {
         Pose from, to;
-        std::uint32_t step = 0, steps = 0;  // first-order hold: at tick `step` of `steps` (then the rate is held
-                                            // for `steps` more ticks while the next pose is awaited)
+        std::uint32_t step = 0, steps = 0;  // first-order hold: at tick `step` of `steps` (advance_hold)
+        bool settling = false;              // returning to the last commanded pose (no next pose came)
         double offset_rate = 0.0;           // the commanded poses' velocity: the rate the damping is relative to
         AxisVector point_rate{};
         bool approaching = false;           // activation: the offset approaches to.offset at activation_speed
@@ -299,6 +300,7 @@ private:
     void cancel_glide(std::size_t slot) noexcept;
     void activate_new_planes(const AxisVector& x) noexcept;
     void advance_glides() noexcept;
+    bool advance_hold(Glide& g, ObjectParams& p) const noexcept;
 
     SceneObjectsConfig config_;
     CommitRing& ring_;

@@ -8,7 +8,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <numbers>
 
+#include "devices/sim_device.hpp"
 #include "scene/scene_objects.hpp"
 
 namespace hapticd {
@@ -79,8 +82,11 @@ TEST(SceneMotion, MovesAreAFirstOrderHoldOverTheMeasuredInterval) {
             EXPECT_NEAR(rig.tick({}), expected, 1e-12) << "pose " << pose << " tick " << k;
         }
     }
-    // A client that stops: the last pose is held; the rate the damping refers to returns to 0 one interval later.
-    for (int j = 0; j < 10; ++j) EXPECT_NEAR(rig.tick({}), K * offset, 1e-12);
+    // A client that stops: the surface goes on along its line for one interval (the next pose might be late),
+    // then returns to the last pose over one interval and stays there.
+    for (int k = 1; k <= 5; ++k) EXPECT_NEAR(rig.tick({}), K * (offset + k * d / 5.0), 1e-9) << "on, tick " << k;
+    for (int k = 1; k <= 5; ++k) EXPECT_NEAR(rig.tick({}), K * (offset + d - k * d / 5.0), 1e-9) << "back, tick " << k;
+    for (int j = 0; j < 5; ++j) EXPECT_NEAR(rig.tick({}), K * offset, 1e-12);
     EXPECT_EQ(rig.objects.gliding(), 0U);
 }
 
@@ -175,6 +181,77 @@ TEST(SceneMotion, TheActivationRuleLeavesPlanesInFrontOfTheHandleAndReplacements
     replaced.tick({-0.0015, 0, 0});
     replaced.commit(SlotUpdate::Action::Set, motion_plane(0.001, 2 * K, 0.0, false));
     EXPECT_NEAR(replaced.tick({-0.0005, 0, 0}), 2 * K * 0.0005, 1e-12);
+}
+
+// The 200 Hz moving wall in closed loop with the real simulated device and hand (0.30 kg, b_H = 4 N s/m,
+// k_H = 200 N/m, at rest at x = 0): the CE2 plane of the default profile (K = 74225.8, B = 223.336), normal -x,
+// offset 5 mm + 2 mm sin(2 pi t), added around the handle at tick 0 and moved with poses every 5 ticks,
+// alternately 4 and 6 ticks apart from 1 s on (a client's jitter). Over the tracking phase (0.7 .. 3 s):
+//  * no release: the hand presses with k_H x >= 0.6 N, the interpolated wall accelerates at most 0.08 m/s^2
+//    (m a = 0.024 N) and the damping acts relative to the wall, so nothing pulls the handle off;
+//  * roughness (RMS of f_j - 2 f_{j-1} + f_{j-2}) <= (K T + B) (v_max / n) sqrt(2 / n) = 0.47 N (n = 5,
+//    v_max = 12.6 mm/s): a pose one tick off the mean interval changes the rendered surface's velocity by at most
+//    v_max / n, which steps the force's slope by K T v_max / n and, through the damping's reference, the force
+//    by at most B v_max / n; each enters at most two second differences per interval of n ticks.
+// With moves applied at once the same run releases the contact again and again (the assertion's failure case).
+TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
+    for (const bool hold : {true, false}) {
+        SimDeviceConfig dc;
+        dc.capabilities.axes = 3;
+        dc.capabilities.max_force = 10.0;
+        dc.plant = {0.30, 0.0, 0.0};
+        dc.period = kMotionT;
+        dc.scenario.kind = Scenario::Rest;
+        dc.scenario.hand.damping = 4.0;
+        dc.scenario.hand.stiffness = 200.0;
+        SimDevice dev(dc);
+        ASSERT_EQ(dev.open(), DeviceStatus::Ok);
+        CommitRing ring{8};
+        SceneObjectsConfig oc = MotionRig::config(0.03, hold ? 0.05 : 0.0, hold ? 0.01 : 0.0);
+        oc.max_force = 10.0;
+        oc.max_force_rate = 1e4;
+        SceneObjects objects(oc, ring);
+        const double K = 74225.8, B = 223.336;
+        std::uint64_t seq = 0;
+        auto send = [&](SlotUpdate::Action a, double offset) {
+            ObjectCommit c;
+            c.seq = ++seq;
+            c.updates[c.count++] = SlotUpdate{0, a, motion_plane(offset, K, B, false)};
+            ASSERT_TRUE(ring.try_push(c));
+        };
+        send(SlotUpdate::Action::Set, 0.005);
+        int next_pose = 5, releases = 0, counted = 0;
+        double f1 = 0.0, f2 = 0.0, sum2 = 0.0;
+        for (int j = 0; j < 3000; ++j) {
+            if (j == next_pose) {
+                send(SlotUpdate::Action::Move, 0.005 + 0.002 * std::sin(2.0 * std::numbers::pi * j * kMotionT));
+                next_pose += j < 1000 ? 5 : (j / 5) % 2 == 0 ? 4 : 6;
+            }
+            AxisVector x{}, f{};
+            ASSERT_EQ(dev.read_position(x), DeviceStatus::Ok);
+            objects.apply_commits();
+            ASSERT_TRUE(objects.add_forces(x, f));
+            ASSERT_EQ(dev.write_force(f), DeviceStatus::Ok);
+            const double fn = -f[0];
+            if (j >= 700) {
+                releases += fn == 0.0 && f1 > 0.0 ? 1 : 0;
+                const double d2 = fn - 2.0 * f1 + f2;
+                sum2 += d2 * d2;
+                ++counted;
+            }
+            f2 = f1;
+            f1 = fn;
+        }
+        const double roughness = std::sqrt(sum2 / counted);
+        std::printf("[ moving wall, closed loop ] moves %s: %d releases, roughness %.4f N over 2.3 s\n",
+                    hold ? "interpolated" : "at once", releases, roughness);
+        if (hold) {
+            EXPECT_EQ(releases, 0);
+            EXPECT_LE(roughness, (K * kMotionT + B) * 0.0126 / 5.0 * std::sqrt(2.0 / 5.0));
+        } else {
+            EXPECT_GT(releases, 10);
+        }
+    }
 }
 
 }  // namespace
