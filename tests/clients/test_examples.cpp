@@ -80,7 +80,9 @@ WallRun moving_wall_against_readme_daemon(const std::string& tag, const std::vec
     const std::string shm = "/hapticd-clients-" + std::to_string(::getpid()) + "-" + tag;
     const std::string trace = (clients_test::scratch_dir() / (tag + ".csv")).string();
     std::vector<std::string> args{"--config", "", "--serve", "--no-walls", "--serve-socket", socket, "--serve-shm", shm, "--rt-priority",
-                                  "0", "--mlock", "false", "--duration", "4", "--trace", trace, "--trace-axis", "0", "--quiet"};
+                                  "0", "--mlock", "false", "--duration", "4", "--trace", trace, "--trace-axis", "0", "--quiet",
+                                  // the example gives up on session_limit; a loop delayed by a loaded machine must not end it
+                                  "--session-max-in-flight", "64"};
     args.insert(args.end(), extra.begin(), extra.end());
     clients_test::Process daemon(HAPTICD_BINARY, args, tag + "_daemon");
     for (int i = 0; i < 2000 && !LockstepDaemon::connectable(socket); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
