@@ -135,6 +135,43 @@ TEST(SceneMotion, DampingIsRelativeToTheSurfacesMotion) {
   }
 }
 
+// The same for the affine law (a bilateral plane) and a spring's point: the handle moving with the object by
+// the interpolated path feels the stiffness only, once the velocity history covers a whole pose.
+TEST(SceneMotion, DampingIsRelativeForBilateralPlanesAndSprings) {
+    const double K = 1000.0, B = 20.0, d = 10e-6, off = 2e-4;
+    for (const bool spring : {false, true}) {
+        MotionRig rig(0.0, 0.05, 0.0);
+        ObjectParams o = motion_plane(0.001, K, B, true);
+        if (spring) {
+            o.kind = ObjectKind::Spring;
+            o.constraint = SpringConstraint::Point;
+            o.point = {0.001, 0.0, 0.0};
+        }
+        rig.commit(SlotUpdate::Action::Set, o);
+        double commanded = 0.001;
+        // plane: p = offset + x (force K p along -x); spring: force -K (x - point) along x, i.e. K (point - x) along +x
+        auto place = [&](double rendered) { return AxisVector{spring ? rendered - off : -rendered + off, 0, 0}; };
+        for (int j = 0; j < 5; ++j) rig.tick(place(commanded));
+        for (int pose = 1; pose <= 4; ++pose) {
+            const double previous = commanded;
+            commanded += d;
+            if (spring) {
+                o.point[0] = commanded;
+            } else {
+                o.offset = commanded;
+            }
+            rig.commit(SlotUpdate::Action::Move, o);
+            for (int k = 1; k <= 5; ++k) {
+                const double rendered = previous + k / 5.0 * (commanded - previous);
+                const double f = rig.tick(place(rendered));
+                if (pose >= 2) {
+                    EXPECT_NEAR(spring ? -f : f, K * off, 1e-9) << (spring ? "spring" : "plane") << " pose " << pose << " tick " << k;
+                }
+            }
+        }
+    }
+}
+
 // The god-object rule: a unilateral plane that appears 5 mm around the handle starts with its surface at the
 // handle and moves out by v T per tick, ramping in as usual (stiffness r^2, damping r, r = (j - 1)/30). With the
 // handle held at rest the force at tick j (j = 1 for the commit's tick) is r_j^2 K (j v T) + r_j B v, the
