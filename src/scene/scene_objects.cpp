@@ -651,8 +651,7 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     velocity_ = {v0, v1, v2};
     previous_position_ = x;
 
-    if (activation_mask_ != 0) activate_new_planes(x);
-    if (gliding_mask_ != 0) advance_glides();
+    if ((activation_mask_ | gliding_mask_) != 0) [[unlikely]] glide_tick(x);
     ++ticks_;
     const double d0 = x0 - reference_[0], d1 = x1 - reference_[1], d2 = x2 - reference_[2];
     const double moved2 = d0 * d0 + d1 * d1 + d2 * d2;
@@ -835,6 +834,12 @@ void SceneObjects::activate_new_planes(const AxisVector& x) noexcept {
         scene_changed_ = true;  // a Set re-classifies anyway
     }
     activation_mask_ = 0;
+}
+
+// Out of add_forces' hot path: the scenes without moving or appearing objects pay one test.
+__attribute__((noinline)) void SceneObjects::glide_tick(const AxisVector& x) noexcept {
+    if (activation_mask_ != 0) activate_new_planes(x);
+    if (gliding_mask_ != 0) advance_glides();
 }
 
 // One tick of a first-order hold (returns true when it has ended):

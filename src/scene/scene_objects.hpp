@@ -300,6 +300,7 @@ private:
     void cancel_glide(std::size_t slot) noexcept;
     void activate_new_planes(const AxisVector& x) noexcept;
     void advance_glides() noexcept;
+    void glide_tick(const AxisVector& x) noexcept;
     bool advance_hold(Glide& g, ObjectParams& p) const noexcept;
 
     SceneObjectsConfig config_;
