@@ -103,5 +103,38 @@ TEST(ServerHand, TheReadmeWallAppearsWithoutAKickAndTheHandleRestsOnIt) {
     EXPECT_GT(kick, peak_bound);
 }
 
+// `--device falcon --simulate` (3 axes, 6 ms delay) does not drift: with --serve and no walls the hand holds
+// the handle at the workspace centre exactly (no force acts); without --serve the step intent presses 1 N
+// into the config wall at x = 0 and the handle settles at the balance x = F / (K + k_H) (K: the CE2 wall for
+// 0.30 kg, 1 ms, 6 ms), within 1e-3 after 5 s, where a free device would have moved F t^2 / 2m = 42 m.
+TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
+    const std::string falcon = std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/falcon.toml");
+    const Names n = names("falcon_rest");
+    const std::string rest_trace = (scratch() / "falcon_rest.csv").string();
+    Child serving(HAPTICD_BINARY,
+                  {"--config", "", "--device", falcon, "--simulate", "--serve", "--no-walls", "--serve-socket", n.socket, "--serve-shm",
+                   n.shm, "--rt-priority", "0", "--mlock", "false", "--lockstep", "--duration", "2", "--trace", rest_trace, "--trace-axis", "0"},
+                  "falcon_rest_daemon");
+    ASSERT_EQ(serving.wait(), 0) << serving.err();
+    const std::vector<HandTraceRow> rest = read_hand_trace(rest_trace);
+    ASSERT_GE(rest.size(), 2000U);
+    for (const HandTraceRow& r : rest) ASSERT_EQ(r.x, 0.0);
+
+    const std::string step_trace = (scratch() / "falcon_step.csv").string();
+    Child stepping(HAPTICD_BINARY,
+                   {"--config", "", "--device", falcon, "--simulate", "--rt-priority", "0", "--mlock", "false", "--lockstep", "--duration", "5",
+                    "--trace", step_trace, "--trace-axis", "0", "--quiet"},
+                   "falcon_step_daemon");
+    ASSERT_EQ(stepping.wait(), 0) << stepping.err();
+    const std::vector<HandTraceRow> step = read_hand_trace(step_trace);
+    ASSERT_GE(step.size(), 5000U);
+    const hapticopt::WallTuning t =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{0.30, 0.0, 0.0, 1e-3, 0.006});
+    const double expected = 1.0 / (t.K + 1000.0 * 2.0 / 3.0 * 0.30);
+    const double x_end = step[step.size() - 2].x;
+    std::printf("[ falcon --simulate ] step: x = %.6g mm after 5 s (balance %.6g mm)\n", 1e3 * x_end, 1e3 * expected);
+    EXPECT_NEAR(x_end, expected, 1e-3 * expected);
+}
+
 }  // namespace
 }  // namespace hapticd::server_test
