@@ -38,7 +38,7 @@ HAPTICD = _hapticd_binary()
 pytestmark = pytest.mark.skipif(HAPTICD is None, reason="no hapticd binary: set HAPTICD_BINARY (or build build/release)")
 
 DAEMON_ARGS = ["--config", "", "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1",
-               "--scenario", "hold", "--hold-distance", "0.06", "--hold-force", "2"]
+               "--scenario", "hold", "--hold-distance", "0.055", "--hold-force", "2"]
 
 
 def connectable(path):

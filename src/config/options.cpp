@@ -21,7 +21,7 @@ namespace {
 constexpr const char* kVersion = "hapticd 0.1.0";
 
 const std::vector<std::string> kCriteria{"CE0", "CE1", "CE2", "OV", "CE0+OV", "CE1+OV", "CE2+OV"};
-const std::vector<std::string> kScenarios{"step", "push", "hold"};
+const std::vector<std::string> kScenarios{"auto", "rest", "step", "push", "hold", "path"};
 
 struct Handles {
     CLI::Option* duration = nullptr;
@@ -54,8 +54,16 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--trace", o.trace, "Write a per-tick CSV trace to FILE");
     app.add_option("--summary-json", o.summary_json, "Write the tuning and loop statistics as JSON to FILE at exit");
     app.add_flag("--lockstep", o.lockstep, "No sleeping: run ticks back to back (simulated device, tests)");
-    app.add_option("--scenario", o.scenario, "Simulated device scenario: step, push, hold (default step)")
+    app.add_option("--scenario", o.scenario,
+                   "Simulated hand's intent: rest, step, push, hold, path (default auto: rest with --serve, else step)")
         ->check(CLI::IsMember(kScenarios));
+    app.add_option("--hand-mass", o.hand_mass, "Simulated hand: mass added to the profile's (which includes the arm), kg (default 0)");
+    app.add_option("--hand-damping", o.hand_damping,
+                   "Simulated hand: damping b_H, N s/m (default -1: 13.3 s^-1 times the profile's mass; 0: no hand)");
+    app.add_option("--hand-stiffness", o.hand_stiffness,
+                   "Simulated hand: stiffness k_H around its rest position, N/m (default -1: 667 s^-2 times the profile's mass; 0: no hand)");
+    app.add_option("--path-amplitude", o.path_amplitude, "path intent: amplitude of the hand's rest position, m (default 0.01)");
+    app.add_option("--path-frequency", o.path_frequency, "path intent: frequency, Hz (default 0.5)");
     app.add_flag("--bilateral", o.bilateral, "Walls without a mode render bilaterally (as analysed in the paper)");
     app.add_flag("--simulate", o.simulate, "Simulate the profile's physics even if its driver is a real device");
     h.stiffness = app.add_option("--stiffness", o.stiffness, "Explicit wall stiffness K in N/m (needs --damping)");
@@ -109,6 +117,12 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");
     app.add_option("--ramp-time", o.ramp_time, "Ramp in/out time of client objects in s (default 0.03; 0: none)");
     app.add_option("--max-force-rate", o.max_force_rate, "Limit on the change of the total force in N/s (default 10000)");
+    app.add_option("--move-interval-max", o.move_interval_max,
+                   "Client moves are interpolated over their measured update interval, at most this long, s "
+                   "(default 0.05; 0: applied at once; docs/protocol.md, section 4)");
+    app.add_option("--activation-speed", o.activation_speed,
+                   "A unilateral plane added with the handle behind its surface starts at the handle and moves out at this "
+                   "speed, m/s (default 0.01; 0: at once; docs/protocol.md, section 4)");
     app.add_option("--session-max-objects", o.session_max_objects,
                    "Objects one client session may hold, 1 .. 64 (default 32; the scene holds 64; docs/protocol.md, section 7)");
     app.add_option("--session-max-in-flight", o.session_max_in_flight,
@@ -276,6 +290,11 @@ void validate_options(const Options& o) {
     check_range(w, "push-force", o.push_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "hold-force", o.hold_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "hold-distance", o.hold_distance, 0.0, 1e3, false, "0 .. 1000 m");
+    check_range(w, "hand-mass", o.hand_mass, 0.0, 1e3, false, "0 .. 1000 kg");
+    if (o.hand_damping != -1.0) check_range(w, "hand-damping", o.hand_damping, 0.0, 1e6, false, "0 .. 1e6 N s/m, or -1 (default)");
+    if (o.hand_stiffness != -1.0) check_range(w, "hand-stiffness", o.hand_stiffness, 0.0, 1e9, false, "0 .. 1e9 N/m, or -1 (default)");
+    check_range(w, "path-amplitude", o.path_amplitude, 0.0, 1e3, false, "0 .. 1000 m");
+    check_range(w, "path-frequency", o.path_frequency, 0.0, 1e3, false, "0 .. 1000 Hz");
     check_range(w, "passivity-damping-cap", o.passivity_damping_cap, 0.0, 1e9, false, "0 (auto) .. 1e9 N s/m");
     check_range(w, "passivity-velocity-guard", o.passivity_velocity_guard, 0.0, 1e3, true, "> 0 and <= 1000 m/s");
     check_range(w, "identify-force", o.identify_force, 0.0, 1e6, false, "0 (auto) .. 1e6 N");
@@ -283,6 +302,8 @@ void validate_options(const Options& o) {
     check_range(w, "identify-duration", o.identify_duration, 0.1, 600.0, false, "0.1 .. 600 s");
     check_range(w, "ramp-time", o.ramp_time, 0.0, 10.0, false, "0 .. 10 s");
     check_range(w, "max-force-rate", o.max_force_rate, 0.0, 1e9, true, "> 0 and <= 1e9 N/s");
+    check_range(w, "move-interval-max", o.move_interval_max, 0.0, 10.0, false, "0 .. 10 s");
+    check_range(w, "activation-speed", o.activation_speed, 0.0, 1e3, false, "0 .. 1000 m/s");
     if (o.serve_mode.empty() || o.serve_mode.size() > 4 || o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
         invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
     }

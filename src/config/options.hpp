@@ -27,7 +27,12 @@ struct Options {
     std::string trace;                // CSV path ("" : no trace)
     std::string summary_json;         // JSON path ("" : none)
     bool lockstep = false;
-    std::string scenario = "step";
+    std::string scenario = "auto";   // the simulated hand's intent; auto: rest with --serve, else step
+    double hand_mass = 0.0;          // kg added to the profile's mass (which includes the arm's, Table II)
+    double hand_damping = -1.0;      // b_H, N s/m; < 0: kHandDampingPerMass times the profile's mass
+    double hand_stiffness = -1.0;    // k_H, N/m; < 0: kHandStiffnessPerMass times the profile's mass
+    double path_amplitude = 0.01;    // m
+    double path_frequency = 0.5;     // Hz
     bool bilateral = false;
     bool simulate = false;            // simulate the profile's physics even when its driver is a real device
     bool gains_set = false;
@@ -70,12 +75,20 @@ struct Options {
     std::string serve_shm = "/hapticd-state"; // POSIX shared-memory name of the state stream
     double ramp_time = 0.03;                  // s, ramp in/out of client objects
     double max_force_rate = 10000.0;          // N/s, limit on the change of the total force per tick
+    double move_interval_max = 0.05;          // s, longest first-order hold of a client's move (0: at once)
+    double activation_speed = 0.01;           // m/s, a plane appearing around the handle moves out at this speed (0: at once)
     int session_max_objects = 32;             // --serve: objects one session may hold (of the scene's 64)
     int session_max_in_flight = 8;            // --serve: one session's batches handed to the loop, not yet applied
     bool serve_wait_commit = false;           // start the loop only once a client batch was accepted (tests)
     long long trace_axis = -1;                // axis the trace records (-1: the first wall's)
     KeyLocations config_locations;    // where the config file wrote the values the command line did not override
 };
+
+// The simulated hand's default impedance per kg of the profile's mass: the limits of Hulin et al. 2008 that
+// eq. 2 of the paper extends by about 50 % (k/m < 1000 s^-2, b/m < 20 s^-1), i.e. 2/3 of eq. 2's bounds
+// (docs/simulated-hand.md).
+inline constexpr double kHandStiffnessPerMass = 1000.0 * 2.0 / 3.0;  // s^-2
+inline constexpr double kHandDampingPerMass = 20.0 * 2.0 / 3.0;      // s^-1
 
 struct DeviceProfile {
     std::string path;

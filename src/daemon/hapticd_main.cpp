@@ -28,6 +28,7 @@
 #include "scene/scene.hpp"
 #include "server/serve_runtime.hpp"
 #include "loop/trace.hpp"
+#include "tuning/object_checks.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd {
@@ -146,6 +147,27 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
     return b;
 }
 
+// The walls were tuned and checked for the profile's plant (the device with the arm's mass); the simulated
+// hand adds b_H, k_H (and m_H). Usually that keeps them stable (docs/simulated-hand.md), not always: say so.
+void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profile, const SimHand& hand, double period, double delay) {
+    if (hand.damping == 0.0 && hand.stiffness == 0.0 && hand.mass == 0.0) return;
+    GainCheckPlant held;
+    held.mass = profile.mass + hand.mass;
+    held.damping = profile.damping + hand.damping;
+    held.stiffness = profile.stiffness + hand.stiffness;
+    held.period = period;
+    held.time_delay = delay;
+    const GainChecker checker(held);
+    for (const auto& r : report.walls) {
+        if (!checker.pair_is_stable(r.tuning.K, r.tuning.B, held.mass)) {
+            std::cerr << "hapticd: warning: wall " << r.spec << " (K = " << r.tuning.K << ", B = " << r.tuning.B
+                      << ") is not stable with the simulated hand (m_H +" << hand.mass << " kg, b_H " << hand.damping << " N s/m, k_H "
+                      << hand.stiffness << " N/m): the checks are made for the profile's plant; give the hand more damping "
+                      << "(docs/simulated-hand.md)\n";
+        }
+    }
+}
+
 int run_main(int argc, const char* const* argv) {
     const Options o = parse_options(argc, argv);
     validate_options(o);
@@ -228,7 +250,7 @@ int run_main(int argc, const char* const* argv) {
     }
 
     SimScenario scenario;
-    scenario.kind = o.scenario == "push" ? Scenario::Push : o.scenario == "hold" ? Scenario::Hold : Scenario::Step;
+    scenario.kind = scenario_kind(o);
     if (!walls.empty()) {
         scenario.axis = walls.front().geometry.axis;
         scenario.surface = walls.front().geometry.position;
@@ -240,6 +262,15 @@ int run_main(int argc, const char* const* argv) {
     scenario.push_force = o.push_force;
     scenario.hold_force = o.hold_force;
     scenario.hold_distance = o.hold_distance;
+    scenario.path_amplitude = o.path_amplitude;
+    scenario.path_frequency = o.path_frequency;
+    scenario.hand = simulated_hand(o, profile);
+    if ((profile.driver == "sim" || o.simulate) && profile.mass_model.isotropic) {
+        warn_unstable_with_hand(report, profile, scenario.hand, period, delay);
+    }
+    for (std::size_t a = 0; a < kMaxAxes && a < profile.workspace_min.size() && a < profile.workspace_max.size(); ++a) {
+        scenario.centre[a] = 0.5 * (profile.workspace_min[a] + profile.workspace_max[a]);
+    }
 
     std::ofstream summary;
     if (!o.summary_json.empty()) {
@@ -360,7 +391,12 @@ int run_main(int argc, const char* const* argv) {
     if (!o.quiet) {
         out << "hapticd: running" << (o.lockstep ? " in lockstep" : "")
             << (max_ticks ? " for " + std::to_string(max_ticks) + " ticks" : std::string(" until SIGINT/SIGTERM"))
-            << ", scenario " << o.scenario << std::endl;
+            << ", scenario " << to_string(scenario.kind);
+        if (profile.driver == "sim" || o.simulate) {
+            out << " (simulated hand: b_H " << scenario.hand.damping << " N s/m, k_H " << scenario.hand.stiffness << " N/m"
+                << (scenario.hand.mass > 0.0 ? ", m_H +" + std::to_string(scenario.hand.mass) + " kg" : std::string()) << ")";
+        }
+        out << std::endl;
     }
 
     // Under systemd (Type=notify): READY=1 now that tuning, device open and homing are done; WATCHDOG=1 while

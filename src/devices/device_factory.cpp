@@ -90,6 +90,23 @@ std::unique_ptr<Device> make_hid_device(const DeviceProfile& p, const Options& o
 
 }  // namespace
 
+Scenario scenario_kind(const Options& o) {
+    if (o.scenario == "push") return Scenario::Push;
+    if (o.scenario == "hold") return Scenario::Hold;
+    if (o.scenario == "rest") return Scenario::Rest;
+    if (o.scenario == "path") return Scenario::Path;
+    if (o.scenario == "step") return Scenario::Step;
+    return o.serve ? Scenario::Rest : Scenario::Step;
+}
+
+SimHand simulated_hand(const Options& o, const DeviceProfile& p) {
+    SimHand hand;
+    hand.mass = o.hand_mass;
+    hand.damping = o.hand_damping >= 0.0 ? o.hand_damping : kHandDampingPerMass * p.mass;
+    hand.stiffness = o.hand_stiffness >= 0.0 ? o.hand_stiffness : kHandStiffnessPerMass * p.mass;
+    return hand;
+}
+
 std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, const SimScenario& scenario,
                                     double period) {
     if ((p.driver == "falcon" || p.driver == "hid") && !o.simulate) {

@@ -21,6 +21,13 @@ DeviceCapabilities capabilities_from_profile(const DeviceProfile& profile);
 // `profile_name` has not been confirmed by `hapticd check-device`; true if it capped.
 bool apply_first_run_limit(DeviceCapabilities& capabilities, const std::string& profile_name, bool quiet);
 
+// The simulated hand's intent from --scenario ("auto": rest with --serve, else the paper's step).
+Scenario scenario_kind(const Options& options);
+
+// The simulated hand's impedance from --hand-*: a negative damping or stiffness is the default,
+// kHandDampingPerMass / kHandStiffnessPerMass times the profile's mass (docs/simulated-hand.md).
+SimHand simulated_hand(const Options& options, const DeviceProfile& profile);
+
 std::unique_ptr<Device> make_device(const DeviceProfile& profile, const Options& options, const SimScenario& scenario,
                                     double period);
 

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 namespace hapticd {
 
@@ -16,9 +16,22 @@ std::string_view to_string(Scenario scenario) noexcept {
         case Scenario::Step: return "step";
         case Scenario::Push: return "push";
         case Scenario::Hold: return "hold";
+        case Scenario::Rest: return "rest";
+        case Scenario::Path: return "path";
     }
     return "unknown";
 }
+
+namespace {
+
+void check_hand_parameter(const char* name, double value, const char* unit) {
+    if (!(value >= 0.0) || !std::isfinite(value)) {
+        throw std::invalid_argument(std::string("SimDevice: hand.") + name + " = " + std::to_string(value) +
+                                    " is invalid; accepted range: finite, >= 0 " + unit);
+    }
+}
+
+}  // namespace
 
 SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
     const double T = config_.period;
@@ -29,58 +42,64 @@ SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
     delay_periods_ = static_cast<std::int64_t>(whole);
     const double phi = d - whole;
     fractional_ = std::abs(d - nearest) >= 1e-9;
+    const SimHand& hand = config_.scenario.hand;
+    check_hand_parameter("mass", hand.mass, "kg");
+    check_hand_parameter("damping", hand.damping, "N s/m");
+    check_hand_parameter("stiffness", hand.stiffness, "N/m");
+    total_ = PlantParameters{config_.plant.mass + hand.mass, config_.plant.damping + hand.damping,
+                             config_.plant.stiffness + hand.stiffness};
     const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
-    std::array<PlantParameters, kMaxAxes> plants;
-    plants.fill(config_.plant);
+    // M on the device's axes, plus the hand's mass on the diagonal; its eigen-decomposition Q diag(m_i) Q^T.
+    const auto n = static_cast<Eigen::Index>(axes);
+    Eigen::MatrixXd m = Eigen::MatrixXd::Identity(n, n) * total_.mass;
     if (config_.mass_matrix) {
         const auto& M = *config_.mass_matrix;
-        bool diagonal = true;
-        for (std::size_t i = 0; i < axes; ++i) {
-            for (std::size_t j = 0; j < axes; ++j) diagonal = diagonal && (i == j || M[i][j] == 0.0);
+        for (Eigen::Index i = 0; i < n; ++i) {
+            for (Eigen::Index j = 0; j < n; ++j) {
+                const double mij = M[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+                const double mji = M[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)];
+                if (!std::isfinite(mij)) {
+                    throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(i) + "][" + std::to_string(j) +
+                                                "] = " + std::to_string(mij) + " is invalid; accepted range: finite");
+                }
+                m(i, j) = 0.5 * (mij + mji) + (i == j ? hand.mass : 0.0);
+            }
         }
-        if (diagonal) {
-            for (std::size_t a = 0; a < axes; ++a) {
-                if (!(M[a][a] > 0.0) || !std::isfinite(M[a][a])) {
-                    throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(a) + "][" + std::to_string(a) +
-                                                "] = " + std::to_string(M[a][a]) + " is invalid; accepted range: finite, > 0 kg");
-                }
-                plants[a].mass = M[a][a];
+    }
+    std::array<double, kMaxAxes> modal_mass{};
+    modal_mass.fill(total_.mass);
+    for (std::size_t a = 0; a < kMaxAxes; ++a) modes_[a][a] = 1.0;
+    bool diagonal = true;
+    for (Eigen::Index i = 0; i < n; ++i) {
+        for (Eigen::Index j = 0; j < n; ++j) diagonal = diagonal && (i == j || m(i, j) == 0.0);
+    }
+    if (diagonal) {
+        for (std::size_t a = 0; a < axes; ++a) {
+            const double ma = m(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a));
+            if (!(ma > 0.0) || !std::isfinite(ma)) {
+                throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(a) + "][" + std::to_string(a) +
+                                            "] = " + std::to_string(ma) + " is invalid; accepted range: finite, > 0 kg");
             }
-        } else {
-            if (config_.plant.damping != 0.0 || config_.plant.stiffness != 0.0) {
-                throw std::invalid_argument("SimDevice: a non-diagonal mass_matrix needs damping = stiffness = 0 (got " +
-                                            std::to_string(config_.plant.damping) + " N s/m, " +
-                                            std::to_string(config_.plant.stiffness) + " N/m): its ZOH is then x+ = x + h v + "
-                                            "h^2/2 M^-1 u, v+ = v + h M^-1 u");
-            }
-            const auto n = static_cast<Eigen::Index>(axes);
-            Eigen::MatrixXd m(n, n);
-            for (Eigen::Index i = 0; i < n; ++i) {
-                for (Eigen::Index j = 0; j < n; ++j) {
-                    m(i, j) = 0.5 * (M[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] +
-                                     M[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)]);
-                }
-            }
-            const Eigen::LLT<Eigen::MatrixXd> llt(m);
-            if (llt.info() != Eigen::Success) {
-                throw std::invalid_argument("SimDevice: mass_matrix is invalid; accepted: symmetric positive definite");
-            }
-            const Eigen::MatrixXd inv = llt.solve(Eigen::MatrixXd::Identity(n, n));
+            modal_mass[a] = ma;
+        }
+    } else {
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(m);
+        if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0)) {
+            throw std::invalid_argument("SimDevice: mass_matrix is invalid; accepted: symmetric positive definite");
+        }
+        for (std::size_t a = 0; a < axes; ++a) {
+            modal_mass[a] = eig.eigenvalues()(static_cast<Eigen::Index>(a));
             for (std::size_t i = 0; i < axes; ++i) {
-                for (std::size_t j = 0; j < axes; ++j) {
-                    inverse_mass_[i][j] = 0.5 * (inv(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) +
-                                                 inv(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)));
-                }
+                modes_[i][a] = eig.eigenvectors()(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(a));
             }
-            coupled_ = true;
-            plants.fill(PlantParameters{1.0, 0.0, 0.0});  // the unit-mass ZOH of w = M^-1 u
         }
     }
     for (std::size_t a = 0; a < kMaxAxes; ++a) {
-        full_[a] = discretize(plants[a], T);
+        const PlantParameters mode{modal_mass[a], total_.damping, total_.stiffness};
+        full_[a] = discretize(mode, T);
         if (fractional_) {
-            first_[a] = discretize(plants[a], phi * T);
-            second_[a] = discretize(plants[a], (1.0 - phi) * T);
+            first_[a] = discretize(mode, phi * T);
+            second_[a] = discretize(mode, (1.0 - phi) * T);
         }
     }
     history_.assign(static_cast<std::size_t>(delay_periods_ + 2), AxisVector{});
@@ -88,26 +107,67 @@ SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
     reset_state();
 }
 
+double SimDevice::physical(const AxisVector& modal, std::size_t axis) const noexcept {
+    const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
+    double s = 0.0;
+    for (std::size_t m = 0; m < axes; ++m) s += modes_[axis][m] * modal[m];
+    return axis < axes ? s : 0.0;
+}
+
+// The rest position x_H is rest_ plus, for a path, A sin(w t) along the axis; the spring and damper of eq. 1
+// act on x - x_H and x' - x_H', so a moving rest is the input k (x_H - rest_) + b x_H' on the displacement
+// from rest_, besides the intent's force. Both at the period's middle (t = (tick + 1/2) T): the hand's motion
+// is held over a period like the loop's force (error O(T^2) of the path's second derivative).
+AxisVector SimDevice::hand_force(std::int64_t tick) const noexcept {
+    AxisVector f = external_;
+    const SimScenario& s = config_.scenario;
+    const double t = (static_cast<double>(tick) + 0.5) * config_.period;
+    if (s.kind == Scenario::Path && s.axis < kMaxAxes) {
+        const double w = 2.0 * std::numbers::pi * s.path_frequency;
+        f[s.axis] += total_.stiffness * s.path_amplitude * std::sin(w * t) + total_.damping * s.path_amplitude * w * std::cos(w * t);
+    }
+    if (s.kind == Scenario::Push && s.axis < kMaxAxes && s.push_speed > 0.0) {
+        // The hand moves in at push_speed until its rest position is on the wall surface, then stays there.
+        const bool moving = s.push_speed * t < s.push_distance;
+        const double travelled = moving ? s.push_speed * t : s.push_distance;
+        f[s.axis] += s.direction * (total_.stiffness * travelled + (moving ? total_.damping * s.push_speed : 0.0));
+    }
+    return f;
+}
+
 void SimDevice::reset_state() noexcept {
-    x_ = {};
-    v_ = {};
-    rest_ = {};
+    AxisVector x{}, v{};
     external_ = {};
     const SimScenario& s = config_.scenario;
-    rest_[s.axis] = s.surface;
+    // The hand's rest position is where the handle starts (hand_force moves it for Path and Push).
+    rest_ = s.centre;
+    if (s.kind != Scenario::Rest && s.kind != Scenario::Path) rest_[s.axis] = s.surface;
     switch (s.kind) {
         case Scenario::Step:
             external_[s.axis] = s.direction * s.step_force;
             break;
         case Scenario::Push:
-            x_[s.axis] = -s.direction * s.push_distance;
-            v_[s.axis] = s.direction * s.push_speed;
+            rest_[s.axis] -= s.direction * s.push_distance;
+            v[s.axis] = s.direction * s.push_speed;
             external_[s.axis] = s.direction * s.push_force;
             break;
         case Scenario::Hold:
-            x_[s.axis] = -s.direction * s.hold_distance;
+            rest_[s.axis] -= s.direction * s.hold_distance;
             external_[s.axis] = s.direction * s.hold_force;
             break;
+        case Scenario::Rest:
+        case Scenario::Path:
+            break;
+    }
+    // Into the modal coordinates: y = Q^T x.
+    x_ = {};
+    v_ = {};
+    const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
+    for (std::size_t m = 0; m < axes; ++m) {
+        for (std::size_t a = 0; a < axes; ++a) {
+            x_[m] += modes_[a][m] * x[a];
+            v_[m] += modes_[a][m] * v[a];
+        }
     }
     for (auto& h : history_) {
         h = AxisVector{};
@@ -145,28 +205,24 @@ const AxisVector& SimDevice::written(std::int64_t tick) const noexcept {
     return history_[static_cast<std::size_t>(tick) % history_.size()];
 }
 
-void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force) noexcept {
-    const std::size_t axes = config_.capabilities.axes;
+void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force, const AxisVector& hand) noexcept {
+    const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
     AxisVector u{};
-    for (std::size_t a = 0; a < axes; ++a) u[a] = external_[a] + written_force[a];
-    if (coupled_) {  // w = M^-1 u, then the unit-mass step per axis
-        AxisVector w{};
-        for (std::size_t i = 0; i < axes; ++i) {
-            for (std::size_t j = 0; j < axes; ++j) w[i] += inverse_mass_[i][j] * u[j];
-        }
-        u = w;
+    for (std::size_t m = 0; m < axes; ++m) {  // Q^T (F_H + u)
+        for (std::size_t a = 0; a < axes; ++a) u[m] += modes_[a][m] * (hand[a] + written_force[a]);
     }
-    for (std::size_t a = 0; a < axes; ++a) steps[a].apply(x_[a], v_[a], u[a]);
+    for (std::size_t m = 0; m < axes; ++m) steps[m].apply(x_[m], v_[m], u[m]);
 }
 
 void SimDevice::advance_period(std::int64_t tick) noexcept {
+    const AxisVector hand = hand_force(tick);
     const AxisVector& late = written(tick - delay_periods_);
     if (!fractional_) {
-        apply(full_, late);
+        apply(full_, late, hand);
         return;
     }
-    apply(first_, written(tick - delay_periods_ - 1));
-    apply(second_, late);
+    apply(first_, written(tick - delay_periods_ - 1), hand);
+    apply(second_, late, hand);
 }
 
 double SimDevice::noise() noexcept {
@@ -209,7 +265,7 @@ DeviceStatus SimDevice::read_position(AxisVector& position) noexcept {
             position[a] = 0.0;
             continue;
         }
-        double p = rest_[a] + x_[a];
+        double p = rest_[a] + physical(x_, a);
         if (config_.position_noise > 0.0) {
             p += config_.position_noise * noise();
         }

@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
-// The simulated device: the continuous plant of eq. 1,  M x'' + b x' + k x = F_ext + u,  advanced exactly
-// (zero-order hold) by one period per tick. M is one mass for every axis, a mass per axis (a diagonal M:
-// each axis its own exact ZOH of m_a x'' + b x' + k x = F), or a full symmetric positive-definite matrix
-// with b = k = 0, whose exact ZOH over h with u constant is  x+ = x + h v + h^2/2 M^-1 u,  v+ = v + h M^-1 u
-// (per axis the unit-mass ZOH of w = M^-1 u: the same numbers). u is the force written by the loop; it acts
-// after the device's inherent delay (which may be a non-integer number of periods: the period is then
-// split into two exactly-integrated sub-intervals). The spring's rest position is the wall surface of the
-// scenario axis (the analysis' x = 0) and 0 on the other axes.
+// The simulated device held by a simulated hand: the continuous plant of eq. 1 of the paper,
+//   M x'' + b (x' - x_H') + k (x - x_H) = F_H + u,   m = m_L + m_H,  b = b_L + b_H,  k = k_H,
+// advanced exactly (zero-order hold) by one period per tick. u is the force written by the loop; it acts after
+// the device's inherent delay (which may be a non-integer number of periods: the period is then split into two
+// exactly-integrated sub-intervals). The hand (SimHand, SimScenario) holds the handle around its rest position x_H
+// and adds its intent force F_H; both are held constant over a period (their value at the period's middle).
+// M is one mass for every axis, a mass per axis, or a full symmetric positive-definite matrix. With b and k
+// scalar the plant separates in the eigenvectors Q of M = Q diag(m_i) Q^T: y = Q^T x obeys
+// m_i y_i'' + b y_i' + k y_i = (Q^T (F_H + u + ...))_i, each mode its own exact ZOH (Q = I for a diagonal M).
 #pragma once
 
 #include <array>
@@ -20,10 +21,24 @@
 
 namespace hapticd {
 
+// The hand's impedance (docs/simulated-hand.md). Its mass m_H is part of a profile's mass (profiles hold the
+// device with its expected arm, m = m_L + m_H, Table II of the paper); `mass` adds to that. Zero everywhere:
+// a free device pushed by the intent's force only.
+struct SimHand {
+    double mass = 0.0;       // kg, added to the profile's mass
+    double damping = 0.0;    // b_H, N s/m
+    double stiffness = 0.0;  // k_H, N/m
+};
+
+// The hand's intent (the scenario): where it holds the handle and what force it adds. The hand's rest
+// position is where the handle starts, on the scenario axis relative to the first wall's surface.
 enum class Scenario : std::uint8_t {
     Step,  // at rest on the wall surface; external force step_force into the wall from t = 0 (the paper's step)
-    Push,  // starts push_distance outside the wall moving towards it at push_speed (a collision)
+    Push,  // starts push_distance outside the wall moving towards it at push_speed (a collision); the hand's
+           // rest moves with it until it is on the surface
     Hold,  // starts at rest hold_distance outside; the human pushes with hold_force from t = 0
+    Rest,  // at rest in the workspace centre, no force: the hand only holds the handle
+    Path,  // the hand's rest position follows centre + path_amplitude sin(2 pi path_frequency t) along the axis
 };
 
 std::string_view to_string(Scenario scenario) noexcept;
@@ -39,13 +54,17 @@ struct SimScenario {
     double push_force = 0.0;  // N, external force during the push (0: free collision)
     double hold_force = 2.0;  // N
     double hold_distance = 0.001;  // m
+    AxisVector centre{};           // the workspace centre: the hand's rest position off the scenario axis (all axes: Rest, Path)
+    double path_amplitude = 0.01;  // m
+    double path_frequency = 0.5;   // Hz
+    SimHand hand;                  // the impedance holding the handle (zero: none)
 };
+
 
 struct SimDeviceConfig {
     DeviceCapabilities capabilities;   // capabilities.inherent_delay is simulated
     PlantParameters plant;             // b, k; and the mass of every axis unless mass_matrix is set
-    // M on the device's axes (rows/columns beyond them ignored), symmetric positive definite. Diagonal: per
-    // axis its own mass with plant's b and k; otherwise plant.damping = plant.stiffness = 0 is required.
+    // M on the device's axes (rows/columns beyond them ignored), symmetric positive definite.
     std::optional<std::array<AxisVector, kMaxAxes>> mass_matrix;
     double period = 1e-3;              // s
     double position_noise = 0.0;       // standard deviation of additive Gaussian noise, m (0: off)
@@ -57,8 +76,8 @@ struct SimDeviceConfig {
 
 class SimDevice final : public Device {
 public:
-    // Throws std::invalid_argument naming the parameter for a non-diagonal mass_matrix with b or k != 0, or
-    // one that is not positive definite.
+    // Throws std::invalid_argument naming the parameter for a mass_matrix that is not symmetric positive
+    // definite, or a hand with a negative or non-finite parameter.
     explicit SimDevice(const SimDeviceConfig& config);
 
     DeviceStatus open() override;
@@ -76,28 +95,32 @@ public:
     [[nodiscard]] std::string last_error() const override;
 
     // Exact (noise-free) state, for tests and diagnostics.
-    [[nodiscard]] double true_position(std::size_t axis) const noexcept { return rest_[axis] + x_[axis]; }
-    [[nodiscard]] double true_velocity(std::size_t axis) const noexcept { return v_[axis]; }
+    [[nodiscard]] double true_position(std::size_t axis) const noexcept { return rest_[axis] + physical(x_, axis); }
+    [[nodiscard]] double true_velocity(std::size_t axis) const noexcept { return physical(v_, axis); }
 
 private:
     void reset_state() noexcept;
     void advance_period(std::int64_t tick) noexcept;  // integrates [tick T, (tick+1) T)
+    // (Q y)[axis]: a modal vector in the device's axes.
+    [[nodiscard]] double physical(const AxisVector& modal, std::size_t axis) const noexcept;
+    // The hand's force on the handle, held over the period starting at `tick` (intent + the moving rest).
+    [[nodiscard]] AxisVector hand_force(std::int64_t tick) const noexcept;
     [[nodiscard]] const AxisVector& written(std::int64_t tick) const noexcept;
     double noise() noexcept;
 
     SimDeviceConfig config_;
-    // Per axis (the same on every axis for one mass; unit mass when coupled_).
+    // Per mode (the axes themselves for a diagonal M).
     std::array<ZohStep, kMaxAxes> full_{};    // h = T
     std::array<ZohStep, kMaxAxes> first_{};   // h = phi T       (fractional part of the delay)
     std::array<ZohStep, kMaxAxes> second_{};  // h = (1 - phi) T
-    bool coupled_ = false;                    // a non-diagonal M: the input is u' = M^-1 u
-    std::array<AxisVector, kMaxAxes> inverse_mass_{};
-    void apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force) noexcept;
+    std::array<AxisVector, kMaxAxes> modes_{};  // Q, columns the modes (modes_[axis][mode]); identity for a diagonal M
+    PlantParameters total_{};                  // b and k of eq. 1 (plant + hand)
+    void apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force, const AxisVector& hand) noexcept;
     std::int64_t delay_periods_ = 0;  // integer part n of t_inh / T
     bool fractional_ = false;
     std::vector<AxisVector> history_;  // written forces of ticks tick-n-1 .. tick, ring of n + 2
     AxisVector zero_{};
-    AxisVector x_{}, v_{}, rest_{}, external_{};
+    AxisVector x_{}, v_{}, rest_{}, external_{};  // x_, v_: modal displacement from rest_ and velocity
     std::int64_t next_tick_ = 0;
     std::int64_t tick_ = -1;
     bool open_ = false;

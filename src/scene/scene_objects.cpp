@@ -51,6 +51,16 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
     held_.resize(kHeldCommitCapacity);  // preallocated here, never in the loop
     ramp_step_ = config_.ramp_time > 0.0 ? config_.period / config_.ramp_time : 1.0;
     if (ramp_step_ > 1.0) ramp_step_ = 1.0;
+    if (!(config_.move_interval_max >= 0.0) || !(config_.move_interval_max <= 10.0)) {
+        throw std::invalid_argument("SceneObjects: move_interval_max = " + std::to_string(config_.move_interval_max) +
+                                    " is invalid; accepted range: 0 .. 10 s");
+    }
+    if (!(config_.activation_speed >= 0.0) || !std::isfinite(config_.activation_speed)) {
+        throw std::invalid_argument("SceneObjects: activation_speed = " + std::to_string(config_.activation_speed) +
+                                    " is invalid; accepted range: finite, >= 0 m/s");
+    }
+    move_hold_max_ = static_cast<std::uint32_t>(std::floor(config_.move_interval_max / config_.period + 0.5));
+    activation_step_ = config_.activation_speed * config_.period;
 }
 
 namespace {
@@ -208,6 +218,7 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
         switch (u.action) {
             case SlotUpdate::Action::Set:
                 only_moves = false;
+                note_new_object(u.slot, u.params, !slot.current.active);
                 if (slot.current.active) start_fading(slot);  // cross-fade from wherever the old one is
                 if (at_once) slot.fading.active = false;
                 slot.current.active = true;
@@ -218,19 +229,17 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
             case SlotUpdate::Action::Move:
                 if (slot.current.active) {
                     if (is_move_of(slot.current.params, u.params)) {  // same gains, new place: no ramp
-                        moved_mask_ |= std::uint64_t{1} << u.slot;
-                        ObjectParams& p = slot.current.params;
-                        p.offset = u.params.offset;
-                        p.point = u.params.point;
-                        p.force = u.params.force;
+                        begin_glide(u.slot, u.params);
                     } else {
                         only_moves = false;
+                        cancel_glide(u.slot);
                         slot.current.params = u.params;
                     }
                 }
                 break;
             case SlotUpdate::Action::Remove:
                 only_moves = false;
+                cancel_glide(u.slot);
                 if (slot.current.active) {
                     start_fading(slot);
                     slot.current.active = false;
@@ -239,6 +248,7 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
                 break;
             case SlotUpdate::Action::Cut:
                 only_moves = false;
+                cancel_glide(u.slot);
                 slot.current.active = false;
                 slot.fading.active = false;
                 break;
@@ -319,11 +329,16 @@ void SceneObjects::apply_moves() noexcept {
                 break;
             case EntryPlace::Pressed: {
                 pressed_planes_.offset[place.index] = p.offset;
+                pressed_planes_.rate[place.index] = p.offset_rate;
+                pressed_rate_ = std::fabs(p.offset_rate) > pressed_rate_ ? std::fabs(p.offset_rate) : pressed_rate_;
                 replace_constant(pressed_, entry_c_[2 * s], linear_constant(p, w));
                 least_pressed_ = d < least_pressed_ ? d : least_pressed_;  // may fall to <= 0: the tick's test then fails
                 break;
             }
-            case EntryPlace::NearPlane: near_planes_.offset[place.index] = p.offset; break;
+            case EntryPlace::NearPlane:
+                near_planes_.offset[place.index] = p.offset;
+                near_planes_.rate[place.index] = p.offset_rate;
+                break;
             case EntryPlace::NearFlag:
                 near_flags_.offset[place.index] = p.offset;
                 replace_constant(linear_, entry_c_[2 * s], linear_constant(p, w));
@@ -439,6 +454,19 @@ AxisVector SceneObjects::linear_constant(const ObjectParams& p, double ramp) noe
         const bool line = p.kind == ObjectKind::Spring && p.constraint == SpringConstraint::Line;
         for (std::size_t r = 0; r < 3; ++r) c[r] = line ? wk * (p.point[r] - u[r] * up) : wk * u[r] * up;
     }
+    // The damping relative to the object's motion: + r B (the rate in the damped directions).
+    const double wb = ramp * p.B;
+    if (p.kind == ObjectKind::Plane) {
+        for (std::size_t r = 0; r < 3; ++r) c[r] += wb * p.offset_rate * u[r];
+    } else if (p.kind == ObjectKind::Spring && p.constraint == SpringConstraint::Plane) {
+        const double ur = dot(u, p.point_rate);
+        for (std::size_t r = 0; r < 3; ++r) c[r] += wb * ur * u[r];
+    } else if (p.kind == ObjectKind::Spring && p.constraint == SpringConstraint::Line) {
+        const double ur = dot(u, p.point_rate);
+        for (std::size_t r = 0; r < 3; ++r) c[r] += wb * (p.point_rate[r] - u[r] * ur);
+    } else {
+        for (std::size_t r = 0; r < 3; ++r) c[r] += wb * p.point_rate[r];
+    }
     return c;
 }
 
@@ -460,7 +488,7 @@ void append_plane(List& n, const ObjectParams& p, std::size_t slot) noexcept {
 // unchanged. A zero plane has pen = 0: no contact, no force, a zero flag bit.
 void SceneObjects::pad_planes(NearPlanes& n) noexcept {
     for (std::size_t i = n.count; i % 4 != 0; ++i) {
-        n.nx[i] = n.ny[i] = n.nz[i] = n.offset[i] = n.K[i] = n.B[i] = 0.0;
+        n.nx[i] = n.ny[i] = n.nz[i] = n.offset[i] = n.K[i] = n.B[i] = n.rate[i] = 0.0;
         n.slot_bit[i] = 0;
     }
 }
@@ -474,6 +502,7 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
     pressed_planes_.count = 0;
     double least_pressed = std::numeric_limits<double>::infinity();
     double tau = 0.0;
+    double pressed_rate = 0.0;
     near_planes_.count = 0;
     near_flags_.count = 0;
     near_fields_.count = 0;
@@ -527,8 +556,10 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                         place_[k] = EntryPlace{EntryPlace::Pressed, static_cast<std::uint8_t>(n.count)};
                         n.K[n.count] = w * w * p.K;
                         n.B[n.count] = w * p.B;
+                        n.rate[n.count] = p.offset_rate;
                         append_plane(n, p, s);
-                        pressed_mask_ |= bit;  // their surfaces do not bound rho: the tick's test covers them
+                        pressed_mask_ |= bit;
+                        pressed_rate = std::fabs(p.offset_rate) > pressed_rate ? std::fabs(p.offset_rate) : pressed_rate;  // their surfaces do not bound rho: the tick's test covers them
                         least_pressed = ad < least_pressed ? ad : least_pressed;
                         const double t = p.B / (w * p.K);  // b / k = r B / (r^2 K)
                         tau = t > tau ? t : tau;
@@ -537,6 +568,7 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                         place_[k] = EntryPlace{EntryPlace::NearPlane, static_cast<std::uint8_t>(n.count)};
                         n.K[n.count] = w * w * p.K;  // the ramp's weights: r^2 for the stiffness, r for the damping
                         n.B[n.count] = w * p.B;
+                        n.rate[n.count] = p.offset_rate;
                         append_plane(n, p, s);
                     }
                     break;
@@ -579,6 +611,7 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
     least_pressed_ = least_pressed;
     set_bounds();
     pressed_tau_ = tau;
+    pressed_rate_ = pressed_rate;
     scene_changed_ = false;
 }
 
@@ -632,7 +665,7 @@ void SceneObjects::add_unilateral(const NearPlanes& n, const double (&x)[3], con
     Lanes a0{}, a1{}, a2{};
     LaneMask m{};
     for (std::size_t i = 0; i < n.count; i += 4) {
-        Lanes nx, ny, nz, offset, K, B;
+        Lanes nx, ny, nz, offset, K, B, rate;
         LaneMask bits;
         load_lanes(nx, &n.nx[i]);
         load_lanes(ny, &n.ny[i]);
@@ -640,9 +673,10 @@ void SceneObjects::add_unilateral(const NearPlanes& n, const double (&x)[3], con
         load_lanes(offset, &n.offset[i]);
         load_lanes(K, &n.K[i]);
         load_lanes(B, &n.B[i]);
+        load_lanes(rate, &n.rate[i]);
         std::memcpy(&bits, &n.slot_bit[i], sizeof bits);
         const Lanes pen = offset - (nx * x0 + ny * x1 + nz * x2);
-        const Lanes vn = nx * v0 + ny * v1 + nz * v2;
+        const Lanes vn = nx * v0 + ny * v1 + nz * v2 - rate;  // relative to the surface's motion
         const Lanes fn = K * pen - B * vn;
         const LaneMask contact = pen > 0.0;
         const LaneMask keep = contact & (fn > 0.0);  // unilateral: never pulls
@@ -675,6 +709,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     velocity_ = {v0, v1, v2};
     previous_position_ = x;
 
+    if ((activation_mask_ | gliding_mask_) != 0) [[unlikely]] glide_tick(x);
+    ++ticks_;
     const double d0 = x0 - reference_[0], d1 = x1 - reference_[1], d2 = x2 - reference_[2];
     const double moved2 = d0 * d0 + d1 * d1 + d2 * d2;
     if (moved_mask_ != 0 && !scene_changed_) apply_moves();
@@ -687,7 +723,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     std::uint64_t mask = static_mask_;
     if (pressed_.any) {
         // The clamp of every deeply pressed plane is idle if ||d||_1 + tau ||v||_1 <= P (header comment).
-        const double reach = std::fabs(d0) + std::fabs(d1) + std::fabs(d2) + pressed_tau_ * (std::fabs(v0) + std::fabs(v1) + std::fabs(v2));
+        const double reach = std::fabs(d0) + std::fabs(d1) + std::fabs(d2) +
+                             pressed_tau_ * (std::fabs(v0) + std::fabs(v1) + std::fabs(v2) + pressed_rate_);
         if (reach <= pressed_depth_) {  // which also proves p > 0: all of them in contact
             add_law(pressed_, xs, vs, fs);
             mask |= pressed_mask_;
@@ -715,9 +752,9 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
             const AxisVector d{x0 - p.point[0], x1 - p.point[1], x2 - p.point[2]};
             const bool contact = dot(d, d) <= p.radius * p.radius;
             if (contact) {
-                f0 += r * p.force[0] + rr * dot(p.jacobian[0], d) - r * p.B * v0;
-                f1 += r * p.force[1] + rr * dot(p.jacobian[1], d) - r * p.B * v1;
-                f2 += r * p.force[2] + rr * dot(p.jacobian[2], d) - r * p.B * v2;
+                f0 += r * p.force[0] + rr * dot(p.jacobian[0], d) - r * p.B * (v0 - p.point_rate[0]);
+                f1 += r * p.force[1] + rr * dot(p.jacobian[1], d) - r * p.B * (v1 - p.point_rate[1]);
+                f2 += r * p.force[2] + rr * dot(p.jacobian[2], d) - r * p.B * (v2 - p.point_rate[2]);
             }
             mask |= static_cast<std::uint64_t>(contact) << n.slot[i];
         }
@@ -759,6 +796,178 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
 void SceneObjects::add_law(const AffineLaw& l, const double (&x)[3], const double (&v)[3], double (&f)[3]) noexcept {
     for (std::size_t r = 0; r < 3; ++r) {
         f[r] += l.c[r] - (l.K[r][0] * x[0] + l.K[r][1] * x[1] + l.K[r][2] * x[2]) - (l.B[r][0] * v[0] + l.B[r][1] * v[1] + l.B[r][2] * v[2]);
+    }
+}
+
+// A commanded pose of the slot's object (a Move of the same object). Without interpolation it is rendered at
+// once; otherwise from the pose rendered now to the commanded one in a straight line over n ticks, n the
+// client's update interval as the loop measures it: the mean of the ticks between this object's successive
+// poses, an exponential average with weight 1/4 (two poses applied in one tick count 0 and the late one
+// before them its whole wait, so the mean stays the true one while one interval alone would have jumped a
+// whole interval ahead), rounded, 1 .. the largest hold. The damping's reference rate is the commanded
+// poses' velocity (below). An approaching plane (activation) keeps approaching, now towards this pose.
+void SceneObjects::begin_glide(std::size_t s, const ObjectParams& commanded) noexcept {
+    const std::uint64_t bit = std::uint64_t{1} << s;
+    ObjectParams& p = slots_[s].current.params;
+    const double since = static_cast<double>(ticks_ - pose_tick_[s]);
+    pose_tick_[s] = ticks_;
+    pose_interval_[s] = pose_interval_[s] > 0.0 ? 0.75 * pose_interval_[s] + 0.25 * since : since;
+    const double interval = std::floor(pose_interval_[s] + 0.5);
+    moved_mask_ |= bit;
+    Glide& g = glides_[s];
+    const Pose previous = g.to;
+    g.to = pose_of(commanded);
+    if (g.approaching && (gliding_mask_ & bit) != 0) {
+        p.point = commanded.point;  // a plane's pose is its offset; the rest is carried along unchanged
+        p.force = commanded.force;
+        return;
+    }
+    if (move_hold_max_ == 0) {
+        p.offset = commanded.offset;
+        p.point = commanded.point;
+        p.force = commanded.force;
+        p.offset_rate = 0.0;
+        p.point_rate = AxisVector{};
+        gliding_mask_ &= ~bit;
+        return;
+    }
+    g.from = pose_of(p);
+    g.step = 0;
+    g.settling = false;
+    g.steps = interval < 1.0 ? 1U : interval > move_hold_max_ ? move_hold_max_ : static_cast<std::uint32_t>(interval);
+    g.approaching = false;
+    // The reference rate: the commanded poses' velocity over the ticks that really passed between them (a
+    // client samples its path when it sends), averaged with the previous estimate (weight 1/2 each: one
+    // pose's timing noise halved); two poses in one tick keep the estimate.
+    if (since >= 1.0) {
+        const double per_second = inverse_period_ / since;
+        const bool first = (gliding_mask_ & bit) == 0 && g.offset_rate == 0.0;
+        const double keep = first ? 0.0 : 0.5;
+        g.offset_rate = keep * g.offset_rate + (1.0 - keep) * (g.to.offset - previous.offset) * per_second;
+        for (std::size_t a = 0; a < 3; ++a) {
+            g.point_rate[a] = keep * g.point_rate[a] + (1.0 - keep) * (g.to.point[a] - previous.point[a]) * per_second;
+        }
+    }
+    gliding_mask_ |= bit;
+}
+
+// A Set: the slot's new object starts at its commanded pose, at rest; a unilateral plane into an empty slot is
+// checked against the handle at its first tick (activate_new_planes).
+void SceneObjects::note_new_object(std::size_t s, const ObjectParams& commanded, bool slot_was_empty) noexcept {
+    const std::uint64_t bit = std::uint64_t{1} << s;
+    cancel_glide(s);
+    glides_[s].to = pose_of(commanded);
+    pose_tick_[s] = ticks_;
+    pose_interval_[s] = 0.0;
+    if (slot_was_empty && activation_step_ > 0.0) activation_mask_ |= bit;
+}
+
+void SceneObjects::cancel_glide(std::size_t s) noexcept {
+    const std::uint64_t bit = std::uint64_t{1} << s;
+    gliding_mask_ &= ~bit;
+    activation_mask_ &= ~bit;
+    glides_[s].approaching = false;
+    glides_[s].offset_rate = 0.0;
+    glides_[s].point_rate = AxisVector{};
+    slots_[s].current.params.offset_rate = 0.0;
+    slots_[s].current.params.point_rate = AxisVector{};
+}
+
+// The god-object rule: a new unilateral plane with the handle behind its surface (p = offset - n.x > 0) is
+// rendered with its surface at the handle (offset n.x, p = 0) and approaches its commanded offset by
+// activation_speed T per tick. Other new objects, and planes the handle is in front of, render as commanded.
+void SceneObjects::activate_new_planes(const AxisVector& x) noexcept {
+    for (std::uint64_t m = activation_mask_; m != 0; m &= m - 1) {
+        const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
+        ObjectParams& p = slots_[s].current.params;
+        if (!slots_[s].current.active || p.kind != ObjectKind::Plane || p.bilateral) continue;
+        const double at_handle = dot(p.direction, x);
+        if (!(p.offset - at_handle > 0.0)) continue;  // in front of it (or NaN: as commanded)
+        Glide& g = glides_[s];
+        g.to = pose_of(p);
+        p.offset = at_handle;
+        g.from = pose_of(p);
+        g.approaching = true;
+        gliding_mask_ |= std::uint64_t{1} << s;
+        scene_changed_ = true;  // a Set re-classifies anyway
+    }
+    activation_mask_ = 0;
+}
+
+// Out of add_forces' hot path: the scenes without moving or appearing objects pay one test.
+__attribute__((noinline)) void SceneObjects::glide_tick(const AxisVector& x) noexcept {
+    if (activation_mask_ != 0) activate_new_planes(x);
+    if (gliding_mask_ != 0) advance_glides();
+}
+
+// One tick of a first-order hold (returns true when it has ended):
+//  * ticks 1 .. n: from + (to - from) k / n, the rates those of the commanded poses;
+//  * ticks n + 1 .. 2n, while no next pose has come: on along the same line, to + rate (k - n) T (a pose
+//    one tick late would otherwise stop the surface for a tick: at 12.6 mm/s that is 12.6 um, as much as a
+//    hand's contact deflection on a CE2 wall, and the contact tears open);
+//  * no pose after 2n ticks (the client stopped): back to the last commanded pose in a straight line over n
+//    ticks, the rates those of that return, then at rest. The overshoot is at most one interval's motion.
+bool SceneObjects::advance_hold(Glide& g, ObjectParams& p) const noexcept {
+    ++g.step;
+    const double n = static_cast<double>(g.steps);
+    if (g.step <= g.steps) {
+        const bool there = g.step == g.steps;
+        const double w = static_cast<double>(g.step) / n;
+        p.offset = there ? g.to.offset : g.from.offset + w * (g.to.offset - g.from.offset);
+        for (std::size_t a = 0; a < 3; ++a) {
+            p.point[a] = there ? g.to.point[a] : g.from.point[a] + w * (g.to.point[a] - g.from.point[a]);
+            p.force[a] = there ? g.to.force[a] : g.from.force[a] + w * (g.to.force[a] - g.from.force[a]);
+        }
+        p.offset_rate = g.offset_rate;
+        p.point_rate = g.point_rate;
+        if (there && g.settling) {
+            p.offset_rate = g.offset_rate = 0.0;
+            p.point_rate = g.point_rate = AxisVector{};
+            return true;
+        }
+        return false;
+    }
+    if (g.step <= 2 * g.steps && !g.settling) {
+        const double ahead = static_cast<double>(g.step - g.steps) * config_.period;
+        p.offset = g.to.offset + g.offset_rate * ahead;
+        for (std::size_t a = 0; a < 3; ++a) p.point[a] = g.to.point[a] + g.point_rate[a] * ahead;
+        if (g.step < 2 * g.steps) return false;
+    }
+    // Back to the commanded pose.
+    g.from = pose_of(p);
+    g.step = 0;
+    g.settling = true;
+    const double per_second = inverse_period_ / n;
+    g.offset_rate = (g.to.offset - g.from.offset) * per_second;
+    for (std::size_t a = 0; a < 3; ++a) g.point_rate[a] = (g.to.point[a] - g.from.point[a]) * per_second;
+    p.offset_rate = g.offset_rate;
+    p.point_rate = g.point_rate;
+    return false;
+}
+
+// One tick of every glide, written into the object's params and handed to apply_moves as a move (~20 flops
+// per gliding object):
+//  * approach (activation): the offset advances by activation_speed T towards its target (at once if the
+//    target is behind the rendered surface), offset_rate = activation_speed;
+//  * first-order hold (advance_hold).
+void SceneObjects::advance_glides() noexcept {
+    for (std::uint64_t m = gliding_mask_; m != 0; m &= m - 1) {
+        const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
+        const std::uint64_t bit = std::uint64_t{1} << s;
+        Glide& g = glides_[s];
+        ObjectParams& p = slots_[s].current.params;
+        bool done = false;
+        if (g.approaching) {
+            const double gap = g.to.offset - p.offset;
+            done = !(gap > activation_step_);  // reached, or the target is behind the rendered surface: there at once
+            p.offset = done ? g.to.offset : p.offset + activation_step_;
+            p.offset_rate = done ? 0.0 : config_.activation_speed;
+            g.approaching = !done;
+        } else {
+            done = advance_hold(g, p);
+        }
+        if (done) gliding_mask_ &= ~bit;
+        moved_mask_ |= bit;
     }
 }
 

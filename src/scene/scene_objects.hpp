@@ -6,12 +6,14 @@
 //
 // Force laws, per tick, with x_j the sampled position and v_j = (x_j - x_{j-1}) / T (backward difference;
 // the first tick takes v = 0):
-//   plane   p = offset - n.x_j:                   f = n (K p - B n.v_j)    (unilateral: only p > 0, f.n >= 0)
+//   plane   p = offset - n.x_j:                   f = n (K p - B (n.v_j - offset_rate))  (unilateral: only p > 0, f.n >= 0)
 //           — for a fixed plane exactly the analysed wall law f_j = K x_j + B (x_j - x_{j-1}) / T along n;
-//   spring  r = P (x_j - point):                  f = -K r - B P v_j       (P: the constrained directions)
-//   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0) - B v_j
-// The damping acts on the device's own velocity, never on the motion of offset/point/center, so moving an
-// object by Δ changes its force by K Δ at most (no step beyond what the motion implies).
+//   spring  r = P (x_j - point):                  f = -K r - B P (v_j - point_rate)   (P: the constrained directions)
+//   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0) - B (v_j - point_rate)
+// The damping acts on the handle's velocity relative to the object: v_j less the rate of the object's
+// interpolated motion (offset_rate, point_rate; zero for an object at rest). A pose applied at once has no
+// rate, so moving an object by Δ in one tick changes its force by K Δ at most. The rates are an input, not a
+// gain: they change no K or B the server checks.
 // Each entry ramps with a factor r in [0, 1], stepped by T / ramp_s per tick: its stiffness terms (K, a
 // field's J) are weighted r^2, its damping and a field's constant force F0 r. Damping leads stiffness so
 // that a ramp from zero starts damping-dominated: with a delay, small gains are stable only if
@@ -48,7 +50,8 @@
 //  * Unilateral planes pressed deeper than kNearDistance, in closed form while their clamp cannot act. Such a
 //    plane i (penetration p_i at the classification, gains k_i = r^2 K, b_i = r B) pushes k_i p - b_i n.v,
 //    affine in (x, v), as long as that is >= 0. At x = x_ref + d, p >= p_i - |n.d| >= p_i - ||d||_1 and
-//    n.v <= ||v||_1, so ||d||_1 + tau ||v||_1 <= P, with P = min p_i (less the rounding tol) and
+//    n.v - w_i <= ||v||_1 + W (w_i the plane's offset_rate, W their largest |w_i|), so
+//    ||d||_1 + tau (||v||_1 + W) <= P, with P = min p_i (less the rounding tol) and
 //    tau = max b_i / k_i, proves the clamp idle for all of them: their sum is then a second affine law, checked
 //    in 8 flops per tick; the test also proves p > 0, so their flags are set. A tick that fails it (a fast
 //    hand, a shallow press, the handle gone out) evaluates them one by one from flat arrays instead: the same
@@ -58,6 +61,17 @@
 //    kNearDistance deep or near (the clamp f.n >= 0 depends on v as well), and planes / fields within
 //    kNearDistance of their surface (for their flags; a near field's force too). The loop over unilateral
 //    planes is branch-free with four partial sums (no chain of dependent additions across planes).
+//  * Moves are rendered through a first-order hold (advance_glides): a client's new pose is reached along a
+//    straight line over the object's measured update interval (the mean of the ticks between its poses, at
+//    most move_interval_max), starting from the pose rendered now, and on along that line for up to one
+//    more interval while the next pose is late (then back to the last pose). A client sending poses every
+//    5 ms sees each rendered 4 ticks later than a direct application would (one interval less the tick it
+//    arrives in); the surface's path is continuous and piecewise linear instead of a staircase of K Delta steps.
+//    Each tick of a glide is a move (positions only), handled as above.
+//  * A unilateral plane that appears (a Set into an empty slot) with the handle behind its surface starts with
+//    its surface at the handle (penetration 0) and moves to its commanded offset at activation_speed
+//    (activate_new_planes, then advance_glides): the god-object rule (docs/protocol.md, section 4). Moves
+//    that arrive meanwhile change where it goes, not how fast. Positions only, never gains.
 // No allocation, lock, exception or I/O in anything called per tick.
 #pragma once
 
@@ -96,6 +110,11 @@ struct ObjectParams {
     std::array<AxisVector, 3> jacobian{};  // field J, N/m (rows)
     double K = 0.0;          // N/m (plane, spring)
     double B = 0.0;          // N s/m (plane, spring, field)
+    // The loop's own (clients' objects arrive with zeros): the velocity of the rendered pose while a move is
+    // interpolated, d(offset)/dt (m/s) and d(point)/dt (m/s), so that the damping acts on the handle's
+    // velocity relative to the object's surface (SceneObjects::advance_glides).
+    double offset_rate = 0.0;
+    AxisVector point_rate{};
 };
 
 // Whether the object renders its law only at some handle positions: a unilateral plane (while the handle is
@@ -146,6 +165,8 @@ struct SceneObjectsConfig {
     double max_force_rate = 1e4;   // N/s, infinity norm of the change of the total force
     std::size_t axes = 3;
     std::size_t commits_per_tick = 8;  // bound on the commits applied in one tick
+    double move_interval_max = 0.0;    // s: longest first-order hold of a move (0: moves are applied at once)
+    double activation_speed = 0.0;     // m/s: a plane appearing around the handle moves out at this speed (0: at once)
 };
 
 struct SceneObjectsStats {
@@ -194,6 +215,8 @@ public:
     // Batches held now until the ramps in progress end (apply_commits).
     [[nodiscard]] std::size_t held() const noexcept { return held_count_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
+    // Slots whose rendered pose is still on its way to the commanded one (move interpolation, activation).
+    [[nodiscard]] std::uint64_t gliding() const noexcept { return gliding_mask_; }
     // The linear gains of the scene the next add_forces() renders (call it after apply_commits()), every
     // object counted as in contact (the all-engaged pattern the server checks): the sum over the active entries (current and
     // fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
@@ -239,6 +262,7 @@ private:
     // vector AND and OR.
     struct NearPlanes {
         std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{};  // K, B: times the ramp's weights
+        std::array<double, 2 * kSceneObjectCapacity> rate{};  // offset_rate
         std::array<std::uint64_t, 2 * kSceneObjectCapacity> slot_bit{};
         std::size_t count = 0;
     };
@@ -285,6 +309,28 @@ private:
     void start_constants(AffineLaw& l, const Members& m) const noexcept;
     static void replace_constant(AffineLaw& l, AxisVector& stored, const AxisVector& now) noexcept;
     void classify(const AxisVector& x) noexcept;
+    // Move interpolation and the activation rule (header comment); positions only.
+    struct Pose {
+        double offset = 0.0;
+        AxisVector point{};
+        AxisVector force{};
+    };
+    struct Glide {
+        Pose from, to;
+        std::uint32_t step = 0, steps = 0;  // first-order hold: at tick `step` of `steps` (advance_hold)
+        bool settling = false;              // returning to the last commanded pose (no next pose came)
+        double offset_rate = 0.0;           // the commanded poses' velocity: the rate the damping is relative to
+        AxisVector point_rate{};
+        bool approaching = false;           // activation: the offset approaches to.offset at activation_speed
+    };
+    [[nodiscard]] static Pose pose_of(const ObjectParams& p) noexcept { return {p.offset, p.point, p.force}; }
+    void begin_glide(std::size_t slot, const ObjectParams& commanded) noexcept;
+    void note_new_object(std::size_t slot, const ObjectParams& commanded, bool slot_was_empty) noexcept;
+    void cancel_glide(std::size_t slot) noexcept;
+    void activate_new_planes(const AxisVector& x) noexcept;
+    void advance_glides() noexcept;
+    void glide_tick(const AxisVector& x) noexcept;
+    bool advance_hold(Glide& g, ObjectParams& p) const noexcept;
 
     SceneObjectsConfig config_;
     CommitRing& ring_;
@@ -325,6 +371,7 @@ private:
     NearPlanes pressed_planes_;  // the same planes one by one (a tick whose motion fails the test)
     double pressed_depth_ = 0.0;  // P: their least penetration at the classification, less the rounding tol
     double pressed_tau_ = 0.0;    // tau: their largest b / k (s)
+    double pressed_rate_ = 0.0;   // their largest |offset_rate| since the classification (m/s)
     std::uint64_t moved_mask_ = 0;  // slots moved (Move commits only) since the last classification
     NearPlanes near_planes_;
     NearFlags near_flags_;
@@ -340,6 +387,14 @@ private:
     std::uint64_t classifications_ = 0;
     std::uint64_t pressed_fallbacks_ = 0;
     std::uint64_t pressed_summed_ = 0;
+    std::array<Glide, kSceneObjectCapacity> glides_{};
+    std::array<std::uint64_t, kSceneObjectCapacity> pose_tick_{};  // tick of the slot's last commanded pose
+    std::array<double, kSceneObjectCapacity> pose_interval_{};     // its mean update interval (ticks), see begin_glide
+    std::uint64_t gliding_mask_ = 0;      // slots whose rendered pose is on its way to the commanded one
+    std::uint64_t activation_mask_ = 0;   // new unilateral planes, to be checked against the handle this tick
+    std::uint64_t ticks_ = 0;             // add_forces calls so far
+    std::uint32_t move_hold_max_ = 0;     // move_interval_max in ticks
+    double activation_step_ = 0.0;        // activation_speed T, m per tick
 };
 
 }  // namespace hapticd

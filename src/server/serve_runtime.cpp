@@ -44,6 +44,8 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     oc.max_force = profile.max_force;
     oc.max_force_rate = o.max_force_rate;
     oc.axes = axes;
+    oc.move_interval_max = o.move_interval_max;
+    oc.activation_speed = o.activation_speed;
     objects_ = std::make_unique<SceneObjects>(oc, *ring_, departure_ring_.get());
     // The socket path first: a second daemon started on a live one's names stops here, before it replaces
     // the live one's state segment.

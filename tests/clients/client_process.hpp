@@ -49,8 +49,8 @@ inline Result run(const std::string& binary, const std::vector<std::string>& arg
 }
 
 // hapticd --serve in lockstep on the simulated device: a config wall at x = 5 cm (soft: K = 100 N/m, B = 1
-// N s/m, so that client objects along x pass the summed-gain check), the simulated hand starting at
-// x = -1 cm and pushing towards +x with 2 N (scenario hold). Runs until SIGTERM.
+// N s/m, so that client objects along x pass the summed-gain check), the simulated hand holding the handle
+// at x = -5 mm and pushing towards +x with 2 N (scenario hold). Runs until SIGTERM.
 class LockstepDaemon {
 public:
     // extra: more hapticd arguments (e.g. --device PROFILE).
@@ -68,7 +68,7 @@ public:
     static std::vector<std::string> arguments(const std::string& socket, const std::string& shm, const std::vector<std::string>& extra) {
         std::vector<std::string> a{"--config", "", "--lockstep", "--serve", "--serve-socket", socket, "--serve-shm", shm, "--wall",
                                    "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
-                                   "--hold-distance", "0.06", "--hold-force", "2"};
+                                   "--hold-distance", "0.055", "--hold-force", "2"};
         a.insert(a.end(), extra.begin(), extra.end());
         return a;
     }

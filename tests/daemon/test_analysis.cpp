@@ -56,7 +56,7 @@ RunOutput run_daemon(const Case& c) {
     const std::string trace = (dir() / (std::string(c.name) + ".csv")).string();
     const std::string summary = (dir() / (std::string(c.name) + ".json")).string();
     std::vector<std::string> args{"hapticd", "--config", "", "--device", profile.string(), "--lockstep", "--quiet",
-                                  "--scenario", "step", "--bilateral", "--rate", "1000",
+                                  "--scenario", "step", "--hand-damping", "0", "--hand-stiffness", "0", "--bilateral", "--rate", "1000",
                                   "--delay-buffer", std::to_string(c.buffer), "--duration", std::to_string(c.duration_s),
                                   "--trace", trace, "--summary-json", summary};
     args.insert(args.end(), c.gains.begin(), c.gains.end());

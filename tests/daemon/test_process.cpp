@@ -49,6 +49,20 @@ std::vector<Row> read_trace(const std::string& path) {
     return rows;
 }
 
+// Gains the server accepts for the free device (d = 0, near the region's large-beta edge: alpha 0.034,
+// beta 1.965) are unstable with a simulated hand that has stiffness and no damping
+// (SimulatedHand.TheFreeDeviceChecksStayConservativeForTheDefaultHand): hapticd says so at start-up, and
+// not for the default hand.
+TEST(HapticdProcess, WarnsWhenAWallIsUnstableWithTheSimulatedHand) {
+    const auto undamped = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5", "--hand-damping", "0", "--hand-stiffness", "300"}),
+                              "hand_warning");
+    EXPECT_EQ(undamped.code, 0) << undamped.err;
+    EXPECT_NE(undamped.err.find("is not stable with the simulated hand"), std::string::npos) << undamped.err;
+    const auto held = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5"}), "hand_default");
+    EXPECT_EQ(held.code, 0) << held.err;
+    EXPECT_EQ(held.err.find("simulated hand"), std::string::npos) << held.err;
+}
+
 TEST(HapticdProcess, HelpListsExitCodes) {
     const auto r = run({"--help"}, "help");
     EXPECT_EQ(r.code, 0);
@@ -208,6 +222,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"profile_missing_mass", "", "max_force = 10.0\n", {}, kExitBadConfig, {"missing key 'mass'"}},
         BadCase{"nan_rate", "", "", {"--rate", "nan"}, kExitInvalidParameter, {"rate = nan", "accepted range"}},
         BadCase{"inf_duration", "", "", {"--duration", "inf"}, kExitInvalidParameter, {"duration = inf"}},
+        BadCase{"hand_stiffness", "", "", {"--hand-stiffness", "-5"}, kExitInvalidParameter, {"hand-stiffness = -5", "0 .. 1e9 N/m"}},
+        BadCase{"hand_damping", "", "", {"--hand-damping", "nan"}, kExitInvalidParameter, {"hand-damping = nan"}},
+        BadCase{"hand_mass", "", "", {"--hand-mass", "-0.1"}, kExitInvalidParameter, {"hand-mass = -0.1", "0 .. 1000 kg"}},
+        BadCase{"activation_speed", "", "", {"--activation-speed", "-1"}, kExitInvalidParameter, {"activation-speed = -1"}},
+        BadCase{"move_interval_max", "", "", {"--move-interval-max", "11"}, kExitInvalidParameter, {"move-interval-max = 11", "0 .. 10 s"}},
         BadCase{"nan_stiffness", "", "", {"--stiffness", "nan", "--damping", "1"}, kExitInvalidParameter,
                 {"stiffness = nan"}},
         BadCase{"negative_delay_buffer", "", "", {"--delay-buffer", "-2"}, kExitInvalidParameter,

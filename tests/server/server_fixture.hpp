@@ -3,6 +3,8 @@
 // (hapticd_test_client, on the client library). Each test gets its own socket path and shared-memory name.
 #pragma once
 
+#include <algorithm>
+
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -137,12 +139,16 @@ inline Names names(const std::string& tag) {
 }
 
 // hapticd --serve on tests/server/<profile> (default sim3.toml) with a config wall that is never touched
-// (x > 0.05 m).
+// (x > 0.05 m). The device is free (no simulated hand: the analysis' plant of the profile) unless `extra`
+// sets --hand-stiffness.
 inline std::vector<std::string> daemon_args(const Names& n, const std::vector<std::string>& extra,
                                             const std::string& profile = "sim3.toml") {
     std::vector<std::string> a{"--config", "", "--device", std::string(HAPTICD_SERVER_TEST_DIR "/") + profile, "--serve",
                                "--serve-socket", n.socket, "--serve-shm", n.shm, "--rt-priority", "0", "--mlock", "false",
                                "--wall", "axis=0 position=0.05 direction=+1"};
+    if (std::find(extra.begin(), extra.end(), "--hand-stiffness") == extra.end()) {
+        a.insert(a.end(), {"--hand-damping", "0", "--hand-stiffness", "0"});
+    }
     a.insert(a.end(), extra.begin(), extra.end());
     return a;
 }
