@@ -179,6 +179,8 @@ struct Server::Impl {
     std::map<std::uint64_t, Session> sessions;
     std::array<ServerSlot, kSceneObjectCapacity> slots{};
     std::deque<ObjectCommit> pending;  // departure batches that did not fit in the departure ring yet
+    std::vector<pollfd> departed_fds;      // close_departed_sessions' poll set, kept to reuse its storage
+    std::vector<std::uint64_t> departed_ids;
     std::uint32_t next_object_id = 1;
     std::uint64_t next_session_id = 1;
     std::uint64_t next_commit_seq = 1;
@@ -980,6 +982,26 @@ struct Server::Impl {
                 return;
             }
             handle_guarded(s, std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+            close_departed_sessions();
+        }
+    }
+
+    // Closes every session whose peer has gone, ahead of the messages still waiting on the others: a
+    // request's checks take milliseconds (tens on a loaded machine), so a departure noticed only at the next
+    // poll would wait behind every message of the round. One zero-timeout poll over the open sessions.
+    void close_departed_sessions() {
+        departed_fds.clear();
+        departed_ids.clear();
+        for (auto& [sid, other] : sessions) {
+            if (other.closed) continue;
+            departed_fds.push_back({other.fd, POLLRDHUP, 0});
+            departed_ids.push_back(sid);
+        }
+        if (departed_fds.empty() || ::poll(departed_fds.data(), departed_fds.size(), 0) <= 0) return;
+        for (std::size_t i = 0; i < departed_fds.size(); ++i) {
+            if ((departed_fds[i].revents & (POLLRDHUP | POLLHUP | POLLERR)) == 0) continue;
+            Session& other = sessions.at(departed_ids[i]);
+            close_session(other, "disconnected (EOF)");
         }
     }
 
@@ -1065,6 +1087,7 @@ struct Server::Impl {
             if (stop.load(std::memory_order_acquire)) break;
             if (r > 0) {
                 if ((fds[0].revents & POLLIN) != 0) accept_all();
+                close_departed_sessions();
                 for (std::size_t i = 0; i < ids.size(); ++i) {
                     const short ev = fds[i + 2].revents;
                     if (ev == 0) continue;

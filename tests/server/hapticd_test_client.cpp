@@ -6,15 +6,18 @@
 //   hapticd_test_client SOCKET flood N OBJECT_ID_PLANE_OFFSETS
 //       adds a plane, then N modify commits moving it as fast as it can; prints {"ok":n_ok,"busy":n_busy,...}.
 //   hapticd_test_client SOCKET gainflood SECONDS
-//       adds a plane away from the hand (n = -z at z = 0.05), then for SECONDS changes its gains back and forth
-//       (each change a cross-fade ramp in the loop) as fast as the server accepts; busy and session_limit
-//       are retried after 0.5 ms. Prints {"ok":n_ok,"refused":n_refused} (no line until then).
+//       adds a plane away from the hand (n = -z at z = 0.05), then changes its gains back and forth (each change
+//       a cross-fade ramp in the loop) as fast as the server accepts; busy and session_limit are retried after
+//       5 ms. At the first session_limit (all its batches in flight: its share of the loop's queue is full)
+//       prints {"full":true}; goes on for SECONDS after that, then prints {"ok":n_ok,"refused":n_refused,
+//       "accepted":[[t_s, commit_seq], ...]} (t_s: CLOCK_MONOTONIC at each acceptance).
 //   hapticd_test_client SOCKET noread
 //       subscribes at 1000 Hz and never reads again (sleeps until killed).
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -129,25 +132,32 @@ int main(int argc, char** argv) {
         }
         if (mode == "gainflood") {
             const double seconds = argc > 3 ? std::atof(argv[3]) : 1.0;
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder"});
+            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = 30.0});
             cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, refused = 0;
-            const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-            for (long i = 0; std::chrono::steady_clock::now() < end; ++i) {
+            json accepted = json::array();
+            std::optional<std::chrono::steady_clock::time_point> end;  // SECONDS after the first session_limit
+            const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+            for (long i = 0; end ? std::chrono::steady_clock::now() < *end : std::chrono::steady_clock::now() < give_up; ++i) {
                 p.gains = i % 2 == 0 ? cl::Gains::explicit_gains(150.0, 1.5) : cl::Gains::explicit_gains(100.0, 1.0);
                 try {
-                    c.commit(cl::Batch().modify(id, p));
+                    const auto seq = c.commit(cl::Batch().modify(id, p)).commit_seq;
                     ++ok;
+                    accepted.push_back(json::array({std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(), seq}));
                 } catch (const cl::Error& e) {
                     if (e.code() != cl::ErrorCode::Busy && e.code() != cl::ErrorCode::SessionLimit) throw;
                     ++refused;
                     --i;  // the same change again
-                    std::this_thread::sleep_for(std::chrono::microseconds(500));
+                    if (!end && e.code() == cl::ErrorCode::SessionLimit) {
+                        end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
+                        print({{"full", true}});
+                    }
+                    std::this_thread::sleep_for(std::chrono::milliseconds(5));
                 }
             }
-            print({{"ok", ok}, {"refused", refused}});
+            print({{"ok", ok}, {"refused", refused}, {"accepted", accepted}});
             return 0;
         }
         if (mode == "noread") {
