@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# libFuzzer run of hapticd's parsers and decoders (issue 6): builds every target of tests/fuzz/ with clang
+# libFuzzer run of hapticd's parsers and decoders: builds every target of tests/fuzz/ with clang
 # (-fsanitize=fuzzer,address,undefined) into build/fuzz and runs each for a bounded time over its seed
 # corpus tests/fuzz/corpus/<target>/ (read only; new inputs go to build/fuzz/corpus/<target>/, crashes to
 # build/fuzz/artifacts/). Installs clang-14 and libclang-rt-14-dev (which ships libclang_rt.fuzzer) from

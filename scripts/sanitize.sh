@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The test suite under sanitizers (issue 6): every test executable built with ASan + UBSan
+# The test suite under sanitizers: every test executable built with ASan + UBSan
 # (build/asan) and run with ctest; then the daemon's threaded code (the loop, the SPSC trace ring and its
 # writer thread, the daemon as a process, the server thread's hand-over to the loop, the rendered-scene property test) built with TSan (build/tsan) and run with ctest -L daemon.
 # Any sanitizer report aborts the test that triggered it (-fno-sanitize-recover=all), so ctest fails.

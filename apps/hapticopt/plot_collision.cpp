@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// hapticopt plot collision: step against collision optima (issue 8). In the (alpha, beta) plane: the
+// hapticopt plot collision: step against collision optima. In the (alpha, beta) plane: the
 // stability boundary, the optimal curve beta_opt(alpha) of the step criterion C_Ex (optimum.hpp) and of
 // the collision criterion C_Ix (impulse_optimum.hpp) for the same x = --index, and both optimal points.
 // The paper's conclusion expects the impulse-response optima to "look quite different"; this figure

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
-"""The comparison of docs/passivity.md (issue 15): on the simulated device (docs/passivity/sim_damped.toml:
+"""The comparison of docs/passivity.md: on the simulated device (docs/passivity/sim_damped.toml:
 0.30 kg, b = 6 N s/m, i.e. delta = 0.02; 1 kHz; lockstep; bilateral wall), for d = 0, 1, 3 delay-buffer
 periods, three walls
   optimal   the optimum of C_E2 (step) or C_I2 (collision)            hapticopt optimum --criterion CE2|CI2

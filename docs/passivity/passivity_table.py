@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: Apache-2.0
-"""How conservative passivity is (issue 15): for d = 0..6 and delta in {0.02, 0.1}, the largest passive
+"""How conservative passivity is: for d = 0..6 and delta in {0.02, 0.1}, the largest passive
 alpha against alpha_max, and the best passive cost against the optimal cost for C_E2 and C_I2, each from
 one `hapticopt` call (boundary --passivity, optimum [--passive]). Prints the Markdown table of
 docs/passivity.md. Usage: docs/passivity/passivity_table.py PATH/TO/hapticopt"""

@@ -7,7 +7,7 @@
 // to haptic interfaces", J. Robotic Systems 14(1), 37-47, 1997: a discrete environment H(z) behind a
 // zero-order hold, rendered by a device with physical damping b, is passive iff
 //   b > (T / 2) / (1 - cos wT) * Re{ (1 - e^{-jwT}) H(e^{jwT}) }      for 0 <= w <= pi / T.
-// Here H is the analysed wall with the loop delay as z^-d (notes/model.md: the force computed at jT acts
+// Here H is the analysed wall with the loop delay as z^-d (sampled_plant.hpp: the force computed at jT acts
 // from jT + d T for one period; d = 0 still has the hold).
 //
 // Normalised (Table I: alpha = K T^2/m, beta = B T/m, delta = b T/m) with theta = wT, multiplying by T/m:

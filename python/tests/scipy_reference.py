@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
-"""An independent reference of the loop's costs, written from the model notes with scipy only.
+"""An independent reference of the loop's costs, written from the paper's model (Hulin et al. 2011) with scipy only.
 
-Model (normalised, m = T = 1; /work/shared/notes/model.md): x'' + delta x' + gamma x = F - f_w;
+Model (normalised, m = T = 1; docs/methods.md): x'' + delta x' + gamma x = F - f_w;
 f_j = alpha x_j + beta (x_j - x_{j-1}) acts during [j + d, j + 1 + d); integer d here. Inside a
 period the plant with its constant input u is z' = A3 z, z = (x, x', u), A3 = [[0,1,0],[-gamma,-delta,1],
 [0,0,0]], so z(tau) = expm(A3 tau) z(0) (scipy.linalg.expm: Pade with scaling and squaring).

@@ -42,7 +42,7 @@ def test_results_are_dataclasses():
 
 
 def test_stability_at_the_exact_boundary_point():
-    # d = 0, gamma = delta = 0: alpha_max = 12 - 8 sqrt(2) at beta = 2 sqrt(2) - 2 (model notes).
+    # d = 0, gamma = delta = 0: alpha_max = 12 - 8 sqrt(2) at beta = 2 sqrt(2) - 2 (Hulin et al. 2011).
     a, b = 12 - 8 * math.sqrt(2), 2 * math.sqrt(2) - 2
     assert ho.alpha_max() == pytest.approx(a, abs=1e-12)
     assert ho.is_stable(a - 1e-9, b) and not ho.is_stable(a + 1e-9, b)

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Run time against error (issue 6, item 1): the closed-form energy costs against time-stepping with
+// Run time against error: the closed-form energy costs against time-stepping with
 // 10, 100, 1000 steps per period (plain composite Simpson, and Richardson-extrapolated from N and 2N
 // steps), and the exact continuous overshoot against sample-based maxima, for d = 0, 1, 6
 // (tests/data/accuracy_cases.hpp). Errors are measured against tests/data/accuracy_reference.csv

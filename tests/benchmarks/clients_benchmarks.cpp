@@ -7,7 +7,7 @@
 //    commits (default 10000), the commit's own reply round trip, and (1000 x) that of a status request,
 //    which the server answers without the commit's checks. Baseline in the same run: a bare
 //    SOCK_SEQPACKET ping-pong (socketpair + echo thread) with a message of the commit's size.
-//    Goal of issue 14: within one loop period plus the ping-pong time. Run twice: the daemon's loop sleeping
+//    Goal: within one loop period plus the ping-pong time. Run twice: the daemon's loop sleeping
 //    until each deadline, and with --spin-us 300 (docs/hapticd.md). Also reported: the loop's worst
 //    wake-up lateness seen in the state stream during the commits, and period + that + the worst ping-pong
 //    (machine_bound_max_us): the worst a commit should take on this machine if the daemon's server added no

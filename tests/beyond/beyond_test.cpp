@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Issue 8, beyond the paper: collision criteria (closed form vs independent time-stepping, optimum vs
+// Beyond the paper: collision criteria (closed form vs independent time-stepping, optimum vs
 // grid), passivity (formula, the paper's optima are not passive, best passive gains), robust optimum
 // (certified mass-segment check vs dense sweep, stability over the box, worst case vs nominal).
 #include <gtest/gtest.h>

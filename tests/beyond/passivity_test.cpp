@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Issue 15: passivity of the wall with an integer delay (passivity.hpp). The exact maximum over frequency
+// Passivity of the wall with an integer delay (passivity.hpp). The exact maximum over frequency
 // is checked against an independent direct evaluation of Colgate and Schenkel's complex expression on a
 // fine grid (with the grid's error bound), against closed forms worked out by hand (d = 0, beta = 0, d = 1),
 // passive => stable on a dense sample, the passive polygon, the best passive gains and the CLI's answer.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// C_E0..2 in closed form, checked against (1) values from the model notes, (2) the independent
+// C_E0..2 in closed form, checked against (1) values from the paper's model (Hulin et al. 2011), (2) the independent
 // time-stepping method converging as its step shrinks, (3) the same algorithm in long double
 // (rounding error), and for continuity in a fractional delay.
 #include <gtest/gtest.h>
@@ -18,7 +18,7 @@ namespace {
 double ce(const EnergyCosts& c, int p) { return p == 0 ? c.ce0 : p == 1 ? c.ce1 : c.ce2; }
 
 TEST(EnergyCosts, ReproduceValuesVerifiedInTheModelNotes) {
-  // ../shared/notes/model.md: C_E0(0.3220, 0.9800; d=0) = 2.58260..., C_E2(0.0582, 0.3796; d=1) = 87.432...
+  // The paper's values (docs/accuracy.md): C_E0(0.3220, 0.9800; d=0) = 2.58260..., C_E2(0.0582, 0.3796; d=1) = 87.432...
   EXPECT_NEAR(energy_costs(NormalizedPlant{0, 0, 0}, {0.3220, 0.9800}).ce0, 2.58260, 1e-5);
   EXPECT_NEAR(energy_costs(NormalizedPlant{0, 0, 1}, {0.0582, 0.3796}).ce2, 87.432, 1e-3);
 }

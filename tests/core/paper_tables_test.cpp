@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Every row of Tables III and IV (tests/data/paper_tables.csv, transcribed as printed).
 //
-// Tolerances, from ../shared/notes/model.md (the facts verified against the tables):
+// Tolerances (the facts checked against the tables: docs/methods.md):
 //  - alpha, beta, cost: one unit in the last printed digit. The paper's own optimiser is good to
 //    about one unit (an exact computation lands within one unit, sometimes across a rounding
 //    boundary), so half a unit would test the paper's optimiser, not ours.

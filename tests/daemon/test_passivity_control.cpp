@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Issue 15: the passivity controller (scene/passivity_controller.hpp) on the simulated device through the
+// The passivity controller (scene/passivity_controller.hpp) on the simulated device through the
 // real daemon tick (lockstep): a bilateral wall beyond alpha_max diverges without it and stays bounded with
 // it, for d = 0, 1, 3 (delay buffer); the energy bound W_j >= -(S_j + E_j) holds at every tick; no NaN at
 // v = 0; non-finite input zeroes the force and is counted.

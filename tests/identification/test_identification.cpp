@@ -2,7 +2,7 @@
 // Identification of the device at start-up: estimation (identification.hpp), excitation safety, tuning
 // from the estimates and the identification file (identification_run.hpp), and hapticd --identify.
 //
-// Tolerances (issue 9) and why:
+// Tolerances and why:
 //  * mass within 1 %, damping within 5 %, delay: whole part exact and |d_hat - d| <= 0.1 period — the
 //    issue's requirements, checked on the simulated device with measurement noise 2 um (1e-5 rad rotary)
 //    AND encoder quantisation of the same size switched on, for several plants and 5 noise seeds each.
@@ -429,8 +429,8 @@ TEST(HapticdIdentify, WritesReusesAndWarnsOnChange) {
     EXPECT_EQ(s["identified"]["source"], "file");
     EXPECT_EQ(s["K"].get<double>(), K_first);
 
-    // --robust after an identification: the box is the identified values +- 3 standard errors (issue 9,
-    // item 2); its bounds are checked against the identified values in the file (relative 1e-12: the same
+    // --robust after an identification: the box is the identified values +- 3 standard errors;
+    // its bounds are checked against the identified values in the file (relative 1e-12: the same
     // doubles, one multiply-add).
     args = common;
     args.insert(args.end(), {"--robust", "--dry-run"});

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Numerical stress tests of the analysis library's public API (issue 6, item 2): random and
+// Numerical stress tests of the analysis library's public API: random and
 // adversarial parameter sets over (alpha, beta, gamma, delta, d), checked against an independent
 // long double model of the loop. See docs/stress-and-fuzz.md for what is asserted and why.
 //
@@ -7,7 +7,7 @@
 // full run is HAPTICOPT_STRESS_SETS=1000000). Seed: HAPTICOPT_STRESS_SEED (default 20110925).
 //
 // The independent check shares no code with the library: the loop matrix M is built here from the
-// model notes (exact zero-order-hold discretisation by a long double Taylor series with scaling and
+// paper's model (exact zero-order-hold discretisation by a long double Taylor series with scaling and
 // squaring, two segments for a fractional delay) and its spectral radius rho is computed by
 // Eigen's EigenSolver in long double.
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Stability and the step/collision criteria at a point, and vectorised over numpy arrays.
 
-Model (normalised, m = T = 1; model notes and Hulin et al. 2011): plant x'' + delta x' + gamma x =
+Model (normalised, m = T = 1; Hulin et al. 2011): plant x'' + delta x' + gamma x =
 F - f_w, wall f_j = alpha x_j + beta (x_j - x_{j-1}) behind a zero-order hold and the delay d;
 unit step F = 1 from rest, x_inf = 1/(alpha + gamma).
 

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Optimal curves and optimal points of every criterion; robust and passive optima.
 
-Definitions (model notes; optimum.hpp, impulse_optimum.hpp): optimal curve of C: beta_opt(alpha) =
+Definitions (Hulin et al. 2011; optimum.hpp, impulse_optimum.hpp): optimal curve of C: beta_opt(alpha) =
 argmin over the stable beta interval of C(alpha, beta). CEx / CIx point: the global minimum over the
 exact stable region. amax: the region's tip. OV: the largest alpha for which some beta gives
 C_OV <= tol, with the beta of least overshoot just beyond. CEx+OV: the largest alpha on the C_Ex
