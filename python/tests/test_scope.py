@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import shutil
 import signal
 import socket
 import struct
@@ -173,6 +174,25 @@ def test_frames_go_to_a_directory_every_F_seconds(resting_on_a_plane, tmp_path):
     assert 2 <= len(names) <= 4, names
     assert names == [f"frame-{k:06d}.png" for k in range(len(names))]
     assert all(png_size(frames / n) == (400, 300) for n in names)
+
+
+XVFB_RUN = shutil.which("xvfb-run")
+
+
+@needs_daemon
+@pytest.mark.skipif(XVFB_RUN is None, reason="no xvfb-run (Debian package xvfb): the window mode needs an X display")
+def test_the_window_mode_runs_on_an_X_display(resting_on_a_plane, tmp_path):
+    """The window (matplotlib's default interactive backend, TkAgg on Debian) on a virtual X display, closed
+    by --duration; its last frame's samples as in the headless mode."""
+    env = {k: v for k, v in SCOPE_ENV.items() if k != "MPLBACKEND"}
+    npz = tmp_path / "window.npz"
+    result = subprocess.run([XVFB_RUN, "-a", sys.executable, "-m", "hapticd_client.scope", "--shm",
+                             resting_on_a_plane["shm"], "--duration", "1", "--rate", "5", "--data", str(npz)],
+                            capture_output=True, text=True, env=env, timeout=60)
+    assert result.returncode == 0, result.stderr
+    data = np.load(npz)
+    assert len(data["tick"]) >= 50 and np.all(np.diff(data["tick"].astype(np.int64)) > 0)
+    assert list(data["object_ids"]) == [resting_on_a_plane["wall"]] and data["in_contact"].all()
 
 
 def test_the_frame_plots_the_samples_it_is_given():
