@@ -57,11 +57,7 @@ AXIS_NAMES = ("x", "y", "z")
 FILE_SUFFIXES = (".png", ".svg", ".pdf")
 
 
-class UsageError(Exception):
-    """A bad option: the message names it and the accepted range."""
-
-
-def _positive(name: str, low: float, high: float, integer: bool = False):
+def _number_in(name: str, low: float, high: float, integer: bool = False):
     """An argparse type: a finite number in [low, high] (exclusive of 0 when low is 0)."""
     def parse(text: str):
         try:
@@ -76,6 +72,7 @@ def _positive(name: str, low: float, high: float, integer: bool = False):
 
 
 def _size(text: str) -> Tuple[int, int]:
+    """An argparse type: WIDTHxHEIGHT in pixels, each in [200, 8000]."""
     parts = text.lower().split("x")
     try:
         w, h = (int(p) for p in parts)
@@ -99,27 +96,27 @@ def build_parser() -> argparse.ArgumentParser:
     src.add_argument("--socket", metavar="PATH",
                      help="control socket, used only to learn the state's name (default $HAPTICD_SOCKET, then hapticd's)")
     view = p.add_argument_group("view")
-    view.add_argument("--window", type=_positive("--window", 0, 600.0), default=5.0, metavar="S",
+    view.add_argument("--window", type=_number_in("--window", 0, 600.0), default=5.0, metavar="S",
                       help="seconds shown, (0, 600] (default 5)")
-    view.add_argument("--rate", type=_positive("--rate", 0, 60.0), default=20.0, metavar="HZ",
+    view.add_argument("--rate", type=_number_in("--rate", 0, 60.0), default=20.0, metavar="HZ",
                       help="frames per second in a window, (0, 60] (default 20)")
-    view.add_argument("--sample-rate", type=_positive("--sample-rate", 0, 5000.0), default=1000.0, metavar="HZ",
+    view.add_argument("--sample-rate", type=_number_in("--sample-rate", 0, 5000.0), default=1000.0, metavar="HZ",
                       help="state reads per second, (0, 5000] (default 1000)")
     view.add_argument("--size", type=_size, default=(1280, 800), metavar="WxH",
                       help="figure size in pixels, each in [200, 8000] (default 1280x800)")
-    view.add_argument("--dpi", type=_positive("--dpi", 20, 600, integer=True), default=100,
+    view.add_argument("--dpi", type=_number_in("--dpi", 20, 600, integer=True), default=100,
                       help="dots per inch of the figure, [20, 600] (default 100)")
     out = p.add_argument_group("headless (no display needed)")
     out.add_argument("--out", metavar="DIR|FILE.png",
                      help="write frames instead of a window: a file ending in .png/.svg/.pdf holds the latest frame; "
                           "anything else is a directory that gets frame-NNNNNN.png")
-    out.add_argument("--every", type=_positive("--every", 0.05, 3600.0), default=1.0, metavar="F",
+    out.add_argument("--every", type=_number_in("--every", 0.05, 3600.0), default=1.0, metavar="F",
                      help="with --out: a frame every F seconds, [0.05, 3600] (default 1), and one at the end")
     out.add_argument("--data", metavar="FILE.npz",
                      help="at the end, write the samples of the last frame (numpy .npz; docs/scope.md lists the arrays)")
-    out.add_argument("--duration", type=_positive("--duration", 0, 1e9), default=None, metavar="S",
+    out.add_argument("--duration", type=_number_in("--duration", 0, 1e9), default=None, metavar="S",
                      help="stop after S seconds (default: until Ctrl-C, SIGTERM or the window is closed)")
-    out.add_argument("--stall-timeout", type=_positive("--stall-timeout", 0, 3600.0), default=2.0, metavar="S",
+    out.add_argument("--stall-timeout", type=_number_in("--stall-timeout", 0, 3600.0), default=2.0, metavar="S",
                      help="exit 9 when the tick has not advanced for S seconds (default 2); a window only says so")
     return p
 
