@@ -194,7 +194,8 @@ struct StateSample {
     Vec3 position{};
     Vec3 velocity{};
     Vec3 force{};
-    std::uint64_t contact_mask = 0;
+    std::uint64_t contact_mask = 0;         // bit s: the client object in slot s is in contact
+    std::uint64_t config_contact_mask = 0;  // bit i: the config wall with object id i + 1 is in contact
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
     std::uint64_t last_commit_seq = 0;  // every batch up to this commit_seq is applied
@@ -208,6 +209,18 @@ struct StateSample {
     bool stale = false;
     double heartbeat_age_s = 0.0;  // s; -1: never written
     std::uint32_t fatal_signal = 0;
+
+    // The ids of the objects in contact: the config walls' (ascending), then the client objects' in slot order.
+    [[nodiscard]] std::vector<std::uint32_t> contacts() const {
+        std::vector<std::uint32_t> ids;
+        for (std::uint32_t i = 0; i < 64; ++i) {
+            if ((config_contact_mask >> i & 1U) != 0U) ids.push_back(i + 1);
+        }
+        for (std::size_t slot = 0; slot < slot_object_id.size(); ++slot) {
+            if ((contact_mask >> slot & 1U) != 0U && slot_object_id[slot] != 0) ids.push_back(slot_object_id[slot]);
+        }
+        return ids;
+    }
 };
 
 // An unsolicited message of the server (docs/protocol.md, section 3, "Events"): {"type":"event","code":...}

@@ -251,6 +251,28 @@ def test_the_shared_memory_state_advances_and_shows_applied_commits(paced_daemon
         c.bye()
 
 
+@pytest.fixture(scope="module")
+def config_contact_daemon(tmp_path_factory):
+    """The paced daemon with a second config wall (id 2) solid below x = 2 cm: the handle (the hand at rest at
+    x = -5 mm, settling at +10 mm) is behind its surface from the first tick; the wall at 5 cm (id 1) is not."""
+    yield from _served_daemon(tmp_path_factory, "hapticd_config_contact",
+                              ["--wall", "axis=0 position=0.02 direction=-1", "--rt-priority", "0",
+                               "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000"])
+
+
+def test_config_walls_in_contact_are_in_the_state(config_contact_daemon):
+    daemon = config_contact_daemon
+    with connect(daemon) as c, hc.StateReader(c.welcome["state_shm"]) as state:
+        assert [o["id"] for o in c.list()] == [1, 2]
+        assert wait_until(lambda: state.read().tick > 0)
+        s = state.read()
+        assert s.config_contact_mask == 0b10 and s.contacts() == [2], (s.config_contact_mask, s.contacts())
+        c.subscribe(100.0)
+        m = c.next_state(5.0)
+        assert m is not None and m["contact"] == [2] and m["config_contact_mask"] == 2, m
+        c.bye()
+
+
 def test_the_socket_subscription_delivers_state_messages(daemon):
     with connect(daemon) as c:
         c.subscribe(100.0)

@@ -98,6 +98,17 @@ StateSample state_from_json(const json& j) {
     s.objects = j.value("objects", std::uint32_t{0});
     s.dropped = j.value("dropped", std::uint64_t{0});
     s.contact_mask = j.value("contact_mask", std::uint64_t{0});
+    s.config_contact_mask = j.value("config_contact_mask", std::uint64_t{0});
+    // `contact` lists the config walls in contact, then the slots' objects in slot order (docs/protocol.md,
+    // section 6): the latter are the ids of contact_mask's set bits, in order.
+    const json contact = j.value("contact", json::array());
+    std::size_t k = static_cast<std::size_t>(__builtin_popcountll(s.config_contact_mask));
+    for (std::size_t slot = 0; slot < kStateObjectCapacity && contact.is_array(); ++slot) {
+        if ((s.contact_mask >> slot & 1U) == 0U) continue;
+        if (k >= contact.size() || !contact[k].is_number_unsigned()) break;
+        s.slot_object_id[slot] = contact[k].get<std::uint32_t>();
+        ++k;
+    }
     return s;
 }
 

@@ -629,6 +629,9 @@ void SceneObjects::step_ramps() noexcept {
             const double r = slot.fading.start - static_cast<double>(++slot.fading.steps) * ramp_step_;
             slot.fading.ramp = r > 0.0 ? r : 0.0;
             slot.fading.active = r > 0.0;
+            // A slot emptied by this step has no object to be in contact with: the tick's flag goes with it
+            // (the state publishes the slot table after this step).
+            if (!slot.fading.active && !slot.current.active) contact_mask_ &= ~(std::uint64_t{1} << s);
         }
     }
     scene_changed_ = true;

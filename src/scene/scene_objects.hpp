@@ -198,6 +198,8 @@ public:
     // Forget the last applied total (after a zero-force tick the next may start from zero again).
     void reset_rate_limit() noexcept { previous_total_ = AxisVector{}; }
 
+    // Bit s: the object in slot s is in contact (its surface's flag at the last add_forces()); only occupied
+    // slots' bits are set (a slot whose ramp-out ended in that tick has none).
     [[nodiscard]] std::uint64_t contact_mask() const noexcept { return contact_mask_; }
     [[nodiscard]] std::uint32_t slot_object_id(std::size_t slot) const noexcept;
     [[nodiscard]] double slot_ramp(std::size_t slot) const noexcept;

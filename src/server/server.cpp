@@ -994,15 +994,19 @@ struct Server::Impl {
             s.next_state += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.rate_hz));
             if (s.next_state < now) s.next_state = now;  // never send bursts to catch up
             json contact = json::array();
+            for (std::uint32_t i = 0; i < 64; ++i) {
+                if ((snapshot.config_contact_mask >> i) & 1U) contact.push_back(i + 1);  // config wall ids 1 .. n
+            }
             for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
-                if ((snapshot.contact_mask >> i) & 1U) contact.push_back(snapshot.slot_object_id[i]);
+                if (((snapshot.contact_mask >> i) & 1U) != 0U && snapshot.slot_object_id[i] != 0) contact.push_back(snapshot.slot_object_id[i]);
             }
             const std::string text =
                 json{{"type", "state"}, {"tick", snapshot.tick}, {"time_s", snapshot.time_s},
                      {"position", json::array({snapshot.position[0], snapshot.position[1], snapshot.position[2]})},
                      {"velocity", json::array({snapshot.velocity[0], snapshot.velocity[1], snapshot.velocity[2]})},
                      {"force", json::array({snapshot.force[0], snapshot.force[1], snapshot.force[2]})},
-                     {"contact", contact}, {"contact_mask", snapshot.contact_mask}, {"overruns", snapshot.overruns},
+                     {"contact", contact}, {"contact_mask", snapshot.contact_mask},
+                     {"config_contact_mask", snapshot.config_contact_mask}, {"overruns", snapshot.overruns},
                      {"wake_latency_ns", snapshot.wake_latency_ns}, {"last_commit_seq", snapshot.last_commit_seq},
                      {"objects", snapshot.objects}, {"fault", fault_name(snapshot.fault)}, {"dropped", s.dropped}}
                     .dump();

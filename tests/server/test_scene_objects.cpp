@@ -129,6 +129,36 @@ TEST(SceneObjects, RampInAndOutAreLinearAndTheSlotIsFreedAfterwards) {
     EXPECT_EQ(rig.objects.occupied(), 0U);
 }
 
+// The contact flags name occupied slots only: through a field's ramp-out (the handle inside it all along)
+// its flag is set while its slot holds it and cleared in the tick its ramp reaches zero and frees the slot,
+// so a state published after that tick never shows a contact without an object (id 0).
+TEST(SceneObjects, ARampedOutObjectLeavesNoContactFlagBehind) {
+    Rig rig(0.010);
+    ObjectParams field;
+    field.id = 9;
+    field.kind = ObjectKind::Field;
+    field.radius = 1.0;
+    field.force = {1.0, 0, 0};
+    rig.commit({{6, SlotUpdate::Action::Set, field}});
+    for (int k = 0; k <= 12; ++k) rig.tick({0, 0, 0});
+    EXPECT_EQ(rig.objects.contact_mask(), std::uint64_t{1} << 6);
+    rig.commit({{6, SlotUpdate::Action::Remove, field}}, 2);
+    int ticks_with_flag = 0;
+    for (int k = 0; k < 15; ++k) {
+        rig.tick({0, 0, 0});
+        const std::uint64_t mask = rig.objects.contact_mask();
+        for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
+            if ((mask >> s & 1U) != 0U) {
+                EXPECT_NE(rig.objects.slot_object_id(s), 0U) << "tick " << k << " slot " << s;
+            }
+        }
+        ticks_with_flag += mask != 0 ? 1 : 0;
+    }
+    EXPECT_EQ(rig.objects.slot_object_id(6), 0U);
+    // Ramp-out of 10 ticks: r = 1 - 0.1 k renders k = 0 .. 9; the slot is freed at the end of tick 9.
+    EXPECT_EQ(ticks_with_flag, 9);
+}
+
 // A departure with no stable ramp-out (docs/protocol.md, section 5, step 4): Cut removes the object at
 // once, with no intermediate scene (a Remove would render 9 more ticks of ramp-out here); rendered_gains
 // reports the spring's gains before and nothing after. Like every batch that changes gains it waits for the
