@@ -81,7 +81,7 @@ private:
 struct Gains {
     std::optional<double> K;
     std::optional<double> B;
-    std::string criterion;  // "CE0" .. "CE2+OV"; empty with K, B
+    std::string criterion;  // hapticopt's: "amax", "OV", "CE0" .. "CE2+OV"; empty with K, B
     static Gains explicit_gains(double stiffness, double damping) { return Gains{stiffness, damping, {}}; }
     static Gains by_criterion(std::string name) { return Gains{std::nullopt, std::nullopt, std::move(name)}; }
 };

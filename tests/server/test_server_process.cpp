@@ -192,6 +192,60 @@ TEST(ServerProcess, APairStableForTheMeanMassButNotForTheNormalsMassIsRefused) {
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
 
+// Every criterion hapticopt knows (hapticopt::kAllCriteria) is a criterion of the protocol, sent as raw JSON:
+// each but amax is accepted with hapticopt::optimal_wall's gains for the profile's plant (the same
+// computation: equal to rounding); amax, the stability region's tip, on its boundary, is refused as
+// unstable_gains naming the criterion (never unknown_criterion); an unknown name's refusal lists all eight.
+TEST(ServerProcess, EveryHapticoptCriterionIsAProtocolCriterion) {
+    const Names n = names("allcrit");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}), "allcrit_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    const double delay = c.welcome().device.delay_s;
+    const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+    RawConnection raw(n.socket);
+    raw.hello();
+    int id = 10;
+    for (const hapticopt::Criterion criterion : hapticopt::kAllCriteria) {
+        const std::string name(hapticopt::to_string(criterion));
+        raw.send(json{{"type", "commit"}, {"id", ++id},
+                      {"ops", json::array({{{"op", "add"}, {"object", {{"kind", "plane"}, {"normal", {0, 0, -1}}, {"offset", -0.05},
+                                                                        {"gains", {{"criterion", name}}}}}}})}}
+                     .dump());
+        const json r = raw.receive_json();
+        if (criterion == hapticopt::Criterion::AlphaMax) {
+            EXPECT_EQ(r.value("code", ""), "unstable_gains") << r.dump();
+            EXPECT_NE(r.value("message", "").find("criterion amax: the tip of the stability region"), std::string::npos) << r.dump();
+            continue;
+        }
+        ASSERT_EQ(r.value("type", ""), "ok") << name << ": " << r.dump();
+        const std::uint32_t object = r["object_ids"][0].get<std::uint32_t>();
+        const hapticopt::WallTuning t = hapticopt::optimal_wall(criterion, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, delay});
+        bool found = false;
+        for (const auto& o : c.list()) {
+            if (o.id != object) continue;
+            found = true;
+            EXPECT_NEAR(o.K, t.K, 1e-12 * t.K) << name;
+            EXPECT_NEAR(o.B, t.B, 1e-12 * t.B) << name;
+        }
+        EXPECT_TRUE(found) << name;
+        raw.send(json{{"type", "commit"}, {"id", ++id}, {"ops", json::array({{{"op", "remove"}, {"object_id", object}}})}}.dump());
+        const json removed = raw.receive_json();
+        ASSERT_EQ(removed.value("type", ""), "ok") << removed.dump();
+        // The next plane is added alone: wait for this one's ramp-out to free its slot.
+        ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) {
+            return s.last_commit_seq >= removed.value("commit_seq", std::uint64_t{0}) && s.objects == 0;
+        }, 5.0)) << name;
+    }
+    raw.send(R"({"type":"commit","id":99,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
+    const json unknown = raw.receive_json();
+    EXPECT_EQ(unknown.value("code", ""), "unknown_criterion") << unknown.dump();
+    EXPECT_NE(unknown.value("message", "").find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"), std::string::npos)
+        << unknown.dump();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
 // A criterion object gets the library's optimal gains for the profile's plant and the total delay
 // (--delay-buffer 1: d = 1); an unstable explicit pair is refused naming the largest stable K, which is
 // checked independently with hapticopt::is_stable just below and just above it; nothing changes in the loop.
