@@ -21,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -63,18 +64,24 @@ enum class ErrorCode {
 class Error : public std::runtime_error {
 public:
     Error(ErrorCode code, const std::string& message, int op_index = -1,
-          std::optional<double> largest_stable_K = std::nullopt)
-        : std::runtime_error(message), code_(code), op_index_(op_index), largest_stable_K_(largest_stable_K) {}
+          std::optional<double> largest_stable_K = std::nullopt,
+          std::optional<std::pair<double, double>> damping_needed = std::nullopt)
+        : std::runtime_error(message), code_(code), op_index_(op_index), largest_stable_K_(largest_stable_K),
+          damping_needed_(damping_needed) {}
     [[nodiscard]] ErrorCode code() const noexcept { return code_; }
     // The failing operation of a commit (-1: the summed-gain check or not a commit).
     [[nodiscard]] int op_index() const noexcept { return op_index_; }
     // unstable_gains: the largest stable stiffness at the object's damping, N/m.
     [[nodiscard]] std::optional<double> largest_stable_K() const noexcept { return largest_stable_K_; }
+    // unstable_gains: the open interval (B_min, B_max) of damping, N s/m, that makes the object's K stable
+    // (the reply's damping_needed); none when no B does.
+    [[nodiscard]] std::optional<std::pair<double, double>> damping_needed() const noexcept { return damping_needed_; }
 
 private:
     ErrorCode code_;
     int op_index_;
     std::optional<double> largest_stable_K_;
+    std::optional<std::pair<double, double>> damping_needed_;
 };
 
 // Gains of an object: explicit (K in N/m, B in N s/m; checked) or by criterion (the daemon's optimum).

@@ -208,6 +208,25 @@ def test_unstable_explicit_gains_are_refused_and_the_largest_stable_K_is_accepte
         c.bye()
 
 
+def test_too_little_damping_is_refused_naming_the_damping_needed(daemon):
+    """K = 2000 N/m with B = 0 is refused with damping_needed (B_min, B_max), the B the daemon accepts for
+    that K alone. The device has one axis: the config wall (K = 100, B = 1) adds to the plane in the summed
+    check and moves the ends a little, so the ends themselves are tested in C++ (tests/server, a plane
+    orthogonal to the config wall); here: the middle of the interval is accepted, half of B_min refused."""
+    with connect(daemon) as c:
+        with pytest.raises(hc.HapticdError) as e:
+            c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0))
+        assert e.value.code == "unstable_gains"
+        needed = e.value.damping_needed
+        assert needed is not None and 0.0 < needed[0] < needed[1], e.value.reply
+        assert "K = 2000 N/m is stable for" in str(e.value)
+        with pytest.raises(hc.HapticdError):
+            c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0.5 * needed[0]))
+        ok = c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0.5 * (needed[0] + needed[1])))
+        assert ok in object_ids(daemon)
+        c.bye()
+
+
 def test_a_batch_is_all_or_nothing(daemon):
     before = object_ids(daemon)
     with connect(daemon) as c:

@@ -52,7 +52,12 @@ Error error_from_reply(const std::string& function, const json& reply) {
     if (reply.contains("largest_stable_K") && reply["largest_stable_K"].is_number()) {
         largest = reply["largest_stable_K"].get<double>();
     }
-    return Error(error_code_from_string(code), function + ": " + code + ": " + message, op_index, largest);
+    std::optional<std::pair<double, double>> damping;
+    const auto d = reply.find("damping_needed");
+    if (d != reply.end() && d->is_array() && d->size() == 2 && (*d)[0].is_number() && (*d)[1].is_number()) {
+        damping = std::make_pair((*d)[0].get<double>(), (*d)[1].get<double>());
+    }
+    return Error(error_code_from_string(code), function + ": " + code + ": " + message, op_index, largest, damping);
 }
 
 Vec3 vec3(const json& j) {

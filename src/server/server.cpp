@@ -94,6 +94,7 @@ struct Refusal {
     std::string code;
     std::string message;
     std::optional<double> largest_stable_K;
+    std::optional<std::pair<double, double>> damping_needed = std::nullopt;  // unstable_gains: the B (N s/m) interval for K
 };
 
 struct ServerSlot {
@@ -247,11 +248,13 @@ struct Server::Impl {
     }
 
     void send_error(Session& s, std::optional<std::uint64_t> id, const std::string& code, const std::string& message,
-                    int op_index = -1, std::optional<double> largest = std::nullopt) {
+                    int op_index = -1, std::optional<double> largest = std::nullopt,
+                    std::optional<std::pair<double, double>> damping = std::nullopt) {
         json e{{"type", "error"}, {"code", code}, {"message", message}};
         e["id"] = id ? json(*id) : json(nullptr);
         if (op_index >= -1 && code != "bad_json") e["op_index"] = op_index;
         if (largest) e["largest_stable_K"] = *largest;
+        if (damping) e["damping_needed"] = json::array({damping->first, damping->second});
         send_reply(s, e);
     }
 
@@ -472,8 +475,15 @@ struct Server::Impl {
                                ") are outside the stability region for " + along + ", " + g(v.mass) + " kg (device mass " +
                                checker.mass().describe() + "), period " + g(config.period) + " s, delay " + g(config.delay) +
                                " s; the largest stable K at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +
-                               " N/m (alpha_max = " + g(v.alpha_max) + ")",
-                           v.largest_stable_K};
+                               " N/m (alpha_max = " + g(v.alpha_max) + "); " +
+                               (v.damping_stable ? "K = " + g(K) + " N/m is stable for " + g(v.damping_stable->first) + " < B < " +
+                                                       g(v.damping_stable->second) + " N s/m" +
+                                                       (v.damping_needed ? ", accepted for " + g(v.damping_needed->first) + " < B < " +
+                                                                               g(v.damping_needed->second) + " N s/m (damping_needed; the spectral radius "
+                                                                               "below 1 - 1e-6)"
+                                                                         : " but never 1e-6 below a spectral radius of 1, which the daemon requires")
+                                                 : "no B makes K = " + g(K) + " N/m stable with " + along),
+                           v.largest_stable_K, v.damping_needed};
         }
         return std::nullopt;
     }
@@ -624,12 +634,13 @@ struct Server::Impl {
         std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates{};
         std::vector<std::uint32_t> new_ids;
         std::uint32_t next_id = next_object_id;
-        auto refuse = [&](const std::string& code, const std::string& message, int op, std::optional<double> largest = std::nullopt) {
+        auto refuse = [&](const std::string& code, const std::string& message, int op, std::optional<double> largest = std::nullopt,
+                          std::optional<std::pair<double, double>> damping = std::nullopt) {
             {
                 std::lock_guard<std::mutex> lock(counters_mutex);
                 ++counters.commits_refused;
             }
-            send_error(s, id, code, "commit: ops[" + std::to_string(op) + "]: " + message, op, largest);
+            send_error(s, id, code, "commit: ops[" + std::to_string(op) + "]: " + message, op, largest, damping);
         };
         auto find_slot = [&](std::uint32_t object_id) -> int {
             for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
@@ -676,7 +687,7 @@ struct Server::Impl {
                 case server::CommitOperation::Kind::Add: {
                     Resolved r;
                     if (auto refusal = resolve(*op.object, r)) {
-                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K);
+                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K, refusal->damping_needed);
                         return;
                     }
                     int free_slot = -1;
@@ -715,7 +726,7 @@ struct Server::Impl {
                     if (!owned_slot(op.object_id, op_index, slot)) return;
                     Resolved r;
                     if (auto refusal = resolve(*op.object, r)) {
-                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K);
+                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K, refusal->damping_needed);
                         return;
                     }
                     ServerSlot& ss = proposal[static_cast<std::size_t>(slot)];

@@ -384,6 +384,46 @@ TEST(GainChecker, PairVerdictIsHapticoptsAndTheLargestStableKBracketsTheBoundary
     }
 }
 
+// The damping interval for a stiffness (GainChecker::damping_range) against a brute-force scan of the
+// loop's spectral radius (eigenvalues of the closed loop's transition matrix, hapticopt::stability, an
+// independent computation from the region's D-decomposition): on 4000 B from 0 to 1.25 B_max, rho < 1
+// exactly at the B strictly inside (B_min, B_max), away from the ends by 1e-6 B_max (the eigenvalues' and
+// the bisection's errors are ~1e-12; near an end rho - 1 is of the order of the distance to it). Delays
+// d = 0, 1, 3 periods, stiffnesses from 1 % to 90 % of alpha_max. A stiffness beyond alpha_max has none;
+// a line spring's two masses get the intersection.
+TEST(GainChecker, TheDampingRangeIsTheStableIntervalOfTheSpectralRadius) {
+    for (const int d : {0, 1, 3}) {
+        GainChecker checker(plant(d * kT));
+        const hapticopt::NormalizedPlant np{0.0, 0.0, static_cast<double>(d)};
+        const double alpha_max = hapticopt::StabilityRegion(np).alpha_max();
+        for (const double fraction : {0.01, 0.3, 0.9}) {
+            const double K = fraction * alpha_max * 0.3 / (kT * kT);
+            const auto range = checker.damping_range(K, {0.3});
+            ASSERT_TRUE(range.has_value()) << d << " " << fraction;
+            const auto [lo, hi] = *range;
+            ASSERT_LT(0.0, lo);
+            ASSERT_LT(lo, hi);
+            int stable_points = 0;
+            for (int i = 0; i <= 4000; ++i) {
+                const double B = 1.25 * hi * i / 4000.0;
+                if (std::abs(B - lo) < 1e-6 * hi || std::abs(B - hi) < 1e-6 * hi) continue;
+                const hapticopt::StabilityReport r = hapticopt::stability(np, {K * kT * kT / 0.3, B * kT / 0.3});
+                EXPECT_EQ(r.spectral_radius < 1.0, lo < B && B < hi) << "d " << d << " K " << K << " B " << B << " rho " << r.spectral_radius;
+                stable_points += r.spectral_radius < 1.0 ? 1 : 0;
+            }
+            EXPECT_GT(stable_points, 0);
+        }
+        EXPECT_FALSE(checker.damping_range(1.01 * alpha_max * 0.3 / (kT * kT), {0.3}).has_value());
+    }
+    GainChecker checker(plant(kT));
+    const double K = 2e4;
+    const auto light = checker.damping_range(K, {0.3}), heavy = checker.damping_range(K, {0.6});
+    const auto both = checker.damping_range(K, {0.3, 0.6});
+    ASSERT_TRUE(light && heavy && both);
+    EXPECT_EQ(both->first, std::max(light->first, heavy->first));
+    EXPECT_EQ(both->second, std::min(light->second, heavy->second));
+}
+
 Matrix3 outer(const std::array<double, 3>& u, double s) {
     Matrix3 m{};
     for (std::size_t i = 0; i < 3; ++i) {

@@ -246,6 +246,68 @@ TEST(ServerProcess, EveryHapticoptCriterionIsAProtocolCriterion) {
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
 
+// A refusal for too little (or too much) damping names the dampings that make the asked K stable: the
+// reply's damping_needed [B_min, B_max] (the B the daemon accepts: spectral radius below 1 - 1e-6, the
+// summed check's margin) and the message (that and the exact stable interval). With a delay
+// (--delay-buffer 1, d = 1) for K = 2000 N/m and B = 0 ("the largest stable K at B = 0 is 0") and
+// K = 40 000 N/m with B = 1: a plane with B = B_min (1 + 1e-4) or B_max (1 - 1e-4) is accepted, with
+// B_min (1 - 1e-4) or B_max (1 + 1e-4) refused. The ends are bisected to ~1e-16 in beta on the spectral
+// radius, whose eigenvalue error is ~1e-12; 1e-4 of B moves the radius by ~5e-7 (measured with the
+// exact ends: B_min (1 + 1e-4) gave 0.9999994953 for K = 40 000), far above both.
+TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
+    const Names n = names("damping");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}), "damping_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    auto plane = [](double K, double B) {
+        return cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)});
+    };
+    for (const auto& [K, B] : {std::pair{2000.0, 0.0}, std::pair{40000.0, 1.0}}) {
+        std::optional<std::pair<double, double>> needed;
+        RawConnection raw(n.socket);
+        raw.hello();
+        raw.send(json{{"type", "commit"}, {"id", 1},
+                      {"ops", json::array({{{"op", "add"}, {"object", {{"kind", "plane"}, {"normal", {0, 0, -1}}, {"offset", -0.05},
+                                                                        {"gains", {{"K", K}, {"B", B}}}}}}})}}
+                     .dump());
+        const json r = raw.receive_json();
+        ASSERT_EQ(r.value("code", ""), "unstable_gains") << r.dump();
+        ASSERT_TRUE(r.contains("damping_needed") && r["damping_needed"].is_array() && r["damping_needed"].size() == 2) << r.dump();
+        const double lo = r["damping_needed"][0].get<double>(), hi = r["damping_needed"][1].get<double>();
+        EXPECT_NE(r.value("message", "").find(" is stable for "), std::string::npos) << r.dump();
+        EXPECT_NE(r.value("message", "").find(" (damping_needed;"), std::string::npos) << r.dump();
+        try {
+            c.commit(plane(K, B));
+            ADD_FAILURE() << "K " << K << " B " << B << " was accepted";
+        } catch (const cl::Error& e) {
+            EXPECT_EQ(e.code(), cl::ErrorCode::UnstableGains) << e.what();
+            needed = e.damping_needed();
+        }
+        ASSERT_TRUE(needed.has_value());
+        EXPECT_EQ(needed->first, lo);
+        EXPECT_EQ(needed->second, hi);
+        ASSERT_LT(B, lo);
+        for (const double inside : {lo * (1 + 1e-4), hi * (1 - 1e-4)}) {
+            const auto ok = c.commit(plane(K, inside));
+            ASSERT_EQ(ok.object_ids.size(), 1U) << "K " << K << " B " << inside;
+            c.commit(cl::Batch().remove(ok.object_ids[0]));
+            const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+            ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; }, 5.0));
+        }
+        for (const double outside : {lo * (1 - 1e-4), hi * (1 + 1e-4)}) {
+            try {
+                c.commit(plane(K, outside));
+                ADD_FAILURE() << "K " << K << " B " << outside << " was accepted";
+            } catch (const cl::Error& e) {
+                // Inside the stability region, within the margin: the summed check's refusal.
+                EXPECT_TRUE(e.code() == cl::ErrorCode::UnstableGains || e.code() == cl::ErrorCode::UnstableSum) << e.what();
+            }
+        }
+    }
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
 // A criterion object gets the library's optimal gains for the profile's plant and the total delay
 // (--delay-buffer 1: d = 1); an unstable explicit pair is refused naming the largest stable K, which is
 // checked independently with hapticopt::is_stable just below and just above it; nothing changes in the loop.
