@@ -245,6 +245,16 @@ struct Event {
 // Events a Client keeps until the application takes them (ConnectOptions::event_queue_capacity).
 inline constexpr std::size_t kDefaultEventQueueCapacity = 256;
 
+// How commit() retries a `busy` reply (the hand-over queue to the loop is full; docs/protocol.md, section
+// 8): up to `tries` attempts in all, sleeping initial_delay_s before the second and doubling up to
+// max_delay_s (defaults: 8 tries, 1, 2, 4, 8, 16, 32, 50 ms: 113 ms of waiting at most). tries = 1: no
+// retry. After the last try commit() throws Error(Busy) saying how many tries and how long they took.
+struct BusyRetry {
+    int tries = 8;                 // 1 .. 1000
+    double initial_delay_s = 1e-3; // 0 .. 10 s
+    double max_delay_s = 0.05;     // initial_delay_s .. 10 s
+};
+
 struct ConnectOptions {
     std::string socket_path;       // empty: default_socket_path()
     std::string client_name = "hapticd-client";
@@ -253,6 +263,7 @@ struct ConnectOptions {
     double timeout_s = 5.0;        // for each reply
     // Events kept until poll_event() / next_event() takes them; more are dropped (counted: events_dropped()).
     std::size_t event_queue_capacity = kDefaultEventQueueCapacity;
+    BusyRetry busy_retry{};  // commit()'s retries of `busy`; checked by connect() (std::invalid_argument)
 };
 
 // $HAPTICD_SOCKET, else $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock.
@@ -272,7 +283,10 @@ public:
     [[nodiscard]] const Welcome& welcome() const noexcept { return welcome_; }
 
     std::uint64_t heartbeat();                  // returns the loop's tick
-    CommitResult commit(const Batch& batch);    // throws Error on refusal (nothing changed)
+    CommitResult commit(const Batch& batch);    // throws Error on refusal (nothing changed); retries busy (BusyRetry)
+    // Throws std::invalid_argument naming the field and its range.
+    void set_busy_retry(const BusyRetry& retry);
+    [[nodiscard]] const BusyRetry& busy_retry() const noexcept { return busy_retry_; }
     std::vector<ObjectInfo> list();
     Status status();
     void subscribe(double rate_hz);
@@ -312,6 +326,7 @@ private:
     std::deque<Event> events_;
     std::size_t event_capacity_ = kDefaultEventQueueCapacity;
     std::uint64_t events_dropped_ = 0;
+    BusyRetry busy_retry_{};
 };
 
 // Read-only view of the daemon's shared-memory state.

@@ -445,3 +445,71 @@ def test_a_dead_daemon_reads_stale_and_a_live_one_does_not(tmp_path):
                 os.unlink(hc.shm_path(shm))
             except FileNotFoundError:
                 pass
+
+
+@pytest.fixture(scope="module")
+def slow_ramp_daemon(tmp_path_factory):
+    """Paced (the ramps are real time), 1 s ramps and 64 batches in flight per session: the hand-over queue
+    to the loop (one batch ramping, 64 held, 64 in the ring) fills and drains one batch per second."""
+    yield from _served_daemon(tmp_path_factory, "hapticd_busy",
+                              ["--rt-priority", "0", "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000",
+                               "--ramp-time", "1", "--session-max-in-flight", "64"])
+
+
+def _fill_until_refused(c, offset):
+    """Adds a plane and changes its gains until the server answers busy or session_limit; the object id."""
+    oid = c.add(hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=100, B=5))
+    for i in range(200):
+        try:
+            c.modify(oid, hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=120 if i % 2 == 0 else 100, B=5))
+        except hc.HapticdError as e:
+            assert e.code in ("busy", "session_limit"), str(e)
+            return oid, e.code
+    raise AssertionError("200 batches in flight were accepted")
+
+
+def test_commit_retries_busy_with_a_bounded_back_off(slow_ramp_daemon):
+    """The tests/server TheClientRetriesBusyWithABoundedBackOff scene from Python: busy at once with no retry,
+    busy after 8 tries and at least their 113 ms of back-off (no upper bound: the machine may be loaded) with
+    the defaults, and accepted with 1000 tries once a filling session leaves (its departure applies every
+    batch sent before it at once). Bilateral planes (a unilateral one is checked in every engagement pattern, and 1000-tick ramps make that too
+    many scenes on one axis), 0-3 mm from the handle: soft springs (100-120 N/m each) the hand holds against."""
+    daemon = slow_ramp_daemon
+    fillers = [connect(daemon, busy_retry=(1, 1e-3, 0.05)) for _ in range(3)]
+    try:
+        filled = [_fill_until_refused(f, -0.001 * k) for k, f in enumerate(fillers)]
+        assert "busy" in [code for _, code in filled], filled
+        with connect(daemon, busy_retry=(1, 1e-3, 0.05)) as c, hc.StateReader(c.welcome["state_shm"]) as state:
+            seq = state.read().last_commit_seq
+            assert wait_until(lambda: state.read().last_commit_seq != seq, 5.0, 0.001), "a batch drains every second"
+            oid = filled[-1][0]
+            for i in range(4):  # the place that drained, filled again
+                try:
+                    fillers[-1].modify(oid, hc.plane(normal=(-1, 0, 0), offset=-0.002, bilateral=True, K=120 if i % 2 == 0 else 100, B=5))
+                except hc.HapticdError as e:
+                    assert e.code in ("busy", "session_limit"), str(e)
+                    break
+            wall = hc.plane(normal=(-1, 0, 0), offset=-0.003, bilateral=True, K=100, B=5)
+            with pytest.raises(hc.HapticdError) as e:
+                c.add(wall)
+            assert e.value.code == "busy" and "busy after 1 tries" in str(e.value)
+            c.set_busy_retry()
+            start = time.monotonic()
+            with pytest.raises(hc.HapticdError) as e:
+                c.add(wall)
+            assert e.value.code == "busy" and "busy after 8 tries" in str(e.value)
+            assert time.monotonic() - start >= 0.113
+            with pytest.raises(ValueError):
+                c.set_busy_retry(tries=0)
+            c.set_busy_retry(tries=1000)
+            import threading
+            leave = threading.Thread(target=lambda: (time.sleep(0.2), fillers[0].bye()))
+            leave.start()
+            try:
+                assert c.add(wall) > 0
+            finally:
+                leave.join()
+            c.bye()
+    finally:
+        for f in fillers:
+            f.close()

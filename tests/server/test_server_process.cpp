@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <thread>
 
 #include <Eigen/Dense>
 #include <hapticopt/hapticopt.hpp>
@@ -304,6 +306,99 @@ TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
             }
         }
     }
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// The client library retries `busy` with a bounded back-off (ConnectOptions::busy_retry). The hand-over
+// queue is filled for real: --ramp-time 1 and --session-max-in-flight 64, three sessions change their planes'
+// gains (each batch a cross-fade ramp, applied one at a time: one ramps, 64 are held, 64 wait in the ring)
+// until the server answers busy or session_limit; one batch drains per second. Right after a drain (seen as
+// last_commit_seq moving) the third session fills the freed place again; then, within that second:
+// without retries (tries = 1) a third session's commit is busy at once; with the default 8 tries it is busy
+// after 8 tries that took at least the 113 ms of back-off (1 + 2 + ... + 32 + 50 ms; no upper bound: the
+// machine may be loaded); with 1000 tries it succeeds once the first session leaves (its departure applies
+// every batch sent before it at once, docs/protocol.md, section 5).
+TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
+    const Names n = names("busy");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "1",
+                                                 "--session-max-in-flight", "64"}), "busy_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    const cl::BusyRetry no_retry{.tries = 1};
+    auto plane = [](double offset, double K) {
+        return cl::Plane{.normal = {0, 0, -1}, .offset = offset, .bilateral = false, .gains = cl::Gains::explicit_gains(K, 50.0)};
+    };
+    std::vector<std::unique_ptr<cl::Client>> fillers;
+    std::vector<std::uint32_t> ids;
+    int busy_seen = 0;
+    for (int f = 0; f < 3; ++f) {
+        fillers.push_back(std::make_unique<cl::Client>(cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry})));
+        cl::Client& c = *fillers.back();
+        const double offset = -0.05 - 0.001 * f;
+        const std::uint32_t id = c.commit(cl::Batch().add(plane(offset, 100.0))).object_ids.at(0);
+        ids.push_back(id);
+        for (int i = 0; i < 200; ++i) {
+            try {
+                c.commit(cl::Batch().modify(id, plane(offset, i % 2 == 0 ? 120.0 : 100.0)));
+            } catch (const cl::Error& e) {
+                ASSERT_TRUE(e.code() == cl::ErrorCode::Busy || e.code() == cl::ErrorCode::SessionLimit) << e.what();
+                busy_seen += e.code() == cl::ErrorCode::Busy ? 1 : 0;
+                break;
+            }
+        }
+    }
+    EXPECT_GT(busy_seen, 0);
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry});
+    EXPECT_EQ(c.busy_retry().tries, 1);
+    const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+    cl::StateSample s0;
+    ASSERT_TRUE(state.read(s0));
+    ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq != s0.last_commit_seq; }, 5.0));
+    {
+        cl::Client& b = *fillers.back();
+        const std::uint32_t id = ids.back();
+        for (int i = 0; i < 4; ++i) {
+            try {
+                b.commit(cl::Batch().modify(id, plane(-0.051, i % 2 == 0 ? 120.0 : 100.0)));
+            } catch (const cl::Error& e) {
+                ASSERT_TRUE(e.code() == cl::ErrorCode::Busy || e.code() == cl::ErrorCode::SessionLimit) << e.what();
+                break;
+            }
+        }
+    }
+    const cl::Batch batch = cl::Batch().add(plane(-0.06, 100.0));
+    try {
+        c.commit(batch);
+        ADD_FAILURE() << "the queue was not full (busy seen " << busy_seen << " times)";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::Busy) << e.what();
+        EXPECT_NE(std::string(e.what()).find("busy after 1 tries"), std::string::npos) << e.what();
+    }
+    c.set_busy_retry(cl::BusyRetry{});
+    const auto start = std::chrono::steady_clock::now();
+    try {
+        c.commit(batch);
+        ADD_FAILURE() << "accepted within the default back-off while nothing drains";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::Busy) << e.what();
+        EXPECT_NE(std::string(e.what()).find("busy after 8 tries"), std::string::npos) << e.what();
+    }
+    EXPECT_GE(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0.113);
+    EXPECT_THROW(c.set_busy_retry(cl::BusyRetry{.tries = 0}), std::invalid_argument);
+    c.set_busy_retry(cl::BusyRetry{.tries = 1000});
+    std::thread leave([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        fillers.front()->bye();
+    });
+    std::optional<cl::CommitResult> r;
+    try {
+        r = c.commit(batch);
+    } catch (const cl::Error& e) {
+        ADD_FAILURE() << e.what();
+    }
+    leave.join();
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->object_ids.size(), 1U);
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
