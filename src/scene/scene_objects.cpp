@@ -365,8 +365,14 @@ void SceneObjects::set_bounds() noexcept {
 
 void SceneObjects::count_occupied() noexcept {
     std::uint32_t n = 0;
-    for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) n += slot_object_id(s) != 0 ? 1U : 0U;
+    std::uint64_t mask = 0;
+    for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
+        const bool used = slot_object_id(s) != 0;
+        n += used ? 1U : 0U;
+        mask |= static_cast<std::uint64_t>(used) << s;
+    }
     occupied_ = n;
+    occupied_mask_ = mask;
 }
 
 // The members' constant terms summed in four partial sums (entries i = 0, 1, 2, 3 mod 4), then
@@ -629,9 +635,6 @@ void SceneObjects::step_ramps() noexcept {
             const double r = slot.fading.start - static_cast<double>(++slot.fading.steps) * ramp_step_;
             slot.fading.ramp = r > 0.0 ? r : 0.0;
             slot.fading.active = r > 0.0;
-            // A slot emptied by this step has no object to be in contact with: the tick's flag goes with it
-            // (the state publishes the slot table after this step).
-            if (!slot.fading.active && !slot.current.active) contact_mask_ &= ~(std::uint64_t{1} << s);
         }
     }
     scene_changed_ = true;

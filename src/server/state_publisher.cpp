@@ -126,7 +126,7 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
     put(l.fault, t.fault);
     put(l.config_contact_mask, t.config_contact_mask);
     if (objects != nullptr) {
-        put(l.contact_mask, objects->contact_mask());
+        put(l.contact_mask, objects->contact_mask() & objects->occupied_mask());  // no contact without an object (a slot freed this tick)
         put(l.last_commit_seq, objects->stats().last_commit_seq);
         // The slot table changes only with a commit or a ramp step: rewritten then, otherwise what the
         // segment holds is still this tick's (64 ids and ramps are most of a publication's cost).

@@ -129,9 +129,10 @@ TEST(SceneObjects, RampInAndOutAreLinearAndTheSlotIsFreedAfterwards) {
     EXPECT_EQ(rig.objects.occupied(), 0U);
 }
 
-// The contact flags name occupied slots only: through a field's ramp-out (the handle inside it all along)
-// its flag is set while its slot holds it and cleared in the tick its ramp reaches zero and frees the slot,
-// so a state published after that tick never shows a contact without an object (id 0).
+// The published contact flags (contact_mask() & occupied_mask(), StatePublisher::publish) name occupied
+// slots only: through a field's ramp-out (the handle inside it all along) the flag is published while its
+// slot holds it; the tick whose ramp step frees the slot rendered it (raw flag set) but publishes no contact,
+// so a state never shows a contact without an object (id 0).
 TEST(SceneObjects, ARampedOutObjectLeavesNoContactFlagBehind) {
     Rig rig(0.010);
     ObjectParams field;
@@ -143,10 +144,11 @@ TEST(SceneObjects, ARampedOutObjectLeavesNoContactFlagBehind) {
     for (int k = 0; k <= 12; ++k) rig.tick({0, 0, 0});
     EXPECT_EQ(rig.objects.contact_mask(), std::uint64_t{1} << 6);
     rig.commit({{6, SlotUpdate::Action::Remove, field}}, 2);
-    int ticks_with_flag = 0;
+    int ticks_with_flag = 0, ticks_rendered = 0;
     for (int k = 0; k < 15; ++k) {
         rig.tick({0, 0, 0});
-        const std::uint64_t mask = rig.objects.contact_mask();
+        ticks_rendered += rig.objects.contact_mask() != 0 ? 1 : 0;
+        const std::uint64_t mask = rig.objects.contact_mask() & rig.objects.occupied_mask();
         for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
             if ((mask >> s & 1U) != 0U) {
                 EXPECT_NE(rig.objects.slot_object_id(s), 0U) << "tick " << k << " slot " << s;
@@ -156,6 +158,7 @@ TEST(SceneObjects, ARampedOutObjectLeavesNoContactFlagBehind) {
     }
     EXPECT_EQ(rig.objects.slot_object_id(6), 0U);
     // Ramp-out of 10 ticks: r = 1 - 0.1 k renders k = 0 .. 9; the slot is freed at the end of tick 9.
+    EXPECT_EQ(ticks_rendered, 10);
     EXPECT_EQ(ticks_with_flag, 9);
 }
 
