@@ -457,8 +457,13 @@ def slow_ramp_daemon(tmp_path_factory):
 
 
 def _fill_until_refused(c, offset):
-    """Adds a plane and changes its gains until the server answers busy or session_limit; the object id."""
-    oid = c.add(hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=100, B=5))
+    """Adds a plane and changes its gains until the server answers busy or session_limit: (the object id or
+    None when the add itself was busy, the code)."""
+    try:
+        oid = c.add(hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=100, B=5))
+    except hc.HapticdError as e:
+        assert e.code == "busy", str(e)
+        return None, e.code
     for i in range(200):
         try:
             c.modify(oid, hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=120 if i % 2 == 0 else 100, B=5))
@@ -482,13 +487,15 @@ def test_commit_retries_busy_with_a_bounded_back_off(slow_ramp_daemon):
         with connect(daemon, busy_retry=(1, 1e-3, 0.05)) as c, hc.StateReader(c.welcome["state_shm"]) as state:
             seq = state.read().last_commit_seq
             assert wait_until(lambda: state.read().last_commit_seq != seq, 5.0, 0.001), "a batch drains every second"
-            oid = filled[-1][0]
-            for i in range(4):  # the place that drained, filled again
+            for k, (oid, _) in enumerate(filled):  # the drained place, filled again by a session with room in flight
+                if oid is None:
+                    continue
                 try:
-                    fillers[-1].modify(oid, hc.plane(normal=(-1, 0, 0), offset=-0.002, bilateral=True, K=120 if i % 2 == 0 else 100, B=5))
+                    fillers[k].modify(oid, hc.plane(normal=(-1, 0, 0), offset=-0.001 * k, bilateral=True, K=110, B=5))
                 except hc.HapticdError as e:
                     assert e.code in ("busy", "session_limit"), str(e)
-                    break
+                    if e.code == "busy":
+                        break
             wall = hc.plane(normal=(-1, 0, 0), offset=-0.003, bilateral=True, K=100, B=5)
             with pytest.raises(hc.HapticdError) as e:
                 c.add(wall)

@@ -314,7 +314,7 @@ TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
 // queue is filled for real: --ramp-time 1 and --session-max-in-flight 64, three sessions change their planes'
 // gains (each batch a cross-fade ramp, applied one at a time: one ramps, 64 are held, 64 wait in the ring)
 // until the server answers busy or session_limit; one batch drains per second. Right after a drain (seen as
-// last_commit_seq moving) the third session fills the freed place again; then, within that second:
+// last_commit_seq moving) a session with room in flight fills the freed place again; then, within that second:
 // without retries (tries = 1) a third session's commit is busy at once; with the default 8 tries it is busy
 // after 8 tries that took at least the 113 ms of back-off (1 + 2 + ... + 32 + 50 ms; no upper bound: the
 // machine may be loaded); with 1000 tries it succeeds once the first session leaves (its departure applies
@@ -326,7 +326,9 @@ TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::BusyRetry no_retry{.tries = 1};
     auto plane = [](double offset, double K) {
-        return cl::Plane{.normal = {0, 0, -1}, .offset = offset, .bilateral = false, .gains = cl::Gains::explicit_gains(K, 50.0)};
+        // Bilateral: a unilateral plane is checked in each engagement pattern, and with 1000-tick ramps four
+        // of them on one axis exceed the pattern-scene limit (capacity) depending on which ramp is running.
+        return cl::Plane{.normal = {0, 0, -1}, .offset = offset, .bilateral = true, .gains = cl::Gains::explicit_gains(K, 50.0)};
     };
     std::vector<std::unique_ptr<cl::Client>> fillers;
     std::vector<std::uint32_t> ids;
@@ -335,7 +337,14 @@ TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
         fillers.push_back(std::make_unique<cl::Client>(cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry})));
         cl::Client& c = *fillers.back();
         const double offset = -0.05 - 0.001 * f;
-        const std::uint32_t id = c.commit(cl::Batch().add(plane(offset, 100.0))).object_ids.at(0);
+        std::uint32_t id = 0;
+        try {
+            id = c.commit(cl::Batch().add(plane(offset, 100.0))).object_ids.at(0);
+        } catch (const cl::Error& e) {
+            ASSERT_EQ(e.code(), cl::ErrorCode::Busy) << e.what();  // the earlier sessions filled the queue
+            ++busy_seen;
+            break;
+        }
         ids.push_back(id);
         for (int i = 0; i < 200; ++i) {
             try {
@@ -354,16 +363,13 @@ TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
     cl::StateSample s0;
     ASSERT_TRUE(state.read(s0));
     ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq != s0.last_commit_seq; }, 5.0));
-    {
-        cl::Client& b = *fillers.back();
-        const std::uint32_t id = ids.back();
-        for (int i = 0; i < 4; ++i) {
-            try {
-                b.commit(cl::Batch().modify(id, plane(-0.051, i % 2 == 0 ? 120.0 : 100.0)));
-            } catch (const cl::Error& e) {
-                ASSERT_TRUE(e.code() == cl::ErrorCode::Busy || e.code() == cl::ErrorCode::SessionLimit) << e.what();
-                break;
-            }
+    // Refill the drained place: the session whose batch was applied has room in flight again.
+    for (std::size_t f = 0; f < ids.size(); ++f) {
+        try {
+            fillers[f]->commit(cl::Batch().modify(ids[f], plane(-0.05 - 0.001 * static_cast<double>(f), 110.0)));
+        } catch (const cl::Error& e) {
+            ASSERT_TRUE(e.code() == cl::ErrorCode::Busy || e.code() == cl::ErrorCode::SessionLimit) << e.what();
+            if (e.code() == cl::ErrorCode::Busy) break;
         }
     }
     const cl::Batch batch = cl::Batch().add(plane(-0.06, 100.0));
