@@ -164,9 +164,11 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
               std::string shm) {
     std::optional<hc::Client> client;
     std::size_t axes = 3;
+    double period_s = 0.0;
     if (via_socket || shm.empty()) {
         client.emplace(connect(common, 0.0));
         axes = client->welcome().device.axes;
+        period_s = client->welcome().device.period_s;
         if (shm.empty()) shm = client->welcome().state_shm;
     }
     std::optional<hc::StateReader> reader;
@@ -175,6 +177,7 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
     } else {
         reader.emplace(hc::StateReader::open(shm));
         if (!client) axes = reader->axes();
+        period_s = reader->period_s();
         client.reset();  // the shared memory needs no session
     }
     const bool tty = ::isatty(STDOUT_FILENO) != 0;
@@ -205,7 +208,7 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
             last_change = now;
             have_tick = true;
         }
-        const std::string text = state_line(s, axes);
+        const std::string text = state_line(s, axes, period_s);
         if (tty) {
             std::cout << "\r" << text << "\x1b[K" << std::flush;
         } else {

@@ -157,7 +157,7 @@ int run_session_script(hc::Client& client, std::istream& in, const std::string& 
                     ok = state->read(s);
                 }
                 if (!ok) throw hc::Error(hc::ErrorCode::Transport, "run_session_script: state: no consistent read within 1 s");
-                out << state_line(s, client.welcome().device.axes) << "\n";
+                out << state_line(s, client.welcome().device.axes, client.welcome().device.period_s) << "\n";
             } else if (cmd == "sleep") {
                 if (w.size() != 2) throw SpecError("run_session_script: sleep SECONDS");
                 char* end = nullptr;

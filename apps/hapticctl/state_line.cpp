@@ -35,20 +35,20 @@ std::string fault_name(std::uint32_t fault) {
     }
 }
 
-std::string state_line(const hapticd::client::StateSample& s, std::size_t axes) {
+std::string state_line(const hapticd::client::StateSample& s, std::size_t axes, double period_s) {
     std::string out;
     char buf[64];
-    std::snprintf(buf, sizeof buf, "tick %llu t %.3f s", static_cast<unsigned long long>(s.tick), s.time_s);
+    std::snprintf(buf, sizeof buf, "tick %llu t %.3f s", static_cast<unsigned long long>(s.tick),
+                  static_cast<double>(s.tick) * period_s);
     out += buf;
     append_vector(out, "x", s.position, axes, 1e3, "mm");
     append_vector(out, "v", s.velocity, axes, 1e3, "mm/s");
     append_vector(out, "F", s.force, axes, 1.0, "N");
     out += " contact {";
     bool first = true;
-    for (std::size_t slot = 0; slot < s.slot_object_id.size(); ++slot) {
-        if ((s.contact_mask >> slot & 1U) == 0U) continue;
+    for (const std::uint32_t id : s.contacts()) {
         if (!first) out += ',';
-        out += std::to_string(s.slot_object_id[slot]);
+        out += std::to_string(id);
         first = false;
     }
     out += "} objects " + std::to_string(s.objects) + " overruns " + std::to_string(s.overruns) + " fault " +

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // One line of text for a state sample (`hapticctl watch`):
-//   tick 1234 t 1.234 s x [+1.000 +0.000 -0.250] mm v [...] mm/s F [+0.500 +0.000 +0.000] N contact {3,7} objects 2 overruns 0 fault none
-// Only the device's axes are shown; contact lists the ids of the objects in contact (the slots of the
-// sample's contact_mask, mapped through slot_object_id).
+//   tick 1234 t 1.234 s x [+1.000 +0.000 -0.250] mm v [...] mm/s F [+0.500 +0.000 +0.000] N contact {1,7} objects 2 overruns 0 fault none
+// t is the loop's time, tick x period (s). Only the device's axes are shown; contact lists the ids of the
+// objects in contact (StateSample::contacts(): the config walls, ids 1 .. n, then the clients' objects).
 #pragma once
 
 #include <cstddef>
@@ -12,7 +12,7 @@
 
 namespace hapticctl {
 
-std::string state_line(const hapticd::client::StateSample& s, std::size_t axes);
+std::string state_line(const hapticd::client::StateSample& s, std::size_t axes, double period_s);
 
 // "none", "device", "non-finite", "watchdog" (docs/protocol.md, section 6), or the number.
 std::string fault_name(std::uint32_t fault);

@@ -21,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -63,25 +64,31 @@ enum class ErrorCode {
 class Error : public std::runtime_error {
 public:
     Error(ErrorCode code, const std::string& message, int op_index = -1,
-          std::optional<double> largest_stable_K = std::nullopt)
-        : std::runtime_error(message), code_(code), op_index_(op_index), largest_stable_K_(largest_stable_K) {}
+          std::optional<double> largest_stable_K = std::nullopt,
+          std::optional<std::pair<double, double>> damping_needed = std::nullopt)
+        : std::runtime_error(message), code_(code), op_index_(op_index), largest_stable_K_(largest_stable_K),
+          damping_needed_(damping_needed) {}
     [[nodiscard]] ErrorCode code() const noexcept { return code_; }
     // The failing operation of a commit (-1: the summed-gain check or not a commit).
     [[nodiscard]] int op_index() const noexcept { return op_index_; }
     // unstable_gains: the largest stable stiffness at the object's damping, N/m.
     [[nodiscard]] std::optional<double> largest_stable_K() const noexcept { return largest_stable_K_; }
+    // unstable_gains: the open interval (B_min, B_max) of damping, N s/m, that makes the object's K stable
+    // (the reply's damping_needed); none when no B does.
+    [[nodiscard]] std::optional<std::pair<double, double>> damping_needed() const noexcept { return damping_needed_; }
 
 private:
     ErrorCode code_;
     int op_index_;
     std::optional<double> largest_stable_K_;
+    std::optional<std::pair<double, double>> damping_needed_;
 };
 
 // Gains of an object: explicit (K in N/m, B in N s/m; checked) or by criterion (the daemon's optimum).
 struct Gains {
     std::optional<double> K;
     std::optional<double> B;
-    std::string criterion;  // "CE0" .. "CE2+OV"; empty with K, B
+    std::string criterion;  // hapticopt's: "amax", "OV", "CE0" .. "CE2+OV"; empty with K, B
     static Gains explicit_gains(double stiffness, double damping) { return Gains{stiffness, damping, {}}; }
     static Gains by_criterion(std::string name) { return Gains{std::nullopt, std::nullopt, std::move(name)}; }
 };
@@ -194,7 +201,8 @@ struct StateSample {
     Vec3 position{};
     Vec3 velocity{};
     Vec3 force{};
-    std::uint64_t contact_mask = 0;
+    std::uint64_t contact_mask = 0;         // bit s: the client object in slot s is in contact
+    std::uint64_t config_contact_mask = 0;  // bit i: the config wall with object id i + 1 is in contact
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
     std::uint64_t last_commit_seq = 0;  // every batch up to this commit_seq is applied
@@ -208,6 +216,18 @@ struct StateSample {
     bool stale = false;
     double heartbeat_age_s = 0.0;  // s; -1: never written
     std::uint32_t fatal_signal = 0;
+
+    // The ids of the objects in contact: the config walls' (ascending), then the client objects' in slot order.
+    [[nodiscard]] std::vector<std::uint32_t> contacts() const {
+        std::vector<std::uint32_t> ids;
+        for (std::uint32_t i = 0; i < 64; ++i) {
+            if ((config_contact_mask >> i & 1U) != 0U) ids.push_back(i + 1);
+        }
+        for (std::size_t slot = 0; slot < slot_object_id.size(); ++slot) {
+            if ((contact_mask >> slot & 1U) != 0U && slot_object_id[slot] != 0) ids.push_back(slot_object_id[slot]);
+        }
+        return ids;
+    }
 };
 
 // An unsolicited message of the server (docs/protocol.md, section 3, "Events"): {"type":"event","code":...}
@@ -225,6 +245,16 @@ struct Event {
 // Events a Client keeps until the application takes them (ConnectOptions::event_queue_capacity).
 inline constexpr std::size_t kDefaultEventQueueCapacity = 256;
 
+// How commit() retries a `busy` reply (the hand-over queue to the loop is full; docs/protocol.md, section
+// 8): up to `tries` attempts in all, sleeping initial_delay_s before the second and doubling up to
+// max_delay_s (defaults: 8 tries, 1, 2, 4, 8, 16, 32, 50 ms: 113 ms of waiting at most). tries = 1: no
+// retry. After the last try commit() throws Error(Busy) saying how many tries and how long they took.
+struct BusyRetry {
+    int tries = 8;                 // 1 .. 1000
+    double initial_delay_s = 1e-3; // 0 .. 10 s
+    double max_delay_s = 0.05;     // initial_delay_s .. 10 s
+};
+
 struct ConnectOptions {
     std::string socket_path;       // empty: default_socket_path()
     std::string client_name = "hapticd-client";
@@ -233,6 +263,7 @@ struct ConnectOptions {
     double timeout_s = 5.0;        // for each reply
     // Events kept until poll_event() / next_event() takes them; more are dropped (counted: events_dropped()).
     std::size_t event_queue_capacity = kDefaultEventQueueCapacity;
+    BusyRetry busy_retry{};  // commit()'s retries of `busy`; checked by connect() (std::invalid_argument)
 };
 
 // $HAPTICD_SOCKET, else $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock.
@@ -252,7 +283,10 @@ public:
     [[nodiscard]] const Welcome& welcome() const noexcept { return welcome_; }
 
     std::uint64_t heartbeat();                  // returns the loop's tick
-    CommitResult commit(const Batch& batch);    // throws Error on refusal (nothing changed)
+    CommitResult commit(const Batch& batch);    // throws Error on refusal (nothing changed); retries busy (BusyRetry)
+    // Throws std::invalid_argument naming the field and its range.
+    void set_busy_retry(const BusyRetry& retry);
+    [[nodiscard]] const BusyRetry& busy_retry() const noexcept { return busy_retry_; }
     std::vector<ObjectInfo> list();
     Status status();
     void subscribe(double rate_hz);
@@ -292,6 +326,7 @@ private:
     std::deque<Event> events_;
     std::size_t event_capacity_ = kDefaultEventQueueCapacity;
     std::uint64_t events_dropped_ = 0;
+    BusyRetry busy_retry_{};
 };
 
 // Read-only view of the daemon's shared-memory state.

@@ -57,7 +57,10 @@ struct StateLayout {
     std::atomic<std::int64_t> heartbeat_ns;  // CLOCK_MONOTONIC of the writer's last tick, ns; 0: none yet
     std::atomic<std::uint32_t> fatal_signal;  // the signal that ended the daemon (fault 4 or 5), else 0
     std::uint32_t liveness_padding;
-    std::uint8_t reserved[560];
+    // Under the seqlock, written every tick: the daemon's config walls in contact, bit i for the wall with
+    // object id i + 1 (as `list` numbers them; the first 64), set while the handle is behind its surface.
+    std::uint64_t config_contact_mask;
+    std::uint8_t reserved[552];
 };
 
 static_assert(std::atomic<std::uint64_t>::is_always_lock_free, "the seqlock needs a lock-free 64-bit atomic");
@@ -80,6 +83,7 @@ static_assert(offsetof(StateLayout, slot_ramp) == 512);
 static_assert(offsetof(StateLayout, writer_pid) == 32);
 static_assert(offsetof(StateLayout, heartbeat_ns) == 576);
 static_assert(offsetof(StateLayout, fatal_signal) == 584);
+static_assert(offsetof(StateLayout, config_contact_mask) == 592);
 static_assert(std::atomic<std::int64_t>::is_always_lock_free && std::atomic<std::uint32_t>::is_always_lock_free,
               "the liveness words are written from a signal handler");
 static_assert(sizeof(StateLayout) == 1152);

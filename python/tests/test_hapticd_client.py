@@ -208,6 +208,25 @@ def test_unstable_explicit_gains_are_refused_and_the_largest_stable_K_is_accepte
         c.bye()
 
 
+def test_too_little_damping_is_refused_naming_the_damping_needed(daemon):
+    """K = 2000 N/m with B = 0 is refused with damping_needed (B_min, B_max), the B the daemon accepts for
+    that K alone. The device has one axis: the config wall (K = 100, B = 1) adds to the plane in the summed
+    check and moves the ends a little, so the ends themselves are tested in C++ (tests/server, a plane
+    orthogonal to the config wall); here: the middle of the interval is accepted, half of B_min refused."""
+    with connect(daemon) as c:
+        with pytest.raises(hc.HapticdError) as e:
+            c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0))
+        assert e.value.code == "unstable_gains"
+        needed = e.value.damping_needed
+        assert needed is not None and 0.0 < needed[0] < needed[1], e.value.reply
+        assert "K = 2000 N/m is stable for" in str(e.value)
+        with pytest.raises(hc.HapticdError):
+            c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0.5 * needed[0]))
+        ok = c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0.5 * (needed[0] + needed[1])))
+        assert ok in object_ids(daemon)
+        c.bye()
+
+
 def test_a_batch_is_all_or_nothing(daemon):
     before = object_ids(daemon)
     with connect(daemon) as c:
@@ -248,6 +267,28 @@ def test_the_shared_memory_state_advances_and_shows_applied_commits(paced_daemon
         assert s.fault == 0 and hc.FAULT_NAMES[s.fault] == "none"
         # The simulated hand pushes into the plane (surface at x = -5 mm): it is in contact.
         assert wait_until(lambda: wall in state.read().contacts())
+        c.bye()
+
+
+@pytest.fixture(scope="module")
+def config_contact_daemon(tmp_path_factory):
+    """The paced daemon with a second config wall (id 2) solid below x = 2 cm: the handle (the hand at rest at
+    x = -5 mm, settling at +10 mm) is behind its surface from the first tick; the wall at 5 cm (id 1) is not."""
+    yield from _served_daemon(tmp_path_factory, "hapticd_config_contact",
+                              ["--wall", "axis=0 position=0.02 direction=-1", "--rt-priority", "0",
+                               "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000"])
+
+
+def test_config_walls_in_contact_are_in_the_state(config_contact_daemon):
+    daemon = config_contact_daemon
+    with connect(daemon) as c, hc.StateReader(c.welcome["state_shm"]) as state:
+        assert [o["id"] for o in c.list()] == [1, 2]
+        assert wait_until(lambda: state.read().tick > 0)
+        s = state.read()
+        assert s.config_contact_mask == 0b10 and s.contacts() == [2], (s.config_contact_mask, s.contacts())
+        c.subscribe(100.0)
+        m = c.next_state(5.0)
+        assert m is not None and m["contact"] == [2] and m["config_contact_mask"] == 2, m
         c.bye()
 
 
@@ -404,3 +445,78 @@ def test_a_dead_daemon_reads_stale_and_a_live_one_does_not(tmp_path):
                 os.unlink(hc.shm_path(shm))
             except FileNotFoundError:
                 pass
+
+
+@pytest.fixture(scope="module")
+def slow_ramp_daemon(tmp_path_factory):
+    """Paced (the ramps are real time), 1 s ramps and 64 batches in flight per session: the hand-over queue
+    to the loop (one batch ramping, 64 held, 64 in the ring) fills and drains one batch per second."""
+    yield from _served_daemon(tmp_path_factory, "hapticd_busy",
+                              ["--rt-priority", "0", "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000",
+                               "--ramp-time", "1", "--session-max-in-flight", "64"])
+
+
+def _fill_until_refused(c, offset):
+    """Adds a plane and changes its gains until the server answers busy or session_limit: (the object id or
+    None when the add itself was busy, the code)."""
+    try:
+        oid = c.add(hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=100, B=5))
+    except hc.HapticdError as e:
+        assert e.code == "busy", str(e)
+        return None, e.code
+    for i in range(200):
+        try:
+            c.modify(oid, hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=120 if i % 2 == 0 else 100, B=5))
+        except hc.HapticdError as e:
+            assert e.code in ("busy", "session_limit"), str(e)
+            return oid, e.code
+    raise AssertionError("200 batches in flight were accepted")
+
+
+def test_commit_retries_busy_with_a_bounded_back_off(slow_ramp_daemon):
+    """The tests/server TheClientRetriesBusyWithABoundedBackOff scene from Python: busy at once with no retry,
+    busy after 8 tries and at least their 113 ms of back-off (no upper bound: the machine may be loaded) with
+    the defaults, and accepted with 1000 tries once a filling session leaves (its departure applies every
+    batch sent before it at once). Bilateral planes (a unilateral one is checked in every engagement pattern, and 1000-tick ramps make that too
+    many scenes on one axis), 0-3 mm from the handle: soft springs (100-120 N/m each) the hand holds against."""
+    daemon = slow_ramp_daemon
+    fillers = [connect(daemon, busy_retry=(1, 1e-3, 0.05)) for _ in range(3)]
+    try:
+        filled = [_fill_until_refused(f, -0.001 * k) for k, f in enumerate(fillers)]
+        assert "busy" in [code for _, code in filled], filled
+        with connect(daemon, busy_retry=(1, 1e-3, 0.05)) as c, hc.StateReader(c.welcome["state_shm"]) as state:
+            seq = state.read().last_commit_seq
+            assert wait_until(lambda: state.read().last_commit_seq != seq, 5.0, 0.001), "a batch drains every second"
+            for k, (oid, _) in enumerate(filled):  # the drained place, filled again by a session with room in flight
+                if oid is None:
+                    continue
+                try:
+                    fillers[k].modify(oid, hc.plane(normal=(-1, 0, 0), offset=-0.001 * k, bilateral=True, K=110, B=5))
+                except hc.HapticdError as e:
+                    assert e.code in ("busy", "session_limit"), str(e)
+                    if e.code == "busy":
+                        break
+            wall = hc.plane(normal=(-1, 0, 0), offset=-0.003, bilateral=True, K=100, B=5)
+            with pytest.raises(hc.HapticdError) as e:
+                c.add(wall)
+            assert e.value.code == "busy" and "busy after 1 tries" in str(e.value)
+            c.set_busy_retry()
+            start = time.monotonic()
+            with pytest.raises(hc.HapticdError) as e:
+                c.add(wall)
+            assert e.value.code == "busy" and "busy after 8 tries" in str(e.value)
+            assert time.monotonic() - start >= 0.113
+            with pytest.raises(ValueError):
+                c.set_busy_retry(tries=0)
+            c.set_busy_retry(tries=1000)
+            import threading
+            leave = threading.Thread(target=lambda: (time.sleep(0.2), fillers[0].bye()))
+            leave.start()
+            try:
+                assert c.add(wall) > 0
+            finally:
+                leave.join()
+            c.bye()
+    finally:
+        for f in fillers:
+            f.close()

@@ -7,11 +7,14 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -52,7 +55,12 @@ Error error_from_reply(const std::string& function, const json& reply) {
     if (reply.contains("largest_stable_K") && reply["largest_stable_K"].is_number()) {
         largest = reply["largest_stable_K"].get<double>();
     }
-    return Error(error_code_from_string(code), function + ": " + code + ": " + message, op_index, largest);
+    std::optional<std::pair<double, double>> damping;
+    const auto d = reply.find("damping_needed");
+    if (d != reply.end() && d->is_array() && d->size() == 2 && (*d)[0].is_number() && (*d)[1].is_number()) {
+        damping = std::make_pair((*d)[0].get<double>(), (*d)[1].get<double>());
+    }
+    return Error(error_code_from_string(code), function + ": " + code + ": " + message, op_index, largest, damping);
 }
 
 Vec3 vec3(const json& j) {
@@ -98,6 +106,17 @@ StateSample state_from_json(const json& j) {
     s.objects = j.value("objects", std::uint32_t{0});
     s.dropped = j.value("dropped", std::uint64_t{0});
     s.contact_mask = j.value("contact_mask", std::uint64_t{0});
+    s.config_contact_mask = j.value("config_contact_mask", std::uint64_t{0});
+    // `contact` lists the config walls in contact, then the slots' objects in slot order (docs/protocol.md,
+    // section 6): the latter are the ids of contact_mask's set bits, in order.
+    const json contact = j.value("contact", json::array());
+    std::size_t k = static_cast<std::size_t>(__builtin_popcountll(s.config_contact_mask));
+    for (std::size_t slot = 0; slot < kStateObjectCapacity && contact.is_array(); ++slot) {
+        if ((s.contact_mask >> slot & 1U) == 0U) continue;
+        if (k >= contact.size() || !contact[k].is_number_unsigned()) break;
+        s.slot_object_id[slot] = contact[k].get<std::uint32_t>();
+        ++k;
+    }
     return s;
 }
 
@@ -160,6 +179,7 @@ Client Client::connect(const ConnectOptions& options) {
     }
     Client c(fd, options.timeout_s);
     c.event_capacity_ = options.event_queue_capacity;
+    c.set_busy_retry(options.busy_retry);
     json hello{{"type", "hello"}, {"protocol", options.protocol}, {"client", options.client_name}, {"lease_s", options.lease_s}};
     c.send_raw(hello.dump());
     const auto raw = c.receive_raw(options.timeout_s);
@@ -191,7 +211,7 @@ Client Client::connect(const ConnectOptions& options) {
 Client::Client(Client&& other) noexcept
     : fd_(other.fd_), timeout_s_(other.timeout_s_), next_id_(other.next_id_), welcome_(std::move(other.welcome_)),
       pending_states_(std::move(other.pending_states_)), events_(std::move(other.events_)), event_capacity_(other.event_capacity_),
-      events_dropped_(other.events_dropped_) {
+      events_dropped_(other.events_dropped_), busy_retry_(other.busy_retry_) {
     other.fd_ = -1;
 }
 
@@ -206,6 +226,7 @@ Client& Client::operator=(Client&& other) noexcept {
         events_ = std::move(other.events_);
         event_capacity_ = other.event_capacity_;
         events_dropped_ = other.events_dropped_;
+        busy_retry_ = other.busy_retry_;
         other.fd_ = -1;
     }
     return *this;
@@ -288,11 +309,45 @@ CommitResult Client::commit(const Batch& batch) {
             case Batch::Operation::Kind::Clear: ops.push_back({{"op", "clear"}}); break;
         }
     }
-    const json r = json::parse(request("commit", json{{"ops", ops}}.dump()));
+    const std::string body = json{{"ops", ops}}.dump();
+    json r;
+    double delay = busy_retry_.initial_delay_s;
+    const auto start = std::chrono::steady_clock::now();
+    for (int attempt = 1;; ++attempt) {
+        try {
+            r = json::parse(request("commit", body));
+            break;
+        } catch (const Error& e) {
+            if (e.code() != ErrorCode::Busy) throw;
+            if (attempt >= busy_retry_.tries) {
+                const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                throw Error(ErrorCode::Busy, std::string(e.what()) + " (busy after " + std::to_string(attempt) + " tries over " +
+                                                 std::to_string(waited) + " s; ConnectOptions::busy_retry)",
+                            e.op_index());
+            }
+            std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+            delay = std::min(2.0 * delay, busy_retry_.max_delay_s);
+        }
+    }
     CommitResult result;
     result.commit_seq = r.value("commit_seq", std::uint64_t{0});
     for (const auto& id : r.value("object_ids", json::array())) result.object_ids.push_back(id.get<std::uint32_t>());
     return result;
+}
+
+void Client::set_busy_retry(const BusyRetry& retry) {
+    if (retry.tries < 1 || retry.tries > 1000) {
+        throw std::invalid_argument("Client: busy_retry.tries = " + std::to_string(retry.tries) + " is invalid; accepted range: 1 .. 1000");
+    }
+    if (!(retry.initial_delay_s >= 0.0 && retry.initial_delay_s <= 10.0)) {
+        throw std::invalid_argument("Client: busy_retry.initial_delay_s = " + std::to_string(retry.initial_delay_s) +
+                                    " is invalid; accepted range: 0 .. 10 s");
+    }
+    if (!(retry.max_delay_s >= retry.initial_delay_s && retry.max_delay_s <= 10.0)) {
+        throw std::invalid_argument("Client: busy_retry.max_delay_s = " + std::to_string(retry.max_delay_s) +
+                                    " is invalid; accepted range: initial_delay_s .. 10 s");
+    }
+    busy_retry_ = retry;
 }
 
 std::vector<ObjectInfo> Client::list() {

@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include <hapticopt/criterion.hpp>
+
 #include "client/text_limits.hpp"
 
 namespace hapticd::client {
@@ -74,7 +76,11 @@ bool read_gains(const json& j, const std::string& where, Gains& out, std::string
             return false;
         }
         if (c->get_ref<const std::string&>().empty()) {
-            error = where + ".gains.criterion: \"\" is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV";
+            error = where + ".gains.criterion: \"\" is invalid; accepted:";
+            for (const hapticopt::Criterion name : hapticopt::kAllCriteria) {
+                error += name == hapticopt::kAllCriteria.front() ? " " : ", ";
+                error += hapticopt::to_string(name);
+            }
             return false;
         }
         out = Gains::by_criterion(c->get<std::string>());

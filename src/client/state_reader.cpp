@@ -66,6 +66,7 @@ bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
             out.force[i] = l.force[i];
         }
         out.contact_mask = l.contact_mask;
+        out.config_contact_mask = l.config_contact_mask;
         out.overruns = l.overruns;
         out.wake_latency_ns = l.wake_latency_ns;
         out.last_commit_seq = l.last_commit_seq;

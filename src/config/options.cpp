@@ -11,6 +11,7 @@
 
 #include "config/apply_config_file.hpp"
 #include "config/config_locations.hpp"
+#include "tuning/tuning.hpp"
 
 namespace hapticd {
 
@@ -20,7 +21,6 @@ namespace {
 
 constexpr const char* kVersion = "hapticd 0.1.0";
 
-const std::vector<std::string> kCriteria{"CE0", "CE1", "CE2", "OV", "CE0+OV", "CE1+OV", "CE2+OV"};
 const std::vector<std::string> kScenarios{"auto", "rest", "step", "push", "hold", "path"};
 
 struct Handles {
@@ -44,7 +44,7 @@ struct Given {
 // The options that may appear both on the command line and in the config file (key = long name).
 void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--criterion", o.criterion, "Tuning criterion of the wall (default CE2)")
-        ->check(CLI::IsMember(kCriteria));
+        ->check(CLI::IsMember(accepted_criteria()));
     app.add_option("--device", o.device,
                    "Device profile: a name in <config dir>/devices/<name>.toml, or a path to a .toml file (default sim)");
     app.add_option("--rate", o.rate, "Loop rate in Hz (default 1000)");

@@ -80,6 +80,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         st.overruns = loop_.counters().overruns;
         st.wake_latency_ns = in.wake_latency_ns;
         // The protocol's fault numbers (docs/protocol.md, section 6): 0 none, 1 device, 2 non-finite, 3 watchdog.
+        st.config_contact_mask = scene_.contact_mask();
         st.fault = result_.fault == Fault::Device ? 1U : result_.fault == Fault::NonFinite ? 2U : result_.fault == Fault::Watchdog ? 3U : 0U;
         hooks_.state->publish(st, hooks_.objects);
     }

@@ -73,7 +73,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
         const std::string criterion = spec->criterion.value_or(o.criterion);
         if (!is_accepted_criterion(criterion)) {
             throw StartupError(code, origin + " '" + text + "': criterion = " + criterion +
-                                         " is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV");
+                                         " is invalid; accepted: " + accepted_criteria_text());
         }
         // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (devices/profile_keys.hpp).
         TuningPlant wall_plant = plant;

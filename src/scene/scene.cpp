@@ -120,6 +120,7 @@ Scene::Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force)
 
 SceneFault Scene::evaluate(const AxisVector& position, AxisVector& force) noexcept {
     force = AxisVector{};
+    contact_mask_ = 0;
     if (fault_ != SceneFault::None) {
         return fault_;
     }
@@ -129,14 +130,21 @@ SceneFault Scene::evaluate(const AxisVector& position, AxisVector& force) noexce
             return fault_;
         }
     }
+    std::uint64_t mask = 0;
+    std::size_t i = 0;
     for (auto& wall : walls_) {
-        force[wall.geometry().axis] += wall.device_force(position);
+        const double x = wall.penetration(position);
+        force[wall.geometry().axis] -= wall.geometry().direction * wall.normal_force(x);
+        if (i < 64) mask |= static_cast<std::uint64_t>(x > 0.0) << i;
+        ++i;
     }
+    contact_mask_ = mask;
     bool saturated = false;
     for (std::size_t a = 0; a < axes_; ++a) {
         double& f = force[a];
         if (!std::isfinite(f)) {
             force = AxisVector{};
+            contact_mask_ = 0;
             fault_ = SceneFault::NonFiniteForce;
             return fault_;
         }

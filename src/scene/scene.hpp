@@ -48,6 +48,10 @@ public:
 
     [[nodiscard]] SceneFault fault() const noexcept { return fault_; }
     [[nodiscard]] const SceneStats& stats() const noexcept { return stats_; }
+    // The walls in contact at the last evaluate(): bit i for walls()[i] (the first 64), set while the handle
+    // is behind its surface (penetration x > 0; the same flag as a client plane's, SceneObjects::contact_mask).
+    // Zero after a fault.
+    [[nodiscard]] std::uint64_t contact_mask() const noexcept { return contact_mask_; }
     [[nodiscard]] const std::vector<VirtualWall>& walls() const noexcept { return walls_; }
     [[nodiscard]] double max_force() const noexcept { return max_force_; }
     void reset() noexcept;
@@ -58,6 +62,7 @@ private:
     double max_force_;
     SceneFault fault_ = SceneFault::None;
     SceneStats stats_;
+    std::uint64_t contact_mask_ = 0;
 };
 
 }  // namespace hapticd

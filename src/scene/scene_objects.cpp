@@ -365,8 +365,14 @@ void SceneObjects::set_bounds() noexcept {
 
 void SceneObjects::count_occupied() noexcept {
     std::uint32_t n = 0;
-    for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) n += slot_object_id(s) != 0 ? 1U : 0U;
+    std::uint64_t mask = 0;
+    for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
+        const bool used = slot_object_id(s) != 0;
+        n += used ? 1U : 0U;
+        mask |= static_cast<std::uint64_t>(used) << s;
+    }
     occupied_ = n;
+    occupied_mask_ = mask;
 }
 
 // The members' constant terms summed in four partial sums (entries i = 0, 1, 2, 3 mod 4), then

@@ -198,7 +198,12 @@ public:
     // Forget the last applied total (after a zero-force tick the next may start from zero again).
     void reset_rate_limit() noexcept { previous_total_ = AxisVector{}; }
 
+    // Bit s: the object in slot s was in contact at the last add_forces() (its surface's flag as rendered in
+    // that tick; an entry whose ramp-out ended with that tick keeps its bit although its slot is now free).
     [[nodiscard]] std::uint64_t contact_mask() const noexcept { return contact_mask_; }
+    // Bit s: slot s holds an object now (slot_object_id(s) != 0). The state publishes
+    // contact_mask() & occupied_mask(): a contact always names an object of the slot table it is published with.
+    [[nodiscard]] std::uint64_t occupied_mask() const noexcept { return occupied_mask_; }
     [[nodiscard]] std::uint32_t slot_object_id(std::size_t slot) const noexcept;
     [[nodiscard]] double slot_ramp(std::size_t slot) const noexcept;
     [[nodiscard]] std::uint32_t occupied() const noexcept { return occupied_; }
@@ -356,6 +361,7 @@ private:
     bool scene_changed_ = true;
     std::uint32_t ramping_ = 0;           // entries whose ramp is still moving
     std::uint32_t occupied_ = 0;          // slots with an object
+    std::uint64_t occupied_mask_ = 0;     // their bits
     std::uint64_t slot_table_version_ = 0;  // bumped when an id or a ramp factor changes
     AffineLaw linear_;
     // Where each entry (2 slot + 0 current / 1 fading) went at the last classification.

@@ -23,6 +23,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <hapticopt/criterion.hpp>
 #include <nlohmann/json.hpp>
 
 #include "client/object_json.hpp"
@@ -93,6 +94,7 @@ struct Refusal {
     std::string code;
     std::string message;
     std::optional<double> largest_stable_K;
+    std::optional<std::pair<double, double>> damping_needed = std::nullopt;  // unstable_gains: the B (N s/m) interval for K
 };
 
 struct ServerSlot {
@@ -248,11 +250,13 @@ struct Server::Impl {
     }
 
     void send_error(Session& s, std::optional<std::uint64_t> id, const std::string& code, const std::string& message,
-                    int op_index = -1, std::optional<double> largest = std::nullopt) {
+                    int op_index = -1, std::optional<double> largest = std::nullopt,
+                    std::optional<std::pair<double, double>> damping = std::nullopt) {
         json e{{"type", "error"}, {"code", code}, {"message", message}};
         e["id"] = id ? json(*id) : json(nullptr);
         if (op_index >= -1 && code != "bad_json") e["op_index"] = op_index;
         if (largest) e["largest_stable_K"] = *largest;
+        if (damping) e["damping_needed"] = json::array({damping->first, damping->second});
         send_reply(s, e);
     }
 
@@ -447,7 +451,7 @@ struct Server::Impl {
             }
             if (!c) {
                 return Refusal{"unknown_criterion", kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
-                                                        "\" is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, CE1+OV, CE2+OV",
+                                                        "\" is invalid; accepted: " + accepted_criteria_text(),
                                std::nullopt};
             }
             K = c->K;
@@ -463,13 +467,25 @@ struct Server::Impl {
         const PairVerdict v = checker.check_object(K, B, masses);
         if (!v.stable) {
             const std::string along = masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
+            // amax is the region's tip (alpha_max, the beta there): on its boundary, never strictly inside.
+            const std::string tip = gains.criterion == hapticopt::to_string(hapticopt::Criterion::AlphaMax)
+                                        ? " (criterion amax: the tip of the stability region, on its boundary: marginally stable, never "
+                                          "rendered; OV, CE0 .. CE2+OV lie inside)"
+                                        : "";
             return Refusal{"unstable_gains",
-                           kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
+                           kind + tip + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
                                ") are outside the stability region for " + along + ", " + g(v.mass) + " kg (device mass " +
                                checker.mass().describe() + "), period " + g(config.period) + " s, delay " + g(config.delay) +
                                " s; the largest stable K at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +
-                               " N/m (alpha_max = " + g(v.alpha_max) + ")",
-                           v.largest_stable_K};
+                               " N/m (alpha_max = " + g(v.alpha_max) + "); " +
+                               (v.damping_stable ? "K = " + g(K) + " N/m is stable for " + g(v.damping_stable->first) + " < B < " +
+                                                       g(v.damping_stable->second) + " N s/m" +
+                                                       (v.damping_needed ? ", accepted for " + g(v.damping_needed->first) + " < B < " +
+                                                                               g(v.damping_needed->second) + " N s/m (damping_needed; the spectral radius "
+                                                                               "below 1 - 1e-6)"
+                                                                         : " but never 1e-6 below a spectral radius of 1, which the daemon requires")
+                                                 : "no B makes K = " + g(K) + " N/m stable with " + along),
+                           v.largest_stable_K, v.damping_needed};
         }
         return std::nullopt;
     }
@@ -620,12 +636,13 @@ struct Server::Impl {
         std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates{};
         std::vector<std::uint32_t> new_ids;
         std::uint32_t next_id = next_object_id;
-        auto refuse = [&](const std::string& code, const std::string& message, int op, std::optional<double> largest = std::nullopt) {
+        auto refuse = [&](const std::string& code, const std::string& message, int op, std::optional<double> largest = std::nullopt,
+                          std::optional<std::pair<double, double>> damping = std::nullopt) {
             {
                 std::lock_guard<std::mutex> lock(counters_mutex);
                 ++counters.commits_refused;
             }
-            send_error(s, id, code, "commit: ops[" + std::to_string(op) + "]: " + message, op, largest);
+            send_error(s, id, code, "commit: ops[" + std::to_string(op) + "]: " + message, op, largest, damping);
         };
         auto find_slot = [&](std::uint32_t object_id) -> int {
             for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
@@ -672,7 +689,7 @@ struct Server::Impl {
                 case server::CommitOperation::Kind::Add: {
                     Resolved r;
                     if (auto refusal = resolve(*op.object, r)) {
-                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K);
+                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K, refusal->damping_needed);
                         return;
                     }
                     int free_slot = -1;
@@ -711,7 +728,7 @@ struct Server::Impl {
                     if (!owned_slot(op.object_id, op_index, slot)) return;
                     Resolved r;
                     if (auto refusal = resolve(*op.object, r)) {
-                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K);
+                        refuse(refusal->code, refusal->message, op_index, refusal->largest_stable_K, refusal->damping_needed);
                         return;
                     }
                     ServerSlot& ss = proposal[static_cast<std::size_t>(slot)];
@@ -1016,15 +1033,19 @@ struct Server::Impl {
             s.next_state += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.rate_hz));
             if (s.next_state < now) s.next_state = now;  // never send bursts to catch up
             json contact = json::array();
+            for (std::uint32_t i = 0; i < 64; ++i) {
+                if ((snapshot.config_contact_mask >> i) & 1U) contact.push_back(i + 1);  // config wall ids 1 .. n
+            }
             for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
-                if ((snapshot.contact_mask >> i) & 1U) contact.push_back(snapshot.slot_object_id[i]);
+                if (((snapshot.contact_mask >> i) & 1U) != 0U && snapshot.slot_object_id[i] != 0) contact.push_back(snapshot.slot_object_id[i]);
             }
             const std::string text =
                 json{{"type", "state"}, {"tick", snapshot.tick}, {"time_s", snapshot.time_s},
                      {"position", json::array({snapshot.position[0], snapshot.position[1], snapshot.position[2]})},
                      {"velocity", json::array({snapshot.velocity[0], snapshot.velocity[1], snapshot.velocity[2]})},
                      {"force", json::array({snapshot.force[0], snapshot.force[1], snapshot.force[2]})},
-                     {"contact", contact}, {"contact_mask", snapshot.contact_mask}, {"overruns", snapshot.overruns},
+                     {"contact", contact}, {"contact_mask", snapshot.contact_mask},
+                     {"config_contact_mask", snapshot.config_contact_mask}, {"overruns", snapshot.overruns},
                      {"wake_latency_ns", snapshot.wake_latency_ns}, {"last_commit_seq", snapshot.last_commit_seq},
                      {"objects", snapshot.objects}, {"fault", fault_name(snapshot.fault)}, {"dropped", s.dropped}}
                     .dump();

@@ -124,8 +124,9 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
     put(l.overruns, t.overruns);
     put(l.wake_latency_ns, t.wake_latency_ns);
     put(l.fault, t.fault);
+    put(l.config_contact_mask, t.config_contact_mask);
     if (objects != nullptr) {
-        put(l.contact_mask, objects->contact_mask());
+        put(l.contact_mask, objects->contact_mask() & objects->occupied_mask());  // no contact without an object (a slot freed this tick)
         put(l.last_commit_seq, objects->stats().last_commit_seq);
         // The slot table changes only with a commit or a ramp step: rewritten then, otherwise what the
         // segment holds is still this tick's (64 ids and ramps are most of a publication's cost).
@@ -156,6 +157,7 @@ bool StatePublisher::read(StateLayout& out) const noexcept {
             out.force[a] = get(l.force[a]);
         }
         out.contact_mask = get(l.contact_mask);
+        out.config_contact_mask = get(l.config_contact_mask);
         out.overruns = get(l.overruns);
         out.wake_latency_ns = get(l.wake_latency_ns);
         out.last_commit_seq = get(l.last_commit_seq);

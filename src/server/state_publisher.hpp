@@ -26,6 +26,7 @@ struct StateTick {
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
     std::uint32_t fault = 0;
+    std::uint64_t config_contact_mask = 0;  // Scene::contact_mask(): the config walls in contact
 };
 
 class StatePublisher {

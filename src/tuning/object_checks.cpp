@@ -96,6 +96,39 @@ PairVerdict GainChecker::check_pair(double K, double B, double m) const {
     return v;
 }
 
+std::optional<std::pair<double, double>> GainChecker::damping_range(double K, const std::vector<double>& masses,
+                                                                    bool accepted) const {
+    const double T = plant_.period;
+    if (!std::isfinite(K) || masses.empty()) return std::nullopt;
+    double lo = -HUGE_VAL, hi = HUGE_VAL;
+    for (const double m : masses) {
+        const hapticopt::NormalizedPlant np = normalized_for(m);
+        const hapticopt::StabilityRegion region(np);
+        const double alpha = K * T * T / m;
+        if (!(alpha > region.alpha_min() && alpha <= region.alpha_max())) return std::nullopt;
+        auto [beta_lo, beta_hi] = region.beta_range(alpha);
+        if (accepted) {
+            // rho(beta) = 1 at both ends; the ends of rho < 1 - margin, by bisection between each end and the
+            // middle of the interval (none when the middle does not reach below 1 - margin).
+            const double target = 1.0 - hapticopt::kMatrixGainRadiusMargin;
+            auto rho = [&](double beta) { return hapticopt::stability(np, hapticopt::NormalizedGains{alpha, beta}).spectral_radius; };
+            const double mid = 0.5 * (beta_lo + beta_hi);
+            if (!(rho(mid) < target)) return std::nullopt;
+            double a = beta_lo, b = mid;  // rho(a) >= target > rho(b)
+            for (int i = 0; i < 60; ++i) (rho(0.5 * (a + b)) < target ? b : a) = 0.5 * (a + b);
+            beta_lo = b;
+            a = mid;
+            b = beta_hi;  // rho(a) < target <= rho(b)
+            for (int i = 0; i < 60; ++i) (rho(0.5 * (a + b)) < target ? a : b) = 0.5 * (a + b);
+            beta_hi = a;
+        }
+        lo = std::max(lo, beta_lo * m / T);
+        hi = std::min(hi, beta_hi * m / T);
+    }
+    if (!(lo < hi)) return std::nullopt;
+    return std::make_pair(lo, hi);
+}
+
 std::vector<double> GainChecker::masses_of(const Matrix3& P) const {
     const Eigen::Matrix3d p = symmetric(P);
     if (mass_.isotropic) {  // S = P / m: the masses are m for each non-zero eigenvalue of P (a projector: 1)
@@ -132,7 +165,11 @@ PairVerdict GainChecker::check_object(double K, double B, const std::vector<doub
         if (!failed || v.largest_stable_K < worst.largest_stable_K) worst = v;
         failed = true;
     }
-    if (failed) return worst;
+    if (failed) {
+        worst.damping_stable = damping_range(K, masses, false);
+        worst.damping_needed = damping_range(K, masses, true);
+        return worst;
+    }
     PairVerdict ok;
     ok.stable = true;
     ok.mass = masses.empty() ? plant_.mass : *std::min_element(masses.begin(), masses.end());

@@ -88,6 +88,11 @@ struct PairVerdict {
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
     double largest_stable_K = 0.0;  // N/m at this B (0: none)
+    // check_object's refusals (GainChecker::damping_range): the open interval of B (N s/m) that makes this K
+    // stable with every mass, and the B the daemon accepts for it alone (spectral radius below
+    // 1 - kMatrixGainRadiusMargin); none when no B does.
+    std::optional<std::pair<double, double>> damping_stable;
+    std::optional<std::pair<double, double>> damping_needed;
 };
 
 struct CriterionGains {
@@ -117,6 +122,20 @@ public:
     // of the mass with the smallest largest stable K (check_pair); on success stable = true and `mass` the
     // lightest (no bisection).
     [[nodiscard]] PairVerdict check_object(double K, double B, const std::vector<double>& masses) const;
+
+    // The dampings that make stiffness K (N/m) stable with every mass in `masses` (kg): the intersection
+    // over the masses of the open interval (beta_lo, beta_hi) m / T, where (beta_lo, beta_hi) is the stable
+    // beta at alpha = K T^2 / m, the two crossings of the region's boundary with that alpha
+    // (hapticopt::StabilityRegion::beta_range: D-decomposition, p(e^{i theta}) = 0 solved for (alpha,
+    // beta), bisection in theta to ~1e-15). std::nullopt when some alpha lies outside (alpha_min,
+    // alpha_max] (no B makes K stable with that mass) or the intervals do not overlap.
+    // accepted: the B whose loop has a spectral radius below 1 - hapticopt::kMatrixGainRadiusMargin (the
+    // margin of the summed check, which every object passes as part of the scene) instead: each end found by
+    // 60 bisection steps on the loop's spectral radius (hapticopt::stability, eigenvalues of the transition
+    // matrix) between the region's end and the interval's middle; std::nullopt also when the middle does not
+    // reach below that radius.
+    [[nodiscard]] std::optional<std::pair<double, double>> damping_range(double K, const std::vector<double>& masses,
+                                                                         bool accepted = false) const;
 
     // The optimum of a criterion (CE0 .. CE2+OV) for mass m (kg), cached as said above. std::nullopt for
     // an unknown name.

@@ -25,10 +25,7 @@ namespace {
 
 hapticopt::Criterion parse(const std::string& name) {
     const auto c = hapticopt::parse_criterion(name);
-    if (!c || !is_accepted_criterion(name)) {
-        throw StartupError(kExitUsage, "criterion = " + name + " is invalid; accepted: CE0, CE1, CE2, OV, CE0+OV, "
-                                                               "CE1+OV, CE2+OV");
-    }
+    if (!c) throw StartupError(kExitUsage, "criterion = " + name + " is invalid; accepted: " + accepted_criteria_text());
     return *c;
 }
 
@@ -42,13 +39,23 @@ std::string g(double v) {
 }  // namespace
 
 const std::vector<std::string>& accepted_criteria() {
-    static const std::vector<std::string> names{"CE0", "CE1", "CE2", "OV", "CE0+OV", "CE1+OV", "CE2+OV"};
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> out;
+        for (const hapticopt::Criterion c : hapticopt::kAllCriteria) out.emplace_back(hapticopt::to_string(c));
+        return out;
+    }();
     return names;
 }
 
-bool is_accepted_criterion(const std::string& name) {
-    const auto& all = accepted_criteria();
-    return std::find(all.begin(), all.end(), name) != all.end();
+bool is_accepted_criterion(const std::string& name) { return hapticopt::parse_criterion(name).has_value(); }
+
+const std::string& accepted_criteria_text() {
+    static const std::string text = [] {
+        std::string out;
+        for (const std::string& name : accepted_criteria()) out += (out.empty() ? "" : ", ") + name;
+        return out;
+    }();
+    return text;
 }
 
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {

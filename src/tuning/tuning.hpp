@@ -53,9 +53,12 @@ struct TuningResult {
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
-// The criteria hapticd accepts (the paper's seven).
+// The criteria hapticd accepts: every criterion hapticopt knows (hapticopt::kAllCriteria, the names of
+// hapticopt::to_string: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV), in that order.
 const std::vector<std::string>& accepted_criteria();
 [[nodiscard]] bool is_accepted_criterion(const std::string& name);
+// "amax, OV, CE0, ...": the accepted names for an error message.
+[[nodiscard]] const std::string& accepted_criteria_text();
 
 // The plant in hapticopt's terms (the same five numbers).
 hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);

@@ -246,4 +246,70 @@ TEST_F(Hapticctl, WatchPrintsOneLinePerSampleWithAdvancingTicks) {
     EXPECT_EQ(missing.code, 9) << missing.err;
 }
 
+// Every criterion hapticopt knows on the command lines: hapticd --criterion takes all eight (amax in
+// lockstep, its wall tuned to the region's tip), hapticctl's refusal of an unknown one lists all eight, an
+// OV plane is added, and an amax plane is refused as unstable_gains (the tip is on the region's boundary).
+TEST_F(Hapticctl, EveryHapticoptCriterionIsAcceptedByName) {
+    const Result d = clients_test::run(HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "amax"},
+                                       "hapticd_amax");
+    EXPECT_EQ(d.code, 0) << d.err;
+    EXPECT_NE((d.out + d.err).find("tuned for amax"), std::string::npos) << d.out << d.err;
+    const Result bad = clients_test::run(HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "CE9"},
+                                         "hapticd_ce9");
+    EXPECT_EQ(bad.code, 2) << bad.err;
+    EXPECT_NE(bad.err.find("{amax,OV,CE0,CE1,CE2,CE0+OV,CE1+OV,CE2+OV}"), std::string::npos) << bad.err;
+    const Result unknown = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=CE9"}, "add_ce9");
+    EXPECT_EQ(unknown.code, 5) << unknown.err;
+    EXPECT_NE(unknown.err.find("unknown_criterion"), std::string::npos) << unknown.err;
+    EXPECT_NE(unknown.err.find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"), std::string::npos) << unknown.err;
+    const Result ov = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=OV", "--for", "0.05"}, "add_ov");
+    EXPECT_EQ(ov.code, 0) << ov.err;
+    EXPECT_NE(ov.out.find("added "), std::string::npos) << ov.out;
+    const Result amax = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=amax"}, "add_amax");
+    EXPECT_EQ(amax.code, 5) << amax.err;
+    EXPECT_NE(amax.err.find("unstable_gains"), std::string::npos) << amax.err;
+    EXPECT_NE(amax.err.find("criterion amax: the tip of the stability region"), std::string::npos) << amax.err;
+}
+
+// watch's fields: t is the loop's time, tick x period (printed to the ms: within 0.5 ms, plus the rounding of
+// the product), and contact lists the config walls the handle is behind by their `list` ids. A second
+// config wall, solid below x = 2 cm, has the handle of the clients' daemon inside it from the first tick
+// (the hand starts at rest at x = -5 mm and settles at +10 mm, `watch` shows x = +10.000 mm; a 15 mm step of
+// the hand, damping ratio 0.26 alone, overshoots by exp(-pi 0.26 / sqrt(1 - 0.26^2)) = 43 % at most: below
+// 16.5 mm); the first (at 5 cm) is not touched. Both ways of watching (shared memory, subscription).
+TEST_F(Hapticctl, WatchShowsTheConfigWallInContactAndTheLoopsTime) {
+    LockstepDaemon d("hapticctl_config_contact", {"--wall", "axis=0 position=0.02 direction=-1"});
+    ASSERT_TRUE(d.ready()) << d.log();
+    const Result st = clients_test::run(HAPTICCTL_BINARY, {"--socket", d.socket(), "status", "--json"}, "config_contact_status");
+    ASSERT_EQ(st.code, 0) << st.err;
+    const double period = nlohmann::json::parse(st.out)["device"]["period_s"].get<double>();
+    ASSERT_GT(period, 0.0);
+    const Result l = clients_test::run(HAPTICCTL_BINARY, {"--socket", d.socket(), "list", "--json"}, "config_contact_list");
+    ASSERT_EQ(l.code, 0) << l.err;
+    const auto list = nlohmann::json::parse(l.out);
+    ASSERT_EQ(list.size(), 2U) << l.out;
+    EXPECT_EQ(list[1]["id"], 2) << l.out;
+    EXPECT_EQ(list[1]["owner"], 0) << l.out;
+    for (const bool via_socket : {false, true}) {
+        std::vector<std::string> args{"--socket", d.socket(), "watch", "--count", "5", "--rate", "50"};
+        if (via_socket) args.push_back("--via-socket");
+        const Result r = clients_test::run(HAPTICCTL_BINARY, args, via_socket ? "config_contact_socket" : "config_contact_shm");
+        ASSERT_EQ(r.code, 0) << r.err;
+        std::istringstream lines(r.out);
+        std::string line;
+        int n = 0;
+        while (std::getline(lines, line)) {
+            unsigned long long tick = 0;
+            double t = 0.0;
+            ASSERT_EQ(std::sscanf(line.c_str(), "tick %llu t %lf s", &tick, &t), 2) << line;
+            ASSERT_GT(tick, 0U) << line;
+            EXPECT_NEAR(t, static_cast<double>(tick) * period, 5e-4 + 1e-12 * static_cast<double>(tick)) << line;
+            EXPECT_NE(line.find(" contact {2} "), std::string::npos) << line;
+            ++n;
+        }
+        EXPECT_EQ(n, 5) << r.out;
+    }
+    EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
 }  // namespace

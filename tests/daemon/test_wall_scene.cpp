@@ -53,6 +53,26 @@ TEST(Wall, RejectsInvalidGains) {
     EXPECT_THROW(VirtualWall({0, 0.0, 0.5, WallMode::Bilateral}, 1.0, 0.0, kT), std::invalid_argument);
 }
 
+// The config walls' contact flags (Scene::contact_mask): bit i while the handle is behind wall i's surface
+// (penetration > 0), whatever its mode and whether its law pushes; zero after a fault.
+TEST(Scene, ContactFlagsAreThePenetrationSignsOfTheWalls) {
+    std::vector<VirtualWall> walls;
+    walls.emplace_back(WallGeometry{0, 0.01, 1.0, WallMode::Unilateral}, 1000.0, 10.0, kT);   // solid for x0 > 0.01
+    walls.emplace_back(WallGeometry{1, 0.0, -1.0, WallMode::Bilateral}, 1000.0, 10.0, kT);    // solid for x1 < 0
+    Scene scene(std::move(walls), 2, 100.0);
+    AxisVector f{};
+    ASSERT_EQ(scene.evaluate({0.0, 0.001, 0.0}, f), SceneFault::None);
+    EXPECT_EQ(scene.contact_mask(), 0U);
+    ASSERT_EQ(scene.evaluate({0.02, 0.001, 0.0}, f), SceneFault::None);
+    EXPECT_EQ(scene.contact_mask(), 1U);
+    ASSERT_EQ(scene.evaluate({0.02, -0.001, 0.0}, f), SceneFault::None);
+    EXPECT_EQ(scene.contact_mask(), 3U);
+    ASSERT_EQ(scene.evaluate({0.0, -0.001, 0.0}, f), SceneFault::None);
+    EXPECT_EQ(scene.contact_mask(), 2U);
+    ASSERT_EQ(scene.evaluate({std::numeric_limits<double>::quiet_NaN(), -0.001, 0.0}, f), SceneFault::NonFinitePosition);
+    EXPECT_EQ(scene.contact_mask(), 0U);
+}
+
 TEST(DelayRing, DelaysByExactlyNSamples) {
     for (std::size_t n : {0U, 1U, 4U}) {
         DelayRing<double> ring(n);

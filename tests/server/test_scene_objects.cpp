@@ -129,6 +129,39 @@ TEST(SceneObjects, RampInAndOutAreLinearAndTheSlotIsFreedAfterwards) {
     EXPECT_EQ(rig.objects.occupied(), 0U);
 }
 
+// The published contact flags (contact_mask() & occupied_mask(), StatePublisher::publish) name occupied
+// slots only: through a field's ramp-out (the handle inside it all along) the flag is published while its
+// slot holds it; the tick whose ramp step frees the slot rendered it (raw flag set) but publishes no contact,
+// so a state never shows a contact without an object (id 0).
+TEST(SceneObjects, ARampedOutObjectLeavesNoContactFlagBehind) {
+    Rig rig(0.010);
+    ObjectParams field;
+    field.id = 9;
+    field.kind = ObjectKind::Field;
+    field.radius = 1.0;
+    field.force = {1.0, 0, 0};
+    rig.commit({{6, SlotUpdate::Action::Set, field}});
+    for (int k = 0; k <= 12; ++k) rig.tick({0, 0, 0});
+    EXPECT_EQ(rig.objects.contact_mask(), std::uint64_t{1} << 6);
+    rig.commit({{6, SlotUpdate::Action::Remove, field}}, 2);
+    int ticks_with_flag = 0, ticks_rendered = 0;
+    for (int k = 0; k < 15; ++k) {
+        rig.tick({0, 0, 0});
+        ticks_rendered += rig.objects.contact_mask() != 0 ? 1 : 0;
+        const std::uint64_t mask = rig.objects.contact_mask() & rig.objects.occupied_mask();
+        for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
+            if ((mask >> s & 1U) != 0U) {
+                EXPECT_NE(rig.objects.slot_object_id(s), 0U) << "tick " << k << " slot " << s;
+            }
+        }
+        ticks_with_flag += mask != 0 ? 1 : 0;
+    }
+    EXPECT_EQ(rig.objects.slot_object_id(6), 0U);
+    // Ramp-out of 10 ticks: r = 1 - 0.1 k renders k = 0 .. 9; the slot is freed at the end of tick 9.
+    EXPECT_EQ(ticks_rendered, 10);
+    EXPECT_EQ(ticks_with_flag, 9);
+}
+
 // A departure with no stable ramp-out (docs/protocol.md, section 5, step 4): Cut removes the object at
 // once, with no intermediate scene (a Remove would render 9 more ticks of ramp-out here); rendered_gains
 // reports the spring's gains before and nothing after. Like every batch that changes gains it waits for the
@@ -352,6 +385,46 @@ TEST(GainChecker, PairVerdictIsHapticoptsAndTheLargestStableKBracketsTheBoundary
         EXPECT_TRUE(hapticopt::is_stable(np, {v.largest_stable_K * (1 - 1e-9) * kT * kT / 0.3, beta})) << B;
         EXPECT_FALSE(hapticopt::is_stable(np, {v.largest_stable_K * (1 + 1e-9) * kT * kT / 0.3, beta})) << B;
     }
+}
+
+// The damping interval for a stiffness (GainChecker::damping_range) against a brute-force scan of the
+// loop's spectral radius (eigenvalues of the closed loop's transition matrix, hapticopt::stability, an
+// independent computation from the region's D-decomposition): on 4000 B from 0 to 1.25 B_max, rho < 1
+// exactly at the B strictly inside (B_min, B_max), away from the ends by 1e-6 B_max (the eigenvalues' and
+// the bisection's errors are ~1e-12; near an end rho - 1 is of the order of the distance to it). Delays
+// d = 0, 1, 3 periods, stiffnesses from 1 % to 90 % of alpha_max. A stiffness beyond alpha_max has none;
+// a line spring's two masses get the intersection.
+TEST(GainChecker, TheDampingRangeIsTheStableIntervalOfTheSpectralRadius) {
+    for (const int d : {0, 1, 3}) {
+        GainChecker checker(plant(d * kT));
+        const hapticopt::NormalizedPlant np{0.0, 0.0, static_cast<double>(d)};
+        const double alpha_max = hapticopt::StabilityRegion(np).alpha_max();
+        for (const double fraction : {0.01, 0.3, 0.9}) {
+            const double K = fraction * alpha_max * 0.3 / (kT * kT);
+            const auto range = checker.damping_range(K, {0.3});
+            ASSERT_TRUE(range.has_value()) << d << " " << fraction;
+            const auto [lo, hi] = *range;
+            ASSERT_LT(0.0, lo);
+            ASSERT_LT(lo, hi);
+            int stable_points = 0;
+            for (int i = 0; i <= 4000; ++i) {
+                const double B = 1.25 * hi * i / 4000.0;
+                if (std::abs(B - lo) < 1e-6 * hi || std::abs(B - hi) < 1e-6 * hi) continue;
+                const hapticopt::StabilityReport r = hapticopt::stability(np, {K * kT * kT / 0.3, B * kT / 0.3});
+                EXPECT_EQ(r.spectral_radius < 1.0, lo < B && B < hi) << "d " << d << " K " << K << " B " << B << " rho " << r.spectral_radius;
+                stable_points += r.spectral_radius < 1.0 ? 1 : 0;
+            }
+            EXPECT_GT(stable_points, 0);
+        }
+        EXPECT_FALSE(checker.damping_range(1.01 * alpha_max * 0.3 / (kT * kT), {0.3}).has_value());
+    }
+    GainChecker checker(plant(kT));
+    const double K = 2e4;
+    const auto light = checker.damping_range(K, {0.3}), heavy = checker.damping_range(K, {0.6});
+    const auto both = checker.damping_range(K, {0.3, 0.6});
+    ASSERT_TRUE(light && heavy && both);
+    EXPECT_EQ(both->first, std::max(light->first, heavy->first));
+    EXPECT_EQ(both->second, std::min(light->second, heavy->second));
 }
 
 Matrix3 outer(const std::array<double, 3>& u, double s) {

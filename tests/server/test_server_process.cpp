@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <thread>
 
 #include <Eigen/Dense>
 #include <hapticopt/hapticopt.hpp>
@@ -188,6 +190,221 @@ TEST(ServerProcess, APairStableForTheMeanMassButNotForTheNormalsMassIsRefused) {
     ASSERT_TRUE(state.read(after));
     EXPECT_EQ(after.last_commit_seq, before.last_commit_seq);
     EXPECT_EQ(c.list().size(), 1U);  // the config wall only
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// Every criterion hapticopt knows (hapticopt::kAllCriteria) is a criterion of the protocol, sent as raw JSON:
+// each but amax is accepted with hapticopt::optimal_wall's gains for the profile's plant (the same
+// computation: equal to rounding); amax, the stability region's tip, on its boundary, is refused as
+// unstable_gains naming the criterion (never unknown_criterion); an unknown name's refusal lists all eight.
+TEST(ServerProcess, EveryHapticoptCriterionIsAProtocolCriterion) {
+    const Names n = names("allcrit");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}), "allcrit_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    const double delay = c.welcome().device.delay_s;
+    const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+    RawConnection raw(n.socket);
+    raw.hello();
+    int id = 10;
+    for (const hapticopt::Criterion criterion : hapticopt::kAllCriteria) {
+        const std::string name(hapticopt::to_string(criterion));
+        raw.send(json{{"type", "commit"}, {"id", ++id},
+                      {"ops", json::array({{{"op", "add"}, {"object", {{"kind", "plane"}, {"normal", {0, 0, -1}}, {"offset", -0.05},
+                                                                        {"gains", {{"criterion", name}}}}}}})}}
+                     .dump());
+        const json r = raw.receive_json();
+        if (criterion == hapticopt::Criterion::AlphaMax) {
+            EXPECT_EQ(r.value("code", ""), "unstable_gains") << r.dump();
+            EXPECT_NE(r.value("message", "").find("criterion amax: the tip of the stability region"), std::string::npos) << r.dump();
+            continue;
+        }
+        ASSERT_EQ(r.value("type", ""), "ok") << name << ": " << r.dump();
+        const std::uint32_t object = r["object_ids"][0].get<std::uint32_t>();
+        const hapticopt::WallTuning t = hapticopt::optimal_wall(criterion, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, delay});
+        bool found = false;
+        for (const auto& o : c.list()) {
+            if (o.id != object) continue;
+            found = true;
+            EXPECT_NEAR(o.K, t.K, 1e-12 * t.K) << name;
+            EXPECT_NEAR(o.B, t.B, 1e-12 * t.B) << name;
+        }
+        EXPECT_TRUE(found) << name;
+        raw.send(json{{"type", "commit"}, {"id", ++id}, {"ops", json::array({{{"op", "remove"}, {"object_id", object}}})}}.dump());
+        const json removed = raw.receive_json();
+        ASSERT_EQ(removed.value("type", ""), "ok") << removed.dump();
+        // The next plane is added alone: wait for this one's ramp-out to free its slot.
+        ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) {
+            return s.last_commit_seq >= removed.value("commit_seq", std::uint64_t{0}) && s.objects == 0;
+        }, 5.0)) << name;
+    }
+    raw.send(R"({"type":"commit","id":99,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
+    const json unknown = raw.receive_json();
+    EXPECT_EQ(unknown.value("code", ""), "unknown_criterion") << unknown.dump();
+    EXPECT_NE(unknown.value("message", "").find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"), std::string::npos)
+        << unknown.dump();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// A refusal for too little (or too much) damping names the dampings that make the asked K stable: the
+// reply's damping_needed [B_min, B_max] (the B the daemon accepts: spectral radius below 1 - 1e-6, the
+// summed check's margin) and the message (that and the exact stable interval). With a delay
+// (--delay-buffer 1, d = 1) for K = 2000 N/m and B = 0 ("the largest stable K at B = 0 is 0") and
+// K = 40 000 N/m with B = 1: a plane with B = B_min (1 + 1e-4) or B_max (1 - 1e-4) is accepted, with
+// B_min (1 - 1e-4) or B_max (1 + 1e-4) refused. The ends are bisected to ~1e-16 in beta on the spectral
+// radius, whose eigenvalue error is ~1e-12; 1e-4 of B moves the radius by ~5e-7 (measured with the
+// exact ends: B_min (1 + 1e-4) gave 0.9999994953 for K = 40 000), far above both.
+TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
+    const Names n = names("damping");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}), "damping_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
+    auto plane = [](double K, double B) {
+        return cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)});
+    };
+    for (const auto& [K, B] : {std::pair{2000.0, 0.0}, std::pair{40000.0, 1.0}}) {
+        std::optional<std::pair<double, double>> needed;
+        RawConnection raw(n.socket);
+        raw.hello();
+        raw.send(json{{"type", "commit"}, {"id", 1},
+                      {"ops", json::array({{{"op", "add"}, {"object", {{"kind", "plane"}, {"normal", {0, 0, -1}}, {"offset", -0.05},
+                                                                        {"gains", {{"K", K}, {"B", B}}}}}}})}}
+                     .dump());
+        const json r = raw.receive_json();
+        ASSERT_EQ(r.value("code", ""), "unstable_gains") << r.dump();
+        ASSERT_TRUE(r.contains("damping_needed") && r["damping_needed"].is_array() && r["damping_needed"].size() == 2) << r.dump();
+        const double lo = r["damping_needed"][0].get<double>(), hi = r["damping_needed"][1].get<double>();
+        EXPECT_NE(r.value("message", "").find(" is stable for "), std::string::npos) << r.dump();
+        EXPECT_NE(r.value("message", "").find(" (damping_needed;"), std::string::npos) << r.dump();
+        try {
+            c.commit(plane(K, B));
+            ADD_FAILURE() << "K " << K << " B " << B << " was accepted";
+        } catch (const cl::Error& e) {
+            EXPECT_EQ(e.code(), cl::ErrorCode::UnstableGains) << e.what();
+            needed = e.damping_needed();
+        }
+        ASSERT_TRUE(needed.has_value());
+        EXPECT_EQ(needed->first, lo);
+        EXPECT_EQ(needed->second, hi);
+        ASSERT_LT(B, lo);
+        for (const double inside : {lo * (1 + 1e-4), hi * (1 - 1e-4)}) {
+            const auto ok = c.commit(plane(K, inside));
+            ASSERT_EQ(ok.object_ids.size(), 1U) << "K " << K << " B " << inside;
+            c.commit(cl::Batch().remove(ok.object_ids[0]));
+            const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+            ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; }, 5.0));
+        }
+        for (const double outside : {lo * (1 - 1e-4), hi * (1 + 1e-4)}) {
+            try {
+                c.commit(plane(K, outside));
+                ADD_FAILURE() << "K " << K << " B " << outside << " was accepted";
+            } catch (const cl::Error& e) {
+                // Inside the stability region, within the margin: the summed check's refusal.
+                EXPECT_TRUE(e.code() == cl::ErrorCode::UnstableGains || e.code() == cl::ErrorCode::UnstableSum) << e.what();
+            }
+        }
+    }
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// The client library retries `busy` with a bounded back-off (ConnectOptions::busy_retry). The hand-over
+// queue is filled for real: --ramp-time 1 and --session-max-in-flight 64, three sessions change their planes'
+// gains (each batch a cross-fade ramp, applied one at a time: one ramps, 64 are held, 64 wait in the ring)
+// until the server answers busy or session_limit; one batch drains per second. Right after a drain (seen as
+// last_commit_seq moving) a session with room in flight fills the freed place again; then, within that second:
+// without retries (tries = 1) a third session's commit is busy at once; with the default 8 tries it is busy
+// after 8 tries that took at least the 113 ms of back-off (1 + 2 + ... + 32 + 50 ms; no upper bound: the
+// machine may be loaded); with 1000 tries it succeeds once the first session leaves (its departure applies
+// every batch sent before it at once, docs/protocol.md, section 5).
+TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
+    const Names n = names("busy");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "1",
+                                                 "--session-max-in-flight", "64"}), "busy_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    const cl::BusyRetry no_retry{.tries = 1};
+    auto plane = [](double offset, double K) {
+        // Bilateral: a unilateral plane is checked in each engagement pattern, and with 1000-tick ramps four
+        // of them on one axis exceed the pattern-scene limit (capacity) depending on which ramp is running.
+        return cl::Plane{.normal = {0, 0, -1}, .offset = offset, .bilateral = true, .gains = cl::Gains::explicit_gains(K, 50.0)};
+    };
+    std::vector<std::unique_ptr<cl::Client>> fillers;
+    std::vector<std::uint32_t> ids;
+    int busy_seen = 0;
+    for (int f = 0; f < 3; ++f) {
+        fillers.push_back(std::make_unique<cl::Client>(cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry})));
+        cl::Client& c = *fillers.back();
+        const double offset = -0.05 - 0.001 * f;
+        std::uint32_t id = 0;
+        try {
+            id = c.commit(cl::Batch().add(plane(offset, 100.0))).object_ids.at(0);
+        } catch (const cl::Error& e) {
+            ASSERT_EQ(e.code(), cl::ErrorCode::Busy) << e.what();  // the earlier sessions filled the queue
+            ++busy_seen;
+            break;
+        }
+        ids.push_back(id);
+        for (int i = 0; i < 200; ++i) {
+            try {
+                c.commit(cl::Batch().modify(id, plane(offset, i % 2 == 0 ? 120.0 : 100.0)));
+            } catch (const cl::Error& e) {
+                ASSERT_TRUE(e.code() == cl::ErrorCode::Busy || e.code() == cl::ErrorCode::SessionLimit) << e.what();
+                busy_seen += e.code() == cl::ErrorCode::Busy ? 1 : 0;
+                break;
+            }
+        }
+    }
+    EXPECT_GT(busy_seen, 0);
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry});
+    EXPECT_EQ(c.busy_retry().tries, 1);
+    const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
+    cl::StateSample s0;
+    ASSERT_TRUE(state.read(s0));
+    ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq != s0.last_commit_seq; }, 5.0));
+    // Refill the drained place: the session whose batch was applied has room in flight again.
+    for (std::size_t f = 0; f < ids.size(); ++f) {
+        try {
+            fillers[f]->commit(cl::Batch().modify(ids[f], plane(-0.05 - 0.001 * static_cast<double>(f), 110.0)));
+        } catch (const cl::Error& e) {
+            ASSERT_TRUE(e.code() == cl::ErrorCode::Busy || e.code() == cl::ErrorCode::SessionLimit) << e.what();
+            if (e.code() == cl::ErrorCode::Busy) break;
+        }
+    }
+    const cl::Batch batch = cl::Batch().add(plane(-0.06, 100.0));
+    try {
+        c.commit(batch);
+        ADD_FAILURE() << "the queue was not full (busy seen " << busy_seen << " times)";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::Busy) << e.what();
+        EXPECT_NE(std::string(e.what()).find("busy after 1 tries"), std::string::npos) << e.what();
+    }
+    c.set_busy_retry(cl::BusyRetry{});
+    const auto start = std::chrono::steady_clock::now();
+    try {
+        c.commit(batch);
+        ADD_FAILURE() << "accepted within the default back-off while nothing drains";
+    } catch (const cl::Error& e) {
+        EXPECT_EQ(e.code(), cl::ErrorCode::Busy) << e.what();
+        EXPECT_NE(std::string(e.what()).find("busy after 8 tries"), std::string::npos) << e.what();
+    }
+    EXPECT_GE(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0.113);
+    EXPECT_THROW(c.set_busy_retry(cl::BusyRetry{.tries = 0}), std::invalid_argument);
+    c.set_busy_retry(cl::BusyRetry{.tries = 1000});
+    std::thread leave([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        fillers.front()->bye();
+    });
+    std::optional<cl::CommitResult> r;
+    try {
+        r = c.commit(batch);
+    } catch (const cl::Error& e) {
+        ADD_FAILURE() << e.what();
+    }
+    leave.join();
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->object_ids.size(), 1U);
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }

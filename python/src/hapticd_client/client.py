@@ -64,12 +64,26 @@ def default_socket_path() -> str:
     return "/run/hapticd/hapticd.sock"
 
 
+BUSY_RETRY_DEFAULT = (8, 1e-3, 0.05)  # tries, initial delay (s), largest delay (s): as the C++ client's BusyRetry
+
+
+def _check_busy_retry(retry) -> None:
+    tries, initial, largest = retry
+    if not isinstance(tries, int) or not 1 <= tries <= 1000:
+        raise ValueError(f"busy_retry: tries = {tries!r} is invalid; accepted range: 1 .. 1000")
+    if not 0.0 <= initial <= 10.0:
+        raise ValueError(f"busy_retry: initial_delay_s = {initial!r} is invalid; accepted range: 0 .. 10 s")
+    if not initial <= largest <= 10.0:
+        raise ValueError(f"busy_retry: max_delay_s = {largest!r} is invalid; accepted range: initial_delay_s .. 10 s")
+
+
 class Client:
     """One session. Use ``Client.connect(...)``; the ``welcome`` dict holds the server's answer (device
     name, axes, period, masses, delay, max force, capacity, ``state_shm``, ``ramp_s``, ``lease_s``), and
     ``device`` its device as a ``DeviceInfo`` (with ``mass_matrix`` and ``max_stiffness``)."""
 
     def __init__(self, sock: socket.socket, timeout_s: float, event_queue_capacity: int = EVENT_QUEUE_CAPACITY) -> None:
+        self._busy_retry = BUSY_RETRY_DEFAULT
         self._sock = sock
         self._timeout_s = timeout_s
         self._next_id = 1
@@ -85,10 +99,13 @@ class Client:
     @classmethod
     def connect(cls, socket_path: Optional[str] = None, client: str = "hapticd_client.py", lease_s: float = 0.0,
                 timeout_s: float = 5.0, protocol: int = PROTOCOL_VERSION,
-                event_queue_capacity: int = EVENT_QUEUE_CAPACITY) -> "Client":
+                event_queue_capacity: int = EVENT_QUEUE_CAPACITY,
+                busy_retry: Tuple[int, float, float] = BUSY_RETRY_DEFAULT) -> "Client":
         """Connects and performs the handshake; raises HapticdError ("transport", "protocol_version", ...).
         ``event_queue_capacity``: events kept until ``poll_event``/``next_event`` takes them (more are
-        dropped and counted in ``events_dropped``)."""
+        dropped and counted in ``events_dropped``). ``busy_retry``: how ``commit`` retries ``busy``
+        (``set_busy_retry``)."""
+        _check_busy_retry(busy_retry)
         path = socket_path or default_socket_path()
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
         try:
@@ -98,6 +115,7 @@ class Client:
             raise HapticdError("transport", f"Client.connect: connect to {path!r}: {e.strerror} "
                                             "(is hapticd running with --serve? may this user open the socket?)") from e
         c = cls(sock, timeout_s, event_queue_capacity)
+        c._busy_retry = tuple(busy_retry)
         try:
             c.send_raw(json.dumps({"type": "hello", "protocol": protocol, "client": client, "lease_s": lease_s}))
             raw = c.receive_raw(timeout_s)
@@ -204,7 +222,30 @@ class Client:
         """Commits the operations all-or-nothing at one tick boundary. Returns the reply: ``commit_seq``
         (seen as ``last_commit_seq`` in the state once applied) and ``object_ids`` (one per add)."""
         ops = batch.ops if isinstance(batch, Batch) else list(batch)
-        return self.request("commit", ops=ops)
+        tries, delay, max_delay = self._busy_retry
+        start = time.monotonic()
+        attempt = 1
+        while True:
+            try:
+                return self.request("commit", ops=ops)
+            except HapticdError as e:
+                if e.code != "busy":
+                    raise
+                if attempt >= tries:
+                    raise HapticdError("busy", f"{e} (busy after {attempt} tries over {time.monotonic() - start:.3f} s; "
+                                               "busy_retry)", e.op_index, None, e.reply) from e
+            time.sleep(delay)
+            delay = min(2.0 * delay, max_delay)
+            attempt += 1
+
+    def set_busy_retry(self, tries: int = 8, initial_delay_s: float = 1e-3, max_delay_s: float = 0.05) -> None:
+        """How ``commit`` retries a ``busy`` reply (the hand-over queue to the loop is full): up to ``tries``
+        attempts in all (1: no retry), sleeping ``initial_delay_s`` before the second and doubling up to
+        ``max_delay_s`` (defaults: 1, 2, 4, 8, 16, 32, 50 ms, 113 ms of waiting at most); after the last,
+        HapticdError("busy") says how many tries and how long. Raises ValueError naming a bad value."""
+        retry = (tries, initial_delay_s, max_delay_s)
+        _check_busy_retry(retry)
+        self._busy_retry = retry
 
     def add(self, obj: Dict) -> int:
         """Adds one object (a batch of one); returns its id."""

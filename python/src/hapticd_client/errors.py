@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Optional, Tuple
 
 
 class HapticdError(Exception):
@@ -17,6 +17,8 @@ class HapticdError(Exception):
             "transport", or "stale_state" (StateReader.read(require_live=True): the daemon is dead or stalled).
         op_index: the failing operation of a commit (-1: the summed-gain check, or not a commit).
         largest_stable_K: for "unstable_gains", the largest stable stiffness at the object's damping, N/m.
+        damping_needed: for "unstable_gains", the open interval (B_min, B_max) of damping, N s/m, that makes
+            the object's stiffness stable; None when no damping does.
         reply: the server's reply as a dict (None for a transport failure).
     """
 
@@ -27,6 +29,11 @@ class HapticdError(Exception):
         self.op_index = op_index
         self.largest_stable_K = largest_stable_K
         self.reply = reply
+        damping = (reply or {}).get("damping_needed")
+        self.damping_needed: Optional[Tuple[float, float]] = (
+            (float(damping[0]), float(damping[1]))
+            if isinstance(damping, list) and len(damping) == 2 and all(isinstance(b, (int, float)) for b in damping)
+            else None)
 
     @classmethod
     def from_reply(cls, function: str, reply: dict) -> "HapticdError":

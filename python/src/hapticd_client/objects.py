@@ -2,7 +2,8 @@
 """Scene objects as the protocol's JSON (docs/protocol.md, section 4), SI units: m, N, N/m, N s/m.
 
 Gains are explicit (``K``, ``B``; checked by the daemon against the exact stability region) or by
-``criterion`` (``CE0 CE1 CE2 OV CE0+OV CE1+OV CE2+OV``; the daemon computes the optimum for the mass
+``criterion`` (``amax OV CE0 CE1 CE2 CE0+OV CE1+OV CE2+OV``, hapticopt's; amax, the stability region's tip,
+is refused as unstable_gains; the daemon computes the optimum for the mass
 along the object's direction, the period and the delay). Only the form is built here; the daemon checks
 the physics and answers with an error code.
 """

@@ -40,6 +40,7 @@ assert _HEADER.size == 28 and _FIELDS.size == 576 - 128
 _WRITER_PID = struct.Struct("<i")  # offset 32
 _HEARTBEAT_INDEX = 576 // 8  # heartbeat_ns (int64, CLOCK_MONOTONIC ns; 0: never written), one aligned load
 _FATAL_SIGNAL = struct.Struct("<I")  # offset 584
+_CONFIG_CONTACT_INDEX = 592 // 8  # config_contact_mask (uint64, under the seqlock)
 FAULT_FATAL_SIGNAL = 4
 FAULT_TERMINATE = 5
 
@@ -62,6 +63,7 @@ class StateSample:
     velocity: Tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, backward difference of the sampled position
     force: Tuple[float, float, float] = (0.0, 0.0, 0.0)  # N, commanded this tick
     contact_mask: int = 0  # bit s: the object in slot s is in contact
+    config_contact_mask: int = 0  # bit i: the config wall with object id i + 1 is in contact
     overruns: int = 0
     wake_latency_ns: int = 0
     last_commit_seq: int = 0  # every batch up to this one is applied
@@ -74,8 +76,10 @@ class StateSample:
     fatal_signal: int = 0  # the signal that ended the daemon (fault 4 or 5)
 
     def contacts(self) -> List[int]:
-        """The ids of the objects in contact."""
-        return [self.slot_object_id[s] for s in range(CAPACITY) if (self.contact_mask >> s) & 1]
+        """The ids of the objects in contact: the config walls' (ascending), then the client objects' in slot order."""
+        walls = [i + 1 for i in range(64) if (self.config_contact_mask >> i) & 1]
+        return walls + [self.slot_object_id[s] for s in range(CAPACITY)
+                        if (self.contact_mask >> s) & 1 and self.slot_object_id[s] != 0]
 
 
 FAULT_NAMES = {0: "none", 1: "device", 2: "non-finite", 3: "watchdog", 4: "fatal_signal", 5: "terminate"}
@@ -130,6 +134,11 @@ class StateReader:
 
     def read_raw(self, max_attempts: int = 1000) -> Optional[bytes]:
         """The 448 bytes of one tick's fields, or None when ``max_attempts`` reads overlapped a write."""
+        got = self._read_consistent(max_attempts)
+        return None if got is None else got[0]
+
+    def _read_consistent(self, max_attempts: int) -> Optional[Tuple[bytes, int]]:
+        """The fields' 448 bytes and config_contact_mask of one tick (seqlock), or None."""
         words = self._words
         m = self._map
         for _ in range(max_attempts):
@@ -137,16 +146,18 @@ class StateReader:
             if s1 & 1:
                 continue
             block = m[_FIELDS_OFFSET:_FIELDS_OFFSET + _FIELDS.size]
+            config_contacts = words[_CONFIG_CONTACT_INDEX]
             if words[_SEQUENCE_INDEX] == s1:
-                return block
+                return block, config_contacts
         return None
 
     def read(self, max_attempts: int = 1000, require_live: bool = False) -> StateSample:
         """One consistent tick. Raises HapticdError("transport") if every attempt overlapped a write, and
         with ``require_live`` HapticdError("stale_state") when the sample is stale (module docstring)."""
-        block = self.read_raw(max_attempts)
-        if block is None:
+        got = self._read_consistent(max_attempts)
+        if got is None:
             raise HapticdError("transport", f"StateReader.read: {max_attempts} reads in a row overlapped the loop's writes")
+        block, config_contacts = got
         v = _FIELDS.unpack(block)
         beat = self._words[_HEARTBEAT_INDEX]
         if beat >= 1 << 63:
@@ -155,7 +166,7 @@ class StateReader:
         fault = v[15]
         stale = beat == 0 or age > self.stale_after_s or fault in (FAULT_FATAL_SIGNAL, FAULT_TERMINATE)
         sample = StateSample(tick=v[0], time_s=v[1], position=tuple(v[2:5]), velocity=tuple(v[5:8]), force=tuple(v[8:11]),
-                             contact_mask=v[11], overruns=v[12], wake_latency_ns=v[13], last_commit_seq=v[14], fault=fault,
+                             contact_mask=v[11], config_contact_mask=config_contacts, overruns=v[12], wake_latency_ns=v[13], last_commit_seq=v[14], fault=fault,
                              objects=v[16], slot_object_id=list(v[17:81]), slot_ramp=list(v[81:145]), stale=stale,
                              heartbeat_age_s=age, fatal_signal=_FATAL_SIGNAL.unpack_from(self._map, 584)[0])
         if require_live and stale:
