@@ -69,7 +69,7 @@ LoopVerdict<Scalar> loop_verdict(const SampledPlant<Scalar>& plant, Scalar alpha
     using std::abs;
     if (abs(test.margin) < kStabilityRefinementMargin) {
       using LD = long double;
-      const SampledPlant<LD> fine(plant.parameters());
+      const PlantTransitions<LD> fine = plant_transitions<LD>(plant.parameters());
       const SchurCohnResult<LD> refined = schur_cohn<LD>(characteristic_polynomial(fine).at(LD(alpha), LD(beta)));
       verdict.stable = refined.stable && LD(alpha) + LD(plant.parameters().gamma) > LD(0);
       verdict.margin = static_cast<Scalar>(refined.margin);
