@@ -10,7 +10,9 @@
 #      Eigen/Dense with a 3x3 inverse.
 # Every TU is compiled as `$CXX -std=c++17 -O2 -c` (ccache is not involved), measured with
 # /usr/bin/time. Prints a Markdown table (docs/building.md, "Compile time of the library").
-# Usage: scripts/measure-compile-time.sh [BUILD_DIR]   (default build/release; CXX defaults to g++)
+# Usage: scripts/measure-compile-time.sh [--base REVISION] [BUILD_DIR]   (default build/release; CXX defaults to g++)
+# With --base, the table starts with rows 1 and 2 compiled against include/ of REVISION (git archive), so
+# that the figures before and after a change come from the same run.
 #
 #        scripts/measure-compile-time.sh --project-sample BASE_REVISION [BUILD_DIR]
 # compiles instead a sample of the project's own translation units (the list below, or $SAMPLE), each with its
@@ -57,6 +59,11 @@ for f in files:
 print(f"| total of the sample | {total[0]:.1f} | {total[1]:.1f} | {total[2]:.1f} |")
 PY
   exit 0
+fi
+base=""
+if [[ "${1:-}" == --base ]]; then
+  base=${2:?"--base needs a revision"}
+  shift 2
 fi
 build_dir=${1:-build/release}
 cxx=${CXX:-g++}
@@ -111,6 +118,18 @@ echo "Compiler: $($cxx --version | head -n1); flags: ${flags[*]} -c; $(nproc) co
 echo
 echo "| translation unit | CPU s (user + sys) | max RSS MB |"
 echo "|---|---|---|"
+if [[ -n "$base" ]]; then
+  mkdir "$work/base"
+  git archive "$base" include | tar -x -C "$work/base"
+  # measure_base NAME FILE: as measure, with the base revision's include/ in place of the working tree's
+  measure_base() {
+    /usr/bin/time -f '%U %S %M' -o "$work/time" "$cxx" -std=c++17 -O2 -I"$work/base/include" ${eigen_include} -c "$2" -o "$work/out.o"
+    read -r user sys rss < "$work/time"
+    awk -v n="$1" -v u="$user" -v s="$sys" -v r="$rss" 'BEGIN { printf "| %s | %.1f | %.0f |\n", n, u + s, r / 1024 }'
+  }
+  measure_base "README example, umbrella hapticopt.hpp, header-only, include/ of $base" "$work/readme_umbrella.cpp"
+  measure_base "README example, optimal_wall.hpp only, header-only, include/ of $base" "$work/readme_optimal_wall.cpp"
+fi
 measure "README example, umbrella hapticopt.hpp, header-only" "$work/readme_umbrella.cpp"
 measure "README example, optimal_wall.hpp only, header-only" "$work/readme_optimal_wall.cpp"
 measure "README example, umbrella, compiled mode (-DHAPTICOPT_COMPILED)" "$work/readme_umbrella.cpp" -DHAPTICOPT_COMPILED

@@ -33,34 +33,36 @@ struct AffineCharacteristicPolynomial {
   Coefficients at(Scalar a, Scalar b) const { return base + a * alpha + b * beta; }
 };
 
+/// p(z) from the plant's segment transitions exp(A length_s) (one segment for integer d, two
+/// otherwise) and the whole delay n. 2x2 products written out.
 template <typename Scalar>
-AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(
-    const SampledPlant<Scalar>& plant) {
-  using Vec2 = Eigen::Matrix<Scalar, 2, 1>;
-  using Mat2 = Eigen::Matrix<Scalar, 2, 2>;
-  Mat2 phi;
-  Vec2 ga = Vec2::Zero();
-  Vec2 gb;
-  if (plant.segment_count() == 1) {
-    const auto& e = plant.segment(0).exp;
-    phi = e.template topLeftCorner<2, 2>();
-    gb = -e.template block<2, 1>(0, 2);
+AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(int whole_delay, int segment_count,
+                                                                 const Matrix3<Scalar>& ea,
+                                                                 const Matrix3<Scalar>& eb) {
+  Scalar phi[2][2];
+  Scalar ga[2] = {0, 0};
+  Scalar gb[2];
+  if (segment_count == 1) {
+    for (int i = 0; i < 2; ++i) {
+      for (int j = 0; j < 2; ++j) phi[i][j] = ea(i, j);
+      gb[i] = -ea(i, 2);
+    }
   } else {
-    const auto& ea = plant.segment(0).exp;
-    const auto& eb = plant.segment(1).exp;
-    const Mat2 phi_b = eb.template topLeftCorner<2, 2>();
-    phi = phi_b * ea.template topLeftCorner<2, 2>();
-    ga = -phi_b * ea.template block<2, 1>(0, 2);
-    gb = -eb.template block<2, 1>(0, 2);
+    // phi = Phi_b Phi_a (top-left 2x2 blocks), g_a = -Phi_b a_3, g_b = -b_3 (a_3, b_3: column 2, rows 0..1)
+    for (int i = 0; i < 2; ++i) {
+      for (int j = 0; j < 2; ++j) phi[i][j] = eb(i, 0) * ea(0, j) + eb(i, 1) * ea(1, j);
+      ga[i] = -(eb(i, 0) * ea(0, 2) + eb(i, 1) * ea(1, 2));
+      gb[i] = -eb(i, 2);
+    }
   }
   // q(z) = q0 + q1 z + q2 z^2
-  const Scalar q2 = gb(0);
-  const Scalar q1 = ga(0) - phi(1, 1) * gb(0) + phi(0, 1) * gb(1);
-  const Scalar q0 = -phi(1, 1) * ga(0) + phi(0, 1) * ga(1);
-  const Scalar d1 = -(phi(0, 0) + phi(1, 1));
-  const Scalar d0 = phi(0, 0) * phi(1, 1) - phi(0, 1) * phi(1, 0);
+  const Scalar q2 = gb[0];
+  const Scalar q1 = ga[0] - phi[1][1] * gb[0] + phi[0][1] * gb[1];
+  const Scalar q0 = -phi[1][1] * ga[0] + phi[0][1] * ga[1];
+  const Scalar d1 = -(phi[0][0] + phi[1][1]);
+  const Scalar d0 = phi[0][0] * phi[1][1] - phi[0][1] * phi[1][0];
 
-  const int n = plant.whole_delay();
+  const int n = whole_delay;
   const int degree = n + 4;
   using Coefficients = typename AffineCharacteristicPolynomial<Scalar>::Coefficients;
   Coefficients p0 = Coefficients::Zero(degree + 1);
@@ -77,10 +79,24 @@ AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(
   pb(1) = q0 - q1;
   pb(2) = q1 - q2;
   pb(3) = q2;
-  if (plant.segment_count() == 1) {  // q0 = 0: divide by z
+  if (segment_count == 1) {  // q0 = 0: divide by z
     return {p0.tail(degree), pa.tail(degree), pb.tail(degree)};
   }
   return {p0, pa, pb};
+}
+
+template <typename Scalar>
+AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(const SampledPlant<Scalar>& plant) {
+  const int count = plant.segment_count();
+  return characteristic_polynomial<Scalar>(plant.whole_delay(), count, plant.segment(0).exp,
+                                           plant.segment(count - 1).exp);
+}
+
+/// p(z) from the plant transitions alone (plant_transitions, sampled_plant.hpp).
+template <typename Scalar>
+AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(const PlantTransitions<Scalar>& t) {
+  return characteristic_polynomial<Scalar>(t.whole_delay, t.segment_count, t.exp[0],
+                                           t.exp[static_cast<std::size_t>(t.segment_count - 1)]);
 }
 
 }  // namespace hapticopt

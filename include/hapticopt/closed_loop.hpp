@@ -66,7 +66,9 @@ CompactClosedLoop<Scalar, MaxN> make_compact_closed_loop(const SampledPlant<Scal
     // Deviation force u = f_{j-age} - f_inf as a function of e_j.
     r(2, SampledPlant<Scalar>::position_index(seg.force_age)) += alpha + beta;
     r(2, SampledPlant<Scalar>::position_index(seg.force_age + 1)) -= beta;
-    rows.noalias() = seg.exp.template topRows<2>() * r;  // (x, x') at segment end
+    for (int l = 0; l < n; ++l) {  // (x, x') at segment end: rows 0, 1 of exp(A h) times R_s
+      for (int i = 0; i < 2; ++i) rows(i, l) = seg.exp(i, 0) * r(0, l) + seg.exp(i, 1) * r(1, l) + seg.exp(i, 2) * r(2, l);
+    }
   }
   loop.top = rows;
   loop.initial_state.setConstant(n, -loop.final_position);

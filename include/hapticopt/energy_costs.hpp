@@ -117,11 +117,23 @@ EnergyCostsT<Scalar> energy_costs_structured(const SampledPlant<Scalar>& plant, 
   using Matrix3N = Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, MaxN>;
   // G_0 = M G_0 M^T + e_0 e_0^T,  G_1 = M G_1 M^T + M G_0 M^T,  G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T.
   std::array<Square, 3> g;
-  g[0] = stein.solve(loop.initial_state * loop.initial_state.transpose());
+  const int n = loop.state_dimension;
+  {
+    Square c0(n, n);
+    for (int l = 0; l < n; ++l) {
+      for (int k = 0; k < n; ++k) c0(k, l) = loop.initial_state(k) * loop.initial_state(l);
+    }
+    g[0] = stein.solve(c0);
+  }
   if (highest >= 1) {
-    const Square shifted = stein.propagate(g[0]);
-    g[1] = stein.solve(shifted);
-    if (highest >= 2) g[2] = stein.solve(Scalar(2) * g[1] - shifted);
+    Square c = stein.propagate(g[0]);
+    g[1] = stein.solve(c);
+    if (highest >= 2) {
+      for (int l = 0; l < n; ++l) {
+        for (int k = 0; k < n; ++k) c(k, l) = Scalar(2) * g[1](k, l) - c(k, l);
+      }
+      g[2] = stein.solve(c);
+    }
   }
   std::array<Scalar, 3> j{0, 0, 0};
   for (int s = 0; s < plant.segment_count(); ++s) {
@@ -129,10 +141,28 @@ EnergyCostsT<Scalar> energy_costs_structured(const SampledPlant<Scalar>& plant, 
     const auto w = segment_weights(plant.segment(s), loop.total_stiffness);
     std::array<Matrix3<Scalar>, 3> y;
     for (std::size_t q = 0; q <= static_cast<std::size_t>(highest); ++q) {
-      const Matrix3N rg = r * g[q];
-      y[q] = rg * r.transpose();
+      // y_q = R g_q R^T, written out: rg = R g_q (3 x N), then rg R^T.
+      Matrix3N rg(3, n);
+      for (int l = 0; l < n; ++l) {
+        for (int i = 0; i < 3; ++i) {
+          Scalar v = 0;
+          for (int m = 0; m < n; ++m) v += r(i, m) * g[q](m, l);
+          rg(i, l) = v;
+        }
+      }
+      for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < 3; ++k) {
+          Scalar v = 0;
+          for (int l = 0; l < n; ++l) v += rg(i, l) * r(k, l);
+          y[q](i, k) = v;
+        }
+      }
     }
-    auto tr = [](const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) { return a.cwiseProduct(b).sum(); };
+    auto tr = [](const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) {  // <a, b> = sum_ij a_ij b_ij
+      Scalar v = 0;
+      for (int k = 0; k < 9; ++k) v += a.data()[k] * b.data()[k];
+      return v;
+    };
     j[0] += tr(w[0], y[0]);
     if (highest >= 1) j[1] += tr(w[0], y[1]) + tr(w[1], y[0]);
     if (highest >= 2) j[2] += tr(w[0], y[2]) + Scalar(2) * tr(w[1], y[1]) + tr(w[2], y[0]);

@@ -43,7 +43,8 @@ LoopSchurForm<Scalar> loop_schur_form(const DynamicMatrix<Scalar>& m) {
 /// recursion are recomputed in long double (64-bit significand on x86-64, 2^11 times finer than double)
 /// and that verdict is returned, with `refined` set. Where long double is no wider than double (MSVC)
 /// nothing is recomputed. Cost: n^2 flops for degree n; a refinement adds the long double plant
-/// (three 3x3 matrix exponentials) and happens only where the margin is that small (22 % of the stress
+/// transitions (plant_transitions: one or two 3x3 matrix exponentials, no Gramians) and happens only
+/// where the margin is that small (22 % of the stress
 /// test's sets, which crowd the boundary; none of the optimisers' timings changed measurably).
 /// The stress test (tests/stress) checks the trigger: wherever the plain double and the long double
 /// verdicts differ, |margin| in double must be at most 1e-6, 100x inside the trigger (measured over
@@ -69,7 +70,7 @@ LoopVerdict<Scalar> loop_verdict(const SampledPlant<Scalar>& plant, Scalar alpha
     using std::abs;
     if (abs(test.margin) < kStabilityRefinementMargin) {
       using LD = long double;
-      const SampledPlant<LD> fine(plant.parameters());
+      const PlantTransitions<LD> fine = plant_transitions<LD>(plant.parameters());
       const SchurCohnResult<LD> refined = schur_cohn<LD>(characteristic_polynomial(fine).at(LD(alpha), LD(beta)));
       verdict.stable = refined.stable && LD(alpha) + LD(plant.parameters().gamma) > LD(0);
       verdict.margin = static_cast<Scalar>(refined.margin);

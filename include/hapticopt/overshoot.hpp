@@ -66,10 +66,12 @@ std::pair<Scalar, Scalar> interior_maximum(const Matrix3<Scalar>& a, const Eigen
   for (int k = 0; k < kMax; ++k, hk *= h) {
     c[static_cast<std::size_t>(k)] = w(0);
     count = k + 1;
-    const Scalar size = w.cwiseAbs().maxCoeff() * hk;
+    using std::abs;
+    const Scalar size = std::max(abs(w(0)), std::max(abs(w(1)), abs(w(2)))) * hk;
     scale = std::max(scale, size);
     if (k > 3 && size <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3) * scale) break;
-    w = a * w / Scalar(k + 1);
+    const Eigen::Matrix<Scalar, 3, 1> v = w;
+    for (int i = 0; i < 3; ++i) w(i) = (a(i, 0) * v(0) + a(i, 1) * v(1) + a(i, 2) * v(2)) / Scalar(k + 1);
   }
   auto x_at = [&](Scalar tau) {
     Scalar s = 0;
@@ -107,15 +109,24 @@ std::pair<Scalar, Scalar> interior_maximum(const Matrix3<Scalar>& a, const Eigen
 /// kappa_s = sum_k h^k/k! ||e1^T A^k R_s||_2 plus a bound on the series' tail.
 template <typename Scalar>
 Scalar deviation_gain(const Matrix3<Scalar>& a, const DynamicMatrix<Scalar>& r, Scalar h) {
-  const Scalar a_norm = a.norm();  // Frobenius >= spectral
-  const Scalar r_norm = r.norm();
-  Eigen::Matrix<Scalar, 1, 3> row(1, 0, 0);
+  using std::sqrt;
+  const Scalar a_norm = sqrt(a.squaredNorm());  // Frobenius >= spectral
+  const Scalar r_norm = sqrt(r.squaredNorm());
+  Scalar row[3] = {1, 0, 0};
   Scalar sum = 0;
   Scalar weight = 1;  // h^k / k!
   Scalar bound_term = r_norm;  // r_norm (a_norm h)^k / k!
   for (int k = 0; k < 200; ++k) {
-    sum += weight * (row * r).norm();
-    row = row * a;
+    Scalar row_r = 0;  // ||row R||_2^2
+    for (Eigen::Index l = 0; l < r.cols(); ++l) {
+      const Scalar v = row[0] * r(0, l) + row[1] * r(1, l) + row[2] * r(2, l);
+      row_r += v * v;
+    }
+    sum += weight * sqrt(row_r);
+    const Scalar next[3] = {row[0] * a(0, 0) + row[1] * a(1, 0) + row[2] * a(2, 0),
+                            row[0] * a(0, 1) + row[1] * a(1, 1) + row[2] * a(2, 1),
+                            row[0] * a(0, 2) + row[1] * a(1, 2) + row[2] * a(2, 2)};
+    for (int i = 0; i < 3; ++i) row[i] = next[i];
     weight *= h / Scalar(k + 1);
     bound_term *= a_norm * h / Scalar(k + 1);
     const Scalar tail = bound_term * std::exp(a_norm * h);
@@ -136,7 +147,7 @@ struct ContinuousMaximum {
 /// piece is checked at its end and, where the velocity changes sign from + to -, at its interior
 /// maximum (interior_maximum). After period j the bound |x(t)| <= kappa sqrt(e_j^T P e_j) for all
 /// later t (P = M^T P M + I, the observability Gramian; kappa = max_s deviation_gain, +1e-6 for
-/// rounding) stops the scan once it is <= max(value, floor). Allocates three N-vectors, then nothing.
+/// rounding) stops the scan once it is <= max(value, floor). Allocates two N-vectors, then nothing.
 template <typename Scalar>
 ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop,
                                              const DynamicMatrix<Scalar>& p, Scalar start_value, Scalar floor,
@@ -154,15 +165,20 @@ ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, 
   const Eigen::Index n = loop.transition.rows();
   DynamicVector<Scalar> e = loop.initial_state;
   DynamicVector<Scalar> next(n);
-  DynamicVector<Scalar> pe(n);
   using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
   for (long long j = 0; j < max_periods; ++j) {
     for (int s = 0; s < plant.segment_count(); ++s) {
       const auto& seg = plant.segment(s);
-      Vec3 xi = loop.segment_map[static_cast<std::size_t>(s)] * e;
+      const auto& r = loop.segment_map[static_cast<std::size_t>(s)];
+      Vec3 xi = Vec3::Zero();  // R_s e
+      for (Eigen::Index l = 0; l < n; ++l) {
+        for (int i = 0; i < 3; ++i) xi(i) += r(i, l) * e(l);
+      }
       const Scalar piece = seg.length / Scalar(seg.pieces);
+      const Matrix3<Scalar>& step = seg.piece_exp;
       for (int q = 0; q < seg.pieces; ++q) {
-        const Vec3 end = seg.piece_exp * xi;
+        Vec3 end;
+        for (int i = 0; i < 3; ++i) end(i) = step(i, 0) * xi(0) + step(i, 1) * xi(1) + step(i, 2) * xi(2);
         const Scalar t0 = Scalar(j) + seg.start + Scalar(q) * piece;
         if (end(0) > result.value) {
           result.value = end(0);
@@ -178,11 +194,21 @@ ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, 
         xi = end;
       }
     }
-    next.noalias() = loop.transition * e;
+    // e <- M e, written out (M dense here: the collision loop of impulse_costs.hpp uses this too).
+    next.setZero();
+    for (Eigen::Index l = 0; l < n; ++l) {
+      const Scalar el = e(l);
+      for (Eigen::Index i = 0; i < n; ++i) next(i) += loop.transition(i, l) * el;
+    }
     e.swap(next);
     result.periods = j + 1;
-    pe.noalias() = p * e;
-    const Scalar bound = kappa * std::sqrt(std::max(e.dot(pe), Scalar(0)));
+    Scalar v = 0;  // e^T P e
+    for (Eigen::Index l = 0; l < n; ++l) {
+      Scalar pl = 0;
+      for (Eigen::Index k = 0; k < n; ++k) pl += p(k, l) * e(k);
+      v += pl * e(l);
+    }
+    const Scalar bound = kappa * std::sqrt(std::max(v, Scalar(0)));
     if (bound <= std::max(result.value, floor)) {
       result.converged = true;
       break;
@@ -213,7 +239,10 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     if (stein.ok()) p = stein.observability_gramian();
   }
   // P >= I for a Schur-stable M; anything else is rounding at the stability boundary.
-  if (p.size() == 0 || !p.allFinite() || !(p.diagonal().minCoeff() >= Scalar(1) - Scalar(1e-9))) {
+  bool p_ok = p.size() > 0;
+  for (Eigen::Index k = 0; p_ok && k < p.size(); ++k) p_ok = std::isfinite(static_cast<double>(p.data()[k]));
+  for (Eigen::Index k = 0; p_ok && k < p.rows(); ++k) p_ok = p(k, k) >= Scalar(1) - Scalar(1e-9);
+  if (!p_ok) {
     result.value = std::numeric_limits<Scalar>::infinity();
     return result;
   }

@@ -40,6 +40,42 @@ struct PlantSegment {
   Matrix3<Scalar> piece_exp;  ///< exp(A length / pieces)
 };
 
+/// The augmented matrix A of the plant (header comment) in Scalar.
+template <typename Scalar>
+Matrix3<Scalar> plant_augmented_matrix(const NormalizedPlant& plant) {
+  Matrix3<Scalar> a;
+  a << 0, 1, 0, -Scalar(plant.gamma), -Scalar(plant.delta), -1, 0, 0, 0;
+  return a;
+}
+
+/// The one-period transition of the plant alone: the segments of the period for d = n + phi (one
+/// segment [0, 1) for phi = 0, else [0, phi) and [phi, 1)) and exp(A length) of each, by the same
+/// series as SampledPlant (exponential_integrals.hpp). What the characteristic polynomial needs; the
+/// stability refinement in long double computes only this. Expects a validated plant.
+template <typename Scalar>
+struct PlantTransitions {
+  int whole_delay = 0;
+  int segment_count = 1;
+  std::array<Matrix3<Scalar>, 2> exp;  ///< exp(A length_s), s < segment_count
+};
+
+template <typename Scalar>
+PlantTransitions<Scalar> plant_transitions(const NormalizedPlant& plant) {
+  PlantTransitions<Scalar> t;
+  const double whole = std::floor(plant.delay);
+  t.whole_delay = static_cast<int>(whole);
+  const Scalar fraction = Scalar(plant.delay) - Scalar(whole);
+  const Matrix3<Scalar> a = plant_augmented_matrix<Scalar>(plant);
+  if (fraction == Scalar(0)) {
+    t.exp[0] = exponential<Scalar>(a, Scalar(1));
+  } else {
+    t.segment_count = 2;
+    t.exp[0] = exponential<Scalar>(a, fraction);
+    t.exp[1] = exponential<Scalar>(a, Scalar(1) - fraction);
+  }
+  return t;
+}
+
 template <typename Scalar>
 class SampledPlant {
  public:
@@ -52,7 +88,7 @@ class SampledPlant {
     const double whole = std::floor(plant.delay);
     whole_delay_ = static_cast<int>(whole);
     fraction_ = Scalar(plant.delay) - Scalar(whole);
-    A_ << 0, 1, 0, -Scalar(plant.gamma), -Scalar(plant.delta), -1, 0, 0, 0;
+    A_ = plant_augmented_matrix<Scalar>(plant);
     if (fraction_ == Scalar(0)) {
       segment_count_ = 1;
       segments_[0] = make_segment(Scalar(0), Scalar(1), whole_delay_);
@@ -97,7 +133,7 @@ class SampledPlant {
     s.position_gramian = ix.gramian;
     s.velocity_gramian = iv.gramian;
     using std::sqrt;
-    const Scalar norm = A_.cwiseAbs().colwise().sum().maxCoeff();
+    const Scalar norm = detail::norm1_3(A_);
     const Scalar omega2 = Scalar(parameters_.gamma) - Scalar(parameters_.delta * parameters_.delta) / 4;
     const Scalar omega = omega2 > 0 ? sqrt(omega2) : Scalar(0);
     const Scalar needed = std::max(norm * length / Scalar(2), omega * length / Scalar(3));

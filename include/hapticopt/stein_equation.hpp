@@ -116,7 +116,9 @@ class ShiftSteinSolver {
         if (abs(lu_(i, j)) > abs(lu_(p, j))) p = i;
       }
       pivot_(j) = p;
-      if (p != j) lu_.row(p).swap(lu_.row(j));
+      if (p != j) {
+        for (int c = 0; c < u; ++c) std::swap(lu_(p, c), lu_(j, c));
+      }
       const Scalar d = lu_(j, j);
       if (!(d != Scalar(0)) || !std::isfinite(static_cast<double>(d))) {
         ok_ = false;
@@ -126,7 +128,7 @@ class ShiftSteinSolver {
         const Scalar f = lu_(i, j) / d;
         lu_(i, j) = f;
         if (f != Scalar(0)) {
-          lu_.row(i).tail(u - j - 1) -= f * lu_.row(j).tail(u - j - 1);
+          for (int c = j + 1; c < u; ++c) lu_(i, c) -= f * lu_(j, c);
         }
       }
     }
@@ -145,19 +147,32 @@ class ShiftSteinSolver {
         offset(k, l) = (k < 2 || l < 2) ? Scalar(0) : offset(shift_source(k), shift_source(l)) + c(k, l);
       }
     }
-    const Top p = top_ * offset;
+    const Top p = top_times(offset);
     Vector rhs(u);
     for (int b = 0; b < n; ++b) {
       for (int a = 0; a <= std::min(1, b); ++a) {
-        rhs(basic(a, b)) = c(a, b) + (b >= 2 ? p(a, shift_source(b)) : p.row(a).dot(top_.row(b)));
+        Scalar v;
+        if (b >= 2) {
+          v = p(a, shift_source(b));
+        } else {
+          v = 0;
+          for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+        }
+        rhs(basic(a, b)) = c(a, b) + v;
       }
     }
     for (int j = 0; j < u; ++j) {
       if (pivot_(j) != j) std::swap(rhs(j), rhs(pivot_(j)));
     }
-    for (int i = 1; i < u; ++i) rhs(i) -= lu_.row(i).head(i).dot(rhs.head(i));
+    for (int i = 1; i < u; ++i) {
+      Scalar v = 0;
+      for (int m = 0; m < i; ++m) v += lu_(i, m) * rhs(m);
+      rhs(i) -= v;
+    }
     for (int i = u - 1; i >= 0; --i) {
-      rhs(i) = (rhs(i) - lu_.row(i).tail(u - i - 1).dot(rhs.tail(u - i - 1))) / lu_(i, i);
+      Scalar v = 0;
+      for (int m = i + 1; m < u; ++m) v += lu_(i, m) * rhs(m);
+      rhs(i) = (rhs(i) - v) / lu_(i, i);
     }
     Square x(n, n);
     for (int k = 0; k < n; ++k) {
@@ -176,10 +191,14 @@ class ShiftSteinSolver {
     Vector lambda = Vector::Zero(u);  // K^-T (d tr X / d unknowns)
     for (int k = 0; k < n; ++k) lambda(ref_(k, k)) += Scalar(1);
     for (int i = 0; i < u; ++i) {  // U^T y = w
-      lambda(i) = (lambda(i) - lu_.col(i).head(i).dot(lambda.head(i))) / lu_(i, i);
+      Scalar v = 0;
+      for (int m = 0; m < i; ++m) v += lu_(m, i) * lambda(m);
+      lambda(i) = (lambda(i) - v) / lu_(i, i);
     }
     for (int i = u - 2; i >= 0; --i) {  // L^T z = y
-      lambda(i) -= lu_.col(i).tail(u - i - 1).dot(lambda.tail(u - i - 1));
+      Scalar v = 0;
+      for (int m = i + 1; m < u; ++m) v += lu_(m, i) * lambda(m);
+      lambda(i) -= v;
     }
     for (int j = u - 1; j >= 0; --j) {
       if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
@@ -190,9 +209,12 @@ class ShiftSteinSolver {
       for (int a = 0; a <= std::min(1, b); ++a) {
         const Scalar l = lambda(basic(a, b));
         if (b >= 2) {
-          phi.col(shift_source(b)) += l * top_.row(a).transpose();
+          const int sb = shift_source(b);
+          for (int k = 0; k < n; ++k) phi(k, sb) += l * top_(a, k);
         } else {
-          phi.noalias() += l * top_.row(a).transpose() * top_.row(b);
+          for (int m = 0; m < n; ++m) {
+            for (int k = 0; k < n; ++k) phi(k, m) += l * top_(a, k) * top_(b, m);
+          }
         }
       }
     }
@@ -208,15 +230,25 @@ class ShiftSteinSolver {
     for (int b = 0; b < n; ++b) {
       for (int a = 0; a <= std::min(1, b); ++a) g(a, b) = lambda(basic(a, b));
     }
-    return (g + g.transpose()) / Scalar(2);
+    Square sym(n, n);
+    for (int l = 0; l < n; ++l) {
+      for (int k = 0; k < n; ++k) sym(k, l) = (g(k, l) + g(l, k)) / Scalar(2);
+    }
+    return sym;
   }
 
   /// M X M^T for symmetric X, using the shift structure: O(N^2).
   Square propagate(const Square& x) const {
     const int n = n_;
-    const Top p = top_ * x;  // rows 0, 1 of M X
+    const Top p = top_times(x);  // rows 0, 1 of M X
     Square y(n, n);
-    y.template topLeftCorner<2, 2>() = p * top_.transpose();
+    for (int a = 0; a < 2; ++a) {
+      for (int b = 0; b < 2; ++b) {
+        Scalar v = 0;
+        for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+        y(a, b) = v;
+      }
+    }
     for (int l = 2; l < n; ++l) {
       const int sl = shift_source(l);
       y(0, l) = y(l, 0) = p(0, sl);
@@ -228,6 +260,22 @@ class ShiftSteinSolver {
 
  private:
   using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1>;
+  /// top x (2 x N), the product written out.
+  Top top_times(const Square& x) const {
+    const int n = n_;
+    Top p(2, n);
+    for (int l = 0; l < n; ++l) {
+      Scalar v0 = 0, v1 = 0;
+      for (int m = 0; m < n; ++m) {
+        v0 += top_(0, m) * x(m, l);
+        v1 += top_(1, m) * x(m, l);
+      }
+      p(0, l) = v0;
+      p(1, l) = v1;
+    }
+    return p;
+  }
+
   /// Index of the unknown X[a, b], a in {0, 1}, a <= b.
   int basic(int a, int b) const { return a == 0 ? b : n_ + b - 1; }
 
