@@ -467,13 +467,8 @@ struct Server::Impl {
         const PairVerdict v = checker.check_object(K, B, masses);
         if (!v.stable) {
             const std::string along = masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
-            // amax is the region's tip (alpha_max, the beta there): on its boundary, never strictly inside.
-            const std::string tip = gains.criterion == hapticopt::to_string(hapticopt::Criterion::AlphaMax)
-                                        ? " (criterion amax: the tip of the stability region, on its boundary: marginally stable, never "
-                                          "rendered; OV, CE0 .. CE2+OV lie inside)"
-                                        : "";
             return Refusal{"unstable_gains",
-                           kind + tip + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
+                           kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
                                ") are outside the stability region for " + along + ", " + g(v.mass) + " kg (device mass " +
                                checker.mass().describe() + "), period " + g(config.period) + " s, delay " + g(config.delay) +
                                " s; the largest stable K at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +

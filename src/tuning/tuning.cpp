@@ -61,7 +61,8 @@ const std::string& accepted_criteria_text() {
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
     const hapticopt::Criterion c = parse(criterion);
     try {
-        const hapticopt::WallTuning t = hapticopt::optimal_wall(c, to_hapticopt(plant));
+        const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
+        const hapticopt::WallTuning t = hapticopt::optimal_wall(c, physical);
         TuningResult r;
         r.criterion = criterion;
         r.K = t.K;
@@ -70,6 +71,23 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         r.beta = t.beta;
         r.cost = t.cost;
         r.alpha_max = t.alpha_max;
+        if (c == hapticopt::Criterion::AlphaMax) {
+            // amax is the region's tip (alpha_max, the beta there), on its boundary: marginally stable. What is
+            // rendered is the tip moved inwards along alpha, alpha_max (1 - kAlphaMaxBackOff) at the tip's beta:
+            // the stable beta interval at that alpha has a half-width of order sqrt(kAlphaMaxBackOff) around a
+            // centre within O(kAlphaMaxBackOff) of the tip's beta, so the point is strictly inside (checked below).
+            r.alpha = t.alpha_max * (1.0 - kAlphaMaxBackOff);
+            r.K = r.alpha * plant.mass / (plant.period * plant.period);
+            r.cost = r.alpha;
+        }
+        // Every tuned wall is checked as explicit gains are: an optimum on or outside the boundary is refused.
+        const hapticopt::NormalizedGains gains{r.alpha, r.beta};
+        if (!hapticopt::is_stable(hapticopt::normalize(physical), gains)) {
+            throw StartupError(kExitUnstableGains, "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
+                                                       " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
+                                                       ") is not strictly inside the stability region; accepted: a criterion "
+                                                       "whose optimum is, or explicit --stiffness/--damping");
+        }
         return r;
     } catch (const hapticopt::InvalidParameter& e) {
         throw StartupError(kExitInvalidParameter, std::string("tuning: ") + e.what());

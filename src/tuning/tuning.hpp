@@ -63,8 +63,13 @@ const std::vector<std::string>& accepted_criteria();
 // The plant in hapticopt's terms (the same five numbers).
 hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
 
-// Optimal gains for the criterion (computes only that criterion). Throws StartupError
-// (kExitInvalidParameter) when hapticopt rejects a parameter.
+// amax as rendered: alpha = alpha_max (1 - kAlphaMaxBackOff) at the tip's beta (the tip itself is on the
+// stability boundary). 1e-3: K 0.1 % below the largest stable stiffness.
+inline constexpr double kAlphaMaxBackOff = 1e-3;
+
+// Optimal gains for the criterion (computes only that criterion; amax as above). Throws StartupError
+// (kExitInvalidParameter) when hapticopt rejects a parameter, (kExitUnstableGains) when the gains are not
+// strictly inside the stability region (hapticopt::is_stable).
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
