@@ -25,9 +25,14 @@ norandom=(setarch "$(uname -m)" -R)
 if [[ "$what" == asan || "$what" == all ]]; then
   cmake -S . -B build/asan "${common[@]}" -DHAPTICOPT_SANITIZE=address,undefined
   cmake --build build/asan -j"$jobs"
+  # One test is left to the release stage: the moving-wall example against the real-time daemon judges the
+  # contact chatter of poses sent on time, which the instrumented loop and client (several times slower, on
+  # a machine running two tests) do not deliver; its deterministic counterpart,
+  # SceneMotion.TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand, runs here.
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
   UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2
+    "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2 \
+      -E '^Examples\.MovingWallRendersWithoutChatterAgainstTheReadmeDaemon$'
 fi
 if [[ "$what" == tsan || "$what" == all ]]; then
   cmake -S . -B build/tsan "${common[@]}" -DHAPTICOPT_SANITIZE=thread

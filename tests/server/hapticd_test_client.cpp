@@ -31,6 +31,11 @@ using nlohmann::json;
 
 namespace {
 
+// Each reply is waited for this long: under the sanitizers a commit's checks run tens of times slower than in
+// release while dozens of clients queue for the one server thread (a 5 s default was exceeded by 32 clients
+// under ASan). The tests bound what they measure themselves (force-zero times, counts), not this.
+constexpr double kReplyTimeout = 30.0;  // s
+
 cl::Batch batch_from_json(const json& ops) {
     cl::Batch b;
     for (const auto& op : ops) {
@@ -76,7 +81,7 @@ int main(int argc, char** argv) {
                 if (a == "--lease") lease = std::atof(argv[i + 1]);
                 if (a == "--then") then = argv[i + 1];
             }
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "test-client", .lease_s = lease});
+            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "test-client", .lease_s = lease, .timeout_s = kReplyTimeout});
             json out;
             try {
                 // busy (the hand-over queue is full) is retryable by the protocol: up to 1000 tries, 1 ms apart.
@@ -112,7 +117,7 @@ int main(int argc, char** argv) {
         }
         if (mode == "flood") {
             const long n = argc > 3 ? std::atol(argv[3]) : 1000;
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "flooder"});
+            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "flooder", .timeout_s = kReplyTimeout});
             cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
@@ -132,7 +137,7 @@ int main(int argc, char** argv) {
         }
         if (mode == "gainflood") {
             const double seconds = argc > 3 ? std::atof(argv[3]) : 1.0;
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = 30.0});
+            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = kReplyTimeout});
             cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
@@ -161,7 +166,7 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (mode == "noread") {
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "noread"});
+            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "noread", .timeout_s = kReplyTimeout});
             c.commit(cl::Batch().add(cl::Plane{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
                                                .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
             c.subscribe(1000.0);
