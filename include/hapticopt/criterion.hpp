@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The optimisation criteria of Tables III and IV (model notes, "Optimal curves and points").
+// The optimisation criteria of Tables III and IV (Hulin et al. 2011, Sect. IV; docs/methods.md).
 #pragma once
 
 #include <array>

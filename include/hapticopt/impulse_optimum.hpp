@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Optimal curves and points of the collision criteria C_I0, C_I1, C_I2 (impulse_costs.hpp).
 //
-// Definitions, as for the step criteria (model notes, "Optimal curves and points"): the optimal
+// Definitions, as for the step criteria (optimum.hpp): the optimal
 // curve of C_Ip is beta_opt(alpha) = argmin over the stable beta interval of C_Ip(alpha, beta); the
 // CIp point is the global minimum of C_Ip over the exact stable region. The cost exists (is finite)
 // exactly on the stable region, so a minimum exists wherever the cost grows towards the region's

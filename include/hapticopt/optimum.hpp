@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Optimal curves beta_opt(alpha) and optimal points of the eight criteria of Tables III and IV.
 //
-// Definitions (model notes): optimal curve of C = argmin over stable beta of C(alpha, beta); CEx
+// Definitions (Hulin et al. 2011, Sect. IV): optimal curve of C = argmin over stable beta of C(alpha, beta); CEx
 // point = global minimum of C_Ex over the stable region; amax point = tip of the region; OV point =
 // largest alpha for which some beta gives C_OV <= tol; CEx+OV point = largest alpha on the C_Ex
 // optimal curve with C_OV <= tol, its cost C_Ex there.

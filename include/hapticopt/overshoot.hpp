@@ -18,7 +18,7 @@
 // can neither exceed the maximum found nor the tolerance. No fixed horizon.
 //
 // Tolerance. "No overshoot" means C_OV <= tol (relative). The default 1e-12 reproduces every C_OV
-// and C_Ex^OV row of the paper (model notes: just past the exact no-overshoot region the overshoot
+// and C_Ex^OV row of the paper (Tables III and IV; just past the exact no-overshoot region the overshoot
 // is positive but tiny, 1e-35 ... 1e-12, because a complex pole pair overtakes a slower real
 // pole). Values below ~1e-15 are not resolved in double precision and count as zero; choose a
 // physically meaningful tol (1e-6, 1e-3) when that is what the application needs.

@@ -2,7 +2,7 @@
 // The plant of Fig. 2 sampled exactly, in normalised units (m = T = 1), for a real delay d >= 0.
 //
 // Plant (eq. 1 normalised): x'' + delta x' + gamma x = F - f(t). The wall force f_j, computed at
-// t = j, acts during [j + d, j + 1 + d) (zero-order hold, then delay; model notes). Within period
+// t = j, acts during [j + d, j + 1 + d) (zero-order hold, then delay; Hulin et al. 2011, Sect. II). Within period
 // [j, j + 1) the force acting is f_{j - n} for integer d = n; for d = n + phi, 0 < phi < 1, it is
 // f_{j-n-1} on [j, j + phi) and f_{j-n} on [j + phi, j + 1): two segments, each discretised
 // exactly. On a segment the augmented state xi = (x - x_inf, x', u), u the deviation of the
