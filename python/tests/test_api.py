@@ -70,6 +70,10 @@ def test_optimal_wall_is_the_normalised_optimum_in_physical_units():
     assert math.isclose(t.stiffness, o.alpha * 0.3 / 1e-6, rel_tol=1e-15)
     assert math.isclose(t.damping, o.beta * 0.3 / 1e-3, rel_tol=1e-15)
     assert 0 < t.stability_margin < 1
+    # K and B (the C++ library's and hapticd's names) are the same numbers as stiffness and damping.
+    assert (t.K, t.B) == (t.stiffness, t.damping)
+    g = ho.to_physical(ho.Gains(o.alpha, o.beta), 0.3, 0.001)
+    assert (g.K, g.B) == (g.stiffness, g.damping)
 
 
 def test_collision_optimum_fields():

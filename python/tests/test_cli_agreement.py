@@ -90,6 +90,7 @@ def test_robust_optimum_matches_the_cli(cli):
     # Same search on the same grid; the robust search's own tolerance (Brent over K) is ~1e-8 relative.
     assert math.isclose(r.stiffness, expected["K"], rel_tol=1e-7)
     assert math.isclose(r.damping, expected["B"], rel_tol=1e-7)
+    assert (r.K, r.B) == (r.stiffness, r.damping)  # the CLI's (and hapticd's) names, the same numbers
     assert math.isclose(r.worst_cost, expected["worst_case"], rel_tol=1e-9)
     assert math.isclose(r.nominal_worst_cost, expected["nominal"]["worst_case"], rel_tol=1e-9)
     assert r.stable_over_box == expected["stable_over_box"]

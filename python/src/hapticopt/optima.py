@@ -85,6 +85,16 @@ class WallTuning:
     stiffness_max: float
 
     @property
+    def K(self) -> float:  # noqa: N802 (the C++ WallTuning's and hapticd's name)
+        """The stiffness [N/m], as `stiffness`."""
+        return self.stiffness
+
+    @property
+    def B(self) -> float:  # noqa: N802
+        """The damping [N s/m], as `damping`."""
+        return self.damping
+
+    @property
     def stability_margin(self) -> float:
         """alpha / alpha_max."""
         return self.alpha / self.alpha_max
@@ -108,6 +118,16 @@ class RobustOptimum:
     nominal_damping: float
     nominal_worst_cost: float
     nominal_stable_over_box: bool
+
+    @property
+    def K(self) -> float:  # noqa: N802 (the C++ library's and hapticd's name)
+        """The robust stiffness [N/m], as `stiffness`."""
+        return self.stiffness
+
+    @property
+    def B(self) -> float:  # noqa: N802
+        """The robust damping [N s/m], as `damping`."""
+        return self.damping
 
 
 @dataclass(frozen=True)

@@ -61,10 +61,21 @@ class Gains:
 
 @dataclass(frozen=True)
 class WallGains:
-    """Physical wall gains: stiffness K [N/m], damping B [N s/m]."""
+    """Physical wall gains: stiffness K [N/m], damping B [N s/m]. `K` and `B` are the names of the C++
+    library and of hapticd's protocol; `stiffness` and `damping` are the same numbers."""
 
     stiffness: float
     damping: float
+
+    @property
+    def K(self) -> float:  # noqa: N802 (the paper's and the protocol's name)
+        """The stiffness [N/m]."""
+        return self.stiffness
+
+    @property
+    def B(self) -> float:  # noqa: N802
+        """The damping [N s/m]."""
+        return self.damping
 
 
 def normalize(plant: PhysicalPlant) -> Plant:
