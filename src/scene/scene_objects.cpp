@@ -61,6 +61,7 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
     }
     move_hold_max_ = static_cast<std::uint32_t>(std::floor(config_.move_interval_max / config_.period + 0.5));
     activation_step_ = config_.activation_speed * config_.period;
+    activation_tail_fraction_ = std::min(1.0, config_.period / kActivationTailTime);
 }
 
 namespace {
@@ -953,8 +954,9 @@ bool SceneObjects::advance_hold(Glide& g, ObjectParams& p) const noexcept {
 
 // One tick of every glide, written into the object's params and handed to apply_moves as a move (~20 flops
 // per gliding object):
-//  * approach (activation): the offset advances by activation_speed T towards its target (at once if the
-//    target is behind the rendered surface), offset_rate = activation_speed;
+//  * approach (activation): the offset advances by min(activation_speed T, gap T / kActivationTailTime)
+//    towards its target (at once if the target is behind the rendered surface or within
+//    kActivationArrival), offset_rate = that step / T;
 //  * first-order hold (advance_hold).
 void SceneObjects::advance_glides() noexcept {
     for (std::uint64_t m = gliding_mask_; m != 0; m &= m - 1) {
@@ -964,10 +966,13 @@ void SceneObjects::advance_glides() noexcept {
         ObjectParams& p = slots_[s].current.params;
         bool done = false;
         if (g.approaching) {
+            // v T per tick while the gap exceeds v tau, then the fraction T / tau of the gap (speed gap / tau,
+            // continuous at gap = v tau): the surface slows to a stop instead of stopping within one tick.
             const double gap = g.to.offset - p.offset;
-            done = !(gap > activation_step_);  // reached, or the target is behind the rendered surface: there at once
-            p.offset = done ? g.to.offset : p.offset + activation_step_;
-            p.offset_rate = done ? 0.0 : config_.activation_speed;
+            done = !(gap > kActivationArrival);  // reached, or the target is behind the rendered surface: there at once
+            const double step = std::min(activation_step_, gap * activation_tail_fraction_);
+            p.offset = done ? g.to.offset : p.offset + step;
+            p.offset_rate = done ? 0.0 : step * inverse_period_;
             g.approaching = !done;
         } else {
             done = advance_hold(g, p);

@@ -70,8 +70,11 @@
 //    Each tick of a glide is a move (positions only), handled as above.
 //  * A unilateral plane that appears (a Set into an empty slot) with the handle behind its surface starts with
 //    its surface at the handle (penetration 0) and moves to its commanded offset at activation_speed
-//    (activate_new_planes, then advance_glides): the god-object rule (docs/protocol.md, section 4). Moves
-//    that arrive meanwhile change where it goes, not how fast. Positions only, never gains.
+//    (activate_new_planes, then advance_glides): the god-object rule (docs/protocol.md, section 4). Within
+//    activation_speed kActivationTailTime of its target its speed is gap / kActivationTailTime (an
+//    exponential approach, ending within kActivationArrival), so the damping relative to the surface changes
+//    by at most B activation_speed T / kActivationTailTime per tick instead of B activation_speed at once.
+//    Moves that arrive meanwhile change where it goes, not how fast. Positions only, never gains.
 // No allocation, lock, exception or I/O in anything called per tick.
 #pragma once
 
@@ -92,6 +95,12 @@ inline constexpr double kNearDistance = 1e-3;
 // Batches the loop can hold while another batch's ramps run (SceneObjects::apply_commits): as many as the
 // server's queue to the loop holds (serve_runtime.cpp), so holding never makes the queue refuse sooner.
 inline constexpr std::size_t kHeldCommitCapacity = 64;
+
+// The activation's end (the god-object rule): the time constant of the exponential approach over its last
+// activation_speed x 20 ms (0.2 mm at 0.01 m/s), and the gap below which the surface is placed on its target
+// (1 nm: K times it is below 1e-4 N for K up to 1e5 N/m).
+inline constexpr double kActivationTailTime = 0.02;   // s
+inline constexpr double kActivationArrival = 1e-9;    // m
 
 enum class ObjectKind : std::uint8_t { Plane, Spring, Field };
 enum class SpringConstraint : std::uint8_t { Point, Line, Plane };
@@ -401,6 +410,7 @@ private:
     std::uint64_t ticks_ = 0;             // add_forces calls so far
     std::uint32_t move_hold_max_ = 0;     // move_interval_max in ticks
     double activation_step_ = 0.0;        // activation_speed T, m per tick
+    double activation_tail_fraction_ = 1.0;  // T / kActivationTailTime: the share of the gap taken per tick at the end
 };
 
 }  // namespace hapticd

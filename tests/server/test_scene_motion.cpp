@@ -173,22 +173,35 @@ TEST(SceneMotion, DampingIsRelativeForBilateralPlanesAndSprings) {
 }
 
 // The god-object rule: a unilateral plane that appears 5 mm around the handle starts with its surface at the
-// handle and moves out by v T per tick, ramping in as usual (stiffness r^2, damping r, r = (j - 1)/30). With the
-// handle held at rest the force at tick j (j = 1 for the commit's tick) is r_j^2 K (j v T) + r_j B v, the
-// first-tick bound r_1^2 K v T + r_1 B v of docs/protocol.md; it reaches the commanded offset after
-// depth / (v T) ticks and stays there. The gains rendered are those of the plane without the rule.
+// handle and moves out by v T per tick, ramping in as usual (stiffness r^2, damping r, r = (j - 1)/30), until
+// its gap to the commanded offset is v tau (tau = 20 ms, kActivationTailTime); from there the gap shrinks by
+// the factor (1 - T/tau) per tick, in closed form gap_j = v tau (1 - T/tau)^(j - n), n = (depth - v tau)/(v T),
+// the surface's speed (gap_{j-1} - gap_j)/T, until the gap is below 1 nm. With the handle held at rest the
+// force at tick j (j = 1 for the commit's tick) is r_j^2 K p_j + r_j B s_j (p_j: the surface's distance from
+// the handle, s_j its speed), at most the first-tick bound r_1^2 K v T + r_1 B v of docs/protocol.md at j = 1;
+// the damping term changes by at most B v T / tau per tick at the end (no step of B v), and the plane stays at
+// its commanded offset after. The gains rendered are those of the plane without the rule.
 TEST(SceneMotion, APlaneAppearingAroundTheHandleStartsAtItAndMovesOutAtTheActivationSpeed) {
-    const double K = 74225.8, B = 223.3, v = 0.01, depth = 0.005, ramp = 0.03;
+    const double K = 74225.8, B = 223.3, v = 0.01, depth = 0.005, ramp = 0.03, tau = kActivationTailTime;
     MotionRig rig(ramp, 0.05, v);
     rig.commit(SlotUpdate::Action::Set, motion_plane(depth, K, B, false));
-    const auto ticks_to_reach = static_cast<int>(std::ceil(depth / (v * kMotionT) - 1e-9));
+    const double linear_ticks = (depth - v * tau) / (v * kMotionT);  // 480 for these values
+    const double q = 1.0 - kMotionT / tau;
+    auto gap_after = [&](int j) {
+        return j <= linear_ticks ? depth - j * v * kMotionT : v * tau * std::pow(q, j - linear_ticks);
+    };
+    // The tick whose gap falls below kActivationArrival (the next one lands on the offset).
+    const int tail_ticks = static_cast<int>(std::ceil(std::log(kActivationArrival / (v * tau)) / std::log(q)));
+    const int ticks_to_reach = static_cast<int>(std::lround(linear_ticks)) + tail_ticks + 1;
+    double previous = 0.0, largest_change = 0.0;
     for (int j = 1; j <= ticks_to_reach + 20; ++j) {
         const double r = std::min(1.0, (j - 1) * kMotionT / ramp);  // the commit's tick renders r = 0, then steps
         const bool moving = j < ticks_to_reach;
-        const double p = std::min(depth, j * v * kMotionT);
-        const double expected = r * r * K * p + (moving ? r * B * v : 0.0);
+        const double p = moving ? depth - gap_after(j) : depth;
+        const double speed = moving ? (gap_after(j - 1) - gap_after(j)) / kMotionT : 0.0;
+        const double expected = r * r * K * p + r * B * speed;
         const double f = rig.tick({});
-        // The arrival tick itself may fall one tick either way (the offset is a sum of j steps of v T).
+        // The arrival tick itself may fall one tick either way (the offset is a sum of j steps).
         if (std::abs(j - ticks_to_reach) > 1) {
             EXPECT_NEAR(f, expected, 1e-9 * (1 + expected)) << "tick " << j;
         }
@@ -196,6 +209,8 @@ TEST(SceneMotion, APlaneAppearingAroundTheHandleStartsAtItAndMovesOutAtTheActiva
         if (j == 1) {
             EXPECT_LE(f, r * r * K * v * kMotionT + r * B * v + 1e-12);
         }
+        if (j > ramp / kMotionT + 1) largest_change = std::max(largest_change, std::abs(f - previous));
+        previous = f;
         if (j == ticks_to_reach + 20) {
             std::array<AxisVector, 3> Kr{}, Br{};
             rig.objects.rendered_gains(Kr, Br);
@@ -203,6 +218,12 @@ TEST(SceneMotion, APlaneAppearingAroundTheHandleStartsAtItAndMovesOutAtTheActiva
             EXPECT_DOUBLE_EQ(Br[0][0], B);
         }
     }
+    // After the ramp: per tick the stiffness term grows by at most K v T and the damping term falls by at most
+    // B v T / tau (the tail's speed change), plus 1 nm of K at the arrival; the step B v of an abrupt stop
+    // (2.2 N here) does not occur.
+    std::printf("[ activation ] largest force change per tick after the ramp %.4f N (abrupt stop: B v = %.4f N)\n", largest_change,
+                B * v);
+    EXPECT_LE(largest_change, K * v * kMotionT + B * v * kMotionT / tau + K * kActivationArrival + 1e-9);
 }
 
 // The rule is for objects that appear: a plane in front of the handle renders as commanded, and so does a
