@@ -5,15 +5,16 @@
 //       then exits, holds (heartbeat every lease/4), holds without heartbeats, or says bye.
 //   hapticd_test_client SOCKET flood N OBJECT_ID_PLANE_OFFSETS
 //       adds a plane, then N modify commits moving it as fast as it can; prints {"ok":n_ok,"busy":n_busy,...}.
-//   hapticd_test_client SOCKET gainflood SECONDS
+//   hapticd_test_client SOCKET gainflood
 //       adds a plane away from the hand (n = -z at z = 0.05), then changes its gains back and forth (each change
 //       a cross-fade ramp in the loop) as fast as the server accepts; busy and session_limit are retried after
 //       5 ms. At the first session_limit (all its batches in flight: its share of the loop's queue is full)
-//       prints {"full":true}; goes on for SECONDS after that, then prints {"ok":n_ok,"refused":n_refused,
+//       prints {"full":true}; goes on until SIGUSR1 (or 120 s), then prints {"ok":n_ok,"refused":n_refused,
 //       "accepted":[[t_s, commit_seq], ...]} (t_s: CLOCK_MONOTONIC at each acceptance).
 //   hapticd_test_client SOCKET noread
 //       subscribes at 1000 Hz and never reads again (sleeps until killed).
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -30,6 +31,8 @@ namespace cl = hapticd::client;
 using nlohmann::json;
 
 namespace {
+
+volatile std::sig_atomic_t g_stop_flooding = 0;  // set by SIGUSR1 (gainflood)
 
 // Each reply is waited for this long: under the sanitizers a commit's checks run tens of times slower than in
 // release while dozens of clients queue for the one server thread (a 5 s default was exceeded by 32 clients
@@ -136,16 +139,19 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (mode == "gainflood") {
-            const double seconds = argc > 3 ? std::atof(argv[3]) : 1.0;
+            struct sigaction stop {};
+            stop.sa_handler = [](int) { g_stop_flooding = 1; };
+            sigemptyset(&stop.sa_mask);
+            sigaction(SIGUSR1, &stop, nullptr);
             cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = kReplyTimeout});
             cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, refused = 0;
+            bool full = false;
             json accepted = json::array();
-            std::optional<std::chrono::steady_clock::time_point> end;  // SECONDS after the first session_limit
-            const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-            for (long i = 0; end ? std::chrono::steady_clock::now() < *end : std::chrono::steady_clock::now() < give_up; ++i) {
+            const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+            for (long i = 0; g_stop_flooding == 0 && std::chrono::steady_clock::now() < give_up; ++i) {
                 p.gains = i % 2 == 0 ? cl::Gains::explicit_gains(150.0, 1.5) : cl::Gains::explicit_gains(100.0, 1.0);
                 try {
                     const auto seq = c.commit(cl::Batch().modify(id, p)).commit_seq;
@@ -155,8 +161,8 @@ int main(int argc, char** argv) {
                     if (e.code() != cl::ErrorCode::Busy && e.code() != cl::ErrorCode::SessionLimit) throw;
                     ++refused;
                     --i;  // the same change again
-                    if (!end && e.code() == cl::ErrorCode::SessionLimit) {
-                        end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
+                    if (!full && e.code() == cl::ErrorCode::SessionLimit) {
+                        full = true;
                         print({{"full", true}});
                     }
                     std::this_thread::sleep_for(std::chrono::milliseconds(5));

@@ -544,8 +544,8 @@ TEST(ServerProcess, SigkillOfAPressingClientRampsItsForceOut) {
 // period + kDetectionAllowance + one request of the kill (the server notices a departure between two
 // requests; a gain change's checks took up to 150 ms with three spinning processes on the 2-core machine),
 // although the batches accepted before the kill and not yet applied (counted from the flooders' acceptance
-// times and sequence numbers) hold at least twice that bound of ramps. The flood goes on meanwhile and is
-// accepted.
+// times and sequence numbers) hold at least twice that bound of ramps. The flooders go on until the force is
+// zero (then SIGUSR1 stops them), so the queue stays full through the kill however long they took to fill it.
 TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChanges) {
     const double ramp = 0.25;
     constexpr double kOneRequest = 0.15;  // s
@@ -555,7 +555,7 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
     const cl::StateReader state = cl::StateReader::open(scene.n.shm);
     std::vector<std::unique_ptr<Child>> flooders;
     for (int i = 0; i < 3; ++i) {
-        flooders.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, std::vector<std::string>{scene.n.socket, "gainflood", "1.5"},
+        flooders.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, std::vector<std::string>{scene.n.socket, "gainflood"},
                                                    "isolation_flood" + std::to_string(i)));
     }
     for (auto& f : flooders) {
@@ -571,6 +571,7 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
     ASSERT_TRUE(zero.has_value()) << "the force never reached zero";
     const double took = zero->time_s - t_kill;
     long accepted = 0, queued_at_kill = 0;
+    for (auto& f : flooders) f->signal(SIGUSR1);  // they flood until now, so the queue stays full through the kill
     for (auto& f : flooders) {
         ASSERT_EQ(f->wait(60.0), 0) << f->out() << f->err();
         const std::string out = f->out();
