@@ -17,14 +17,14 @@
 // time-stepping, no truncated horizon, no eigen-decomposition.
 //
 // Accuracy (measured against the same algorithm in long double and against time-stepping with
-// quadrature, tests/core/energy_costs_test.cpp; and against the former complex-Schur method,
-// energy_costs_complex_schur, kept as a cross-check): relative error <= 1e-10 for spectral radius
+// quadrature, tests/core/energy_costs_test.cpp; and against the complex-Schur method,
+// detail::energy_costs_complex_schur): relative error <= 1e-10 for spectral radius
 // rho <= 0.999, and <= 1e-13 / (1 - rho)^2 closer to the boundary (measured worst: 3% of that
 // bound, d = 0 .. 50). Unstable loops (Schur-Cohn), and non-positive or non-finite sums from
 // rounding right at the boundary: +infinity.
 // Cost: O(N^2) assembly + one LU of size 2N - 1 ((2/3)(2N-1)^3 flops) + O(N^2) per Stein solve;
 // for N <= 16 (d <= 13) the loop and solver storage is fixed-capacity (no heap allocation). energy_cost() for one
-// index solves only the equations it needs. Measured times: README "Speed".
+// index solves only the equations it needs. Measured times: docs/benchmarks.md.
 #pragma once
 
 #include <array>
@@ -207,8 +207,10 @@ Scalar energy_cost(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta,
   return index <= 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
 }
 
-/// The previous method, kept as an independent cross-check in the tests: complex Schur form of M
-/// and three triangular Stein solves (O(N^3), ~25 N^3 for the Schur form).
+namespace detail {
+
+/// An independent way to the same costs, for the tests and the benchmarks (not part of the API): the
+/// complex Schur form of M and three triangular Stein solves (O(N^3), ~25 N^3 for the Schur form).
 template <typename Scalar>
 EnergyCostsT<Scalar> energy_costs_complex_schur(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
@@ -216,8 +218,10 @@ EnergyCostsT<Scalar> energy_costs_complex_schur(const SampledPlant<Scalar>& plan
   const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);
   const LoopSchurForm<Scalar> schur = loop_schur_form(loop.transition);
   if (!(schur.spectral_radius < Scalar(1))) return {inf, inf, inf};
-  return detail::energy_costs_from_schur(plant, loop, schur);
+  return energy_costs_from_schur(plant, loop, schur);
 }
+
+}  // namespace detail
 
 /// Convenience: C_E0..2 at (gamma, delta, d) and (alpha, beta). Throws InvalidParameter for NaN or
 /// infinite gains and for invalid plant parameters.

@@ -2,7 +2,7 @@
 // The complex Schur form of the loop transition M = U T U^H (Eigen::ComplexSchur: Hessenberg
 // reduction + shifted QR, ~25 N^3 flops), plus the stability verdict (Schur-Cohn) that gates the
 // closed forms. The Schur form gives the spectral radius of StabilityReport and the complex-Schur
-// cross-check energy_costs_complex_schur; the energy costs and the overshoot bound themselves use
+// cross-check detail::energy_costs_complex_schur; the energy costs and the overshoot bound themselves use
 // the cheaper shift-structured Stein solver (stein_equation.hpp).
 #pragma once
 

@@ -139,7 +139,7 @@ TEST(EnergyCosts, CostsArePositiveAndFiniteInsideTheRegion) {
 
 TEST(EnergyCosts, StructuredSolverAgreesWithTheComplexSchurMethod) {
   // Two independent ways to the same sums: the shift-structured Stein solver (energy_costs) and the
-  // complex Schur form with triangular Stein solves (energy_costs_complex_schur). Each is within the
+  // complex Schur form with triangular Stein solves (detail::energy_costs_complex_schur). Each is within the
   // stated accuracy, so they agree within twice it; also beyond the fixed-capacity size (d > 13).
   for (const NormalizedPlant p : {NormalizedPlant{0, 0, 0}, NormalizedPlant{0.001, 0.02, 1},
                                   NormalizedPlant{0.0005, 0.01, 2.5}, NormalizedPlant{0, 0.01, 6},
@@ -147,7 +147,7 @@ TEST(EnergyCosts, StructuredSolverAgreesWithTheComplexSchurMethod) {
     const SampledPlant<double> sampled(p);
     for (const auto& [g, rho] : random_stable_points(p, 20, 0.9999, 11)) {
       const EnergyCosts a = energy_costs(sampled, g.alpha, g.beta);
-      const EnergyCosts b = energy_costs_complex_schur(sampled, g.alpha, g.beta);
+      const EnergyCosts b = hapticopt::detail::energy_costs_complex_schur(sampled, g.alpha, g.beta);
       const double bound = 2 * (rho <= 0.999 ? 1e-10 : 1e-13 / ((1 - rho) * (1 - rho)));
       for (int k = 0; k < 3; ++k) {
         EXPECT_LE(std::abs(ce(a, k) / ce(b, k) - 1), bound) << "d=" << p.delay << " rho=" << rho << " k=" << k;
