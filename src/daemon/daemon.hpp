@@ -15,7 +15,7 @@
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
 #include "server/state_publisher.hpp"
-#include "loop/recorder.hpp"
+#include "daemon/recorder.hpp"
 #include "loop/trace.hpp"
 
 namespace hapticd {
@@ -53,7 +53,7 @@ struct DaemonConfig {
     // --passivity-control (scene/passivity_controller.hpp): applied to the force after the delay buffer; may be
     // null. Must outlive the daemon.
     PassivityController* passivity = nullptr;
-    // --record (loop/recorder.hpp): every tick's state; the batches come through SceneObjects' observer. May be null.
+    // --record (daemon/recorder.hpp): every tick's state; the batches come through SceneObjects' observer. May be null.
     Recorder* recorder = nullptr;
     // --replay: may be null.
     TickFeeder* feeder = nullptr;

@@ -9,7 +9,7 @@
 #include <hapticopt/version.hpp>
 
 #include "daemon/exit_codes.hpp"
-#include "loop/recording_format.hpp"
+#include "daemon/recording_format.hpp"
 
 namespace hapticd {
 
@@ -22,7 +22,7 @@ json field(const char* name, const char* type, std::size_t offset, std::size_t c
 }
 
 // The chunks' fields as numpy reads them (type: numpy's little-endian type codes), from the offsets the
-// static_asserts of loop/recording_format.hpp pin.
+// static_asserts of daemon/recording_format.hpp pin.
 json layout() {
     using namespace recording;
     json l;

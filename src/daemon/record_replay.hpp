@@ -18,7 +18,7 @@
 #include "config/options.hpp"
 #include "daemon/daemon.hpp"
 #include "devices/device.hpp"
-#include "loop/recording_reader.hpp"
+#include "daemon/recording_reader.hpp"
 #include "scene/scene_objects.hpp"
 
 namespace hapticd {

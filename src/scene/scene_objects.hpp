@@ -167,14 +167,14 @@ struct ObjectCommit {
 
 using CommitRing = SpscRing<ObjectCommit>;
 
-// Which ring apply_commits took a batch from (the values are the recording's, loop/recording_format.hpp).
+// Which ring apply_commits took a batch from (the values are the recording's, daemon/recording_format.hpp).
 enum class CommitSource : std::uint8_t {
     Ring = 0,       // the commit ring: applied now, or held until the ramps in progress end
     Departure = 1,  // the departures ring
     Jumped = 2,     // the commit ring, applied at once ahead of a departure (take_departures)
 };
 
-// Told of every batch the loop takes from a ring, in order, before it is popped (--record: loop/recorder.hpp;
+// Told of every batch the loop takes from a ring, in order, before it is popped (--record: daemon/recorder.hpp;
 // --replay: daemon/replay.hpp). Called on the loop thread: must be real-time safe.
 class CommitObserver {
 public:

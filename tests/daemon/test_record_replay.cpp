@@ -10,8 +10,8 @@
 #include <fstream>
 #include <iterator>
 
-#include "loop/recording_format.hpp"
-#include "loop/recording_reader.hpp"
+#include "daemon/recording_format.hpp"
+#include "daemon/recording_reader.hpp"
 #include "../server/server_fixture.hpp"
 
 namespace hapticd::server_test {

@@ -32,7 +32,7 @@ SOURCES = {0: "commit", 1: "departure", 2: "jumped"}  # the ring a batch came fr
 ACTIONS = {0: "set", 1: "move", 2: "remove", 3: "cut"}
 OBJECT_KINDS = {0: "plane", 1: "spring", 2: "field"}
 
-# The layout of format version 1 (src/loop/recording_format.hpp): [name, numpy type, offset, count].
+# The layout of format version 1 (src/daemon/recording_format.hpp): [name, numpy type, offset, count].
 EXPECTED_LAYOUT: Dict[str, List[list]] = {
     "tick": [["kind", "<u4", 0, 1], ["read_status", "u1", 4, 1], ["write_status", "u1", 5, 1], ["fault", "u1", 6, 1],
              ["tick", "<u8", 8, 1], ["time_s", "<f8", 16, 1], ["position", "<f8", 24, 3], ["velocity", "<f8", 48, 3],

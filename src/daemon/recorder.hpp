@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // --record FILE (docs/recording.md): every tick's state and every batch the loop takes from its rings, in one
-// file (layout: loop/recording_format.hpp). Like the trace (loop/trace.hpp): the loop pushes into two
+// file (layout: daemon/recording_format.hpp). Like the trace (loop/trace.hpp): the loop pushes into two
 // preallocated lock-free SPSC rings (ticks; batches, each a copy of its `count` updates) and a writer thread
 // drains them into the file, each tick's batches before the tick. In real-time mode a full ring drops the
 // record (counted; the end chunk then marks the recording incomplete and --replay refuses it); in blocking mode
@@ -13,7 +13,7 @@
 #include <string>
 #include <thread>
 
-#include "loop/recording_format.hpp"
+#include "daemon/recording_format.hpp"
 #include "loop/spsc_ring.hpp"
 #include "scene/scene_objects.hpp"
 

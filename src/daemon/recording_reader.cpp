@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "loop/recording_reader.hpp"
+#include "daemon/recording_reader.hpp"
 
 #include <cerrno>
 #include <cstring>

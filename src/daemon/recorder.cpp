@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "loop/recorder.hpp"
+#include "daemon/recorder.hpp"
 
 #include <bit>
 #include <cerrno>
@@ -10,7 +10,7 @@
 
 namespace hapticd {
 
-static_assert(std::endian::native == std::endian::little, "the recording format is little-endian (loop/recording_format.hpp)");
+static_assert(std::endian::native == std::endian::little, "the recording format is little-endian (daemon/recording_format.hpp)");
 
 Recorder::Recorder(const std::string& path, const std::string& header_json, std::size_t tick_capacity, bool blocking)
     : path_(path), ticks_(tick_capacity), batches_(kBatchCapacity), blocking_(blocking) {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Reads and checks a recording (loop/recording_format.hpp, docs/recording.md) for --replay. Every defect is a
+// Reads and checks a recording (daemon/recording_format.hpp, docs/recording.md) for --replay. Every defect is a
 // RecordingError whose message names the file and what is wrong: unreadable, too short, wrong magic, unknown
 // version, a header that is not a JSON object, a size that is not header + whole chunks (truncated), no end
 // chunk (cut off), an unknown chunk kind, a batch without its updates, ticks out of order, counts or the
@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "loop/recording_format.hpp"
+#include "daemon/recording_format.hpp"
 #include "scene/scene_objects.hpp"
 
 namespace hapticd {
