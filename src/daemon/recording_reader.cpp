@@ -70,6 +70,12 @@ Recording read_recording(const std::string& path) {
         std::memcpy(&kind, bytes.data() + at, 4);
         if (kind == kTick) {
             const auto t = chunk_at<TickChunk>(bytes, at);
+            // DeviceStatus runs 0 .. 7 (devices/device.hpp), the protocol's fault numbers 0 .. 3.
+            if (t.read_status > 7 || t.write_status > 7 || t.fault > 3) {
+                bad(path, "corrupt: tick " + std::to_string(t.tick) + " has device statuses " + std::to_string(t.read_status) + ", " +
+                              std::to_string(t.write_status) + " and fault " + std::to_string(t.fault) +
+                              " (accepted: statuses 0 .. 7, fault 0 .. 3)");
+            }
             if (t.tick != r.ticks.size()) {
                 bad(path, "corrupt: record " + std::to_string(i) + " is tick " + std::to_string(t.tick) + ", expected tick " +
                               std::to_string(r.ticks.size()));

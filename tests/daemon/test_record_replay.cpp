@@ -234,6 +234,10 @@ TEST(RecordReplay, BadRecordingsAreRefusedWithTheirDefect) {
     end.dropped_ticks = 3;
     std::memcpy(incomplete.data() + incomplete.size() - rec::kChunkSize, &end, sizeof end);
     cases.push_back({"incomplete", incomplete, "incomplete: 3 tick and 0 batch records were dropped"});
+    std::vector<char> status = good;  // intact (checksum resealed), but a device status no device returns
+    status[tick_offset(status, 5) + 4] = 9;
+    reseal(status);
+    cases.push_back({"status", status, "corrupt: tick 5 has device statuses 9, 0 and fault 0 (accepted: statuses 0 .. 7, fault 0 .. 3)"});
     for (const Case& c : cases) {
         const std::string file = (scratch() / ("bad_" + c.name + ".rec")).string();
         write_bytes(file, c.bytes);
