@@ -279,3 +279,31 @@ TEST(RecordReplay, AChangedDeviceProfileIsRefused) {
 
 }  // namespace
 }  // namespace hapticd::server_test
+
+namespace hapticd::server_test {
+namespace {
+
+// A device that fails (the simulated one's fail_at_tick = 150): the run ends at tick 150 with exit 6; the
+// recording holds the failing read's status, and the replay, whose playback device returns it at the same tick,
+// reproduces the zero-force end: 151 ticks, identical.
+TEST(RecordReplay, ADeviceFaultReplaysAtItsTick) {
+    const std::string profile = (scratch() / "failing.toml").string();
+    std::filesystem::copy_file(HAPTICD_SOURCE_CONFIG_DIR "/devices/sim.toml", profile, std::filesystem::copy_options::overwrite_existing);
+    std::ofstream(profile, std::ios::app) << "\nfail_at_tick = 150\n";
+    const std::string file = (scratch() / "failing.rec").string();
+    Child run(HAPTICD_BINARY, {"--config", "", "--device", profile, "--lockstep", "--duration", "1", "--quiet", "--record", file},
+              "failing_record");
+    ASSERT_EQ(run.wait(), 6) << run.err();
+    const Recording r = read_recording(file);
+    ASSERT_EQ(r.ticks.size(), 151U);
+    EXPECT_NE(r.ticks.back().read_status, 0U);
+    EXPECT_EQ(r.ticks.back().fault, 1U);
+    EXPECT_NE(r.ticks[100].force[0], 0.0);  // the step pressed the wall before the fault
+    for (const double f : r.ticks.back().force) EXPECT_EQ(f, 0.0);
+    const Replay out = replay(file, "failing_replay");
+    EXPECT_EQ(out.code, 0) << out.err;
+    EXPECT_NE(out.out.find("151 ticks, 0 batches: every force identical"), std::string::npos) << out.out;
+}
+
+}  // namespace
+}  // namespace hapticd::server_test
