@@ -36,7 +36,7 @@ struct TickChunk {
     std::uint8_t fault = 0;         // the protocol's fault numbers: 0 none, 1 device, 2 non-finite, 3 watchdog
     std::uint8_t reserved0 = 0;
     std::uint64_t tick = 0;
-    double time_s = 0.0;            // the loop's time of the tick (ideal schedule, s since the loop started)
+    double time_s = 0.0;            // the tick's scheduled time since the loop started, s (period x slot: skipped periods count)
     double position[3] = {};        // m (rad), as read from the device
     double velocity[3] = {};        // m/s, the objects' backward difference (0 without --serve)
     double force[3] = {};           // N (N m), the force written to the device in this tick
