@@ -84,6 +84,10 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--watchdog-stall-periods", o.watchdog_stall_periods,
                    "Fault when one late tick skips more than this many periods (default 100)");
     app.add_option("--trace-capacity", o.trace_capacity, "Trace ring capacity in records (default 65536)");
+    app.add_option("--record", o.record,
+                   "Record every tick's state and every client batch the loop applies to FILE, for --replay and the scope "
+                   "(docs/recording.md)");
+    app.add_option("--record-capacity", o.record_capacity, "Recorder's tick ring capacity in records (default 65536)");
     app.add_option("--step-force", o.step_force, "step scenario: external force step, N (default 1)");
     app.add_option("--push-speed", o.push_speed, "push scenario: approach speed, m/s (default 0.1)");
     app.add_option("--push-distance", o.push_distance, "push scenario: start distance from the wall, m (default 0.002)");
@@ -187,6 +191,9 @@ Options parse_options(int argc, const char* const* argv) {
         auto* cfg = app.add_option("--config", config_arg, "Config file (TOML; default: the search below)");
         app.add_flag("--dry-run", scratch.dry_run, "Tune, print and exit without running the loop");
         app.add_flag("--list-devices", scratch.list_devices, "List the USB/HID devices hapticd can drive and exit");
+        app.add_option("--replay", scratch.replay,
+                       "Re-render a recording (--record) with the options it was made with, in lockstep, and compare the "
+                       "forces bit for bit (alone, or with --quiet; exit 11 on a difference, 10 on a bad recording)");
         try {
             app.parse(argc, argv);
         } catch (const CLI::CallForHelp&) {
@@ -229,6 +236,7 @@ Options parse_options(int argc, const char* const* argv) {
         app.add_option("--config", ignored);
         app.add_flag("--dry-run", o.dry_run);
         app.add_flag("--list-devices", o.list_devices);
+        app.add_option("--replay", o.replay);
         try {
             app.parse(argc, argv);
         } catch (const CLI::ParseError& e) {
@@ -283,6 +291,9 @@ void validate_options(const Options& o) {
     }
     if (o.trace_capacity < 2 || o.trace_capacity > (1LL << 24)) {
         invalid(w, "trace-capacity", std::to_string(o.trace_capacity), "2 .. 16777216 records");
+    }
+    if (o.record_capacity < 2 || o.record_capacity > (1LL << 24)) {
+        invalid(w, "record-capacity", std::to_string(o.record_capacity), "2 .. 16777216 records");
     }
     check_range(w, "step-force", o.step_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "push-speed", o.push_speed, 0.0, 1e3, false, "0 .. 1000 m/s");

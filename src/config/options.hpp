@@ -49,6 +49,9 @@ struct Options {
     long long watchdog_overruns = 50;
     long long watchdog_stall_periods = 100;
     long long trace_capacity = 65536;
+    std::string record;               // --record FILE: every tick and client batch (docs/recording.md; "" : none)
+    long long record_capacity = 65536;  // the recorder's tick ring, records
+    std::string replay;               // --replay FILE (handled by replay_main before the options are parsed)
     double step_force = 1.0;
     double push_speed = 0.1;
     double push_distance = 0.002;

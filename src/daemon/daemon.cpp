@@ -32,9 +32,12 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         result_.signal = stop_signal();
     }
 
+    if (config_.recorder != nullptr) config_.recorder->begin_tick(in.tick);
+    if (config_.feeder != nullptr) config_.feeder->before_commits(in.tick);
     if (hooks_.objects != nullptr) hooks_.objects->apply_commits();  // whole batches, at this tick boundary
 
     DeviceStatus status = device_.read_position(position);
+    const DeviceStatus read_status = status;
     if (status != DeviceStatus::Ok && result_.fault == Fault::None) {
         result_.fault = Fault::Device;
         result_.device_status = status;
@@ -69,6 +72,30 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         result_.device_status = status;
         result_.fault_tick = in.tick;
     }
+    // The protocol's fault numbers (docs/protocol.md, section 6): 0 none, 1 device, 2 non-finite, 3 watchdog.
+    const std::uint8_t fault_number = result_.fault == Fault::Device      ? 1U
+                                      : result_.fault == Fault::NonFinite ? 2U
+                                      : result_.fault == Fault::Watchdog  ? 3U
+                                                                          : 0U;
+
+    if (config_.recorder != nullptr) {
+        recording::TickChunk& r = record_chunk_;
+        r.read_status = static_cast<std::uint8_t>(read_status);
+        r.write_status = static_cast<std::uint8_t>(status);
+        r.fault = fault_number;
+        r.tick = in.tick;
+        r.time_s = in.time_s;
+        const AxisVector v = hooks_.objects != nullptr ? hooks_.objects->velocity() : AxisVector{};
+        for (std::size_t a = 0; a < kMaxAxes; ++a) {
+            r.position[a] = position[a];
+            r.velocity[a] = v[a];
+            r.force[a] = applied[a];
+        }
+        r.contact_mask = hooks_.objects != nullptr ? hooks_.objects->contact_mask() : 0U;
+        r.config_contact_mask = scene_.contact_mask();
+        r.wake_latency_ns = in.wake_latency_ns;
+        config_.recorder->push_tick(r);
+    }
 
     if (hooks_.state != nullptr) {
         StateTick& st = state_record_;
@@ -79,9 +106,8 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         st.force = applied;
         st.overruns = loop_.counters().overruns;
         st.wake_latency_ns = in.wake_latency_ns;
-        // The protocol's fault numbers (docs/protocol.md, section 6): 0 none, 1 device, 2 non-finite, 3 watchdog.
         st.config_contact_mask = scene_.contact_mask();
-        st.fault = result_.fault == Fault::Device ? 1U : result_.fault == Fault::NonFinite ? 2U : result_.fault == Fault::Watchdog ? 3U : 0U;
+        st.fault = fault_number;
         hooks_.state->publish(st, hooks_.objects);
     }
 

@@ -15,6 +15,7 @@
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
 #include "server/state_publisher.hpp"
+#include "daemon/recorder.hpp"
 #include "loop/trace.hpp"
 
 namespace hapticd {
@@ -29,6 +30,19 @@ struct ServerHooks {
     StatePublisher* state = nullptr;
 };
 
+// --replay (daemon/replay.hpp): called at the start of every tick, before the objects' apply_commits, to hand
+// the loop the batches it took at that tick in the recording. Real-time rules apply.
+class TickFeeder {
+public:
+    virtual void before_commits(std::uint64_t tick) noexcept = 0;
+
+protected:
+    TickFeeder() = default;
+    TickFeeder(const TickFeeder&) = default;
+    TickFeeder& operator=(const TickFeeder&) = default;
+    ~TickFeeder() = default;
+};
+
 struct DaemonConfig {
     LoopConfig loop;
     std::uint64_t max_ticks = 0;   // 0: until stopped
@@ -39,6 +53,10 @@ struct DaemonConfig {
     // --passivity-control (scene/passivity_controller.hpp): applied to the force after the delay buffer; may be
     // null. Must outlive the daemon.
     PassivityController* passivity = nullptr;
+    // --record (daemon/recorder.hpp): every tick's state; the batches come through SceneObjects' observer. May be null.
+    Recorder* recorder = nullptr;
+    // --replay: may be null.
+    TickFeeder* feeder = nullptr;
 };
 
 struct RunResult {
@@ -78,6 +96,7 @@ private:
     // The published record, reused from tick to tick: every field is written before each publish, and a
     // fresh zero-initialised one per tick cost a ~112-byte `rep stos` (~10 ns of a 50 ns tick, perf).
     StateTick state_record_;
+    recording::TickChunk record_chunk_;  // --record: likewise reused
 };
 
 }  // namespace hapticd

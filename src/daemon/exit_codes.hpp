@@ -15,12 +15,16 @@ enum ExitCode : int {
     kExitRunFault = 7,          // fault during the run: watchdog or non-finite value
     kExitServerError = 8,       // --serve: the control socket or the state's shared memory could not be created
     kExitSocketPathInUse = 9,   // --serve: the socket path holds a file that is not a stale hapticd socket (left alone)
+    kExitBadRecording = 10,     // --replay: the recording is unreadable, truncated, corrupt, incomplete or cannot be rebuilt
+    kExitReplayMismatch = 11,   // --replay: a replayed force differs from the recorded one (or the batches or ticks do)
 };
 
 inline constexpr const char* kExitCodeHelp =
     "Exit codes: 0 ok (also after SIGINT/SIGTERM), 1 internal error, 2 usage error, 3 bad config/profile file,\n"
     "4 invalid physical parameter, 5 unstable explicit gains, 6 device error, 7 fault during run\n"
     "(watchdog or non-finite value), 8 --serve: control socket or shared memory could not be created,\n"
-    "9 --serve: the socket path holds a file that is not a stale hapticd socket (left alone).";
+    "9 --serve: the socket path holds a file that is not a stale hapticd socket (left alone),\n"
+    "10 --replay: bad recording (unreadable, truncated, corrupt, incomplete, or its configuration changed),\n"
+    "11 --replay: a replayed force differs from the recorded one.";
 
 }  // namespace hapticd

@@ -11,9 +11,12 @@
 #include <sstream>
 #include <string_view>
 
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include "daemon/daemon.hpp"
+#include "daemon/record_replay.hpp"
 #include "devices/device_factory.hpp"
 #include "devices/device_list.hpp"
 #include "daemon/fatal_signal.hpp"
@@ -27,6 +30,8 @@
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
 #include "server/serve_runtime.hpp"
+#include "daemon/recorder.hpp"
+#include "daemon/recording_reader.hpp"
 #include "loop/trace.hpp"
 #include "tuning/object_checks.hpp"
 #include "tuning/tuning.hpp"
@@ -168,11 +173,58 @@ void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profi
     }
 }
 
-int run_main(int argc, const char* const* argv) {
-    const Options o = parse_options(argc, argv);
+// replay: null, or the recording whose command line argv is (--replay, replay_main): then the run is that
+// recording's, in lockstep on its PlaybackDevice, without server, trace, summary or recorder, and the exit code
+// is the comparison's (daemon/record_replay.hpp).
+// The replay's exit code (0 identical, 11 not) and its lines: the first tick whose force differs (both values,
+// %.17g), or the first batch taken otherwise than recorded, or a run that ended before the recording's last tick.
+int replay_verdict(const Recording& r, const RunResult& run, const PlaybackDevice& device, const ReplayFeeder* feeder) {
+    const std::uint64_t taken = feeder != nullptr ? feeder->batches_taken() : 0;
+    bool same = true;
+    char line[512];
+    if (device.mismatched_ticks() > 0) {
+        const auto& m = device.first_mismatch();
+        std::snprintf(line, sizeof line, "%llu of %llu ticks differ; the first is tick %llu: force[%zu] recorded %.17g N, replayed %.17g N",
+                      static_cast<unsigned long long>(device.mismatched_ticks()), static_cast<unsigned long long>(device.ticks_compared()),
+                      static_cast<unsigned long long>(m.tick), m.axis, m.recorded, m.replayed);
+        std::cerr << "hapticd: error: replay of '" << r.path << "': " << line << "\n";
+        same = false;
+    }
+    if (feeder != nullptr && feeder->mismatch()) {
+        std::cerr << "hapticd: error: replay of '" << r.path << "': " << feeder->mismatch_text() << "\n";
+        same = false;
+    }
+    if (device.ticks_compared() != r.ticks.size() || taken != r.batches.size()) {
+        std::cerr << "hapticd: error: replay of '" << r.path << "': the replay ran " << device.ticks_compared() << " ticks and took "
+                  << taken << " batches; the recording has " << r.ticks.size() << " ticks and " << r.batches.size() << " batches"
+                  << (run.fault != Fault::None ? " (the replay faulted at tick " + std::to_string(run.fault_tick) + ")" : std::string()) << "\n";
+        same = false;
+    }
+    if (!same) return kExitReplayMismatch;
+    std::cout << "hapticd: replay of '" << r.path << "': " << device.ticks_compared() << " ticks, " << taken
+              << " batches: every force identical to the recording (bit for bit)" << std::endl;
+    return kExitOk;
+}
+
+int run_main(int argc, const char* const* argv, const Recording* replay = nullptr) {
+    Options o = parse_options(argc, argv);
+    if (replay != nullptr) {
+        o.lockstep = true;
+        o.quiet = true;
+        o.trace.clear();
+        o.summary_json.clear();
+        o.record.clear();
+        o.replay.clear();
+        o.serve_wait_commit = false;
+        o.dry_run = false;
+        o.list_devices = false;
+    } else if (!o.replay.empty()) {
+        throw StartupError(kExitUsage, "--replay takes the options from the recording: only --quiet may be given with it");
+    }
     validate_options(o);
     if (o.list_devices) return list_devices(std::cout, o);
     const DeviceProfile profile = load_device_profile(o);
+    if (replay != nullptr) check_replayable(*replay, o, profile);
     std::ostream& out = std::cout;
 
     const double period = 1.0 / o.rate;
@@ -202,6 +254,7 @@ int run_main(int argc, const char* const* argv) {
         max_ticks = static_cast<std::uint64_t>(std::ceil(o.duration * o.rate - 1e-9));
         if (max_ticks == 0) max_ticks = 1;
     }
+    if (replay != nullptr) max_ticks = replay->ticks.size();  // the recorded run's last tick wrote zero force, as this one's will
 
     RunReport report;
     report.options = &o;
@@ -294,7 +347,10 @@ int run_main(int argc, const char* const* argv) {
         write_summary(kExitOk);
         return kExitOk;
     }
-    std::unique_ptr<Device> device = make_device(profile, o, scenario, period);
+    std::unique_ptr<Device> device = replay != nullptr
+                                         ? std::make_unique<PlaybackDevice>(*replay, capabilities_from_profile(profile), profile.name)
+                                         : make_device(profile, o, scenario, period);
+    auto* playback = replay != nullptr ? static_cast<PlaybackDevice*>(device.get()) : nullptr;
 
     std::vector<VirtualWall> scene_walls;
     for (const auto& w : walls) {
@@ -311,6 +367,16 @@ int run_main(int argc, const char* const* argv) {
     if (!o.trace.empty()) {
         try {
             trace = std::make_unique<TraceWriter>(o.trace, static_cast<std::size_t>(o.trace_capacity), o.lockstep);
+        } catch (const std::exception& e) {
+            throw StartupError(kExitUsage, e.what());
+        }
+    }
+
+    std::unique_ptr<Recorder> recorder;
+    if (!o.record.empty()) {
+        try {
+            recorder = std::make_unique<Recorder>(o.record, recording_header(argc, argv, o, profile).dump(),
+                                                  static_cast<std::size_t>(o.record_capacity), o.lockstep);
         } catch (const std::exception& e) {
             throw StartupError(kExitUsage, e.what());
         }
@@ -354,9 +420,23 @@ int run_main(int argc, const char* const* argv) {
         cfg.passivity = &*passivity;
         if (!o.quiet) out << "hapticd: " << describe(pc) << "\n";
     }
+    cfg.recorder = recorder.get();
+    // --replay --serve: the loop's object slots and their rings, fed from the recording (no server).
+    std::unique_ptr<CommitRing> replay_ring, replay_departures;
+    std::unique_ptr<SceneObjects> replay_objects;
+    std::unique_ptr<ReplayFeeder> feeder;
+    if (replay != nullptr && o.serve) {
+        replay_ring = std::make_unique<CommitRing>(replay_ring_capacity(*replay));
+        replay_departures = std::make_unique<CommitRing>(replay_ring_capacity(*replay));
+        replay_objects = std::make_unique<SceneObjects>(scene_objects_config(o, profile, period), *replay_ring, replay_departures.get());
+        feeder = std::make_unique<ReplayFeeder>(*replay, *replay_objects, *replay_ring, *replay_departures);
+        replay_objects->set_observer(feeder.get());
+        cfg.feeder = feeder.get();
+    }
     auto daemon = std::make_unique<Daemon>(*device, scene, trace.get(), cfg);
+    if (replay_objects) daemon->attach(ServerHooks{replay_objects.get(), nullptr});
     std::unique_ptr<ServeRuntime> serving;  // --serve: client objects, state stream, control socket
-    if (o.serve) {
+    if (o.serve && replay == nullptr) {
         std::vector<ConfigWallInfo> config_walls;
         for (const auto& w : walls) {
             config_walls.push_back({w.geometry.axis, w.geometry.position, w.geometry.direction,
@@ -364,6 +444,7 @@ int run_main(int argc, const char* const* argv) {
         }
         serving = std::make_unique<ServeRuntime>(o, profile, period, delay, config_walls);
         daemon->attach(serving->hooks());
+        if (recorder) serving->hooks().objects->set_observer(recorder.get());
         serving->start();
     }
     // From here a fatal signal or std::terminate zeroes the device where the driver can and marks the state
@@ -427,6 +508,20 @@ int run_main(int argc, const char* const* argv) {
                       << "raise --trace-capacity)\n";
         }
     }
+    if (recorder) {
+        const bool ok = recorder->close();
+        if (!ok) std::cerr << "hapticd: error: writing recording '" << o.record << "' failed (it is marked incomplete)\n";
+        if (recorder->dropped_ticks() + recorder->dropped_batches() > 0) {
+            std::cerr << "hapticd: warning: " << recorder->dropped_ticks() << " tick and " << recorder->dropped_batches()
+                      << " batch records dropped (recorder ring full; raise --record-capacity, or record with --lockstep): the "
+                      << "recording '" << o.record << "' is marked incomplete and cannot be replayed\n";
+        }
+        if (!o.quiet) {
+            out << "hapticd: recorded " << recorder->ticks_written() << " ticks and " << recorder->batches_written() << " batches to '"
+                << o.record << "'\n";
+        }
+    }
+    if (replay != nullptr) return replay_verdict(*replay, report.run, *playback, feeder.get());
     report.saturated_ticks = scene.stats().saturated_ticks;
     if (passivity) {
         report.passivity_control = true;
@@ -466,6 +561,55 @@ int run_main(int argc, const char* const* argv) {
     return code;
 }
 
+// hapticd --replay FILE [--quiet]: reads the recording, enters its working directory and runs its command line
+// (run_main with the recording). Exit 10 for a recording that cannot be read or rebuilt.
+int replay_main(int argc, const char* const* argv) {
+    std::string file;
+    bool quiet = false;
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a == "--replay" && i + 1 < argc) {
+            file = argv[++i];
+        } else if (a.starts_with("--replay=")) {
+            file = std::string(a.substr(9));
+        } else if (a == "--quiet") {
+            quiet = true;
+        } else {
+            throw StartupError(kExitUsage, "--replay takes the options from the recording: only --quiet may be given with it (got '" +
+                                               std::string(a) + "')");
+        }
+    }
+    if (file.empty()) throw StartupError(kExitUsage, "--replay needs a FILE (a recording made with --record)");
+    Recording r;
+    try {
+        r = read_recording(file);
+    } catch (const RecordingError& e) {
+        throw StartupError(kExitBadRecording, e.what());
+    }
+    const nlohmann::json& args = r.header.contains("argv") ? r.header["argv"] : nlohmann::json();
+    if (!args.is_array() || !std::all_of(args.begin(), args.end(), [](const nlohmann::json& a) { return a.is_string(); })) {
+        throw StartupError(kExitBadRecording, "recording '" + file + "': corrupt header: 'argv' is not an array of strings");
+    }
+    const std::string cwd = r.header.value("cwd", std::string());
+    if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) {
+        throw StartupError(kExitBadRecording, "recording '" + file + "': cannot enter its working directory '" + cwd +
+                                                  "' (the relative paths of its command line are relative to it)");
+    }
+    std::vector<std::string> strings{"hapticd"};
+    for (const auto& a : args) strings.push_back(a.get<std::string>());
+    std::vector<const char*> pointers;
+    for (const auto& a : strings) pointers.push_back(a.c_str());
+    if (!quiet) {
+        std::cout << "hapticd: replaying '" << file << "': " << r.ticks.size() << " ticks, " << r.batches.size() << " batches, recorded with:";
+        for (std::size_t i = 1; i < strings.size(); ++i) {
+            const bool quote = strings[i].empty() || strings[i].find_first_of(" \t'\"") != std::string::npos;
+            std::cout << " " << (quote ? "'" + strings[i] + "'" : strings[i]);
+        }
+        std::cout << std::endl;
+    }
+    return run_main(static_cast<int>(pointers.size()), pointers.data(), &r);
+}
+
 }  // namespace
 
 int hapticd_main(int argc, const char* const* argv) noexcept {
@@ -475,6 +619,10 @@ int hapticd_main(int argc, const char* const* argv) noexcept {
     if (argc > 1 && std::string_view(argv[1]) == "check-device") return check_device_main(argc - 1, argv + 1);
     clear_stop_request();
     try {
+        for (int i = 1; i < argc; ++i) {
+            const std::string_view a = argv[i];
+            if (a == "--replay" || a.starts_with("--replay=")) return replay_main(argc, argv);
+        }
         return run_main(argc, argv);
     } catch (const StartupError& e) {
         if (e.what()[0] != '\0') std::cerr << "hapticd: error: " << e.what() << "\n";

@@ -136,9 +136,11 @@ void SceneObjects::apply_commits() noexcept {
             ++held_count_;
             held_slots_ |= slots_of(*c);
             ++stats_.commits_held;
+            if (observer_ != nullptr) observer_->on_taken(*c, CommitSource::Ring);
             ring_.pop();
             continue;
         }
+        if (observer_ != nullptr) observer_->on_taken(*c, CommitSource::Ring);
         apply(*c);
         ring_.pop();
     }
@@ -168,10 +170,12 @@ bool SceneObjects::take_departures() noexcept {
             pop_held();
         }
         for (const ObjectCommit* c = ring_.front(); c != nullptr && c->seq < d->seq; c = ring_.front()) {
+            if (observer_ != nullptr) observer_->on_taken(*c, CommitSource::Jumped);
             apply(*c, true);
             ++stats_.commits_jumped;
             ring_.pop();
         }
+        if (observer_ != nullptr) observer_->on_taken(*d, CommitSource::Departure);
         apply(*d);
         ++stats_.departures_applied;
         departures_->pop();

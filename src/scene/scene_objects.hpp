@@ -167,6 +167,26 @@ struct ObjectCommit {
 
 using CommitRing = SpscRing<ObjectCommit>;
 
+// Which ring apply_commits took a batch from (the values are the recording's, daemon/recording_format.hpp).
+enum class CommitSource : std::uint8_t {
+    Ring = 0,       // the commit ring: applied now, or held until the ramps in progress end
+    Departure = 1,  // the departures ring
+    Jumped = 2,     // the commit ring, applied at once ahead of a departure (take_departures)
+};
+
+// Told of every batch the loop takes from a ring, in order, before it is popped (--record: daemon/recorder.hpp;
+// --replay: daemon/replay.hpp). Called on the loop thread: must be real-time safe.
+class CommitObserver {
+public:
+    virtual void on_taken(const ObjectCommit& commit, CommitSource source) noexcept = 0;
+
+protected:
+    CommitObserver() = default;
+    CommitObserver(const CommitObserver&) = default;
+    CommitObserver& operator=(const CommitObserver&) = default;
+    ~CommitObserver() = default;
+};
+
 struct SceneObjectsConfig {
     double period = 1e-3;          // s
     double ramp_time = 0.03;       // s (0: no ramp)
@@ -199,6 +219,9 @@ public:
     // Start of a tick: applies up to commits_per_tick waiting batches; one that starts ramps while another
     // batch's ramps run is held until they have ended (apply_commits in scene_objects.cpp). Real-time safe.
     void apply_commits() noexcept;
+
+    // Before the loop starts (may be null): told of every batch taken from a ring. Must outlive this object.
+    void set_observer(CommitObserver* observer) noexcept { observer_ = observer; }
 
     // Adds the objects' forces to `force` (the config walls' sum), then saturates and rate-limits the
     // total. Returns false on a non-finite value (force is then zero). Real-time safe.
@@ -349,6 +372,7 @@ private:
     SceneObjectsConfig config_;
     CommitRing& ring_;
     CommitRing* departures_ = nullptr;
+    CommitObserver* observer_ = nullptr;
     std::array<Slot, kSceneObjectCapacity> slots_{};
     // Batches waiting for the ramps in progress to end (apply_commits), a circular queue preallocated in the
     // constructor (~14 KB each: on the heap, not in the object).

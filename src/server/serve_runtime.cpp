@@ -28,6 +28,18 @@ int group_id(const std::string& name) {
 
 }  // namespace
 
+SceneObjectsConfig scene_objects_config(const Options& o, const DeviceProfile& profile, double period) {
+    SceneObjectsConfig oc;
+    oc.period = period;
+    oc.ramp_time = o.ramp_time;
+    oc.max_force = profile.max_force;
+    oc.max_force_rate = o.max_force_rate;
+    oc.axes = static_cast<std::size_t>(profile.axes);
+    oc.move_interval_max = o.move_interval_max;
+    oc.activation_speed = o.activation_speed;
+    return oc;
+}
+
 ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, double period, double delay,
                            const std::vector<ConfigWallInfo>& config_walls) {
     const int gid = group_id(o.serve_group);
@@ -38,15 +50,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     ring_ = std::make_unique<CommitRing>(kCommitRingCapacity);
     // One departure per slot at most is in flight (a slot is reused only once its departure was applied).
     departure_ring_ = std::make_unique<CommitRing>(kSceneObjectCapacity);
-    SceneObjectsConfig oc;
-    oc.period = period;
-    oc.ramp_time = o.ramp_time;
-    oc.max_force = profile.max_force;
-    oc.max_force_rate = o.max_force_rate;
-    oc.axes = axes;
-    oc.move_interval_max = o.move_interval_max;
-    oc.activation_speed = o.activation_speed;
-    objects_ = std::make_unique<SceneObjects>(oc, *ring_, departure_ring_.get());
+    objects_ = std::make_unique<SceneObjects>(scene_objects_config(o, profile, period), *ring_, departure_ring_.get());
     // The socket path first: a second daemon started on a live one's names stops here, before it replaces
     // the live one's state segment.
     try {

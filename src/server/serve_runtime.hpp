@@ -16,6 +16,9 @@
 
 namespace hapticd {
 
+// The loop's object slots' configuration for these options and this profile (also what --replay rebuilds).
+[[nodiscard]] SceneObjectsConfig scene_objects_config(const Options& options, const DeviceProfile& profile, double period);
+
 class ServeRuntime {
 public:
     // Throws StartupError: kExitInvalidParameter for a bad --serve-group / --serve-mode, kExitServerError

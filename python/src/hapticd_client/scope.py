@@ -4,6 +4,7 @@
     python3 -m hapticd_client.scope                          # a window, when a display exists
     python3 -m hapticd_client.scope --out frames/ --every 1  # over SSH: a PNG frame every second
     python3 -m hapticd_client.scope --out scope.png --data scope.npz --duration 5
+    python3 -m hapticd_client.scope --recording run.rec --out run.png   # a recording (hapticd --record)
 
 Four panels over the last ``--window`` seconds, against the loop's own clock: position (mm), velocity
 (mm/s) and force (N) per axis of the device, and the objects: one row per object id, a thin line while the
@@ -15,9 +16,15 @@ second and keeps each new tick in a ring buffer of numpy records whose layout is
 values are bit for bit those of any other reader of the same tick. The scope samples the stream; it does
 not see every tick when the loop runs faster than ``--sample-rate`` or while the sampler waits for the GIL.
 
+With ``--recording FILE`` it plots a recording made with ``hapticd --record`` instead (every tick, the whole
+run or its last ``--window`` seconds when that is given; read with hapticd_client.recording): the same three
+panels against the loop's clock from the first tick, the contacts per slot (labelled with the id of the object
+the slot held), and a vertical mark at each batch the loop took (commit: grey, departure: red).
+
 Needs numpy and matplotlib (the extra ``plot`` of the distribution); the rest of hapticd_client does not.
 Exit codes (hapticctl's where they overlap): 0 done, 2 bad option or matplotlib missing, 3 no daemon at the
-socket, 9 the state cannot be read, is stale, or stopped advancing for ``--stall-timeout`` seconds.
+socket, 9 the state cannot be read, is stale, or stopped advancing for ``--stall-timeout`` seconds, 10 the
+recording cannot be read (hapticd's code for a bad recording).
 """
 
 from __future__ import annotations
@@ -41,6 +48,7 @@ EXIT_OK = 0
 EXIT_USAGE = 2
 EXIT_NO_DAEMON = 3
 EXIT_NO_STATE = 9
+EXIT_BAD_RECORDING = 10
 
 # The per-tick fields of the state, offsets relative to byte 128 of the segment (state_layout.hpp).
 STATE_DTYPE = np.dtype({
@@ -89,15 +97,18 @@ def build_parser() -> argparse.ArgumentParser:
         description="Plot hapticd's position, velocity and force per axis and the contacts over the last seconds, "
                     "live from its shared-memory state (docs/scope.md).",
         epilog="Exit codes: 0 done, 2 bad option or matplotlib missing, 3 no daemon at the socket, "
-               "9 the state cannot be read, is stale, or stopped advancing.")
+               "9 the state cannot be read, is stale, or stopped advancing, 10 --recording cannot be read.")
     src = p.add_argument_group("source")
     src.add_argument("--shm", metavar="NAME",
                      help="shared-memory name of the state (e.g. /hapticd-state); default: ask the daemon at --socket")
     src.add_argument("--socket", metavar="PATH",
                      help="control socket, used only to learn the state's name (default $HAPTICD_SOCKET, then hapticd's)")
+    src.add_argument("--recording", metavar="FILE",
+                     help="plot a recording (hapticd --record FILE) instead of the live state: every tick of the run, "
+                          "or of its last --window seconds when --window is given (docs/recording.md)")
     view = p.add_argument_group("view")
-    view.add_argument("--window", type=_number_in("--window", 0, 600.0), default=5.0, metavar="S",
-                      help="seconds shown, (0, 600] (default 5)")
+    view.add_argument("--window", type=_number_in("--window", 0, 600.0), default=None, metavar="S",
+                      help="seconds shown, (0, 600] (default 5; with --recording: the whole run)")
     view.add_argument("--rate", type=_number_in("--rate", 0, 60.0), default=20.0, metavar="HZ",
                       help="frames per second in a window, (0, 60] (default 20)")
     view.add_argument("--sample-rate", type=_number_in("--sample-rate", 0, 5000.0), default=1000.0, metavar="HZ",
@@ -330,6 +341,10 @@ def run(argv: Optional[Sequence[str]] = None) -> int:
                                 "--out FILE.png for the latest frame")
     if args.data is not None and not pathlib.Path(args.data).resolve().parent.is_dir():
         raise _Exit(EXIT_USAGE, f"--data = {args.data!r}: its directory does not exist")
+    if args.recording is not None:
+        return _run_recording(args, out_file, out_dir)
+    if args.window is None:
+        args.window = 5.0
 
     reader = _open_state(args)
     try:
@@ -459,6 +474,87 @@ def _run_window(args, reader: StateReader, sampler: Sampler) -> int:
     timer.stop()
     if args.data is not None:
         write_data(args.data, shown["samples"], reader.axes, args.window, reader.name)
+    return EXIT_OK
+
+
+def recording_figure(figure, rec, window_s: Optional[float] = None) -> np.ndarray:
+    """Draws a recording (hapticd_client.recording.Recording) on ``figure``: position (mm), velocity (mm/s) and
+    force (N) per axis against the loop's clock, the contacts per slot, and a vertical mark per batch taken
+    (commit: grey, departure or jumped ahead of one: red). Returns the plotted tick rows."""
+    ticks = rec.ticks
+    if window_s is not None and len(ticks):
+        ticks = ticks[ticks["time_s"] >= ticks["time_s"][-1] - window_s]
+    axes = max(1, min(3, int(rec.header.get("axes", 3))))
+    t = ticks["time_s"]
+    panels = figure.subplots(4, 1, sharex=True, gridspec_kw={"height_ratios": [3, 3, 3, 2]})
+    for ax, name, scale, unit in zip(panels[:3], ("position", "velocity", "force"), (1e3, 1e3, 1.0),
+                                     ("position (mm)", "velocity (mm/s)", "force (N)")):
+        for a in range(axes):
+            ax.plot(t, ticks[name][:, a] * scale, lw=1.0, color=f"C{a}", label=AXIS_NAMES[a])
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+    panels[0].legend(loc="upper right", ncol=axes, fontsize="small", frameon=False)
+    # The object id each slot held last (its latest Set) labels the slot's contact row.
+    slot_ids: Dict[int, int] = {}
+    for b in rec.batches:
+        for u in b.updates:
+            if int(u["action"]) == 0:
+                slot_ids[int(u["slot"])] = int(u["id"])
+    mask = ticks["contact_mask"]
+    slots = sorted({s for s in range(CAPACITY) if np.any((mask >> np.uint64(s)) & np.uint64(1))} | set(slot_ids))
+    ax = panels[3]
+    for k, s in enumerate(slots):
+        on = ((mask >> np.uint64(s)) & np.uint64(1)).astype(bool)
+        ax.fill_between(t, k - 0.35, k + 0.35, where=on, step="post", color=f"C{3 + k % 7}", lw=0)
+    ax.set_yticks(range(len(slots)))
+    ax.set_yticklabels([f"slot {s}" + (f" id {slot_ids[s]}" if s in slot_ids else "") for s in slots])
+    ax.set_ylim(-0.7, max(len(slots), 1) - 0.3)
+    ax.set_ylabel("contacts")
+    ax.set_xlabel("loop time (s)")
+    if len(ticks):
+        first, last = int(ticks["tick"][0]), int(ticks["tick"][-1])
+        for b in rec.batches:
+            if first <= b.tick <= last:
+                x = float(rec.ticks["time_s"][b.tick])
+                for p in panels:
+                    p.axvline(x, color="C3" if b.source != "commit" else "0.5", lw=0.6, ls="--", alpha=0.7)
+    figure.suptitle(f"hapticd recording {pathlib.Path(rec.path).name}: {len(rec.ticks)} ticks, {len(rec.batches)} batches"
+                    + (f" (last {window_s:g} s shown)" if window_s is not None else ""), fontsize="medium", x=0.08, ha="left")
+    figure.subplots_adjust(left=0.1, right=0.98, top=0.93, bottom=0.07, hspace=0.12)
+    return ticks
+
+
+def _run_recording(args, out_file: Optional[pathlib.Path], out_dir: Optional[pathlib.Path]) -> int:
+    """--recording FILE: one figure of the recording, to --out FILE (or DIR/recording.png) or a window."""
+    from . import recording
+    try:
+        rec = recording.load(args.recording)
+    except recording.RecordingError as e:
+        raise _Exit(EXIT_BAD_RECORDING, str(e))
+    try:
+        import matplotlib
+    except ImportError:
+        raise _Exit(EXIT_USAGE, "hapticd-scope needs matplotlib: pip install 'hapticopt[plot]' "
+                                "(Debian: apt install python3-matplotlib)")
+    headless = args.out is not None
+    if headless:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    figure = plt.figure(figsize=(args.size[0] / args.dpi, args.size[1] / args.dpi), dpi=args.dpi)
+    shown = recording_figure(figure, rec, args.window)
+    if args.data is not None:
+        target = pathlib.Path(args.data)
+        tmp = target.with_name(target.name + ".tmp.npz")
+        np.savez(tmp, **{name: shown[name] for name in shown.dtype.names})
+        os.replace(tmp, target)
+    if headless:
+        if out_dir is not None:
+            out_dir.mkdir(parents=True, exist_ok=True)
+            out_file = out_dir / "recording.png"
+        _save_figure(figure, out_file, args.dpi)
+        plt.close(figure)
+    else:
+        plt.show()
     return EXIT_OK
 
 

@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: Apache-2.0
+// Reads and checks a recording (daemon/recording_format.hpp, docs/recording.md) for --replay. Every defect is a
+// RecordingError whose message names the file and what is wrong: unreadable, too short, wrong magic, unknown
+// version, a header that is not a JSON object, a size that is not header + whole chunks (truncated), no end
+// chunk (cut off), an unknown chunk kind, a batch without its updates, ticks out of order, counts or the
+// checksum not those of the end chunk (corrupt), or an incomplete recording (records dropped).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon/recording_format.hpp"
+#include "scene/scene_objects.hpp"
+
+namespace hapticd {
+
+class RecordingError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct RecordedBatch {
+    std::uint64_t tick = 0;
+    std::uint32_t index = 0;
+    CommitSource source = CommitSource::Ring;
+    std::uint64_t seq = 0;
+    std::vector<SlotUpdate> updates;
+};
+
+struct Recording {
+    std::string path;
+    std::uint32_t version = 0;
+    nlohmann::json header;                        // the header's JSON object
+    std::vector<recording::TickChunk> ticks;      // in order, tick numbers 0, 1, 2, ...
+    std::vector<RecordedBatch> batches;           // in the order the loop took them
+    recording::EndChunk end;
+};
+
+// Throws RecordingError (message: "recording '<path>': <what is wrong>").
+[[nodiscard]] Recording read_recording(const std::string& path);
+
+}  // namespace hapticd
