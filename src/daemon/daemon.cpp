@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "scene/scene_objects.hpp"
+#include "server/contact_events.hpp"
 #include "server/state_publisher.hpp"
 
 namespace hapticd {
@@ -83,6 +84,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         st.config_contact_mask = scene_.contact_mask();
         st.fault = result_.fault == Fault::Device ? 1U : result_.fault == Fault::NonFinite ? 2U : result_.fault == Fault::Watchdog ? 3U : 0U;
         hooks_.state->publish(st, hooks_.objects);
+        if (hooks_.contacts != nullptr) hooks_.contacts->detect(st, hooks_.objects);
     }
 
     if (trace_ != nullptr) {
