@@ -28,9 +28,15 @@ void ContactDetector::detect(const StateTick& t, const SceneObjects* objects) no
     config_mask_ = config;
     if (objects == nullptr) return;
     // Client objects: the mask the state publishes (an entry whose ramp-out ended this tick keeps its
-    // contact bit, but its slot is free: no contact). Per slot the id in contact now against last tick's.
+    // contact bit, but its slot is free: no contact). Per slot the id in contact now against last tick's:
+    // the slots whose bit changed, and, when the slot table changed (an id can change only then), every slot
+    // in contact on both ticks. A steady scene looks at no slot.
     const std::uint64_t mask = objects->contact_mask() & objects->occupied_mask();
-    for (std::uint64_t m = mask | object_mask_; m != 0; m &= m - 1) {
+    std::uint64_t candidates = mask ^ object_mask_;
+    const std::uint64_t version = objects->slot_table_version();
+    if (version != slot_table_version_) candidates |= mask & object_mask_;
+    slot_table_version_ = version;
+    for (std::uint64_t m = candidates; m != 0; m &= m - 1) {
         const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
         const std::uint32_t now = ((mask >> s) & 1U) != 0U ? objects->slot_object_id(s) : 0U;
         const std::uint32_t before = ids_[s];

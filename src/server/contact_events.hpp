@@ -53,6 +53,7 @@ private:
     ContactRing& ring_;
     std::uint64_t config_mask_ = 0;  // the last tick's config_contact_mask
     std::uint64_t object_mask_ = 0;  // the last tick's published contact_mask
+    std::uint64_t slot_table_version_ = 0;  // SceneObjects::slot_table_version() at the last tick
     std::array<std::uint32_t, kStateObjectCapacity> ids_{};  // the object in contact in each slot last tick (0: none)
     std::uint64_t lost_ = 0;
 };

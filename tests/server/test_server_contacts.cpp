@@ -189,6 +189,46 @@ TEST(ContactEvents, AConfigWallTheHandleIsPushedIntoBeginsAndEnds) {
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
 
+// A field without force (F0 = 0, J = 0) around the handle is in contact from the tick its commit is applied
+// to the tick its ramp-out frees the slot, whatever the handle does: 20 adds and removals give exactly 20
+// begins and 20 ends, alternating, each naming the id of that add, nothing dropped. The session subscribes to
+// contact events only and waits in next_contact: the delay from an event's tick (its time_s, CLOCK_MONOTONIC)
+// to its arrival here is printed (a figure of this machine and its load; docs/protocol.md, "Latency").
+TEST(ContactEvents, TwentyFieldsAddedAndRemovedGiveTwentyBeginEndPairsInOrder) {
+    const Names n = names("contacts_many");
+    Child daemon(HAPTICD_BINARY, contact_daemon_args(n, {"--no-walls"}), "contacts_many_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "contacts", .timeout_s = 30.0});
+    EXPECT_TRUE(c.subscribe_contacts().empty());
+    const cl::Field zero{.center = {0, 0, 0}, .radius = 0.05};
+    std::vector<double> delays;
+    std::uint64_t last_tick = 0;
+    for (int i = 0; i < 20; ++i) {
+        const std::uint32_t id = c.commit(cl::Batch().add(zero)).object_ids.at(0);
+        c.commit(cl::Batch().remove(id));
+        for (const auto kind : {cl::ContactEvent::Kind::Begin, cl::ContactEvent::Kind::End}) {
+            const auto e = c.next_contact(30.0);
+            ASSERT_TRUE(e.has_value()) << "add " << i << ": no event within 30 s";
+            const double arrived = monotonic_s();
+            EXPECT_EQ(e->object_id, id);
+            EXPECT_EQ(e->kind, kind);
+            EXPECT_EQ(e->dropped, 0U);
+            if (!delays.empty()) {
+                EXPECT_GT(e->tick, last_tick);  // the first may be the loop's tick 0
+            }
+            last_tick = e->tick;
+            delays.push_back(arrived - e->time_s);
+        }
+    }
+    EXPECT_FALSE(c.poll_contact().has_value());
+    std::sort(delays.begin(), delays.end());
+    std::printf("[ contacts ] tick to arrival: median %.3f ms, max %.3f ms over %zu events\n", 1e3 * delays[delays.size() / 2],
+                1e3 * delays.back(), delays.size());
+    c.bye();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
 constexpr char kContactsTag[] = "contacts_proto";
 class ContactSubscription : public SharedDaemonTest<kContactsTag> {};
 
