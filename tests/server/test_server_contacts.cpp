@@ -56,7 +56,7 @@ bool state_in_contact(const cl::StateSample& s, std::uint32_t id) {
 
 // Reads until the newest state sample, of a tick after every event received so far, satisfies pred.
 template <class Pred>
-bool wait_state(cl::Client& c, Received& r, Pred pred) {
+bool wait_sample(cl::Client& c, Received& r, Pred pred) {
     return pump_until(c, r, [&](const Received& x) {
         const std::uint64_t after = x.contacts.empty() ? 0 : x.contacts.back().tick;
         return !x.states.empty() && x.states.back().tick > after && pred(x.states.back());
@@ -132,13 +132,13 @@ TEST(ContactEvents, APlaneTheHandRestsOnBeginsAndEndsAsTheStateStreamSays) {
     const cl::Plane away{.normal = {-1, 0, 0}, .offset = -0.01, .gains = cl::Gains::by_criterion("CE2")};
     const std::uint32_t id = c.commit(cl::Batch().add(near)).object_ids.at(0);
     using K = cl::ContactEvent::Kind;
-    ASSERT_TRUE(wait_state(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); })) << "never in contact";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); })) << "never in contact";
     c.commit(cl::Batch().modify(id, away));
-    ASSERT_TRUE(wait_state(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id); })) << "still in contact after moving away";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id); })) << "still in contact after moving away";
     c.commit(cl::Batch().modify(id, near));
-    ASSERT_TRUE(wait_state(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); })) << "no contact after moving back";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); })) << "no contact after moving back";
     c.commit(cl::Batch().remove(id));
-    ASSERT_TRUE(wait_state(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id) && s.objects == 0; }))
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id) && s.objects == 0; }))
         << "the plane is not gone";
     EXPECT_GE(count_events(r, id, K::Begin), 2U);
     EXPECT_GE(count_events(r, id, K::End), 2U);
@@ -166,10 +166,10 @@ TEST(ContactEvents, AConfigWallTheHandleIsPushedIntoBeginsAndEnds) {
     const std::uint32_t field = c.commit(cl::Batch().add(push)).object_ids.at(0);
     EXPECT_GT(field, 1U);  // client ids follow the config walls'
     using K = cl::ContactEvent::Kind;
-    ASSERT_TRUE(wait_state(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, 1) && state_in_contact(s, field); }))
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, 1) && state_in_contact(s, field); }))
         << "the handle never on wall 1";
     c.commit(cl::Batch().remove(field));
-    ASSERT_TRUE(wait_state(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, 1) && s.objects == 0; }))
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, 1) && s.objects == 0; }))
         << "the handle does not leave wall 1";
     EXPECT_GE(count_events(r, 1, K::Begin), 1U);
     EXPECT_GE(count_events(r, 1, K::End), 1U);
@@ -225,6 +225,81 @@ TEST(ContactEvents, TwentyFieldsAddedAndRemovedGiveTwentyBeginEndPairsInOrder) {
     std::printf("[ contacts ] tick to arrival: median %.3f ms, max %.3f ms over %zu events\n", 1e3 * delays[delays.size() / 2],
                 1e3 * delays.back(), delays.size());
     c.bye();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// A contact subscriber that does not read loses its own events, counted, and stalls nobody: a field around
+// the handle (radius 1 mm, no force) moved out of and back into contact 1200 times by a session that reads,
+// each move applied before the next (it glides over the time since the last: the transitions are whatever the
+// loop rendered, not necessarily one per move); a second
+// session subscribed and not reading (its socket and its 256-message queue at the server fill after ~450
+// messages). The reader gets every event, begin and end alternating, nothing dropped, every commit
+// answered. Then the non-reader reads; fields are added and removed until it has received one of them. It
+// has received a subsequence of the reader's events in order, and its last message's `dropped` is exactly
+// the number of the reader's events up to that one it did not receive, and > 0.
+TEST(ContactEvents, ANonReadingSubscriberLosesItsOwnEventsCountedAndStallsNobody) {
+    const Names n = names("contacts_slow");
+    Child daemon(HAPTICD_BINARY, contact_daemon_args(n, {"--no-walls"}), "contacts_slow_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client reader = cl::Client::connect({.socket_path = n.socket, .client_name = "reader", .timeout_s = 30.0});
+    cl::Client sleeper = cl::Client::connect({.socket_path = n.socket, .client_name = "sleeper", .timeout_s = 30.0});
+    EXPECT_TRUE(reader.subscribe_contacts().empty());
+    EXPECT_TRUE(sleeper.subscribe_contacts().empty());
+    using K = cl::ContactEvent::Kind;
+    const cl::Field in{.center = {0, 0, 0}, .radius = 0.001};
+    const cl::Field out{.center = {0.01, 0, 0}, .radius = 0.001};
+    std::vector<cl::ContactEvent> got;
+    // Reads the reader's events until one of `id` of `kind` (60 s at most).
+    auto take_until = [&](std::uint32_t id, K kind) {
+        const double end = monotonic_s() + 60.0;
+        while (monotonic_s() < end) {
+            if (auto e = reader.next_contact(0.1)) {
+                got.push_back(*e);
+                if (e->object_id == id && e->kind == kind) return true;
+            }
+        }
+        return false;
+    };
+    const std::uint32_t storm = reader.commit(cl::Batch().add(in)).object_ids.at(0);
+    constexpr int kMoves = 1200;
+    const cl::StateReader state = cl::StateReader::open(reader.welcome().state_shm);
+    for (int i = 0; i < kMoves; ++i) {
+        const std::uint64_t seq = reader.commit(cl::Batch().modify(storm, i % 2 == 0 ? out : in)).commit_seq;
+        // Applied before the next (the session's in-flight limit): every move is rendered for at least a tick.
+        ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; }, 30.0)) << "move " << i;
+    }
+    reader.commit(cl::Batch().remove(storm));
+    ASSERT_TRUE(take_until(storm, K::End));
+    std::vector<cl::ContactEvent> slept;
+    for (int j = 0; j < 20 && (slept.empty() || slept.back().object_id == storm); ++j) {
+        while (auto e = sleeper.next_contact(0.5)) slept.push_back(*e);
+        const std::uint32_t y = reader.commit(cl::Batch().add(in)).object_ids.at(0);
+        ASSERT_TRUE(take_until(y, K::Begin));
+        reader.commit(cl::Batch().remove(y));
+        ASSERT_TRUE(take_until(y, K::End));
+        while (auto e = sleeper.next_contact(1.0)) slept.push_back(*e);
+    }
+    ASSERT_FALSE(slept.empty());
+    ASSERT_NE(slept.back().object_id, storm) << "the non-reader never received a later field's event";
+    std::map<std::uint32_t, bool> in_contact;
+    for (const auto& e : got) {
+        EXPECT_NE(in_contact[e.object_id], e.kind == K::Begin) << "object " << e.object_id << " tick " << e.tick;
+        in_contact[e.object_id] = e.kind == K::Begin;
+        EXPECT_EQ(e.dropped, 0U);
+    }
+    std::size_t k = 0;  // the non-reader's events are a subsequence of the reader's, in order
+    for (const auto& e : slept) {
+        while (k < got.size() && !(got[k].tick == e.tick && got[k].object_id == e.object_id && got[k].kind == e.kind)) ++k;
+        ASSERT_LT(k, got.size()) << "an event the reader did not get, tick " << e.tick;
+        ++k;
+    }
+    EXPECT_EQ(slept.back().dropped, k - slept.size());
+    EXPECT_GT(slept.back().dropped, 0U);
+    std::printf("[ contacts ] reader %zu events, non-reader %zu received, %llu dropped\n", got.size(), slept.size(),
+                static_cast<unsigned long long>(slept.back().dropped));
+    reader.bye();
+    sleeper.bye();
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
