@@ -230,7 +230,7 @@ TEST(ContactEvents, TwentyFieldsAddedAndRemovedGiveTwentyBeginEndPairsInOrder) {
 }
 
 // A contact subscriber that does not read loses its own events, counted, and stalls nobody: a field around
-// the handle (radius 1 mm, no force) moved out of and back into contact 1200 times by a session that reads,
+// the handle (radius 1 mm, no force) moved out of and back into contact 1600 times by a session that reads,
 // each move applied before the next (it glides over the time since the last: the transitions are whatever the
 // loop rendered, not necessarily one per move); a second
 // session subscribed and not reading (its socket and its 256-message queue at the server fill after ~450
@@ -262,7 +262,7 @@ TEST(ContactEvents, ANonReadingSubscriberLosesItsOwnEventsCountedAndStallsNobody
         return false;
     };
     const std::uint32_t storm = reader.commit(cl::Batch().add(in)).object_ids.at(0);
-    constexpr int kMoves = 1200;
+    constexpr int kMoves = 1600;
     const cl::StateReader state = cl::StateReader::open(reader.welcome().state_shm);
     for (int i = 0; i < kMoves; ++i) {
         const std::uint64_t seq = reader.commit(cl::Batch().modify(storm, i % 2 == 0 ? out : in)).commit_seq;
