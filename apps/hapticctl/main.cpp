@@ -4,6 +4,7 @@
 //   hapticctl add plane normal=0,0,1 offset=0.01 criterion=CE2 [--for SECONDS]
 //   hapticctl session [FILE]          (commands from FILE or stdin, one session)
 //   hapticctl watch [--rate HZ] [--count N] [--duration S] [--via-socket]
+//   hapticctl contacts [--count N] [--duration S] [--object ID ...]
 // An object lives as long as the session that added it (docs/protocol.md, section 7): `add` holds its
 // session until SIGINT/SIGTERM or --for; `session` runs add/modify/remove/clear in one session.
 #include <unistd.h>
@@ -235,6 +236,28 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
     return code;
 }
 
+// Contact events (docs/protocol.md, section 6, "Contact events") as JSON lines: first {"contacts": [ids in
+// contact where the events start]}, then one line per begin or end, in the protocol message's fields.
+int cmd_contacts(const Common& common, long long count, double duration, const std::vector<std::uint32_t>& objects) {
+    hc::Client client = connect(common, 0.0);
+    const std::vector<std::uint32_t> in_contact = client.subscribe_contacts(objects);
+    std::cout << nlohmann::json{{"contacts", in_contact}}.dump() << "\n" << std::flush;
+    const auto start = std::chrono::steady_clock::now();
+    long long shown = 0;
+    while (!stop_requested() && (count <= 0 || shown < count)) {
+        if (duration > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= duration) break;
+        const auto e = client.next_contact(0.1);  // short: SIGINT/SIGTERM and --duration are seen within 0.1 s
+        if (!e) continue;
+        nlohmann::json line{{"event", e->kind == hc::ContactEvent::Kind::Begin ? "begin" : "end"}, {"object_id", e->object_id},
+                            {"tick", e->tick}, {"time_s", e->time_s}, {"position", e->position}, {"force", e->force},
+                            {"dropped", e->dropped}};
+        std::cout << line.dump() << "\n" << std::flush;
+        ++shown;
+    }
+    client.bye();
+    return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -285,6 +308,15 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0.01, 3600.0));
     watch->add_option("--shm", shm, "Read this shared-memory name directly, without connecting");
 
+    long long contact_count = 0;
+    double contact_duration = 0.0;
+    std::vector<std::uint32_t> contact_objects;
+    auto* contacts = app.add_subcommand("contacts", "Each begin and end of contact as a JSON line (first: the objects in contact)");
+    contacts->add_option("--count", contact_count, "Stop after N events")->check(CLI::Range(0LL, 1LL << 40));
+    contacts->add_option("--duration", contact_duration, "Stop after S seconds")->check(CLI::Range(0.0, 1e9));
+    contacts->add_option("--object", contact_objects, "Only this object's events (repeatable, at most 64; ids 1 .. 2^32-1)")
+        ->check(CLI::Range(1U, 0xffffffffU));
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -298,6 +330,7 @@ int main(int argc, char** argv) {
         if (*add) return cmd_add(common, words, hold);
         if (*session) return cmd_session(common, script);
         if (*watch) return cmd_watch(common, rate, count, duration, via_socket, stall, shm);
+        if (*contacts) return cmd_contacts(common, contact_count, contact_duration, contact_objects);
     } catch (const SpecError& e) {
         std::cerr << "hapticctl: " << e.what() << "\n";
         return kExitUsage;

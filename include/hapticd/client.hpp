@@ -245,6 +245,22 @@ struct Event {
 // Events a Client keeps until the application takes them (ConnectOptions::event_queue_capacity).
 inline constexpr std::size_t kDefaultEventQueueCapacity = 256;
 
+// One begin or end of contact, as the loop rendered it (a `contact` message, docs/protocol.md, section 6,
+// "Contact events"): of a client object (its id) or a config wall (ids 1 .. n). A subscription receives
+// every transition in tick order, begin and end alternating per object, unless `dropped` rose.
+struct ContactEvent {
+    enum class Kind { Begin, End } kind = Kind::Begin;
+    std::uint32_t object_id = 0;
+    std::uint64_t tick = 0;   // the loop's tick whose published state first (begin) or no longer (end) has it in contact
+    double time_s = 0.0;      // that tick's state time_s
+    Vec3 position{};          // the handle at that tick, m
+    Vec3 force{};             // the force commanded to the device at that tick, N
+    std::uint64_t dropped = 0;  // events of this subscription lost before this one (the daemon's or this session's queue full)
+};
+
+// Contact events a Client keeps until the application takes them (ConnectOptions::contact_queue_capacity).
+inline constexpr std::size_t kDefaultContactQueueCapacity = 4096;
+
 // How commit() retries a `busy` reply (the hand-over queue to the loop is full; docs/protocol.md, section
 // 8): up to `tries` attempts in all, sleeping initial_delay_s before the second and doubling up to
 // max_delay_s (defaults: 8 tries, 1, 2, 4, 8, 16, 32, 50 ms: 113 ms of waiting at most). tries = 1: no
@@ -263,6 +279,9 @@ struct ConnectOptions {
     double timeout_s = 5.0;        // for each reply
     // Events kept until poll_event() / next_event() takes them; more are dropped (counted: events_dropped()).
     std::size_t event_queue_capacity = kDefaultEventQueueCapacity;
+    // Contact events kept until poll_contact() / next_contact() takes them; more are dropped (counted:
+    // contacts_dropped()).
+    std::size_t contact_queue_capacity = kDefaultContactQueueCapacity;
     BusyRetry busy_retry{};  // commit()'s retries of `busy`; checked by connect() (std::invalid_argument)
 };
 
@@ -293,6 +312,21 @@ public:
     void unsubscribe();
     // The next subscribed `state` message; std::nullopt after timeout_s without one.
     std::optional<StateSample> next_state(double timeout_s);
+
+    // Contact events (docs/protocol.md, section 6, "Contact events"): object_ids empty: every object's, else
+    // only those (1 .. 64 ids). Returns the objects in contact when the subscription took effect (the
+    // events that follow continue from there); subscribing again replaces the filter and starts afresh
+    // (contact events queued here are discarded). Events arrive alongside state samples and events: every
+    // call that reads the socket queues them, in order. poll_contact(): the oldest queued, first reading
+    // what has arrived without waiting; next_contact(): waits up to timeout_s for one.
+    std::vector<std::uint32_t> subscribe_contacts(const std::vector<std::uint32_t>& object_ids = {});
+    void unsubscribe_contacts();
+    std::optional<ContactEvent> poll_contact();
+    std::optional<ContactEvent> next_contact(double timeout_s);
+    [[nodiscard]] std::size_t contacts_queued() const noexcept { return contacts_.size(); }
+    // Contact events dropped here because the queue (ConnectOptions::contact_queue_capacity) was full; the
+    // server's own losses are in ContactEvent::dropped.
+    [[nodiscard]] std::uint64_t contacts_dropped() const noexcept { return contacts_dropped_; }
     void bye();                                 // orderly end of the session
 
     // Events (the server's unsolicited `event` messages), in the order they arrived. Every call that reads
@@ -320,12 +354,16 @@ private:
     std::uint64_t next_id_ = 1;
     Welcome welcome_;
     std::vector<std::string> pending_states_;  // state messages received while waiting for a reply
-    // A message that is not the reply awaited: a state (kept for next_state), an event (queued), `expired`
-    // (thrown as Error from `function`); others (a late reply) are ignored. Returns true for an event.
+    // A message that is not the reply awaited: a state (kept for next_state), an event or a contact event
+    // (queued), `expired` (thrown as Error from `function`); others (a late reply) are ignored. Returns true
+    // for an event.
     bool keep_unsolicited(const std::string& raw, const std::string& function);
     std::deque<Event> events_;
     std::size_t event_capacity_ = kDefaultEventQueueCapacity;
     std::uint64_t events_dropped_ = 0;
+    std::deque<ContactEvent> contacts_;
+    std::size_t contact_capacity_ = kDefaultContactQueueCapacity;
+    std::uint64_t contacts_dropped_ = 0;
     BusyRetry busy_retry_{};
 };
 

@@ -520,3 +520,58 @@ def test_commit_retries_busy_with_a_bounded_back_off(slow_ramp_daemon):
     finally:
         for f in fillers:
             f.close()
+
+
+def test_contact_events_begin_and_end_as_the_state_stream_says(config_contact_daemon):
+    """subscribe_contacts on the paced daemon whose config wall 2 holds the handle from the first tick: the
+    reply names wall 2 in contact; a field (no force: F0 = 0, J = 0) around the handle is in contact from its
+    commit to its removal, whatever the handle does: one begin, then one end, with its id; every state sample
+    (but the last: an event may still be on its way behind it) has the field in ``contact`` exactly between
+    the two ticks; nothing dropped. A malformed filter is an error naming the field and its range."""
+    daemon = config_contact_daemon
+    with connect(daemon, timeout_s=30.0) as c:
+        with pytest.raises(hc.HapticdError) as bad:
+            c.subscribe_contacts([])
+        assert bad.value.code == "bad_message" and "subscribe_contacts.object_ids" in str(bad.value), str(bad.value)
+        assert "1 .. 64" in str(bad.value)
+        assert c.subscribe_contacts() == [2]
+        c.subscribe(1000.0)
+        fid = c.add(hc.field(center=(0.01, 0.0, 0.0), radius=0.05))
+        states, contacts = [], []
+
+        def pump(predicate):
+            end = time.monotonic() + 30.0
+            while time.monotonic() < end:
+                s = c.next_state(0.05)
+                if s is not None:
+                    states.append(s)
+                while True:
+                    e = c.poll_contact()
+                    if e is None:
+                        break
+                    contacts.append(e)
+                after = contacts[-1].tick if contacts else 0
+                if states and states[-1]["tick"] > after and predicate(states[-1]):
+                    return True
+            return False
+
+        assert pump(lambda s: fid in s["contact"])
+        c.remove(fid)
+        assert pump(lambda s: fid not in s["contact"] and s["objects"] == 0)
+        assert [(e.object_id, e.event) for e in contacts] == [(fid, "begin"), (fid, "end")], contacts
+        begin, end = contacts
+        assert begin.begin and not end.begin and begin.tick < end.tick
+        assert all(e.dropped == 0 and len(e.position) == 3 and len(e.force) == 3 for e in contacts)
+        inside = 0
+        for s in states[:-1]:
+            if s["time_s"] == 0.0:
+                continue  # sent before the loop's first tick
+            assert (fid in s["contact"]) == (begin.tick <= s["tick"] < end.tick), (s["tick"], s["contact"], begin.tick, end.tick)
+            assert 2 in s["contact"]  # the wall goes on holding the handle: no event of it
+            inside += fid in s["contact"]
+            for e in contacts:
+                if e.tick == s["tick"]:
+                    assert list(e.position) == s["position"] and list(e.force) == s["force"] and e.time_s == s["time_s"]
+        assert inside > 0
+        c.unsubscribe_contacts()
+        c.bye()

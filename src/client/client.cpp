@@ -120,6 +120,18 @@ StateSample state_from_json(const json& j) {
     return s;
 }
 
+ContactEvent contact_from_json(const json& j) {
+    ContactEvent e;
+    e.kind = j.value("event", std::string()) == "begin" ? ContactEvent::Kind::Begin : ContactEvent::Kind::End;
+    e.object_id = j.value("object_id", std::uint32_t{0});
+    e.tick = j.value("tick", std::uint64_t{0});
+    e.time_s = j.value("time_s", 0.0);
+    e.position = vec3(j.value("position", json::array()));
+    e.force = vec3(j.value("force", json::array()));
+    e.dropped = j.value("dropped", std::uint64_t{0});
+    return e;
+}
+
 }  // namespace
 
 const char* to_string(ErrorCode code) noexcept {
@@ -179,6 +191,7 @@ Client Client::connect(const ConnectOptions& options) {
     }
     Client c(fd, options.timeout_s);
     c.event_capacity_ = options.event_queue_capacity;
+    c.contact_capacity_ = options.contact_queue_capacity;
     c.set_busy_retry(options.busy_retry);
     json hello{{"type", "hello"}, {"protocol", options.protocol}, {"client", options.client_name}, {"lease_s", options.lease_s}};
     c.send_raw(hello.dump());
@@ -211,7 +224,8 @@ Client Client::connect(const ConnectOptions& options) {
 Client::Client(Client&& other) noexcept
     : fd_(other.fd_), timeout_s_(other.timeout_s_), next_id_(other.next_id_), welcome_(std::move(other.welcome_)),
       pending_states_(std::move(other.pending_states_)), events_(std::move(other.events_)), event_capacity_(other.event_capacity_),
-      events_dropped_(other.events_dropped_), busy_retry_(other.busy_retry_) {
+      events_dropped_(other.events_dropped_), contacts_(std::move(other.contacts_)), contact_capacity_(other.contact_capacity_),
+      contacts_dropped_(other.contacts_dropped_), busy_retry_(other.busy_retry_) {
     other.fd_ = -1;
 }
 
@@ -226,6 +240,9 @@ Client& Client::operator=(Client&& other) noexcept {
         events_ = std::move(other.events_);
         event_capacity_ = other.event_capacity_;
         events_dropped_ = other.events_dropped_;
+        contacts_ = std::move(other.contacts_);
+        contact_capacity_ = other.contact_capacity_;
+        contacts_dropped_ = other.contacts_dropped_;
         busy_retry_ = other.busy_retry_;
         other.fd_ = -1;
     }
@@ -279,7 +296,7 @@ std::string Client::request(const std::string& type, const std::string& body_jso
         json reply = json::parse(*raw, nullptr, false);
         if (reply.is_discarded() || !reply.is_object()) throw Error(ErrorCode::BadJson, function + ": the reply is not JSON");
         const std::string t = reply.value("type", std::string());
-        if (t == "state" || t == "event" || t == "expired") {
+        if (t == "state" || t == "event" || t == "expired" || t == "contact") {
             keep_unsolicited(*raw, function);
             continue;
         }
@@ -412,6 +429,14 @@ bool Client::keep_unsolicited(const std::string& raw, const std::string& functio
         return false;
     }
     if (t == "expired") throw error_from_reply(function, j);
+    if (t == "contact") {
+        if (contacts_.size() >= contact_capacity_) {
+            ++contacts_dropped_;
+        } else {
+            contacts_.push_back(contact_from_json(j));
+        }
+        return false;
+    }
     if (t != "event") return false;
     if (events_.size() >= event_capacity_) {
         ++events_dropped_;
@@ -451,6 +476,47 @@ std::optional<Event> Client::next_event(double timeout_s) {
         const auto raw = receive_raw(left);
         if (!raw) return std::nullopt;
         keep_unsolicited(*raw, "Client::next_event");
+    }
+}
+
+std::vector<std::uint32_t> Client::subscribe_contacts(const std::vector<std::uint32_t>& object_ids) {
+    json body = json::object();
+    if (!object_ids.empty()) body["object_ids"] = object_ids;
+    const json r = json::parse(request("subscribe_contacts", body.dump()));
+    contacts_.clear();  // the reply's contacts are where the events that follow continue from
+    std::vector<std::uint32_t> in_contact;
+    for (const auto& id : r.value("contacts", json::array())) {
+        if (id.is_number_unsigned() && id.get<std::uint64_t>() <= 0xffffffffULL) in_contact.push_back(id.get<std::uint32_t>());
+    }
+    return in_contact;
+}
+
+void Client::unsubscribe_contacts() {
+    request("unsubscribe_contacts", "");
+    contacts_.clear();
+}
+
+std::optional<ContactEvent> Client::poll_contact() {
+    while (contacts_.empty()) {
+        const auto raw = receive_raw(0.0);
+        if (!raw) break;
+        keep_unsolicited(*raw, "Client::poll_contact");
+    }
+    if (contacts_.empty()) return std::nullopt;
+    ContactEvent e = contacts_.front();
+    contacts_.pop_front();
+    return e;
+}
+
+std::optional<ContactEvent> Client::next_contact(double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    for (;;) {
+        if (auto e = poll_contact()) return e;
+        const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+        if (left <= 0.0) return std::nullopt;
+        const auto raw = receive_raw(left);
+        if (!raw) return std::nullopt;
+        keep_unsolicited(*raw, "Client::next_contact");
     }
 }
 

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "scene/scene_objects.hpp"
+#include "server/contact_events.hpp"
 #include "server/state_publisher.hpp"
 
 namespace hapticd {
@@ -109,6 +110,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         st.config_contact_mask = scene_.contact_mask();
         st.fault = fault_number;
         hooks_.state->publish(st, hooks_.objects);
+        if (hooks_.contacts != nullptr) hooks_.contacts->detect(st, hooks_.objects);
     }
 
     if (trace_ != nullptr) {

@@ -115,6 +115,30 @@ DecodeResult decode_commit(const json& j, std::uint64_t id) {
     return Request{id, std::move(c)};
 }
 
+DecodeResult decode_subscribe_contacts(const json& j, std::uint64_t id) {
+    SubscribeContactsRequest r;
+    const auto ids = j.find("object_ids");
+    if (ids == j.end() || ids->is_null()) return Request{id, r};
+    const std::string accepted = "; accepted: an array of 1 .. 64 object ids, each 1 .. 2^32-1 (absent or null: every object)";
+    if (!ids->is_array() || ids->empty() || ids->size() > kMaxContactFilterIds) {
+        return error("bad_message", "decode_message: subscribe_contacts.object_ids: " +
+                                        (ids->is_array() ? std::to_string(ids->size()) + " ids" : std::string("not an array")) + accepted,
+                     id);
+    }
+    std::vector<std::uint32_t> out;
+    for (std::size_t i = 0; i < ids->size(); ++i) {
+        const json& v = (*ids)[i];
+        if (!v.is_number_unsigned() || v.get<std::uint64_t>() == 0 || v.get<std::uint64_t>() > 0xffffffffULL) {
+            return error("bad_message", "decode_message: subscribe_contacts.object_ids[" + std::to_string(i) + "] = " +
+                                            client::truncate_utf8(v.dump(-1, ' ', false, json::error_handler_t::replace), 40) + " is invalid" + accepted,
+                         id);
+        }
+        out.push_back(static_cast<std::uint32_t>(v.get<std::uint64_t>()));
+    }
+    r.object_ids = std::move(out);
+    return Request{id, r};
+}
+
 }  // namespace
 
 DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept {
@@ -166,6 +190,8 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         if (t == "status") return Request{id, StatusRequest{}};
         if (t == "unsubscribe") return Request{id, UnsubscribeRequest{}};
         if (t == "bye") return Request{id, ByeRequest{}};
+        if (t == "subscribe_contacts") return decode_subscribe_contacts(j, id);
+        if (t == "unsubscribe_contacts") return Request{id, UnsubscribeContactsRequest{}};
         if (t == "subscribe") {
             const auto r = j.find("rate_hz");
             if (r == j.end() || !r->is_number() || !(r->get<double>() >= 0.1 && r->get<double>() <= 1000.0)) {
@@ -175,7 +201,8 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         }
         if (t == "hello") return error("bad_message", "decode_message: hello: already welcomed (hello only once)", id);
         return error("bad_message", "decode_message: type = \"" + client::truncate_utf8(t, 40) +
-                                        "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, bye",
+                                        "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, "
+                                        "subscribe_contacts, unsubscribe_contacts, bye",
                      id);
     } catch (const std::exception& e) {
         return error("bad_message", std::string("decode_message: ") + e.what());

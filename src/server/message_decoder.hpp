@@ -40,10 +40,18 @@ struct SubscribeRequest {
     double rate_hz = 0.0;
 };
 struct UnsubscribeRequest {};
+inline constexpr std::size_t kMaxContactFilterIds = 64;
+// subscribe_contacts: every object's contact events, or (object_ids given) only those objects' (1 .. 64 ids,
+// each 1 .. 2^32-1, duplicates allowed).
+struct SubscribeContactsRequest {
+    std::optional<std::vector<std::uint32_t>> object_ids;
+};
+struct UnsubscribeContactsRequest {};
 struct ByeRequest {};
 
 using RequestBody = std::variant<HelloRequest, HeartbeatRequest, CommitRequest, ListRequest, StatusRequest,
-                                 SubscribeRequest, UnsubscribeRequest, ByeRequest>;
+                                 SubscribeRequest, UnsubscribeRequest, SubscribeContactsRequest,
+                                 UnsubscribeContactsRequest, ByeRequest>;
 
 struct Request {
     std::optional<std::uint64_t> id;  // absent for hello

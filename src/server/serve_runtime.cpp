@@ -63,6 +63,8 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     } catch (const std::exception& e) {
         throw StartupError(kExitServerError, e.what());
     }
+    contact_ring_ = std::make_unique<ContactRing>(kContactRingCapacity);
+    contacts_ = std::make_unique<ContactDetector>(*contact_ring_);
     GainCheckPlant plant;
     plant.mass = profile.mass;
     plant.damping = profile.damping;
@@ -103,7 +105,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     sc.session_max_in_flight = static_cast<std::size_t>(o.session_max_in_flight);
     sc.log_connections = !o.quiet;
     try {
-        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_, departure_ring_.get());
+        server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_, departure_ring_.get(), contact_ring_.get());
     } catch (const SocketPathError& e) {
         throw StartupError(kExitSocketPathInUse, e.what());
     } catch (const std::exception& e) {

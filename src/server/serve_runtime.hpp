@@ -10,6 +10,7 @@
 #include "config/options.hpp"
 #include "daemon/daemon.hpp"
 #include "scene/scene_objects.hpp"
+#include "server/contact_events.hpp"
 #include "server/server.hpp"
 #include "server/state_publisher.hpp"
 #include "tuning/object_checks.hpp"
@@ -28,7 +29,7 @@ public:
                  const std::vector<ConfigWallInfo>& config_walls);
     ~ServeRuntime();
 
-    [[nodiscard]] ServerHooks hooks() noexcept { return ServerHooks{objects_.get(), state_.get()}; }
+    [[nodiscard]] ServerHooks hooks() noexcept { return ServerHooks{objects_.get(), state_.get(), contacts_.get()}; }
     void start();
     // --serve-wait-commit: returns once a client batch was handed to the loop, or on SIGINT/SIGTERM.
     void wait_for_first_commit() const;
@@ -40,6 +41,8 @@ private:
     std::unique_ptr<CommitRing> departure_ring_;  // clients that left: taken by the loop ahead of ring_
     std::unique_ptr<SceneObjects> objects_;
     std::unique_ptr<StatePublisher> state_;
+    std::unique_ptr<ContactRing> contact_ring_;       // loop -> server: contact begins and ends
+    std::unique_ptr<ContactDetector> contacts_;
     std::unique_ptr<GainChecker> checker_;
     std::unique_ptr<Server> server_;
 };

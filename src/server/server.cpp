@@ -49,6 +49,8 @@ constexpr std::size_t kMaxSessions = 256;
 constexpr int kMessagesPerRound = 16;
 constexpr int kHelloTimeoutS = 5;  // a connection that never says hello is closed (it would hold a session)
 constexpr std::uint64_t kNotPushed = ~std::uint64_t{0};
+// Contact messages a session may have waiting for room in its socket: 256 of ~250 bytes.
+constexpr std::size_t kContactQueueCapacity = 256;
 
 std::string g(double v) { return server::short_number(v); }
 
@@ -122,6 +124,10 @@ struct Session {
     std::uint64_t dropped = 0;
     bool closed = false;
     std::deque<std::uint64_t> in_flight;  // commit_seq of this session's batches the loop has not applied yet
+    bool contacts = false;                // subscribe_contacts
+    std::optional<std::vector<std::uint32_t>> contact_filter;  // none: every object
+    std::deque<std::string> contact_queue;  // contact messages waiting for room in the socket, oldest first
+    std::uint64_t contact_dropped = 0;      // contact events lost for this subscription so far
 };
 
 }  // namespace
@@ -166,8 +172,9 @@ void remove_stale_socket(const std::string& path) {
 
 struct Server::Impl {
     Impl(const ServerConfig& c, GainChecker& k, CommitRing& r, CommitRing* d, const StatePublisher& s,
-         std::atomic<std::uint64_t>& pushed)
-        : config(c), checker(k), ring(r), departure_ring(d != nullptr ? *d : r), state(s), commits_pushed(pushed) {}
+         std::atomic<std::uint64_t>& pushed, ContactRing* contacts)
+        : config(c), checker(k), ring(r), departure_ring(d != nullptr ? *d : r), state(s), commits_pushed(pushed),
+          contact_ring(contacts) {}
 
     ServerConfig config;
     GainChecker& checker;
@@ -175,6 +182,9 @@ struct Server::Impl {
     CommitRing& departure_ring;  // `ring` itself when the loop has no departure ring
     const StatePublisher& state;
     std::atomic<std::uint64_t>& commits_pushed;
+    ContactRing* contact_ring;              // may be null: no contact events
+    std::uint64_t contact_lost_seen = 0;    // the lost_before of the last record taken
+    std::vector<std::uint32_t> in_contact;  // ascending: the objects in contact after the last record taken
     int listen_fd = -1;
     int wake_fd = -1;
     std::atomic<bool> stop{false};
@@ -942,6 +952,12 @@ struct Server::Impl {
                 } else if constexpr (std::is_same_v<T, server::UnsubscribeRequest>) {
                     s.subscribed = false;
                     send_reply(s, json{{"type", "ok"}, {"id", id}});
+                } else if constexpr (std::is_same_v<T, server::SubscribeContactsRequest>) {
+                    subscribe_contacts(s, id, body);
+                } else if constexpr (std::is_same_v<T, server::UnsubscribeContactsRequest>) {
+                    s.contacts = false;
+                    s.contact_queue.clear();
+                    send_reply(s, json{{"type", "ok"}, {"id", id}});
                 } else if constexpr (std::is_same_v<T, server::ByeRequest>) {
                     send_reply(s, json{{"type", "ok"}, {"id", id}});
                     close_session(s, "bye");
@@ -1020,7 +1036,8 @@ struct Server::Impl {
     void send_states(Clock::time_point now) {
         bool have = false;
         for (auto& [sid, s] : sessions) {
-            if (s.closed || !s.subscribed || now < s.next_state) continue;
+            // A state never overtakes a contact event: while contact messages wait for room, states wait too.
+            if (s.closed || !s.subscribed || now < s.next_state || !s.contact_queue.empty()) continue;
             if (!have) {
                 state.read(snapshot);
                 have = true;
@@ -1055,6 +1072,82 @@ struct Server::Impl {
                 }
             }
         }
+    }
+
+    // ---- contact events ------------------------------------------------------------------------
+    // Takes every record the loop has handed over (at most a ring's worth), in tick order, and queues one
+    // message per record for each contact subscriber whose filter admits the object; then sends what fits.
+    // Records the loop could not hand over (lost_before rose) count as dropped for every subscriber.
+    void drain_contacts() {
+        if (contact_ring == nullptr) return;
+        ContactRecord r;
+        std::uint64_t lost_total = 0, dropped_total = 0;
+        for (std::size_t n = 0; n < contact_ring->capacity() && contact_ring->try_pop(r); ++n) {
+            const std::uint64_t lost = r.lost_before - contact_lost_seen;
+            contact_lost_seen = r.lost_before;
+            lost_total += lost;
+            const auto it = std::lower_bound(in_contact.begin(), in_contact.end(), r.object_id);
+            const bool present = it != in_contact.end() && *it == r.object_id;
+            if (r.begin && !present) in_contact.insert(it, r.object_id);
+            if (!r.begin && present) in_contact.erase(it);
+            std::optional<json> message;
+            for (auto& [sid, s] : sessions) {
+                if (s.closed || !s.contacts) continue;
+                s.contact_dropped += lost;
+                if (s.contact_filter && std::find(s.contact_filter->begin(), s.contact_filter->end(), r.object_id) == s.contact_filter->end()) {
+                    continue;
+                }
+                if (s.contact_queue.size() >= kContactQueueCapacity) {
+                    ++s.contact_dropped;
+                    ++dropped_total;
+                    continue;
+                }
+                if (!message) {
+                    message = json{{"type", "contact"}, {"event", r.begin ? "begin" : "end"}, {"object_id", r.object_id},
+                                   {"tick", r.tick}, {"time_s", r.time_s},
+                                   {"position", json::array({r.position[0], r.position[1], r.position[2]})},
+                                   {"force", json::array({r.force[0], r.force[1], r.force[2]})}};
+                }
+                (*message)["dropped"] = s.contact_dropped;
+                s.contact_queue.push_back(message->dump());
+            }
+        }
+        if (lost_total != 0 || dropped_total != 0) {
+            std::lock_guard<std::mutex> lock(counters_mutex);
+            counters.contacts_lost += lost_total;
+            counters.contacts_dropped += dropped_total;
+        }
+        for (auto& [sid, s] : sessions) flush_contacts(s);
+    }
+
+    // Sends a session's waiting contact messages in order until its socket is full (the rest wait for the
+    // next round); never blocks.
+    void flush_contacts(Session& s) {
+        while (!s.closed && !s.contact_queue.empty()) {
+            const std::string& text = s.contact_queue.front();
+            const ssize_t n = ::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+            if (n < 0) {
+                if (errno == EAGAIN || errno == EWOULDBLOCK) return;
+                close_session(s, std::string("send failed: ") + std::strerror(errno));
+                return;
+            }
+            s.contact_queue.pop_front();
+        }
+    }
+
+    void subscribe_contacts(Session& s, std::uint64_t id, const server::SubscribeContactsRequest& req) {
+        drain_contacts();  // what happened before this reply goes to the earlier subscribers only
+        s.contacts = true;
+        s.contact_filter = req.object_ids;
+        s.contact_queue.clear();
+        s.contact_dropped = 0;
+        json ids = json::array();
+        for (const std::uint32_t oid : in_contact) {
+            if (!s.contact_filter || std::find(s.contact_filter->begin(), s.contact_filter->end(), oid) != s.contact_filter->end()) {
+                ids.push_back(oid);
+            }
+        }
+        send_reply(s, json{{"type", "ok"}, {"id", id}, {"contacts", ids}});
     }
 
     void reclaim_slots() {
@@ -1130,6 +1223,7 @@ struct Server::Impl {
                     close_session(s, "lease lost (no message for " + g(s.lease_s) + " s)");
                 }
             }
+            drain_contacts();
             send_states(now);
             push_pending();
             reclaim_slots();
@@ -1147,8 +1241,9 @@ std::string config_walls_unstable(const GainChecker& checker, const std::vector<
     return verdict.stable ? std::string() : verdict.why;
 }
 
-Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state, CommitRing* departures)
-    : impl_(std::make_unique<Impl>(config, checker, ring, departures, state, commits_pushed_)) {
+Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state, CommitRing* departures,
+               ContactRing* contacts)
+    : impl_(std::make_unique<Impl>(config, checker, ring, departures, state, commits_pushed_, contacts)) {
     impl_->open_socket();
     impl_->log("listening on " + impl_->config.socket_path + " (mode 0" +
                [&] {

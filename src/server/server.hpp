@@ -20,6 +20,7 @@
 
 #include "devices/device.hpp"
 #include "scene/scene_objects.hpp"
+#include "server/contact_events.hpp"
 
 namespace hapticd {
 
@@ -74,6 +75,8 @@ struct ServerCounters {
     std::uint64_t commits_pushed = 0;
     std::uint64_t commits_refused = 0;
     std::uint64_t states_dropped = 0;
+    std::uint64_t contacts_lost = 0;     // contact records the loop's ring could not take
+    std::uint64_t contacts_dropped = 0;  // contact messages not queued for a session (its queue was full)
 };
 
 // Every engagement pattern of the config walls alone (a unilateral wall acts only beyond its position;
@@ -88,8 +91,10 @@ public:
     // checker, the rings (producer side) and state must outlive the server. `departures`: the ring the
     // departure batches of clients that left go through, which the loop takes ahead of every other batch
     // (SceneObjects, take_departures); without it they go through `ring` and queue behind earlier batches.
+    // `contacts`: the consumer side of the loop's contact events (server/contact_events.hpp), sent to the
+    // sessions that subscribe_contacts; without it those sessions get none.
     Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state,
-           CommitRing* departures = nullptr);
+           CommitRing* departures = nullptr, ContactRing* contacts = nullptr);
     ~Server();  // stop() + remove the socket file
     Server(const Server&) = delete;
     Server& operator=(const Server&) = delete;

@@ -52,6 +52,7 @@
 #include "scene/delay_ring.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_objects.hpp"
+#include "server/contact_events.hpp"
 #include "server/state_publisher.hpp"
 
 extern char** environ;
@@ -317,12 +318,15 @@ ObjectParams tick_scene_object(TickScene scene, std::size_t i) {
     return o;
 }
 
-// The same plus N client objects and the state publication, as Daemon::tick does with --serve.
+// The same plus N client objects, the state publication and the contact detection, as Daemon::tick does
+// with --serve (the contact ring is left undrained: in a steady scene nothing is pushed).
 struct ObjectsTick {
     OneWallTick base;
     CommitRing ring{4};
     SceneObjects objects;
     StatePublisher publisher;
+    ContactRing contact_ring{kContactRingCapacity};
+    ContactDetector contacts{contact_ring};
     TickScene scene;
     std::uint64_t ticks = 0;
     ObjectCommit move{};
@@ -379,6 +383,7 @@ struct ObjectsTick {
         st.tick = ticks++;
         st.velocity = objects.velocity();
         publisher.publish(st, &objects);
+        contacts.detect(st, &objects);
         return st.position[0];
     }
 };
@@ -444,6 +449,29 @@ void BM_TickPartPublish64(benchmark::State& state) {
     }
 }
 BENCHMARK(BM_TickPartPublish64);
+// ContactDetector::detect with 64 objects in contact and no transition (every tick of a steady scene), and
+// with 64 transitions per tick (the config mask toggling all 64 walls: 64 records pushed, then popped here so
+// the ring never fills; the pops are in the time).
+void BM_TickPartContacts64(benchmark::State& state) {
+    ObjectsTick rig(bench_shm("partcontacts"), TickScene::UnilateralInside);
+    const bool toggling = state.range(0) != 0;
+    StateTick st = rig.record;
+    ContactRecord r;
+    while (rig.contact_ring.try_pop(r)) {
+    }  // the begins of the rig's ramp-in
+    std::uint64_t pushed = 0;
+    for (auto _ : state) {
+        ++st.tick;
+        if (toggling) st.config_contact_mask = ~st.config_contact_mask;
+        rig.contacts.detect(st, &rig.objects);
+        while (rig.contact_ring.try_pop(r)) ++pushed;
+    }
+    state.SetLabel(toggling ? "64 transitions per tick" : "64 in contact, steady");
+    state.counters["contacts"] = static_cast<double>(__builtin_popcountll(rig.objects.contact_mask() & rig.objects.occupied_mask()));
+    state.counters["records_per_tick"] = static_cast<double>(pushed) / static_cast<double>(state.iterations());
+    state.counters["lost"] = static_cast<double>(rig.contacts.lost());
+}
+BENCHMARK(BM_TickPartContacts64)->Arg(0)->Arg(1);
 
 // The goal's measurement: blocks of 1000 ticks of today's one-wall tick and of the 64-object tick, alternated
 // so that both see the same machine load; per scene.

@@ -3,6 +3,9 @@
 // each kind of failure, and that an object lives exactly as long as the session that added it.
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <sstream>
+
 #include <nlohmann/json.hpp>
 
 #include "client_process.hpp"
@@ -310,6 +313,52 @@ TEST_F(Hapticctl, WatchShowsTheConfigWallInContactAndTheLoopsTime) {
         EXPECT_EQ(n, 5) << r.out;
     }
     EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
+// `contacts`: its first line lists the objects in contact; a zero-force field around the handle added by
+// `add ... --for 0.2` gives a begin line with the field's id and, when the session ends and the field has
+// ramped out, an end line of a later tick; SIGTERM ends it with 0.
+TEST_F(Hapticctl, ContactsPrintsTheBeginAndEndOfAFieldAsJsonLines) {
+    Process p(HAPTICCTL_BINARY, with_socket({"contacts"}), "contacts");
+    const auto until = [&](const std::function<bool(const std::vector<nlohmann::json>&)>& pred) {
+        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+        std::vector<nlohmann::json> lines;
+        while (std::chrono::steady_clock::now() < end) {
+            lines.clear();
+            std::istringstream in(p.out());
+            std::string line;
+            while (std::getline(in, line)) lines.push_back(nlohmann::json::parse(line, nullptr, false));
+            if (pred(lines)) return lines;
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        return lines;
+    };
+    auto lines = until([](const auto& l) { return !l.empty(); });
+    ASSERT_FALSE(lines.empty()) << p.err();
+    ASSERT_TRUE(lines[0].contains("contacts") && lines[0]["contacts"].is_array()) << lines[0].dump();
+    const Result add = ctl({"add", "field", "center=0,0,0", "radius=0.1", "--for", "0.2"}, "contacts_add");
+    ASSERT_EQ(add.code, 0) << add.err;
+    const auto at = add.out.find("added ");
+    ASSERT_NE(at, std::string::npos) << add.out;
+    const std::uint32_t id = static_cast<std::uint32_t>(std::stoul(add.out.substr(at + 6)));
+    const auto of_field = [id](const std::vector<nlohmann::json>& l) {
+        std::vector<nlohmann::json> mine;
+        for (std::size_t i = 1; i < l.size(); ++i) {
+            if (l[i].value("object_id", 0U) == id) mine.push_back(l[i]);
+        }
+        return mine;
+    };
+    lines = until([&](const auto& l) { return of_field(l).size() >= 2; });
+    const auto mine = of_field(lines);
+    ASSERT_EQ(mine.size(), 2U) << p.out();
+    EXPECT_EQ(mine[0].value("event", ""), "begin") << mine[0].dump();
+    EXPECT_EQ(mine[1].value("event", ""), "end") << mine[1].dump();
+    EXPECT_LT(mine[0].value("tick", 0ULL), mine[1].value("tick", 0ULL));
+    EXPECT_EQ(mine[1].value("dropped", 1ULL), 0ULL);
+    EXPECT_EQ(mine[0]["position"].size(), 3U);
+    EXPECT_EQ(mine[0]["force"].size(), 3U);
+    ASSERT_EQ(::kill(p.pid(), SIGTERM), 0);
+    EXPECT_EQ(p.wait(), 0) << p.err();
 }
 
 }  // namespace

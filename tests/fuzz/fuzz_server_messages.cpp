@@ -4,7 +4,7 @@
 // and no exception (decode_message is noexcept: anything escaping aborts); an error carries one of the
 // protocol's codes and a message naming the function; a decoded hello speaks protocol 1 with a lease of 0 or
 // 0.01 .. 60 s; a decoded request after the handshake has an id <= 2^53; a commit has 1 .. 64 operations,
-// adds and modifies carry an object, modifies and removes an id >= 1; every decoded object re-encodes
+// adds and modifies carry an object, modifies and removes an id >= 1; a subscribe_contacts filter has 1 .. 64 ids >= 1; every decoded object re-encodes
 // (object_to_json) and decodes again to the same kind. Then the server's range checks
 // (src/server/object_limits.*, on the 3-axis test profile's +-0.06 m workspace: an accepted plane meets
 // it, an accepted point lies in it, accepted explicit gains are within the plausibility bounds) and the
@@ -110,6 +110,10 @@ void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
     check(req.id.has_value() && *req.id <= (std::uint64_t{1} << 53));
     check(!std::holds_alternative<HelloRequest>(req.body));
     if (const auto* s = std::get_if<SubscribeRequest>(&req.body)) check(s->rate_hz >= 0.1 && s->rate_hz <= 1000.0);
+    if (const auto* s = std::get_if<SubscribeContactsRequest>(&req.body); s != nullptr && s->object_ids) {
+        check(!s->object_ids->empty() && s->object_ids->size() <= kMaxContactFilterIds);
+        for (const std::uint32_t oid : *s->object_ids) check(oid >= 1);
+    }
     if (const auto* c = std::get_if<CommitRequest>(&req.body)) {
         check(!c->ops.empty() && c->ops.size() <= kMaxOpsPerCommit);
         for (const auto& op : c->ops) {

@@ -10,7 +10,8 @@
 The protocol: docs/protocol.md; this module and its examples: docs/clients.md.
 """
 
-from .client import EVENT_QUEUE_CAPACITY, MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, Event, default_socket_path
+from .client import (CONTACT_QUEUE_CAPACITY, EVENT_QUEUE_CAPACITY, MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, ContactEvent, Event,
+                     default_socket_path)
 from .device import DeviceInfo
 from .errors import HapticdError
 from .objects import Batch, field, gains, plane, spring
@@ -18,7 +19,9 @@ from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateReader
 
 __all__ = [
     "Batch",
+    "CONTACT_QUEUE_CAPACITY",
     "Client",
+    "ContactEvent",
     "DeviceInfo",
     "EVENT_QUEUE_CAPACITY",
     "Event",

@@ -31,6 +31,7 @@ from .objects import Batch
 PROTOCOL_VERSION = 1
 MAX_MESSAGE_BYTES = 65536
 EVENT_QUEUE_CAPACITY = 256
+CONTACT_QUEUE_CAPACITY = 4096
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,35 @@ class Event:
         ids = tuple(int(i) for i in ids if isinstance(i, int) and not isinstance(i, bool)) if isinstance(ids, list) else ()
         return cls(code=str(message.get("code", "")), message=str(message.get("message", "")), object_ids=ids,
                    fields=dict(message))
+
+
+@dataclass(frozen=True)
+class ContactEvent:
+    """One begin or end of contact as the loop rendered it (a ``contact`` message, docs/protocol.md,
+    section 6, "Contact events"): ``event`` "begin" or "end"; ``object_id`` a client object's id or a config
+    wall's (1 .. n); ``tick`` the loop's tick whose published state first (begin) or no longer (end) has it in
+    contact, ``time_s`` that tick's state time; ``position`` the handle (m) and ``force`` the force commanded
+    to the device (N) at that tick; ``dropped`` the events of this subscription lost before this one."""
+    event: str
+    object_id: int
+    tick: int
+    time_s: float
+    position: Tuple[float, float, float]
+    force: Tuple[float, float, float]
+    dropped: int = 0
+
+    @property
+    def begin(self) -> bool:
+        return self.event == "begin"
+
+    @classmethod
+    def from_message(cls, message: Dict) -> "ContactEvent":
+        def vec(key):
+            v = message.get(key)
+            return tuple(float(x) for x in v[:3]) if isinstance(v, list) and len(v) == 3 else (0.0, 0.0, 0.0)
+        return cls(event=str(message.get("event", "")), object_id=int(message.get("object_id", 0)),
+                   tick=int(message.get("tick", 0)), time_s=float(message.get("time_s", 0.0)), position=vec("position"),
+                   force=vec("force"), dropped=int(message.get("dropped", 0)))
 
 
 def default_socket_path() -> str:
@@ -91,6 +121,9 @@ class Client:
         self._events: Deque[Event] = collections.deque()
         self._event_capacity = max(0, int(event_queue_capacity))
         self.events_dropped = 0  # events beyond the queue's capacity (then list() tells the scene as it is)
+        self._contacts: Deque[ContactEvent] = collections.deque()
+        self._contact_capacity = CONTACT_QUEUE_CAPACITY
+        self.contacts_dropped = 0  # contact events beyond the queue's capacity (the server's own: ContactEvent.dropped)
         self.welcome: Dict = {}
         self.device: Optional[DeviceInfo] = None
         self._last_sent = time.monotonic()
@@ -100,11 +133,13 @@ class Client:
     def connect(cls, socket_path: Optional[str] = None, client: str = "hapticd_client.py", lease_s: float = 0.0,
                 timeout_s: float = 5.0, protocol: int = PROTOCOL_VERSION,
                 event_queue_capacity: int = EVENT_QUEUE_CAPACITY,
-                busy_retry: Tuple[int, float, float] = BUSY_RETRY_DEFAULT) -> "Client":
+                busy_retry: Tuple[int, float, float] = BUSY_RETRY_DEFAULT,
+                contact_queue_capacity: int = CONTACT_QUEUE_CAPACITY) -> "Client":
         """Connects and performs the handshake; raises HapticdError ("transport", "protocol_version", ...).
         ``event_queue_capacity``: events kept until ``poll_event``/``next_event`` takes them (more are
         dropped and counted in ``events_dropped``). ``busy_retry``: how ``commit`` retries ``busy``
-        (``set_busy_retry``)."""
+        (``set_busy_retry``). ``contact_queue_capacity``: contact events kept until ``poll_contact``/
+        ``next_contact`` takes them (more are dropped and counted in ``contacts_dropped``)."""
         _check_busy_retry(busy_retry)
         path = socket_path or default_socket_path()
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
@@ -116,6 +151,7 @@ class Client:
                                             "(is hapticd running with --serve? may this user open the socket?)") from e
         c = cls(sock, timeout_s, event_queue_capacity)
         c._busy_retry = tuple(busy_retry)
+        c._contact_capacity = max(0, int(contact_queue_capacity))
         try:
             c.send_raw(json.dumps({"type": "hello", "protocol": protocol, "client": client, "lease_s": lease_s}))
             raw = c.receive_raw(timeout_s)
@@ -197,7 +233,7 @@ class Client:
                 raise HapticdError("transport", f"{function}: no reply within {self._timeout_s} s")
             reply = self._decode(function, raw)
             kind = reply.get("type")
-            if kind in ("state", "event", "expired"):
+            if kind in ("state", "event", "expired", "contact"):
                 self._keep_unsolicited(function, reply)
                 continue
             if reply.get("id") != request_id:
@@ -283,6 +319,36 @@ class Client:
         return self._read_until("Client.next_state", timeout_s,
                                 lambda: self._pending_states.pop(0) if self._pending_states else None)
 
+    def subscribe_contacts(self, object_ids: Optional[Iterable[int]] = None) -> List[int]:
+        """Contact events (docs/protocol.md, section 6, "Contact events"): of every object, or only of
+        ``object_ids`` (1 .. 64 ids). Returns the objects in contact when the subscription took effect (the
+        events that follow continue from there); subscribing again replaces the filter and starts afresh
+        (contact events queued here are discarded). Read them with ``poll_contact``/``next_contact``; every
+        call that reads the socket queues them, in order."""
+        fields = {} if object_ids is None else {"object_ids": [int(i) for i in object_ids]}
+        reply = self.request("subscribe_contacts", **fields)
+        self._contacts.clear()
+        return [int(i) for i in reply.get("contacts", [])]
+
+    def unsubscribe_contacts(self) -> None:
+        self.request("unsubscribe_contacts")
+        self._contacts.clear()
+
+    @property
+    def contacts_queued(self) -> int:
+        return len(self._contacts)
+
+    def poll_contact(self) -> Optional[ContactEvent]:
+        """The oldest queued contact event; with none queued, first reads what has arrived without waiting."""
+        return self._read_until("Client.poll_contact", 0.0, self._take_contact)
+
+    def next_contact(self, timeout_s: float) -> Optional[ContactEvent]:
+        """The next contact event, waiting up to ``timeout_s``; None when none came."""
+        return self._read_until("Client.next_contact", timeout_s, self._take_contact)
+
+    def _take_contact(self) -> Optional[ContactEvent]:
+        return self._contacts.popleft() if self._contacts else None
+
     def _read_until(self, function: str, timeout_s: float, take):
         """Reads messages (keeping each, _keep_unsolicited) until ``take()`` gives one or ``timeout_s`` has
         passed; with ``timeout_s`` 0, only what has arrived, without waiting."""
@@ -298,11 +364,16 @@ class Client:
 
     # -- events ----------------------------------------------------------------------------------------
     def _keep_unsolicited(self, function: str, message: Dict) -> None:
-        """A message that is not the reply awaited: a state (kept for next_state), an event (queued),
-        ``expired`` (raised); anything else (a late reply) is ignored."""
+        """A message that is not the reply awaited: a state (kept for next_state), an event or a contact
+        event (queued), ``expired`` (raised); anything else (a late reply) is ignored."""
         kind = message.get("type")
         if kind == "state":
             self._pending_states.append(message)
+        elif kind == "contact":
+            if len(self._contacts) >= self._contact_capacity:
+                self.contacts_dropped += 1
+            else:
+                self._contacts.append(ContactEvent.from_message(message))
         elif kind == "expired":
             raise HapticdError.from_reply(function, message)
         elif kind == "event":
