@@ -10,55 +10,19 @@ from __future__ import annotations
 
 import json
 import os
-import pathlib
 import re
 import signal
 import subprocess
-import sys
 import time
 
 import pytest
 
-REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
-try:
-    import hapticd_client as hc
-except ImportError:  # not installed: the package is pure Python, use it from the source tree
-    sys.path.insert(0, str(REPOSITORY / "python" / "src"))
-    import hapticd_client as hc
+from daemon_support import HAPTICD, REPOSITORY, connectable, hc, needs_daemon, wait_until
 
-
-def _hapticd_binary():
-    for candidate in (os.environ.get("HAPTICD_BINARY"), str(REPOSITORY / "build/release/apps/hapticd/hapticd")):
-        if candidate and os.access(candidate, os.X_OK):
-            return candidate
-    return None
-
-
-HAPTICD = _hapticd_binary()
-pytestmark = pytest.mark.skipif(HAPTICD is None, reason="no hapticd binary: set HAPTICD_BINARY (or build build/release)")
+pytestmark = needs_daemon
 
 DAEMON_ARGS = ["--config", "", "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1",
                "--scenario", "hold", "--hold-distance", "0.055", "--hold-force", "2"]
-
-
-def connectable(path):
-    """The daemon accepts connections (its socket file exists from bind(), before listen())."""
-    import socket
-    with socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET) as s:
-        try:
-            s.connect(path)
-            return True
-        except OSError:
-            return False
-
-
-def wait_until(predicate, timeout_s=5.0, step_s=0.01):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(step_s)
-    return False
 
 
 def _served_daemon(tmp_path_factory, name, extra_args, base_args=DAEMON_ARGS):

@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 import pathlib
 import re
-import socket
 import struct
 import subprocess
 import sys
@@ -22,47 +21,8 @@ import time
 import numpy as np
 import pytest
 
-REPOSITORY = pathlib.Path(__file__).resolve().parents[2]
-try:
-    import hapticd_client as hc
-except ImportError:  # not installed: the package is pure Python, use it from the source tree
-    sys.path.insert(0, str(REPOSITORY / "python" / "src"))
-    import hapticd_client as hc
+from daemon_support import HAPTICD, SCOPE_ENV, connectable, hc, needs_daemon, wait_until
 from hapticd_client import recording  # noqa: E402
-
-SCOPE_ENV = {**os.environ, "PYTHONPATH": str(pathlib.Path(hc.__file__).resolve().parents[1]),
-             "PYTHONDONTWRITEBYTECODE": "1"}
-SCOPE_ENV.pop("DISPLAY", None)
-SCOPE_ENV.pop("WAYLAND_DISPLAY", None)
-
-
-def _hapticd_binary():
-    for candidate in (os.environ.get("HAPTICD_BINARY"), str(REPOSITORY / "build/release/apps/hapticd/hapticd")):
-        if candidate and os.access(candidate, os.X_OK):
-            return candidate
-    return None
-
-
-HAPTICD = _hapticd_binary()
-needs_daemon = pytest.mark.skipif(HAPTICD is None, reason="no hapticd binary: set HAPTICD_BINARY (or build build/release)")
-
-
-def _connectable(path):
-    with socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET) as s:
-        try:
-            s.connect(path)
-            return True
-        except OSError:
-            return False
-
-
-def _wait_until(predicate, timeout_s=20.0, step_s=0.01):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(step_s)
-    return False
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +38,7 @@ def recorded(tmp_path_factory):
                                 "--duration", "3", "--record", path],
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        assert _wait_until(lambda: _connectable(socket_path) or process.poll() is not None)
+        assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
         assert process.poll() is None, "hapticd ended at start-up"
         with hc.Client.connect(socket_path=socket_path, client="pytest-recording") as client:
             wall = client.add(hc.plane(normal=(-1, 0, 0), offset=0.005, criterion="CE2"))
