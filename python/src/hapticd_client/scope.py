@@ -348,14 +348,7 @@ def run(argv: Optional[Sequence[str]] = None) -> int:
 
     reader = _open_state(args)
     try:
-        try:
-            import matplotlib
-        except ImportError:
-            raise _Exit(EXIT_USAGE, "hapticd-scope needs matplotlib: pip install 'hapticopt[plot]' "
-                                    "(Debian: apt install python3-matplotlib)")
-        headless = args.out is not None
-        if headless:
-            matplotlib.use("Agg")
+        headless = _matplotlib_for(args)
         try:
             reader.read(require_live=True)
         except HapticdError as e:
@@ -524,13 +517,9 @@ def recording_figure(figure, rec, window_s: Optional[float] = None) -> np.ndarra
     return ticks
 
 
-def _run_recording(args, out_file: Optional[pathlib.Path], out_dir: Optional[pathlib.Path]) -> int:
-    """--recording FILE: one figure of the recording, to --out FILE (or DIR/recording.png) or a window."""
-    from . import recording
-    try:
-        rec = recording.load(args.recording)
-    except recording.RecordingError as e:
-        raise _Exit(EXIT_BAD_RECORDING, str(e))
+def _matplotlib_for(args) -> bool:
+    """Imports matplotlib (a usage error naming the package when it is missing) and selects the Agg backend
+    when the output is a file or frames (--out); returns whether it is headless."""
     try:
         import matplotlib
     except ImportError:
@@ -539,6 +528,17 @@ def _run_recording(args, out_file: Optional[pathlib.Path], out_dir: Optional[pat
     headless = args.out is not None
     if headless:
         matplotlib.use("Agg")
+    return headless
+
+
+def _run_recording(args, out_file: Optional[pathlib.Path], out_dir: Optional[pathlib.Path]) -> int:
+    """--recording FILE: one figure of the recording, to --out FILE (or DIR/recording.png) or a window."""
+    from . import recording
+    try:
+        rec = recording.load(args.recording)
+    except recording.RecordingError as e:
+        raise _Exit(EXIT_BAD_RECORDING, str(e))
+    headless = _matplotlib_for(args)
     import matplotlib.pyplot as plt
     figure = plt.figure(figsize=(args.size[0] / args.dpi, args.size[1] / args.dpi), dpi=args.dpi)
     shown = recording_figure(figure, rec, args.window)
