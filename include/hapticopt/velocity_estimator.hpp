@@ -414,8 +414,10 @@ struct EstimatorRegionOptions {
 };
 
 /// The main stable region with the estimator: the connected stable set that contains small alpha > 0
-/// (alpha -> 0+ at some beta). Found by a scan of the Schur-Cohn verdict on a grid, flood fill from the
-/// grid's first alpha column, the box re-fitted to the region until it fills it; its edge along a line of
+/// (alpha -> 0+ at some beta). Found by a scan of the Schur-Cohn verdict on a grid over alpha in (0, 1],
+/// beta in [-1, 4], flood fill from the grid's first alpha column (where that column has nothing stable,
+/// the box shrinks 4x in alpha and beta towards beta = 0 until it does, down to alpha 1e-9), the box re-fitted
+/// to the region until it fills it; its edge along a line of
 /// constant beta is the first instability reached by marching up in alpha from a main-region cell (steps of
 /// a quarter cell) refined by bisection to 1e-14; alpha_max is the maximum of that edge over beta (Brent,
 /// scalar_search.hpp). Stable components of the first (wide) scan that are not connected to the main one
@@ -433,16 +435,25 @@ class EstimatorStabilityRegion {
     detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 16, false, 1e5, "16 <= alpha_grid <= 10^5");
     detail::require_in_range(fn, "beta_grid", options.beta_grid, 16, false, 1e5, "16 <= beta_grid <= 10^5");
     double a1 = 1, b0 = -1, b1 = 4;
-    bool first = true;
-    for (int pass = 0; pass < 12; ++pass) {
+    std::vector<StableIsland> wide;
+    bool have_wide = false;
+    for (int pass = 0; pass < 40; ++pass) {
       scan(a1, b0, b1);
-      if (first) {
-        islands_ = other_components();
-        first = false;
+      if (!have_wide) {
+        wide = other_components();
+        have_wide = true;
       }
-      if (main_cells_ == 0) {  // nothing stable at small alpha: no main region
-        alpha_max_ = 0;
-        return;
+      if (main_cells_ == 0) {  // nothing stable in the first column: the main region is below one cell, or empty
+        if (a1 < 1e-9) {
+          alpha_max_ = 0;
+          islands_ = wide;
+          return;
+        }
+        const double w = (b1 - b0) / 4;
+        a1 /= 4;
+        b0 = -0.2 * w;
+        b1 = 0.8 * w;
+        continue;
       }
       // Re-fit the box: grow where the region touches an edge, shrink where it fills little of it.
       const double da = a1 / na(), db = (b1 - b0) / nb();
@@ -460,6 +471,14 @@ class EstimatorStabilityRegion {
       b1 = nb1;
     }
     refine_tip();
+    // Islands: the components of the first (widest) scan not connected to its first column, except any that
+    // overlaps the main region's box (a main region thinner than that scan's cells can appear detached in it).
+    const double db = (b1_ - b0_) / nb();
+    const double main_lo = b0_ + main_j0_ * db, main_hi = b0_ + (main_j1_ + 1) * db;
+    for (const StableIsland& i : wide) {
+      const bool overlaps = i.alpha_min < alpha_max_ && i.beta_min < main_hi && i.beta_max > main_lo;
+      if (!overlaps) islands_.push_back(i);
+    }
   }
 
   double alpha_max() const { return alpha_max_; }
