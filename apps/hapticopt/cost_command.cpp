@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt cost: stability and the criteria C_E0, C_E1, C_E2, C_OV at one gain pair; with --velocity the
-// estimator's loop (velocity_estimator.hpp: stability and C_E0..2; C_OV, the collision criteria and passivity
+// estimator's loop (velocity_estimator.hpp: stability, C_E0..2 and C_OV; the collision criteria and passivity
 // are modelled for the backward difference only and are null then). Always the quantisation force-noise gain
 // g_F (sigma_F = (m q / T^2) g_F), and sigma_F in N with --mass, --period and --position-resolution.
 #include <cmath>
@@ -59,15 +59,18 @@ CommandRunner add_cost_command(CLI::App& app) {
     if (estimator.kind != VelocityEstimatorKind::backward) {
       const StabilityReport report = stability(plant, gains, estimator);
       const EnergyCosts costs = energy_costs(plant, gains, estimator);
-      const char* note = "C_OV, the collision criteria and passivity are modelled for the backward difference only";
+      OvershootOptions options;
+      options.tolerance = args->tolerance;
+      const OvershootResult ov = overshoot(plant, gains, estimator, options);
+      const char* note = "the collision criteria and passivity are modelled for the backward difference only";
       if (args->json) {
         nlohmann::json out;
         out["stable"] = report.stable;
         out["CE0"] = number_or_null(costs.ce0);
         out["CE1"] = number_or_null(costs.ce1);
         out["CE2"] = number_or_null(costs.ce2);
-        out["OV"] = nullptr;
-        out["no_overshoot"] = nullptr;
+        out["OV"] = number_or_null(ov.value);
+        out["no_overshoot"] = report.stable ? nlohmann::json(ov.within_tolerance) : nlohmann::json(nullptr);
         out["spectral_radius"] = report.spectral_radius;
         for (const char* k : {"CI0", "CI1", "CI2", "penetration", "passive", "passivity_margin"}) out[k] = nullptr;
         out["note"] = note;
@@ -85,6 +88,8 @@ CommandRunner add_cost_command(CLI::App& app) {
       if (!report.stable) return int{kOk};
       std::printf("C_E0             %.12g\nC_E1             %.12g\nC_E2             %.12g\n", costs.ce0, costs.ce1,
                   costs.ce2);
+      std::printf("C_OV             %.6g%s\n", ov.value,
+                  ov.within_tolerance ? "  (no overshoot within tolerance)" : "");
       std::printf("noise gain g_F   %.12g (sigma_F = m q / T^2 g_F)\n", noise_gain);
       if (physical_noise) std::printf("sigma_F          %.6g N\n", noise_std);
       std::printf("note             %s\n", note);

@@ -57,6 +57,7 @@
 #include "config.hpp"
 #include "energy_costs.hpp"
 #include "optimum.hpp"
+#include "overshoot.hpp"
 #include "region_minimum.hpp"
 #include "stability.hpp"
 
@@ -330,6 +331,64 @@ Scalar estimator_force_noise_gain(const SampledPlant<Scalar>& plant, const Veloc
   using std::sqrt;
   return variance >= Scalar(0) ? sqrt(variance) : inf;
 }
+
+/// C_OV (eq. 9) with the estimator: the exact continuous-time maximum of overshoot.hpp
+/// (detail::continuous_maximum: in-period maxima by Newton on the Taylor series, stop proven by the bound
+/// |x(t) - x_inf| <= kappa sqrt(s_j^T P s_j)) on the estimator's loop, with P = M^T P M + I solved on the
+/// complex Schur form of M^T. +inf when unstable. Throws InvalidParameter for a tolerance outside (0, 1].
+template <typename Scalar>
+OvershootResultT<Scalar> estimator_overshoot(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
+                                             Scalar alpha, Scalar beta, const OvershootOptions& options = {}) {
+  detail::require_in_range("hapticopt::estimator_overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
+                           "0 < tolerance <= 1");
+  OvershootResultT<Scalar> result;
+  result.time = std::numeric_limits<Scalar>::quiet_NaN();
+  result.value = std::numeric_limits<Scalar>::infinity();
+  if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return result;
+  const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
+  const ClosedLoop<Scalar>& loop = el.loop;
+  const LoopSchurForm<Scalar> schur = loop_schur_form(DynamicMatrix<Scalar>(loop.transition.transpose()));
+  if (!(schur.spectral_radius < Scalar(1))) return result;
+  const Eigen::Index n = loop.transition.rows();
+  const ComplexMatrix<Scalar> x =
+      solve_triangular_stein<Scalar>(schur.t, ComplexMatrix<Scalar>::Identity(n, n));  // U^H I U = I
+  DynamicMatrix<Scalar> p = (schur.u * x * schur.u.adjoint()).real();
+  p = (p + p.transpose()) / Scalar(2);
+  for (Eigen::Index k = 0; k < n; ++k) {  // P >= I for a Schur-stable M; else rounding at the boundary
+    if (!(p(k, k) >= Scalar(1) - Scalar(1e-9)) || !std::isfinite(static_cast<double>(p(k, k)))) return result;
+  }
+  const Scalar x_inf = loop.final_position;
+  const detail::ContinuousMaximum<Scalar> scan = detail::continuous_maximum(
+      plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
+  result.periods = scan.periods;
+  result.converged = scan.converged;
+  result.value = scan.value > 0 ? scan.value / x_inf : Scalar(0);
+  if (result.value > 0) result.time = scan.time;
+  result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);
+  return result;
+}
+
+/// C_OV with the estimator for a normalised plant; the backward difference is overshoot(plant, gains).
+HAPTICOPT_FUNC OvershootResult overshoot(const NormalizedPlant& plant, const NormalizedGains& gains,
+                                         const VelocityEstimator& estimator, const OvershootOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
+  validate(gains, "hapticopt::overshoot");
+  validate(estimator, "hapticopt::overshoot");
+  if (estimator.kind == VelocityEstimatorKind::backward) return overshoot(plant, gains, options);
+  if (!EstimatorStabilityTest(plant, estimator).stable(gains.alpha, gains.beta)) {
+    detail::require_in_range("hapticopt::overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
+                             "0 < tolerance <= 1");
+    OvershootResult r;
+    r.value = HUGE_VAL;
+    r.time = std::nan("");
+    return r;
+  }
+  return estimator_overshoot(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta, options);
+}
+#else
+;
+#endif
 
 /// Stability with the estimator: the Schur-Cohn verdict (EstimatorStabilityTest) and the spectral radius of
 /// the loop matrix. The backward difference is the existing stability(plant, gains).

@@ -79,7 +79,9 @@ TEST(VelocityCli, CostReportsEstimatorAndNoise) {
   const double g = force_noise_gain({0, 0, 1}, {0.0046, 0.107}, VelocityEstimator::low_pass(0.02));
   EXPECT_NEAR(out["force_noise_gain"].get<double>(), g, 1e-9 * g);
   EXPECT_NEAR(out["force_noise_std"].get<double>(), 0.3 * 2e-5 / 1e-6 * g, 1e-9 * g);
-  EXPECT_TRUE(out["OV"].is_null());
+  EXPECT_EQ(out["OV"].get<double>(),
+            overshoot({0, 0, 1}, {0.0046, 0.107}, VelocityEstimator::low_pass(0.02)).value);
+  EXPECT_TRUE(out["CI0"].is_null());
   // The paper's C_E2 optimum at d = 0 with the 20 Hz low-pass: unstable, costs and noise null.
   const auto [code2, unstable] = run_velocity_command(
       add_cost_command, {"cost", "--alpha", "0.2474", "--beta", "0.7445", "--velocity", "lowpass:0.02", "--json"});

@@ -42,6 +42,8 @@ struct EstimatorRun {
   std::array<double, 3> costs{};  ///< (1/E(0)) int_0^P E(t) t^p dt by composite Simpson (step input only)
   std::vector<double> x;          ///< x_j
   std::vector<double> f;          ///< f_j
+  double max_x = -HUGE_VAL;       ///< max of x over the sub-step grid
+  double max_accel = 0;           ///< max of |x''| over the sub-step grid (for the O(h^2) bound of a sampled max)
 };
 
 /// Time-steps the loop of Fig. 2 with the estimator: `substeps` (even) sub-steps per period, each the exact
@@ -95,6 +97,8 @@ EstimatorRun run_loop(double gamma, double delta, double d, double alpha, double
     const long long acting = k - delay_steps;  // the force acting on this sub-step is f_{floor(acting / S)}
     s(2) = acting < 0 ? 0.0 : out.f[static_cast<std::size_t>(acting / substeps)];
     accumulate(k, s);
+    out.max_x = std::max(out.max_x, s(0));
+    out.max_accel = std::max(out.max_accel, std::abs(-gamma * s(0) - delta * s(1) - s(2) + s(3)));
     s = step * s;
   }
   accumulate(total, s);
@@ -141,6 +145,10 @@ TEST(VelocityEstimator, WindowOneAndFastLowPassEqualBackward) {
         const StabilityReport r = stability(plant, {a, b}, e);
         EXPECT_TRUE(r.stable);
         EXPECT_NEAR(r.spectral_radius, rho, 1e-12);
+        const OvershootResult ov_ref = overshoot(plant, {a, b});
+        const OvershootResult ov = estimator_overshoot(sampled, e, a, b);
+        EXPECT_NEAR(ov.value, ov_ref.value, 1e-10 * std::max(ov_ref.value, 1e-12));
+        EXPECT_EQ(ov.within_tolerance, ov_ref.within_tolerance);
       }
     }
   }
@@ -208,6 +216,28 @@ TEST(VelocityEstimator, CostsMatchTimeStepping) {
     EXPECT_NEAR(run.costs[0], closed.ce0, 1e-7 * closed.ce0) << c.d;
     EXPECT_NEAR(run.costs[1], closed.ce1, 1e-7 * closed.ce1) << c.d;
     EXPECT_NEAR(run.costs[2], closed.ce2, 1e-7 * closed.ce2) << c.d;
+  }
+}
+
+// C_OV with the estimator against the maximum of the time-stepped x over its sub-step grid (64 per period):
+// the sampled maximum approaches the continuous one from below, within max|x''| h^2 / 8 (the true maximum is
+// within h/2 of a grid point, where x' = 0), plus 1e-12 x_inf for rounding.
+TEST(VelocityEstimator, OvershootMatchesTimeStepping) {
+  struct Case { VelocityEstimator e; double d, alpha, beta; };
+  for (const Case& c : {Case{VelocityEstimator::low_pass(0.1), 1.0, 0.05, 0.3},
+                        Case{VelocityEstimator::low_pass(0.1), 0.0, 0.2, 0.5},
+                        Case{VelocityEstimator::moving_window(4), 1.5, 0.01, 0.2},
+                        Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107}}) {
+    const NormalizedPlant plant{0.001, 0.02, c.d};
+    const OvershootResult ov = overshoot(plant, {c.alpha, c.beta}, c.e);
+    ASSERT_TRUE(ov.converged);
+    const EstimatorRun run = run_loop(plant.gamma, plant.delta, c.d, c.alpha, c.beta, estimator_equation(c.e), 64,
+                                      3000, exact_measurement, step_input, false);
+    const double x_inf = 1 / (c.alpha + plant.gamma);
+    const double closed = x_inf * (1 + ov.value);
+    const double h = 1.0 / 64;
+    EXPECT_LE(run.max_x, closed + 1e-12 * x_inf) << c.d;
+    EXPECT_GE(run.max_x, closed - run.max_accel * h * h / 8 - 1e-12 * x_inf) << c.d;
   }
 }
 
