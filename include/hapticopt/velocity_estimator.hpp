@@ -295,15 +295,68 @@ class EstimatorStabilityTest {
   AffineCharacteristicPolynomial<long double> fine_;
 };
 
-/// C_E0..2 with the estimator for a precomputed plant, +inf when unstable. Every kind, including the
-/// backward difference, goes through the dense loop here (energy_costs() with an estimator sends the
-/// backward difference to the shift-structured path instead).
+namespace detail {
+
+/// C_E0..2 of a loop whose rows >= 2 are the shift rows of closed_loop.hpp (an FIR estimator without the
+/// noise state: its state is the plant's plus a longer position history): the three Stein equations by
+/// ShiftSteinSolver (one (2N - 1)-square LU), the traces as in energy_costs_structured. +inf if a pivot
+/// vanishes or a cost is not positive and finite (rounding at the boundary).
+template <typename Scalar>
+EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop) {
+  const Scalar inf = std::numeric_limits<Scalar>::infinity();
+  using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
+  const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
+  if (!stein.ok()) return {inf, inf, inf};
+  using Square = typename Solver::Square;
+  std::array<Square, 3> g;
+  g[0] = stein.solve(Square(loop.initial_state * loop.initial_state.transpose()));
+  Square c = stein.propagate(g[0]);  // G_1 = M G_1 M^T + M G_0 M^T, G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T
+  g[1] = stein.solve(c);
+  g[2] = stein.solve(Square(Scalar(2) * g[1] - c));
+  std::array<Scalar, 3> j{0, 0, 0};
+  for (int s = 0; s < plant.segment_count(); ++s) {
+    const DynamicMatrix<Scalar>& r = loop.segment_map[static_cast<std::size_t>(s)];
+    const auto w = segment_weights(plant.segment(s), loop.total_stiffness);
+    std::array<Matrix3<Scalar>, 3> y;
+    for (std::size_t q = 0; q < 3; ++q) y[q] = r * g[q] * r.transpose();
+    auto tr = [](const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) { return a.cwiseProduct(b).sum(); };
+    j[0] += tr(w[0], y[0]);
+    j[1] += tr(w[0], y[1]) + tr(w[1], y[0]);
+    j[2] += tr(w[0], y[2]) + Scalar(2) * tr(w[1], y[1]) + tr(w[2], y[0]);
+  }
+  const Scalar k = loop.total_stiffness;  // C_Ep = k J_p (energy_costs_structured)
+  const EnergyCostsT<Scalar> out{k * j[0], k * j[1], k * j[2]};
+  for (Scalar v : {out.ce0, out.ce1, out.ce2}) {
+    if (!(v > Scalar(0)) || !std::isfinite(static_cast<double>(v))) return {inf, inf, inf};
+  }
+  return out;
+}
+
+}  // namespace detail
+
+/// C_E0..2 with the estimator for a precomputed plant, +inf when unstable (M's spectral radius >= 1, or the
+/// solver's pivots). Every kind, including the backward difference, goes through the estimator's loop here
+/// (energy_costs() with an estimator sends the backward difference to the fast backward path instead):
+/// the window through ShiftSteinSolver (its loop has the shift structure; `dense` = true forces the
+/// complex-Schur method instead, for the cross-check in the tests), the low-pass on the complex Schur form.
 template <typename Scalar>
 EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
-                                            Scalar alpha, Scalar beta) {
+                                            Scalar alpha, Scalar beta, bool dense = false) {
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
   if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return {inf, inf, inf};
   const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
+  const bool fir = estimator.kind != VelocityEstimatorKind::lowpass;
+  if (fir && !dense) {
+    // The shift solver does not see instability by itself: Schur-Cohn on p_est first; near the boundary
+    // (|margin| < 1e-4) the complex-Schur path below decides by the spectral radius.
+    const SchurCohnResult<Scalar> sc = schur_cohn<Scalar>(
+        estimator_characteristic_polynomial(characteristic_polynomial(plant), estimator).at(alpha, beta));
+    using std::abs;
+    if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
+      if (!sc.stable) return {inf, inf, inf};
+      return detail::shift_structured_energy_costs(plant, el.loop);
+    }
+  }
   const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);
   if (!(schur.spectral_radius < Scalar(1))) return {inf, inf, inf};
   const EnergyCostsT<Scalar> c = detail::energy_costs_from_schur(plant, el.loop, schur);

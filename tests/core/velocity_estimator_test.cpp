@@ -138,10 +138,12 @@ TEST(VelocityEstimator, WindowOneAndFastLowPassEqualBackward) {
       const double rho = stability(plant, {a, b}).spectral_radius;
       for (const VelocityEstimator& e :
            {VelocityEstimator::moving_window(1), VelocityEstimator::low_pass(1000), VelocityEstimator::low_pass(6)}) {
-        const EnergyCosts c = estimator_energy_costs(sampled, e, a, b);
-        EXPECT_NEAR(c.ce0, ref.ce0, 1e-10 * ref.ce0) << d << " " << a;
-        EXPECT_NEAR(c.ce1, ref.ce1, 1e-10 * ref.ce1);
-        EXPECT_NEAR(c.ce2, ref.ce2, 1e-10 * ref.ce2);
+        for (bool dense : {false, true}) {  // the window's shift-structured path and the complex-Schur path
+          const EnergyCosts c = estimator_energy_costs(sampled, e, a, b, dense);
+          EXPECT_NEAR(c.ce0, ref.ce0, 1e-10 * ref.ce0) << d << " " << a;
+          EXPECT_NEAR(c.ce1, ref.ce1, 1e-10 * ref.ce1);
+          EXPECT_NEAR(c.ce2, ref.ce2, 1e-10 * ref.ce2);
+        }
         const StabilityReport r = stability(plant, {a, b}, e);
         EXPECT_TRUE(r.stable);
         EXPECT_NEAR(r.spectral_radius, rho, 1e-12);
@@ -171,6 +173,31 @@ TEST(VelocityEstimator, WindowOneAndFastLowPassEqualBackward) {
         EXPECT_NEAR(r.alpha_max(), exact, 1e-10 * exact) << d << " " << gamma << " " << delta;
         EXPECT_TRUE(r.islands().empty());
       }
+    }
+  }
+}
+
+// The window's two methods agree (shift-structured LU and complex Schur form, both exact up to rounding:
+// 1e-10 relative as for the backward loop at rho <= 0.999), and both are +inf outside the region.
+TEST(VelocityEstimator, WindowMethodsAgree) {
+  for (double d : {0.0, 1.0, 2.5}) {
+    const SampledPlant<double> sampled(NormalizedPlant{0.001, 0.02, d});
+    for (int n : {2, 4, 15}) {
+      const VelocityEstimator e = VelocityEstimator::moving_window(n);
+      const EstimatorStabilityRegion region(sampled.parameters(), e);
+      for (double f : {0.2, 0.6, 0.95}) {
+        const double a = f * region.alpha_max();
+        const auto [lo, hi] = region.beta_interval(a);
+        const double b = (lo + hi) / 2;
+        const EnergyCosts fast = estimator_energy_costs(sampled, e, a, b);
+        const EnergyCosts dense = estimator_energy_costs(sampled, e, a, b, true);
+        ASSERT_TRUE(std::isfinite(fast.ce2)) << d << " " << n << " " << f;
+        EXPECT_NEAR(fast.ce0, dense.ce0, 1e-10 * dense.ce0);
+        EXPECT_NEAR(fast.ce1, dense.ce1, 1e-10 * dense.ce1);
+        EXPECT_NEAR(fast.ce2, dense.ce2, 1e-10 * dense.ce2);
+      }
+      EXPECT_TRUE(std::isinf(estimator_energy_costs(sampled, e, 1.05 * region.alpha_max(),
+                                                    region.beta_at_alpha_max()).ce0));
     }
   }
 }
