@@ -28,10 +28,11 @@
 // radius reported is the largest eigenvalue modulus of the loop matrix (complex Schur form).
 //
 // Energy costs C_E0..2: the same integrals and Stein equations as energy_costs.hpp (E is a quadratic form
-// of s_j on each segment; G_p = sum_j j^p s_j s_j^T from three Stein equations), solved on the complex
-// Schur form of the dense loop matrix (detail::energy_costs_from_schur), since the v states break the
-// shift structure that ShiftSteinSolver exploits. Exact up to rounding; the error grows like
-// eps / (1 - rho^2) as for the backward loop.
+// of s_j on each segment; G_p = sum_j j^p s_j s_j^T from three Stein equations). A window is FIR, so its loop
+// keeps the shift structure (a longer position history) and ShiftSteinSolver (stein_equation.hpp) solves
+// them; the low-pass's v states break it, so they are solved on the complex Schur form of the dense loop
+// matrix (detail::energy_costs_from_schur). Exact up to rounding; the error grows like eps / (1 - rho^2) as
+// for the backward loop. C_OV: the exact continuous maximum of overshoot.hpp on this loop.
 //
 // Quantisation noise (the derivation; docs/velocity-estimation.md): the measured position is
 // y_j = x_j + e_j with e_j white, variance q^2/12 (a uniform rounding error, valid when the motion spans many
@@ -43,7 +44,8 @@
 // Linear in q: in normalised units with q = 1, var(e) = 1/12 and g_F = sqrt(c^T P c); physically
 // (f = F T^2 / m, positions unscaled) sigma_F = (m q / T^2) g_F. For the backward difference without
 // feedback g_F would be sqrt(((alpha + beta)^2 + beta^2) / 12); the loop's response adds to it.
-// Costs: O(N^3) per evaluation (complex Schur of the N-square loop matrix, N = 2 + Hy + Hv [+ 1]).
+// Costs: N = 2 + Hy + Hv [+ 1] states; the window's energy costs one (2N - 1)-square LU, everything else
+// O(N^3) per evaluation (complex Schur form of the N-square loop matrix). Measured: docs/benchmarks.md.
 #pragma once
 
 #include <algorithm>
@@ -765,7 +767,7 @@ struct EstimatorOptimum {
 /// difference is optimal_point() (optimum.hpp). Others: alpha_max from EstimatorStabilityRegion; the CEx
 /// points by minimize_on_region (region_minimum.hpp: coarse grid over (0, alpha_max) x the main region's
 /// beta interval, then Brent over alpha with Brent over beta inside). Throws InvalidParameter for the
-/// overshoot criteria with another estimator (not modelled with an estimator).
+/// OV and CEx+OV criteria with another estimator (their optima are not searched with an estimator).
 HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const NormalizedPlant& plant,
                                               const VelocityEstimator& estimator,
                                               const RegionSearchOptions& search = {})
