@@ -193,15 +193,17 @@ CommandRunner add_optimum_command(CLI::App& app) {
     const VelocityEstimator estimator = args->velocity.parse(physical ? box.period : 0.0);
     if (estimator.kind != VelocityEstimatorKind::backward) {
       const auto step = parse_criterion(args->criterion);
-      if (args->robust || args->passive || impulse ||
-          !(step && (*step == Criterion::AlphaMax || (energy_index(*step) && !requires_no_overshoot(*step))))) {
+      if (args->robust || args->passive || impulse || !step || *step == Criterion::Overshoot) {
         std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
-                  << " supports amax, CE0, CE1, CE2 without --robust and --passive (not " << args->criterion << ")\n";
+                  << " supports amax, CE0..2 and CE0+OV..CE2+OV without --robust and --passive (not "
+                  << args->criterion << ")\n";
         return int{kUsage};
       }
       const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
       const NormalizedPlant np = physical ? normalize(plant) : args->plant.normalized();
-      const EstimatorOptimum o = optimal_point(*step, np, estimator);
+      EstimatorOptimumOptions eo;
+      eo.overshoot_tolerance = args->tolerance;
+      const EstimatorOptimum o = optimal_point(*step, np, estimator, eo);
       const EstimatorStabilityRegion region(np, estimator);
       const double noise = force_noise_gain(np, NormalizedGains{o.alpha, o.beta}, estimator);
       WallGains g{0, 0};

@@ -763,52 +763,99 @@ struct EstimatorOptimum {
   double beta_at_alpha_max = 0;
 };
 
-/// The optimum of AlphaMax, CE0, CE1 or CE2 with the estimator over the main stable region. The backward
+/// Options of optimal_point with an estimator.
+struct EstimatorOptimumOptions {
+  RegionSearchOptions search;          ///< grids of the CEx search (region_minimum.hpp)
+  double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+  double alpha_tolerance = 1e-10;      ///< bisection tolerance of the CEx+OV points, relative to alpha_max
+};
+
+/// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
 /// difference is optimal_point() (optimum.hpp). Others: alpha_max from EstimatorStabilityRegion; the CEx
 /// points by minimize_on_region (region_minimum.hpp: coarse grid over (0, alpha_max) x the main region's
-/// beta interval, then Brent over alpha with Brent over beta inside). Throws InvalidParameter for the
-/// OV and CEx+OV criteria with another estimator (their optima are not searched with an estimator).
+/// beta interval, then Brent over alpha with Brent over beta inside); the CEx+OV points as in optimum.hpp:
+/// the optimal curve beta_opt(alpha) (grid + Brent over the main region's beta interval), a scan down from
+/// alpha_max in `search.alpha_grid` steps to the first alpha whose curve point has C_OV <= tolerance
+/// (estimator_overshoot), then bisection. Throws InvalidParameter for the OV criterion (its point is not
+/// searched with an estimator) and when no scanned curve point meets the tolerance.
 HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const NormalizedPlant& plant,
                                               const VelocityEstimator& estimator,
-                                              const RegionSearchOptions& search = {})
+                                              const EstimatorOptimumOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
   const char* fn = "hapticopt::optimal_point";
   validate(estimator, fn);
+  detail::require_in_range(fn, "overshoot_tolerance", options.overshoot_tolerance, 0.0, true, 1.0,
+                           "0 < tolerance <= 1");
+  detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-2,
+                           "0 < alpha_tolerance <= 0.01");
   EstimatorOptimum out;
   out.criterion = criterion;
   if (estimator.kind == VelocityEstimatorKind::backward) {
-    const Optimum o = optimal_point(criterion, plant);
-    out.alpha = o.alpha;
-    out.beta = o.beta;
-    out.cost = o.cost;
-    out.alpha_max = o.alpha_max;
-    out.beta_at_alpha_max = o.beta_at_alpha_max;
+    OptimumOptions o;
+    o.overshoot_tolerance = options.overshoot_tolerance;
+    const Optimum b = optimal_point(criterion, plant, o);
+    out.alpha = b.alpha;
+    out.beta = b.beta;
+    out.cost = b.cost;
+    out.alpha_max = b.alpha_max;
+    out.beta_at_alpha_max = b.beta_at_alpha_max;
     return out;
   }
-  const bool energy = criterion == Criterion::CE0 || criterion == Criterion::CE1 || criterion == Criterion::CE2;
-  if (!energy && criterion != Criterion::AlphaMax) {
+  if (criterion == Criterion::Overshoot) {
     throw InvalidParameter(fn, "criterion", static_cast<double>(criterion),
-                           "amax, CE0, CE1 or CE2 with a velocity estimator other than backward");
+                           "amax, CE0..2 or CE0+OV..CE2+OV with a velocity estimator other than backward");
   }
   const EstimatorStabilityRegion region(plant, estimator);
   out.alpha_max = region.alpha_max();
   out.beta_at_alpha_max = region.beta_at_alpha_max();
-  if (!energy) {
+  if (criterion == Criterion::AlphaMax) {
     out.alpha = out.alpha_max;
     out.beta = out.beta_at_alpha_max;
     return out;
   }
-  const int index = criterion == Criterion::CE0 ? 0 : criterion == Criterion::CE1 ? 1 : 2;
+  const int index = *energy_index(criterion);
   const SampledPlant<double> sampled(plant);
   auto cost = [&](double a, double b) {
     const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
     return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
   };
   auto interval = [&](double a) { return region.beta_interval(a); };
-  const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, search);
-  out.alpha = m.alpha;
-  out.beta = m.beta;
+  if (!requires_no_overshoot(criterion)) {
+    const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, options.search);
+    out.alpha = m.alpha;
+    out.beta = m.beta;
+    out.cost = m.value;
+    return out;
+  }
+  OvershootOptions ov;
+  ov.tolerance = options.overshoot_tolerance;
+  auto curve = [&](double a) { return detail::minimize_over_beta(cost, interval, a, options.search.beta_grid); };
+  auto no_overshoot = [&](double a) {
+    const detail::ScalarMinimum m = curve(a);
+    return std::isfinite(m.value) && estimator_overshoot(sampled, estimator, a, m.x, ov).within_tolerance;
+  };
+  const int n = options.search.alpha_grid;
+  double without = -1, with = out.alpha_max;
+  for (int i = 1; i < n; ++i) {
+    const double a = out.alpha_max * (1 - static_cast<double>(i) / n);
+    if (no_overshoot(a)) {
+      without = a;
+      break;
+    }
+    with = a;
+  }
+  if (without < 0) {
+    throw InvalidParameter(fn, "overshoot_tolerance", options.overshoot_tolerance,
+                           "a tolerance met somewhere on the optimal curve (none found on the scan)");
+  }
+  while (with - without > options.alpha_tolerance * out.alpha_max) {
+    const double mid = (with + without) / 2;
+    (no_overshoot(mid) ? without : with) = mid;
+  }
+  const detail::ScalarMinimum m = curve(without);
+  out.alpha = without;
+  out.beta = m.x;
   out.cost = m.value;
   return out;
 }

@@ -107,6 +107,10 @@ TEST(VelocityCli, OptimumWithEstimator) {
   const auto [code2, refused] =
       run_velocity_command(add_optimum_command, {"optimum", "--criterion", "OV", "--velocity", "window:15", "--json"});
   EXPECT_EQ(code2, int{kUsage});
+  const auto [code3, ov] =
+      run_velocity_command(add_optimum_command, {"optimum", "--criterion", "CE2+OV", "--velocity", "lowpass:0.1", "--json"});
+  ASSERT_EQ(code3, 0);
+  EXPECT_LT(ov["alpha"].get<double>(), ov["alpha_max"].get<double>());
 }
 
 }  // namespace

@@ -335,6 +335,42 @@ TEST(VelocityEstimator, OptimumBeatsGrid) {
   }
 }
 
+// CEx+OV with the estimator. Window 1 against the paper's optimiser (optimum.hpp): alpha to 1e-7 and beta to
+// 1e-6 relative (this search's beta_opt is Brent's, good to ~sqrt(eps) relative on a flat minimum, where the
+// backward optimiser polishes by Newton; the no-overshoot limit moves with beta_opt). The low-pass point
+// against the definition: no overshoot (C_OV <= 1e-12) on the optimal curve at alpha, overshoot just beyond.
+TEST(VelocityEstimator, NoOvershootPoints) {
+  for (double d : {0.0, 1.0}) {
+    const NormalizedPlant plant{0, 0, d};
+    for (Criterion c : {Criterion::CE0_OV, Criterion::CE2_OV}) {
+      const Optimum ref = optimal_point(c, plant);
+      const EstimatorOptimum w = optimal_point(c, plant, VelocityEstimator::moving_window(1));
+      EXPECT_NEAR(w.alpha, ref.alpha, 1e-7 * ref.alpha) << d;
+      EXPECT_NEAR(w.beta, ref.beta, 1e-6 * ref.beta) << d;
+      EXPECT_NEAR(*w.cost, *ref.cost, 1e-5 * *ref.cost) << d;
+    }
+  }
+  const NormalizedPlant plant{0, 0, 1};
+  const VelocityEstimator e = VelocityEstimator::low_pass(0.1);
+  const SampledPlant<double> sampled(plant);
+  const EstimatorOptimum o = optimal_point(Criterion::CE2_OV, plant, e);
+  EXPECT_TRUE(estimator_overshoot(sampled, e, o.alpha, o.beta).within_tolerance);
+  const EstimatorStabilityRegion region(plant, e);
+  auto curve_beta = [&](double a) {  // beta_opt(a) by a fine scan of the main region's interval
+    const auto [lo, hi] = region.beta_interval(a);
+    double best = lo, value = HUGE_VAL;
+    for (int k = 0; k < 2000; ++k) {
+      const double b = lo + (k + 0.5) / 2000 * (hi - lo);
+      const double v = estimator_energy_costs(sampled, e, a, b).ce2;
+      if (v < value) { value = v; best = b; }
+    }
+    return best;
+  };
+  const double beyond = o.alpha + 1e-3 * o.alpha_max;
+  EXPECT_FALSE(estimator_overshoot(sampled, e, beyond, curve_beta(beyond)).within_tolerance);
+  EXPECT_LT(o.alpha, o.alpha_max);
+}
+
 // g_F against Monte-Carlo: y = x + e with e uniform on (-1/2, 1/2) (variance 1/12, q = 1), 400000 periods
 // after 4000 of burn-in; the std of f_j by 40 batch means. Tolerance 4 standard errors of that estimate.
 TEST(VelocityEstimator, NoiseMatchesMonteCarlo) {
