@@ -8,6 +8,7 @@
 #include <string>
 
 #include <hapticopt/parameters.hpp>
+#include <hapticopt/velocity_estimator.hpp>
 
 namespace hapticopt::cli {
 
@@ -30,5 +31,21 @@ struct PlantOptions {
   void add_to(CLI::App& app);
   NormalizedPlant normalized() const { return NormalizedPlant{gamma, delta, delay}; }
 };
+
+/// The velocity estimator option (--velocity backward|lowpass:NU|lowpass:FHz|window:N) of the subcommands
+/// that take gains or a plant (velocity_estimator.hpp).
+struct VelocityOption {
+  std::string text = "backward";
+  void add_to(CLI::App& app);
+  /// The estimator; `period` [s] converts a cutoff in Hz (nu = f_c T), 0 when no period is known.
+  /// Throws InvalidParameter for a malformed text, a cutoff in Hz without a period, and the library's ranges.
+  VelocityEstimator parse(double period) const;
+};
+
+/// {"kind": "backward"} / {"kind": "lowpass", "cutoff": nu} / {"kind": "window", "window": N}.
+nlohmann::json velocity_json(const VelocityEstimator& estimator);
+
+/// A one-line description: "backward", "lowpass nu = 0.02", "window N = 15".
+std::string velocity_text(const VelocityEstimator& estimator);
 
 }  // namespace hapticopt::cli

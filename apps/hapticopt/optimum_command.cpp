@@ -135,6 +135,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
     bool json = false;
     bool robust = false;
     bool passive = false;
+    VelocityOption velocity;
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("optimum", "optimal (alpha, beta) of a criterion, and (K, B) with --mass");
@@ -164,6 +165,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
       "best gains within the Colgate-Schenkel passive set with the delay (delta > max_theta R(theta), "
       "integer delays only); CE0..2, CI0..2 only");
   passive->excludes(robust);
+  args->velocity.add_to(*sub);
   sub->add_flag("--json", args->json, "print one JSON object");
   return [args, mass]() {
     const bool physical = mass->count() > 0;
@@ -188,6 +190,64 @@ CommandRunner add_optimum_command(CLI::App& app) {
       box.period = args->period;
     }
     const auto impulse = parse_impulse_criterion(args->criterion);
+    const VelocityEstimator estimator = args->velocity.parse(physical ? box.period : 0.0);
+    if (estimator.kind != VelocityEstimatorKind::backward) {
+      const auto step = parse_criterion(args->criterion);
+      if (args->robust || args->passive || impulse || !step || *step == Criterion::Overshoot) {
+        std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
+                  << " supports amax, CE0..2 and CE0+OV..CE2+OV without --robust and --passive (not "
+                  << args->criterion << ")\n";
+        return int{kUsage};
+      }
+      const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
+      const NormalizedPlant np = physical ? normalize(plant) : args->plant.normalized();
+      EstimatorOptimumOptions eo;
+      eo.overshoot_tolerance = args->tolerance;
+      const EstimatorOptimum o = optimal_point(*step, np, estimator, eo);
+      const EstimatorStabilityRegion region(np, estimator);
+      const double noise = force_noise_gain(np, NormalizedGains{o.alpha, o.beta}, estimator);
+      WallGains g{0, 0};
+      if (physical) g = to_physical(NormalizedGains{o.alpha, o.beta}, plant.mass, plant.period);
+      const char* note = "passivity is modelled for the backward difference only";
+      if (args->json) {
+        nlohmann::json out;
+        out["criterion"] = args->criterion;
+        out["alpha"] = o.alpha;
+        out["beta"] = o.beta;
+        out["cost"] = o.cost ? nlohmann::json(*o.cost) : nlohmann::json(nullptr);
+        out["alpha_max"] = o.alpha_max;
+        out["beta_at_alpha_max"] = o.beta_at_alpha_max;
+        nlohmann::json islands = nlohmann::json::array();
+        for (const StableIsland& i : region.islands()) {
+          islands.push_back({{"alpha_min", i.alpha_min}, {"alpha_max", i.alpha_max}, {"beta_min", i.beta_min},
+                             {"beta_max", i.beta_max}});
+        }
+        out["stable_islands"] = islands;
+        out["passive"] = nullptr;
+        out["passivity_margin"] = nullptr;
+        out["passivity_note"] = note;
+        out["velocity_estimator"] = velocity_json(estimator);
+        out["force_noise_gain"] = number_or_null(noise);
+        if (physical) {
+          out["K"] = g.stiffness;
+          out["B"] = g.damping;
+        }
+        std::cout << out.dump() << '\n';
+        return int{kOk};
+      }
+      std::printf("criterion  %s\nvelocity   %s\nalpha      %.10f\nbeta       %.10f\n", args->criterion.c_str(),
+                  velocity_text(estimator).c_str(), o.alpha, o.beta);
+      if (o.cost) std::printf("cost       %.10g\n", *o.cost);
+      std::printf("alpha_max  %.10f (main region, beta %.10f)\n", o.alpha_max, o.beta_at_alpha_max);
+      for (const StableIsland& i : region.islands()) {
+        std::printf("island     alpha %.4g..%.4g, beta %.4g..%.4g (not connected to the main region)\n", i.alpha_min,
+                    i.alpha_max, i.beta_min, i.beta_max);
+      }
+      std::printf("alpha/alpha_max  %.4f\nnoise gain g_F   %.6g\npassive    not covered (%s)\n", o.alpha / o.alpha_max,
+                  noise, note);
+      if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
+      return int{kOk};
+    }
     if (args->robust) {
       const auto step = parse_criterion(args->criterion);
       if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
@@ -250,6 +310,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
       out["beta"] = beta;
       out["cost"] = cost ? nlohmann::json(*cost) : nlohmann::json(nullptr);
       out["alpha_max"] = alpha_max;
+      out["velocity_estimator"] = velocity_json(estimator);
+      out["force_noise_gain"] = number_or_null(force_noise_gain(np, NormalizedGains{alpha, beta}));
       if (args->passive) out["passive_constraint"] = true;
       if (depth) {
         out["penetration"] = *depth;

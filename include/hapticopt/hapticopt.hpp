@@ -27,4 +27,5 @@
 #include "stability_region.hpp"
 #include "stein_equation.hpp"
 #include "step_response.hpp"
+#include "velocity_estimator.hpp"
 #include "version.hpp"

@@ -4,6 +4,8 @@
 // Figures go in the README with the machine they were measured on.
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
+
 #include <hapticopt/hapticopt.hpp>
 
 namespace {
@@ -76,6 +78,58 @@ BENCHMARK(BM_Optimum)
     ->Args({static_cast<int>(Criterion::CE2), 6})
     ->Args({static_cast<int>(Criterion::CE2_OV), 1})
     ->Args({static_cast<int>(Criterion::Overshoot), 1})
+    ->Unit(benchmark::kMillisecond);
+
+
+// Velocity estimators (velocity_estimator.hpp). Kind 0: the backward difference through the estimator's
+// dense loop (complex Schur; compare BM_EnergyCosts, the shift-structured backward path, in the same run);
+// 1: low-pass nu = 0.02 (20 Hz at 1 kHz); 2: window N = 15. Gains: BM_EstimatorOptimum's CE2 optima of
+// these estimators are about (0.0047, 0.09..0.11) at d = 0, 1 and (0.0013, 0.05) at d = 6: use points inside
+// every main region.
+VelocityEstimator estimator_for(std::int64_t kind) {
+  if (kind == 1) return VelocityEstimator::low_pass(0.02);
+  if (kind == 2) return VelocityEstimator::moving_window(15);
+  return VelocityEstimator::backward_difference();
+}
+NormalizedGains estimator_gains_for(double d) { return d >= 6 ? NormalizedGains{0.0013, 0.05} : NormalizedGains{0.0046, 0.09}; }
+
+void BM_EstimatorEnergyCosts(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(1));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const VelocityEstimator e = estimator_for(state.range(0));
+  const NormalizedGains g = estimator_gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(estimator_energy_costs(plant, e, g.alpha, g.beta));
+}
+BENCHMARK(BM_EstimatorEnergyCosts)
+    ->Args({0, 1})->Args({1, 1})->Args({2, 1})->Args({0, 6})->Args({1, 6})->Args({2, 6})
+    ->Unit(benchmark::kMicrosecond);
+
+// The backward baseline of BM_EstimatorEnergyCosts at the same gains (shift-structured path).
+void BM_EstimatorBaselineEnergyCosts(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(0));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const NormalizedGains g = estimator_gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(energy_costs(plant, g.alpha, g.beta));
+}
+BENCHMARK(BM_EstimatorBaselineEnergyCosts)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
+
+void BM_ForceNoiseGain(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(1));
+  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+  const VelocityEstimator e = estimator_for(state.range(0));
+  const NormalizedGains g = estimator_gains_for(d);
+  for (auto _ : state) benchmark::DoNotOptimize(estimator_force_noise_gain(plant, e, g.alpha, g.beta));
+}
+BENCHMARK(BM_ForceNoiseGain)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMicrosecond);
+
+// CE2 optimum with the estimator; kind 0 is the existing backward optimiser (optimal_point, optimum.hpp).
+void BM_EstimatorOptimum(benchmark::State& state) {
+  const double d = static_cast<double>(state.range(1));
+  const VelocityEstimator e = estimator_for(state.range(0));
+  for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, e));
+}
+BENCHMARK(BM_EstimatorOptimum)
+    ->Args({0, 1})->Args({1, 1})->Args({2, 1})->Args({0, 6})->Args({1, 6})->Args({2, 6})
     ->Unit(benchmark::kMillisecond);
 
 void BM_AllTableRows(benchmark::State& state) {
