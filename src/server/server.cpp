@@ -93,7 +93,7 @@ struct Resolved {
 };
 
 struct Refusal {
-    std::string code;
+    cl::ErrorCode code = cl::ErrorCode::BadMessage;
     std::string message;
     std::optional<double> largest_stable_K;
     std::optional<std::pair<double, double>> damping_needed = std::nullopt;  // unstable_gains: the B (N s/m) interval for K
@@ -252,19 +252,19 @@ struct Server::Impl {
         const ssize_t n = ::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
         if (n < 0) {
             if (errno == EAGAIN || errno == EWOULDBLOCK) {
-                close_session(s, "slow_consumer (a reply did not fit: the client does not read)");
+                close_session(s, std::string(cl::to_string(cl::ErrorCode::SlowConsumer)) + " (a reply did not fit: the client does not read)");
             } else {
                 close_session(s, std::string("send failed: ") + std::strerror(errno));
             }
         }
     }
 
-    void send_error(Session& s, std::optional<std::uint64_t> id, const std::string& code, const std::string& message,
+    void send_error(Session& s, std::optional<std::uint64_t> id, cl::ErrorCode code, const std::string& message,
                     int op_index = -1, std::optional<double> largest = std::nullopt,
                     std::optional<std::pair<double, double>> damping = std::nullopt) {
-        json e{{"type", "error"}, {"code", code}, {"message", message}};
+        json e{{"type", "error"}, {"code", cl::to_string(code)}, {"message", message}};
         e["id"] = id ? json(*id) : json(nullptr);
-        if (op_index >= -1 && code != "bad_json") e["op_index"] = op_index;
+        if (op_index >= -1 && code != cl::ErrorCode::BadJson) e["op_index"] = op_index;
         if (largest) e["largest_stable_K"] = *largest;
         if (damping) e["damping_needed"] = json::array({damping->first, damping->second});
         send_reply(s, e);
@@ -279,7 +279,7 @@ struct Server::Impl {
             socklen_t len = sizeof(cred);
             const bool have = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0;
             if (sessions.size() >= kMaxSessions) {
-                const std::string text = json{{"type", "refused"}, {"code", "capacity"},
+                const std::string text = json{{"type", "refused"}, {"code", cl::to_string(cl::ErrorCode::Capacity)},
                                               {"message", "Server: " + std::to_string(kMaxSessions) + " sessions already open"}}
                                              .dump();
                 (void)::send(fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
@@ -401,7 +401,7 @@ struct Server::Impl {
     std::optional<Refusal> check_vector(const cl::Vec3& v, const std::string& field, bool unit) const {
         for (std::size_t a = config.axes; a < 3; ++a) {
             if (v[a] != 0.0) {
-                return Refusal{"bad_message", field + "[" + std::to_string(a) + "] = " + g(v[a]) + " is invalid: the device has " +
+                return Refusal{cl::ErrorCode::BadMessage, field + "[" + std::to_string(a) + "] = " + g(v[a]) + " is invalid: the device has " +
                                                   std::to_string(config.axes) + " axes; accepted: 0 beyond axis " +
                                                   std::to_string(config.axes - 1), std::nullopt};
             }
@@ -409,7 +409,7 @@ struct Server::Impl {
         if (unit) {
             const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
             if (!(std::fabs(n - 1.0) <= 1e-6)) {
-                return Refusal{"bad_message", field + ": length " + g(n) + " is invalid; accepted range: a unit vector, | |n| - 1 | <= 1e-6",
+                return Refusal{cl::ErrorCode::BadMessage, field + ": length " + g(n) + " is invalid; accepted range: a unit vector, | |n| - 1 | <= 1e-6",
                                std::nullopt};
             }
         }
@@ -441,7 +441,7 @@ struct Server::Impl {
     std::optional<Refusal> check_stiffness_limit(double K, const std::string& what) const {
         const std::optional<double> limit = checker.max_stiffness();
         if (!limit || !(K > *limit)) return std::nullopt;
-        return Refusal{"beyond_device_limits", what + " = " + g(K) + " N/m exceeds the device's stiffness limit (device profile key "
+        return Refusal{cl::ErrorCode::BeyondDeviceLimits, what + " = " + g(K) + " N/m exceeds the device's stiffness limit (device profile key "
                                                       "max_stiffness = " + g(*limit) + " N/m); accepted range: <= " + g(*limit) + " N/m",
                        std::nullopt};
     }
@@ -457,10 +457,10 @@ struct Server::Impl {
             try {
                 c = checker.criterion_gains(gains.criterion, lightest);
             } catch (const std::exception& e) {
-                return Refusal{"bad_message", kind + ".gains.criterion = " + cl::truncate_utf8(gains.criterion, 40) + ": " + e.what(), std::nullopt};
+                return Refusal{cl::ErrorCode::BadMessage, kind + ".gains.criterion = " + cl::truncate_utf8(gains.criterion, 40) + ": " + e.what(), std::nullopt};
             }
             if (!c) {
-                return Refusal{"unknown_criterion", kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
+                return Refusal{cl::ErrorCode::UnknownCriterion, kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
                                                         "\" is invalid; accepted: " + accepted_criteria_text(),
                                std::nullopt};
             }
@@ -477,7 +477,7 @@ struct Server::Impl {
         const PairVerdict v = checker.check_object(K, B, masses);
         if (!v.stable) {
             const std::string along = masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
-            return Refusal{"unstable_gains",
+            return Refusal{cl::ErrorCode::UnstableGains,
                            kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
                                ") are outside the stability region for " + along + ", " + g(v.mass) + " kg (device mass " +
                                checker.mass().describe() + "), period " + g(config.period) + " s, delay " + g(config.delay) +
@@ -549,14 +549,14 @@ struct Server::Impl {
         if (auto r = check_in_workspace(field.center, "field.center")) return r;
         if (auto r = server::check_field_damping(field.damping)) return Refusal{r->code, r->message, std::nullopt};
         if (!(field.radius > 0.0) || !std::isfinite(field.radius)) {
-            return Refusal{"bad_message", "field.radius = " + g(field.radius) + " is invalid; accepted range: finite, > 0 m", std::nullopt};
+            return Refusal{cl::ErrorCode::BadMessage, "field.radius = " + g(field.radius) + " is invalid; accepted range: finite, > 0 m", std::nullopt};
         }
         Matrix3 J{};
         for (std::size_t i = 0; i < 3; ++i) {
             for (std::size_t j = 0; j < 3; ++j) {
                 J[i][j] = field.jacobian[i][j];
                 if ((i >= config.axes || j >= config.axes) && J[i][j] != 0.0) {
-                    return Refusal{"bad_message", "field.jacobian[" + std::to_string(i) + "][" + std::to_string(j) +
+                    return Refusal{cl::ErrorCode::BadMessage, "field.jacobian[" + std::to_string(i) + "][" + std::to_string(j) +
                                                       "] is invalid: the device has " + std::to_string(config.axes) +
                                                       " axes; accepted: 0 outside them", std::nullopt};
                 }
@@ -565,19 +565,19 @@ struct Server::Impl {
         const GainChecker::FieldStiffness fs = GainChecker::field_stiffness(J);
         const double scale = 1e-12 * (1.0 + fs.jacobian_norm);
         if (fs.min_stiffness < -scale) {
-            return Refusal{"unstable_gains", "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.min_stiffness) +
+            return Refusal{cl::ErrorCode::UnstableGains, "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.min_stiffness) +
                                                  " N/m > 0 (a negative stiffness, unstable); accepted: sym(J) negative semi-definite",
                            std::nullopt};
         }
         const double f0 = std::sqrt(field.force[0] * field.force[0] + field.force[1] * field.force[1] + field.force[2] * field.force[2]);
         const double largest = f0 + fs.jacobian_norm * field.radius;
         if (largest > config.max_force) {
-            return Refusal{"beyond_device_limits", "field: the largest force |F0| + ||J|| radius = " + g(largest) +
+            return Refusal{cl::ErrorCode::BeyondDeviceLimits, "field: the largest force |F0| + ||J|| radius = " + g(largest) +
                                                        " N exceeds the device's max_force; accepted range: <= " + g(config.max_force) + " N",
                            std::nullopt};
         }
         if (!(field.damping >= 0.0)) {
-            return Refusal{"bad_message", "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
+            return Refusal{cl::ErrorCode::BadMessage, "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
                            std::nullopt};
         }
         if (auto r = check_stiffness_limit(fs.max_stiffness, "field: the stiffness of its Jacobian (largest eigenvalue of -sym(J))")) return r;
@@ -585,7 +585,7 @@ struct Server::Impl {
         for (std::size_t i = 0; i < config.axes; ++i) B_field[i][i] = field.damping;
         std::string why;
         std::optional<double> largest_stable_K;
-        if (!checker.field_is_stable(J, B_field, why, largest_stable_K)) return Refusal{"unstable_gains", why, largest_stable_K};
+        if (!checker.field_is_stable(J, B_field, why, largest_stable_K)) return Refusal{cl::ErrorCode::UnstableGains, why, largest_stable_K};
         p.kind = ObjectKind::Field;
         p.point = to_axis(field.center);
         p.radius = field.radius;
@@ -613,7 +613,7 @@ struct Server::Impl {
             std::lock_guard<std::mutex> lock(counters_mutex);
             ++counters.commits_refused;
         }
-        send_error(s, id, "session_limit",
+        send_error(s, id, cl::ErrorCode::SessionLimit,
                    "commit: this session has " + std::to_string(s.in_flight.size()) +
                        " batches handed to the loop and not yet applied (the loop has applied up to commit_seq " +
                        std::to_string(snapshot.last_commit_seq) + "); accepted: at most " + std::to_string(config.session_max_in_flight) +
@@ -623,17 +623,6 @@ struct Server::Impl {
         return true;
     }
 
-    // A modify that keeps everything but where the object is: applied at once, without a ramp.
-    static bool is_move(const ObjectParams& a, const ObjectParams& b) {
-        if (a.kind != b.kind || a.K != b.K || a.B != b.B) return false;
-        switch (a.kind) {
-            case ObjectKind::Plane: return a.direction == b.direction && a.bilateral == b.bilateral;
-            case ObjectKind::Spring: return a.constraint == b.constraint && a.direction == b.direction;
-            case ObjectKind::Field: return a.radius == b.radius && a.jacobian == b.jacobian;
-        }
-        return false;
-    }
-
     // ---- commit --------------------------------------------------------------------------------
     void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req) {
         if (refuse_over_in_flight_limit(s, id)) return;
@@ -641,7 +630,7 @@ struct Server::Impl {
         std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates{};
         std::vector<std::uint32_t> new_ids;
         std::uint32_t next_id = next_object_id;
-        auto refuse = [&](const std::string& code, const std::string& message, int op, std::optional<double> largest = std::nullopt,
+        auto refuse = [&](cl::ErrorCode code, const std::string& message, int op, std::optional<double> largest = std::nullopt,
                           std::optional<std::pair<double, double>> damping = std::nullopt) {
             {
                 std::lock_guard<std::mutex> lock(counters_mutex);
@@ -659,14 +648,14 @@ struct Server::Impl {
             const int slot = find_slot(object_id);
             if (slot < 0) {
                 if (object_id >= 1 && object_id <= config.config_walls.size()) {
-                    refuse("not_owner", "object " + std::to_string(object_id) + " is a config-file wall, owned by the daemon", op);
+                    refuse(cl::ErrorCode::NotOwner, "object " + std::to_string(object_id) + " is a config-file wall, owned by the daemon", op);
                 } else {
-                    refuse("unknown_object", "object_id = " + std::to_string(object_id) + ": no such object in the scene", op);
+                    refuse(cl::ErrorCode::UnknownObject, "object_id = " + std::to_string(object_id) + ": no such object in the scene", op);
                 }
                 return false;
             }
             if (proposal[static_cast<std::size_t>(slot)].owner != s.id) {
-                refuse("not_owner", "object " + std::to_string(object_id) + " belongs to session " +
+                refuse(cl::ErrorCode::NotOwner, "object " + std::to_string(object_id) + " belongs to session " +
                                         std::to_string(proposal[static_cast<std::size_t>(slot)].owner) + ", not to this one (" +
                                         std::to_string(s.id) + ")", op);
                 return false;
@@ -705,14 +694,14 @@ struct Server::Impl {
                         }
                     }
                     if (const std::size_t held = objects_held(proposal, s.id); held >= config.session_max_objects) {
-                        refuse("session_limit", "this session holds " + std::to_string(held) + " objects; accepted: at most " +
+                        refuse(cl::ErrorCode::SessionLimit, "this session holds " + std::to_string(held) + " objects; accepted: at most " +
                                                     std::to_string(config.session_max_objects) +
                                                     " per session (option session-max-objects; the scene holds " +
                                                     std::to_string(kSceneObjectCapacity) + ")", op_index);
                         return;
                     }
                     if (free_slot < 0) {
-                        refuse("capacity", "the scene holds " + std::to_string(kSceneObjectCapacity) +
+                        refuse(cl::ErrorCode::Capacity, "the scene holds " + std::to_string(kSceneObjectCapacity) +
                                                " client objects (removed ones count until their ramp-out ends); remove some first", op_index);
                         return;
                     }
@@ -781,7 +770,7 @@ struct Server::Impl {
                     std::lock_guard<std::mutex> lock(counters_mutex);
                     ++counters.commits_refused;
                 }
-                send_error(s, id, "beyond_device_limits",
+                send_error(s, id, cl::ErrorCode::BeyondDeviceLimits,
                            "commit: the summed stiffness of the scene along its stiffest direction, " + g(largest) +
                                " N/m, exceeds the device's stiffness limit (device profile key max_stiffness = " + g(*limit) +
                                " N/m); accepted range: <= " + g(*limit) + " N/m (all objects are counted as in contact at once)",
@@ -810,7 +799,7 @@ struct Server::Impl {
                 std::lock_guard<std::mutex> lock(counters_mutex);
                 ++counters.commits_refused;
             }
-            send_error(s, id, verdict.over_limit ? "capacity" : "unstable_sum", "commit: " + verdict.why + " (docs/protocol.md, section 5)", -1);
+            send_error(s, id, verdict.over_limit ? cl::ErrorCode::Capacity : cl::ErrorCode::UnstableSum, "commit: " + verdict.why + " (docs/protocol.md, section 5)", -1);
             return;
         }
 
@@ -820,12 +809,12 @@ struct Server::Impl {
         }
         push_pending();  // older ramp-outs first, so batches reach the loop in order
         if (!pending.empty()) {
-            send_error(s, id, "busy", "commit: the hand-over queue to the loop is full; retry", -1);
+            send_error(s, id, cl::ErrorCode::Busy, "commit: the hand-over queue to the loop is full; retry", -1);
             return;
         }
         c.seq = next_commit_seq;
         if (c.count > 0 && !ring.try_push(c)) {
-            send_error(s, id, "busy", "commit: the hand-over queue to the loop is full; retry", -1);
+            send_error(s, id, cl::ErrorCode::Busy, "commit: the hand-over queue to the loop is full; retry", -1);
             return;
         }
         std::uint64_t seq = 0;
@@ -885,32 +874,22 @@ struct Server::Impl {
         return objects;
     }
 
-    static const char* fault_name(std::uint32_t f) {
-        switch (f) {
-            case 0: return "none";
-            case 1: return "device";
-            case 2: return "non-finite";
-            case 3: return "watchdog";
-            case kFaultFatalSignal: return "fatal_signal";
-            case kFaultTerminate: return "terminate";
-            default: return "unknown";
-        }
-    }
+    static const char* fault_name(std::uint32_t f) { return to_string(static_cast<StateFault>(f)); }
 
     void handle_message(Session& s, std::string_view bytes) {
         s.last_rx = Clock::now();
         const server::DecodeResult result = server::decode_message(bytes, !s.welcomed);
         if (const auto* e = std::get_if<server::DecodeError>(&result)) {
-            if (e->code == "protocol_version") {
-                send_reply(s, json{{"type", "refused"}, {"code", e->code}, {"server_protocol", server::kServerProtocol},
+            if (e->code == cl::ErrorCode::ProtocolVersion) {
+                send_reply(s, json{{"type", "refused"}, {"code", cl::to_string(e->code)}, {"server_protocol", server::kServerProtocol},
                                    {"client_protocol", e->client_protocol}, {"message", e->message}});
                 close_session(s, "refused: " + cl::escape_for_log(e->message, 256));
-            } else if (e->code == "bad_hello") {
-                send_reply(s, json{{"type", "refused"}, {"code", e->code}, {"server_protocol", server::kServerProtocol}, {"message", e->message}});
+            } else if (e->code == cl::ErrorCode::BadHello) {
+                send_reply(s, json{{"type", "refused"}, {"code", cl::to_string(e->code)}, {"server_protocol", server::kServerProtocol}, {"message", e->message}});
                 close_session(s, "refused: " + cl::escape_for_log(e->message, 256));
             } else {
                 send_error(s, e->id, e->code, e->message, e->op_index);
-                if (e->code == "oversized") close_session(s, "oversized message");
+                if (e->code == cl::ErrorCode::Oversized) close_session(s, "oversized message");
             }
             return;
         }
@@ -962,7 +941,7 @@ struct Server::Impl {
                     send_reply(s, json{{"type", "ok"}, {"id", id}});
                     close_session(s, "bye");
                 } else {
-                    send_error(s, id, "bad_message", "hello: already welcomed");
+                    send_error(s, id, cl::ErrorCode::BadMessage, "hello: already welcomed");
                 }
             },
             req.body);
@@ -989,7 +968,7 @@ struct Server::Impl {
     void internal_error(Session& s, const char* what) noexcept {
         try {
             log("session " + std::to_string(s.id) + ": internal error while handling a request: " + cl::escape_for_log(what, 256));
-            send_error(s, std::nullopt, "internal", std::string("Server: internal error while handling the request (") +
+            send_error(s, std::nullopt, cl::ErrorCode::Internal, std::string("Server: internal error while handling the request (") +
                                                          cl::truncate_utf8(what, 256) + "); the session goes on");
         } catch (...) {
         }
@@ -1208,7 +1187,7 @@ struct Server::Impl {
             const auto now = Clock::now();
             for (auto& [sid, s] : sessions) {
                 if (!s.closed && !s.welcomed && now - s.last_rx > std::chrono::seconds(kHelloTimeoutS)) {
-                    const std::string text = json{{"type", "refused"}, {"code", "bad_hello"}, {"server_protocol", server::kServerProtocol},
+                    const std::string text = json{{"type", "refused"}, {"code", cl::to_string(cl::ErrorCode::BadHello)}, {"server_protocol", server::kServerProtocol},
                                                   {"message", "Server: no hello within " + std::to_string(kHelloTimeoutS) + " s"}}
                                                  .dump();
                     (void)::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
@@ -1216,7 +1195,7 @@ struct Server::Impl {
                 }
                 if (s.closed || s.lease_s <= 0.0) continue;
                 if (now - s.last_rx > std::chrono::duration<double>(s.lease_s)) {
-                    const std::string text = json{{"type", "expired"}, {"code", "lease_lost"},
+                    const std::string text = json{{"type", "expired"}, {"code", cl::to_string(cl::ErrorCode::LeaseLost)},
                                                   {"message", "lease: no message for " + g(s.lease_s) + " s; the session's objects ramp out"}}
                                                  .dump();
                     (void)::send(s.fd, text.data(), text.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
