@@ -28,7 +28,7 @@ declare -A sources=(
   [falcon_frames]="src/devices/falcon_protocol.cpp"
   [ftdi_strip]="src/devices/ftdi_protocol.cpp"
   [hid_reports]="src/devices/hid_ffb_protocol.cpp src/devices/hid_report_descriptor.cpp"
-  [server_messages]="src/server/message_decoder.cpp src/server/reply_text.cpp src/server/object_limits.cpp src/client/object_json.cpp src/client/text_limits.cpp"
+  [server_messages]="src/server/message_decoder.cpp src/server/reply_text.cpp src/server/object_limits.cpp src/client/object_json.cpp src/client/text_limits.cpp src/client/error_code.cpp"
 )
 # toml++ (Debian's libtomlplusplus-dev) is compiled into the config target header-only, so that its parser is
 # instrumented too (linking Debian's uninstrumented libtomlplusplus.so would leave it out of the coverage). Known

@@ -24,15 +24,7 @@ void append_vector(std::string& out, const char* name, const hapticd::client::Ve
 }  // namespace
 
 std::string fault_name(std::uint32_t fault) {
-    switch (fault) {
-        case 0: return "none";
-        case 1: return "device";
-        case 2: return "non-finite";
-        case 3: return "watchdog";
-        case hapticd::kFaultFatalSignal: return "fatal_signal";
-        case hapticd::kFaultTerminate: return "terminate";
-        default: return std::to_string(fault);
-    }
+    return hapticd::is_state_fault(fault) ? hapticd::to_string(static_cast<hapticd::StateFault>(fault)) : std::to_string(fault);
 }
 
 std::string state_line(const hapticd::client::StateSample& s, std::size_t axes, double period_s) {

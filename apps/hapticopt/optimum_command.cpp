@@ -7,6 +7,7 @@
 #include <iostream>
 #include <memory>
 
+#include <hapticopt/criterion.hpp>
 #include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/optimal_wall.hpp>
 #include <hapticopt/passivity.hpp>
@@ -139,10 +140,13 @@ CommandRunner add_optimum_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("optimum", "optimal (alpha, beta) of a criterion, and (K, B) with --mass");
-  sub->add_option("--criterion", args->criterion,
-                  "amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV; collision: CI0, CI1, CI2")
+  const std::vector<std::string> step = criterion_names(kAllCriteria);
+  const std::vector<std::string> collision = criterion_names(kAllImpulseCriteria);
+  std::vector<std::string> accepted = step;
+  accepted.insert(accepted.end(), collision.begin(), collision.end());
+  sub->add_option("--criterion", args->criterion, joined_names(step) + "; collision: " + joined_names(collision))
       ->required()
-      ->check(CLI::IsMember({"amax", "OV", "CE0", "CE1", "CE2", "CE0+OV", "CE1+OV", "CE2+OV", "CI0", "CI1", "CI2"}));
+      ->check(CLI::IsMember(accepted));
   args->plant.add_to(*sub);
   CLI::Option* mass =
       sub->add_option("--mass", args->mass, "moving mass m [kg] (device + arm); physical mode; MIN:MAX with --robust");

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <memory>
 
+#include <hapticopt/criterion.hpp>
 #include <hapticopt/optimum.hpp>
 
 #include "svg_figure.hpp"
@@ -30,7 +31,7 @@ CommandRunner add_plot_costs(CLI::App& plot) {
   args->fig.add_to(*sub, false, 800);
   sub->add_option("--criterion,-c", args->criterion, "CE0, CE1 or CE2")
       ->capture_default_str()
-      ->check(CLI::IsMember({"CE0", "CE1", "CE2"}));
+      ->check(CLI::IsMember(criterion_names(kEnergyCriteria)));
   sub->add_option("--grid", args->grid, "grid points per axis of the contour grid")
       ->capture_default_str()
       ->check(CLI::Range(8, 2000));

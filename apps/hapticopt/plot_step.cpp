@@ -8,6 +8,7 @@
 #include <chrono>
 #include <memory>
 
+#include <hapticopt/criterion.hpp>
 #include <hapticopt/optimum.hpp>
 #include <hapticopt/step_response.hpp>
 
@@ -28,7 +29,7 @@ CommandRunner add_plot_step(CLI::App& plot) {
   sub->add_option("--criteria,-c", args->criteria, "criteria whose optima are shown (amax OV CE0 CE1 CE2 CEx+OV)")
       ->delimiter(',')
       ->capture_default_str()
-      ->check(CLI::IsMember({"amax", "OV", "CE0", "CE1", "CE2", "CE0+OV", "CE1+OV", "CE2+OV"}));
+      ->check(CLI::IsMember(criterion_names(kAllCriteria)));
   sub->add_option("--duration", args->duration, "time span in periods T")->capture_default_str()->check(CLI::Range(1.0, 1e5));
   sub->add_option("--samples", args->samples, "samples per period")->capture_default_str()->check(CLI::Range(1, 1000));
   sub->add_option("--overshoot-tol", args->tolerance, "relative overshoot counted as none, (0, 1]")

@@ -4,7 +4,7 @@
 // part of the protocol and checked by static_asserts below.
 // Liveness (docs/protocol.md, section 6): the loop stores CLOCK_MONOTONIC into heartbeat_ns after every
 // tick; a reader calls the state stale when it is older than state_stale_after_s(period_s), and a fault of
-// kFaultFatalSignal / kFaultTerminate says the daemon died (the segment is left for the readers to see).
+// StateFault::FatalSignal / StateFault::Terminate says the daemon died (the segment is left for the readers to see).
 #pragma once
 
 #include <atomic>
@@ -13,8 +13,33 @@
 
 namespace hapticd {
 
-inline constexpr std::uint32_t kFaultFatalSignal = 4;  // SIGSEGV, SIGBUS, SIGFPE, SIGILL or SIGABRT ended the daemon
-inline constexpr std::uint32_t kFaultTerminate = 5;    // std::terminate ended the daemon
+// Why the loop stopped rendering: StateLayout::fault, the daemon's run result and the `fault` of the protocol's
+// state and status messages. The numbers are part of the protocol (docs/protocol.md, section 6).
+enum class StateFault : std::uint32_t {
+    None = 0,
+    Device = 1,       // the device reported an error
+    NonFinite = 2,    // non-finite position or force
+    Watchdog = 3,     // too many consecutive overruns, or a stall
+    FatalSignal = 4,  // SIGSEGV, SIGBUS, SIGFPE, SIGILL or SIGABRT ended the daemon
+    Terminate = 5,    // std::terminate ended the daemon
+};
+
+// The protocol's name of a fault: "none", "device", "non-finite", "watchdog", "fatal_signal", "terminate";
+// "unknown" for a number beyond them.
+constexpr const char* to_string(StateFault fault) noexcept {
+    switch (fault) {
+        case StateFault::None: return "none";
+        case StateFault::Device: return "device";
+        case StateFault::NonFinite: return "non-finite";
+        case StateFault::Watchdog: return "watchdog";
+        case StateFault::FatalSignal: return "fatal_signal";
+        case StateFault::Terminate: return "terminate";
+    }
+    return "unknown";
+}
+
+// A number of StateLayout::fault is one of StateFault's.
+constexpr bool is_state_fault(std::uint32_t number) noexcept { return number <= static_cast<std::uint32_t>(StateFault::Terminate); }
 
 // How old the heartbeat may be before a reader calls the state stale: 10 periods, at least 50 ms. A live
 // loop has published 10 times by then; a loop that has not published for 50 ms has stopped rendering for
@@ -49,7 +74,7 @@ struct StateLayout {
     std::uint64_t overruns;
     std::int64_t wake_latency_ns;
     std::uint64_t last_commit_seq;  // every batch up to this commit_seq is applied
-    std::uint32_t fault;    // 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
+    std::uint32_t fault;    // a StateFault
     std::uint32_t objects;  // occupied slots
     std::uint32_t slot_object_id[kStateObjectCapacity];
     std::uint8_t slot_ramp[kStateObjectCapacity];  // ramp factor x 255

@@ -4,7 +4,9 @@
 
 #include <array>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace hapticopt {
 
@@ -44,6 +46,9 @@ inline std::optional<Criterion> parse_criterion(std::string_view name) {
   }
   return std::nullopt;
 }
+
+/// The energy criteria without the overshoot condition: CE0, CE1, CE2 (each one cost surface).
+inline constexpr std::array<Criterion, 3> kEnergyCriteria = {Criterion::CE0, Criterion::CE1, Criterion::CE2};
 
 /// The energy criterion index 0, 1, 2 behind CEx and CEx+OV; nullopt for amax and OV.
 inline constexpr std::optional<int> energy_index(Criterion c) {
@@ -87,6 +92,22 @@ inline std::optional<ImpulseCriterion> parse_impulse_criterion(std::string_view 
     if (to_string(c) == name) return c;
   }
   return std::nullopt;
+}
+
+/// The names of `criteria` (to_string of each, Criterion or ImpulseCriterion), in order: the lists a
+/// command line or an error message accepts.
+template <typename Criteria>
+std::vector<std::string> criterion_names(const Criteria& criteria) {
+  std::vector<std::string> out;
+  for (const auto c : criteria) out.emplace_back(to_string(c));
+  return out;
+}
+
+/// `names` joined by ", " (for "accepted: ..." in messages and help texts).
+inline std::string joined_names(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
 }
 
 /// The energy index 0, 1, 2 of C_I0..2.

@@ -32,18 +32,41 @@ using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecas
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// The criteria a single cost surface exists for (vectorised costs and optimal curves).
+/// CE0 .. CE2 are 0 .. 2 and CI0 .. CI2 are 4 .. 6: their energy index plus 0 or 4 (parse_surface).
 enum class Surface { CE0, CE1, CE2, OV, CI0, CI1, CI2 };
 
-const char* const kSurfaceNames = "CE0, CE1, CE2, OV, CI0, CI1, CI2";
+/// The names of the surfaces, in the enum's order: CE0, CE1, CE2, OV, CI0, CI1, CI2 (criterion.hpp's names).
+const std::vector<std::string>& surface_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out = criterion_names(kEnergyCriteria);
+    out.emplace_back(to_string(Criterion::Overshoot));
+    for (const std::string& n : criterion_names(kAllImpulseCriteria)) out.push_back(n);
+    return out;
+  }();
+  return names;
+}
+
+/// The step and collision criteria, in the order of kAllCriteria then kAllImpulseCriteria.
+std::string step_and_collision_names() {
+  std::vector<std::string> names = criterion_names(kAllCriteria);
+  for (const std::string& n : criterion_names(kAllImpulseCriteria)) names.push_back(n);
+  return joined_names(names);
+}
+
+/// The criteria passive and robust optima exist for: CE0, CE1, CE2, CI0, CI1, CI2.
+std::string energy_and_collision_names() {
+  std::vector<std::string> names = criterion_names(kEnergyCriteria);
+  for (const std::string& n : criterion_names(kAllImpulseCriteria)) names.push_back(n);
+  return joined_names(names);
+}
 
 Surface parse_surface(const std::string& function, const std::string& name) {
-  static const std::pair<const char*, Surface> table[] = {
-      {"CE0", Surface::CE0}, {"CE1", Surface::CE1}, {"CE2", Surface::CE2}, {"OV", Surface::OV},
-      {"CI0", Surface::CI0}, {"CI1", Surface::CI1}, {"CI2", Surface::CI2}};
-  for (const auto& [text, surface] : table) {
-    if (name == text) return surface;
+  if (const auto c = parse_criterion(name)) {
+    if (*c == Criterion::Overshoot) return Surface::OV;
+    if (const auto k = energy_index(*c); k && !requires_no_overshoot(*c)) return static_cast<Surface>(*k);  // CE0 .. CE2
   }
-  throw py::value_error(function + ": criterion = '" + name + "' is invalid; accepted: " + kSurfaceNames);
+  if (const auto ci = parse_impulse_criterion(name)) return static_cast<Surface>(4 + energy_index(*ci));  // CI0 .. CI2
+  throw py::value_error(function + ": criterion = '" + name + "' is invalid; accepted: " + joined_names(surface_names()));
 }
 
 NormalizedPlant plant_of(double gamma, double delta, double delay) { return NormalizedPlant{gamma, delta, delay}; }
@@ -327,7 +350,7 @@ py::dict optimal_point_of(const std::string& criterion, double gamma, double del
     return d;
   }
   throw py::value_error("hapticopt.optimal_point: criterion = '" + criterion +
-                        "' is invalid; accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV, CI0, CI1, CI2");
+                        "' is invalid; accepted: " + step_and_collision_names());
 }
 
 py::dict physical_plant_dict(const PhysicalPlant& p) {
@@ -355,7 +378,7 @@ py::dict robust_optimum_of(const std::string& criterion, std::pair<double, doubl
     without_gil([&] { r = robust_optimum(*ci, box); });
   } else {
     throw py::value_error("hapticopt.robust_optimum: criterion = '" + criterion +
-                          "' is invalid; accepted: CE0, CE1, CE2, CI0, CI1, CI2");
+                          "' is invalid; accepted: " + energy_and_collision_names());
   }
   py::dict d;
   d["stiffness"] = r.gains.stiffness;
@@ -384,7 +407,7 @@ std::optional<py::dict> passive_optimum_of(const std::string& criterion, double 
     without_gil([&] { r = passive_impulse_optimum(energy_index(*ci), np); });
   } else {
     throw py::value_error("hapticopt.passive_optimum: criterion = '" + criterion +
-                          "' is invalid; accepted: CE0, CE1, CE2, CI0, CI1, CI2");
+                          "' is invalid; accepted: " + energy_and_collision_names());
   }
   if (!r) return std::nullopt;
   py::dict d;
@@ -400,6 +423,9 @@ std::optional<py::dict> passive_optimum_of(const std::string& criterion, double 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "hapticopt._core: bindings over the C++ header library (use the hapticopt package, not this module)";
   m.attr("__version__") = HAPTICOPT_VERSION_STRING;
+  m.attr("STEP_CRITERIA") = py::tuple(py::cast(criterion_names(kAllCriteria)));
+  m.attr("COLLISION_CRITERIA") = py::tuple(py::cast(criterion_names(kAllImpulseCriteria)));
+  m.attr("SURFACE_CRITERIA") = py::tuple(py::cast(surface_names()));
 
   static py::exception<InvalidParameter> invalid_parameter(m, "InvalidParameterError", PyExc_ValueError);
   py::register_exception_translator([](std::exception_ptr p) {

@@ -26,29 +26,12 @@ namespace {
 
 using nlohmann::json;
 
-struct CodeName {
-    ErrorCode code;
-    const char* name;
-};
-constexpr CodeName kCodeNames[] = {
-    {ErrorCode::ProtocolVersion, "protocol_version"}, {ErrorCode::BadHello, "bad_hello"},
-    {ErrorCode::Oversized, "oversized"},              {ErrorCode::BadJson, "bad_json"},
-    {ErrorCode::BadMessage, "bad_message"},           {ErrorCode::UnstableGains, "unstable_gains"},
-    {ErrorCode::UnstableSum, "unstable_sum"},         {ErrorCode::BeyondDeviceLimits, "beyond_device_limits"},
-    {ErrorCode::UnknownCriterion, "unknown_criterion"}, {ErrorCode::UnknownObject, "unknown_object"},
-    {ErrorCode::NotOwner, "not_owner"},               {ErrorCode::Capacity, "capacity"},
-    {ErrorCode::Busy, "busy"},                        {ErrorCode::LeaseLost, "lease_lost"},
-    {ErrorCode::SlowConsumer, "slow_consumer"},       {ErrorCode::Transport, "transport"},
-    {ErrorCode::SessionLimit, "session_limit"},       {ErrorCode::Internal, "internal"},
-    {ErrorCode::Unknown, "unknown"},
-};
-
 Error transport_error(const std::string& function, const std::string& what) {
     return Error(ErrorCode::Transport, function + ": " + what);
 }
 
 Error error_from_reply(const std::string& function, const json& reply) {
-    const std::string code = reply.value("code", std::string("unknown"));
+    const std::string code = reply.value("code", std::string(to_string(ErrorCode::Unknown)));
     const std::string message = reply.value("message", std::string("(no message)"));
     const int op_index = reply.contains("op_index") && reply["op_index"].is_number_integer() ? reply["op_index"].get<int>() : -1;
     std::optional<double> largest;
@@ -133,20 +116,6 @@ ContactEvent contact_from_json(const json& j) {
 }
 
 }  // namespace
-
-const char* to_string(ErrorCode code) noexcept {
-    for (const auto& c : kCodeNames) {
-        if (c.code == code) return c.name;
-    }
-    return "unknown";
-}
-
-ErrorCode error_code_from_string(const std::string& code) noexcept {
-    for (const auto& c : kCodeNames) {
-        if (code == c.name) return c.code;
-    }
-    return ErrorCode::Unknown;
-}
 
 Batch& Batch::add(const ObjectDescription& object) {
     operations_.push_back({Operation::Kind::Add, 0, object});

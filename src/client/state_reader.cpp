@@ -80,7 +80,8 @@ bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
             ::clock_gettime(CLOCK_MONOTONIC, &ts);
             const std::int64_t now = static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
             out.heartbeat_age_s = beat == 0 ? -1.0 : 1e-9 * static_cast<double>(now - beat);
-            out.stale = beat == 0 || out.heartbeat_age_s > stale_after_s() || out.fault == kFaultFatalSignal || out.fault == kFaultTerminate;
+            out.stale = beat == 0 || out.heartbeat_age_s > stale_after_s() || out.fault == static_cast<std::uint32_t>(StateFault::FatalSignal) ||
+                    out.fault == static_cast<std::uint32_t>(StateFault::Terminate);
             out.fatal_signal = l.fatal_signal.load(std::memory_order_relaxed);
             return true;
         }

@@ -39,23 +39,23 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
 
     DeviceStatus status = device_.read_position(position);
     const DeviceStatus read_status = status;
-    if (status != DeviceStatus::Ok && result_.fault == Fault::None) {
-        result_.fault = Fault::Device;
+    if (status != DeviceStatus::Ok && result_.fault == StateFault::None) {
+        result_.fault = StateFault::Device;
         result_.device_status = status;
         result_.fault_tick = in.tick;
     }
-    if (result_.fault == Fault::None && config_.watchdog_enabled &&
+    if (result_.fault == StateFault::None && config_.watchdog_enabled &&
         watchdog_.check(in.consecutive_overruns, in.skipped_periods)) {
-        result_.fault = Fault::Watchdog;
+        result_.fault = StateFault::Watchdog;
         result_.fault_tick = in.tick;
     }
-    if (result_.fault == Fault::None) {
+    if (result_.fault == StateFault::None) {
         SceneFault sf = scene_.evaluate(position, force);
         if (sf == SceneFault::None && hooks_.objects != nullptr && !hooks_.objects->add_forces(position, force)) {
             sf = SceneFault::NonFiniteForce;
         }
         if (sf != SceneFault::None) {
-            result_.fault = Fault::NonFinite;
+            result_.fault = StateFault::NonFinite;
             result_.scene_fault = sf;
             result_.fault_tick = in.tick;
         }
@@ -63,21 +63,18 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
     // The delay buffer keeps its timing whatever happens; its output is applied only while all is well.
     AxisVector delayed = delay_.push_pop(force);
     // Passivity control observes the port after the delay buffer and damps what it generated (same tick).
-    if (config_.passivity != nullptr && result_.fault == Fault::None) config_.passivity->apply(position, delayed);
-    const bool zero = result_.fault != Fault::None || stop || last;
+    if (config_.passivity != nullptr && result_.fault == StateFault::None) config_.passivity->apply(position, delayed);
+    const bool zero = result_.fault != StateFault::None || stop || last;
     const AxisVector applied = zero ? AxisVector{} : delayed;
 
     status = device_.write_force(applied);
-    if (status != DeviceStatus::Ok && result_.fault == Fault::None) {
-        result_.fault = Fault::Device;
+    if (status != DeviceStatus::Ok && result_.fault == StateFault::None) {
+        result_.fault = StateFault::Device;
         result_.device_status = status;
         result_.fault_tick = in.tick;
     }
-    // The protocol's fault numbers (docs/protocol.md, section 6): 0 none, 1 device, 2 non-finite, 3 watchdog.
-    const std::uint8_t fault_number = result_.fault == Fault::Device      ? 1U
-                                      : result_.fault == Fault::NonFinite ? 2U
-                                      : result_.fault == Fault::Watchdog  ? 3U
-                                                                          : 0U;
+    // The protocol's fault number (docs/protocol.md, section 6): None, Device, NonFinite or Watchdog here.
+    const auto fault_number = static_cast<std::uint8_t>(result_.fault);
 
     if (config_.recorder != nullptr) {
         recording::TickChunk& r = record_chunk_;
@@ -108,7 +105,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         st.overruns = loop_.counters().overruns;
         st.wake_latency_ns = in.wake_latency_ns;
         st.config_contact_mask = scene_.contact_mask();
-        st.fault = fault_number;
+        st.fault = result_.fault;
         hooks_.state->publish(st, hooks_.objects);
         if (hooks_.contacts != nullptr) hooks_.contacts->detect(st, hooks_.objects);
     }
@@ -125,7 +122,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         r.wake_latency_us = static_cast<double>(in.wake_latency_ns) * 1e-3;
         trace_->push(r);
     }
-    return TickOutput{.stop = zero || result_.fault != Fault::None};
+    return TickOutput{.stop = zero || result_.fault != StateFault::None};
 }
 
 }  // namespace hapticd

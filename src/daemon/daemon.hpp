@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 
+#include "hapticd/state_layout.hpp"
 #include "scene/delay_ring.hpp"
 #include "scene/passivity_controller.hpp"
 #include "devices/device.hpp"
@@ -64,7 +65,7 @@ struct DaemonConfig {
 
 struct RunResult {
     LoopCounters counters;
-    Fault fault = Fault::None;
+    StateFault fault = StateFault::None;
     SceneFault scene_fault = SceneFault::None;
     DeviceStatus device_status = DeviceStatus::Ok;
     std::uint64_t fault_tick = 0;

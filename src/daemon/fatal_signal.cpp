@@ -44,12 +44,12 @@ void write_number(int v) noexcept {
 }
 
 // Async-signal-safe: atomics, the device's signal-safe zero, the seqlock store, write(2).
-void stop_everything(std::uint32_t fault, int signal_number) noexcept {
+void stop_everything(StateFault fault, int signal_number) noexcept {
     Device* device = g_device.load(std::memory_order_acquire);
     const bool zeroed = device != nullptr && device->zero_force_from_signal_handler();
     if (StatePublisher* state = g_state.load(std::memory_order_acquire)) state->mark_fatal(fault, signal_number);
-    write_text(fault == kFaultTerminate ? "hapticd: fatal: std::terminate" : "hapticd: fatal: signal ");
-    if (fault != kFaultTerminate) write_number(signal_number);
+    write_text(fault == StateFault::Terminate ? "hapticd: fatal: std::terminate" : "hapticd: fatal: signal ");
+    if (fault != StateFault::Terminate) write_number(signal_number);
     write_text(zeroed ? "; zero force written to the device"
                       : (device != nullptr ? "; the device's driver cannot write zero force from a signal handler"
                                            : "; no device open"));
@@ -73,12 +73,12 @@ void die_with(int signal_number) noexcept {
 }
 
 extern "C" void on_fatal_signal(int signal_number) {
-    if (!g_dying.exchange(true)) stop_everything(kFaultFatalSignal, signal_number);
+    if (!g_dying.exchange(true)) stop_everything(StateFault::FatalSignal, signal_number);
     die_with(signal_number);
 }
 
 [[noreturn]] void on_terminate() noexcept {
-    if (!g_dying.exchange(true)) stop_everything(kFaultTerminate, SIGABRT);
+    if (!g_dying.exchange(true)) stop_everything(StateFault::Terminate, SIGABRT);
     die_with(SIGABRT);
     std::_Exit(128 + SIGABRT);
 }

@@ -197,7 +197,7 @@ int replay_verdict(const Recording& r, const RunResult& run, const PlaybackDevic
     if (device.ticks_compared() != r.ticks.size() || taken != r.batches.size()) {
         std::cerr << "hapticd: error: replay of '" << r.path << "': the replay ran " << device.ticks_compared() << " ticks and took "
                   << taken << " batches; the recording has " << r.ticks.size() << " ticks and " << r.batches.size() << " batches"
-                  << (run.fault != Fault::None ? " (the replay faulted at tick " + std::to_string(run.fault_tick) + ")" : std::string()) << "\n";
+                  << (run.fault != StateFault::None ? " (the replay faulted at tick " + std::to_string(run.fault_tick) + ")" : std::string()) << "\n";
         same = false;
     }
     if (!same) return kExitReplayMismatch;
@@ -494,7 +494,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     notifier.stopping("loop ended after " + std::to_string(daemon->loop().counters().ticks) + " ticks");
     report.ran = true;
     report.loop = &daemon->loop();
-    if (report.run.fault == Fault::Device) report.device_error = device->last_error();
+    if (report.run.fault == StateFault::Device) report.device_error = device->last_error();
     clear_fatal_signal_targets();
     device->close();  // zero force (the last tick already wrote zero when the device still listened)
     closer.device = nullptr;
@@ -535,23 +535,26 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
 
     int code = kExitOk;
     switch (report.run.fault) {
-        case Fault::None: break;
-        case Fault::Device:
+        case StateFault::None: break;
+        case StateFault::Device:
             code = kExitDeviceError;
             std::cerr << "hapticd: error: device '" << profile.name << "' failed at tick " << report.run.fault_tick << ": "
                       << report.device_error << "; zero force, loop stopped\n";
             break;
-        case Fault::NonFinite:
+        case StateFault::NonFinite:
             code = kExitRunFault;
             std::cerr << "hapticd: error: fault at tick " << report.run.fault_tick << ": " << to_string(report.run.scene_fault)
                       << "; zero force, loop stopped\n";
             break;
-        case Fault::Watchdog:
+        case StateFault::Watchdog:
             code = kExitRunFault;
             std::cerr << "hapticd: error: watchdog fault at tick " << report.run.fault_tick << ": more than "
                       << o.watchdog_overruns << " consecutive overruns or a stall of more than " << o.watchdog_stall_periods
                       << " periods; zero force, loop stopped\n";
             break;
+        case StateFault::FatalSignal:
+        case StateFault::Terminate:
+            break;  // written only into the shared memory, by daemon/fatal_signal.cpp, as the process ends
     }
     if (!o.quiet) {
         if (report.run.stopped_by_signal) out << "hapticd: stopped by signal " << report.run.signal << "\n";

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <iterator>
 
+#include "hapticd/state_layout.hpp"
+
 namespace hapticd {
 
 namespace {
@@ -71,7 +73,7 @@ Recording read_recording(const std::string& path) {
         if (kind == kTick) {
             const auto t = chunk_at<TickChunk>(bytes, at);
             // DeviceStatus runs 0 .. 7 (devices/device.hpp), the protocol's fault numbers 0 .. 3.
-            if (t.read_status > 7 || t.write_status > 7 || t.fault > 3) {
+            if (t.read_status > 7 || t.write_status > 7 || t.fault > static_cast<std::uint8_t>(StateFault::Watchdog)) {
                 bad(path, "corrupt: tick " + std::to_string(t.tick) + " has device statuses " + std::to_string(t.read_status) + ", " +
                               std::to_string(t.write_status) + " and fault " + std::to_string(t.fault) +
                               " (accepted: statuses 0 .. 7, fault 0 .. 3)");

@@ -185,9 +185,9 @@ nlohmann::json summary_json(const RunReport& r) {
     j["trace_records"] = r.trace_written;
     j["trace_write_error"] = r.trace_error;
     j["fault"] = std::string(to_string(r.run.fault));
-    j["fault_tick"] = r.run.fault != Fault::None ? nlohmann::json(r.run.fault_tick) : nlohmann::json(nullptr);
-    if (r.run.fault == Fault::NonFinite) j["fault_detail"] = std::string(to_string(r.run.scene_fault));
-    if (r.run.fault == Fault::Device) j["fault_detail"] = r.device_error;
+    j["fault_tick"] = r.run.fault != StateFault::None ? nlohmann::json(r.run.fault_tick) : nlohmann::json(nullptr);
+    if (r.run.fault == StateFault::NonFinite) j["fault_detail"] = std::string(to_string(r.run.scene_fault));
+    if (r.run.fault == StateFault::Device) j["fault_detail"] = r.device_error;
     j["stopped_by_signal"] = r.run.stopped_by_signal;
     j["session_max_objects"] = o.session_max_objects;
     j["session_max_in_flight"] = o.session_max_in_flight;

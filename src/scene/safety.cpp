@@ -47,14 +47,4 @@ void clear_stop_request() noexcept {
     g_stop.store(false, std::memory_order_release);
 }
 
-std::string_view to_string(Fault fault) noexcept {
-    switch (fault) {
-        case Fault::None: return "none";
-        case Fault::Watchdog: return "watchdog";
-        case Fault::NonFinite: return "non-finite value";
-        case Fault::Device: return "device error";
-    }
-    return "unknown";
-}
-
 }  // namespace hapticd

@@ -16,14 +16,6 @@ void install_stop_signal_handlers();
 void request_stop(int signal_number = 0) noexcept;
 void clear_stop_request() noexcept;  // for tests
 
-enum class Fault : std::uint8_t {
-    None,
-    Watchdog,         // too many consecutive overruns, or a stall
-    NonFinite,        // non-finite position or force
-    Device,           // the device reported an error
-};
-std::string_view to_string(Fault fault) noexcept;
-
 struct WatchdogConfig {
     std::uint32_t max_consecutive_overruns = 50;  // more than this many overruns in a row is a fault
     std::uint64_t max_skipped_periods = 100;      // a single late tick skipping more periods is a stall

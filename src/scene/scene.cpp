@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "scene/scene.hpp"
 
+#include "scene/saturation.hpp"
+
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -148,13 +150,7 @@ SceneFault Scene::evaluate(const AxisVector& position, AxisVector& force) noexce
             fault_ = SceneFault::NonFiniteForce;
             return fault_;
         }
-        if (f > max_force_) {
-            f = max_force_;
-            saturated = true;
-        } else if (f < -max_force_) {
-            f = -max_force_;
-            saturated = true;
-        }
+        saturated |= saturate(f, max_force_);
     }
     stats_.saturated_ticks += saturated ? 1U : 0U;
     return SceneFault::None;

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "scene/scene_objects.hpp"
 
+#include "scene/saturation.hpp"
+
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -64,12 +66,7 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
     activation_tail_fraction_ = std::min(1.0, config_.period / kActivationTailTime);
 }
 
-namespace {
-
-// A Move keeps everything but where the object is (plane offset, spring point, field centre and F0).
-// Anything else changed is not a move. Only the fields the object's kind uses are compared (a move every
-// tick pays for ~8 comparisons, not for the whole description).
-bool is_move_of(const ObjectParams& before, const ObjectParams& after) noexcept {
+bool is_move(const ObjectParams& before, const ObjectParams& after) noexcept {
     if (before.id != after.id || before.kind != after.kind || before.K != after.K || before.B != after.B) return false;
     switch (after.kind) {
         case ObjectKind::Plane: return before.bilateral == after.bilateral && before.direction == after.direction;
@@ -78,6 +75,8 @@ bool is_move_of(const ObjectParams& before, const ObjectParams& after) noexcept 
     }
     return false;
 }
+
+namespace {
 
 // True when the batch only moves objects: no Set, no Remove (a Move that is not a move of the slot's
 // object changes its gains without a ramp and counts as a change; the server never sends one).
@@ -233,7 +232,7 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
                 break;
             case SlotUpdate::Action::Move:
                 if (slot.current.active) {
-                    if (is_move_of(slot.current.params, u.params)) {  // same gains, new place: no ramp
+                    if (is_move(slot.current.params, u.params)) {  // same gains, new place: no ramp
                         begin_glide(u.slot, u.params);
                     } else {
                         only_moves = false;
@@ -782,10 +781,7 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     }
     // Saturation per axis, then the rate limit on the change (scalars: no store-and-reload of an array).
     const double m = config_.max_force;
-    const bool saturated = f0 > m || f0 < -m || f1 > m || f1 < -m || f2 > m || f2 < -m;
-    f0 = f0 > m ? m : f0 < -m ? -m : f0;
-    f1 = f1 > m ? m : f1 < -m ? -m : f1;
-    f2 = f2 > m ? m : f2 < -m ? -m : f2;
+    const bool saturated = saturate(f0, m) | saturate(f1, m) | saturate(f2, m);  // each axis, no short circuit
     stats_.saturated_ticks += saturated ? 1U : 0U;
     const double p0 = previous_total_[0], p1 = previous_total_[1], p2 = previous_total_[2];
     const double c0 = std::fabs(f0 - p0), c1 = std::fabs(f1 - p1), c2 = std::fabs(f2 - p2);

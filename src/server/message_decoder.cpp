@@ -13,10 +13,11 @@ namespace hapticd::server {
 namespace {
 
 using nlohmann::json;
+using client::ErrorCode;
 
-DecodeError error(std::string code, std::string message, std::optional<std::uint64_t> id = std::nullopt) {
+DecodeError error(ErrorCode code, std::string message, std::optional<std::uint64_t> id = std::nullopt) {
     DecodeError e;
-    e.code = std::move(code);
+    e.code = code;
     e.message = std::move(message);
     e.id = id;
     return e;
@@ -26,16 +27,16 @@ constexpr std::uint64_t kMaxId = (std::uint64_t{1} << 53);
 
 DecodeResult decode_hello(const json& j) {
     if (!j.contains("type") || !j["type"].is_string() || j["type"].get<std::string>() != "hello") {
-        return error("bad_hello", "decode_message: the first message must be {\"type\": \"hello\", \"protocol\": 1, ...}");
+        return error(ErrorCode::BadHello, "decode_message: the first message must be {\"type\": \"hello\", \"protocol\": 1, ...}");
     }
     const auto p = j.find("protocol");
     if (p == j.end() || !p->is_number_integer()) {
-        return error("bad_hello", "decode_message: hello.protocol: missing or not an integer; this server speaks protocol 1");
+        return error(ErrorCode::BadHello, "decode_message: hello.protocol: missing or not an integer; this server speaks protocol 1");
     }
     HelloRequest h;
     const auto v = p->get<std::int64_t>();
     if (v != kServerProtocol) {
-        DecodeError e = error("protocol_version", "hello: protocol = " + std::to_string(v) +
+        DecodeError e = error(ErrorCode::ProtocolVersion, "hello: protocol = " + std::to_string(v) +
                                                       " is not supported; this server speaks protocol " +
                                                       std::to_string(kServerProtocol));
         e.client_protocol = v > 1000000 || v < -1000000 ? -1 : static_cast<int>(v);
@@ -44,17 +45,17 @@ DecodeResult decode_hello(const json& j) {
     h.protocol = static_cast<int>(v);
     if (const auto c = j.find("client"); c != j.end()) {
         if (!c->is_string() || c->get_ref<const std::string&>().size() > 64) {
-            return error("bad_hello", "decode_message: hello.client: expected a string of at most 64 bytes");
+            return error(ErrorCode::BadHello, "decode_message: hello.client: expected a string of at most 64 bytes");
         }
         h.client = c->get<std::string>();
     }
     if (const auto l = j.find("lease_s"); l != j.end() && !l->is_null()) {
         if (!l->is_number() || !std::isfinite(l->get<double>())) {
-            return error("bad_hello", "decode_message: hello.lease_s: expected a number; accepted range: 0 (no lease) or 0.01 .. 60 s");
+            return error(ErrorCode::BadHello, "decode_message: hello.lease_s: expected a number; accepted range: 0 (no lease) or 0.01 .. 60 s");
         }
         h.lease_s = l->get<double>();
         if (!(h.lease_s == 0.0 || (h.lease_s >= 0.01 && h.lease_s <= 60.0))) {
-            return error("bad_hello", "decode_message: hello.lease_s = " + std::to_string(h.lease_s) +
+            return error(ErrorCode::BadHello, "decode_message: hello.lease_s = " + std::to_string(h.lease_s) +
                                           " is invalid; accepted range: 0 (no lease) or 0.01 .. 60 s");
         }
     }
@@ -64,17 +65,17 @@ DecodeResult decode_hello(const json& j) {
 DecodeResult decode_commit(const json& j, std::uint64_t id) {
     const auto ops = j.find("ops");
     if (ops == j.end() || !ops->is_array()) {
-        return error("bad_message", "decode_message: commit.ops: missing or not an array; expected 1 .. 64 operations", id);
+        return error(ErrorCode::BadMessage, "decode_message: commit.ops: missing or not an array; expected 1 .. 64 operations", id);
     }
     if (ops->empty() || ops->size() > kMaxOpsPerCommit) {
-        return error("bad_message", "decode_message: commit.ops: " + std::to_string(ops->size()) +
+        return error(ErrorCode::BadMessage, "decode_message: commit.ops: " + std::to_string(ops->size()) +
                                         " operations; accepted range: 1 .. 64", id);
     }
     CommitRequest c;
     int index = 0;
     for (const json& op : *ops) {
         auto fail = [&](const std::string& what) {
-            DecodeError e = error("bad_message", "decode_message: commit.ops[" + std::to_string(index) + "]" + what, id);
+            DecodeError e = error(ErrorCode::BadMessage, "decode_message: commit.ops[" + std::to_string(index) + "]" + what, id);
             e.op_index = index;
             return e;
         };
@@ -121,7 +122,7 @@ DecodeResult decode_subscribe_contacts(const json& j, std::uint64_t id) {
     if (ids == j.end() || ids->is_null()) return Request{id, r};
     const std::string accepted = "; accepted: an array of 1 .. 64 object ids, each 1 .. 2^32-1 (absent or null: every object)";
     if (!ids->is_array() || ids->empty() || ids->size() > kMaxContactFilterIds) {
-        return error("bad_message", "decode_message: subscribe_contacts.object_ids: " +
+        return error(ErrorCode::BadMessage, "decode_message: subscribe_contacts.object_ids: " +
                                         (ids->is_array() ? std::to_string(ids->size()) + " ids" : std::string("not an array")) + accepted,
                      id);
     }
@@ -129,7 +130,7 @@ DecodeResult decode_subscribe_contacts(const json& j, std::uint64_t id) {
     for (std::size_t i = 0; i < ids->size(); ++i) {
         const json& v = (*ids)[i];
         if (!v.is_number_unsigned() || v.get<std::uint64_t>() == 0 || v.get<std::uint64_t>() > 0xffffffffULL) {
-            return error("bad_message", "decode_message: subscribe_contacts.object_ids[" + std::to_string(i) + "] = " +
+            return error(ErrorCode::BadMessage, "decode_message: subscribe_contacts.object_ids[" + std::to_string(i) + "] = " +
                                             client::truncate_utf8(v.dump(-1, ' ', false, json::error_handler_t::replace), 40) + " is invalid" + accepted,
                          id);
         }
@@ -144,10 +145,10 @@ DecodeResult decode_subscribe_contacts(const json& j, std::uint64_t id) {
 DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept {
     try {
         if (bytes.size() > client::kMaxMessageBytes) {
-            return error("oversized", "decode_message: message of " + std::to_string(bytes.size()) +
+            return error(ErrorCode::Oversized, "decode_message: message of " + std::to_string(bytes.size()) +
                                           " bytes; accepted: at most 65536 bytes");
         }
-        const std::string bad = expect_hello ? "bad_hello" : "bad_json";
+        const ErrorCode bad = expect_hello ? ErrorCode::BadHello : ErrorCode::BadJson;
         if (bytes.empty()) return error(bad, "decode_message: an empty message; expected one JSON object per message");
         // nlohmann's lexer reads a NUL byte as the end of the input: a message with one would be cut there.
         if (const auto nul = bytes.find('\0'); nul != std::string_view::npos) {
@@ -171,17 +172,17 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
                                   "; expected one JSON object per message");
         }
         if (!j.is_object()) {
-            return error(expect_hello ? "bad_hello" : "bad_json", "decode_message: expected a JSON object, got " + std::string(j.type_name()));
+            return error(expect_hello ? ErrorCode::BadHello : ErrorCode::BadJson, "decode_message: expected a JSON object, got " + std::string(j.type_name()));
         }
         if (expect_hello) return decode_hello(j);
         const auto idit = j.find("id");
         if (idit == j.end() || !idit->is_number_unsigned() || idit->get<std::uint64_t>() > kMaxId) {
-            return error("bad_message", "decode_message: id: missing or invalid; accepted range: an integer 0 .. 2^53");
+            return error(ErrorCode::BadMessage, "decode_message: id: missing or invalid; accepted range: an integer 0 .. 2^53");
         }
         const std::uint64_t id = idit->get<std::uint64_t>();
         const auto type = j.find("type");
         if (type == j.end() || !type->is_string()) {
-            return error("bad_message", "decode_message: type: missing or not a string", id);
+            return error(ErrorCode::BadMessage, "decode_message: type: missing or not a string", id);
         }
         const std::string& t = type->get_ref<const std::string&>();
         if (t == "heartbeat") return Request{id, HeartbeatRequest{}};
@@ -195,19 +196,19 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         if (t == "subscribe") {
             const auto r = j.find("rate_hz");
             if (r == j.end() || !r->is_number() || !(r->get<double>() >= 0.1 && r->get<double>() <= 1000.0)) {
-                return error("bad_message", "decode_message: subscribe.rate_hz: missing or out of range; accepted range: 0.1 .. 1000 Hz", id);
+                return error(ErrorCode::BadMessage, "decode_message: subscribe.rate_hz: missing or out of range; accepted range: 0.1 .. 1000 Hz", id);
             }
             return Request{id, SubscribeRequest{r->get<double>()}};
         }
-        if (t == "hello") return error("bad_message", "decode_message: hello: already welcomed (hello only once)", id);
-        return error("bad_message", "decode_message: type = \"" + client::truncate_utf8(t, 40) +
+        if (t == "hello") return error(ErrorCode::BadMessage, "decode_message: hello: already welcomed (hello only once)", id);
+        return error(ErrorCode::BadMessage, "decode_message: type = \"" + client::truncate_utf8(t, 40) +
                                         "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, "
                                         "subscribe_contacts, unsubscribe_contacts, bye",
                      id);
     } catch (const std::exception& e) {
-        return error("bad_message", std::string("decode_message: ") + e.what());
+        return error(ErrorCode::BadMessage, std::string("decode_message: ") + e.what());
     } catch (...) {
-        return error("bad_message", "decode_message: unreadable message");
+        return error(ErrorCode::BadMessage, "decode_message: unreadable message");
     }
 }
 

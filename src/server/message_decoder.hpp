@@ -59,7 +59,7 @@ struct Request {
 };
 
 struct DecodeError {
-    std::string code;     // bad_json, bad_message, bad_hello, protocol_version, oversized
+    client::ErrorCode code = client::ErrorCode::BadMessage;  // BadJson, BadMessage, BadHello, ProtocolVersion, Oversized
     std::string message;  // names the field and the accepted range
     std::optional<std::uint64_t> id;  // when the message had a readable id
     int client_protocol = 0;          // protocol_version: what the client asked for

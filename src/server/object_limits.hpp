@@ -21,7 +21,7 @@ struct WorkspaceBox {
 };
 
 struct LimitRefusal {
-    std::string code;  // beyond_device_limits or bad_message
+    client::ErrorCode code = client::ErrorCode::BadMessage;  // BeyondDeviceLimits or BadMessage
     std::string message;
 };
 

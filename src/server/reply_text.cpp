@@ -12,6 +12,10 @@ using nlohmann::json;
 
 std::string dump_replacing(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
+// The reply when even the `internal` error cannot be encoded (built once, at start-up).
+const std::string kUnencodable = std::string(R"({"type":"error","code":")") + client::to_string(client::ErrorCode::Internal) +
+                                 R"(","id":null,"message":"reply_text: the reply could not be encoded"})";
+
 }  // namespace
 
 std::string reply_text(json message) noexcept {
@@ -24,14 +28,14 @@ std::string reply_text(json message) noexcept {
         }
         std::string text = dump_replacing(message);
         if (text.size() <= client::kMaxMessageBytes) return text;
-        json internal{{"type", "error"}, {"code", "internal"},
+        json internal{{"type", "error"}, {"code", client::to_string(client::ErrorCode::Internal)},
                       {"message", "reply_text: the reply of " + std::to_string(text.size()) +
                                       " bytes exceeds the protocol's limit of 65536 bytes"}};
         const bool has_id = message.is_object() && message.contains("id") && message["id"].is_number_integer() && message["id"] >= 0;
         internal["id"] = has_id ? message["id"] : json(nullptr);
         return dump_replacing(internal);
     } catch (...) {
-        return R"({"type":"error","code":"internal","id":null,"message":"reply_text: the reply could not be encoded"})";
+        return kUnencodable;
     }
 }
 

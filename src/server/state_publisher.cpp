@@ -92,7 +92,7 @@ void StatePublisher::beat() noexcept {
     if (!fatal_.load(std::memory_order_acquire)) layout_->heartbeat_ns.store(monotonic_ns(), std::memory_order_release);
 }
 
-void StatePublisher::mark_fatal(std::uint32_t fault, int signal_number) noexcept {
+void StatePublisher::mark_fatal(StateFault fault, int signal_number) noexcept {
     fatal_.store(true, std::memory_order_seq_cst);
     StateLayout& l = *layout_;
     // A publication in progress on the loop's thread ends within microseconds; on this thread (the signal
@@ -103,7 +103,7 @@ void StatePublisher::mark_fatal(std::uint32_t fault, int signal_number) noexcept
     const std::uint64_t s = l.sequence.load(std::memory_order_relaxed) | 1U;  // odd: writing
     l.sequence.store(s, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
-    put(l.fault, fault);
+    put(l.fault, static_cast<std::uint32_t>(fault));
     l.fatal_signal.store(static_cast<std::uint32_t>(signal_number), std::memory_order_relaxed);
     l.sequence.store(s + 1, std::memory_order_release);
 }
@@ -123,7 +123,7 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
     }
     put(l.overruns, t.overruns);
     put(l.wake_latency_ns, t.wake_latency_ns);
-    put(l.fault, t.fault);
+    put(l.fault, static_cast<std::uint32_t>(t.fault));
     put(l.config_contact_mask, t.config_contact_mask);
     if (objects != nullptr) {
         put(l.contact_mask, objects->contact_mask() & objects->occupied_mask());  // no contact without an object (a slot freed this tick)

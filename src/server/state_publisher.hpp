@@ -25,7 +25,7 @@ struct StateTick {
     AxisVector force{};
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
-    std::uint32_t fault = 0;
+    StateFault fault = StateFault::None;
     std::uint64_t config_contact_mask = 0;  // Scene::contact_mask(): the config walls in contact
 };
 
@@ -46,7 +46,7 @@ public:
     // From a fatal-signal handler or std::terminate (daemon/fatal_signal.hpp); async-signal-safe: stops
     // further publication, waits at most ~2 ms for a publication in progress on another thread, then
     // writes `fault` and the signal under the seqlock. The heartbeat stops with it.
-    void mark_fatal(std::uint32_t fault, int signal_number) noexcept;
+    void mark_fatal(StateFault fault, int signal_number) noexcept;
 
     // For the server thread: a consistent copy of the last tick (seqlock read).
     bool read(StateLayout& out) const noexcept;

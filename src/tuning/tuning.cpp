@@ -39,22 +39,14 @@ std::string g(double v) {
 }  // namespace
 
 const std::vector<std::string>& accepted_criteria() {
-    static const std::vector<std::string> names = [] {
-        std::vector<std::string> out;
-        for (const hapticopt::Criterion c : hapticopt::kAllCriteria) out.emplace_back(hapticopt::to_string(c));
-        return out;
-    }();
+    static const std::vector<std::string> names = hapticopt::criterion_names(hapticopt::kAllCriteria);
     return names;
 }
 
 bool is_accepted_criterion(const std::string& name) { return hapticopt::parse_criterion(name).has_value(); }
 
 const std::string& accepted_criteria_text() {
-    static const std::string text = [] {
-        std::string out;
-        for (const std::string& name : accepted_criteria()) out += (out.empty() ? "" : ", ") + name;
-        return out;
-    }();
+    static const std::string text = hapticopt::joined_names(accepted_criteria());
     return text;
 }
 

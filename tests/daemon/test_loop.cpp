@@ -135,7 +135,7 @@ TEST(Daemon, DelayBufferAndZeroForceOnTheLastTick) {
     Scene scene = one_wall();
     Daemon d(dev, scene, nullptr, lockstep_config(6, 2));
     const RunResult r = d.run();
-    EXPECT_EQ(r.fault, Fault::None);
+    EXPECT_EQ(r.fault, StateFault::None);
     EXPECT_EQ(r.counters.ticks, 6U);
     ASSERT_EQ(dev.forces.size(), 6U);
     // forces computed at ticks 0..: -(1000 x_j + 1 (x_j - x_{j-1})/T), applied 2 ticks later
@@ -162,7 +162,7 @@ TEST(Daemon, StopRequestGivesZeroForceOnTheNextTick) {
     stopper.join();
     EXPECT_TRUE(r.stopped_by_signal);
     EXPECT_EQ(r.signal, 15);
-    EXPECT_EQ(r.fault, Fault::None);
+    EXPECT_EQ(r.fault, StateFault::None);
     ASSERT_FALSE(dev.forces.empty());
     EXPECT_EQ(dev.forces.back(), 0.0);
     clear_stop_request();
@@ -174,7 +174,7 @@ TEST(Daemon, NonFinitePositionGivesZeroForceFaultAndStop) {
     Scene scene = one_wall();
     Daemon d(dev, scene, nullptr, lockstep_config(100, 0));
     const RunResult r = d.run();
-    EXPECT_EQ(r.fault, Fault::NonFinite);
+    EXPECT_EQ(r.fault, StateFault::NonFinite);
     EXPECT_EQ(r.scene_fault, SceneFault::NonFinitePosition);
     EXPECT_EQ(r.fault_tick, 2U);
     EXPECT_EQ(r.counters.ticks, 3U);
@@ -188,7 +188,7 @@ TEST(Daemon, DeviceWriteErrorStopsWithDeviceFault) {
     Scene scene = one_wall();
     Daemon d(dev, scene, nullptr, lockstep_config(100, 0));
     const RunResult r = d.run();
-    EXPECT_EQ(r.fault, Fault::Device);
+    EXPECT_EQ(r.fault, StateFault::Device);
     EXPECT_EQ(r.device_status, DeviceStatus::Timeout);
     EXPECT_EQ(r.counters.ticks, 5U);
 }

@@ -348,7 +348,7 @@ TEST_F(HomedFalcon, LoopRendersTheWallThenStopsCleanlyOnUnplug) {
     fake.status.encoder = {0, 0, 0};
     ASSERT_EQ(dev->write_force({}), DeviceStatus::Ok);  // the first status packet
     const RunResult r = daemon.run();
-    EXPECT_EQ(r.fault, Fault::Device);
+    EXPECT_EQ(r.fault, StateFault::Device);
     EXPECT_EQ(r.device_status, DeviceStatus::Disconnected);
     EXPECT_LT(r.fault_tick, 25U);
     bool rendered = false;

@@ -79,23 +79,25 @@ void check_limits(const hapticd::client::ObjectDescription& object, std::uint64_
         if (!refusal) check(*gains->K <= kMaxGainK && *gains->B <= kMaxGainB && *gains->K >= 0.0 && *gains->B >= 0.0);
     }
     if (refusal) {
-        check(refusal->code == "beyond_device_limits" || refusal->code == "bad_message");
-        check_reply(nlohmann::json{{"type", "error"}, {"id", id}, {"code", refusal->code}, {"message", "commit: ops[0]: " + refusal->message},
+        check(refusal->code == cl::ErrorCode::BeyondDeviceLimits || refusal->code == cl::ErrorCode::BadMessage);
+        check_reply(nlohmann::json{{"type", "error"}, {"id", id}, {"code", cl::to_string(refusal->code)}, {"message", "commit: ops[0]: " + refusal->message},
                                    {"op_index", 0}});
     }
 }
 
 void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
     using namespace hapticd::server;
-    static const std::set<std::string> codes{"bad_json", "bad_message", "bad_hello", "protocol_version", "oversized"};
+    using hapticd::client::ErrorCode;
+    static const std::set<ErrorCode> codes{ErrorCode::BadJson, ErrorCode::BadMessage, ErrorCode::BadHello, ErrorCode::ProtocolVersion,
+                                           ErrorCode::Oversized};
     if (const auto* e = std::get_if<DecodeError>(&r)) {
-        nlohmann::json reply{{"type", "error"}, {"code", e->code}, {"message", e->message}, {"op_index", e->op_index}};
+        nlohmann::json reply{{"type", "error"}, {"code", hapticd::client::to_string(e->code)}, {"message", e->message}, {"op_index", e->op_index}};
         reply["id"] = e->id ? nlohmann::json(*e->id) : nlohmann::json(nullptr);
         check_reply(reply);
         check(codes.count(e->code) == 1);
         check(!e->message.empty());
         check(e->message.rfind("decode_message", 0) == 0 || e->message.rfind("hello:", 0) == 0);
-        if (expect_hello) check(e->code != "bad_message" && e->code != "bad_json");
+        if (expect_hello) check(e->code != ErrorCode::BadMessage && e->code != ErrorCode::BadJson);
         return;
     }
     const auto& req = std::get<Request>(r);

@@ -60,7 +60,7 @@ TEST(FatalSignalHandlers, TerminateMarksTheStateAndZeroesTheDeviceFirst) {
         ::testing::KilledBySignal(SIGABRT), "hapticd: fatal: std::terminate; zero force written to the device; the state says fault 5");
     StateLayout s{};
     ASSERT_TRUE(state.read(s));
-    EXPECT_EQ(s.fault, kFaultTerminate);
+    EXPECT_EQ(s.fault, static_cast<std::uint32_t>(StateFault::Terminate));
     EXPECT_EQ(*mark, 'z');
     ::munmap(const_cast<char*>(mark), 1);
 }

@@ -37,7 +37,7 @@ TEST_P(FatalSignal, TheStateSaysTheDaemonDiedAndTheSimulatedDeviceWasZeroed) {
     EXPECT_EQ(daemon.wait(), 128 + sig) << daemon.err();
     cl::StateSample s;
     ASSERT_TRUE(state.read(s));
-    EXPECT_EQ(s.fault, kFaultFatalSignal);
+    EXPECT_EQ(s.fault, static_cast<std::uint32_t>(StateFault::FatalSignal));
     EXPECT_EQ(s.fatal_signal, static_cast<std::uint32_t>(sig));
     EXPECT_TRUE(s.stale);
     EXPECT_NE(daemon.err().find("zero force written to the device"), std::string::npos) << daemon.err();

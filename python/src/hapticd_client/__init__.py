@@ -13,9 +13,9 @@ The protocol: docs/protocol.md; this module and its examples: docs/clients.md.
 from .client import (CONTACT_QUEUE_CAPACITY, EVENT_QUEUE_CAPACITY, MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Client, ContactEvent, Event,
                      default_socket_path)
 from .device import DeviceInfo
-from .errors import HapticdError
+from .errors import ERROR_CODES, HapticdError
 from .objects import Batch, field, gains, plane, spring
-from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateReader, StateSample, shm_path, stale_after_s
+from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
 
 __all__ = [
     "Batch",
@@ -23,6 +23,7 @@ __all__ = [
     "Client",
     "ContactEvent",
     "DeviceInfo",
+    "ERROR_CODES",
     "EVENT_QUEUE_CAPACITY",
     "Event",
     "FAULT_FATAL_SIGNAL",
@@ -31,6 +32,7 @@ __all__ = [
     "HapticdError",
     "MAX_MESSAGE_BYTES",
     "PROTOCOL_VERSION",
+    "StateFault",
     "StateReader",
     "StateSample",
     "default_socket_path",

@@ -6,6 +6,13 @@ from __future__ import annotations
 
 from typing import Optional, Tuple
 
+#: The protocol's error codes (docs/protocol.md, section 8), then "transport" and "unknown": the wire strings of
+#: ``hapticd::client::ErrorCode`` (src/client/error_code.cpp; a test compares the two). HapticdError may also
+#: carry "stale_state", this package's own.
+ERROR_CODES = ("protocol_version", "bad_hello", "oversized", "bad_json", "bad_message", "unstable_gains", "unstable_sum",
+               "beyond_device_limits", "unknown_criterion", "unknown_object", "not_owner", "capacity", "busy",
+               "lease_lost", "slow_consumer", "session_limit", "internal", "transport", "unknown")
+
 
 class HapticdError(Exception):
     """A refusal, an error reply, an expired lease, or a transport failure.

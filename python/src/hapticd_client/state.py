@@ -16,6 +16,7 @@ subscription (``Client.subscribe``) or the C++ client, whose reader has the acqu
 
 from __future__ import annotations
 
+import enum
 import mmap
 import os
 import struct
@@ -41,8 +42,6 @@ _WRITER_PID = struct.Struct("<i")  # offset 32
 _HEARTBEAT_INDEX = 576 // 8  # heartbeat_ns (int64, CLOCK_MONOTONIC ns; 0: never written), one aligned load
 _FATAL_SIGNAL = struct.Struct("<I")  # offset 584
 _CONFIG_CONTACT_INDEX = 592 // 8  # config_contact_mask (uint64, under the seqlock)
-FAULT_FATAL_SIGNAL = 4
-FAULT_TERMINATE = 5
 
 
 def stale_after_s(period_s: float) -> float:
@@ -82,7 +81,23 @@ class StateSample:
                         if (self.contact_mask >> s) & 1 and self.slot_object_id[s] != 0]
 
 
-FAULT_NAMES = {0: "none", 1: "device", 2: "non-finite", 3: "watchdog", 4: "fatal_signal", 5: "terminate"}
+class StateFault(enum.IntEnum):
+    """The state's ``fault`` (include/hapticd/state_layout.hpp, ``hapticd::StateFault``; the same numbers; a test
+    compares the two): why the loop stopped rendering."""
+
+    NONE = 0
+    DEVICE = 1  # the device reported an error
+    NON_FINITE = 2  # non-finite position or force
+    WATCHDOG = 3  # too many consecutive overruns, or a stall
+    FATAL_SIGNAL = 4  # SIGSEGV, SIGBUS, SIGFPE, SIGILL or SIGABRT ended the daemon
+    TERMINATE = 5  # std::terminate ended the daemon
+
+
+#: The protocol's name of each fault (``to_string(StateFault)``), as the state and status messages carry it.
+FAULT_NAMES = {StateFault.NONE: "none", StateFault.DEVICE: "device", StateFault.NON_FINITE: "non-finite",
+               StateFault.WATCHDOG: "watchdog", StateFault.FATAL_SIGNAL: "fatal_signal", StateFault.TERMINATE: "terminate"}
+FAULT_FATAL_SIGNAL = StateFault.FATAL_SIGNAL
+FAULT_TERMINATE = StateFault.TERMINATE
 
 
 def shm_path(name: str) -> str:

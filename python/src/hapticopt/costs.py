@@ -20,7 +20,7 @@ the characteristic polynomial, refined in long double near the boundary (decisio
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Union
+from typing import Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -32,7 +32,8 @@ __all__ = ["Stability", "Costs", "Overshoot", "Penetration", "CRITERIA_WITH_SURF
            "costs", "cost", "cost_grid", "overshoot", "penetration", "passivity_margin", "is_passive"]
 
 #: Criteria that have a cost surface C(alpha, beta): accepted by cost(), cost_grid(), optimal_curve().
-CRITERIA_WITH_SURFACE = ("CE0", "CE1", "CE2", "OV", "CI0", "CI1", "CI2")
+#: "CE0", "CE1", "CE2", "OV", "CI0", "CI1", "CI2" (the extension's list, from criterion.hpp).
+CRITERIA_WITH_SURFACE: Tuple[str, ...] = tuple(_core.SURFACE_CRITERIA)
 
 ArrayLike = npt.ArrayLike
 FloatOrArray = Union[float, np.ndarray]

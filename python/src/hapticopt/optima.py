@@ -29,10 +29,10 @@ from .parameters import PhysicalPlant, Plant, WallGains, normalize, to_physical,
 __all__ = ["STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
            "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum"]
 
-#: The eight criteria of Tables III and IV.
-STEP_CRITERIA = ("amax", "OV", "CE0", "CE1", "CE2", "CE0+OV", "CE1+OV", "CE2+OV")
-#: The collision criteria (beyond the paper).
-COLLISION_CRITERIA = ("CI0", "CI1", "CI2")
+#: The eight criteria of Tables III and IV ("amax", "OV", "CE0" .. "CE2+OV"): criterion.hpp's kAllCriteria.
+STEP_CRITERIA: Tuple[str, ...] = tuple(_core.STEP_CRITERIA)
+#: The collision criteria (beyond the paper): "CI0", "CI1", "CI2", criterion.hpp's kAllImpulseCriteria.
+COLLISION_CRITERIA: Tuple[str, ...] = tuple(_core.COLLISION_CRITERIA)
 
 Range = Union[float, Tuple[float, float]]
 

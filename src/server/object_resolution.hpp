@@ -1,0 +1,107 @@
+// SPDX-License-Identifier: Apache-2.0
+// Object resolution on the server thread (docs/protocol.md, section 5): a client's object description becomes
+// what the loop renders (ObjectParams) and what the summed-gain checks add (its K and B matrices), after every
+// check of that one object: its vectors on the device's axes, inside the workspace (server/object_limits.hpp),
+// its gains (explicit, or a criterion's optimum for its mass), the device's stiffness and force limits and the
+// exact stability verdict for every mass it acts with. An object id becomes the slot holding it, refused when
+// the object is unknown or not the session's. No socket, no state: each call reads the configuration, the
+// checker and the slot table it is given.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "hapticd/client.hpp"
+#include "scene/scene_objects.hpp"
+#include "server/object_limits.hpp"
+#include "server/server.hpp"
+#include "tuning/engagement_patterns.hpp"
+#include "tuning/object_checks.hpp"
+
+namespace hapticd::server {
+
+// A slot's drain_seq before the batch removing its object has entered a ring.
+inline constexpr std::uint64_t kNotPushed = ~std::uint64_t{0};
+
+// A checked object: what the loop renders and what the summed-gain check adds.
+struct Resolved {
+    ObjectParams params;
+    Matrix3 K_matrix{};
+    Matrix3 B_matrix{};
+};
+
+// Why a request is refused: the protocol's code, the message naming the field and the accepted range, and
+// for unstable_gains the largest stable K and the B interval that makes K stable (N s/m).
+struct Refusal {
+    client::ErrorCode code = client::ErrorCode::BadMessage;
+    std::string message;
+    std::optional<double> largest_stable_K = std::nullopt;
+    std::optional<std::pair<double, double>> damping_needed = std::nullopt;
+};
+
+// The server's view of one of the loop's object slots.
+struct ServerSlot {
+    enum class State { Free, Used, Draining } state = State::Free;
+    std::uint32_t id = 0;
+    std::uint64_t owner = 0;  // session id
+    std::optional<client::ObjectDescription> description;
+    Resolved resolved;
+    std::uint64_t drain_seq = kNotPushed;  // Draining: the commit_seq of the batch that removes it
+};
+using SlotTable = std::array<ServerSlot, kSceneObjectCapacity>;
+
+// The config walls as terms of the checks (ids 1 .. n, as in `list`): unilateral ones engage conditionally,
+// and two facing each other on one axis with disjoint solids are never engaged together.
+[[nodiscard]] std::vector<SceneTerm> terms_of_config_walls(const std::vector<ConfigWallInfo>& config_walls);
+
+// The config walls' gains (the daemon's, along their axes) added to K and B: K += K_w e e^T, B += B_w e e^T.
+void add_config_walls(const std::vector<ConfigWallInfo>& config_walls, Matrix3& K, Matrix3& B);
+
+// A slot's object as a term of the checks, in `role`.
+[[nodiscard]] SceneTerm slot_term(const ServerSlot& slot, SceneTerm::Role role);
+
+// Objects `session` holds (used, not ramping out: those are no longer the session's).
+[[nodiscard]] std::size_t objects_held(const SlotTable& slots, std::uint64_t session);
+
+// The slot holding object `object_id` for `session`, or the refusal: not_owner for a config wall (ids
+// 1 .. config_walls) or another session's object, unknown_object for an id not in the scene.
+struct SlotLookup {
+    int slot = -1;
+    std::optional<Refusal> refusal;
+};
+[[nodiscard]] SlotLookup owned_slot(const SlotTable& slots, std::uint32_t object_id, std::uint64_t session, std::size_t config_walls);
+
+// The first free slot that `taken` (slots this batch already changes) leaves, or -1.
+[[nodiscard]] int free_slot(const SlotTable& slots, const std::array<bool, kSceneObjectCapacity>& taken);
+
+// Checks and resolves object descriptions against the device of `config` (axes, workspace, period, delay,
+// max_force) with `checker` (masses, stiffness limit, stability verdicts, the criteria's cached optima).
+// Both must outlive the resolver.
+class ObjectResolver {
+public:
+    ObjectResolver(const ServerConfig& config, GainChecker& checker) : config_(config), checker_(checker) {}
+
+    // `out` the resolved object (its params' id left 0), or the refusal naming the field (without the
+    // "commit: ops[i]: " prefix the commit adds).
+    [[nodiscard]] std::optional<Refusal> resolve(const client::ObjectDescription& d, Resolved& out);
+
+private:
+    [[nodiscard]] std::optional<Refusal> check_vector(const client::Vec3& v, const std::string& field, bool unit) const;
+    [[nodiscard]] WorkspaceBox workspace() const;
+    [[nodiscard]] std::optional<Refusal> check_stiffness_limit(double K, const std::string& what) const;
+    [[nodiscard]] std::optional<Refusal> resolve_gains(const client::Gains& gains, const std::string& kind,
+                                                       const std::vector<double>& masses, double& K, double& B);
+    [[nodiscard]] std::optional<Refusal> resolve_plane(const client::Plane& plane, Resolved& out);
+    [[nodiscard]] std::optional<Refusal> resolve_spring(const client::Spring& spring, Resolved& out);
+    [[nodiscard]] std::optional<Refusal> resolve_field(const client::Field& field, Resolved& out);
+
+    const ServerConfig& config_;
+    GainChecker& checker_;
+};
+
+}  // namespace hapticd::server
