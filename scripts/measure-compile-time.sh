@@ -27,7 +27,7 @@ if [[ "${1:-}" == --project-sample ]]; then
   old=$(mktemp -d)
   trap 'rm -rf "$old"' EXIT
   git archive "$base" include | tar -x -C "$old"
-  sample=(src/tuning/tuning.cpp tests/core/stability_test.cpp tests/core/paper_tables_test.cpp
+  sample=(src/tuning/tuning.cpp tests/core/test_stability.cpp tests/core/test_paper_tables.cpp
           tests/daemon/test_robust.cpp "$build_dir/tests/packaging/generated/two_tu_a.cpp"
           "$build_dir/tests/packaging/generated/selfcontained_hapticopt_robust_optimum_hpp.cpp")
   if [[ -n "${SAMPLE:-}" ]]; then read -ra sample <<< "$SAMPLE"; fi  # another list, space-separated

@@ -17,7 +17,7 @@
 // time-stepping, no truncated horizon, no eigen-decomposition.
 //
 // Accuracy (measured against the same algorithm in long double and against time-stepping with
-// quadrature, tests/core/energy_costs_test.cpp; and against the complex-Schur method,
+// quadrature, tests/core/test_energy_costs.cpp; and against the complex-Schur method,
 // detail::energy_costs_complex_schur): relative error <= 1e-10 for spectral radius
 // rho <= 0.999, and <= 1e-13 / (1 - rho)^2 closer to the boundary (measured worst: 3% of that
 // bound, d = 0 .. 50). Unstable loops (Schur-Cohn), and non-positive or non-finite sums from

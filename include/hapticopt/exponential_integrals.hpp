@@ -96,7 +96,7 @@ void add_scaled3(Matrix3<Scalar>& a, Scalar f, const Matrix3<Scalar>& b) {
 }  // namespace detail
 
 /// exp(A h) and Z_p(h), p = 0..2, for symmetric Q; h >= 0. The end-to-end accuracy of the costs
-/// built on it is measured in tests/core/energy_costs_test.cpp (long double and time-stepping
+/// built on it is measured in tests/core/test_energy_costs.cpp (long double and time-stepping
 /// references); the doubling steps multiply by exp(A h0), whose norm stays near 1 here.
 template <typename Scalar>
 ExponentialIntegrals<Scalar> exponential_integrals(const Matrix3<Scalar>& A,

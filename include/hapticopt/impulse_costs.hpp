@@ -29,7 +29,7 @@
 // stop of overshoot.hpp on the same realisation (stop when kappa sqrt(V_j) <= maximum found).
 // Exists exactly when the loop is stable (+infinity otherwise). Cost: as energy_costs / overshoot,
 // O(N^3) plus O(N^2) per period examined for the penetration.
-// Tests: tests/beyond/impulse_test.cpp compares with independent time-stepping (exact ZOH by Eigen's
+// Tests: tests/beyond/test_beyond.cpp compares with independent time-stepping (exact ZOH by Eigen's
 // matrix exponential, Simpson quadrature, sampled maximum).
 #pragma once
 

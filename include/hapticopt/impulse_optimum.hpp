@@ -12,7 +12,7 @@
 // reported with on_region_edge = true: the criterion alone does not define a useful wall; C_I1 and
 // C_I2 (time-weighted, so a slow return costs) have interior minima.
 // Search (region_minimum.hpp): coarse grid over the exact region (StabilityRegion::beta_range), Brent
-// over beta and over alpha. Tests: tests/beyond/impulse_test.cpp (no point of a fine grid of the
+// over beta and over alpha. Tests: tests/beyond/test_beyond.cpp (no point of a fine grid of the
 // region is better). Also reports the penetration depth at the optimum.
 #pragma once
 

@@ -43,7 +43,7 @@
 // that distance of the boundary, or so weakly acting along some direction that a root lies within 1e-6 of
 // z = 1 (a time constant above 1e6 periods), are refused as not certifiably stable. The tests compare the
 // spectral radius with the eigenvalues of the loop's state-transition matrix built independently from the
-// matrix exponential of the 3-axis plant (tests/beyond/matrix_gain_stability_test.cpp).
+// matrix exponential of the 3-axis plant (tests/beyond/test_matrix_gain_stability.cpp).
 //
 // Gains as rendered (general_matrix_gain_stability): a force field f = J (x - x0) - B v renders the
 // stiffness matrix -J, whose antisymmetric part (a curl) stores no energy but, with sampling, damping and

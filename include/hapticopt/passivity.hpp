@@ -13,7 +13,7 @@
 // Normalised (Table I: alpha = K T^2/m, beta = B T/m, delta = b T/m) with theta = wT, multiplying by T/m:
 //   delta > R(theta) = Re{ (1 - e^{-j theta}) e^{-j d theta} (alpha + beta (1 - e^{-j theta})) }
 //                      / (2 (1 - cos theta)).
-// Derivation of the closed form (checked in tests/beyond/passivity_test.cpp against the complex form):
+// Derivation of the closed form (checked in tests/beyond/test_passivity.cpp against the complex form):
 //   Re{(1 - e^{-j theta}) e^{-j d theta}}   = cos d theta - cos (d + 1) theta,
 //   Re{(1 - e^{-j theta})^2 e^{-j d theta}} = (cos d theta - cos (d+1) theta) - (cos (d+1) theta - cos (d+2) theta),
 //   (cos n theta - cos (n+1) theta) / (2 (1 - cos theta)) = D_n(theta) / 2,  D_n = 1 + 2 sum_{k=1..n} cos k theta

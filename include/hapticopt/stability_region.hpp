@@ -9,7 +9,7 @@
 // z = 1, where p(1) = 0 reduces to alpha = -gamma (P_beta(1) = 0), and z = -1, a straight line.
 // The stable region is enclosed by the complex branch for theta in (0, theta_c), theta_c the first
 // frequency where it returns to alpha = -gamma, and the segment of alpha = -gamma between the branch's
-// two ends (for every plant tested, d in [0, 50]; tests/core/stability_region_test.cpp checks points
+// two ends (for every plant tested, d in [0, 50]; tests/core/test_stability.cpp checks points
 // just inside and outside the polygon with the Schur-Cohn test).
 //
 // alpha_max is the largest alpha of the branch: a root of d alpha / d theta (differentiated

@@ -17,7 +17,7 @@
 // system matrix depends on M only, so one LU serves any number of right-hand sides.
 // Exact elimination, no eigen-decomposition: its error is that of the LU of the reduced system,
 // bounded like the Schur method's by eps times the condition of the Stein operator, which grows
-// like 1 / (1 - rho^2); measured against long double in tests/core/energy_costs_test.cpp.
+// like 1 / (1 - rho^2); measured against long double in tests/core/test_energy_costs.cpp.
 // Cost: O(N^2) assembly + (2/3)(2N - 1)^3 flops for the LU, O(N^2) per right-hand side.
 #pragma once
 

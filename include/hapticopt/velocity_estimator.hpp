@@ -536,7 +536,7 @@ struct EstimatorRegionOptions {
 /// a quarter cell) refined by bisection to 1e-14; alpha_max is the maximum of that edge over beta (Brent,
 /// scalar_search.hpp). Stable components of the first (wide) scan that are not connected to the main one
 /// are reported as islands. Accuracy: alpha_max to ~1e-12 where the maximum is a smooth tip (checked against
-/// the exact d = 0 value 12 - 8 sqrt(2) for window 1, tests/core/velocity_estimator_test.cpp).
+/// the exact d = 0 value 12 - 8 sqrt(2) for window 1, tests/core/test_velocity_estimator.cpp).
 class EstimatorStabilityRegion {
  public:
   HAPTICOPT_DEFERRED

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """All 64 rows of Tables III and IV (tests/data/paper_tables.csv, as printed) through Python.
 
-Tolerances are the C++ test's (tests/core/paper_tables_test.cpp), from the paper's model (Hulin et al. 2011):
+Tolerances are the C++ test's (tests/core/test_paper_tables.cpp), from the paper's model (Hulin et al. 2011):
 alpha, beta, cost within one unit of the last printed digit (the paper's own optimiser is good to
 about one unit); amax betas two units (flat maximum); OV betas 0.01 (blunt tip); two errata rows of
 Table IV (gamma = 0, delta = 0.02: CE2 and CE2+OV) checked against our exact values instead.

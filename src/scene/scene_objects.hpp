@@ -18,7 +18,7 @@
 // field's J) are weighted r^2, its damping and a field's constant force F0 r. Damping leads stiffness so
 // that a ramp from zero starts damping-dominated: with a delay, small gains are stable only if
 // B / K > ~(t_d + T/2) (beta / alpha > d + 1/2), and a linear ramp of both would start outside the region
-// for every object with a lower ratio (tests/server/test_scene_objects.cpp). The server checks every scene
+// for every object with a lower ratio (tests/scene/test_scene_objects.cpp). The server checks every scene
 // a ramp renders (docs/protocol.md, section 5); for those to be the scenes the loop renders, one batch ramps
 // at a time: a batch that starts ramps while another's run is held until they end (apply_commits).
 // A departure (a client that left) comes through a second ring and is never queued behind other batches:
@@ -32,7 +32,7 @@
 //    affine in (x, v): f = r^2 (c_i - K_i x) - r B_i v (+ r F0 for a field). Their sum is one affine law f = c - K x - B v (3-vectors
 //    and 3x3 matrices), summed when the scene changes (a commit, a ramp step, a move) and then evaluated in
 //    ~20 flops whatever the number of objects. It equals the per-object sum up to rounding (relative
-//    ~n eps of the sum of the magnitudes; tests/server/test_scene_objects_closed_form.cpp compares the two).
+//    ~n eps of the sum of the magnitudes; tests/scene/test_scene_objects_closed_form.cpp compares the two).
 //  * Switching surfaces, by a safe radius. Each object whose law or contact flag switches with x has a
 //    surface: the plane (p = 0) or the field's sphere (||x - x0|| = radius). At each re-classification the
 //    handle's distance to every surface farther than kNearDistance is taken, and their minimum rho. While the

@@ -26,12 +26,9 @@
 //    writer's heartbeat); BM_ClockGettimeMonotonic, that call alone, is its baseline in the same run.
 #include <benchmark/benchmark.h>
 
-#include <fcntl.h>
 #include <time.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -44,6 +41,8 @@
 #include <thread>
 #include <vector>
 
+#include "common/process.hpp"
+#include "common/unix_socket.hpp"
 #include "devices/sim_device.hpp"
 #include "hapticd/client.hpp"
 #include "loop/realtime_loop.hpp"
@@ -54,8 +53,6 @@
 #include "scene/scene_objects.hpp"
 #include "server/contact_events.hpp"
 #include "server/state_publisher.hpp"
-
-extern char** environ;
 
 namespace {
 
@@ -73,45 +70,27 @@ void report(benchmark::State& state, const std::string& prefix, const LatencySta
 // ---------------------------------------------------------------------------------------------------------
 // Command-to-force latency against a real daemon.
 
+// hapticd --serve (tests/common/process.hpp), ready once a connect succeeds; stopped with SIGTERM.
 class DaemonProcess {
 public:
-    DaemonProcess(const std::string& socket, const std::string& shm, long spin_us) {
-        std::vector<std::string> args{HAPTICD_BINARY, "--config", "", "--serve", "--serve-socket", socket, "--serve-shm", shm,
-                                      "--spin-us", std::to_string(spin_us),
-                                      "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1",
-                                      "--scenario", "hold", "--hold-distance", "0.055", "--hold-force", "2",
-                                      "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000", "--quiet"};
-        std::vector<char*> argv;
-        for (auto& a : args) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        posix_spawn_file_actions_t fa;
-        posix_spawn_file_actions_init(&fa);
-        posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-        if (posix_spawn(&pid_, HAPTICD_BINARY, &fa, nullptr, argv.data(), environ) != 0) pid_ = -1;
-        posix_spawn_file_actions_destroy(&fa);
-        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-        while (pid_ > 0 && std::chrono::steady_clock::now() < end) {  // until a connect succeeds (bind precedes listen)
-            try {
-                hc::ConnectOptions co;
-                co.socket_path = socket;
-                hc::Client::connect(co).bye();
-                break;
-            } catch (const hc::Error&) {
-                std::this_thread::sleep_for(std::chrono::milliseconds(5));
-            }
-        }
+    DaemonProcess(const std::string& socket, const std::string& shm, long spin_us)
+        : process_(HAPTICD_BINARY,
+                   {"--config", "", "--serve", "--serve-socket", socket, "--serve-shm", shm, "--spin-us", std::to_string(spin_us),
+                    "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
+                    "--hold-distance", "0.055", "--hold-force", "2", "--watchdog-overruns", "1000000",
+                    "--watchdog-stall-periods", "1000000", "--quiet"},
+                   "bench_daemon", "", hapticd::test::scratch_dir("hapticd_bench")) {
+        ready_ = process_.pid() > 0 && hapticd::test::wait_for_socket(socket, std::chrono::seconds(20));
     }
     ~DaemonProcess() {
-        if (pid_ > 0) {
-            ::kill(pid_, SIGTERM);
-            int st = 0;
-            ::waitpid(pid_, &st, 0);
-        }
+        process_.signal(SIGTERM);
+        process_.wait();
     }
-    [[nodiscard]] bool started() const { return pid_ > 0; }
+    [[nodiscard]] bool started() const { return ready_; }
 
 private:
-    pid_t pid_ = -1;
+    hapticd::test::Process process_;
+    bool ready_ = false;
 };
 
 std::size_t commits_from_env() {

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon/exit_codes.hpp"
-#include "process_runner.hpp"
+#include "common/process.hpp"
 
 namespace hapticd {
 namespace {

@@ -64,7 +64,7 @@ struct Replay {
 Replay replay(const std::string& file, const std::string& tag) {
     Child r(HAPTICD_BINARY, {"--replay", file}, tag);
     Replay result;
-    result.code = r.wait(300.0);
+    result.code = r.wait(std::chrono::seconds(300));
     result.out = r.out();
     result.err = r.err();
     return result;
@@ -120,7 +120,7 @@ const std::string& recorded_run() {
         const cl::StateSample gone = wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; });
         wait_state(state, [&](const cl::StateSample& s) { return s.tick >= gone.tick + 100; });
         daemon.signal(SIGTERM);
-        EXPECT_EQ(daemon.wait(120.0), 0) << daemon.err();
+        EXPECT_EQ(daemon.wait(std::chrono::seconds(120)), 0) << daemon.err();
         return file;
     }();
     return path;

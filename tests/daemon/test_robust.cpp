@@ -11,7 +11,7 @@
 #include <hapticopt/hapticopt.hpp>
 
 #include "daemon/exit_codes.hpp"
-#include "process_runner.hpp"
+#include "common/process.hpp"
 
 namespace hapticd {
 namespace {

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "daemon/exit_codes.hpp"
-#include "process_runner.hpp"
+#include "common/process.hpp"
 
 namespace hapticd {
 namespace {

@@ -19,7 +19,7 @@
 #include <string>
 #include <sys/types.h>
 
-#include "child_process.hpp"
+#include "common/run_child.hpp"
 
 namespace hapticd::test {
 

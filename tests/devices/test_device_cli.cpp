@@ -2,9 +2,8 @@
 // hapticd's command line for real devices: --list-devices, a missing device, profile keys.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>  // process_runner.hpp uses O_* without including it
 
-#include "../daemon/process_runner.hpp"
+#include "common/process.hpp"
 
 namespace hapticd::test {
 namespace {

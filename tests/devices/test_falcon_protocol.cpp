@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Falcon packet codec: byte vectors worked out by hand from the format in libnifalcon
 // include/falcon/firmware/FalconFirmwareNovintSDK.h ("Input Layout", "Output Layout", "Motor Value
-// Extraction Example") and src/firmware/FalconFirmwareNovintSDK.cpp (nibble order, byte 13 bits).
+// Extraction Example") and libnifalcon's src/firmware/FalconFirmwareNovintSDK.cpp (nibble order, byte 13 bits).
 #include <gtest/gtest.h>
 
 #include <random>

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "child_process.hpp"
+#include "common/run_child.hpp"
 #include "emulated_falcon.hpp"
 #include "emulated_hid_device.hpp"
 #include "node_access.hpp"

@@ -9,7 +9,7 @@
 
 #include "daemon/exit_codes.hpp"
 #include "experiment_fixture.hpp"
-#include "process_runner.hpp"
+#include "common/process.hpp"
 
 namespace hapticd::experiment::test {
 namespace {

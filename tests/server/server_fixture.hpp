@@ -8,11 +8,8 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/socket.h>
 #include <sys/un.h>
-#include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -28,90 +25,28 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "common/process.hpp"
+#include "common/unix_socket.hpp"
 #include "hapticd/client.hpp"
-
-extern char** environ;
 
 namespace hapticd::server_test {
 
 namespace cl = hapticd::client;
 using nlohmann::json;
 
-inline std::filesystem::path scratch() {
-    const auto d = std::filesystem::temp_directory_path() / ("hapticd_server_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-}
+using hapticd::test::monotonic_s;
+using hapticd::test::wait_for_socket;
 
-inline std::string read_text(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+inline std::filesystem::path scratch() { return hapticd::test::scratch_dir("hapticd_server_test"); }
 
-inline double monotonic_s() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
+inline std::string read_text(const std::string& path) { return hapticd::test::read_file(path); }
 
-// A child process with stdout/stderr in files.
-class Child {
+// A child process (tests/common/process.hpp) with its output in this suite's scratch directory.
+class Child : public hapticd::test::Process {
 public:
-    Child(const std::string& binary, const std::vector<std::string>& args, const std::string& tag) {
-        out_ = (scratch() / (tag + ".out")).string();
-        err_ = (scratch() / (tag + ".err")).string();
-        std::vector<std::string> full{binary};
-        full.insert(full.end(), args.begin(), args.end());
-        std::vector<char*> argv;
-        for (auto& a : full) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        posix_spawn_file_actions_t fa;
-        posix_spawn_file_actions_init(&fa);
-        posix_spawn_file_actions_addopen(&fa, 1, out_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        posix_spawn_file_actions_addopen(&fa, 2, err_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (posix_spawn(&pid_, binary.c_str(), &fa, nullptr, argv.data(), environ) != 0) pid_ = -1;
-        posix_spawn_file_actions_destroy(&fa);
-    }
-    Child(const Child&) = delete;
-    Child& operator=(const Child&) = delete;
-    ~Child() {
-        if (pid_ > 0 && !reaped_) {
-            ::kill(pid_, SIGKILL);
-            int st = 0;
-            ::waitpid(pid_, &st, 0);
-        }
-    }
-    [[nodiscard]] pid_t pid() const { return pid_; }
-    void signal(int s) const { ::kill(pid_, s); }
-    // Exit code, 128 + signal, or -1 on timeout.
-    int wait(double timeout_s = 30.0) {
-        const double end = monotonic_s() + timeout_s;
-        int st = 0;
-        while (monotonic_s() < end) {
-            if (::waitpid(pid_, &st, WNOHANG) == pid_) {
-                reaped_ = true;
-                if (WIFEXITED(st)) return WEXITSTATUS(st);
-                if (WIFSIGNALED(st)) return 128 + WTERMSIG(st);
-                return -2;
-            }
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        }
-        return -1;
-    }
-    [[nodiscard]] bool running() {
-        int st = 0;
-        if (reaped_) return false;
-        if (::waitpid(pid_, &st, WNOHANG) == pid_) {
-            reaped_ = true;
-            return false;
-        }
-        return true;
-    }
-    [[nodiscard]] std::string out() const { return read_text(out_); }
-    [[nodiscard]] std::string err() const { return read_text(err_); }
-    // The first stdout line, waiting up to timeout_s for it.
+    Child(const std::string& binary, const std::vector<std::string>& args, const std::string& tag)
+        : Process(binary, args, tag, "", scratch()) {}
+    // The first stdout line as JSON, waiting up to timeout_s for it.
     std::optional<json> first_line(double timeout_s = 20.0) const {
         const double end = monotonic_s() + timeout_s;
         while (monotonic_s() < end) {
@@ -122,11 +57,6 @@ public:
         }
         return std::nullopt;
     }
-
-private:
-    pid_t pid_ = -1;
-    bool reaped_ = false;
-    std::string out_, err_;
 };
 
 struct Names {
@@ -151,24 +81,6 @@ inline std::vector<std::string> daemon_args(const Names& n, const std::vector<st
     }
     a.insert(a.end(), extra.begin(), extra.end());
     return a;
-}
-
-// Waits until the daemon's socket accepts a connection (it is created before the loop starts).
-inline bool wait_for_socket(const std::string& path, double timeout_s = 30.0) {
-    const double end = monotonic_s() + timeout_s;
-    while (monotonic_s() < end) {
-        if (std::filesystem::exists(path)) {
-            const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
-            sockaddr_un addr{};
-            addr.sun_family = AF_UNIX;
-            std::strncpy(addr.sun_path, path.c_str(), sizeof(addr.sun_path) - 1);
-            const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
-            ::close(fd);
-            if (ok) return true;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return false;
 }
 
 inline std::vector<std::string> client_args(const Names& n, const json& ops, const std::vector<std::string>& extra) {

@@ -26,7 +26,7 @@
 // its largest singular value) keep the free plant's double root at z = 1; those 2 per free direction are
 // removed (the roots nearest 1), the rest must have modulus < 1 - kReferenceMargin.
 // kReferenceMargin = 1e-7: the server accepts only a computed radius below 1 - 1e-6, and its radius
-// agrees with an independent state matrix to 1e-8 (tests/beyond/matrix_gain_stability_test.cpp); a scene
+// agrees with an independent state matrix to 1e-8 (tests/beyond/test_matrix_gain_stability.cpp); a scene
 // between 1 - 1e-6 and 1 - 1e-7 is therefore a disagreement beyond rounding, not a borderline case.
 //
 // Size: 8 plants (one mass, a mass matrix; d = 0 .. 3), kActions random actions each, >= 10 000 distinct

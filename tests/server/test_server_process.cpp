@@ -636,7 +636,7 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
     long accepted = 0;
     double first_reply = std::numeric_limits<double>::infinity();  // the first reply after the kill
     for (auto& f : flooders) {
-        ASSERT_EQ(f->wait(60.0), 0) << f->out() << f->err();
+        ASSERT_EQ(f->wait(std::chrono::seconds(60)), 0) << f->out() << f->err();
         for (const FloodRequest& r : flood_requests(*f)) {
             accepted += r.seq != 0 ? 1 : 0;
             if (r.replied >= t_kill) first_reply = std::min(first_reply, r.replied);
@@ -785,7 +785,7 @@ TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
         ASSERT_TRUE(reply.has_value());
         EXPECT_TRUE((*reply)["ok"].get<bool>()) << reply->dump();
     }
-    ASSERT_EQ(flooder.wait(120.0), 0) << flooder.out() << flooder.err();
+    ASSERT_EQ(flooder.wait(std::chrono::seconds(120)), 0) << flooder.out() << flooder.err();
     const json flood = json::parse(flooder.out());
     std::printf("[ many ] flooder: %lld accepted, %lld busy\n", flood["ok"].get<long long>(), flood["busy"].get<long long>());
     EXPECT_EQ(flood["ok"].get<long long>() + flood["busy"].get<long long>(), 2000);

@@ -14,7 +14,7 @@ namespace {
 // The reproduction on tests/server/sim3_aniso.toml with d = 1 (--delay-buffer 1): J = [[-3000, 2000, 0],
 // [-2000, -3000, 0], [0, 0, -3000]] N/m, B = 10 N s/m. The loop it renders has spectral radius 1.0128,
 // its symmetric part alone 0.9949 (both by an independent state matrix in
-// tests/beyond/matrix_gain_stability_test.cpp): refused, naming the field and its curl; the same field
+// tests/beyond/test_matrix_gain_stability.cpp): refused, naming the field and its curl; the same field
 // without the curl is accepted (so the refusal is the curl's).
 TEST(ServerStability, AFieldWithAnUnstableCurlIsRefusedNamingTheFieldAndTheCurl) {
     const Names n = names("curl");

@@ -1,39 +1,27 @@
 // SPDX-License-Identifier: Apache-2.0
-// Runs a program as a child process (posix_spawn) with stdout/stderr captured to files, and a hapticd
-// --serve daemon in lockstep for the client tests (stopped with SIGTERM).
+// The client programs' tests: programs as child processes in this suite's scratch directory, and a hapticd
+// --serve daemon in lockstep (stopped with SIGTERM).
 #pragma once
 
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include "../daemon/process_runner.hpp"
+#include "common/process.hpp"
+#include "common/unix_socket.hpp"
 
 namespace clients_test {
 
 using hapticd::test::read_file;
 using hapticd::test::Result;
 
-inline std::filesystem::path scratch_dir() {
-    const auto dir = std::filesystem::temp_directory_path() / ("hapticd_clients_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
-    return dir;
-}
+inline std::filesystem::path scratch_dir() { return hapticd::test::scratch_dir("hapticd_clients"); }
 
-// A program as a child process (tests/daemon/process_runner.hpp), its output in this suite's scratch directory.
+// A program as a child process (tests/common/process.hpp), its output in this suite's scratch directory.
 class Process : public hapticd::test::Process {
 public:
     Process(const std::string& binary, const std::vector<std::string>& args, const std::string& tag,
@@ -43,9 +31,7 @@ public:
 
 inline Result run(const std::string& binary, const std::vector<std::string>& args, const std::string& tag,
                   const std::string& stdin_path = "") {
-    Process p(binary, args, tag, stdin_path);
-    const int code = p.wait();
-    return {code, p.out(), p.err()};
+    return hapticd::test::run(binary, args, tag, stdin_path, scratch_dir());
 }
 
 // hapticd --serve in lockstep on the simulated device: a config wall at x = 5 cm (soft: K = 100 N/m, B = 1
@@ -58,12 +44,7 @@ public:
         : socket_((scratch_dir() / (tag + ".sock")).string()),
           shm_("/hapticd-clients-" + std::to_string(::getpid()) + "-" + tag),
           process_(HAPTICD_BINARY, arguments(socket_, shm_, extra), tag + "_daemon") {
-        // Ready when a connect succeeds (the socket file exists from bind(), before listen()).
-        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-        while (!ready_ && std::chrono::steady_clock::now() < end) {
-            ready_ = connectable(socket_);
-            if (!ready_) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-        }
+        ready_ = hapticd::test::wait_for_socket(socket_, std::chrono::seconds(20));
     }
     static std::vector<std::string> arguments(const std::string& socket, const std::string& shm, const std::vector<std::string>& extra) {
         std::vector<std::string> a{"--config", "", "--lockstep", "--serve", "--serve-socket", socket, "--serve-shm", shm, "--wall",
@@ -71,15 +52,6 @@ public:
                                    "--hold-distance", "0.055", "--hold-force", "2"};
         a.insert(a.end(), extra.begin(), extra.end());
         return a;
-    }
-    static bool connectable(const std::string& path) {
-        const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-        sockaddr_un addr{};
-        addr.sun_family = AF_UNIX;
-        std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
-        const bool ok = fd >= 0 && ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
-        if (fd >= 0) ::close(fd);
-        return ok;
     }
     ~LockstepDaemon() { stop(); }
     int stop() {
@@ -104,9 +76,7 @@ private:
 };
 
 inline std::string write_file(const std::string& name, const std::string& text) {
-    const auto path = scratch_dir() / name;
-    std::ofstream(path) << text;
-    return path.string();
+    return hapticd::test::write_file(name, text, scratch_dir());
 }
 
 }  // namespace clients_test

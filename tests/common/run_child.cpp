@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "child_process.hpp"
+#include "common/run_child.hpp"
 
 #include <fcntl.h>
 #include <grp.h>
@@ -23,7 +23,7 @@ void say(const char* text) {
 }
 
 [[noreturn]] void drop_failed(const char* what) {
-    say("child_process: cannot drop privileges: ");
+    say("run_child: cannot drop privileges: ");
     say(what);
     say(" failed\n");
     _exit(kDropFailed);
@@ -69,9 +69,9 @@ ChildResult run_child(const std::vector<std::string>& argv, std::chrono::millise
             if (as->uid != 0 && ::setresuid(0, 0, 0) == 0) drop_failed("irreversibility check");
         }
         ::execv(args[0], args.data());
-        say(errno == EACCES ? "child_process: exec failed: permission denied (with dropped privileges: are the binary and "
+        say(errno == EACCES ? "run_child: exec failed: permission denied (with dropped privileges: are the binary and "
                               "every directory above it readable and searchable by that user?)\n"
-                            : "child_process: exec failed\n");
+                            : "run_child: exec failed\n");
         _exit(127);
     }
     ::close(fds[1]);

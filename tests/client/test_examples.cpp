@@ -85,8 +85,7 @@ WallRun moving_wall_against_readme_daemon(const std::string& tag, const std::vec
                                   "--session-max-in-flight", "64"};
     args.insert(args.end(), extra.begin(), extra.end());
     clients_test::Process daemon(HAPTICD_BINARY, args, tag + "_daemon");
-    for (int i = 0; i < 2000 && !LockstepDaemon::connectable(socket); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    EXPECT_TRUE(LockstepDaemon::connectable(socket)) << daemon.err();
+    EXPECT_TRUE(hapticd::test::wait_for_socket(socket, std::chrono::seconds(10))) << daemon.err();
     const Result r = clients_test::run(MOVING_WALL_BINARY, {"--socket", socket, "--duration", "2.5"}, tag);
     EXPECT_EQ(r.code, 0) << r.out << r.err;
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();

@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon/daemon.hpp"
-#include "process_runner.hpp"
+#include "common/process.hpp"
 #include "devices/sim_device.hpp"
 #include "scene/passivity_controller.hpp"
 #include "scene/scene.hpp"

@@ -651,7 +651,7 @@ double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Mat
 
 // The summed check with a matrix mass against that independent construction: spectral radius agreement and
 // "reported stable => radius < 1". Tolerance 1e-8 absolute on radii of order 1, as in
-// tests/beyond/matrix_gain_stability_test.cpp (eps times the conditioning of simple dominant roots of
+// tests/beyond/test_matrix_gain_stability.cpp (eps times the conditioning of simple dominant roots of
 // ~15-square companion and state matrices).
 TEST(AnisotropicMass, SummedGainsAgreeWithThePhysicalStateMatrix) {
     const Eigen::Matrix3d M = eigen_of(anisotropic_matrix());

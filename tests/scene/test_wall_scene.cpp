@@ -11,7 +11,7 @@
 #include "scene/wall.hpp"
 
 namespace hapticd {
-namespace {
+namespace wall_scene {  // named: the sanitizer stage builds the tests as one unity file with test_scene_objects.cpp
 
 constexpr double kT = 1e-3;
 
@@ -182,5 +182,5 @@ TEST(Scene, RejectsWallOnMissingAxis) {
     EXPECT_THROW(Scene(std::move(walls), 1, 5.0), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace wall_scene
 }  // namespace hapticd
