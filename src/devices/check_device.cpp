@@ -14,7 +14,7 @@
 #include "devices/device_factory.hpp"
 #include "devices/first_run.hpp"
 #include "devices/sim_device.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 

@@ -11,7 +11,7 @@
 #include "devices/force_sign_device.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/transport_libusb.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 

@@ -13,7 +13,7 @@
 #include "daemon/exit_codes.hpp"
 #include "experiment/experiment_output.hpp"
 #include "config/options.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd::experiment {
 

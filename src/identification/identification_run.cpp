@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/device_factory.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 

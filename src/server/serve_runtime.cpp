@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "daemon/exit_codes.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 
