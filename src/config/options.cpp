@@ -393,7 +393,7 @@ DeviceProfile load_device_profile(const Options& o) {
     check_range(where, "max_force", p.max_force, 0.0, 1e6, true, "finite, > 0 N (N m)");
     if (p.axes < 1 || p.axes > 3) invalid(where, "axes", std::to_string(p.axes), "1 .. 3");
     const auto axes = static_cast<std::size_t>(p.axes);
-    // The mass: one value, one per axis or a matrix (devices/profile_keys.hpp), and the stiffness limit.
+    // The mass: one value, one per axis or a matrix (config/profile_keys.hpp), and the stiffness limit.
     const ProfileMass plant_mass = validate_mass_keys(where, axes, mass_keys, p.damping, p.stiffness);
     p.mass_model = plant_mass.mass;
     p.max_stiffness = plant_mass.max_stiffness;

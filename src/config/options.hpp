@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "common/startup_error.hpp"
 #include "config/key_locations.hpp"
-#include "devices/profile_keys.hpp"
-#include "daemon/exit_codes.hpp"
+#include "config/profile_keys.hpp"
 
 namespace hapticd {
 
@@ -115,22 +115,12 @@ struct DeviceProfile {
     double position_resolution = 0.0;
     long long noise_seed = 1;
     long long fail_at_tick = -1;
-    RealDeviceKeys real;              // keys of the falcon / hid drivers (devices/profile_keys.hpp)
+    RealDeviceKeys real;              // keys of the falcon / hid drivers (config/profile_keys.hpp)
     // Uncertainty of the plant for --robust: [min, max] each, empty = the nominal value is exact.
     std::vector<double> mass_range;
     std::vector<double> damping_range;
     std::vector<double> stiffness_range;
     std::vector<double> inherent_delay_range;
-};
-
-// An error that ends the program with `code` after printing what().
-class StartupError : public std::runtime_error {
-public:
-    StartupError(int code, const std::string& message) : std::runtime_error(message), code_(code) {}
-    [[nodiscard]] int code() const noexcept { return code_; }
-
-private:
-    int code_;
 };
 
 // Parses argv (and the config file it selects). Throws StartupError (codes 2, 3, 4). When --help or

@@ -80,7 +80,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             throw StartupError(code, origin + " '" + text + "': criterion = " + criterion +
                                          " is invalid; accepted: " + accepted_criteria_text());
         }
-        // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (devices/profile_keys.hpp).
+        // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (config/profile_keys.hpp).
         TuningPlant wall_plant = plant;
         std::string axis_key;
         if (!p.mass_model.isotropic) {

@@ -8,7 +8,7 @@
 
 #include <hapticopt/version.hpp>
 
-#include "daemon/exit_codes.hpp"
+#include "common/exit_codes.hpp"
 #include "daemon/recording_format.hpp"
 
 namespace hapticd {

@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "config/options.hpp"
-#include "daemon/exit_codes.hpp"
+#include "common/exit_codes.hpp"
 #include "devices/device_factory.hpp"
 #include "devices/first_run.hpp"
 #include "devices/sim_device.hpp"

@@ -48,7 +48,7 @@ struct ForceSignResult {
 // The device must be open and homed. Zero force is written at the end and on every early stop.
 ForceSignResult measure_force_sign(Device& device, const ForceSignSettings& settings);
 
-// argv[0] is "check-device". Returns the process exit code (daemon/exit_codes.hpp); never throws.
+// argv[0] is "check-device". Returns the process exit code (common/exit_codes.hpp); never throws.
 int check_device_main(int argc, const char* const* argv) noexcept;
 
 }  // namespace hapticd

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "devices/device_factory.hpp"
-#include "daemon/exit_codes.hpp"
+#include "common/exit_codes.hpp"
 #include "experiment/experiment_run.hpp"
 #include "config/options.hpp"
 #include "common/stop_flag.hpp"

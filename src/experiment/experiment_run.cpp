@@ -10,7 +10,7 @@
 #include <hapticopt/errors.hpp>
 
 #include "devices/device_factory.hpp"
-#include "daemon/exit_codes.hpp"
+#include "common/exit_codes.hpp"
 #include "experiment/experiment_output.hpp"
 #include "config/options.hpp"
 #include "common/stop_flag.hpp"

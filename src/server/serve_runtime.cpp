@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "daemon/exit_codes.hpp"
+#include "common/exit_codes.hpp"
 #include "common/stop_flag.hpp"
 
 namespace hapticd {
@@ -71,7 +71,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.stiffness = profile.stiffness;
     plant.period = period;
     plant.time_delay = delay;
-    plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (devices/profile_keys.hpp)
+    plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (config/profile_keys.hpp)
     plant.max_stiffness = profile.max_stiffness;  // none: no limit
     try {
         checker_ = std::make_unique<GainChecker>(plant);

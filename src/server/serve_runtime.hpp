@@ -8,10 +8,10 @@
 #include <vector>
 
 #include "config/options.hpp"
-#include "daemon/daemon.hpp"
 #include "scene/scene_objects.hpp"
 #include "server/contact_events.hpp"
 #include "server/server.hpp"
+#include "server/server_hooks.hpp"
 #include "server/state_publisher.hpp"
 #include "tuning/object_checks.hpp"
 

@@ -7,7 +7,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
-#include "config/options.hpp"
+#include "common/startup_error.hpp"
 
 namespace hapticd {
 

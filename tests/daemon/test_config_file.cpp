@@ -442,7 +442,7 @@ TEST_F(ConfigFileTest, ProfileErrorsNameLineAndColumn) {
         {kMinimalProfile + "mass_range = [0.2, 0.3, 0.4]\n", kExitInvalidParameter,
          {"line 3, column 1: mass_range = 3 values is invalid"}},
         {kMinimalProfile + "driver = \"usb\"\n", kExitBadConfig, {"line 3, column 1: driver = \"usb\": "}},
-        // the real-device keys (devices/profile_keys.cpp)
+        // the real-device keys (config/profile_keys.cpp)
         {kMinimalProfile + "homing_timeout = 0.0\n", kExitInvalidParameter,
          {"line 3, column 1: homing_timeout = 0.000000 is invalid; accepted range"}},
         {kMinimalProfile + "driver = \"hid\"\n", kExitBadConfig, {"line 3, column 1: driver = \"hid\" needs usb_vid"}}};
