@@ -123,9 +123,10 @@ struct DeviceProfile {
     std::vector<double> inherent_delay_range;
 };
 
-// Parses argv (and the config file it selects). Throws StartupError (codes 2, 3, 4). When --help or
-// --version was requested, prints it to stdout and throws StartupError(0, "").
-Options parse_options(int argc, const char* const* argv);
+// Parses argv (and the config file it selects); --help ends with `help_footer` (the daemon's exit codes). Throws
+// StartupError (Usage, BadConfig, InvalidParameter). When --help or --version was requested, prints it to stdout and
+// throws StartupError(ErrorKind::Ok, "").
+Options parse_options(int argc, const char* const* argv, const std::string& help_footer = "");
 
 // Loads and validates the device profile named by options.device. Throws StartupError (3, 4).
 DeviceProfile load_device_profile(const Options& options);

@@ -29,7 +29,7 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
 namespace {
 
 [[noreturn]] void invalid(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
-    throw StartupError(kExitInvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
+    throw StartupError(ErrorKind::InvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
 }
 
 void check_int(const KeyLocations& where, const std::string& key, long long v, long long lo, long long hi) {
@@ -58,7 +58,7 @@ void validate_real_device_keys(const KeyLocations& where, const std::string& dri
     }
     if (driver == "hid") {
         if (k.usb_vid < 0 || k.usb_pid < 0) {
-            throw StartupError(kExitBadConfig, where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
+            throw StartupError(ErrorKind::BadConfig, where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
         }
         check_int(where, "usb_vid", k.usb_vid, 0, 0xFFFF);
         check_int(where, "usb_pid", k.usb_pid, 0, 0xFFFF);
@@ -111,12 +111,12 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                                double stiffness) {
     const std::string n_axes = std::to_string(axes);
     if (!k.mass_given && !k.mass_matrix_given) {
-        throw StartupError(kExitBadConfig, where.prefix("mass") + "missing key 'mass'; accepted: mass = M (kg, every axis), "
+        throw StartupError(ErrorKind::BadConfig, where.prefix("mass") + "missing key 'mass'; accepted: mass = M (kg, every axis), "
                                            "mass = [one value per axis] or mass_matrix = [" + n_axes + " x " + n_axes +
                                            " values, row by row]");
     }
     if (k.mass_given && k.mass_matrix_given) {
-        throw StartupError(kExitBadConfig, where.prefix("mass_matrix") + "mass and mass_matrix are both given; accepted: one of them");
+        throw StartupError(ErrorKind::BadConfig, where.prefix("mass_matrix") + "mass and mass_matrix are both given; accepted: one of them");
     }
     ProfileMass out;
     if (k.mass_given) {
@@ -169,7 +169,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         out.mass = DeviceMass::from_matrix(M, axes);
     }
     if (!out.mass.isotropic && (damping != 0.0 || stiffness != 0.0)) {
-        throw StartupError(kExitInvalidParameter,
+        throw StartupError(ErrorKind::InvalidParameter,
                            where.prefix(k.mass_given ? "mass" : "mass_matrix") + "an anisotropic mass (" + out.mass.describe() +
                                ") with damping = " + number(damping) + " N s/m, stiffness = " + number(stiffness) +
                                " N/m is not supported: the plant along a direction is then not one scalar loop, and the "

@@ -39,7 +39,7 @@ struct RealDeviceKeys {
 
 void add_real_device_keys(CLI::App& app, RealDeviceKeys& keys);
 
-// Range checks; throws StartupError(kExitInvalidParameter / kExitBadConfig) naming key, value and range, and
+// Range checks; throws StartupError(ErrorKind::InvalidParameter / ErrorKind::BadConfig) naming key, value and range, and
 // where the profile wrote the key (`where`: from apply_config_file).
 void validate_real_device_keys(const KeyLocations& where, const std::string& driver, const RealDeviceKeys& keys);
 
@@ -57,7 +57,7 @@ void add_mass_keys(CLI::App& app, MassKeys& keys);
 void read_mass_keys_given(const CLI::App& app, MassKeys& keys);
 
 // The validated mass and limit of a profile. Throws StartupError naming the key, its value and the accepted
-// range (kExitBadConfig: neither or both of mass and mass_matrix; kExitInvalidParameter: out of range):
+// range (ErrorKind::BadConfig: neither or both of mass and mass_matrix; ErrorKind::InvalidParameter: out of range):
 // mass > 0 finite <= 1e6 (1 or `axes` values); mass_matrix `axes`^2 finite values, symmetric to 1e-9 of
 // its largest entry, positive definite (Cholesky) with eigenvalues in (0, 1e6] and smallest / largest
 // >= 1e-9; an anisotropic mass only with damping = stiffness = 0 (otherwise the plant along a direction

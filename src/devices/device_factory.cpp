@@ -121,7 +121,7 @@ std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, co
         return std::make_unique<ForceSignDevice>(std::move(d), sign);
     }
     if (p.driver != "sim" && !o.simulate) {
-        throw StartupError(kExitDeviceError,
+        throw StartupError(ErrorKind::Device,
                            "device '" + p.name + "': driver '" + p.driver +
                                "' is not available in this build; run with --simulate to simulate this profile's physics");
     }

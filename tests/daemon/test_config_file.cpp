@@ -18,6 +18,7 @@
 
 #include "config/config_file.hpp"
 #include "config/options.hpp"
+#include "daemon/exit_codes.hpp"
 #include "scene/scene.hpp"
 
 namespace hapticd {
@@ -55,7 +56,7 @@ protected:
             r.options = parse_options(static_cast<int>(argv.size()), argv.data());
             validate_options(r.options);
         } catch (const StartupError& e) {
-            r.code = e.code();
+            r.code = exit_code(e.kind());
             r.message = e.what();
         }
         return r;
@@ -72,7 +73,7 @@ protected:
         try {
             r.profile = load_device_profile(o);
         } catch (const StartupError& e) {
-            r.code = e.code();
+            r.code = exit_code(e.kind());
             r.message = e.what();
         }
         return r;

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "common/exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "process_runner.hpp"
 
 namespace hapticd {

@@ -10,7 +10,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
-#include "common/exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "process_runner.hpp"
 
 namespace hapticd {

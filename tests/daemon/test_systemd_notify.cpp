@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "common/exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "process_runner.hpp"
 
 namespace hapticd {

@@ -7,7 +7,7 @@
 #include <optional>
 #include <sstream>
 
-#include "common/exit_codes.hpp"
+#include "daemon/exit_codes.hpp"
 #include "experiment_fixture.hpp"
 #include "process_runner.hpp"
 
