@@ -28,17 +28,17 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
 
 namespace {
 
-[[noreturn]] void invalid(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
+[[noreturn]] void invalid_key(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
     throw StartupError(ErrorKind::InvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
 }
 
 void check_int(const KeyLocations& where, const std::string& key, long long v, long long lo, long long hi) {
-    if (v < lo || v > hi) invalid(where, key, std::to_string(v), std::to_string(lo) + " .. " + std::to_string(hi));
+    if (v < lo || v > hi) invalid_key(where, key, std::to_string(v), std::to_string(lo) + " .. " + std::to_string(hi));
 }
 
 void check_real(const KeyLocations& where, const std::string& key, double v, double lo, double hi, bool nonzero) {
     if (!std::isfinite(v) || v < lo || v > hi || (nonzero && v == 0.0)) {
-        invalid(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
+        invalid_key(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
                                                    std::to_string(lo) + " .. " + std::to_string(hi));
     }
 }
@@ -49,12 +49,12 @@ void validate_real_device_keys(const KeyLocations& where, const std::string& dri
     check_real(where, "homing_timeout", k.homing_timeout, 0.001, 3600.0, false);
     check_int(where, "device_index", k.device_index, 0, 127);
     if (!k.origin.empty() && k.origin.size() != 3) {
-        invalid(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
+        invalid_key(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
     }
     for (double v : k.origin) check_real(where, "origin", v, -1.0, 1.0, false);
-    if (k.force_sign.size() > 3) invalid(where, "force_sign", std::to_string(k.force_sign.size()) + " values", "1 to 3 values, one per axis");
+    if (k.force_sign.size() > 3) invalid_key(where, "force_sign", std::to_string(k.force_sign.size()) + " values", "1 to 3 values, one per axis");
     for (double v : k.force_sign) {
-        if (v != 1.0 && v != -1.0) invalid(where, "force_sign", std::to_string(v), "+1 or -1 per axis");
+        if (v != 1.0 && v != -1.0) invalid_key(where, "force_sign", std::to_string(v), "+1 or -1 per axis");
     }
     if (driver == "hid") {
         if (k.usb_vid < 0 || k.usb_pid < 0) {
@@ -121,11 +121,11 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
     ProfileMass out;
     if (k.mass_given) {
         if (k.mass.size() != 1 && k.mass.size() != axes) {
-            invalid(where, "mass", list(k.mass), "one value (every axis) or one per axis (" + n_axes + ")");
+            invalid_key(where, "mass", list(k.mass), "one value (every axis) or one per axis (" + n_axes + ")");
         }
         for (double v : k.mass) {
             if (!std::isfinite(v) || v <= 0.0 || v > 1e6) {
-                invalid(where, "mass", k.mass.size() == 1 ? number(v) : list(k.mass),
+                invalid_key(where, "mass", k.mass.size() == 1 ? number(v) : list(k.mass),
                         "finite, > 0 and <= 1e6 kg (kg m^2 for rotary devices)" + std::string(k.mass.size() == 1 ? "" : " per value"));
             }
         }
@@ -135,11 +135,11 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
     } else {
         const std::string shape = n_axes + " x " + n_axes + " = " + std::to_string(axes * axes) + " values, row by row";
         if (k.mass_matrix.size() != axes * axes) {
-            invalid(where, "mass_matrix", std::to_string(k.mass_matrix.size()) + " values", shape);
+            invalid_key(where, "mass_matrix", std::to_string(k.mass_matrix.size()) + " values", shape);
         }
         double largest_entry = 0.0;
         for (double v : k.mass_matrix) {
-            if (!std::isfinite(v) || std::abs(v) > 1e6) invalid(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
+            if (!std::isfinite(v) || std::abs(v) > 1e6) invalid_key(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
             largest_entry = std::max(largest_entry, std::abs(v));
         }
         MassMatrix M{};
@@ -151,7 +151,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                 // Symmetric to 1e-9 of the largest entry: values written alike are exactly symmetric; the
                 // tolerance only forgives a last-digit difference, never a real asymmetry.
                 if (std::abs(M[i][j] - M[j][i]) > 1e-9 * largest_entry) {
-                    invalid(where, "mass_matrix", "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
+                    invalid_key(where, "mass_matrix", "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
                                                       " but M[" + std::to_string(j) + "][" + std::to_string(i) + "] = " + number(M[j][i]),
                             "a symmetric matrix (|M_ij - M_ji| <= 1e-9 max |M_kl|)");
                 }
@@ -163,7 +163,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
         const double lo = es.eigenvalues().minCoeff(), hi = es.eigenvalues().maxCoeff();
         if (cholesky.info() != Eigen::Success || !(lo > 0.0) || lo < 1e-9 * hi || hi > 1e6) {
-            invalid(where, "mass_matrix", list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
+            invalid_key(where, "mass_matrix", list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
                     "positive definite (Cholesky), eigenvalues in (0, 1e6] kg, smallest / largest >= 1e-9");
         }
         out.mass = DeviceMass::from_matrix(M, axes);
@@ -178,7 +178,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
     }
     if (k.max_stiffness_given) {
         if (!std::isfinite(k.max_stiffness) || k.max_stiffness <= 0.0 || k.max_stiffness > 1e12) {
-            invalid(where, "max_stiffness", number(k.max_stiffness), "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
+            invalid_key(where, "max_stiffness", number(k.max_stiffness), "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
         }
         out.max_stiffness = k.max_stiffness;
     }
