@@ -16,4 +16,12 @@ CommandRunner add_boundary_command(CLI::App& app);
 CommandRunner add_table_command(CLI::App& app);
 CommandRunner add_plot_command(CLI::App& app);  // plot_command.cpp: SVG figures
 
+// The plot subcommands (plot_region.cpp, plot_costs.cpp, plot_step.cpp, plot_overshoot.cpp,
+// plot_collision.cpp), grouped under `hapticopt plot` by plot_command.cpp.
+CommandRunner add_plot_region(CLI::App& plot);
+CommandRunner add_plot_costs(CLI::App& plot);
+CommandRunner add_plot_step(CLI::App& plot);
+CommandRunner add_plot_overshoot(CLI::App& plot);
+CommandRunner add_plot_collision(CLI::App& plot);
+
 }  // namespace hapticopt::cli

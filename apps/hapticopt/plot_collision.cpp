@@ -11,7 +11,8 @@
 #include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/optimum.hpp>
 
-#include "svg_figure.hpp"
+#include "commands.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "svg_figure.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
 

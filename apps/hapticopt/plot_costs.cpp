@@ -16,7 +16,8 @@
 #include <hapticopt/criterion.hpp>
 #include <hapticopt/optimum.hpp>
 
-#include "svg_figure.hpp"
+#include "commands.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
 

@@ -17,7 +17,8 @@
 
 #include <hapticopt/optimum.hpp>
 
-#include "svg_figure.hpp"
+#include "commands.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
 

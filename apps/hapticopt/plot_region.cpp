@@ -11,7 +11,8 @@
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
 
-#include "svg_figure.hpp"
+#include "commands.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
 

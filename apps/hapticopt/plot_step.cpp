@@ -12,7 +12,8 @@
 #include <hapticopt/optimum.hpp>
 #include <hapticopt/step_response.hpp>
 
-#include "svg_figure.hpp"
+#include "commands.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
 

@@ -51,12 +51,12 @@ std::string accepted_text(Takes takes, bool many) {
 
 void apply_entry(CLI::App& app, const ConfigEntry& entry, const std::string& at) {
     CLI::Option* option = app.get_option_no_throw("--" + entry.key);
-    if (option == nullptr) throw StartupError(kExitBadConfig, at + "unknown key '" + entry.key + "'");
+    if (option == nullptr) throw StartupError(ErrorKind::BadConfig, at + "unknown key '" + entry.key + "'");
     const Takes takes = takes_of(*option);
     const bool many = option->get_items_expected_max() > 1;
     const std::string assignment = entry.key + " = " + entry.written;
     if (entry.is_array && !many) {
-        throw StartupError(kExitBadConfig, at + assignment + " is an array; accepted: " + accepted_text(takes, false));
+        throw StartupError(ErrorKind::BadConfig, at + assignment + " is an array; accepted: " + accepted_text(takes, false));
     }
     if (entry.values.empty() && entry.key == "wall") {  // wall = []: the scene starts empty (clients fill it)
         CLI::Option* no_walls = app.get_option("--no-walls");
@@ -65,11 +65,11 @@ void apply_entry(CLI::App& app, const ConfigEntry& entry, const std::string& at)
         return;
     }
     if (entry.values.empty()) {
-        throw StartupError(kExitBadConfig, at + assignment + " is empty; accepted: " + accepted_text(takes, many));
+        throw StartupError(ErrorKind::BadConfig, at + assignment + " is empty; accepted: " + accepted_text(takes, many));
     }
     for (const ConfigValue& value : entry.values) {
         if (!accepts(takes, value.type)) {
-            throw StartupError(kExitBadConfig, at + assignment + " has the wrong type (" +
+            throw StartupError(ErrorKind::BadConfig, at + assignment + " has the wrong type (" +
                                                    config_value_type_name(value.type) +
                                                    "); accepted: " + accepted_text(takes, many));
         }
@@ -84,7 +84,7 @@ void apply_entry(CLI::App& app, const ConfigEntry& entry, const std::string& at)
         }
         option->run_callback();  // conversion, the option's checks (e.g. IsMember), the store
     } catch (const CLI::Error& e) {
-        throw StartupError(kExitBadConfig, at + assignment + ": " + e.what());
+        throw StartupError(ErrorKind::BadConfig, at + assignment + ": " + e.what());
     }
 }
 
@@ -94,8 +94,8 @@ KeyLocations apply_config_file(CLI::App& app, const std::string& file, const std
     const ConfigFileContents contents = read_config_file(path);
     if (contents.issue) {
         const ConfigFileIssue& issue = *contents.issue;
-        if (issue.at.line == 0) throw StartupError(kExitBadConfig, file + ": " + issue.message);
-        throw StartupError(kExitBadConfig, file + " is malformed: line " + std::to_string(issue.at.line) + ", column " +
+        if (issue.at.line == 0) throw StartupError(ErrorKind::BadConfig, file + ": " + issue.message);
+        throw StartupError(ErrorKind::BadConfig, file + " is malformed: line " + std::to_string(issue.at.line) + ", column " +
                                                std::to_string(issue.at.column) + ": " + issue.message);
     }
     KeyLocations locations(file, name_file_always);

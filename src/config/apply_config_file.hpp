@@ -18,7 +18,7 @@ namespace hapticd {
 
 // Reads `path` and gives each entry to app's option "--<key>" as if on the command line. `file` is what
 // messages call the file ("config file 'P'"). Returns where each key is written (for later range errors).
-// Throws StartupError(kExitBadConfig) on a syntax error, an unknown key, a wrong type or a rejected value.
+// Throws StartupError(ErrorKind::BadConfig) on a syntax error, an unknown key, a wrong type or a rejected value.
 KeyLocations apply_config_file(CLI::App& app, const std::string& file, const std::string& path, bool name_file_always);
 
 }  // namespace hapticd

@@ -157,7 +157,7 @@ std::string shortest_text(double v) {
 // `where` names the file and line of the key when the value came from a file.
 [[noreturn]] void invalid(const KeyLocations& where, const std::string& name, const std::string& value,
                           const std::string& range) {
-    throw StartupError(kExitInvalidParameter,
+    throw StartupError(ErrorKind::InvalidParameter,
                        where.prefix(name) + name + " = " + value + " is invalid; accepted range: " + range);
 }
 
@@ -175,7 +175,7 @@ std::vector<std::string> device_profile_dirs(const Options& o) {
     return dirs;
 }
 
-Options parse_options(int argc, const char* const* argv) {
+Options parse_options(int argc, const char* const* argv, const std::string& help_footer) {
     // Pass 1: the command line alone (usage errors, --help, where the config file is).
     std::string config_arg;
     bool config_given = false;
@@ -185,7 +185,7 @@ Options parse_options(int argc, const char* const* argv) {
         CLI::App app{"hapticd: a virtual wall at a fixed rate, with K and B tuned optimally for the device's mass, "
                      "period and delay (Hulin et al., IROS 2011)",
                      "hapticd"};
-        app.footer(config_search_help() + " Keys are the long option names.\n" + kExitCodeHelp);
+        app.footer(config_search_help() + " Keys are the long option names.\n" + help_footer);
         app.set_version_flag("--version", kVersion);
         define_common(app, scratch, h);
         auto* cfg = app.add_option("--config", config_arg, "Config file (TOML; default: the search below)");
@@ -198,15 +198,15 @@ Options parse_options(int argc, const char* const* argv) {
             app.parse(argc, argv);
         } catch (const CLI::CallForHelp&) {
             std::cout << app.help();
-            throw StartupError(kExitOk, "");
+            throw StartupError(ErrorKind::Ok, "");
         } catch (const CLI::CallForAllHelp&) {
             std::cout << app.help("", CLI::AppFormatMode::All);
-            throw StartupError(kExitOk, "");
+            throw StartupError(ErrorKind::Ok, "");
         } catch (const CLI::CallForVersion&) {
             std::cout << kVersion << "\n";
-            throw StartupError(kExitOk, "");
+            throw StartupError(ErrorKind::Ok, "");
         } catch (const CLI::ParseError& e) {
-            throw StartupError(kExitUsage, std::string(e.what()) + " (see hapticd --help)");
+            throw StartupError(ErrorKind::Usage, std::string(e.what()) + " (see hapticd --help)");
         }
         config_given = cfg->count() > 0;
     }
@@ -218,7 +218,7 @@ Options parse_options(int argc, const char* const* argv) {
     const std::string config_path = config_given ? config_arg : default_config_file(from_environment);
     if (!config_path.empty()) {  // "": --config "" or nothing found, built-in defaults only
         if (!fs::is_regular_file(config_path)) {
-            throw StartupError(kExitBadConfig, "config file '" + config_path + "'" +
+            throw StartupError(ErrorKind::BadConfig, "config file '" + config_path + "'" +
                                                    (from_environment ? " (from $HAPTICD_CONFIG)" : "") +
                                                    " does not exist or is not a file");
         }
@@ -240,7 +240,7 @@ Options parse_options(int argc, const char* const* argv) {
         try {
             app.parse(argc, argv);
         } catch (const CLI::ParseError& e) {
-            throw StartupError(kExitUsage, std::string(e.what()) + " (see hapticd --help)");
+            throw StartupError(ErrorKind::Usage, std::string(e.what()) + " (see hapticd --help)");
         }
         from_cli = Given::of(cli_h);
         std::vector<std::string> overridden;  // a range error of these names the command line, not the file
@@ -254,7 +254,7 @@ Options parse_options(int argc, const char* const* argv) {
     const bool k_set = from_file.stiffness || from_cli.stiffness;
     const bool b_set = from_file.damping || from_cli.damping;
     if (k_set != b_set) {
-        throw StartupError(kExitUsage, std::string("explicit gains need both --stiffness and --damping; only ") +
+        throw StartupError(ErrorKind::Usage, std::string("explicit gains need both --stiffness and --damping; only ") +
                                            (k_set ? "--stiffness" : "--damping") + " was given");
     }
     o.gains_set = k_set;
@@ -337,7 +337,7 @@ std::string resolve_device_profile_path(const Options& o) {
     }
     static const std::regex name_re(R"([A-Za-z0-9_-]+)");
     if (!std::regex_match(d, name_re)) {
-        throw StartupError(kExitUsage, "device = '" + d +
+        throw StartupError(ErrorKind::Usage, "device = '" + d +
                                            "' is invalid; accepted: a profile name ([A-Za-z0-9_-]+) or a path to a .toml file");
     }
     // The first devices/<name>.toml of device_profile_dirs(); the last candidate (for the error) when none exists.
@@ -354,7 +354,7 @@ DeviceProfile load_device_profile(const Options& o) {
     DeviceProfile p;
     p.path = resolve_device_profile_path(o);
     if (!fs::is_regular_file(p.path)) {
-        throw StartupError(kExitBadConfig, "device profile '" + p.path + "' (device = '" + o.device +
+        throw StartupError(ErrorKind::BadConfig, "device profile '" + p.path + "' (device = '" + o.device +
                                                "') does not exist or is not a file");
     }
     CLI::App app{"hapticd device profile"};
@@ -384,7 +384,7 @@ DeviceProfile load_device_profile(const Options& o) {
     const KeyLocations where = apply_config_file(app, "device profile '" + p.path + "'", p.path, true);
     read_mass_keys_given(app, mass_keys);
     if (max_force->count() == 0) {
-        throw StartupError(kExitBadConfig, "device profile '" + p.path + "': missing key 'max_force'");
+        throw StartupError(ErrorKind::BadConfig, "device profile '" + p.path + "': missing key 'max_force'");
     }
     if (p.name.empty()) p.name = fs::path(p.path).stem().string();
     check_range(where, "damping", p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m");
@@ -393,7 +393,7 @@ DeviceProfile load_device_profile(const Options& o) {
     check_range(where, "max_force", p.max_force, 0.0, 1e6, true, "finite, > 0 N (N m)");
     if (p.axes < 1 || p.axes > 3) invalid(where, "axes", std::to_string(p.axes), "1 .. 3");
     const auto axes = static_cast<std::size_t>(p.axes);
-    // The mass: one value, one per axis or a matrix (devices/profile_keys.hpp), and the stiffness limit.
+    // The mass: one value, one per axis or a matrix (config/profile_keys.hpp), and the stiffness limit.
     const ProfileMass plant_mass = validate_mass_keys(where, axes, mass_keys, p.damping, p.stiffness);
     p.mass_model = plant_mass.mass;
     p.max_stiffness = plant_mass.max_stiffness;
@@ -403,7 +403,7 @@ DeviceProfile load_device_profile(const Options& o) {
         for (auto [set, option] : {std::pair{o.identify, "--identify"}, std::pair{o.robust, "--robust"},
                                    std::pair{o.passivity_control, "--passivity-control"}}) {
             if (set) {
-                throw StartupError(kExitUsage, where.prefix(mass_keys.mass_given ? "mass" : "mass_matrix") + std::string(option) +
+                throw StartupError(ErrorKind::Usage, where.prefix(mass_keys.mass_given ? "mass" : "mass_matrix") + std::string(option) +
                                                    " models one mass for every axis; this profile's mass is anisotropic (" +
                                                    p.mass_model.describe() + "); accepted: a profile with one mass");
             }

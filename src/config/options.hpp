@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "common/startup_error.hpp"
 #include "config/key_locations.hpp"
-#include "devices/profile_keys.hpp"
-#include "daemon/exit_codes.hpp"
+#include "config/profile_keys.hpp"
 
 namespace hapticd {
 
@@ -115,7 +115,7 @@ struct DeviceProfile {
     double position_resolution = 0.0;
     long long noise_seed = 1;
     long long fail_at_tick = -1;
-    RealDeviceKeys real;              // keys of the falcon / hid drivers (devices/profile_keys.hpp)
+    RealDeviceKeys real;              // keys of the falcon / hid drivers (config/profile_keys.hpp)
     // Uncertainty of the plant for --robust: [min, max] each, empty = the nominal value is exact.
     std::vector<double> mass_range;
     std::vector<double> damping_range;
@@ -123,19 +123,10 @@ struct DeviceProfile {
     std::vector<double> inherent_delay_range;
 };
 
-// An error that ends the program with `code` after printing what().
-class StartupError : public std::runtime_error {
-public:
-    StartupError(int code, const std::string& message) : std::runtime_error(message), code_(code) {}
-    [[nodiscard]] int code() const noexcept { return code_; }
-
-private:
-    int code_;
-};
-
-// Parses argv (and the config file it selects). Throws StartupError (codes 2, 3, 4). When --help or
-// --version was requested, prints it to stdout and throws StartupError(0, "").
-Options parse_options(int argc, const char* const* argv);
+// Parses argv (and the config file it selects); --help ends with `help_footer` (the daemon's exit codes). Throws
+// StartupError (Usage, BadConfig, InvalidParameter). When --help or --version was requested, prints it to stdout and
+// throws StartupError(ErrorKind::Ok, "").
+Options parse_options(int argc, const char* const* argv, const std::string& help_footer = "");
 
 // Loads and validates the device profile named by options.device. Throws StartupError (3, 4).
 DeviceProfile load_device_profile(const Options& options);

@@ -15,24 +15,12 @@
 #include "loop/realtime_loop.hpp"
 #include "scene/safety.hpp"
 #include "scene/scene.hpp"
+#include "server/server_hooks.hpp"
 #include "server/state_publisher.hpp"
 #include "daemon/recorder.hpp"
 #include "loop/trace.hpp"
 
 namespace hapticd {
-
-class SceneObjects;
-class StatePublisher;
-class ContactDetector;
-
-// With --serve (server/server.hpp): the clients' objects, rendered after the config walls (their commits
-// applied at the start of a tick), the shared-memory state written at the end of every tick, and the
-// contact events detected from that state (server/contact_events.hpp; only with `state`).
-struct ServerHooks {
-    SceneObjects* objects = nullptr;
-    StatePublisher* state = nullptr;
-    ContactDetector* contacts = nullptr;
-};
 
 // --replay (daemon/replay.hpp): called at the start of every tick, before the objects' apply_commits, to hand
 // the loop the batches it took at that tick in the recording. Real-time rules apply.

@@ -2,6 +2,8 @@
 // Process exit codes of hapticd (documented in docs/hapticd.md and in the --help footer).
 #pragma once
 
+#include "common/startup_error.hpp"
+
 namespace hapticd {
 
 enum ExitCode : int {
@@ -26,5 +28,24 @@ inline constexpr const char* kExitCodeHelp =
     "9 --serve: the socket path holds a file that is not a stale hapticd socket (left alone),\n"
     "10 --replay: bad recording (unreadable, truncated, corrupt, incomplete, or its configuration changed),\n"
     "11 --replay: a replayed force differs from the recorded one.";
+
+// The exit code of an error of this kind (what hapticd, `hapticd experiment` and `hapticd check-device` return).
+[[nodiscard]] constexpr int exit_code(ErrorKind kind) noexcept {
+    switch (kind) {
+        case ErrorKind::Ok: return kExitOk;
+        case ErrorKind::Internal: return kExitInternal;
+        case ErrorKind::Usage: return kExitUsage;
+        case ErrorKind::BadConfig: return kExitBadConfig;
+        case ErrorKind::InvalidParameter: return kExitInvalidParameter;
+        case ErrorKind::UnstableGains: return kExitUnstableGains;
+        case ErrorKind::Device: return kExitDeviceError;
+        case ErrorKind::RunFault: return kExitRunFault;
+        case ErrorKind::Server: return kExitServerError;
+        case ErrorKind::SocketPathInUse: return kExitSocketPathInUse;
+        case ErrorKind::BadRecording: return kExitBadRecording;
+        case ErrorKind::ReplayMismatch: return kExitReplayMismatch;
+    }
+    return kExitInternal;
+}
 
 }  // namespace hapticd

@@ -20,8 +20,9 @@
 #include "devices/device_factory.hpp"
 #include "devices/device_list.hpp"
 #include "daemon/fatal_signal.hpp"
-#include "devices/check_device.hpp"
-#include "experiment/experiment_main.hpp"
+#include "daemon/check_device_main.hpp"
+#include "daemon/experiment_main.hpp"
+#include "daemon/exit_codes.hpp"
 #include "identification/identification_run.hpp"
 #include "config/options.hpp"
 #include "loop/realtime_setup.hpp"
@@ -56,7 +57,7 @@ struct DeviceCloser {
 
 std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p, const TuningPlant& plant,
                                         const std::optional<TuningBox>& box) {
-    const int code = o.walls_from_command_line ? kExitUsage : kExitBadConfig;
+    const ErrorKind code = o.walls_from_command_line ? ErrorKind::Usage : ErrorKind::BadConfig;
     const std::string origin = o.walls_from_command_line ? "--wall" : "config file '" + o.config_path + "': wall";
     std::vector<ResolvedWall> walls;
     std::map<std::string, TuningResult> tuned;  // each criterion the scene uses, computed once
@@ -80,7 +81,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             throw StartupError(code, origin + " '" + text + "': criterion = " + criterion +
                                          " is invalid; accepted: " + accepted_criteria_text());
         }
-        // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (devices/profile_keys.hpp).
+        // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (config/profile_keys.hpp).
         TuningPlant wall_plant = plant;
         std::string axis_key;
         if (!p.mass_model.isotropic) {
@@ -107,7 +108,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
               << (o.gains_set ? std::string() : " (the optimum of criterion " + criterion + ")")
               << " exceeds the device's stiffness limit (device profile '" << p.path << "': max_stiffness = " << *p.max_stiffness
               << " N/m); accepted range: K <= " << *p.max_stiffness << " N/m";
-            throw StartupError(kExitInvalidParameter, m.str());
+            throw StartupError(ErrorKind::InvalidParameter, m.str());
         }
         walls.push_back(w);
     }
@@ -135,7 +136,7 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
         return b;
     }
     if (p.mass_range.empty() && p.damping_range.empty() && p.stiffness_range.empty() && p.inherent_delay_range.empty()) {
-        throw StartupError(kExitBadConfig, "device profile '" + p.path +
+        throw StartupError(ErrorKind::BadConfig, "device profile '" + p.path +
                                                "': --robust needs at least one of the keys mass_range, damping_range, "
                                                "stiffness_range, inherent_delay_range ([min, max]), or --identify");
     }
@@ -207,7 +208,7 @@ int replay_verdict(const Recording& r, const RunResult& run, const PlaybackDevic
 }
 
 int run_main(int argc, const char* const* argv, const Recording* replay = nullptr) {
-    Options o = parse_options(argc, argv);
+    Options o = parse_options(argc, argv, kExitCodeHelp);
     if (replay != nullptr) {
         o.lockstep = true;
         o.quiet = true;
@@ -219,7 +220,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         o.dry_run = false;
         o.list_devices = false;
     } else if (!o.replay.empty()) {
-        throw StartupError(kExitUsage, "--replay takes the options from the recording: only --quiet may be given with it");
+        throw StartupError(ErrorKind::Usage, "--replay takes the options from the recording: only --quiet may be given with it");
     }
     validate_options(o);
     if (o.list_devices) return list_devices(std::cout, o);
@@ -328,7 +329,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     std::ofstream summary;
     if (!o.summary_json.empty()) {
         summary.open(o.summary_json);
-        if (!summary) throw StartupError(kExitUsage, "summary-json = '" + o.summary_json + "': cannot open for writing");
+        if (!summary) throw StartupError(ErrorKind::Usage, "summary-json = '" + o.summary_json + "': cannot open for writing");
     }
     auto write_summary = [&](int code) {
         report.exit_code = code;
@@ -357,7 +358,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         try {
             scene_walls.emplace_back(w.geometry, w.tuning.K, w.tuning.B, period);
         } catch (const std::invalid_argument& e) {
-            throw StartupError(kExitInvalidParameter, e.what());
+            throw StartupError(ErrorKind::InvalidParameter, e.what());
         }
     }
     Scene scene(std::move(scene_walls), static_cast<std::size_t>(profile.axes), profile.max_force);
@@ -368,7 +369,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         try {
             trace = std::make_unique<TraceWriter>(o.trace, static_cast<std::size_t>(o.trace_capacity), o.lockstep);
         } catch (const std::exception& e) {
-            throw StartupError(kExitUsage, e.what());
+            throw StartupError(ErrorKind::Usage, e.what());
         }
     }
 
@@ -378,17 +379,17 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
             recorder = std::make_unique<Recorder>(o.record, recording_header(argc, argv, o, profile).dump(),
                                                   static_cast<std::size_t>(o.record_capacity), o.lockstep);
         } catch (const std::exception& e) {
-            throw StartupError(kExitUsage, e.what());
+            throw StartupError(ErrorKind::Usage, e.what());
         }
     }
 
     DeviceCloser closer;
     if (const DeviceStatus s = device->open(); s != DeviceStatus::Ok) {
-        throw StartupError(kExitDeviceError, "device '" + profile.name + "': open failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device, "device '" + profile.name + "': open failed: " + device->last_error());
     }
     closer.device = device.get();
     if (const DeviceStatus s = device->home(); s != DeviceStatus::Ok) {
-        throw StartupError(kExitDeviceError, "device '" + profile.name + "': homing failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device, "device '" + profile.name + "': homing failed: " + device->last_error());
     }
 
     DaemonConfig cfg;
@@ -415,7 +416,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         try {
             passivity.emplace(pc);
         } catch (const std::invalid_argument& e) {
-            throw StartupError(kExitInvalidParameter, e.what());
+            throw StartupError(ErrorKind::InvalidParameter, e.what());
         }
         cfg.passivity = &*passivity;
         if (!o.quiet) out << "hapticd: " << describe(pc) << "\n";
@@ -578,24 +579,24 @@ int replay_main(int argc, const char* const* argv) {
         } else if (a == "--quiet") {
             quiet = true;
         } else {
-            throw StartupError(kExitUsage, "--replay takes the options from the recording: only --quiet may be given with it (got '" +
+            throw StartupError(ErrorKind::Usage, "--replay takes the options from the recording: only --quiet may be given with it (got '" +
                                                std::string(a) + "')");
         }
     }
-    if (file.empty()) throw StartupError(kExitUsage, "--replay needs a FILE (a recording made with --record)");
+    if (file.empty()) throw StartupError(ErrorKind::Usage, "--replay needs a FILE (a recording made with --record)");
     Recording r;
     try {
         r = read_recording(file);
     } catch (const RecordingError& e) {
-        throw StartupError(kExitBadRecording, e.what());
+        throw StartupError(ErrorKind::BadRecording, e.what());
     }
     const nlohmann::json& args = r.header.contains("argv") ? r.header["argv"] : nlohmann::json();
     if (!args.is_array() || !std::all_of(args.begin(), args.end(), [](const nlohmann::json& a) { return a.is_string(); })) {
-        throw StartupError(kExitBadRecording, "recording '" + file + "': corrupt header: 'argv' is not an array of strings");
+        throw StartupError(ErrorKind::BadRecording, "recording '" + file + "': corrupt header: 'argv' is not an array of strings");
     }
     const std::string cwd = r.header.value("cwd", std::string());
     if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) {
-        throw StartupError(kExitBadRecording, "recording '" + file + "': cannot enter its working directory '" + cwd +
+        throw StartupError(ErrorKind::BadRecording, "recording '" + file + "': cannot enter its working directory '" + cwd +
                                                   "' (the relative paths of its command line are relative to it)");
     }
     std::vector<std::string> strings{"hapticd"};
@@ -629,7 +630,7 @@ int hapticd_main(int argc, const char* const* argv) noexcept {
         return run_main(argc, argv);
     } catch (const StartupError& e) {
         if (e.what()[0] != '\0') std::cerr << "hapticd: error: " << e.what() << "\n";
-        return e.code();
+        return exit_code(e.kind());
     } catch (const std::exception& e) {
         std::cerr << "hapticd: internal error: " << e.what() << "\n";
         return kExitInternal;

@@ -4,7 +4,7 @@
 
 namespace hapticd {
 
-// Returns the process exit code (exit_codes.hpp). Never throws.
+// Returns the process exit code (common/exit_codes.hpp). Never throws.
 int hapticd_main(int argc, const char* const* argv) noexcept;
 
 }  // namespace hapticd

@@ -66,7 +66,7 @@ json file_entry(const std::string& path) {
 }
 
 [[noreturn]] void refuse(const Recording& r, const std::string& what) {
-    throw StartupError(kExitBadRecording, "recording '" + r.path + "': " + what);
+    throw StartupError(ErrorKind::BadRecording, "recording '" + r.path + "': " + what);
 }
 
 void check_file(const Recording& r, const char* key, const char* what, const std::string& path_now) {

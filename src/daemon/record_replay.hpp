@@ -32,7 +32,7 @@ namespace hapticd {
 [[nodiscard]] nlohmann::json recording_header(int argc, const char* const* argv, const Options& options,
                                               const DeviceProfile& profile);
 
-// Throws StartupError(kExitBadRecording) when the files the recording was made with differ from those this
+// Throws StartupError(ErrorKind::BadRecording) when the files the recording was made with differ from those this
 // replay read (path or hash), or the recording cannot be rebuilt (--identify).
 void check_replayable(const Recording& recording, const Options& options, const DeviceProfile& profile);
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// `hapticd check-device`: pushes the device gently along each axis and reports the measured force sign,
+// The force-sign check of `hapticd check-device` (daemon/check_device_main.hpp): pushes the device gently along each
+// axis and reports the measured force sign,
 // i.e. whether a positive force command moves the handle towards positive positions. A wall rendered
 // with the wrong sign pushes the hand INTO the wall and is unstable, so this is checked before the first
 // real run (docs/devices.md, "First run").
@@ -47,8 +48,5 @@ struct ForceSignResult {
 
 // The device must be open and homed. Zero force is written at the end and on every early stop.
 ForceSignResult measure_force_sign(Device& device, const ForceSignSettings& settings);
-
-// argv[0] is "check-device". Returns the process exit code (daemon/exit_codes.hpp); never throws.
-int check_device_main(int argc, const char* const* argv) noexcept;
 
 }  // namespace hapticd

@@ -20,10 +20,9 @@
 #include <string>
 #include <string_view>
 
-namespace hapticd {
+#include "common/axis_vector.hpp"
 
-inline constexpr std::size_t kMaxAxes = 3;
-using AxisVector = std::array<double, kMaxAxes>;
+namespace hapticd {
 
 enum class DeviceStatus : std::uint8_t {
     Ok,

@@ -11,7 +11,7 @@
 #include "devices/force_sign_device.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/transport_libusb.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 
@@ -121,7 +121,7 @@ std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, co
         return std::make_unique<ForceSignDevice>(std::move(d), sign);
     }
     if (p.driver != "sim" && !o.simulate) {
-        throw StartupError(kExitDeviceError,
+        throw StartupError(ErrorKind::Device,
                            "device '" + p.name + "': driver '" + p.driver +
                                "' is not available in this build; run with --simulate to simulate this profile's physics");
     }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Builds the device named by a profile: driver "sim" -> SimDevice, "falcon" -> FalconDevice (libusb),
 // "hid" -> HidFfbDevice (hidapi); with --simulate every profile runs on the simulated device. Drivers
-// without an implementation ("lwr") are refused (kExitDeviceError) unless simulated. Real devices get
+// without an implementation ("lwr") are refused (ErrorKind::Device) unless simulated. Real devices get
 // the first-run force limit until their force sign is confirmed (first_run.hpp), and the profile's
 // `force_sign` (force_sign_device.hpp).
 #pragma once

@@ -151,14 +151,14 @@ int list_devices(std::ostream& out, const Options& o) {
     }
     if (devices.empty()) {
         out << "hapticd: no supported device found; looked for: " << looked_for << "\n";
-        return kExitOk;
+        return 0;
     }
     out << "hapticd: " << devices.size() << " supported device(s):\n";
     for (const auto& d : devices) {
         out << "  " << d.driver << "  " << d.usb_id << "  " << d.location << "  profiles: " << d.profiles << "  "
             << (d.accessible ? "ok" : d.problem) << "\n";
     }
-    return kExitOk;
+    return 0;
 }
 
 }  // namespace hapticd

@@ -24,7 +24,7 @@ std::vector<DeviceProfile> discover_hid_profiles(const Options& options, std::ve
 
 std::vector<ListedDevice> enumerate_devices(const std::vector<DeviceProfile>& hid_profiles, std::vector<std::string>& notes);
 
-// Prints the list (or that none was found) and returns the exit code (0).
+// Prints the list (or that none was found) and returns 0 (success: the daemon exits with it).
 int list_devices(std::ostream& out, const Options& options);
 
 }  // namespace hapticd

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "svg_figure.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticd::experiment {
 

@@ -10,10 +10,9 @@
 #include <hapticopt/errors.hpp>
 
 #include "devices/device_factory.hpp"
-#include "daemon/exit_codes.hpp"
 #include "experiment/experiment_output.hpp"
 #include "config/options.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd::experiment {
 
@@ -21,7 +20,7 @@ void require(bool ok, const std::string& name, double value, const std::string& 
     if (ok && !std::isnan(value)) return;
     std::ostringstream s;
     s << name << " = " << value << " is invalid; accepted range: " << range;
-    throw StartupError(kExitInvalidParameter, s.str());
+    throw StartupError(ErrorKind::InvalidParameter, s.str());
 }
 
 namespace {
@@ -59,7 +58,7 @@ void validate_common(const ExperimentOptions& o, const DeviceProfile& p) {
 
 }  // namespace
 
-int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings bs, OptimalSettings os) {
+ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings bs, OptimalSettings os) {
     Options device_options;
     device_options.device = o.device;
     device_options.simulate = o.simulate;
@@ -75,7 +74,7 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     try {
         theory = std::make_unique<Theory>(TheoryPlant{mass, profile.damping, profile.stiffness, T, delay});
     } catch (const hapticopt::InvalidParameter& e) {
-        throw StartupError(kExitInvalidParameter, e.what());
+        throw StartupError(ErrorKind::InvalidParameter, e.what());
     }
     const double k_max_theory = theory->max_stiffness();
     const auto [b_lo_theory, b_hi_theory] = theory->damping_extent();
@@ -161,11 +160,11 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     install_stop_signal_handlers();
     DeviceCloser closer;
     if (device->open() != DeviceStatus::Ok) {
-        throw StartupError(kExitDeviceError, "device '" + profile.name + "': open failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device, "device '" + profile.name + "': open failed: " + device->last_error());
     }
     closer.device = device.get();
     if (device->home() != DeviceStatus::Ok) {
-        throw StartupError(kExitDeviceError, "device '" + profile.name + "': homing failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device, "device '" + profile.name + "': homing failed: " + device->last_error());
     }
     const FigureCaption caption{"m = " + g(mass) + " kg, T = " + g(T * 1e3) + " ms, t_d = " + g(delay * 1e3) +
                                 " ms, k = " + g(profile.stiffness) + " N/m, b = " + g(profile.damping) + " N s/m"};
@@ -180,7 +179,7 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
     TrialRunner runner(*device, period_ns, simulated);
     st.home = runner.read_position(t.axis);
     if (!std::isfinite(st.home)) {
-        throw StartupError(kExitDeviceError, "device '" + profile.name + "': reading the start position failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device, "device '" + profile.name + "': reading the start position failed: " + device->last_error());
     }
     Progress progress(std::cerr, Progress::stderr_is_terminal(), o.quiet);
 
@@ -212,23 +211,23 @@ int run_experiment(const ExperimentOptions& o, bool boundary, BoundarySettings b
             }
         }
     } catch (const std::runtime_error& e) {
-        throw StartupError(kExitUsage, std::string("--out-dir: ") + e.what());
+        throw StartupError(ErrorKind::Usage, std::string("--out-dir: ") + e.what());
     }
     if (!o.quiet) {
         std::cout << summary.str();
         for (const auto& f : files) std::cout << "wrote " << f << "\n";
     }
     switch (abort.outcome) {
-        case TrialOutcome::Stable: return kExitOk;
+        case TrialOutcome::Stable: return ErrorKind::Ok;
         case TrialOutcome::Stopped:
             std::cerr << "hapticd experiment: " << abort.detail << "; partial results written\n";
-            return kExitOk;
+            return ErrorKind::Ok;
         case TrialOutcome::DeviceFault:  // as the daemon: a device error during the run is exit 6
             std::cerr << "hapticd experiment: error: " << abort.detail << "; partial results written\n";
-            return kExitDeviceError;
+            return ErrorKind::Device;
         default:
             std::cerr << "hapticd experiment: error: " << abort.detail << "; partial results written\n";
-            return kExitRunFault;
+            return ErrorKind::RunFault;
     }
 }
 

@@ -3,6 +3,8 @@
 // range), the device, the analysis, the run, the files and the summary.
 #pragma once
 
+#include "common/startup_error.hpp"
+
 #include <string>
 #include <vector>
 
@@ -22,11 +24,12 @@ struct ExperimentOptions {
     double b_margin = 0.1, overshoot_tol = 1e-6;
 };
 
-// Throws StartupError (exit code) for a bad parameter, device, or output file; returns the exit code.
-int run_experiment(const ExperimentOptions& options, bool boundary, BoundarySettings boundary_settings,
+// Throws StartupError for a bad parameter, device, or output file. Returns how the run ended: Ok (finished, or
+// stopped by SIGINT/SIGTERM), Device (a device error during a trial) or RunFault (any other abort).
+ErrorKind run_experiment(const ExperimentOptions& options, bool boundary, BoundarySettings boundary_settings,
                    OptimalSettings optimal_settings);
 
-// Throws StartupError(kExitInvalidParameter) "NAME = VALUE is invalid; accepted range: RANGE" unless ok
+// Throws StartupError(ErrorKind::InvalidParameter) "NAME = VALUE is invalid; accepted range: RANGE" unless ok
 // (NaN always fails).
 void require(bool ok, const std::string& name, double value, const std::string& range);
 

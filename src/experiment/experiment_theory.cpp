@@ -11,7 +11,7 @@
 #include <hapticopt/stability.hpp>
 #include <hapticopt/stability_region.hpp>
 
-#include "svg_figure.hpp"
+#include "svg/svg_figure.hpp"
 
 namespace hapticd::experiment {
 

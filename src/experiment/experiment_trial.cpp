@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "loop/realtime_loop.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd::experiment {
 

@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "devices/device_factory.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 
@@ -378,7 +378,7 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
             const nlohmann::json j = nlohmann::json::parse(in);
             previous = identification_from_json(j, device);
         } catch (const std::exception& e) {
-            throw StartupError(kExitBadConfig, "identification-file '" + stage.file + "': " + e.what());
+            throw StartupError(ErrorKind::BadConfig, "identification-file '" + stage.file + "': " + e.what());
         }
         if (device != p.name) {
             err << "hapticd: warning: identification-file '" << stage.file << "' is for device '" << device
@@ -435,23 +435,23 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
             << std::endl;
     }
     if (device->open() != DeviceStatus::Ok) {
-        throw StartupError(kExitDeviceError, "identification: device '" + p.name + "': open failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device, "identification: device '" + p.name + "': open failed: " + device->last_error());
     }
     if (device->home() != DeviceStatus::Ok) {
         const std::string e = device->last_error();
         device->close();
-        throw StartupError(kExitDeviceError, "identification: device '" + p.name + "': homing failed: " + e);
+        throw StartupError(ErrorKind::Device, "identification: device '" + p.name + "': homing failed: " + e);
     }
     stage.record = run_excitation(*device, s);
     device->close();  // zero force
     if (!stage.record.completed) {
-        const int code = stage.record.stopped ? kExitOk : stage.record.guard_tripped ? kExitRunFault : kExitDeviceError;
-        throw StartupError(code, "identification aborted: " + stage.record.abort_reason + "; zero force");
+        const ErrorKind kind = stage.record.stopped ? ErrorKind::Ok : stage.record.guard_tripped ? ErrorKind::RunFault : ErrorKind::Device;
+        throw StartupError(kind, "identification aborted: " + stage.record.abort_reason + "; zero force");
     }
     stage.result = identify_plant(stage.record.data);
     stage.record.data = IdentificationData{};
     if (!stage.result.ok) {
-        throw StartupError(kExitDeviceError, "identification failed: " + stage.result.message);
+        throw StartupError(ErrorKind::Device, "identification failed: " + stage.result.message);
     }
     stage.excited = true;
     if (stage.result.mass_stderr > 0.05 * stage.result.mass) {
@@ -466,7 +466,7 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
         std::ofstream f(stage.file);
         f << identification_to_json(stage.result, p.name).dump(2) << "\n";
         f.close();
-        if (!f) throw StartupError(kExitUsage, "identification-file = '" + stage.file + "': cannot write");
+        if (!f) throw StartupError(ErrorKind::Usage, "identification-file = '" + stage.file + "': cannot write");
         stage.saved = true;
     }
     return stage;

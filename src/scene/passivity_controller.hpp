@@ -36,7 +36,7 @@
 #include <cstdint>
 #include <string>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 
 namespace hapticd {
 

@@ -1,20 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
-// Safety pieces of the daemon: the stop request from SIGINT/SIGTERM (an async-signal-safe atomic flag
-// set by a sigaction handler) and the watchdog over the loop's timing.
+// Safety pieces of the daemon: the watchdog over the loop's timing. The faults that end a run are
+// hapticd::StateFault (include/hapticd/state_layout.hpp); the stop request from SIGINT/SIGTERM is
+// common/stop_flag.hpp.
 #pragma once
 
 #include <cstdint>
-#include <string_view>
+
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
-
-// Installs handlers for SIGINT and SIGTERM that only set the stop flag (no SA_RESTART, so blocking calls
-// outside the loop return EINTR; the loop's sleep resumes on its own).
-void install_stop_signal_handlers();
-[[nodiscard]] bool stop_requested() noexcept;
-[[nodiscard]] int stop_signal() noexcept;  // the signal that requested the stop, 0 if none
-void request_stop(int signal_number = 0) noexcept;
-void clear_stop_request() noexcept;  // for tests
 
 struct WatchdogConfig {
     std::uint32_t max_consecutive_overruns = 50;  // more than this many overruns in a row is a fault

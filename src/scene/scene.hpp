@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 #include "scene/wall.hpp"
 
 namespace hapticd {

@@ -83,7 +83,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 #include "loop/spsc_ring.hpp"
 
 namespace hapticd {

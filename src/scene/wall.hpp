@@ -10,7 +10,7 @@
 #include <cstddef>
 #include <string_view>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 
 namespace hapticd {
 

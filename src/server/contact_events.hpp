@@ -10,7 +10,7 @@
 #include <array>
 #include <cstdint>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 #include "hapticd/state_layout.hpp"
 #include "loop/spsc_ring.hpp"
 

@@ -8,8 +8,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "daemon/exit_codes.hpp"
-#include "scene/safety.hpp"
+#include "common/startup_error.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 
@@ -21,7 +21,7 @@ int group_id(const std::string& name) {
     if (name.empty()) return -1;
     const group* g = ::getgrnam(name.c_str());
     if (g == nullptr) {
-        throw StartupError(kExitInvalidParameter, "serve-group = " + name + " is invalid; accepted: an existing group name");
+        throw StartupError(ErrorKind::InvalidParameter, "serve-group = " + name + " is invalid; accepted: an existing group name");
     }
     return static_cast<int>(g->gr_gid);
 }
@@ -44,7 +44,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
                            const std::vector<ConfigWallInfo>& config_walls) {
     const int gid = group_id(o.serve_group);
     const unsigned mode = static_cast<unsigned>(std::strtoul(o.serve_mode.c_str(), nullptr, 8));
-    if (mode > 0777U) throw StartupError(kExitInvalidParameter, "serve-mode = " + o.serve_mode + " is invalid; accepted: 0 .. 0777");
+    if (mode > 0777U) throw StartupError(ErrorKind::InvalidParameter, "serve-mode = " + o.serve_mode + " is invalid; accepted: 0 .. 0777");
     const std::size_t axes = static_cast<std::size_t>(profile.axes);
 
     ring_ = std::make_unique<CommitRing>(kCommitRingCapacity);
@@ -56,12 +56,12 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     try {
         remove_stale_socket(o.serve_socket.empty() ? default_server_socket_path() : o.serve_socket);
     } catch (const SocketPathError& e) {
-        throw StartupError(kExitSocketPathInUse, e.what());
+        throw StartupError(ErrorKind::SocketPathInUse, e.what());
     }
     try {
         state_ = std::make_unique<StatePublisher>(o.serve_shm, axes, period, gid);
     } catch (const std::exception& e) {
-        throw StartupError(kExitServerError, e.what());
+        throw StartupError(ErrorKind::Server, e.what());
     }
     contact_ring_ = std::make_unique<ContactRing>(kContactRingCapacity);
     contacts_ = std::make_unique<ContactDetector>(*contact_ring_);
@@ -71,16 +71,16 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.stiffness = profile.stiffness;
     plant.period = period;
     plant.time_delay = delay;
-    plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (devices/profile_keys.hpp)
+    plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (config/profile_keys.hpp)
     plant.max_stiffness = profile.max_stiffness;  // none: no limit
     try {
         checker_ = std::make_unique<GainChecker>(plant);
     } catch (const std::invalid_argument& e) {
-        throw StartupError(kExitInvalidParameter, e.what());
+        throw StartupError(ErrorKind::InvalidParameter, e.what());
     }
 
     if (const std::string why = config_walls_unstable(*checker_, config_walls); !why.empty()) {
-        throw StartupError(kExitInvalidParameter, "the config walls are not stable in every combination the handle can engage "
+        throw StartupError(ErrorKind::InvalidParameter, "the config walls are not stable in every combination the handle can engage "
                                                   "(docs/protocol.md, section 5): " + why);
     }
 
@@ -107,9 +107,9 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     try {
         server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_, departure_ring_.get(), contact_ring_.get());
     } catch (const SocketPathError& e) {
-        throw StartupError(kExitSocketPathInUse, e.what());
+        throw StartupError(ErrorKind::SocketPathInUse, e.what());
     } catch (const std::exception& e) {
-        throw StartupError(kExitServerError, e.what());
+        throw StartupError(ErrorKind::Server, e.what());
     }
 }
 

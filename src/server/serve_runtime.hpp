@@ -8,10 +8,10 @@
 #include <vector>
 
 #include "config/options.hpp"
-#include "daemon/daemon.hpp"
 #include "scene/scene_objects.hpp"
 #include "server/contact_events.hpp"
 #include "server/server.hpp"
+#include "server/server_hooks.hpp"
 #include "server/state_publisher.hpp"
 #include "tuning/object_checks.hpp"
 
@@ -22,8 +22,8 @@ namespace hapticd {
 
 class ServeRuntime {
 public:
-    // Throws StartupError: kExitInvalidParameter for a bad --serve-group / --serve-mode, kExitServerError
-    // when the socket or the shared memory cannot be created, kExitSocketPathInUse when the socket path holds
+    // Throws StartupError: ErrorKind::InvalidParameter for a bad --serve-group / --serve-mode, ErrorKind::Server
+    // when the socket or the shared memory cannot be created, ErrorKind::SocketPathInUse when the socket path holds
     // anything but a stale hapticd socket (server.hpp, remove_stale_socket).
     ServeRuntime(const Options& options, const DeviceProfile& profile, double period, double delay,
                  const std::vector<ConfigWallInfo>& config_walls);

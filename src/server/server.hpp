@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 #include "scene/scene_objects.hpp"
 #include "server/contact_events.hpp"
 

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <string>
 
-#include "devices/device.hpp"
+#include "common/axis_vector.hpp"
 #include "hapticd/state_layout.hpp"
 
 namespace hapticd {

@@ -3,7 +3,7 @@
 // section 5). Runs in the server thread (never in the loop).
 //
 // The plant: M x'' + b x' + k x = F on the device's axes, M the profile's mass matrix (one mass, one per
-// axis, or a full symmetric positive-definite matrix: devices/profile_keys.hpp), b and k scalars (an
+// axis, or a full symmetric positive-definite matrix: tuning/device_mass.hpp), b and k scalars (an
 // anisotropic M only with b = k = 0: the profile refuses anything else), period T, total delay d T.
 //
 //  * A pair (K, B) acting with the effective mass m: alpha = K T^2 / m, beta = B T / m, is stable iff the
@@ -52,7 +52,7 @@
 
 #include <hapticopt/matrix_gain_stability.hpp>
 
-#include "devices/profile_keys.hpp"
+#include "tuning/device_mass.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd {

@@ -7,7 +7,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
-#include "config/options.hpp"
+#include "common/startup_error.hpp"
 
 namespace hapticd {
 
@@ -25,7 +25,7 @@ namespace {
 
 hapticopt::Criterion parse(const std::string& name) {
     const auto c = hapticopt::parse_criterion(name);
-    if (!c) throw StartupError(kExitUsage, "criterion = " + name + " is invalid; accepted: " + accepted_criteria_text());
+    if (!c) throw StartupError(ErrorKind::Usage, "criterion = " + name + " is invalid; accepted: " + accepted_criteria_text());
     return *c;
 }
 
@@ -75,21 +75,21 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         // Every tuned wall is checked as explicit gains are: an optimum on or outside the boundary is refused.
         const hapticopt::NormalizedGains gains{r.alpha, r.beta};
         if (!hapticopt::is_stable(hapticopt::normalize(physical), gains)) {
-            throw StartupError(kExitUnstableGains, "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
+            throw StartupError(ErrorKind::UnstableGains, "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
                                                        " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
                                                        ") is not strictly inside the stability region; accepted: a criterion "
                                                        "whose optimum is, or explicit --stiffness/--damping");
         }
         return r;
     } catch (const hapticopt::InvalidParameter& e) {
-        throw StartupError(kExitInvalidParameter, std::string("tuning: ") + e.what());
+        throw StartupError(ErrorKind::InvalidParameter, std::string("tuning: ") + e.what());
     }
 }
 
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
     const hapticopt::Criterion c = parse(criterion);
     if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
-        throw StartupError(kExitUsage, "criterion = " + criterion + " is invalid with --robust; accepted: CE0, CE1, CE2 "
+        throw StartupError(ErrorKind::Usage, "criterion = " + criterion + " is invalid with --robust; accepted: CE0, CE1, CE2 "
                                                                     "(a robust OV or CEx+OV optimum is not defined)");
     }
     hapticopt::UncertainPlant u;
@@ -101,7 +101,7 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
     try {
         const hapticopt::RobustOptimum r = hapticopt::robust_optimum(c, u);
         if (!r.stability.stable || !std::isfinite(r.worst.cost)) {
-            throw StartupError(kExitInvalidParameter,
+            throw StartupError(ErrorKind::InvalidParameter,
                                "robust tuning: no wall gains are stable over the whole parameter box (mass " +
                                    g(box.mass_min) + " .. " + g(box.mass_max) + ", delay " + g(box.delay_min) + " .. " +
                                    g(box.delay_max) + " s); accepted: a box that some (K, B) stabilises, e.g. "
@@ -129,7 +129,7 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
         t.robust = s;
         return t;
     } catch (const hapticopt::InvalidParameter& e) {
-        throw StartupError(kExitInvalidParameter, std::string("robust tuning: ") + e.what());
+        throw StartupError(ErrorKind::InvalidParameter, std::string("robust tuning: ") + e.what());
     }
 }
 
@@ -151,7 +151,7 @@ TuningResult check_explicit_gains(double K, double B, const std::string& criteri
         if (!hapticopt::is_stable(normalized, gains)) {
             if (allow_unstable) return r;  // no predicted cost: the loop without the controller diverges
             throw StartupError(
-                kExitUnstableGains,
+                ErrorKind::UnstableGains,
                 "explicit gains stiffness K = " + g(K) + " N/m, damping B = " + g(B) + " N s/m (alpha = " + g(gains.alpha) +
                     ", beta = " + g(gains.beta) + ") are outside the stability region for mass = " + g(plant.mass) +
                     ", period = " + g(plant.period) + " s, delay = " + g(plant.time_delay) +
@@ -170,7 +170,7 @@ TuningResult check_explicit_gains(double K, double B, const std::string& criteri
             default: break;
         }
     } catch (const hapticopt::InvalidParameter& e) {
-        throw StartupError(kExitInvalidParameter, std::string("explicit gains: ") + e.what());
+        throw StartupError(ErrorKind::InvalidParameter, std::string("explicit gains: ") + e.what());
     }
     return r;
 }

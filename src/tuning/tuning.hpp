@@ -68,17 +68,17 @@ hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
 inline constexpr double kAlphaMaxBackOff = 1e-3;
 
 // Optimal gains for the criterion (computes only that criterion; amax as above). Throws StartupError
-// (kExitInvalidParameter) when hapticopt rejects a parameter, (kExitUnstableGains) when the gains are not
+// (ErrorKind::InvalidParameter) when hapticopt rejects a parameter, (ErrorKind::UnstableGains) when the gains are not
 // strictly inside the stability region (hapticopt::is_stable).
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
-// box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: kExitUsage for
-// another criterion, kExitInvalidParameter for a bad box or when no gains are stable over the whole box.
+// box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
+// another criterion, ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box.
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box);
 
 // Explicit gains: accepted when inside the stability region (cost of `criterion` predicted when it is an
-// energy or overshoot criterion); refused with StartupError(kExitUnstableGains) naming K, B, alpha, beta
+// energy or overshoot criterion); refused with StartupError(ErrorKind::UnstableGains) naming K, B, alpha, beta
 // and alpha_max otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall
 // bounded): unstable gains are accepted without a predicted cost.
 TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,

@@ -18,6 +18,7 @@
 
 #include "config/config_file.hpp"
 #include "config/options.hpp"
+#include "daemon/exit_codes.hpp"
 #include "scene/scene.hpp"
 
 namespace hapticd {
@@ -55,7 +56,7 @@ protected:
             r.options = parse_options(static_cast<int>(argv.size()), argv.data());
             validate_options(r.options);
         } catch (const StartupError& e) {
-            r.code = e.code();
+            r.code = exit_code(e.kind());
             r.message = e.what();
         }
         return r;
@@ -72,7 +73,7 @@ protected:
         try {
             r.profile = load_device_profile(o);
         } catch (const StartupError& e) {
-            r.code = e.code();
+            r.code = exit_code(e.kind());
             r.message = e.what();
         }
         return r;
@@ -442,7 +443,7 @@ TEST_F(ConfigFileTest, ProfileErrorsNameLineAndColumn) {
         {kMinimalProfile + "mass_range = [0.2, 0.3, 0.4]\n", kExitInvalidParameter,
          {"line 3, column 1: mass_range = 3 values is invalid"}},
         {kMinimalProfile + "driver = \"usb\"\n", kExitBadConfig, {"line 3, column 1: driver = \"usb\": "}},
-        // the real-device keys (devices/profile_keys.cpp)
+        // the real-device keys (config/profile_keys.cpp)
         {kMinimalProfile + "homing_timeout = 0.0\n", kExitInvalidParameter,
          {"line 3, column 1: homing_timeout = 0.000000 is invalid; accepted range"}},
         {kMinimalProfile + "driver = \"hid\"\n", kExitBadConfig, {"line 3, column 1: driver = \"hid\" needs usb_vid"}}};

@@ -16,6 +16,7 @@
 
 #include "config/config_locations.hpp"
 #include "config/options.hpp"
+#include "daemon/exit_codes.hpp"
 
 namespace hapticd {
 namespace {
@@ -80,7 +81,7 @@ TEST_F(ConfigLocationsTest, MissingEnvironmentFileIsAConfigErrorNamingTheVariabl
         (void)parse({});
         FAIL() << "no error for a missing $HAPTICD_CONFIG file";
     } catch (const StartupError& e) {
-        EXPECT_EQ(e.code(), 3);
+        EXPECT_EQ(exit_code(e.kind()), 3);
         EXPECT_NE(std::string(e.what()).find("'" + missing + "' (from $HAPTICD_CONFIG) does not exist"), std::string::npos)
             << e.what();
     }

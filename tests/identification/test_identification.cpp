@@ -37,7 +37,7 @@
 #include "daemon/hapticd_main.hpp"
 #include "identification/identification.hpp"
 #include "identification/identification_run.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd {

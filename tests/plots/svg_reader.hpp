@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// A minimal reader for the SVG files written by `hapticopt plot` (see apps/hapticopt/svg_writer.hpp
+// A minimal reader for the SVG files written by `hapticopt plot` (see src/svg/svg_writer.hpp
 // for the conventions it relies on): well-formedness, elements with their attributes and text, panel
 // extraction, and the axis scales recovered from the tick marks and their labels. Plain scanning, no
 // std::regex (libstdc++'s recurses once per character, which overflows the stack under ASan on the

@@ -27,9 +27,9 @@
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/step_response.hpp>
 
-#include "svg_contour.hpp"
+#include "svg/svg_contour.hpp"
 #include "svg_reader.hpp"
-#include "svg_writer.hpp"
+#include "svg/svg_writer.hpp"
 
 namespace {
 

@@ -19,6 +19,7 @@
 #include <hapticopt/hapticopt.hpp>
 
 #include "config/options.hpp"
+#include "daemon/exit_codes.hpp"
 #include "devices/sim_device.hpp"
 #include "scene/scene_objects.hpp"
 #include "tuning/object_checks.hpp"
@@ -791,7 +792,7 @@ TEST(AnisotropicMass, ProfileKeysAreValidatedByName) {
             (void)load_device_profile(o);
             ADD_FAILURE() << c.keys << " was accepted";
         } catch (const StartupError& e) {
-            EXPECT_EQ(e.code(), c.code) << c.keys << ": " << e.what();
+            EXPECT_EQ(exit_code(e.kind()), c.code) << c.keys << ": " << e.what();
             EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << c.keys << ": " << e.what();
         }
     }

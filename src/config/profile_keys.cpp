@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "devices/profile_keys.hpp"
+#include "config/profile_keys.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -28,17 +28,17 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
 
 namespace {
 
-[[noreturn]] void invalid(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
-    throw StartupError(kExitInvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
+[[noreturn]] void invalid_key(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
+    throw StartupError(ErrorKind::InvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
 }
 
 void check_int(const KeyLocations& where, const std::string& key, long long v, long long lo, long long hi) {
-    if (v < lo || v > hi) invalid(where, key, std::to_string(v), std::to_string(lo) + " .. " + std::to_string(hi));
+    if (v < lo || v > hi) invalid_key(where, key, std::to_string(v), std::to_string(lo) + " .. " + std::to_string(hi));
 }
 
 void check_real(const KeyLocations& where, const std::string& key, double v, double lo, double hi, bool nonzero) {
     if (!std::isfinite(v) || v < lo || v > hi || (nonzero && v == 0.0)) {
-        invalid(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
+        invalid_key(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
                                                    std::to_string(lo) + " .. " + std::to_string(hi));
     }
 }
@@ -49,16 +49,16 @@ void validate_real_device_keys(const KeyLocations& where, const std::string& dri
     check_real(where, "homing_timeout", k.homing_timeout, 0.001, 3600.0, false);
     check_int(where, "device_index", k.device_index, 0, 127);
     if (!k.origin.empty() && k.origin.size() != 3) {
-        invalid(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
+        invalid_key(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
     }
     for (double v : k.origin) check_real(where, "origin", v, -1.0, 1.0, false);
-    if (k.force_sign.size() > 3) invalid(where, "force_sign", std::to_string(k.force_sign.size()) + " values", "1 to 3 values, one per axis");
+    if (k.force_sign.size() > 3) invalid_key(where, "force_sign", std::to_string(k.force_sign.size()) + " values", "1 to 3 values, one per axis");
     for (double v : k.force_sign) {
-        if (v != 1.0 && v != -1.0) invalid(where, "force_sign", std::to_string(v), "+1 or -1 per axis");
+        if (v != 1.0 && v != -1.0) invalid_key(where, "force_sign", std::to_string(v), "+1 or -1 per axis");
     }
     if (driver == "hid") {
         if (k.usb_vid < 0 || k.usb_pid < 0) {
-            throw StartupError(kExitBadConfig, where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
+            throw StartupError(ErrorKind::BadConfig, where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
         }
         check_int(where, "usb_vid", k.usb_vid, 0, 0xFFFF);
         check_int(where, "usb_pid", k.usb_pid, 0, 0xFFFF);
@@ -93,90 +93,7 @@ Eigen::Matrix3d to_eigen(const MassMatrix& m, std::size_t axes) {
     return e;
 }
 
-MassMatrix from_eigen(const Eigen::MatrixXd& e) {
-    MassMatrix m{};
-    for (Eigen::Index i = 0; i < e.rows(); ++i) {
-        for (Eigen::Index j = 0; j < e.cols(); ++j) m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = e(i, j);
-    }
-    return m;
-}
-
 }  // namespace
-
-DeviceMass DeviceMass::isotropic_mass(double mass, std::size_t axes) {
-    DeviceMass d;
-    d.axes = axes;
-    for (std::size_t a = 0; a < axes; ++a) {
-        d.matrix[a][a] = mass;
-        d.inverse[a][a] = 1.0 / mass;
-        d.inverse_sqrt[a][a] = 1.0 / std::sqrt(mass);
-    }
-    d.smallest_ = d.largest_ = mass;
-    return d;
-}
-
-DeviceMass DeviceMass::from_matrix(const MassMatrix& M, std::size_t axes) {
-    const auto n = static_cast<Eigen::Index>(axes);
-    const Eigen::Matrix3d full = to_eigen(M, axes);
-    const Eigen::MatrixXd m = 0.5 * (full.topLeftCorner(n, n) + full.topLeftCorner(n, n).transpose());
-    bool diagonal = true, isotropic = true;
-    for (Eigen::Index i = 0; i < n; ++i) {
-        for (Eigen::Index j = 0; j < n; ++j) {
-            if (i != j && m(i, j) != 0.0) diagonal = false;
-        }
-        if (m(i, i) != m(0, 0)) isotropic = false;
-    }
-    if (diagonal && isotropic) return isotropic_mass(m(0, 0), axes);
-    DeviceMass d;
-    d.axes = axes;
-    d.isotropic = false;
-    d.diagonal = diagonal;
-    d.matrix = from_eigen(m);
-    if (diagonal) {  // exact per axis: no eigen-decomposition rounding
-        for (std::size_t a = 0; a < axes; ++a) {
-            d.inverse[a][a] = 1.0 / d.matrix[a][a];
-            d.inverse_sqrt[a][a] = 1.0 / std::sqrt(d.matrix[a][a]);
-        }
-        d.smallest_ = m.diagonal().minCoeff();
-        d.largest_ = m.diagonal().maxCoeff();
-        return d;
-    }
-    // M = V diag(lambda) V^T: M^-1 = V diag(1/lambda) V^T, M^-1/2 = V diag(lambda^-1/2) V^T (symmetric).
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(m);
-    const Eigen::MatrixXd& V = es.eigenvectors();
-    const Eigen::VectorXd lambda = es.eigenvalues();
-    const Eigen::MatrixXd inv = V * lambda.cwiseInverse().asDiagonal() * V.transpose();
-    const Eigen::MatrixXd inv_sqrt = V * lambda.cwiseSqrt().cwiseInverse().asDiagonal() * V.transpose();
-    d.inverse = from_eigen(0.5 * (inv + inv.transpose()));
-    d.inverse_sqrt = from_eigen(0.5 * (inv_sqrt + inv_sqrt.transpose()));
-    d.smallest_ = lambda.minCoeff();
-    d.largest_ = lambda.maxCoeff();
-    return d;
-}
-
-double DeviceMass::along(const AxisVector& n) const noexcept {
-    if (isotropic) return matrix[0][0];
-    double q = 0.0;  // n^T M^-1 n
-    for (std::size_t i = 0; i < axes; ++i) {
-        for (std::size_t j = 0; j < axes; ++j) q += n[i] * inverse[i][j] * n[j];
-    }
-    return 1.0 / q;
-}
-
-std::string DeviceMass::describe() const {
-    if (isotropic) return number(matrix[0][0]) + " kg";
-    if (diagonal) {
-        std::vector<double> v;
-        for (std::size_t a = 0; a < axes; ++a) v.push_back(matrix[a][a]);
-        return list(v) + " kg per axis";
-    }
-    std::string out = "matrix [";
-    for (std::size_t i = 0; i < axes; ++i) {
-        std::vector<double> row(matrix[i].begin(), matrix[i].begin() + static_cast<std::ptrdiff_t>(axes));
-        out += (i ? ", " : "") + list(row);
-    }
-    return out + "] kg";
-}
 
 void add_mass_keys(CLI::App& app, MassKeys& k) {
     app.add_option("--mass", k.mass);
@@ -194,21 +111,21 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                                double stiffness) {
     const std::string n_axes = std::to_string(axes);
     if (!k.mass_given && !k.mass_matrix_given) {
-        throw StartupError(kExitBadConfig, where.prefix("mass") + "missing key 'mass'; accepted: mass = M (kg, every axis), "
+        throw StartupError(ErrorKind::BadConfig, where.prefix("mass") + "missing key 'mass'; accepted: mass = M (kg, every axis), "
                                            "mass = [one value per axis] or mass_matrix = [" + n_axes + " x " + n_axes +
                                            " values, row by row]");
     }
     if (k.mass_given && k.mass_matrix_given) {
-        throw StartupError(kExitBadConfig, where.prefix("mass_matrix") + "mass and mass_matrix are both given; accepted: one of them");
+        throw StartupError(ErrorKind::BadConfig, where.prefix("mass_matrix") + "mass and mass_matrix are both given; accepted: one of them");
     }
     ProfileMass out;
     if (k.mass_given) {
         if (k.mass.size() != 1 && k.mass.size() != axes) {
-            invalid(where, "mass", list(k.mass), "one value (every axis) or one per axis (" + n_axes + ")");
+            invalid_key(where, "mass", list(k.mass), "one value (every axis) or one per axis (" + n_axes + ")");
         }
         for (double v : k.mass) {
             if (!std::isfinite(v) || v <= 0.0 || v > 1e6) {
-                invalid(where, "mass", k.mass.size() == 1 ? number(v) : list(k.mass),
+                invalid_key(where, "mass", k.mass.size() == 1 ? number(v) : list(k.mass),
                         "finite, > 0 and <= 1e6 kg (kg m^2 for rotary devices)" + std::string(k.mass.size() == 1 ? "" : " per value"));
             }
         }
@@ -218,11 +135,11 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
     } else {
         const std::string shape = n_axes + " x " + n_axes + " = " + std::to_string(axes * axes) + " values, row by row";
         if (k.mass_matrix.size() != axes * axes) {
-            invalid(where, "mass_matrix", std::to_string(k.mass_matrix.size()) + " values", shape);
+            invalid_key(where, "mass_matrix", std::to_string(k.mass_matrix.size()) + " values", shape);
         }
         double largest_entry = 0.0;
         for (double v : k.mass_matrix) {
-            if (!std::isfinite(v) || std::abs(v) > 1e6) invalid(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
+            if (!std::isfinite(v) || std::abs(v) > 1e6) invalid_key(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
             largest_entry = std::max(largest_entry, std::abs(v));
         }
         MassMatrix M{};
@@ -234,7 +151,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                 // Symmetric to 1e-9 of the largest entry: values written alike are exactly symmetric; the
                 // tolerance only forgives a last-digit difference, never a real asymmetry.
                 if (std::abs(M[i][j] - M[j][i]) > 1e-9 * largest_entry) {
-                    invalid(where, "mass_matrix", "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
+                    invalid_key(where, "mass_matrix", "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
                                                       " but M[" + std::to_string(j) + "][" + std::to_string(i) + "] = " + number(M[j][i]),
                             "a symmetric matrix (|M_ij - M_ji| <= 1e-9 max |M_kl|)");
                 }
@@ -246,13 +163,13 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
         const double lo = es.eigenvalues().minCoeff(), hi = es.eigenvalues().maxCoeff();
         if (cholesky.info() != Eigen::Success || !(lo > 0.0) || lo < 1e-9 * hi || hi > 1e6) {
-            invalid(where, "mass_matrix", list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
+            invalid_key(where, "mass_matrix", list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
                     "positive definite (Cholesky), eigenvalues in (0, 1e6] kg, smallest / largest >= 1e-9");
         }
         out.mass = DeviceMass::from_matrix(M, axes);
     }
     if (!out.mass.isotropic && (damping != 0.0 || stiffness != 0.0)) {
-        throw StartupError(kExitInvalidParameter,
+        throw StartupError(ErrorKind::InvalidParameter,
                            where.prefix(k.mass_given ? "mass" : "mass_matrix") + "an anisotropic mass (" + out.mass.describe() +
                                ") with damping = " + number(damping) + " N s/m, stiffness = " + number(stiffness) +
                                " N/m is not supported: the plant along a direction is then not one scalar loop, and the "
@@ -261,7 +178,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
     }
     if (k.max_stiffness_given) {
         if (!std::isfinite(k.max_stiffness) || k.max_stiffness <= 0.0 || k.max_stiffness > 1e12) {
-            invalid(where, "max_stiffness", number(k.max_stiffness), "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
+            invalid_key(where, "max_stiffness", number(k.max_stiffness), "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
         }
         out.max_stiffness = k.max_stiffness;
     }

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "svg_contour.hpp"
+#include "svg/svg_contour.hpp"
 
 #include <cmath>
 #include <deque>

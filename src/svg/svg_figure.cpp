@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "svg_figure.hpp"
+#include "svg/svg_figure.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,6 @@
 #include <iostream>
 
 #include <hapticopt/stability_region.hpp>
-
-#include "cli_output.hpp"
 
 namespace hapticopt::cli {
 
@@ -137,7 +135,7 @@ int save_figure(const svg::Document& doc, const FigureOptions& o, std::chrono::s
   doc.save(o.out);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf("wrote %s (%.2f s)\n", o.out.c_str(), seconds);
-  return kOk;
+  return 0;
 }
 
 }  // namespace hapticopt::cli

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "config/key_locations.hpp"
-#include "devices/device.hpp"
+#include "tuning/device_mass.hpp"
 
 namespace CLI {
 class App;
@@ -39,48 +39,9 @@ struct RealDeviceKeys {
 
 void add_real_device_keys(CLI::App& app, RealDeviceKeys& keys);
 
-// Range checks; throws StartupError(kExitInvalidParameter / kExitBadConfig) naming key, value and range, and
+// Range checks; throws StartupError(ErrorKind::InvalidParameter / ErrorKind::BadConfig) naming key, value and range, and
 // where the profile wrote the key (`where`: from apply_config_file).
 void validate_real_device_keys(const KeyLocations& where, const std::string& driver, const RealDeviceKeys& keys);
-
-using MassMatrix = std::array<std::array<double, kMaxAxes>, kMaxAxes>;
-
-// The device's mass (inertia) matrix M of  M x'' + b x' + k x = F  on its first `axes` axes (symmetric
-// positive definite there; rows and columns beyond `axes` are 0), with what the checks and the simulated
-// device need of it. Computed once at start-up (Eigen, allocates); the accessors are cheap.
-//  * The mass along a unit direction n: a force along n that depends only on x_n = n^T x (a plane, a spring
-//    to a plane) moves x_n as  n^T x'' = (n^T M^-1 n) f, the scalar loop of mass m_n = 1 / (n^T M^-1 n)
-//    (exact when b = k = 0; n^T M n is the kinetic-energy mass of a motion along n, which is not the
-//    motion such a force produces unless n is an eigenvector of M).
-//  * M^-1/2: in y = M^1/2 x the plant has unit mass on every axis (gain matrices A = T^2 M^-1/2 K M^-1/2).
-struct DeviceMass {
-    std::size_t axes = 1;
-    MassMatrix matrix{};        // M
-    MassMatrix inverse{};       // M^-1
-    MassMatrix inverse_sqrt{};  // M^-1/2 (symmetric, positive definite)
-    bool isotropic = true;      // M = m I
-    bool diagonal = true;       // off-diagonal entries exactly 0
-
-    // m I on `axes` axes (m > 0, finite; axes 1 .. 3).
-    static DeviceMass isotropic_mass(double mass, std::size_t axes);
-    // A symmetric positive-definite M on `axes` axes (validated by validate_mass_keys; symmetrised here).
-    static DeviceMass from_matrix(const MassMatrix& M, std::size_t axes);
-
-    // 1 / (n^T M^-1 n) for a unit n in the device's axes (m itself when isotropic). kg.
-    [[nodiscard]] double along(const AxisVector& n) const noexcept;
-    // The mass along axis a: 1 / (M^-1)_aa (= M_aa for a diagonal M). kg.
-    [[nodiscard]] double of_axis(std::size_t a) const noexcept {
-        return isotropic ? matrix[0][0] : diagonal ? matrix[a][a] : 1.0 / inverse[a][a];
-    }
-    // Smallest and largest eigenvalue of M (kg).
-    [[nodiscard]] double smallest() const noexcept { return smallest_; }
-    [[nodiscard]] double largest() const noexcept { return largest_; }
-    // "0.3 kg", "[0.3, 0.3, 0.45] kg per axis" or "matrix [[...], ...] kg" (for messages).
-    [[nodiscard]] std::string describe() const;
-
-private:
-    double smallest_ = 0.0, largest_ = 0.0;
-};
 
 // The plant keys as read: `mass` (one value, or one per axis), `mass_matrix` (axes x axes values, row
 // major) and `max_stiffness` (N/m). add_mass_keys registers them; `given` flags say which were written.
@@ -96,7 +57,7 @@ void add_mass_keys(CLI::App& app, MassKeys& keys);
 void read_mass_keys_given(const CLI::App& app, MassKeys& keys);
 
 // The validated mass and limit of a profile. Throws StartupError naming the key, its value and the accepted
-// range (kExitBadConfig: neither or both of mass and mass_matrix; kExitInvalidParameter: out of range):
+// range (ErrorKind::BadConfig: neither or both of mass and mass_matrix; ErrorKind::InvalidParameter: out of range):
 // mass > 0 finite <= 1e6 (1 or `axes` values); mass_matrix `axes`^2 finite values, symmetric to 1e-9 of
 // its largest entry, positive definite (Cholesky) with eigenvalues in (0, 1e6] and smallest / largest
 // >= 1e-9; an anisotropic mass only with damping = stiffness = 0 (otherwise the plant along a direction

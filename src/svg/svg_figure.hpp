@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Shared pieces of the `hapticopt plot` figures: the plant and output options, normalised or physical
-// axes, the standard panel layout, the exact stability boundary as a closed curve, and the
-// registration of the four plot subcommands (plot_region.cpp, plot_costs.cpp, plot_step.cpp,
-// plot_overshoot.cpp, plot_collision.cpp; plot_command.cpp groups them under `hapticopt plot`).
+// Shared pieces of the figures of `hapticopt plot` and `hapticd experiment`: the plant and output options,
+// normalised or physical axes, the standard panel layout and the exact stability boundary as a closed curve.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -12,9 +10,8 @@
 
 #include <hapticopt/parameters.hpp>
 
-#include "commands.hpp"
-#include "svg_contour.hpp"
-#include "svg_writer.hpp"
+#include "svg/svg_contour.hpp"
+#include "svg/svg_writer.hpp"
 
 namespace hapticopt {
 class StabilityRegion;  // stability_region.hpp (kept out of this header: it is Eigen-heavy)
@@ -73,13 +70,7 @@ svg::Axes& main_axes(svg::Document& doc, const FigureOptions& o, std::pair<doubl
                      std::pair<double, double> y_domain, std::string x_label, std::string y_label,
                      std::string title, double top_fraction = 1.0);
 
-/// Writes the document and reports the file and the elapsed time on stdout.
+/// Writes the document and reports the file and the elapsed time on stdout; returns 0 (success).
 int save_figure(const svg::Document& doc, const FigureOptions& o, std::chrono::steady_clock::time_point start);
-
-CommandRunner add_plot_region(CLI::App& plot);
-CommandRunner add_plot_costs(CLI::App& plot);
-CommandRunner add_plot_step(CLI::App& plot);
-CommandRunner add_plot_overshoot(CLI::App& plot);
-CommandRunner add_plot_collision(CLI::App& plot);
 
 }  // namespace hapticopt::cli

@@ -4,7 +4,7 @@
 
 namespace hapticd {
 
-// argv[0] is "experiment". Returns the process exit code (exit_codes.hpp); never throws.
+// argv[0] is "experiment". Returns the process exit code (common/exit_codes.hpp); never throws.
 int experiment_main(int argc, const char* const* argv) noexcept;
 
 }  // namespace hapticd

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "experiment/experiment_main.hpp"
+#include "daemon/experiment_main.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -13,7 +13,7 @@
 #include "daemon/exit_codes.hpp"
 #include "experiment/experiment_run.hpp"
 #include "config/options.hpp"
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 namespace hapticd {
 
@@ -42,7 +42,7 @@ std::vector<double> parse_range(const std::string& option, const std::string& te
         begin = end + 1;
     }
     if (parts.size() != 3 || parts[2] != std::floor(parts[2])) {
-        throw StartupError(kExitUsage, option + " = '" + text + "' is invalid; accepted: MIN:MAX:N (numbers, N an integer)");
+        throw StartupError(ErrorKind::Usage, option + " = '" + text + "' is invalid; accepted: MIN:MAX:N (numbers, N an integer)");
     }
     require(std::isfinite(parts[0]) && std::isfinite(parts[1]) && parts[1] >= parts[0], option + " MAX", parts[1], "MIN <= MAX, finite");
     require(parts[2] >= 1 && parts[2] <= 10000, option + " N", parts[2], "1 <= N <= 10000");
@@ -110,10 +110,10 @@ int experiment_main(int argc, const char* const* argv) noexcept {
             return kExitUsage;
         }
         if (!o.b_range.empty() && !o.b_values.empty()) {
-            throw StartupError(kExitUsage, "--b-values and --b-range are exclusive; give one of them");
+            throw StartupError(ErrorKind::Usage, "--b-values and --b-range are exclusive; give one of them");
         }
         if (!o.k_range.empty() && !o.k_values.empty()) {
-            throw StartupError(kExitUsage, "--k-values and --k-range are exclusive; give one of them");
+            throw StartupError(ErrorKind::Usage, "--k-values and --k-range are exclusive; give one of them");
         }
         BoundarySettings bs;
         OptimalSettings os;
@@ -121,10 +121,10 @@ int experiment_main(int argc, const char* const* argv) noexcept {
         else bs.b_values = o.b_values;
         if (!o.k_range.empty()) os.k_values = parse_range("--k-range", o.k_range);
         else os.k_values = o.k_values;
-        return run_experiment(o, b->parsed(), std::move(bs), std::move(os));
+        return exit_code(run_experiment(o, b->parsed(), std::move(bs), std::move(os)));
     } catch (const StartupError& e) {
         if (e.what()[0] != '\0') std::cerr << "hapticd experiment: error: " << e.what() << "\n";
-        return e.code();
+        return exit_code(e.kind());
     } catch (const std::exception& e) {
         std::cerr << "hapticd experiment: internal error: " << e.what() << "\n";
         return kExitInternal;

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "svg_writer.hpp"
+#include "svg/svg_writer.hpp"
 
 #include <algorithm>
 #include <array>

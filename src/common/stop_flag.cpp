@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "scene/safety.hpp"
+#include "common/stop_flag.hpp"
 
 #include <atomic>
 #include <cerrno>
