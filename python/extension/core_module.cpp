@@ -507,6 +507,31 @@ py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, 
   return d;
 }
 
+/// The optimum of CE0..2 under g_F <= noise_budget (noise_budget.hpp), as `hapticopt optimum --noise-budget`.
+py::dict noise_budget_optimum_of(const std::string& criterion, double gamma, double delta, double delay,
+                                 const std::string& kind, double cutoff, int window, double noise_budget) {
+  const auto c = parse_criterion(criterion);
+  if (!c || !energy_index(*c) || requires_no_overshoot(*c)) {
+    throw py::value_error("hapticopt.optimal_point_under_noise_budget: criterion = '" + criterion +
+                          "' is invalid; accepted: CE0, CE1, CE2");
+  }
+  const NormalizedPlant np = plant_of(gamma, delta, delay);
+  const VelocityEstimator e = estimator_of(kind, cutoff, window);
+  NoiseBudgetOptimum r;
+  without_gil([&] { r = optimal_point_under_noise_budget(*c, np, e, noise_budget); });
+  py::dict d;
+  d["noise_budget"] = r.noise_budget;
+  d["alpha"] = r.alpha;
+  d["beta"] = r.beta;
+  d["cost"] = r.cost;
+  d["force_noise_gain"] = r.force_noise_gain;
+  d["budget_active"] = r.budget_active;
+  d["alpha_max"] = r.alpha_max;
+  d["unconstrained_cost"] = r.unconstrained_cost;
+  d["unconstrained_force_noise_gain"] = r.unconstrained_force_noise_gain;
+  return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -569,4 +594,5 @@ PYBIND11_MODULE(_core, m) {
   m.def("estimator_point_costs", &estimator_point_costs);
   m.def("force_noise_gain", &force_noise_gain_of);
   m.def("estimator_optimal_point", &estimator_optimal_point_of);
+  m.def("noise_budget_optimum", &noise_budget_optimum_of);
 }

@@ -162,3 +162,35 @@ def test_malformed_estimators_are_value_errors(text, word):
         ho.costs(0.004, 0.1, estimator=text)
     with pytest.raises(TypeError):
         ho.costs(0.004, 0.1, estimator=15)
+
+
+@pytest.mark.parametrize("estimator,budget", [("lowpass:0.02", 0.002), ("backward", 0.05), ("window:5", 0.01),
+                                              ("lowpass:0.02", 0.01)])
+def test_noise_budget_optimum_matches_the_cli(cli, estimator, budget):
+    # Same library: the point along the curve g_F = g_max by Brent (1e-10 in log alpha) and bisection (1e-13 of the
+    # beta interval); a few-ulp different surface moves it by up to that: alpha, beta relative 1e-7; the cost
+    # is flat along the curve at its minimum: relative 1e-9.
+    expected = run_json(cli, "optimum", "--criterion", "CE2", "--delay", "1", "--velocity", estimator,
+                        "--noise-budget", repr(budget))
+    o = ho.optimal_point_under_noise_budget("CE2", budget, ho.Plant(delay=1.0), estimator=estimator)
+    assert o.force_noise_gain <= budget
+    assert o.budget_active == expected["budget_active"]
+    assert math.isclose(o.alpha, expected["alpha"], rel_tol=1e-7)
+    assert math.isclose(o.beta, expected["beta"], rel_tol=1e-7)
+    assert math.isclose(o.cost, expected["cost"], rel_tol=1e-9)
+    # The point really has the g_F it reports (an independent route: the impulse-response simulation).
+    simulated, _ = simulated_noise_gain(o.alpha, o.beta, 1, estimator, steps=60000)
+    assert math.isclose(o.force_noise_gain, simulated, rel_tol=1e-8)
+
+
+def test_noise_pareto_front_and_bad_budgets():
+    plant = ho.Plant(delay=1.0)
+    front = ho.noise_pareto_front("CE2", [1e-12, 1e-3, 3e-3, 1e-2], plant, estimator="lowpass:0.02")
+    assert [p.noise_budget for p in front] == [1e-3, 3e-3, 1e-2]  # 1e-12: no stable gains meet it, left out
+    assert all(p.force_noise_gain <= p.noise_budget for p in front)
+    assert front[0].cost >= front[1].cost >= front[2].cost
+    with pytest.raises(ho.InvalidParameterError) as info:
+        ho.optimal_point_under_noise_budget("CE2", -1.0, plant, estimator="lowpass:0.02")
+    assert info.value.parameter == "noise_budget"
+    with pytest.raises(ValueError, match="CE0, CE1, CE2"):
+        ho.optimal_point_under_noise_budget("CE2+OV", 0.01, plant)

@@ -13,7 +13,8 @@ from .costs import (CRITERIA_WITH_SURFACE, Costs, Overshoot, Penetration, Stabil
                     penetration, stability)
 from .estimator import VelocityEstimator, velocity_estimator
 from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, OptimalCurve, Optimum, PassiveOptimum, RobustOptimum,
-                     WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum)
+                     WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum,
+                     NoiseBudgetOptimum, noise_pareto_front, optimal_point_under_noise_budget)
 from .parameters import (Gains, PhysicalPlant, Plant, WallGains, normalize, normalize_gains, to_physical,
                          to_physical_plant)
 from .region import Boundary, alpha_max, beta_range, boundary
@@ -29,4 +30,5 @@ __all__ = [
     "Boundary", "boundary", "alpha_max", "beta_range",
     "STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
     "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
+    "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front",
 ]

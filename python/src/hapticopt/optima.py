@@ -28,7 +28,8 @@ from .estimator import EstimatorLike, VelocityEstimator, velocity_estimator
 from .parameters import PhysicalPlant, Plant, WallGains, normalize, to_physical, Gains
 
 __all__ = ["STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
-           "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum"]
+           "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
+           "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front"]
 
 #: The eight criteria of Tables III and IV ("amax", "OV", "CE0" .. "CE2+OV"): criterion.hpp's kAllCriteria.
 STEP_CRITERIA: Tuple[str, ...] = tuple(_core.STEP_CRITERIA)
@@ -217,3 +218,46 @@ def passive_optimum(criterion: str, plant: Optional[Plant] = None) -> Optional[P
     (delta = 0: no gains satisfy delta > alpha/2 + |beta|)."""
     d = _core.passive_optimum(str(criterion), *_plant_args(plant))
     return None if d is None else PassiveOptimum(criterion=str(criterion), **d)
+
+
+@dataclass(frozen=True)
+class NoiseBudgetOptimum:
+    """The optimum of CE0..2 with g_F <= noise_budget (normalised g_max = sigma_max T^2 / (m q)); budget_active
+    False: the unconstrained optimum meets the budget and is returned."""
+
+    criterion: str
+    velocity_estimator: VelocityEstimator
+    noise_budget: float
+    alpha: float
+    beta: float
+    cost: float
+    force_noise_gain: float
+    budget_active: bool
+    alpha_max: float
+    unconstrained_cost: float
+    unconstrained_force_noise_gain: float
+
+
+def optimal_point_under_noise_budget(criterion: str, noise_budget: float, plant: Optional[Plant] = None, *,
+                                     estimator: EstimatorLike = None) -> NoiseBudgetOptimum:
+    """minimise C (CE0, CE1 or CE2) over the estimator loop's main stable region subject to
+    g_F(alpha, beta) <= noise_budget (noise_budget.hpp): the unconstrained optimum if it meets the budget,
+    else the minimum along the curve g_F = noise_budget (bisection for the curve, Brent along it). A budget
+    no stable gains with alpha >= 1e-6 alpha_max meet raises InvalidParameterError naming `noise_budget`."""
+    e = velocity_estimator(estimator)
+    d = _core.noise_budget_optimum(str(criterion), *_plant_args(plant), *e.args(), float(noise_budget))
+    return NoiseBudgetOptimum(criterion=str(criterion), velocity_estimator=e, **d)
+
+
+def noise_pareto_front(criterion: str, budgets: npt.ArrayLike, plant: Optional[Plant] = None, *,
+                       estimator: EstimatorLike = None) -> list:
+    """The Pareto front C against g_F: optimal_point_under_noise_budget for each budget (budgets no stable gains
+    meet are left out), as a list of NoiseBudgetOptimum in the budgets' order."""
+    out = []
+    for g in np.asarray(budgets, dtype=np.float64).ravel():
+        try:
+            out.append(optimal_point_under_noise_budget(criterion, float(g), plant, estimator=estimator))
+        except _core.InvalidParameterError as error:
+            if error.parameter != "noise_budget" or not (np.isfinite(g) and g > 0):
+                raise
+    return out
