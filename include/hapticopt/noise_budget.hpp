@@ -34,7 +34,9 @@
 //
 // The Pareto front (C against g_F): the constrained optimum for a list of budgets (noise_pareto_front).
 // The estimator's parameter jointly: the constrained optimum for each candidate estimator (a list: windows
-// 1..N_max, or low-pass cutoffs on a grid), the best one returned (optimal_estimator_under_noise_budget).
+// 1..N_max, or low-pass cutoffs on a grid), the best one returned (optimal_estimator_under_noise_budget); for
+// the low-pass over an interval of nu: a log-spaced scan of nu, then Brent in log nu on the best scan point's
+// neighbouring cells (optimal_lowpass_under_noise_budget; a local refinement of the scan's best basin).
 #pragma once
 
 #include <cmath>
@@ -226,6 +228,52 @@ NoiseBudgetOptimum optimal_estimator_under_noise_budget(Criterion criterion, con
     throw InvalidParameter(fn, "noise_budget", noise_budget,
                            "a g_F met by some stable gains with one of the candidate estimators");
   }
+  return *best;
+}
+
+/// The low-pass cut-off jointly with the gains: minimise the constrained optimum's cost over nu in
+/// [nu_min, nu_max] (0 < nu_min < nu_max): `scan` cut-offs log-spaced over the interval (ends included), then
+/// Brent over log nu on the best one's neighbouring cells to `log_tolerance`. Cut-offs whose budget no scanned
+/// gains meet count as +inf. Throws InvalidParameter naming `nu_min`, `nu_max`, `scan`, `log_tolerance` or,
+/// when no cut-off meets it, `noise_budget`.
+HAPTICOPT_DEFERRED
+NoiseBudgetOptimum optimal_lowpass_under_noise_budget(Criterion criterion, const NormalizedPlant& plant, double nu_min,
+                                                      double nu_max, double noise_budget, int scan = 12,
+                                                      double log_tolerance = 1e-3,
+                                                      const NoiseBudgetOptions& options = {}) {
+  const char* fn = "hapticopt::optimal_lowpass_under_noise_budget";
+  detail::require_in_range(fn, "nu_min", nu_min, 0.0, true, HUGE_VAL, "finite and > 0");
+  detail::require_in_range(fn, "nu_max", nu_max, nu_min, true, HUGE_VAL, "finite and > nu_min");
+  detail::require_in_range(fn, "scan", scan, 3, false, 1e4, "3 <= scan <= 10^4");
+  detail::require_in_range(fn, "log_tolerance", log_tolerance, 0.0, true, 1.0, "0 < log_tolerance <= 1");
+  detail::require_in_range(fn, "noise_budget", noise_budget, 0.0, true, HUGE_VAL, "finite and > 0");
+  std::optional<NoiseBudgetOptimum> best;
+  auto at = [&](double log_nu) {
+    try {
+      const NoiseBudgetOptimum o = optimal_point_under_noise_budget(
+          criterion, plant, VelocityEstimator::low_pass(std::exp(log_nu)), noise_budget, options);
+      if (!best || o.cost < best->cost) best = o;
+      return o.cost;
+    } catch (const InvalidParameter& x) {
+      if (x.parameter() != "noise_budget") throw;
+      return HUGE_VAL;
+    }
+  };
+  const double l0 = std::log(nu_min), l1 = std::log(nu_max), step = (l1 - l0) / (scan - 1);
+  int best_i = -1;
+  double best_cost = HUGE_VAL;
+  for (int i = 0; i < scan; ++i) {
+    const double c = at(l0 + i * step);
+    if (c < best_cost) {
+      best_cost = c;
+      best_i = i;
+    }
+  }
+  if (best_i < 0) {
+    throw InvalidParameter(fn, "noise_budget", noise_budget, "a g_F met by some stable gains with a cut-off in the interval");
+  }
+  const double centre = l0 + best_i * step;
+  detail::minimize_scalar(at, std::max(l0, centre - step), std::min(l1, centre + step), log_tolerance);
   return *best;
 }
 

@@ -13,6 +13,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <hapticopt/hapticopt.hpp>
@@ -29,6 +30,8 @@ struct BudgetCase {
   double delay;
   double fraction;  ///< the budget as a fraction of g_F at the unconstrained optimum
 };
+
+void PrintTo(const BudgetCase& c, std::ostream* os) { *os << c.name; }
 
 std::vector<BudgetCase> budget_cases() {
   return {{"backward_d1_half", VelocityEstimator::backward_difference(), 1, 0.5},
@@ -150,6 +153,27 @@ TEST(NoiseBudget, JointOverTheWindowIsTheBestCandidate) {
     EXPECT_LE(best.cost, optimal_point_under_noise_budget(Criterion::CE2, plant, w, budget).cost) << w.window;
   }
   EXPECT_THROW(optimal_estimator_under_noise_budget(Criterion::CE2, plant, {}, budget), InvalidParameter);
+}
+
+TEST(NoiseBudget, JointOverTheLowPassCutoffBeatsEveryFixedCutoff) {
+  const NormalizedPlant plant{0, 0, 1};
+  const double budget = 3e-3;
+  const NoiseBudgetOptimum best = optimal_lowpass_under_noise_budget(Criterion::CE2, plant, 0.005, 0.2, budget);
+  ASSERT_EQ(best.estimator.kind, VelocityEstimatorKind::lowpass);
+  EXPECT_GE(best.estimator.cutoff, 0.005);
+  EXPECT_LE(best.estimator.cutoff, 0.2);
+  EXPECT_LE(best.force_noise_gain, budget);
+  // Cut-offs off the scan's points: none is cheaper (the inner optimum's 1e-9 relative).
+  for (const double nu : {0.007, 0.013, 0.02, 0.03, 0.05, 0.1, 0.17}) {
+    const NoiseBudgetOptimum o =
+        optimal_point_under_noise_budget(Criterion::CE2, plant, VelocityEstimator::low_pass(nu), budget);
+    EXPECT_LE(best.cost, o.cost * (1 + 1e-9)) << nu;
+  }
+  std::cout << "lowpass joint, budget " << budget << ": nu " << best.estimator.cutoff << " cost " << best.cost
+            << " alpha " << best.alpha << " beta " << best.beta << '\n';
+  for (const auto& [lo, hi] : std::vector<std::pair<double, double>>{{0.0, 0.1}, {0.1, 0.05}}) {
+    EXPECT_THROW(optimal_lowpass_under_noise_budget(Criterion::CE2, plant, lo, hi, budget), InvalidParameter);
+  }
 }
 
 }  // namespace
