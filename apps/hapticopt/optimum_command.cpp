@@ -2,13 +2,15 @@
 // hapticopt optimum: the optimal point of one criterion, normalised or physical; the collision
 // criteria CI0..2; the robust optimum over a box of physical parameters (--robust, ranges MIN:MAX);
 // every answer reports the delay-aware Colgate-Schenkel passivity margin (passivity.hpp; null for a
-// fractional delay, which it does not cover).
+// fractional delay, which it does not cover). --noise-budget G (normalised g_max) or --force-noise-budget N [N]
+// with --position-resolution q: the optimum of CE0..2 with g_F <= g_max (noise_budget.hpp; g_max = N T^2/(m q)).
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
 #include <hapticopt/criterion.hpp>
 #include <hapticopt/impulse_optimum.hpp>
+#include <hapticopt/noise_budget.hpp>
 #include <hapticopt/optimal_wall.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/robust_optimum.hpp>
@@ -137,6 +139,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
     bool robust = false;
     bool passive = false;
     VelocityOption velocity;
+    double noise_budget = 0, force_noise_budget = 0, resolution = 0;
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("optimum", "optimal (alpha, beta) of a criterion, and (K, B) with --mass");
@@ -170,8 +173,24 @@ CommandRunner add_optimum_command(CLI::App& app) {
       "integer delays only); CE0..2, CI0..2 only");
   passive->excludes(robust);
   args->velocity.add_to(*sub);
+  CLI::Option* noise_budget = sub->add_option(
+      "--noise-budget", args->noise_budget,
+      "CE0..2 under a force-noise budget: g_F <= G (normalised, sigma_F = (m q / T^2) g_F; noise_budget.hpp)");
+  CLI::Option* force_budget = sub->add_option("--force-noise-budget", args->force_noise_budget,
+                                              "the budget as sigma_F [N] (needs --mass, --period, "
+                                              "--position-resolution): g_max = N T^2 / (m q)");
+  CLI::Option* resolution =
+      sub->add_option("--position-resolution", args->resolution, "encoder step q [m] of --force-noise-budget");
+  force_budget->needs(mass);
+  force_budget->needs(resolution);
+  resolution->needs(force_budget);
+  force_budget->excludes(noise_budget);
+  for (CLI::Option* o : {noise_budget, force_budget}) {
+    o->excludes(robust);
+    o->excludes(passive);
+  }
   sub->add_flag("--json", args->json, "print one JSON object");
-  return [args, mass]() {
+  return [args, mass, noise_budget, force_budget]() {
     const bool physical = mass->count() > 0;
     UncertainPlant box;
     if (physical) {
@@ -195,6 +214,63 @@ CommandRunner add_optimum_command(CLI::App& app) {
     }
     const auto impulse = parse_impulse_criterion(args->criterion);
     const VelocityEstimator estimator = args->velocity.parse(physical ? box.period : 0.0);
+    if (noise_budget->count() > 0 || force_budget->count() > 0) {
+      const auto step = parse_criterion(args->criterion);
+      if (!step || !energy_index(*step) || requires_no_overshoot(*step)) {
+        std::cerr << "hapticopt optimum: --noise-budget and --force-noise-budget support CE0, CE1, CE2 (not "
+                  << args->criterion << ")\n";
+        return int{kUsage};
+      }
+      const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
+      const NormalizedPlant np = physical ? normalize(plant) : args->plant.normalized();
+      double g_max = args->noise_budget;
+      if (force_budget->count() > 0) {
+        detail::require_positive("hapticopt optimum", "position_resolution", args->resolution);
+        detail::require_in_range("hapticopt optimum", "force_noise_budget", args->force_noise_budget, 0.0, true,
+                                 HUGE_VAL, "finite and > 0 [N]");
+        g_max = args->force_noise_budget * plant.period * plant.period / (plant.mass * args->resolution);
+      }
+      NoiseBudgetOptions nbo;
+      nbo.unconstrained.overshoot_tolerance = args->tolerance;
+      const NoiseBudgetOptimum o = optimal_point_under_noise_budget(*step, np, estimator, g_max, nbo);
+      WallGains g{0, 0};
+      if (physical) g = to_physical(NormalizedGains{o.alpha, o.beta}, plant.mass, plant.period);
+      const double to_newton = force_budget->count() > 0 ? plant.mass * args->resolution / (plant.period * plant.period) : 0;
+      if (args->json) {
+        nlohmann::json out;
+        out["criterion"] = args->criterion;
+        out["alpha"] = o.alpha;
+        out["beta"] = o.beta;
+        out["cost"] = number_or_null(o.cost);
+        out["alpha_max"] = o.alpha_max;
+        out["velocity_estimator"] = velocity_json(estimator);
+        out["noise_budget"] = o.noise_budget;
+        out["force_noise_gain"] = number_or_null(o.force_noise_gain);
+        out["budget_active"] = o.budget_active;
+        out["unconstrained_cost"] = number_or_null(o.unconstrained_cost);
+        out["unconstrained_force_noise_gain"] = number_or_null(o.unconstrained_force_noise_gain);
+        if (force_budget->count() > 0) {
+          out["force_noise_budget"] = args->force_noise_budget;
+          out["force_noise_std"] = to_newton * o.force_noise_gain;
+          out["position_resolution"] = args->resolution;
+        }
+        if (physical) {
+          out["K"] = g.stiffness;
+          out["B"] = g.damping;
+        }
+        std::cout << out.dump() << '\n';
+        return int{kOk};
+      }
+      std::printf("criterion  %s\nvelocity   %s\nbudget     g_F <= %.6g%s\nalpha      %.10f\nbeta       %.10f\n"
+                  "cost       %.10g\nnoise gain g_F   %.6g\nalpha_max  %.10f\n",
+                  args->criterion.c_str(), velocity_text(estimator).c_str(), o.noise_budget,
+                  o.budget_active ? " (active)" : " (met by the unconstrained optimum)", o.alpha, o.beta, o.cost,
+                  o.force_noise_gain, o.alpha_max);
+      std::printf("unconstrained    cost %.10g, g_F %.6g\n", o.unconstrained_cost, o.unconstrained_force_noise_gain);
+      if (force_budget->count() > 0) std::printf("sigma_F    %.6g N (budget %.6g N)\n", to_newton * o.force_noise_gain, args->force_noise_budget);
+      if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
+      return int{kOk};
+    }
     if (estimator.kind != VelocityEstimatorKind::backward) {
       const auto step = parse_criterion(args->criterion);
       if (args->robust || args->passive || impulse || !step || *step == Criterion::Overshoot) {

@@ -13,6 +13,7 @@
 #include "impulse_optimum.hpp"
 #include "loop_schur_form.hpp"
 #include "matrix_gain_stability.hpp"
+#include "noise_budget.hpp"
 #include "optimal_wall.hpp"
 #include "optimum.hpp"
 #include "overshoot.hpp"

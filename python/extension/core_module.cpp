@@ -188,6 +188,7 @@ py::dict point_costs(double gamma, double delta, double delay, double alpha, dou
   d["ci1"] = ic.ci1;
   d["ci2"] = ic.ci2;
   d["penetration"] = pen.depth;
+  d["force_noise_gain"] = force_noise_gain(np, gains);
   // The passivity condition covers integer delays only (passivity.hpp); None otherwise.
   d["passivity_margin"] = passivity_is_covered(np) ? py::object(py::float_(passivity_margin(np, gains)))
                                                    : py::object(py::none());
@@ -418,6 +419,119 @@ std::optional<py::dict> passive_optimum_of(const std::string& criterion, double 
   return d;
 }
 
+/// The estimator from the Python package's fields (kind "backward", "lowpass" or "window"); the library's
+/// factories validate nu and N (InvalidParameter naming `cutoff` or `window`).
+VelocityEstimator estimator_of(const std::string& kind, double cutoff, int window) {
+  if (kind == "backward") return VelocityEstimator::backward_difference();
+  if (kind == "lowpass") return VelocityEstimator::low_pass(cutoff);
+  if (kind == "window") return VelocityEstimator::moving_window(window);
+  throw py::value_error("hapticopt.VelocityEstimator: kind = '" + kind + "' is invalid; accepted: backward, lowpass, window");
+}
+
+/// Stability, C_E0..2, C_OV and g_F at one point with the estimator (what `hapticopt cost --velocity --json`
+/// prints; the collision criteria and passivity are not modelled with an estimator: absent).
+py::dict estimator_point_costs(double gamma, double delta, double delay, double alpha, double beta,
+                               const std::string& kind, double cutoff, int window, double overshoot_tolerance) {
+  const NormalizedPlant np = plant_of(gamma, delta, delay);
+  const NormalizedGains gains{alpha, beta};
+  const VelocityEstimator e = estimator_of(kind, cutoff, window);
+  const OvershootOptions o = overshoot_options_of("hapticopt.costs", overshoot_tolerance);
+  StabilityReport report;
+  EnergyCosts c;
+  OvershootResult ov;
+  double g = 0;
+  without_gil([&] {
+    report = stability(np, gains, e);
+    c = energy_costs(np, gains, e);
+    ov = overshoot(np, gains, e, o);
+    g = force_noise_gain(np, gains, e);
+  });
+  py::dict d;
+  d["stable"] = report.stable;
+  d["margin"] = report.margin;
+  d["refined"] = report.refined;
+  d["spectral_radius"] = report.spectral_radius;
+  d["ce0"] = c.ce0;
+  d["ce1"] = c.ce1;
+  d["ce2"] = c.ce2;
+  d["ov"] = ov.value;
+  d["no_overshoot"] = report.stable && ov.within_tolerance;
+  d["force_noise_gain"] = g;
+  return d;
+}
+
+py::tuple estimator_stability_of(double gamma, double delta, double delay, double alpha, double beta,
+                                 const std::string& kind, double cutoff, int window) {
+  const StabilityReport r = stability(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta},
+                                      estimator_of(kind, cutoff, window));
+  return py::make_tuple(r.stable, r.margin, r.spectral_radius, r.refined);
+}
+
+double force_noise_gain_of(double gamma, double delta, double delay, double alpha, double beta, const std::string& kind,
+                           double cutoff, int window) {
+  return force_noise_gain(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta}, estimator_of(kind, cutoff, window));
+}
+
+/// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator (velocity_estimator.hpp's optimal_point),
+/// g_F there and the stable islands of the gain plane (as `hapticopt optimum --velocity --json`).
+py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, double delta, double delay,
+                                    const std::string& kind, double cutoff, int window, double overshoot_tolerance) {
+  const char* fn = "hapticopt.optimal_point";
+  const auto c = parse_criterion(criterion);
+  if (!c || *c == Criterion::Overshoot) {
+    throw py::value_error(std::string(fn) + ": criterion = '" + criterion +
+                          "' is invalid with a velocity estimator; accepted: amax, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV");
+  }
+  const NormalizedPlant np = plant_of(gamma, delta, delay);
+  const VelocityEstimator e = estimator_of(kind, cutoff, window);
+  EstimatorOptimumOptions o;
+  o.overshoot_tolerance = overshoot_tolerance;
+  EstimatorOptimum r;
+  double g = 0;
+  std::vector<StableIsland> islands;
+  without_gil([&] {
+    r = optimal_point(*c, np, e, o);
+    g = force_noise_gain(np, NormalizedGains{r.alpha, r.beta}, e);
+    islands = EstimatorStabilityRegion(np, e).islands();
+  });
+  py::dict d;
+  d["alpha"] = r.alpha;
+  d["beta"] = r.beta;
+  d["cost"] = r.cost ? py::object(py::float_(*r.cost)) : py::object(py::none());
+  d["alpha_max"] = r.alpha_max;
+  d["beta_at_alpha_max"] = r.beta_at_alpha_max;
+  d["force_noise_gain"] = g;
+  py::list l;
+  for (const StableIsland& i : islands) l.append(py::make_tuple(i.alpha_min, i.alpha_max, i.beta_min, i.beta_max));
+  d["stable_islands"] = l;
+  return d;
+}
+
+/// The optimum of CE0..2 under g_F <= noise_budget (noise_budget.hpp), as `hapticopt optimum --noise-budget`.
+py::dict noise_budget_optimum_of(const std::string& criterion, double gamma, double delta, double delay,
+                                 const std::string& kind, double cutoff, int window, double noise_budget) {
+  const auto c = parse_criterion(criterion);
+  if (!c || !energy_index(*c) || requires_no_overshoot(*c)) {
+    throw py::value_error("hapticopt.optimal_point_under_noise_budget: criterion = '" + criterion +
+                          "' is invalid; accepted: CE0, CE1, CE2");
+  }
+  const NormalizedPlant np = plant_of(gamma, delta, delay);
+  const VelocityEstimator e = estimator_of(kind, cutoff, window);
+  NoiseBudgetOptimum r;
+  without_gil([&] { r = optimal_point_under_noise_budget(*c, np, e, noise_budget); });
+  py::dict d;
+  d["noise_budget"] = r.noise_budget;
+  d["alpha"] = r.alpha;
+  d["beta"] = r.beta;
+  d["cost"] = r.cost;
+  d["force_noise_gain"] = r.force_noise_gain;
+  d["budget_active"] = r.budget_active;
+  d["alpha_max"] = r.alpha_max;
+  d["unconstrained_cost"] = r.unconstrained_cost;
+  d["unconstrained_force_noise_gain"] = r.unconstrained_force_noise_gain;
+  return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -476,4 +590,9 @@ PYBIND11_MODULE(_core, m) {
     return passivity_margin(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta});
   });
   m.def("passive_optimum", &passive_optimum_of);
+  m.def("estimator_stability", &estimator_stability_of);
+  m.def("estimator_point_costs", &estimator_point_costs);
+  m.def("force_noise_gain", &force_noise_gain_of);
+  m.def("estimator_optimal_point", &estimator_optimal_point_of);
+  m.def("noise_budget_optimum", &noise_budget_optimum_of);
 }

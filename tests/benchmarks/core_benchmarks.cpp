@@ -132,6 +132,17 @@ BENCHMARK(BM_EstimatorOptimum)
     ->Args({0, 1})->Args({1, 1})->Args({2, 1})->Args({0, 6})->Args({1, 6})->Args({2, 6})
     ->Unit(benchmark::kMillisecond);
 
+// CE2 under a force-noise budget (noise_budget.hpp), d = 1: half the g_F of the unconstrained optimum (the budget
+// binds); the unconstrained optimum is part of the call (compare BM_EstimatorOptimum in the same run).
+void BM_NoiseBudgetOptimum(benchmark::State& state) {
+  const NormalizedPlant plant{0, 0, static_cast<double>(state.range(1))};
+  const VelocityEstimator e = estimator_for(state.range(0));
+  const EstimatorOptimum free = optimal_point(Criterion::CE2, plant, e);
+  const double budget = 0.5 * force_noise_gain(plant, {free.alpha, free.beta}, e);
+  for (auto _ : state) benchmark::DoNotOptimize(optimal_point_under_noise_budget(Criterion::CE2, plant, e, budget));
+}
+BENCHMARK(BM_NoiseBudgetOptimum)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMillisecond);
+
 void BM_AllTableRows(benchmark::State& state) {
   for (auto _ : state) {
     for (double d : {0.0, 1.0}) {

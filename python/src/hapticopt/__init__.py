@@ -9,9 +9,12 @@ Documentation: docs/python.md of the repository.
 """
 from ._core import InvalidParameterError, __version__
 from .costs import (CRITERIA_WITH_SURFACE, Costs, Overshoot, Penetration, Stability, cost, cost_grid, costs,
-                    is_passive, is_stable, overshoot, passivity_margin, penetration, stability)
+                    force_noise_gain, force_noise_std, is_passive, is_stable, overshoot, passivity_margin,
+                    penetration, stability)
+from .estimator import VelocityEstimator, velocity_estimator
 from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, OptimalCurve, Optimum, PassiveOptimum, RobustOptimum,
-                     WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum)
+                     WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum,
+                     NoiseBudgetOptimum, noise_pareto_front, optimal_point_under_noise_budget)
 from .parameters import (Gains, PhysicalPlant, Plant, WallGains, normalize, normalize_gains, to_physical,
                          to_physical_plant)
 from .region import Boundary, alpha_max, beta_range, boundary
@@ -22,8 +25,10 @@ __all__ = [
     "Plant", "PhysicalPlant", "Gains", "WallGains", "normalize", "normalize_gains", "to_physical", "to_physical_plant",
     "Stability", "Costs", "Overshoot", "Penetration", "CRITERIA_WITH_SURFACE", "stability", "is_stable", "costs",
     "cost", "cost_grid", "overshoot", "penetration", "passivity_margin", "is_passive",
+    "VelocityEstimator", "velocity_estimator", "force_noise_gain", "force_noise_std",
     "StepResponse", "step_response", "sampled_step_response",
     "Boundary", "boundary", "alpha_max", "beta_range",
     "STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
     "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
+    "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front",
 ]

@@ -19,6 +19,7 @@ the characteristic polynomial, refined in long double near the boundary (decisio
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional, Tuple, Union
 
@@ -26,10 +27,12 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from .parameters import Plant
+from .estimator import EstimatorLike, VelocityEstimator, velocity_estimator
+from .parameters import PhysicalPlant, Plant, WallGains, normalize, normalize_gains
 
 __all__ = ["Stability", "Costs", "Overshoot", "Penetration", "CRITERIA_WITH_SURFACE", "stability", "is_stable",
-           "costs", "cost", "cost_grid", "overshoot", "penetration", "passivity_margin", "is_passive"]
+           "costs", "cost", "cost_grid", "overshoot", "penetration", "passivity_margin", "is_passive",
+           "force_noise_gain", "force_noise_std"]
 
 #: Criteria that have a cost surface C(alpha, beta): accepted by cost(), cost_grid(), optimal_curve().
 #: "CE0", "CE1", "CE2", "OV", "CI0", "CI1", "CI2" (the extension's list, from criterion.hpp).
@@ -64,7 +67,10 @@ class Stability:
 class Costs:
     """Every criterion at one gain pair (+inf where unstable); `no_overshoot` is C_OV <= tolerance
     with the proven stop reached; passivity_margin: the Colgate-Schenkel margin (passivity.hpp,
-    with the loop delay), None for a fractional delay, which that condition does not cover."""
+    with the loop delay), None for a fractional delay, which that condition does not cover.
+    force_noise_gain: g_F, sigma_F = (m q / T^2) g_F (quantisation force noise, velocity_estimator.hpp).
+    With a velocity estimator other than backward the collision criteria, the penetration and the
+    passivity margin are not modelled: None."""
 
     stable: bool
     spectral_radius: float
@@ -73,17 +79,22 @@ class Costs:
     ce2: float
     ov: float
     no_overshoot: bool
-    ci0: float
-    ci1: float
-    ci2: float
-    penetration: float
+    ci0: Optional[float]
+    ci1: Optional[float]
+    ci2: Optional[float]
+    penetration: Optional[float]
     passivity_margin: Optional[float]
+    force_noise_gain: float = math.inf
+    velocity_estimator: VelocityEstimator = VelocityEstimator()
 
     def __getitem__(self, criterion: str) -> float:
         """The cost by criterion name: costs["CE2"]."""
         if criterion not in CRITERIA_WITH_SURFACE:
             raise ValueError(f"Costs: criterion = {criterion!r} is invalid; accepted: {', '.join(CRITERIA_WITH_SURFACE)}")
-        return float(getattr(self, criterion.lower()))
+        value = getattr(self, criterion.lower())
+        if value is None:
+            raise ValueError(f"Costs: {criterion} is not modelled with the velocity estimator {self.velocity_estimator}")
+        return float(value)
 
 
 @dataclass(frozen=True)
@@ -108,22 +119,61 @@ class Penetration:
     periods: int
 
 
-def stability(alpha: float, beta: float, plant: Optional[Plant] = None) -> Stability:
+def stability(alpha: float, beta: float, plant: Optional[Plant] = None, *,
+              estimator: EstimatorLike = None) -> Stability:
     """Stability of the loop at (alpha, beta): all characteristic roots strictly inside the unit
-    circle (Schur-Cohn; refined in long double where the margin is below 1e-4)."""
-    return Stability(*_core.stability(*_plant_args(plant), float(alpha), float(beta)))
+    circle (Schur-Cohn; refined in long double where the margin is below 1e-4). With a velocity
+    estimator (hapticopt.VelocityEstimator or "lowpass:0.02", "window:15", ...): Schur-Cohn on the
+    estimator loop's polynomial p_est (velocity_estimator.hpp), spectral radius of its loop matrix."""
+    e = velocity_estimator(estimator)
+    if e.kind == "backward":
+        return Stability(*_core.stability(*_plant_args(plant), float(alpha), float(beta)))
+    return Stability(*_core.estimator_stability(*_plant_args(plant), float(alpha), float(beta), *e.args()))
 
 
-def is_stable(alpha: float, beta: float, plant: Optional[Plant] = None) -> bool:
+def is_stable(alpha: float, beta: float, plant: Optional[Plant] = None, *, estimator: EstimatorLike = None) -> bool:
     """stability(...).stable."""
-    return stability(alpha, beta, plant).stable
+    return stability(alpha, beta, plant, estimator=estimator).stable
 
 
-def costs(alpha: float, beta: float, plant: Optional[Plant] = None, *, overshoot_tolerance: float = 1e-12) -> Costs:
-    """C_E0..2, C_OV, C_I0..2, penetration, stability and passivity margin at one point (what
-    `hapticopt cost --json` prints). NaN or infinite gains raise InvalidParameterError."""
-    d = _core.point_costs(*_plant_args(plant), float(alpha), float(beta), float(overshoot_tolerance))
-    return Costs(**d)
+def costs(alpha: float, beta: float, plant: Optional[Plant] = None, *, overshoot_tolerance: float = 1e-12,
+          estimator: EstimatorLike = None) -> Costs:
+    """C_E0..2, C_OV, C_I0..2, penetration, stability, passivity margin and g_F at one point (what
+    `hapticopt cost --json` prints). NaN or infinite gains raise InvalidParameterError. With a velocity
+    estimator other than backward (`hapticopt cost --velocity`): stability, C_E0..2, C_OV and g_F of the
+    estimator's loop; the collision criteria, penetration and passivity margin are None."""
+    e = velocity_estimator(estimator)
+    if e.kind == "backward":
+        d = _core.point_costs(*_plant_args(plant), float(alpha), float(beta), float(overshoot_tolerance))
+        return Costs(**d)
+    d = _core.estimator_point_costs(*_plant_args(plant), float(alpha), float(beta), *e.args(),
+                                    float(overshoot_tolerance))
+    return Costs(stable=d["stable"], spectral_radius=d["spectral_radius"], ce0=d["ce0"], ce1=d["ce1"], ce2=d["ce2"],
+                 ov=d["ov"], no_overshoot=d["no_overshoot"], ci0=None, ci1=None, ci2=None, penetration=None,
+                 passivity_margin=None, force_noise_gain=d["force_noise_gain"], velocity_estimator=e)
+
+
+def force_noise_gain(alpha: float, beta: float, plant: Optional[Plant] = None, *,
+                     estimator: EstimatorLike = None) -> float:
+    """g_F: the steady-state standard deviation of the commanded force per encoder step, normalised
+    (sigma_F = (m q / T^2) g_F), for a white rounding error of variance q^2/12 on the measured position:
+    g_F^2 = c^T P c with P = M P M^T + g g^T / 12 (the Stein equation of velocity_estimator.hpp);
+    +inf when the loop is unstable."""
+    e = velocity_estimator(estimator)
+    return float(_core.force_noise_gain(*_plant_args(plant), float(alpha), float(beta), *e.args()))
+
+
+def force_noise_std(gains: WallGains, plant: PhysicalPlant, position_resolution: float, *,
+                    estimator: EstimatorLike = None) -> float:
+    """sigma_F [N] = (m q / T^2) g_F for physical gains, plant and encoder step q [m] (> 0);
+    estimator strings may give the low-pass cutoff in Hz ("lowpass:20Hz", converted with plant.period)."""
+    q = float(position_resolution)
+    if not (math.isfinite(q) and q > 0):
+        raise ValueError(f"hapticopt.force_noise_std: position_resolution = {position_resolution!r} is invalid; "
+                         "accepted: finite and > 0 [m]")
+    e = velocity_estimator(estimator, plant.period)
+    g = normalize_gains(gains, plant.mass, plant.period)
+    return plant.mass * q / plant.period ** 2 * force_noise_gain(g.alpha, g.beta, normalize(plant), estimator=e)
 
 
 def cost(criterion: str, alpha: ArrayLike, beta: ArrayLike, plant: Optional[Plant] = None, *,

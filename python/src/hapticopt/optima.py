@@ -24,10 +24,12 @@ import numpy.typing as npt
 
 from . import _core
 from .costs import _plant_args
+from .estimator import EstimatorLike, VelocityEstimator, velocity_estimator
 from .parameters import PhysicalPlant, Plant, WallGains, normalize, to_physical, Gains
 
 __all__ = ["STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
-           "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum"]
+           "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
+           "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front"]
 
 #: The eight criteria of Tables III and IV ("amax", "OV", "CE0" .. "CE2+OV"): criterion.hpp's kAllCriteria.
 STEP_CRITERIA: Tuple[str, ...] = tuple(_core.STEP_CRITERIA)
@@ -62,6 +64,9 @@ class Optimum:
     penetration: Optional[float] = None
     penetration_converged: Optional[bool] = None
     on_region_edge: Optional[bool] = None
+    velocity_estimator: VelocityEstimator = VelocityEstimator()
+    force_noise_gain: Optional[float] = None
+    stable_islands: Tuple[Tuple[float, float, float, float], ...] = ()
 
     @property
     def stability_margin(self) -> float:
@@ -151,20 +156,34 @@ def optimal_curve(criterion: str, alpha: npt.ArrayLike, plant: Optional[Plant] =
 
 
 def optimal_point(criterion: str, plant: Optional[Plant] = None, *, overshoot_tolerance: float = 1e-12,
-                  alpha_grid: int = 24, beta_grid: int = 16, alpha_tolerance: float = 1e-10) -> Optimum:
+                  alpha_grid: int = 24, beta_grid: int = 16, alpha_tolerance: float = 1e-10,
+                  estimator: EstimatorLike = None) -> Optimum:
     """The optimum of one of STEP_CRITERIA or COLLISION_CRITERIA (only that one is computed; a few
-    ms at d = 1). The grids and alpha_tolerance are the C++ OptimumOptions (docs/accuracy.md)."""
+    ms at d = 1). The grids and alpha_tolerance are the C++ OptimumOptions (docs/accuracy.md).
+
+    With a velocity estimator other than backward ("lowpass:0.02", "window:15" or a VelocityEstimator;
+    `hapticopt optimum --velocity`): amax, CE0..2 and CE0+OV..CE2+OV over the estimator loop's main stable
+    region (velocity_estimator.hpp's optimal_point, its default search grids: the grid arguments here are
+    the backward optimiser's); the result carries g_F at the optimum and the stable islands (alpha_min,
+    alpha_max, beta_min, beta_max) not connected to the main region. g_F is set for every estimator."""
     p = Plant() if plant is None else plant
+    e = velocity_estimator(estimator)
+    if e.kind != "backward":
+        d = _core.estimator_optimal_point(str(criterion), *_plant_args(p), *e.args(), float(overshoot_tolerance))
+        islands = tuple(tuple(i) for i in d.pop("stable_islands"))
+        return Optimum(criterion=str(criterion), plant=p, velocity_estimator=e, stable_islands=islands, **d)
     d = _core.optimal_point(str(criterion), *_plant_args(p), float(overshoot_tolerance), int(alpha_grid),
                             int(beta_grid), float(alpha_tolerance))
-    return Optimum(criterion=str(criterion), plant=p, **d)
+    g = float(_core.force_noise_gain(*_plant_args(p), d["alpha"], d["beta"], *e.args()))
+    return Optimum(criterion=str(criterion), plant=p, force_noise_gain=g, **d)
 
 
-def optimal_wall(criterion: str, plant: PhysicalPlant, **options) -> WallTuning:
+def optimal_wall(criterion: str, plant: PhysicalPlant, *, estimator: EstimatorLike = None, **options) -> WallTuning:
     """Optimal K and B of `criterion` for a physical plant: normalise (Table I), optimal_point,
-    back to physical units (eq. 3); as the C++ optimal_wall(). `options` go to optimal_point."""
+    back to physical units (eq. 3); as the C++ optimal_wall(). `options` go to optimal_point; the
+    estimator may give a low-pass cutoff in Hz ("lowpass:20Hz", nu = f_c T with plant.period)."""
     n = normalize(plant)
-    o = optimal_point(criterion, n, **options)
+    o = optimal_point(criterion, n, estimator=velocity_estimator(estimator, plant.period), **options)
     g: WallGains = to_physical(Gains(o.alpha, o.beta), plant.mass, plant.period)
     return WallTuning(criterion=str(criterion), plant=plant, normalized=n, alpha=o.alpha, beta=o.beta, cost=o.cost,
                       stiffness=g.stiffness, damping=g.damping, alpha_max=o.alpha_max,
@@ -199,3 +218,46 @@ def passive_optimum(criterion: str, plant: Optional[Plant] = None) -> Optional[P
     (delta = 0: no gains satisfy delta > alpha/2 + |beta|)."""
     d = _core.passive_optimum(str(criterion), *_plant_args(plant))
     return None if d is None else PassiveOptimum(criterion=str(criterion), **d)
+
+
+@dataclass(frozen=True)
+class NoiseBudgetOptimum:
+    """The optimum of CE0..2 with g_F <= noise_budget (normalised g_max = sigma_max T^2 / (m q)); budget_active
+    False: the unconstrained optimum meets the budget and is returned."""
+
+    criterion: str
+    velocity_estimator: VelocityEstimator
+    noise_budget: float
+    alpha: float
+    beta: float
+    cost: float
+    force_noise_gain: float
+    budget_active: bool
+    alpha_max: float
+    unconstrained_cost: float
+    unconstrained_force_noise_gain: float
+
+
+def optimal_point_under_noise_budget(criterion: str, noise_budget: float, plant: Optional[Plant] = None, *,
+                                     estimator: EstimatorLike = None) -> NoiseBudgetOptimum:
+    """minimise C (CE0, CE1 or CE2) over the estimator loop's main stable region subject to
+    g_F(alpha, beta) <= noise_budget (noise_budget.hpp): the unconstrained optimum if it meets the budget,
+    else the minimum along the curve g_F = noise_budget (bisection for the curve, Brent along it). A budget
+    no stable gains with alpha >= 1e-6 alpha_max meet raises InvalidParameterError naming `noise_budget`."""
+    e = velocity_estimator(estimator)
+    d = _core.noise_budget_optimum(str(criterion), *_plant_args(plant), *e.args(), float(noise_budget))
+    return NoiseBudgetOptimum(criterion=str(criterion), velocity_estimator=e, **d)
+
+
+def noise_pareto_front(criterion: str, budgets: npt.ArrayLike, plant: Optional[Plant] = None, *,
+                       estimator: EstimatorLike = None) -> list:
+    """The Pareto front C against g_F: optimal_point_under_noise_budget for each budget (budgets no stable gains
+    meet are left out), as a list of NoiseBudgetOptimum in the budgets' order."""
+    out = []
+    for g in np.asarray(budgets, dtype=np.float64).ravel():
+        try:
+            out.append(optimal_point_under_noise_budget(criterion, float(g), plant, estimator=estimator))
+        except _core.InvalidParameterError as error:
+            if error.parameter != "noise_budget" or not (np.isfinite(g) and g > 0):
+                raise
+    return out
