@@ -14,7 +14,7 @@
 namespace examples {
 
 class Options {
-public:
+  public:
     Options(int argc, char** argv, std::map<std::string, std::string> defaults) : values_(std::move(defaults)) {
         for (int i = 1; i < argc; ++i) {
             const std::string key = argv[i];
@@ -34,7 +34,8 @@ public:
         const std::string& s = values_.at(key);
         char* end = nullptr;
         const double v = std::strtod(s.c_str(), &end);
-        if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) fail("--" + key + " = '" + s + "' is not a finite number");
+        if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
+            fail("--" + key + " = '" + s + "' is not a finite number");
         return v;
     }
     [[nodiscard]] std::array<double, 3> vec3(const std::string& key) const {
@@ -53,7 +54,7 @@ public:
         return v;
     }
 
-private:
+  private:
     [[noreturn]] static void fail(const std::string& message) {
         std::cerr << "example: " << message << "\n";
         std::exit(2);

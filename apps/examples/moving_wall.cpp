@@ -18,9 +18,16 @@ namespace hc = hapticd::client;
 
 int main(int argc, char** argv) {
     const examples::Options o(argc, argv,
-                              {{"socket", ""}, {"normal", "-1,0,0"}, {"offset", "0.005"}, {"amplitude", "0.002"},
-                               {"frequency", "1"}, {"update-rate", "200"}, {"duration", "3"}, {"criterion", "CE2"},
-                               {"stiffness", "0"}, {"damping", "0"}});
+                              {{"socket", ""},
+                               {"normal", "-1,0,0"},
+                               {"offset", "0.005"},
+                               {"amplitude", "0.002"},
+                               {"frequency", "1"},
+                               {"update-rate", "200"},
+                               {"duration", "3"},
+                               {"criterion", "CE2"},
+                               {"stiffness", "0"},
+                               {"damping", "0"}});
     const hc::Vec3 n = o.vec3("normal");
     const double offset = o.number("offset");
     const double amplitude = o.number("amplitude");
@@ -31,8 +38,9 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "moving_wall: --update-rate must be in (0, 1000] Hz and --duration > 0 s\n");
         return 2;
     }
-    const hc::Gains gains = o.number("stiffness") > 0.0 ? hc::Gains::explicit_gains(o.number("stiffness"), o.number("damping"))
-                                                         : hc::Gains::by_criterion(o.text("criterion"));
+    const hc::Gains gains = o.number("stiffness") > 0.0
+                                ? hc::Gains::explicit_gains(o.number("stiffness"), o.number("damping"))
+                                : hc::Gains::by_criterion(o.text("criterion"));
     examples::install_stop_handlers();
     bool connected = false;
     try {
@@ -53,7 +61,8 @@ int main(int argc, char** argv) {
         const auto step = std::chrono::duration<double>(1.0 / rate);
         std::uint64_t updates = 0, last_seq = 0, samples = 0, in_contact = 0;
         double force_min = 0.0, force_max = 0.0;
-        for (auto next = start; !examples::g_stop; next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(step)) {
+        for (auto next = start; !examples::g_stop;
+             next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(step)) {
             std::this_thread::sleep_until(next);
             const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (t >= duration) break;
@@ -62,7 +71,8 @@ int main(int argc, char** argv) {
             ++updates;
             hc::StateSample s;
             if (state.read(s)) {
-                const double along = s.force[0] * n[0] + s.force[1] * n[1] + s.force[2] * n[2];  // the wall pushes along n
+                const double along =
+                    s.force[0] * n[0] + s.force[1] * n[1] + s.force[2] * n[2];  // the wall pushes along n
                 force_min = samples == 0 ? along : std::min(force_min, along);
                 force_max = samples == 0 ? along : std::max(force_max, along);
                 ++samples;
@@ -78,10 +88,12 @@ int main(int argc, char** argv) {
             applied = state.read(s) && s.last_commit_seq >= last_seq;
             if (!applied) std::this_thread::sleep_for(std::chrono::milliseconds(1));
         }
-        std::printf("moving_wall: %llu updates sent, last applied %s; in contact in %llu of %llu samples; "
-                    "force along the normal %.3f .. %.3f N\n",
-                    static_cast<unsigned long long>(updates), applied ? "yes" : "no",
-                    static_cast<unsigned long long>(in_contact), static_cast<unsigned long long>(samples), force_min, force_max);
+        std::printf(
+            "moving_wall: %llu updates sent, last applied %s; in contact in %llu of %llu samples; "
+            "force along the normal %.3f .. %.3f N\n",
+            static_cast<unsigned long long>(updates), applied ? "yes" : "no",
+            static_cast<unsigned long long>(in_contact), static_cast<unsigned long long>(samples), force_min,
+            force_max);
         client.bye();  // the wall ramps out
         return applied ? 0 : 8;
     } catch (const hc::Error& e) {

@@ -17,8 +17,15 @@ namespace hc = hapticd::client;
 
 int main(int argc, char** argv) {
     const examples::Options o(argc, argv,
-                              {{"socket", ""}, {"normal", "-1,0,0"}, {"offset", "0.005"}, {"stiffness", "1000"}, {"damping", "5"},
-                               {"click-depth", "0.0015"}, {"drop", "0.001"}, {"release-depth", "0.0005"}, {"duration", "3"},
+                              {{"socket", ""},
+                               {"normal", "-1,0,0"},
+                               {"offset", "0.005"},
+                               {"stiffness", "1000"},
+                               {"damping", "5"},
+                               {"click-depth", "0.0015"},
+                               {"drop", "0.001"},
+                               {"release-depth", "0.0005"},
+                               {"duration", "3"},
                                {"presses", "0"}});
     const hc::Vec3 n = o.vec3("normal");
     const double offset = o.number("offset");
@@ -28,7 +35,8 @@ int main(int argc, char** argv) {
     const double duration = o.number("duration");
     const double max_presses = o.number("presses");
     if (!(click > 0.0 && drop > 0.0 && release >= 0.0 && release < click)) {
-        std::fprintf(stderr, "push_button: need --click-depth > 0, --drop > 0 and 0 <= --release-depth < --click-depth (m)\n");
+        std::fprintf(stderr,
+                     "push_button: need --click-depth > 0, --drop > 0 and 0 <= --release-depth < --click-depth (m)\n");
         return 2;
     }
     examples::install_stop_handlers();
@@ -43,8 +51,8 @@ int main(int argc, char** argv) {
         const hc::StateReader state = hc::StateReader::open(client.welcome().state_shm);
         hc::Plane button{n, offset, false, hc::Gains::explicit_gains(o.number("stiffness"), o.number("damping"))};
         const std::uint32_t id = client.commit(hc::Batch().add(button)).object_ids.front();
-        std::printf("push_button: button %u ready (K = %g N/m, click at %.2f mm, gives %.2f mm)\n", id, o.number("stiffness"),
-                    click * 1e3, drop * 1e3);
+        std::printf("push_button: button %u ready (K = %g N/m, click at %.2f mm, gives %.2f mm)\n", id,
+                    o.number("stiffness"), click * 1e3, drop * 1e3);
         std::fflush(stdout);
         const auto start = std::chrono::steady_clock::now();
         auto last_heartbeat = start;

@@ -9,15 +9,15 @@ namespace hapticctl {
 
 enum ExitCode : int {
     kExitOk = 0,
-    kExitInternal = 1,        // a bug
-    kExitUsage = 2,           // bad command line or script line (the message names the word and the accepted form)
-    kExitNoDaemon = 3,        // cannot connect: no socket, no daemon, or the socket's mode refuses this user
-    kExitRefused = 4,         // the handshake was refused (protocol version) or the answer was not the protocol
-    kExitObjectRefused = 5,   // an object or batch was refused: bad field, unstable gains or sum, beyond device limits
-    kExitNotOwner = 6,        // the object belongs to another session or the daemon, or does not exist
-    kExitBusy = 7,            // the scene is full or the hand-over queue is busy: retry later
-    kExitSessionLost = 8,     // the session ended: lease lost, slow consumer, daemon gone
-    kExitNoState = 9,         // the state stream cannot be read, or the loop stopped advancing / faulted
+    kExitInternal = 1,       // a bug
+    kExitUsage = 2,          // bad command line or script line (the message names the word and the accepted form)
+    kExitNoDaemon = 3,       // cannot connect: no socket, no daemon, or the socket's mode refuses this user
+    kExitRefused = 4,        // the handshake was refused (protocol version) or the answer was not the protocol
+    kExitObjectRefused = 5,  // an object or batch was refused: bad field, unstable gains or sum, beyond device limits
+    kExitNotOwner = 6,       // the object belongs to another session or the daemon, or does not exist
+    kExitBusy = 7,           // the scene is full or the hand-over queue is busy: retry later
+    kExitSessionLost = 8,    // the session ended: lease lost, slow consumer, daemon gone
+    kExitNoState = 9,        // the state stream cannot be read, or the loop stopped advancing / faulted
 };
 
 inline constexpr const char* kExitCodeHelp =
@@ -33,22 +33,30 @@ inline int exit_code_for(const hapticd::client::Error& e, bool connected) noexce
         case ErrorCode::ProtocolVersion:
         case ErrorCode::BadHello:
         case ErrorCode::BadJson:
-        case ErrorCode::Oversized: return kExitRefused;
+        case ErrorCode::Oversized:
+            return kExitRefused;
         case ErrorCode::BadMessage:
         case ErrorCode::UnstableGains:
         case ErrorCode::UnstableSum:
         case ErrorCode::BeyondDeviceLimits:
-        case ErrorCode::UnknownCriterion: return kExitObjectRefused;
+        case ErrorCode::UnknownCriterion:
+            return kExitObjectRefused;
         case ErrorCode::UnknownObject:
-        case ErrorCode::NotOwner: return kExitNotOwner;
+        case ErrorCode::NotOwner:
+            return kExitNotOwner;
         case ErrorCode::Capacity:
         case ErrorCode::SessionLimit:
-        case ErrorCode::Busy: return kExitBusy;
-        case ErrorCode::Internal: return kExitInternal;
+        case ErrorCode::Busy:
+            return kExitBusy;
+        case ErrorCode::Internal:
+            return kExitInternal;
         case ErrorCode::LeaseLost:
-        case ErrorCode::SlowConsumer: return kExitSessionLost;
-        case ErrorCode::Transport: return connected ? kExitSessionLost : kExitNoDaemon;
-        case ErrorCode::Unknown: return kExitRefused;
+        case ErrorCode::SlowConsumer:
+            return kExitSessionLost;
+        case ErrorCode::Transport:
+            return connected ? kExitSessionLost : kExitNoDaemon;
+        case ErrorCode::Unknown:
+            return kExitRefused;
     }
     return kExitInternal;
 }

@@ -82,7 +82,8 @@ int cmd_status(const Common& common, bool json) {
     hc::Client client = connect(common, 0.0);
     const hc::Status s = client.status();
     const hc::Welcome& w = client.welcome();
-    const nlohmann::json max_stiffness = w.device.max_stiffness ? nlohmann::json(*w.device.max_stiffness) : nlohmann::json();
+    const nlohmann::json max_stiffness =
+        w.device.max_stiffness ? nlohmann::json(*w.device.max_stiffness) : nlohmann::json();
     if (json) {
         std::cout << nlohmann::json{{"tick", s.tick},
                                     {"sessions", s.sessions},
@@ -91,10 +92,15 @@ int cmd_status(const Common& common, bool json) {
                                     {"commits_applied", s.commits_applied},
                                     {"fault", s.fault},
                                     {"protocol", w.protocol},
-                                    {"device", {{"name", w.device.name}, {"axes", w.device.axes}, {"period_s", w.device.period_s},
-                                                {"mass", w.device.mass}, {"mass_matrix", mass_matrix_json(w.device)},
-                                                {"delay_s", w.device.delay_s}, {"max_force", w.device.max_force},
-                                                {"max_stiffness", max_stiffness}}},
+                                    {"device",
+                                     {{"name", w.device.name},
+                                      {"axes", w.device.axes},
+                                      {"period_s", w.device.period_s},
+                                      {"mass", w.device.mass},
+                                      {"mass_matrix", mass_matrix_json(w.device)},
+                                      {"delay_s", w.device.delay_s},
+                                      {"max_force", w.device.max_force},
+                                      {"max_stiffness", max_stiffness}}},
                                     {"capacity", w.capacity},
                                     {"state_shm", w.state_shm},
                                     {"ramp_s", w.ramp_s}}
@@ -110,9 +116,10 @@ int cmd_status(const Common& common, bool json) {
             std::cout << "none (the stability region only)";
         }
         std::cout << "\n"
-                  << "tick " << s.tick << ", sessions " << s.sessions << ", objects " << s.objects << " of " << w.capacity
-                  << ", overruns " << s.overruns << ", commits applied " << s.commits_applied << ", fault " << s.fault
-                  << "\nstate stream " << w.state_shm << ", ramp " << w.ramp_s * 1e3 << " ms, protocol " << w.protocol << "\n";
+                  << "tick " << s.tick << ", sessions " << s.sessions << ", objects " << s.objects << " of "
+                  << w.capacity << ", overruns " << s.overruns << ", commits applied " << s.commits_applied
+                  << ", fault " << s.fault << "\nstate stream " << w.state_shm << ", ramp " << w.ramp_s * 1e3
+                  << " ms, protocol " << w.protocol << "\n";
     }
     client.bye();
     return kExitOk;
@@ -135,7 +142,8 @@ int cmd_add(const Common& common, const std::vector<std::string>& words, double 
     for (const auto& o : client.list()) {
         if (o.id == id) {
             std::cout << "added " << id << " (" << o.kind << ", K = " << o.K << " N/m, B = " << o.B
-                      << " N s/m); held until " << (hold_s > 0 ? "--for " + std::to_string(hold_s) + " s or " : std::string())
+                      << " N s/m); held until "
+                      << (hold_s > 0 ? "--for " + std::to_string(hold_s) + " s or " : std::string())
                       << "SIGINT/SIGTERM, then it ramps out" << std::endl;
         }
     }
@@ -245,11 +253,16 @@ int cmd_contacts(const Common& common, long long count, double duration, const s
     const auto start = std::chrono::steady_clock::now();
     long long shown = 0;
     while (!stop_requested() && (count <= 0 || shown < count)) {
-        if (duration > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= duration) break;
+        if (duration > 0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= duration)
+            break;
         const auto e = client.next_contact(0.1);  // short: SIGINT/SIGTERM and --duration are seen within 0.1 s
         if (!e) continue;
-        nlohmann::json line{{"event", e->kind == hc::ContactEvent::Kind::Begin ? "begin" : "end"}, {"object_id", e->object_id},
-                            {"tick", e->tick}, {"time_s", e->time_s}, {"position", e->position}, {"force", e->force},
+        nlohmann::json line{{"event", e->kind == hc::ContactEvent::Kind::Begin ? "begin" : "end"},
+                            {"object_id", e->object_id},
+                            {"tick", e->tick},
+                            {"time_s", e->time_s},
+                            {"position", e->position},
+                            {"force", e->force},
                             {"dropped", e->dropped}};
         std::cout << line.dump() << "\n" << std::flush;
         ++shown;
@@ -281,16 +294,19 @@ int main(int argc, char** argv) {
 
     std::vector<std::string> words;
     double hold = 0.0;
-    auto* add = app.add_subcommand("add", "Add one object and hold it until SIGINT/SIGTERM (or --for): "
-                                          "plane normal=X,Y,Z [offset=M] [mode=bilateral] [criterion=C | K= B=]; "
-                                          "spring [constraint=point|line|plane] point=X,Y,Z [direction=X,Y,Z] K= [B=]; "
-                                          "field center=X,Y,Z radius=M [force=X,Y,Z] [jacobian=9 numbers]");
+    auto* add = app.add_subcommand("add",
+                                   "Add one object and hold it until SIGINT/SIGTERM (or --for): "
+                                   "plane normal=X,Y,Z [offset=M] [mode=bilateral] [criterion=C | K= B=]; "
+                                   "spring [constraint=point|line|plane] point=X,Y,Z [direction=X,Y,Z] K= [B=]; "
+                                   "field center=X,Y,Z radius=M [force=X,Y,Z] [jacobian=9 numbers]");
     add->add_option("object", words, "KIND key=value ...")->required()->expected(1, -1);
-    add->add_option("--for", hold, "Seconds to hold the object, then end the session (ramp-out)")->check(CLI::Range(0.0, 1e9));
+    add->add_option("--for", hold, "Seconds to hold the object, then end the session (ramp-out)")
+        ->check(CLI::Range(0.0, 1e9));
 
     std::string script;
-    auto* session = app.add_subcommand("session", "Run commands from FILE (default stdin) in one session: add, modify, "
-                                                  "remove, clear, begin/commit, list, status, state, sleep, bye");
+    auto* session = app.add_subcommand("session",
+                                       "Run commands from FILE (default stdin) in one session: add, modify, "
+                                       "remove, clear, begin/commit, list, status, state, sleep, bye");
     session->add_option("file", script, "Script file, '-' for stdin");
 
     double rate = 20.0;
@@ -311,10 +327,12 @@ int main(int argc, char** argv) {
     long long contact_count = 0;
     double contact_duration = 0.0;
     std::vector<std::uint32_t> contact_objects;
-    auto* contacts = app.add_subcommand("contacts", "Each begin and end of contact as a JSON line (first: the objects in contact)");
+    auto* contacts =
+        app.add_subcommand("contacts", "Each begin and end of contact as a JSON line (first: the objects in contact)");
     contacts->add_option("--count", contact_count, "Stop after N events")->check(CLI::Range(0LL, 1LL << 40));
     contacts->add_option("--duration", contact_duration, "Stop after S seconds")->check(CLI::Range(0.0, 1e9));
-    contacts->add_option("--object", contact_objects, "Only this object's events (repeatable, at most 64; ids 1 .. 2^32-1)")
+    contacts
+        ->add_option("--object", contact_objects, "Only this object's events (repeatable, at most 64; ids 1 .. 2^32-1)")
         ->check(CLI::Range(1U, 0xffffffffU));
 
     try {

@@ -88,7 +88,8 @@ std::optional<hc::Gains> parse_gains(const Words& w, bool required) {
         const double B = w.has("B") ? parse_number("B", w.at("B")) : 0.0;
         return hc::Gains::explicit_gains(parse_number("K", w.at("K")), B);
     }
-    if (required) throw SpecError("parse_object_spec: " + w.kind + ": gains are required: K=N/m [B=N s/m] or criterion=CE2");
+    if (required)
+        throw SpecError("parse_object_spec: " + w.kind + ": gains are required: K=N/m [B=N s/m] or criterion=CE2");
     return std::nullopt;
 }
 
@@ -126,12 +127,14 @@ hc::ObjectDescription parse_object_spec(const std::vector<std::string>& words) {
         const std::string constraint = w.has("constraint") ? w.at("constraint") : "point";
         if (constraint == "point") {
             s.constraint = hc::Constraint::Point;
-            if (w.has("direction")) throw SpecError("parse_object_spec: spring: direction= is not used by constraint=point");
+            if (w.has("direction"))
+                throw SpecError("parse_object_spec: spring: direction= is not used by constraint=point");
         } else if (constraint == "line" || constraint == "plane") {
             s.constraint = constraint == "line" ? hc::Constraint::Line : hc::Constraint::Plane;
             s.direction = parse_vec3("direction", w.at("direction"));
         } else {
-            throw SpecError("parse_object_spec: spring: constraint = '" + constraint + "'; accepted: point, line, plane");
+            throw SpecError("parse_object_spec: spring: constraint = '" + constraint +
+                            "'; accepted: point, line, plane");
         }
         s.point = parse_vec3("point", w.at("point"));
         s.gains = *parse_gains(w, true);

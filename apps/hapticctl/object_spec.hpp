@@ -18,7 +18,7 @@ namespace hapticctl {
 
 // A malformed object: the message names the word and the accepted form (exit code 2).
 class SpecError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 

@@ -62,17 +62,23 @@ void print_objects(std::ostream& out, const std::vector<hc::ObjectInfo>& objects
     if (json) {
         nlohmann::json a = nlohmann::json::array();
         for (const auto& o : objects) {
-            a.push_back({{"id", o.id}, {"owner", o.owner}, {"kind", o.kind}, {"K", o.K}, {"B", o.B},
+            a.push_back({{"id", o.id},
+                         {"owner", o.owner},
+                         {"kind", o.kind},
+                         {"K", o.K},
+                         {"B", o.B},
                          {"object", nlohmann::json::parse(o.description_json, nullptr, false)}});
         }
         out << a.dump() << "\n";
         return;
     }
     out << std::left << std::setw(6) << "id" << std::setw(8) << "owner" << std::setw(8) << "kind" << std::setw(14)
-        << "K [N/m]" << std::setw(14) << "B [N s/m]" << "object\n";
+        << "K [N/m]" << std::setw(14) << "B [N s/m]"
+        << "object\n";
     for (const auto& o : objects) {
-        out << std::left << std::setw(6) << o.id << std::setw(8) << (o.owner == 0 ? std::string("daemon") : std::to_string(o.owner))
-            << std::setw(8) << o.kind << std::setw(14) << o.K << std::setw(14) << o.B << o.description_json << "\n";
+        out << std::left << std::setw(6) << o.id << std::setw(8)
+            << (o.owner == 0 ? std::string("daemon") : std::to_string(o.owner)) << std::setw(8) << o.kind
+            << std::setw(14) << o.K << std::setw(14) << o.B << o.description_json << "\n";
     }
 }
 
@@ -130,8 +136,10 @@ int run_session_script(hc::Client& client, std::istream& in, const std::string& 
                 }
                 if (!batch) {
                     const hc::CommitResult r = commit(one, false);
-                    if (cmd == "add") out << "added " << r.object_ids.front() << "\n";
-                    else out << cmd << " ok\n";
+                    if (cmd == "add")
+                        out << "added " << r.object_ids.front() << "\n";
+                    else
+                        out << cmd << " ok\n";
                 }
             } else if (cmd == "begin") {
                 if (batch) throw SpecError("run_session_script: begin inside a batch (missing commit)");
@@ -156,7 +164,9 @@ int run_session_script(hc::Client& client, std::istream& in, const std::string& 
                     std::this_thread::sleep_for(std::chrono::milliseconds(1));
                     ok = state->read(s);
                 }
-                if (!ok) throw hc::Error(hc::ErrorCode::Transport, "run_session_script: state: no consistent read within 1 s");
+                if (!ok)
+                    throw hc::Error(hc::ErrorCode::Transport,
+                                    "run_session_script: state: no consistent read within 1 s");
                 out << state_line(s, client.welcome().device.axes, client.welcome().device.period_s) << "\n";
             } else if (cmd == "sleep") {
                 if (w.size() != 2) throw SpecError("run_session_script: sleep SECONDS");
@@ -169,8 +179,9 @@ int run_session_script(hc::Client& client, std::istream& in, const std::string& 
             } else if (cmd == "bye") {
                 break;
             } else {
-                throw SpecError("run_session_script: unknown command '" + cmd +
-                                "'; accepted: add, modify, remove, clear, begin, commit, list, status, state, sleep, bye");
+                throw SpecError(
+                    "run_session_script: unknown command '" + cmd +
+                    "'; accepted: add, modify, remove, clear, begin, commit, list, status, state, sleep, bye");
             }
             out.flush();
         }

@@ -24,7 +24,8 @@ void append_vector(std::string& out, const char* name, const hapticd::client::Ve
 }  // namespace
 
 std::string fault_name(std::uint32_t fault) {
-    return hapticd::is_state_fault(fault) ? hapticd::to_string(static_cast<hapticd::StateFault>(fault)) : std::to_string(fault);
+    return hapticd::is_state_fault(fault) ? hapticd::to_string(static_cast<hapticd::StateFault>(fault))
+                                          : std::to_string(fault);
 }
 
 std::string state_line(const hapticd::client::StateSample& s, std::size_t axes, double period_s) {

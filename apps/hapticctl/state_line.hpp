@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // One line of text for a state sample (`hapticctl watch`):
-//   tick 1234 t 1.234 s x [+1.000 +0.000 -0.250] mm v [...] mm/s F [+0.500 +0.000 +0.000] N contact {1,7} objects 2 overruns 0 fault none
+//   tick 1234 t 1.234 s x [+1.000 +0.000 -0.250] mm v [...] mm/s F [+0.500 +0.000 +0.000] N contact {1,7} objects 2
+//   overruns 0 fault none
 // t is the loop's time, tick x period (s). Only the device's axes are shown; contact lists the ids of the
 // objects in contact (StateSample::contacts(): the config walls, ids 1 .. n, then the clients' objects).
 #pragma once

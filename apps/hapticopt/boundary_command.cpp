@@ -17,81 +17,82 @@ namespace {
 
 /// The passive set {alpha >= 0, delta > max_theta R} as a polygon, its largest alpha and alpha_max.
 int print_passive_polygon(const NormalizedPlant& plant, int points, bool json, bool csv) {
-  const auto polygon = passive_polygon(plant, points);  // throws InvalidParameter for a fractional delay
-  const PassiveAlphaLimit top = largest_passive_alpha(plant);
-  const double alpha_max = StabilityRegion(plant).alpha_max();
-  if (json) {
-    nlohmann::json out;
-    out["passive_set"] = true;
-    out["largest_passive_alpha"] = top.alpha;
-    out["beta_at_largest_passive_alpha"] = top.beta;
-    out["alpha_max"] = alpha_max;
-    nlohmann::json pts = nlohmann::json::array();
-    for (const auto& p : polygon) pts.push_back({{"alpha", p.alpha}, {"beta", p.beta}});
-    out["points"] = std::move(pts);
-    std::cout << out.dump() << '\n';
+    const auto polygon = passive_polygon(plant, points);  // throws InvalidParameter for a fractional delay
+    const PassiveAlphaLimit top = largest_passive_alpha(plant);
+    const double alpha_max = StabilityRegion(plant).alpha_max();
+    if (json) {
+        nlohmann::json out;
+        out["passive_set"] = true;
+        out["largest_passive_alpha"] = top.alpha;
+        out["beta_at_largest_passive_alpha"] = top.beta;
+        out["alpha_max"] = alpha_max;
+        nlohmann::json pts = nlohmann::json::array();
+        for (const auto& p : polygon) pts.push_back({{"alpha", p.alpha}, {"beta", p.beta}});
+        out["points"] = std::move(pts);
+        std::cout << out.dump() << '\n';
+        return int{kOk};
+    }
+    if (csv) {
+        std::printf("alpha,beta\n");
+        for (const auto& p : polygon) std::printf("%.17g,%.17g\n", p.alpha, p.beta);
+        return int{kOk};
+    }
+    if (polygon.empty()) {
+        std::printf("passive set      empty (delta = %g)\n", plant.delta);
+        return int{kOk};
+    }
+    std::printf("largest passive alpha %.12f at beta %.12f (alpha_max %.12f, ratio %.4f)\n", top.alpha, top.beta,
+                alpha_max, top.alpha / alpha_max);
+    std::printf("%14s %14s\n", "alpha", "beta");
+    for (const auto& p : polygon) std::printf("%14.10f %14.10f\n", p.alpha, p.beta);
     return int{kOk};
-  }
-  if (csv) {
-    std::printf("alpha,beta\n");
-    for (const auto& p : polygon) std::printf("%.17g,%.17g\n", p.alpha, p.beta);
-    return int{kOk};
-  }
-  if (polygon.empty()) {
-    std::printf("passive set      empty (delta = %g)\n", plant.delta);
-    return int{kOk};
-  }
-  std::printf("largest passive alpha %.12f at beta %.12f (alpha_max %.12f, ratio %.4f)\n", top.alpha, top.beta,
-              alpha_max, top.alpha / alpha_max);
-  std::printf("%14s %14s\n", "alpha", "beta");
-  for (const auto& p : polygon) std::printf("%14.10f %14.10f\n", p.alpha, p.beta);
-  return int{kOk};
 }
 
 }  // namespace
 
 CommandRunner add_boundary_command(CLI::App& app) {
-  struct Args {
-    PlantOptions plant;
-    int points = 256;
-    bool json = false, csv = false, passivity = false;
-  };
-  auto args = std::make_shared<Args>();
-  CLI::App* sub = app.add_subcommand("boundary", "stability boundary points (closed polygon) and alpha_max");
-  args->plant.add_to(*sub);
-  sub->add_option("--points", args->points, "points on the complex-root branch (>= 8)")->capture_default_str();
-  CLI::Option* json = sub->add_flag("--json", args->json, "print one JSON object");
-  CLI::Option* csv = sub->add_flag("--csv", args->csv, "print CSV: theta,alpha,beta");
-  json->excludes(csv);
-  sub->add_flag("--passivity", args->passivity,
-                "print the passive set's boundary instead (closed polygon, --points alphas per side; integer delays "
-                "only); CSV: alpha,beta");
-  return [args]() {
-    if (args->passivity) return print_passive_polygon(args->plant.normalized(), args->points, args->json, args->csv);
-    const StabilityRegion region(args->plant.normalized());
-    const auto polygon = region.polygon(args->points);
-    if (args->json) {
-      nlohmann::json out;
-      out["alpha_max"] = region.alpha_max();
-      out["beta_at_alpha_max"] = region.beta_at_alpha_max();
-      out["alpha_min"] = region.alpha_min();
-      nlohmann::json pts = nlohmann::json::array();
-      for (const auto& p : polygon) pts.push_back({{"theta", p.theta}, {"alpha", p.alpha}, {"beta", p.beta}});
-      out["points"] = std::move(pts);
-      std::cout << out.dump() << '\n';
-      return int{kOk};
-    }
-    if (args->csv) {
-      std::printf("theta,alpha,beta\n");
-      for (const auto& p : polygon) std::printf("%.17g,%.17g,%.17g\n", p.theta, p.alpha, p.beta);
-      return int{kOk};
-    }
-    std::printf("stiffness range  [%.10f, %.10f]\nalpha_max        %.12f at beta %.12f\n", region.alpha_min(),
-                region.alpha_max(), region.alpha_max(), region.beta_at_alpha_max());
-    std::printf("%10s %14s %14s\n", "theta", "alpha", "beta");
-    for (const auto& p : polygon) std::printf("%10.6f %14.10f %14.10f\n", p.theta, p.alpha, p.beta);
-    return int{kOk};
-  };
+    struct Args {
+        PlantOptions plant;
+        int points = 256;
+        bool json = false, csv = false, passivity = false;
+    };
+    auto args = std::make_shared<Args>();
+    CLI::App* sub = app.add_subcommand("boundary", "stability boundary points (closed polygon) and alpha_max");
+    args->plant.add_to(*sub);
+    sub->add_option("--points", args->points, "points on the complex-root branch (>= 8)")->capture_default_str();
+    CLI::Option* json = sub->add_flag("--json", args->json, "print one JSON object");
+    CLI::Option* csv = sub->add_flag("--csv", args->csv, "print CSV: theta,alpha,beta");
+    json->excludes(csv);
+    sub->add_flag("--passivity", args->passivity,
+                  "print the passive set's boundary instead (closed polygon, --points alphas per side; integer delays "
+                  "only); CSV: alpha,beta");
+    return [args]() {
+        if (args->passivity)
+            return print_passive_polygon(args->plant.normalized(), args->points, args->json, args->csv);
+        const StabilityRegion region(args->plant.normalized());
+        const auto polygon = region.polygon(args->points);
+        if (args->json) {
+            nlohmann::json out;
+            out["alpha_max"] = region.alpha_max();
+            out["beta_at_alpha_max"] = region.beta_at_alpha_max();
+            out["alpha_min"] = region.alpha_min();
+            nlohmann::json pts = nlohmann::json::array();
+            for (const auto& p : polygon) pts.push_back({{"theta", p.theta}, {"alpha", p.alpha}, {"beta", p.beta}});
+            out["points"] = std::move(pts);
+            std::cout << out.dump() << '\n';
+            return int{kOk};
+        }
+        if (args->csv) {
+            std::printf("theta,alpha,beta\n");
+            for (const auto& p : polygon) std::printf("%.17g,%.17g,%.17g\n", p.theta, p.alpha, p.beta);
+            return int{kOk};
+        }
+        std::printf("stiffness range  [%.10f, %.10f]\nalpha_max        %.12f at beta %.12f\n", region.alpha_min(),
+                    region.alpha_max(), region.alpha_max(), region.beta_at_alpha_max());
+        std::printf("%10s %14s %14s\n", "theta", "alpha", "beta");
+        for (const auto& p : polygon) std::printf("%10.6f %14.10f %14.10f\n", p.theta, p.alpha, p.beta);
+        return int{kOk};
+    };
 }
 
 }  // namespace hapticopt::cli

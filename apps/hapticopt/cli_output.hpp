@@ -14,10 +14,10 @@ namespace hapticopt::cli {
 
 /// Exit codes of `hapticopt` (also printed by --help).
 enum ExitCode : int {
-  kOk = 0,
-  kUsage = 2,             ///< unknown option, missing value, malformed number (CLI11)
-  kInvalidParameter = 3,  ///< a value outside its accepted range (message names it)
-  kComputationFailed = 4, ///< an unexpected failure inside a computation (a bug: please report)
+    kOk = 0,
+    kUsage = 2,              ///< unknown option, missing value, malformed number (CLI11)
+    kInvalidParameter = 3,   ///< a value outside its accepted range (message names it)
+    kComputationFailed = 4,  ///< an unexpected failure inside a computation (a bug: please report)
 };
 
 /// A finite double as JSON, or null (NaN, +-inf: e.g. the costs of an unstable loop).
@@ -25,21 +25,21 @@ nlohmann::json number_or_null(double value);
 
 /// Normalised-plant options shared by the subcommands (--gamma, --delta, --delay).
 struct PlantOptions {
-  double gamma = 0.0;
-  double delta = 0.0;
-  double delay = 0.0;
-  void add_to(CLI::App& app);
-  NormalizedPlant normalized() const { return NormalizedPlant{gamma, delta, delay}; }
+    double gamma = 0.0;
+    double delta = 0.0;
+    double delay = 0.0;
+    void add_to(CLI::App& app);
+    NormalizedPlant normalized() const { return NormalizedPlant{gamma, delta, delay}; }
 };
 
 /// The velocity estimator option (--velocity backward|lowpass:NU|lowpass:FHz|window:N) of the subcommands
 /// that take gains or a plant (velocity_estimator.hpp).
 struct VelocityOption {
-  std::string text = "backward";
-  void add_to(CLI::App& app);
-  /// The estimator; `period` [s] converts a cutoff in Hz (nu = f_c T), 0 when no period is known.
-  /// Throws InvalidParameter for a malformed text, a cutoff in Hz without a period, and the library's ranges.
-  VelocityEstimator parse(double period) const;
+    std::string text = "backward";
+    void add_to(CLI::App& app);
+    /// The estimator; `period` [s] converts a cutoff in Hz (nu = f_c T), 0 when no period is known.
+    /// Throws InvalidParameter for a malformed text, a cutoff in Hz without a period, and the library's ranges.
+    VelocityEstimator parse(double period) const;
 };
 
 /// {"kind": "backward"} / {"kind": "lowpass", "cutoff": nu} / {"kind": "window", "window": N}.

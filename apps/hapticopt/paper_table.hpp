@@ -11,19 +11,19 @@ namespace hapticopt::cli {
 
 /// A printed number with its printed precision (unit of the last digit).
 struct PrintedValue {
-  double value = 0;
-  double unit = 1;  ///< 10^-decimals
+    double value = 0;
+    double unit = 1;  ///< 10^-decimals
 };
 
 struct PaperRow {
-  std::string table;      ///< "III" or "IV"
-  double delay = 0;
-  std::string criterion;  ///< amax, OV, CE0, ..., CE2+OV
-  double gamma = 0;
-  double delta = 0;
-  PrintedValue alpha;
-  PrintedValue beta;
-  std::optional<PrintedValue> cost;  ///< none printed for amax
+    std::string table;  ///< "III" or "IV"
+    double delay = 0;
+    std::string criterion;  ///< amax, OV, CE0, ..., CE2+OV
+    double gamma = 0;
+    double delta = 0;
+    PrintedValue alpha;
+    PrintedValue beta;
+    std::optional<PrintedValue> cost;  ///< none printed for amax
 };
 
 /// Parses "table,delay,criterion,gamma,delta,alpha_opt,beta_opt,cost" lines ('#' comments, one

@@ -10,20 +10,20 @@
 namespace hapticopt::cli {
 
 CommandRunner add_plot_command(CLI::App& app) {
-  CLI::App* plot = app.add_subcommand("plot", "write a figure of the paper as an SVG file (opens in a browser)");
-  plot->require_subcommand(1);
-  std::vector<std::pair<CLI::App*, CommandRunner>> figures;
-  for (auto add : {add_plot_region, add_plot_costs, add_plot_step, add_plot_overshoot, add_plot_collision}) {
-    const std::size_t before = plot->get_subcommands({}).size();
-    CommandRunner run = add(*plot);
-    figures.emplace_back(plot->get_subcommands({})[before], std::move(run));
-  }
-  return [figures]() {
-    for (const auto& [sub, run] : figures) {
-      if (sub->parsed()) return run();
+    CLI::App* plot = app.add_subcommand("plot", "write a figure of the paper as an SVG file (opens in a browser)");
+    plot->require_subcommand(1);
+    std::vector<std::pair<CLI::App*, CommandRunner>> figures;
+    for (auto add : {add_plot_region, add_plot_costs, add_plot_step, add_plot_overshoot, add_plot_collision}) {
+        const std::size_t before = plot->get_subcommands({}).size();
+        CommandRunner run = add(*plot);
+        figures.emplace_back(plot->get_subcommands({})[before], std::move(run));
     }
-    return int{2};
-  };
+    return [figures]() {
+        for (const auto& [sub, run] : figures) {
+            if (sub->parsed()) return run();
+        }
+        return int{2};
+    };
 }
 
 }  // namespace hapticopt::cli

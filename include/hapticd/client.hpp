@@ -5,11 +5,11 @@
 //
 //     hapticd::client::Client c = hapticd::client::Client::connect({.client_name = "demo", .lease_s = 0.5});
 //     hapticd::client::Batch batch;
-//     batch.add(hapticd::client::Plane{.normal = {0, 0, 1}, .offset = 0.0, .gains = hapticd::client::Gains::by_criterion("CE2")});
-//     const auto result = c.commit(batch);           // throws hapticd::client::Error (code(), message naming K, B, ...)
-//     hapticd::client::StateReader state = hapticd::client::StateReader::open(c.welcome().state_shm);
-//     hapticd::client::StateSample s;
-//     state.read(s);                                  // latest tick, no system call
+//     batch.add(hapticd::client::Plane{.normal = {0, 0, 1}, .offset = 0.0, .gains =
+//     hapticd::client::Gains::by_criterion("CE2")}); const auto result = c.commit(batch);           // throws
+//     hapticd::client::Error (code(), message naming K, B, ...) hapticd::client::StateReader state =
+//     hapticd::client::StateReader::open(c.welcome().state_shm); hapticd::client::StateSample s; state.read(s); //
+//     latest tick, no system call
 //
 // CMake: find_package(hapticd) and target_link_libraries(app PRIVATE hapticd::client). Not thread-safe:
 // one Client per thread (a StateReader may be used from any one thread).
@@ -62,11 +62,14 @@ enum class ErrorCode {
 // An error reply or refusal of the server, or a transport failure. what() is the server's message
 // (naming the field and the accepted range), prefixed with the client function's name.
 class Error : public std::runtime_error {
-public:
+  public:
     Error(ErrorCode code, const std::string& message, int op_index = -1,
           std::optional<double> largest_stable_K = std::nullopt,
           std::optional<std::pair<double, double>> damping_needed = std::nullopt)
-        : std::runtime_error(message), code_(code), op_index_(op_index), largest_stable_K_(largest_stable_K),
+        : std::runtime_error(message),
+          code_(code),
+          op_index_(op_index),
+          largest_stable_K_(largest_stable_K),
           damping_needed_(damping_needed) {}
     [[nodiscard]] ErrorCode code() const noexcept { return code_; }
     // The failing operation of a commit (-1: the summed-gain check or not a commit).
@@ -77,7 +80,7 @@ public:
     // (the reply's damping_needed); none when no B does.
     [[nodiscard]] std::optional<std::pair<double, double>> damping_needed() const noexcept { return damping_needed_; }
 
-private:
+  private:
     ErrorCode code_;
     int op_index_;
     std::optional<double> largest_stable_K_;
@@ -116,17 +119,17 @@ struct Spring {
 // damping B (isotropic, on the device's velocity) are checked together like a wall's (K, B).
 struct Field {
     Vec3 center{};
-    double radius = 0.01;  // m
-    Vec3 force{};          // F0, N
+    double radius = 0.01;            // m
+    Vec3 force{};                    // F0, N
     std::array<Vec3, 3> jacobian{};  // J, N/m, rows
-    double damping = 0.0;  // B, N s/m
+    double damping = 0.0;            // B, N s/m
 };
 
 using ObjectDescription = std::variant<Plane, Spring, Field>;
 
 // One batch of operations, committed all-or-nothing at one tick boundary.
 class Batch {
-public:
+  public:
     struct Operation {
         enum class Kind { Add, Modify, Remove, Clear } kind = Kind::Add;
         std::uint32_t object_id = 0;              // Modify, Remove
@@ -139,13 +142,13 @@ public:
     [[nodiscard]] const std::vector<Operation>& operations() const noexcept { return operations_; }
     [[nodiscard]] bool empty() const noexcept { return operations_.empty(); }
 
-private:
+  private:
     std::vector<Operation> operations_;
 };
 
 struct CommitResult {
-    std::uint64_t commit_seq = 0;             // appears as StateSample::last_commit_seq once applied
-    std::vector<std::uint32_t> object_ids;    // one per add, in order
+    std::uint64_t commit_seq = 0;           // appears as StateSample::last_commit_seq once applied
+    std::vector<std::uint32_t> object_ids;  // one per add, in order
 };
 
 // The welcome's `device` (docs/protocol.md, section 2).
@@ -206,7 +209,7 @@ struct StateSample {
     std::uint64_t overruns = 0;
     std::int64_t wake_latency_ns = 0;
     std::uint64_t last_commit_seq = 0;  // every batch up to this commit_seq is applied
-    std::uint32_t fault = 0;  // 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
+    std::uint32_t fault = 0;            // 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
     std::uint32_t objects = 0;
     std::array<std::uint32_t, kStateObjectCapacity> slot_object_id{};
     std::uint64_t dropped = 0;  // subscribed messages dropped before this one (socket only)
@@ -251,11 +254,12 @@ inline constexpr std::size_t kDefaultEventQueueCapacity = 256;
 struct ContactEvent {
     enum class Kind { Begin, End } kind = Kind::Begin;
     std::uint32_t object_id = 0;
-    std::uint64_t tick = 0;   // the loop's tick whose published state first (begin) or no longer (end) has it in contact
-    double time_s = 0.0;      // that tick's state time_s
-    Vec3 position{};          // the handle at that tick, m
-    Vec3 force{};             // the force commanded to the device at that tick, N
-    std::uint64_t dropped = 0;  // events of this subscription lost before this one (the daemon's or this session's queue full)
+    std::uint64_t tick = 0;  // the loop's tick whose published state first (begin) or no longer (end) has it in contact
+    double time_s = 0.0;     // that tick's state time_s
+    Vec3 position{};         // the handle at that tick, m
+    Vec3 force{};            // the force commanded to the device at that tick, N
+    std::uint64_t dropped =
+        0;  // events of this subscription lost before this one (the daemon's or this session's queue full)
 };
 
 // Contact events a Client keeps until the application takes them (ConnectOptions::contact_queue_capacity).
@@ -266,17 +270,17 @@ inline constexpr std::size_t kDefaultContactQueueCapacity = 4096;
 // max_delay_s (defaults: 8 tries, 1, 2, 4, 8, 16, 32, 50 ms: 113 ms of waiting at most). tries = 1: no
 // retry. After the last try commit() throws Error(Busy) saying how many tries and how long they took.
 struct BusyRetry {
-    int tries = 8;                 // 1 .. 1000
-    double initial_delay_s = 1e-3; // 0 .. 10 s
-    double max_delay_s = 0.05;     // initial_delay_s .. 10 s
+    int tries = 8;                  // 1 .. 1000
+    double initial_delay_s = 1e-3;  // 0 .. 10 s
+    double max_delay_s = 0.05;      // initial_delay_s .. 10 s
 };
 
 struct ConnectOptions {
-    std::string socket_path;       // empty: default_socket_path()
+    std::string socket_path;  // empty: default_socket_path()
     std::string client_name = "hapticd-client";
-    double lease_s = 0.0;          // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
+    double lease_s = 0.0;             // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
     int protocol = kProtocolVersion;  // for tests of the refusal
-    double timeout_s = 5.0;        // for each reply
+    double timeout_s = 5.0;           // for each reply
     // Events kept until poll_event() / next_event() takes them; more are dropped (counted: events_dropped()).
     std::size_t event_queue_capacity = kDefaultEventQueueCapacity;
     // Contact events kept until poll_contact() / next_contact() takes them; more are dropped (counted:
@@ -289,7 +293,7 @@ struct ConnectOptions {
 [[nodiscard]] std::string default_socket_path();
 
 class Client {
-public:
+  public:
     // Connects and performs the handshake. Throws Error (Transport, ProtocolVersion, BadHello, ...).
     static Client connect(const ConnectOptions& options);
 
@@ -301,8 +305,8 @@ public:
 
     [[nodiscard]] const Welcome& welcome() const noexcept { return welcome_; }
 
-    std::uint64_t heartbeat();                  // returns the loop's tick
-    CommitResult commit(const Batch& batch);    // throws Error on refusal (nothing changed); retries busy (BusyRetry)
+    std::uint64_t heartbeat();                // returns the loop's tick
+    CommitResult commit(const Batch& batch);  // throws Error on refusal (nothing changed); retries busy (BusyRetry)
     // Throws std::invalid_argument naming the field and its range.
     void set_busy_retry(const BusyRetry& retry);
     [[nodiscard]] const BusyRetry& busy_retry() const noexcept { return busy_retry_; }
@@ -327,13 +331,13 @@ public:
     // Contact events dropped here because the queue (ConnectOptions::contact_queue_capacity) was full; the
     // server's own losses are in ContactEvent::dropped.
     [[nodiscard]] std::uint64_t contacts_dropped() const noexcept { return contacts_dropped_; }
-    void bye();                                 // orderly end of the session
+    void bye();  // orderly end of the session
 
     // Events (the server's unsolicited `event` messages), in the order they arrived. Every call that reads
     // the socket (a request waiting for its reply, next_state) queues the events it reads, so none is lost
     // while a request waits. poll_event(): the oldest queued event; with none queued, it first reads what
-    // has arrived, without waiting (std::nullopt: no event). next_event(): waits up to timeout_s for one. Polled, not called
-    // back: a callback run inside commit() could call commit() again. The queue holds
+    // has arrived, without waiting (std::nullopt: no event). next_event(): waits up to timeout_s for one. Polled, not
+    // called back: a callback run inside commit() could call commit() again. The queue holds
     // ConnectOptions::event_queue_capacity events; further ones are dropped and counted — after a drop,
     // list() tells the scene as it is.
     std::optional<Event> poll_event();
@@ -346,7 +350,7 @@ public:
     std::optional<std::string> receive_raw(double timeout_s);
     [[nodiscard]] int fd() const noexcept { return fd_; }
 
-private:
+  private:
     Client(int fd, double timeout_s) : fd_(fd), timeout_s_(timeout_s) {}
     std::string request(const std::string& type, const std::string& body_json);  // returns the ok reply
     int fd_ = -1;
@@ -369,7 +373,7 @@ private:
 
 // Read-only view of the daemon's shared-memory state.
 class StateReader {
-public:
+  public:
     // Throws Error(Transport) when the segment does not exist or has another magic/layout version.
     static StateReader open(const std::string& shm_name);
     StateReader(StateReader&& other) noexcept;
@@ -388,7 +392,7 @@ public:
     // The daemon's process id as it wrote it at start-up.
     [[nodiscard]] long writer_pid() const noexcept;
 
-private:
+  private:
     explicit StateReader(const StateLayout* layout) : layout_(layout) {}
     const StateLayout* layout_ = nullptr;
 };

@@ -28,23 +28,33 @@ enum class StateFault : std::uint32_t {
 // "unknown" for a number beyond them.
 constexpr const char* to_string(StateFault fault) noexcept {
     switch (fault) {
-        case StateFault::None: return "none";
-        case StateFault::Device: return "device";
-        case StateFault::NonFinite: return "non-finite";
-        case StateFault::Watchdog: return "watchdog";
-        case StateFault::FatalSignal: return "fatal_signal";
-        case StateFault::Terminate: return "terminate";
+        case StateFault::None:
+            return "none";
+        case StateFault::Device:
+            return "device";
+        case StateFault::NonFinite:
+            return "non-finite";
+        case StateFault::Watchdog:
+            return "watchdog";
+        case StateFault::FatalSignal:
+            return "fatal_signal";
+        case StateFault::Terminate:
+            return "terminate";
     }
     return "unknown";
 }
 
 // A number of StateLayout::fault is one of StateFault's.
-constexpr bool is_state_fault(std::uint32_t number) noexcept { return number <= static_cast<std::uint32_t>(StateFault::Terminate); }
+constexpr bool is_state_fault(std::uint32_t number) noexcept {
+    return number <= static_cast<std::uint32_t>(StateFault::Terminate);
+}
 
 // How old the heartbeat may be before a reader calls the state stale: 10 periods, at least 50 ms. A live
 // loop has published 10 times by then; a loop that has not published for 50 ms has stopped rendering for
 // 50 ticks at 1 kHz (the handle is not held), and 50 ms is 5 frames of a 100 Hz display.
-inline constexpr double state_stale_after_s(double period_s) noexcept { return 10.0 * period_s > 0.05 ? 10.0 * period_s : 0.05; }
+inline constexpr double state_stale_after_s(double period_s) noexcept {
+    return 10.0 * period_s > 0.05 ? 10.0 * period_s : 0.05;
+}
 
 inline constexpr std::uint32_t kStateMagic = 0x54535048U;  // "HPST" in little-endian bytes
 inline constexpr std::uint32_t kStateLayoutVersion = 2;
@@ -74,12 +84,12 @@ struct StateLayout {
     std::uint64_t overruns;
     std::int64_t wake_latency_ns;
     std::uint64_t last_commit_seq;  // every batch up to this commit_seq is applied
-    std::uint32_t fault;    // a StateFault
-    std::uint32_t objects;  // occupied slots
+    std::uint32_t fault;            // a StateFault
+    std::uint32_t objects;          // occupied slots
     std::uint32_t slot_object_id[kStateObjectCapacity];
     std::uint8_t slot_ramp[kStateObjectCapacity];  // ramp factor x 255
     // Outside the seqlock (one atomic word each).
-    std::atomic<std::int64_t> heartbeat_ns;  // CLOCK_MONOTONIC of the writer's last tick, ns; 0: none yet
+    std::atomic<std::int64_t> heartbeat_ns;   // CLOCK_MONOTONIC of the writer's last tick, ns; 0: none yet
     std::atomic<std::uint32_t> fatal_signal;  // the signal that ended the daemon (fault 4 or 5), else 0
     std::uint32_t liveness_padding;
     // Under the seqlock, written every tick: the daemon's config walls in contact, bit i for the wall with

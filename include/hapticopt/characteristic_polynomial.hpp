@@ -22,81 +22,80 @@ namespace hapticopt {
 
 template <typename Scalar>
 struct AffineCharacteristicPolynomial {
-  using Coefficients = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;  ///< ascending powers of z
-  Coefficients base;    ///< P_0
-  Coefficients alpha;   ///< P_alpha
-  Coefficients beta;    ///< P_beta
+    using Coefficients = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;  ///< ascending powers of z
+    Coefficients base;                                              ///< P_0
+    Coefficients alpha;                                             ///< P_alpha
+    Coefficients beta;                                              ///< P_beta
 
-  int degree() const { return static_cast<int>(base.size()) - 1; }
+    int degree() const { return static_cast<int>(base.size()) - 1; }
 
-  /// Coefficients (ascending) of p(z) at the given gains; leading coefficient 1.
-  Coefficients at(Scalar a, Scalar b) const { return base + a * alpha + b * beta; }
+    /// Coefficients (ascending) of p(z) at the given gains; leading coefficient 1.
+    Coefficients at(Scalar a, Scalar b) const { return base + a * alpha + b * beta; }
 };
 
 /// p(z) from the plant's segment transitions exp(A length_s) (one segment for integer d, two
 /// otherwise) and the whole delay n. 2x2 products written out.
 template <typename Scalar>
 AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(int whole_delay, int segment_count,
-                                                                 const Matrix3<Scalar>& ea,
-                                                                 const Matrix3<Scalar>& eb) {
-  Scalar phi[2][2];
-  Scalar ga[2] = {0, 0};
-  Scalar gb[2];
-  if (segment_count == 1) {
-    for (int i = 0; i < 2; ++i) {
-      for (int j = 0; j < 2; ++j) phi[i][j] = ea(i, j);
-      gb[i] = -ea(i, 2);
+                                                                 const Matrix3<Scalar>& ea, const Matrix3<Scalar>& eb) {
+    Scalar phi[2][2];
+    Scalar ga[2] = {0, 0};
+    Scalar gb[2];
+    if (segment_count == 1) {
+        for (int i = 0; i < 2; ++i) {
+            for (int j = 0; j < 2; ++j) phi[i][j] = ea(i, j);
+            gb[i] = -ea(i, 2);
+        }
+    } else {
+        // phi = Phi_b Phi_a (top-left 2x2 blocks), g_a = -Phi_b a_3, g_b = -b_3 (a_3, b_3: column 2, rows 0..1)
+        for (int i = 0; i < 2; ++i) {
+            for (int j = 0; j < 2; ++j) phi[i][j] = eb(i, 0) * ea(0, j) + eb(i, 1) * ea(1, j);
+            ga[i] = -(eb(i, 0) * ea(0, 2) + eb(i, 1) * ea(1, 2));
+            gb[i] = -eb(i, 2);
+        }
     }
-  } else {
-    // phi = Phi_b Phi_a (top-left 2x2 blocks), g_a = -Phi_b a_3, g_b = -b_3 (a_3, b_3: column 2, rows 0..1)
-    for (int i = 0; i < 2; ++i) {
-      for (int j = 0; j < 2; ++j) phi[i][j] = eb(i, 0) * ea(0, j) + eb(i, 1) * ea(1, j);
-      ga[i] = -(eb(i, 0) * ea(0, 2) + eb(i, 1) * ea(1, 2));
-      gb[i] = -eb(i, 2);
-    }
-  }
-  // q(z) = q0 + q1 z + q2 z^2
-  const Scalar q2 = gb[0];
-  const Scalar q1 = ga[0] - phi[1][1] * gb[0] + phi[0][1] * gb[1];
-  const Scalar q0 = -phi[1][1] * ga[0] + phi[0][1] * ga[1];
-  const Scalar d1 = -(phi[0][0] + phi[1][1]);
-  const Scalar d0 = phi[0][0] * phi[1][1] - phi[0][1] * phi[1][0];
+    // q(z) = q0 + q1 z + q2 z^2
+    const Scalar q2 = gb[0];
+    const Scalar q1 = ga[0] - phi[1][1] * gb[0] + phi[0][1] * gb[1];
+    const Scalar q0 = -phi[1][1] * ga[0] + phi[0][1] * ga[1];
+    const Scalar d1 = -(phi[0][0] + phi[1][1]);
+    const Scalar d0 = phi[0][0] * phi[1][1] - phi[0][1] * phi[1][0];
 
-  const int n = whole_delay;
-  const int degree = n + 4;
-  using Coefficients = typename AffineCharacteristicPolynomial<Scalar>::Coefficients;
-  Coefficients p0 = Coefficients::Zero(degree + 1);
-  Coefficients pa = Coefficients::Zero(degree + 1);
-  Coefficients pb = Coefficients::Zero(degree + 1);
-  p0(n + 2) = d0;
-  p0(n + 3) = d1;
-  p0(n + 4) = 1;
-  // alpha: q(z) z ; beta: q(z) (z - 1)
-  pa(1) = q0;
-  pa(2) = q1;
-  pa(3) = q2;
-  pb(0) = -q0;
-  pb(1) = q0 - q1;
-  pb(2) = q1 - q2;
-  pb(3) = q2;
-  if (segment_count == 1) {  // q0 = 0: divide by z
-    return {p0.tail(degree), pa.tail(degree), pb.tail(degree)};
-  }
-  return {p0, pa, pb};
+    const int n = whole_delay;
+    const int degree = n + 4;
+    using Coefficients = typename AffineCharacteristicPolynomial<Scalar>::Coefficients;
+    Coefficients p0 = Coefficients::Zero(degree + 1);
+    Coefficients pa = Coefficients::Zero(degree + 1);
+    Coefficients pb = Coefficients::Zero(degree + 1);
+    p0(n + 2) = d0;
+    p0(n + 3) = d1;
+    p0(n + 4) = 1;
+    // alpha: q(z) z ; beta: q(z) (z - 1)
+    pa(1) = q0;
+    pa(2) = q1;
+    pa(3) = q2;
+    pb(0) = -q0;
+    pb(1) = q0 - q1;
+    pb(2) = q1 - q2;
+    pb(3) = q2;
+    if (segment_count == 1) {  // q0 = 0: divide by z
+        return {p0.tail(degree), pa.tail(degree), pb.tail(degree)};
+    }
+    return {p0, pa, pb};
 }
 
 template <typename Scalar>
 AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(const SampledPlant<Scalar>& plant) {
-  const int count = plant.segment_count();
-  return characteristic_polynomial<Scalar>(plant.whole_delay(), count, plant.segment(0).exp,
-                                           plant.segment(count - 1).exp);
+    const int count = plant.segment_count();
+    return characteristic_polynomial<Scalar>(plant.whole_delay(), count, plant.segment(0).exp,
+                                             plant.segment(count - 1).exp);
 }
 
 /// p(z) from the plant transitions alone (plant_transitions, sampled_plant.hpp).
 template <typename Scalar>
 AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(const PlantTransitions<Scalar>& t) {
-  return characteristic_polynomial<Scalar>(t.whole_delay, t.segment_count, t.exp[0],
-                                           t.exp[static_cast<std::size_t>(t.segment_count - 1)]);
+    return characteristic_polynomial<Scalar>(t.whole_delay, t.segment_count, t.exp[0],
+                                             t.exp[static_cast<std::size_t>(t.segment_count - 1)]);
 }
 
 }  // namespace hapticopt

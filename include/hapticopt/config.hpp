@@ -23,7 +23,9 @@
 #define HAPTICOPT_FUNC
 #define HAPTICOPT_DEFINITIONS 0
 #else
-#define HAPTICOPT_FUNC template <typename HapticoptDeferred = void> inline
+#define HAPTICOPT_FUNC                           \
+    template <typename HapticoptDeferred = void> \
+    inline
 #define HAPTICOPT_DEFINITIONS 1
 #endif
 

@@ -29,8 +29,8 @@ using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
 template <typename Scalar>
 struct ExponentialIntegrals {
-  Matrix3<Scalar> exp;                 ///< exp(A h)
-  std::array<Matrix3<Scalar>, 3> gramian;  ///< Z_0(h), Z_1(h), Z_2(h)
+    Matrix3<Scalar> exp;                     ///< exp(A h)
+    std::array<Matrix3<Scalar>, 3> gramian;  ///< Z_0(h), Z_1(h), Z_2(h)
 };
 
 namespace detail {
@@ -41,56 +41,56 @@ namespace detail {
 /// a b
 template <typename Scalar>
 Matrix3<Scalar> mul3(const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) {
-  Matrix3<Scalar> c;
-  for (int j = 0; j < 3; ++j) {
-    for (int i = 0; i < 3; ++i) c(i, j) = a(i, 0) * b(0, j) + a(i, 1) * b(1, j) + a(i, 2) * b(2, j);
-  }
-  return c;
+    Matrix3<Scalar> c;
+    for (int j = 0; j < 3; ++j) {
+        for (int i = 0; i < 3; ++i) c(i, j) = a(i, 0) * b(0, j) + a(i, 1) * b(1, j) + a(i, 2) * b(2, j);
+    }
+    return c;
 }
 
 /// a^T b
 template <typename Scalar>
 Matrix3<Scalar> mul3_tn(const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) {
-  Matrix3<Scalar> c;
-  for (int j = 0; j < 3; ++j) {
-    for (int i = 0; i < 3; ++i) c(i, j) = a(0, i) * b(0, j) + a(1, i) * b(1, j) + a(2, i) * b(2, j);
-  }
-  return c;
+    Matrix3<Scalar> c;
+    for (int j = 0; j < 3; ++j) {
+        for (int i = 0; i < 3; ++i) c(i, j) = a(0, i) * b(0, j) + a(1, i) * b(1, j) + a(2, i) * b(2, j);
+    }
+    return c;
 }
 
 /// p^T s p
 template <typename Scalar>
 Matrix3<Scalar> congruence3(const Matrix3<Scalar>& p, const Matrix3<Scalar>& s) {
-  return mul3_tn(p, mul3(s, p));
+    return mul3_tn(p, mul3(s, p));
 }
 
 /// ||a||_1 = max_j sum_i |a_ij|
 template <typename Scalar>
 Scalar norm1_3(const Matrix3<Scalar>& a) {
-  using std::abs;
-  Scalar best = 0;
-  for (int j = 0; j < 3; ++j) {
-    const Scalar s = abs(a(0, j)) + abs(a(1, j)) + abs(a(2, j));
-    if (s > best) best = s;
-  }
-  return best;
+    using std::abs;
+    Scalar best = 0;
+    for (int j = 0; j < 3; ++j) {
+        const Scalar s = abs(a(0, j)) + abs(a(1, j)) + abs(a(2, j));
+        if (s > best) best = s;
+    }
+    return best;
 }
 
 /// max_ij |a_ij|
 template <typename Scalar>
 Scalar max_abs3(const Matrix3<Scalar>& a) {
-  using std::abs;
-  Scalar best = 0;
-  for (int k = 0; k < 9; ++k) {
-    if (abs(a.data()[k]) > best) best = abs(a.data()[k]);
-  }
-  return best;
+    using std::abs;
+    Scalar best = 0;
+    for (int k = 0; k < 9; ++k) {
+        if (abs(a.data()[k]) > best) best = abs(a.data()[k]);
+    }
+    return best;
 }
 
 /// a += f b
 template <typename Scalar>
 void add_scaled3(Matrix3<Scalar>& a, Scalar f, const Matrix3<Scalar>& b) {
-  for (int k = 0; k < 9; ++k) a.data()[k] += f * b.data()[k];
+    for (int k = 0; k < 9; ++k) a.data()[k] += f * b.data()[k];
 }
 
 }  // namespace detail
@@ -99,76 +99,76 @@ void add_scaled3(Matrix3<Scalar>& a, Scalar f, const Matrix3<Scalar>& b) {
 /// built on it is measured in tests/core/test_energy_costs.cpp (long double and time-stepping
 /// references); the doubling steps multiply by exp(A h0), whose norm stays near 1 here.
 template <typename Scalar>
-ExponentialIntegrals<Scalar> exponential_integrals(const Matrix3<Scalar>& A,
-                                                   const Matrix3<Scalar>& Q, Scalar h) {
-  using std::ceil;
-  using std::log2;
-  using std::max;
-  const Scalar norm = detail::norm1_3(A) * h;
-  int doublings = 0;
-  if (norm > Scalar(0.5)) doublings = static_cast<int>(ceil(log2(norm / Scalar(0.5))));
-  Scalar h0 = std::ldexp(h, -doublings);
+ExponentialIntegrals<Scalar> exponential_integrals(const Matrix3<Scalar>& A, const Matrix3<Scalar>& Q, Scalar h) {
+    using std::ceil;
+    using std::log2;
+    using std::max;
+    const Scalar norm = detail::norm1_3(A) * h;
+    int doublings = 0;
+    if (norm > Scalar(0.5)) doublings = static_cast<int>(ceil(log2(norm / Scalar(0.5))));
+    Scalar h0 = std::ldexp(h, -doublings);
 
-  // Taylor series on [0, h0].
-  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  Matrix3<Scalar> term = Matrix3<Scalar>::Identity();  // (A h0)^n / n!
-  Matrix3<Scalar> phi = term;
-  Matrix3<Scalar> d = Q;  // D_n h0^n / n!
-  std::array<Matrix3<Scalar>, 3> z;
-  for (int p = 0; p < 3; ++p) {
-    z[static_cast<std::size_t>(p)].setZero();
-    detail::add_scaled3(z[static_cast<std::size_t>(p)], Scalar(1) / Scalar(p + 1), d);
-  }
-  for (int n = 1; n < 60; ++n) {
-    const Scalar f = h0 / Scalar(n);
-    term = detail::mul3(term, A);
-    term *= f;
-    const Matrix3<Scalar> da = detail::mul3(d, A);
-    d = detail::mul3_tn(A, d);
-    d += da;
-    d *= f;
-    phi += term;
-    for (int p = 0; p < 3; ++p) detail::add_scaled3(z[static_cast<std::size_t>(p)], Scalar(1) / Scalar(n + p + 1), d);
-    const Scalar size = max(detail::max_abs3(term), detail::max_abs3(d));
-    const Scalar scale = max(Scalar(1), detail::max_abs3(z[0]));
-    if (size <= eps * scale * Scalar(1e-3)) break;
-  }
-  for (int p = 0; p < 3; ++p) z[static_cast<std::size_t>(p)] *= std::pow(h0, Scalar(p + 1));
+    // Taylor series on [0, h0].
+    const Scalar eps = std::numeric_limits<Scalar>::epsilon();
+    Matrix3<Scalar> term = Matrix3<Scalar>::Identity();  // (A h0)^n / n!
+    Matrix3<Scalar> phi = term;
+    Matrix3<Scalar> d = Q;  // D_n h0^n / n!
+    std::array<Matrix3<Scalar>, 3> z;
+    for (int p = 0; p < 3; ++p) {
+        z[static_cast<std::size_t>(p)].setZero();
+        detail::add_scaled3(z[static_cast<std::size_t>(p)], Scalar(1) / Scalar(p + 1), d);
+    }
+    for (int n = 1; n < 60; ++n) {
+        const Scalar f = h0 / Scalar(n);
+        term = detail::mul3(term, A);
+        term *= f;
+        const Matrix3<Scalar> da = detail::mul3(d, A);
+        d = detail::mul3_tn(A, d);
+        d += da;
+        d *= f;
+        phi += term;
+        for (int p = 0; p < 3; ++p)
+            detail::add_scaled3(z[static_cast<std::size_t>(p)], Scalar(1) / Scalar(n + p + 1), d);
+        const Scalar size = max(detail::max_abs3(term), detail::max_abs3(d));
+        const Scalar scale = max(Scalar(1), detail::max_abs3(z[0]));
+        if (size <= eps * scale * Scalar(1e-3)) break;
+    }
+    for (int p = 0; p < 3; ++p) z[static_cast<std::size_t>(p)] *= std::pow(h0, Scalar(p + 1));
 
-  // Doubling.
-  for (int i = 0; i < doublings; ++i) {
-    const Matrix3<Scalar> s0 = z[0];
-    Matrix3<Scalar> s1 = z[1];
-    detail::add_scaled3(s1, h0, z[0]);
-    Matrix3<Scalar> s2 = z[2];
-    detail::add_scaled3(s2, Scalar(2) * h0, z[1]);
-    detail::add_scaled3(s2, h0 * h0, z[0]);
-    z[0] += detail::congruence3(phi, s0);
-    z[1] += detail::congruence3(phi, s1);
-    z[2] += detail::congruence3(phi, s2);
-    phi = detail::mul3(phi, phi);
-    h0 *= Scalar(2);
-  }
-  return ExponentialIntegrals<Scalar>{phi, z};
+    // Doubling.
+    for (int i = 0; i < doublings; ++i) {
+        const Matrix3<Scalar> s0 = z[0];
+        Matrix3<Scalar> s1 = z[1];
+        detail::add_scaled3(s1, h0, z[0]);
+        Matrix3<Scalar> s2 = z[2];
+        detail::add_scaled3(s2, Scalar(2) * h0, z[1]);
+        detail::add_scaled3(s2, h0 * h0, z[0]);
+        z[0] += detail::congruence3(phi, s0);
+        z[1] += detail::congruence3(phi, s1);
+        z[2] += detail::congruence3(phi, s2);
+        phi = detail::mul3(phi, phi);
+        h0 *= Scalar(2);
+    }
+    return ExponentialIntegrals<Scalar>{phi, z};
 }
 
 /// exp(A h) alone, by the same scaling, Taylor series and squaring.
 template <typename Scalar>
 Matrix3<Scalar> exponential(const Matrix3<Scalar>& A, Scalar h) {
-  const Scalar norm = detail::norm1_3(A) * h;
-  int squarings = 0;
-  if (norm > Scalar(0.5)) squarings = static_cast<int>(std::ceil(std::log2(norm / Scalar(0.5))));
-  const Scalar scale = std::ldexp(h, -squarings);
-  Matrix3<Scalar> term = Matrix3<Scalar>::Identity();
-  Matrix3<Scalar> result = term;
-  for (int n = 1; n < 60 && detail::max_abs3(term) > Scalar(0); ++n) {
-    term = detail::mul3(term, A);
-    term *= scale / Scalar(n);
-    result += term;
-    if (detail::max_abs3(term) <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3)) break;
-  }
-  for (int i = 0; i < squarings; ++i) result = detail::mul3(result, result);
-  return result;
+    const Scalar norm = detail::norm1_3(A) * h;
+    int squarings = 0;
+    if (norm > Scalar(0.5)) squarings = static_cast<int>(std::ceil(std::log2(norm / Scalar(0.5))));
+    const Scalar scale = std::ldexp(h, -squarings);
+    Matrix3<Scalar> term = Matrix3<Scalar>::Identity();
+    Matrix3<Scalar> result = term;
+    for (int n = 1; n < 60 && detail::max_abs3(term) > Scalar(0); ++n) {
+        term = detail::mul3(term, A);
+        term *= scale / Scalar(n);
+        result += term;
+        if (detail::max_abs3(term) <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3)) break;
+    }
+    for (int i = 0; i < squarings; ++i) result = detail::mul3(result, result);
+    return result;
 }
 
 }  // namespace hapticopt

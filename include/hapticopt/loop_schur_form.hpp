@@ -20,19 +20,19 @@ namespace hapticopt {
 
 template <typename Scalar>
 struct LoopSchurForm {
-  ComplexMatrix<Scalar> t;  ///< upper triangular, eigenvalues of M on the diagonal
-  ComplexMatrix<Scalar> u;  ///< unitary
-  Scalar spectral_radius = 0;
+    ComplexMatrix<Scalar> t;  ///< upper triangular, eigenvalues of M on the diagonal
+    ComplexMatrix<Scalar> u;  ///< unitary
+    Scalar spectral_radius = 0;
 };
 
 template <typename Scalar>
 LoopSchurForm<Scalar> loop_schur_form(const DynamicMatrix<Scalar>& m) {
-  Eigen::ComplexSchur<DynamicMatrix<Scalar>> schur(m);
-  LoopSchurForm<Scalar> form;
-  form.t = schur.matrixT();
-  form.u = schur.matrixU();
-  form.spectral_radius = form.t.diagonal().cwiseAbs().maxCoeff();
-  return form;
+    Eigen::ComplexSchur<DynamicMatrix<Scalar>> schur(m);
+    LoopSchurForm<Scalar> form;
+    form.t = schur.matrixT();
+    form.u = schur.matrixU();
+    form.spectral_radius = form.t.diagonal().cwiseAbs().maxCoeff();
+    return form;
 }
 
 /// The Schur-Cohn verdict on p(z) (characteristic_polynomial.hpp), refined near the boundary.
@@ -53,31 +53,31 @@ inline constexpr double kStabilityRefinementMargin = 1e-4;
 
 template <typename Scalar>
 struct LoopVerdict {
-  bool stable = false;   ///< alpha + gamma > 0 and every root of p strictly inside the unit circle
-  Scalar margin = 0;     ///< Schur-Cohn margin of the deciding computation (schur_cohn.hpp)
-  bool refined = false;  ///< decided in long double because |margin| in Scalar was below the trigger
+    bool stable = false;   ///< alpha + gamma > 0 and every root of p strictly inside the unit circle
+    Scalar margin = 0;     ///< Schur-Cohn margin of the deciding computation (schur_cohn.hpp)
+    bool refined = false;  ///< decided in long double because |margin| in Scalar was below the trigger
 };
 
 template <typename Scalar>
 LoopVerdict<Scalar> loop_verdict(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
-  LoopVerdict<Scalar> verdict;
-  if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return verdict;
-  const SchurCohnResult<Scalar> test = schur_cohn<Scalar>(characteristic_polynomial(plant).at(alpha, beta));
-  verdict.stable = test.stable;
-  verdict.margin = test.margin;
-  if constexpr (std::is_same_v<Scalar, double> &&
-                std::numeric_limits<long double>::digits > std::numeric_limits<double>::digits) {
-    using std::abs;
-    if (abs(test.margin) < kStabilityRefinementMargin) {
-      using LD = long double;
-      const PlantTransitions<LD> fine = plant_transitions<LD>(plant.parameters());
-      const SchurCohnResult<LD> refined = schur_cohn<LD>(characteristic_polynomial(fine).at(LD(alpha), LD(beta)));
-      verdict.stable = refined.stable && LD(alpha) + LD(plant.parameters().gamma) > LD(0);
-      verdict.margin = static_cast<Scalar>(refined.margin);
-      verdict.refined = true;
+    LoopVerdict<Scalar> verdict;
+    if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return verdict;
+    const SchurCohnResult<Scalar> test = schur_cohn<Scalar>(characteristic_polynomial(plant).at(alpha, beta));
+    verdict.stable = test.stable;
+    verdict.margin = test.margin;
+    if constexpr (std::is_same_v<Scalar, double> &&
+                  std::numeric_limits<long double>::digits > std::numeric_limits<double>::digits) {
+        using std::abs;
+        if (abs(test.margin) < kStabilityRefinementMargin) {
+            using LD = long double;
+            const PlantTransitions<LD> fine = plant_transitions<LD>(plant.parameters());
+            const SchurCohnResult<LD> refined = schur_cohn<LD>(characteristic_polynomial(fine).at(LD(alpha), LD(beta)));
+            verdict.stable = refined.stable && LD(alpha) + LD(plant.parameters().gamma) > LD(0);
+            verdict.margin = static_cast<Scalar>(refined.margin);
+            verdict.refined = true;
+        }
     }
-  }
-  return verdict;
+    return verdict;
 }
 
 /// Stable iff alpha + gamma > 0 and the (refined) Schur-Cohn test passes on p(z): loop_verdict().
@@ -85,7 +85,7 @@ LoopVerdict<Scalar> loop_verdict(const SampledPlant<Scalar>& plant, Scalar alpha
 /// by their callers), which guards against a rounding disagreement right at the boundary.
 template <typename Scalar>
 bool loop_is_stable(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta) {
-  return loop_verdict(plant, alpha, beta).stable;
+    return loop_verdict(plant, alpha, beta).stable;
 }
 
 }  // namespace hapticopt

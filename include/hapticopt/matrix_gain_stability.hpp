@@ -74,10 +74,10 @@ inline constexpr double kMatrixGainRadiusMargin = 1e-6;
 inline constexpr double kMatrixGainRoundingLevel = 64 * 2.220446049250313e-16;
 
 struct MatrixGainStability {
-  bool stable = false;            ///< every root of the restricted loop strictly inside the unit circle
-  bool commuting = false;         ///< A B = B A (within 1e-12 relative): decided per common eigenvector
-  int active_directions = 0;      ///< rank of the part where a wall acts (0: nothing to judge, stable)
-  double spectral_radius = 0.0;   ///< largest |root| of the restricted loop (0 when nothing acts)
+    bool stable = false;           ///< every root of the restricted loop strictly inside the unit circle
+    bool commuting = false;        ///< A B = B A (within 1e-12 relative): decided per common eigenvector
+    int active_directions = 0;     ///< rank of the part where a wall acts (0: nothing to judge, stable)
+    double spectral_radius = 0.0;  ///< largest |root| of the restricted loop (0 when nothing acts)
 };
 
 namespace detail {
@@ -85,54 +85,54 @@ namespace detail {
 // The plant's parameters, then A and B square, of one size >= 1, finite; InvalidParameter from `fn`.
 inline void validate_gain_matrices(const NormalizedPlant& plant, const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
                                    const char* fn) {
-  validate(plant, fn);
-  if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
-    throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
-                           "A and B square, of the same size >= 1");
-  }
-  if (!A.allFinite() || !B.allFinite()) {
-    throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
-  }
+    validate(plant, fn);
+    if (A.rows() != A.cols() || B.rows() != B.cols() || A.rows() != B.rows() || A.rows() == 0) {
+        throw InvalidParameter(fn, "gain matrix size", static_cast<double>(A.rows()),
+                               "A and B square, of the same size >= 1");
+    }
+    if (!A.allFinite() || !B.allFinite()) {
+        throw InvalidParameter(fn, "gain matrix entry", NAN, "finite");
+    }
 }
 
 // An orthonormal basis (columns) of the row space of [A; B]: the directions where a wall acts.
 HAPTICOPT_FUNC Eigen::MatrixXd acting_basis(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B)
 #if HAPTICOPT_DEFINITIONS
 {
-  Eigen::MatrixXd stacked(2 * A.rows(), A.cols());
-  stacked << A, B;
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked, Eigen::ComputeFullV);
-  const Eigen::VectorXd& sigma = svd.singularValues();
-  const double threshold = kMatrixGainRoundingLevel * (sigma.size() > 0 ? sigma(0) : 0.0);
-  Eigen::Index rank = 0;
-  while (rank < sigma.size() && sigma(rank) > threshold) ++rank;
-  return svd.matrixV().leftCols(rank);
+    Eigen::MatrixXd stacked(2 * A.rows(), A.cols());
+    stacked << A, B;
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stacked, Eigen::ComputeFullV);
+    const Eigen::VectorXd& sigma = svd.singularValues();
+    const double threshold = kMatrixGainRoundingLevel * (sigma.size() > 0 ? sigma(0) : 0.0);
+    Eigen::Index rank = 0;
+    while (rank < sigma.size() && sigma(rank) > threshold) ++rank;
+    return svd.matrixV().leftCols(rank);
 }
 #else
-;
+    ;
 #endif
 
 // Largest |root| of det(P_0(z) I + P_alpha(z) A + P_beta(z) B) (A, B any r x r matrices): the eigenvalues
 // of the block companion matrix (first block row -C_{degree-1} ... -C_0, identity blocks below the
 // diagonal), C_k = base_k I + alpha_k A + beta_k B, C_degree = I. HUGE_VAL if the eigen-solver fails.
-HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolynomial<double>& p, const Eigen::MatrixXd& A,
-                                                const Eigen::MatrixXd& B)
+HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolynomial<double>& p,
+                                                const Eigen::MatrixXd& A, const Eigen::MatrixXd& B)
 #if HAPTICOPT_DEFINITIONS
 {
-  const Eigen::Index r = A.rows();
-  const int degree = p.degree();
-  Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(r * degree, r * degree);
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(r, r);
-  for (int k = 0; k < degree; ++k) {
-    companion.block(0, r * (degree - 1 - k), r, r) = -(p.base(k) * I + p.alpha(k) * A + p.beta(k) * B);
-  }
-  for (int b = 1; b < degree; ++b) companion.block(r * b, r * (b - 1), r, r) = I;
-  const Eigen::EigenSolver<Eigen::MatrixXd> roots(companion, /*computeEigenvectors=*/false);
-  if (roots.info() != Eigen::Success) return HUGE_VAL;
-  return roots.eigenvalues().cwiseAbs().maxCoeff();
+    const Eigen::Index r = A.rows();
+    const int degree = p.degree();
+    Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(r * degree, r * degree);
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(r, r);
+    for (int k = 0; k < degree; ++k) {
+        companion.block(0, r * (degree - 1 - k), r, r) = -(p.base(k) * I + p.alpha(k) * A + p.beta(k) * B);
+    }
+    for (int b = 1; b < degree; ++b) companion.block(r * b, r * (b - 1), r, r) = I;
+    const Eigen::EigenSolver<Eigen::MatrixXd> roots(companion, /*computeEigenvectors=*/false);
+    if (roots.info() != Eigen::Success) return HUGE_VAL;
+    return roots.eigenvalues().cwiseAbs().maxCoeff();
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace detail
@@ -144,50 +144,51 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
                                                          const Eigen::MatrixXd& B)
 #if HAPTICOPT_DEFINITIONS
 {
-  const char* fn = "hapticopt::matrix_gain_stability";
-  detail::validate_gain_matrices(plant, A, B, fn);
-  const double scale = 1.0 + A.norm() + B.norm();
-  if ((A - A.transpose()).norm() > 1e-9 * scale || (B - B.transpose()).norm() > 1e-9 * scale) {
-    throw InvalidParameter(fn, "gain matrix asymmetry", std::max((A - A.transpose()).norm(), (B - B.transpose()).norm()),
-                           "A and B symmetric (to 1e-9 relative)");
-  }
-  const Eigen::MatrixXd As = (A + A.transpose()) / 2, Bs = (B + B.transpose()) / 2;
-  MatrixGainStability result;
-
-  // The part where a wall acts: the row space of [A; B] above the rounding level.
-  const Eigen::MatrixXd Q = detail::acting_basis(As, Bs);
-  result.active_directions = static_cast<int>(Q.cols());
-  if (Q.cols() == 0) {
-    result.stable = true;
-    result.commuting = true;
-    return result;
-  }
-  const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
-  const Eigen::Index r = Ar.rows();
-
-  const double commutator = (Ar * Br - Br * Ar).norm();
-  result.commuting = commutator <= 1e-12 * (1.0 + Ar.norm() * Br.norm());
-  if (result.commuting) {
-    // Common eigenvectors: those of A + c B for a generic c separate A's repeated eigenvalues by B's.
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> common(Ar + 0.7548776662466927 * Br);
-    result.stable = true;
-    for (Eigen::Index c = 0; c < r; ++c) {
-      const Eigen::VectorXd u = common.eigenvectors().col(c);
-      const StabilityReport s = stability(plant, NormalizedGains{u.dot(Ar * u), u.dot(Br * u)});
-      result.stable = result.stable && s.stable;
-      result.spectral_radius = std::max(result.spectral_radius, s.spectral_radius);
+    const char* fn = "hapticopt::matrix_gain_stability";
+    detail::validate_gain_matrices(plant, A, B, fn);
+    const double scale = 1.0 + A.norm() + B.norm();
+    if ((A - A.transpose()).norm() > 1e-9 * scale || (B - B.transpose()).norm() > 1e-9 * scale) {
+        throw InvalidParameter(fn, "gain matrix asymmetry",
+                               std::max((A - A.transpose()).norm(), (B - B.transpose()).norm()),
+                               "A and B symmetric (to 1e-9 relative)");
     }
-    result.stable = result.stable && result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
-    return result;
-  }
+    const Eigen::MatrixXd As = (A + A.transpose()) / 2, Bs = (B + B.transpose()) / 2;
+    MatrixGainStability result;
 
-  result.spectral_radius =
-      detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
-  result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
-  return result;
+    // The part where a wall acts: the row space of [A; B] above the rounding level.
+    const Eigen::MatrixXd Q = detail::acting_basis(As, Bs);
+    result.active_directions = static_cast<int>(Q.cols());
+    if (Q.cols() == 0) {
+        result.stable = true;
+        result.commuting = true;
+        return result;
+    }
+    const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
+    const Eigen::Index r = Ar.rows();
+
+    const double commutator = (Ar * Br - Br * Ar).norm();
+    result.commuting = commutator <= 1e-12 * (1.0 + Ar.norm() * Br.norm());
+    if (result.commuting) {
+        // Common eigenvectors: those of A + c B for a generic c separate A's repeated eigenvalues by B's.
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> common(Ar + 0.7548776662466927 * Br);
+        result.stable = true;
+        for (Eigen::Index c = 0; c < r; ++c) {
+            const Eigen::VectorXd u = common.eigenvectors().col(c);
+            const StabilityReport s = stability(plant, NormalizedGains{u.dot(Ar * u), u.dot(Br * u)});
+            result.stable = result.stable && s.stable;
+            result.spectral_radius = std::max(result.spectral_radius, s.spectral_radius);
+        }
+        result.stable = result.stable && result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+        return result;
+    }
+
+    result.spectral_radius =
+        detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
+    result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+    return result;
 }
 #else
-;
+    ;
 #endif
 
 /// Stability of the loop with any real normalised gain matrices `A` (stiffness, e.g. -J of a force field
@@ -201,24 +202,24 @@ HAPTICOPT_FUNC MatrixGainStability general_matrix_gain_stability(const Normalize
                                                                  const Eigen::MatrixXd& B)
 #if HAPTICOPT_DEFINITIONS
 {
-  const char* fn = "hapticopt::general_matrix_gain_stability";
-  detail::validate_gain_matrices(plant, A, B, fn);
-  const double scale = A.norm() + B.norm();
-  if ((A - A.transpose()).norm() <= kMatrixGainRoundingLevel * scale &&
-      (B - B.transpose()).norm() <= kMatrixGainRoundingLevel * scale) {
-    return matrix_gain_stability(plant, (A + A.transpose()) / 2, (B + B.transpose()) / 2);
-  }
-  MatrixGainStability result;
-  const Eigen::MatrixXd Q = detail::acting_basis(A, B);
-  result.active_directions = static_cast<int>(Q.cols());
-  const Eigen::MatrixXd Ar = Q.transpose() * A * Q, Br = Q.transpose() * B * Q;
-  result.spectral_radius =
-      detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
-  result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
-  return result;
+    const char* fn = "hapticopt::general_matrix_gain_stability";
+    detail::validate_gain_matrices(plant, A, B, fn);
+    const double scale = A.norm() + B.norm();
+    if ((A - A.transpose()).norm() <= kMatrixGainRoundingLevel * scale &&
+        (B - B.transpose()).norm() <= kMatrixGainRoundingLevel * scale) {
+        return matrix_gain_stability(plant, (A + A.transpose()) / 2, (B + B.transpose()) / 2);
+    }
+    MatrixGainStability result;
+    const Eigen::MatrixXd Q = detail::acting_basis(A, B);
+    result.active_directions = static_cast<int>(Q.cols());
+    const Eigen::MatrixXd Ar = Q.transpose() * A * Q, Br = Q.transpose() * B * Q;
+    result.spectral_radius =
+        detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
+    result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+    return result;
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

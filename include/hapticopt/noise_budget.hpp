@@ -50,36 +50,36 @@ namespace hapticopt {
 
 /// Options of optimal_point_under_noise_budget.
 struct NoiseBudgetOptions {
-  EstimatorOptimumOptions unconstrained;  ///< the unconstrained optimum's search
-  int alpha_grid = 64;                    ///< log-spaced alpha scan of the curve g_F = g_max, >= 8
-  int beta_grid = 16;                     ///< grid of the g_F minimum over beta at one alpha, >= 4
-  double alpha_floor = 1e-6;              ///< smallest alpha searched, relative to alpha_max, (0, 0.1]
-  double alpha_tolerance = 1e-10;         ///< Brent's tolerance in log alpha, (0, 1e-3]
+    EstimatorOptimumOptions unconstrained;  ///< the unconstrained optimum's search
+    int alpha_grid = 64;                    ///< log-spaced alpha scan of the curve g_F = g_max, >= 8
+    int beta_grid = 16;                     ///< grid of the g_F minimum over beta at one alpha, >= 4
+    double alpha_floor = 1e-6;              ///< smallest alpha searched, relative to alpha_max, (0, 0.1]
+    double alpha_tolerance = 1e-10;         ///< Brent's tolerance in log alpha, (0, 1e-3]
 };
 
 /// The constrained optimum and what it meets.
 struct NoiseBudgetOptimum {
-  Criterion criterion = Criterion::CE2;
-  VelocityEstimator estimator;
-  double noise_budget = 0;      ///< g_max
-  double alpha = 0;
-  double beta = 0;
-  double cost = HUGE_VAL;
-  double force_noise_gain = 0;  ///< g_F at (alpha, beta), <= noise_budget
-  bool budget_active = false;   ///< false: the unconstrained optimum meets the budget (and is returned)
-  double alpha_max = 0;         ///< the main region's tip
-  double unconstrained_cost = HUGE_VAL;
-  double unconstrained_force_noise_gain = 0;
+    Criterion criterion = Criterion::CE2;
+    VelocityEstimator estimator;
+    double noise_budget = 0;  ///< g_max
+    double alpha = 0;
+    double beta = 0;
+    double cost = HUGE_VAL;
+    double force_noise_gain = 0;  ///< g_F at (alpha, beta), <= noise_budget
+    bool budget_active = false;   ///< false: the unconstrained optimum meets the budget (and is returned)
+    double alpha_max = 0;         ///< the main region's tip
+    double unconstrained_cost = HUGE_VAL;
+    double unconstrained_force_noise_gain = 0;
 };
 
 namespace detail {
 
 inline int noise_budget_energy_index(const char* fn, Criterion criterion) {
-  const auto k = energy_index(criterion);
-  if (!k || requires_no_overshoot(criterion)) {
-    throw InvalidParameter(fn, "criterion", static_cast<double>(criterion), "CE0, CE1 or CE2 under a noise budget");
-  }
-  return *k;
+    const auto k = energy_index(criterion);
+    if (!k || requires_no_overshoot(criterion)) {
+        throw InvalidParameter(fn, "criterion", static_cast<double>(criterion), "CE0, CE1 or CE2 under a noise budget");
+    }
+    return *k;
 }
 
 }  // namespace detail
@@ -91,99 +91,100 @@ HAPTICOPT_DEFERRED
 NoiseBudgetOptimum optimal_point_under_noise_budget(Criterion criterion, const NormalizedPlant& plant,
                                                     const VelocityEstimator& estimator, double noise_budget,
                                                     const NoiseBudgetOptions& options = {}) {
-  const char* fn = "hapticopt::optimal_point_under_noise_budget";
-  validate(plant, fn);
-  validate(estimator, fn);
-  const int index = detail::noise_budget_energy_index(fn, criterion);
-  detail::require_in_range(fn, "noise_budget", noise_budget, 0.0, true, HUGE_VAL,
-                           "finite and > 0 (normalised g_max = sigma_max T^2 / (m q))");
-  detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 8, false, 1e5, "8 <= alpha_grid <= 10^5");
-  detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e5, "4 <= beta_grid <= 10^5");
-  detail::require_in_range(fn, "alpha_floor", options.alpha_floor, 0.0, true, 0.1, "0 < alpha_floor <= 0.1");
-  detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-3,
-                           "0 < alpha_tolerance <= 1e-3");
-  NoiseBudgetOptimum out;
-  out.criterion = criterion;
-  out.estimator = estimator;
-  out.noise_budget = noise_budget;
-  const SampledPlant<double> sampled(plant);
-  auto noise = [&](double a, double b) { return estimator_force_noise_gain(sampled, estimator, a, b); };
-  auto cost = [&](double a, double b) {
-    const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
-    return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
-  };
+    const char* fn = "hapticopt::optimal_point_under_noise_budget";
+    validate(plant, fn);
+    validate(estimator, fn);
+    const int index = detail::noise_budget_energy_index(fn, criterion);
+    detail::require_in_range(fn, "noise_budget", noise_budget, 0.0, true, HUGE_VAL,
+                             "finite and > 0 (normalised g_max = sigma_max T^2 / (m q))");
+    detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 8, false, 1e5, "8 <= alpha_grid <= 10^5");
+    detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e5, "4 <= beta_grid <= 10^5");
+    detail::require_in_range(fn, "alpha_floor", options.alpha_floor, 0.0, true, 0.1, "0 < alpha_floor <= 0.1");
+    detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-3,
+                             "0 < alpha_tolerance <= 1e-3");
+    NoiseBudgetOptimum out;
+    out.criterion = criterion;
+    out.estimator = estimator;
+    out.noise_budget = noise_budget;
+    const SampledPlant<double> sampled(plant);
+    auto noise = [&](double a, double b) { return estimator_force_noise_gain(sampled, estimator, a, b); };
+    auto cost = [&](double a, double b) {
+        const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
+        return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+    };
 
-  const EstimatorOptimum free = optimal_point(criterion, plant, estimator, options.unconstrained);
-  out.alpha_max = free.alpha_max;
-  out.unconstrained_cost = free.cost ? *free.cost : HUGE_VAL;
-  out.unconstrained_force_noise_gain = noise(free.alpha, free.beta);
-  if (out.unconstrained_force_noise_gain <= noise_budget) {
-    out.alpha = free.alpha;
-    out.beta = free.beta;
-    out.cost = out.unconstrained_cost;
-    out.force_noise_gain = out.unconstrained_force_noise_gain;
-    return out;
-  }
-  out.budget_active = true;
-
-  const EstimatorStabilityRegion region(plant, estimator);
-  // beta on branch `side` (0: below beta*, 1: above) at alpha, NaN where g_min(alpha) > g_max.
-  auto crossing = [&](double a, int side) {
-    const std::pair<double, double> interval = region.beta_interval(a);
-    auto range = [&](double) { return interval; };
-    auto g = [&](double, double b) { return noise(a, b); };
-    const detail::ScalarMinimum m = detail::minimize_over_beta(g, range, a, options.beta_grid);
-    if (!(m.value <= noise_budget)) return std::nan("");
-    double inside = m.x, outside = side == 0 ? interval.first : interval.second;
-    if (noise(a, outside) <= noise_budget) return outside;  // the budget does not bind before the edge
-    const double width = interval.second - interval.first;
-    for (int k = 0; k < 200 && std::abs(outside - inside) > 1e-13 * width; ++k) {
-      const double mid = (inside + outside) / 2;
-      (noise(a, mid) <= noise_budget ? inside : outside) = mid;
+    const EstimatorOptimum free = optimal_point(criterion, plant, estimator, options.unconstrained);
+    out.alpha_max = free.alpha_max;
+    out.unconstrained_cost = free.cost ? *free.cost : HUGE_VAL;
+    out.unconstrained_force_noise_gain = noise(free.alpha, free.beta);
+    if (out.unconstrained_force_noise_gain <= noise_budget) {
+        out.alpha = free.alpha;
+        out.beta = free.beta;
+        out.cost = out.unconstrained_cost;
+        out.force_noise_gain = out.unconstrained_force_noise_gain;
+        return out;
     }
-    return inside;
-  };
-  auto branch_cost = [&](double log_a, int side) {
-    const double a = std::exp(log_a);
-    const double b = crossing(a, side);
-    return std::isnan(b) ? HUGE_VAL : cost(a, b);
-  };
-  const double l0 = std::log(options.alpha_floor * out.alpha_max), l1 = std::log(out.alpha_max);
-  const int n = options.alpha_grid;
-  const double step = (l1 - l0) / n;
-  double best = HUGE_VAL;
-  int best_i = -1, best_side = 0;
-  for (int i = 0; i < n; ++i) {
-    const double l = l0 + (i + 0.5) * step;
+    out.budget_active = true;
+
+    const EstimatorStabilityRegion region(plant, estimator);
+    // beta on branch `side` (0: below beta*, 1: above) at alpha, NaN where g_min(alpha) > g_max.
+    auto crossing = [&](double a, int side) {
+        const std::pair<double, double> interval = region.beta_interval(a);
+        auto range = [&](double) { return interval; };
+        auto g = [&](double, double b) { return noise(a, b); };
+        const detail::ScalarMinimum m = detail::minimize_over_beta(g, range, a, options.beta_grid);
+        if (!(m.value <= noise_budget)) return std::nan("");
+        double inside = m.x, outside = side == 0 ? interval.first : interval.second;
+        if (noise(a, outside) <= noise_budget) return outside;  // the budget does not bind before the edge
+        const double width = interval.second - interval.first;
+        for (int k = 0; k < 200 && std::abs(outside - inside) > 1e-13 * width; ++k) {
+            const double mid = (inside + outside) / 2;
+            (noise(a, mid) <= noise_budget ? inside : outside) = mid;
+        }
+        return inside;
+    };
+    auto branch_cost = [&](double log_a, int side) {
+        const double a = std::exp(log_a);
+        const double b = crossing(a, side);
+        return std::isnan(b) ? HUGE_VAL : cost(a, b);
+    };
+    const double l0 = std::log(options.alpha_floor * out.alpha_max), l1 = std::log(out.alpha_max);
+    const int n = options.alpha_grid;
+    const double step = (l1 - l0) / n;
+    double best = HUGE_VAL;
+    int best_i = -1, best_side = 0;
+    for (int i = 0; i < n; ++i) {
+        const double l = l0 + (i + 0.5) * step;
+        for (int side = 0; side < 2; ++side) {
+            const double c = branch_cost(l, side);
+            if (c < best) {
+                best = c;
+                best_i = i;
+                best_side = side;
+            }
+        }
+    }
+    if (best_i < 0) {
+        throw InvalidParameter(
+            fn, "noise_budget", noise_budget,
+            "a g_F met by some stable gains with alpha >= alpha_floor alpha_max (none found on the scan)");
+    }
+    double best_l = l0 + (best_i + 0.5) * step;
     for (int side = 0; side < 2; ++side) {
-      const double c = branch_cost(l, side);
-      if (c < best) {
-        best = c;
-        best_i = i;
-        best_side = side;
-      }
+        const double lo = std::max(l0, best_l - step), hi = std::min(l1, best_l + step);
+        const detail::ScalarMinimum m =
+            detail::minimize_scalar([&](double l) { return branch_cost(l, side); }, lo, hi, options.alpha_tolerance);
+        if (std::isfinite(m.value) && m.value < best) {
+            best = m.value;
+            best_side = side;
+            best_l = m.x;
+        }
     }
-  }
-  if (best_i < 0) {
-    throw InvalidParameter(fn, "noise_budget", noise_budget,
-                           "a g_F met by some stable gains with alpha >= alpha_floor alpha_max (none found on the scan)");
-  }
-  double best_l = l0 + (best_i + 0.5) * step;
-  for (int side = 0; side < 2; ++side) {
-    const double lo = std::max(l0, best_l - step), hi = std::min(l1, best_l + step);
-    const detail::ScalarMinimum m =
-        detail::minimize_scalar([&](double l) { return branch_cost(l, side); }, lo, hi, options.alpha_tolerance);
-    if (std::isfinite(m.value) && m.value < best) {
-      best = m.value;
-      best_side = side;
-      best_l = m.x;
-    }
-  }
-  out.alpha = std::exp(best_l);
-  out.beta = crossing(out.alpha, best_side);
-  out.cost = cost(out.alpha, out.beta);
-  out.force_noise_gain = noise(out.alpha, out.beta);
-  return out;
+    out.alpha = std::exp(best_l);
+    out.beta = crossing(out.alpha, best_side);
+    out.cost = cost(out.alpha, out.beta);
+    out.force_noise_gain = noise(out.alpha, out.beta);
+    return out;
 }
 
 /// The Pareto front of C against g_F: the constrained optimum for each budget (any order; budgets that no
@@ -194,15 +195,15 @@ std::vector<NoiseBudgetOptimum> noise_pareto_front(Criterion criterion, const No
                                                    const VelocityEstimator& estimator,
                                                    const std::vector<double>& budgets,
                                                    const NoiseBudgetOptions& options = {}) {
-  std::vector<NoiseBudgetOptimum> out;
-  for (const double g : budgets) {
-    try {
-      out.push_back(optimal_point_under_noise_budget(criterion, plant, estimator, g, options));
-    } catch (const InvalidParameter& e) {
-      if (e.parameter() != "noise_budget" || !(g > 0 && std::isfinite(g))) throw;
+    std::vector<NoiseBudgetOptimum> out;
+    for (const double g : budgets) {
+        try {
+            out.push_back(optimal_point_under_noise_budget(criterion, plant, estimator, g, options));
+        } catch (const InvalidParameter& e) {
+            if (e.parameter() != "noise_budget" || !(g > 0 && std::isfinite(g))) throw;
+        }
     }
-  }
-  return out;
+    return out;
 }
 
 /// The estimator's parameter jointly: the constrained optimum for each candidate (e.g. windows 1..N_max, or
@@ -213,22 +214,22 @@ HAPTICOPT_DEFERRED
 NoiseBudgetOptimum optimal_estimator_under_noise_budget(Criterion criterion, const NormalizedPlant& plant,
                                                         const std::vector<VelocityEstimator>& estimators,
                                                         double noise_budget, const NoiseBudgetOptions& options = {}) {
-  const char* fn = "hapticopt::optimal_estimator_under_noise_budget";
-  if (estimators.empty()) throw InvalidParameter(fn, "estimators", 0.0, "at least one candidate estimator");
-  std::optional<NoiseBudgetOptimum> best;
-  for (const VelocityEstimator& e : estimators) {
-    try {
-      const NoiseBudgetOptimum o = optimal_point_under_noise_budget(criterion, plant, e, noise_budget, options);
-      if (!best || o.cost < best->cost) best = o;
-    } catch (const InvalidParameter& x) {
-      if (x.parameter() != "noise_budget" || !(noise_budget > 0 && std::isfinite(noise_budget))) throw;
+    const char* fn = "hapticopt::optimal_estimator_under_noise_budget";
+    if (estimators.empty()) throw InvalidParameter(fn, "estimators", 0.0, "at least one candidate estimator");
+    std::optional<NoiseBudgetOptimum> best;
+    for (const VelocityEstimator& e : estimators) {
+        try {
+            const NoiseBudgetOptimum o = optimal_point_under_noise_budget(criterion, plant, e, noise_budget, options);
+            if (!best || o.cost < best->cost) best = o;
+        } catch (const InvalidParameter& x) {
+            if (x.parameter() != "noise_budget" || !(noise_budget > 0 && std::isfinite(noise_budget))) throw;
+        }
     }
-  }
-  if (!best) {
-    throw InvalidParameter(fn, "noise_budget", noise_budget,
-                           "a g_F met by some stable gains with one of the candidate estimators");
-  }
-  return *best;
+    if (!best) {
+        throw InvalidParameter(fn, "noise_budget", noise_budget,
+                               "a g_F met by some stable gains with one of the candidate estimators");
+    }
+    return *best;
 }
 
 /// The low-pass cut-off jointly with the gains: minimise the constrained optimum's cost over nu in
@@ -241,40 +242,41 @@ NoiseBudgetOptimum optimal_lowpass_under_noise_budget(Criterion criterion, const
                                                       double nu_max, double noise_budget, int scan = 12,
                                                       double log_tolerance = 1e-3,
                                                       const NoiseBudgetOptions& options = {}) {
-  const char* fn = "hapticopt::optimal_lowpass_under_noise_budget";
-  detail::require_in_range(fn, "nu_min", nu_min, 0.0, true, HUGE_VAL, "finite and > 0");
-  detail::require_in_range(fn, "nu_max", nu_max, nu_min, true, HUGE_VAL, "finite and > nu_min");
-  detail::require_in_range(fn, "scan", scan, 3, false, 1e4, "3 <= scan <= 10^4");
-  detail::require_in_range(fn, "log_tolerance", log_tolerance, 0.0, true, 1.0, "0 < log_tolerance <= 1");
-  detail::require_in_range(fn, "noise_budget", noise_budget, 0.0, true, HUGE_VAL, "finite and > 0");
-  std::optional<NoiseBudgetOptimum> best;
-  auto at = [&](double log_nu) {
-    try {
-      const NoiseBudgetOptimum o = optimal_point_under_noise_budget(
-          criterion, plant, VelocityEstimator::low_pass(std::exp(log_nu)), noise_budget, options);
-      if (!best || o.cost < best->cost) best = o;
-      return o.cost;
-    } catch (const InvalidParameter& x) {
-      if (x.parameter() != "noise_budget") throw;
-      return HUGE_VAL;
+    const char* fn = "hapticopt::optimal_lowpass_under_noise_budget";
+    detail::require_in_range(fn, "nu_min", nu_min, 0.0, true, HUGE_VAL, "finite and > 0");
+    detail::require_in_range(fn, "nu_max", nu_max, nu_min, true, HUGE_VAL, "finite and > nu_min");
+    detail::require_in_range(fn, "scan", scan, 3, false, 1e4, "3 <= scan <= 10^4");
+    detail::require_in_range(fn, "log_tolerance", log_tolerance, 0.0, true, 1.0, "0 < log_tolerance <= 1");
+    detail::require_in_range(fn, "noise_budget", noise_budget, 0.0, true, HUGE_VAL, "finite and > 0");
+    std::optional<NoiseBudgetOptimum> best;
+    auto at = [&](double log_nu) {
+        try {
+            const NoiseBudgetOptimum o = optimal_point_under_noise_budget(
+                criterion, plant, VelocityEstimator::low_pass(std::exp(log_nu)), noise_budget, options);
+            if (!best || o.cost < best->cost) best = o;
+            return o.cost;
+        } catch (const InvalidParameter& x) {
+            if (x.parameter() != "noise_budget") throw;
+            return HUGE_VAL;
+        }
+    };
+    const double l0 = std::log(nu_min), l1 = std::log(nu_max), step = (l1 - l0) / (scan - 1);
+    int best_i = -1;
+    double best_cost = HUGE_VAL;
+    for (int i = 0; i < scan; ++i) {
+        const double c = at(l0 + i * step);
+        if (c < best_cost) {
+            best_cost = c;
+            best_i = i;
+        }
     }
-  };
-  const double l0 = std::log(nu_min), l1 = std::log(nu_max), step = (l1 - l0) / (scan - 1);
-  int best_i = -1;
-  double best_cost = HUGE_VAL;
-  for (int i = 0; i < scan; ++i) {
-    const double c = at(l0 + i * step);
-    if (c < best_cost) {
-      best_cost = c;
-      best_i = i;
+    if (best_i < 0) {
+        throw InvalidParameter(fn, "noise_budget", noise_budget,
+                               "a g_F met by some stable gains with a cut-off in the interval");
     }
-  }
-  if (best_i < 0) {
-    throw InvalidParameter(fn, "noise_budget", noise_budget, "a g_F met by some stable gains with a cut-off in the interval");
-  }
-  const double centre = l0 + best_i * step;
-  detail::minimize_scalar(at, std::max(l0, centre - step), std::min(l1, centre + step), log_tolerance);
-  return *best;
+    const double centre = l0 + best_i * step;
+    detail::minimize_scalar(at, std::max(l0, centre - step), std::min(l1, centre + step), log_tolerance);
+    return *best;
 }
 
 }  // namespace hapticopt

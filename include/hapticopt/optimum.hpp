@@ -34,193 +34,203 @@
 namespace hapticopt {
 
 struct OptimumOptions {
-  double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
-  int alpha_grid = 24;                 ///< coarse alphas across the stable region, >= 4
-  int beta_grid = 16;                  ///< coarse betas across the stable interval, >= 4
-  double alpha_tolerance = 1e-10;      ///< bisection tolerance of the OV and CEx+OV points, and Brent's
-                                       ///< tolerance over alpha for the CEx points (time against
-                                       ///< error: docs/accuracy.md)
+    double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    int alpha_grid = 24;                 ///< coarse alphas across the stable region, >= 4
+    int beta_grid = 16;                  ///< coarse betas across the stable interval, >= 4
+    double alpha_tolerance = 1e-10;      ///< bisection tolerance of the OV and CEx+OV points, and Brent's
+                                         ///< tolerance over alpha for the CEx points (time against
+                                         ///< error: docs/accuracy.md)
 };
 
 struct Optimum {
-  Criterion criterion = Criterion::CE2;
-  double alpha = 0;
-  double beta = 0;
-  std::optional<double> cost;  ///< C_Ex at the point; none for amax and OV
-  double alpha_max = 0;        ///< of the stable region, for the stability margin alpha / alpha_max
-  double beta_at_alpha_max = 0;
+    Criterion criterion = Criterion::CE2;
+    double alpha = 0;
+    double beta = 0;
+    std::optional<double> cost;  ///< C_Ex at the point; none for amax and OV
+    double alpha_max = 0;        ///< of the stable region, for the stability margin alpha / alpha_max
+    double beta_at_alpha_max = 0;
 };
 
 class WallOptimizer {
- public:
-  HAPTICOPT_DEFERRED
-  explicit WallOptimizer(const NormalizedPlant& plant, const OptimumOptions& options = {})
-      : region_(plant), sampled_(plant), options_(options) {
-    const char* fn = "hapticopt::WallOptimizer";
-    detail::require_in_range(fn, "overshoot_tolerance", options.overshoot_tolerance, 0.0, true, 1.0,
-                             "0 < tolerance <= 1");
-    detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 4, false, 1e6, "4 <= alpha_grid <= 10^6");
-    detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e6, "4 <= beta_grid <= 10^6");
-    detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-2,
-                             "0 < alpha_tolerance <= 0.01");
-  }
+  public:
+    HAPTICOPT_DEFERRED
+    explicit WallOptimizer(const NormalizedPlant& plant, const OptimumOptions& options = {})
+        : region_(plant), sampled_(plant), options_(options) {
+        const char* fn = "hapticopt::WallOptimizer";
+        detail::require_in_range(fn, "overshoot_tolerance", options.overshoot_tolerance, 0.0, true, 1.0,
+                                 "0 < tolerance <= 1");
+        detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 4, false, 1e6, "4 <= alpha_grid <= 10^6");
+        detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e6, "4 <= beta_grid <= 10^6");
+        detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-2,
+                                 "0 < alpha_tolerance <= 0.01");
+    }
 
-  const StabilityRegion& region() const { return region_; }
-  const SampledPlant<double>& sampled_plant() const { return sampled_; }
+    const StabilityRegion& region() const { return region_; }
+    const SampledPlant<double>& sampled_plant() const { return sampled_; }
 
-  /// C_E<index>(alpha, beta), +inf when unstable (solves only the index + 1 Stein equations needed).
-  HAPTICOPT_DEFERRED
-  double energy_cost(int index, double alpha, double beta) const {
-    return hapticopt::energy_cost(sampled_, alpha, beta, index);
-  }
+    /// C_E<index>(alpha, beta), +inf when unstable (solves only the index + 1 Stein equations needed).
+    HAPTICOPT_DEFERRED
+    double energy_cost(int index, double alpha, double beta) const {
+        return hapticopt::energy_cost(sampled_, alpha, beta, index);
+    }
 
-  /// C_OV(alpha, beta) with the configured tolerance, +inf when unstable.
-  HAPTICOPT_DEFERRED
-  double overshoot_cost(double alpha, double beta) const {
-    OvershootOptions o;
-    o.tolerance = options_.overshoot_tolerance;
-    return overshoot(sampled_, alpha, beta, o).value;
-  }
+    /// C_OV(alpha, beta) with the configured tolerance, +inf when unstable.
+    HAPTICOPT_DEFERRED
+    double overshoot_cost(double alpha, double beta) const {
+        OvershootOptions o;
+        o.tolerance = options_.overshoot_tolerance;
+        return overshoot(sampled_, alpha, beta, o).value;
+    }
 
-  /// beta_opt(alpha) of C_E<index> (0..2), or of C_OV for index 3 (where a whole beta interval has
-  /// no overshoot the minimiser is not unique and one point of the interval is returned).
-  HAPTICOPT_DEFERRED
-  double optimal_beta(int index, double alpha) const {
-    return curve_point(index, alpha, /*polish=*/index < 3).x;
-  }
+    /// beta_opt(alpha) of C_E<index> (0..2), or of C_OV for index 3 (where a whole beta interval has
+    /// no overshoot the minimiser is not unique and one point of the interval is returned).
+    HAPTICOPT_DEFERRED
+    double optimal_beta(int index, double alpha) const { return curve_point(index, alpha, /*polish=*/index < 3).x; }
 
-  HAPTICOPT_DEFERRED
-  Optimum optimum(Criterion criterion) const {
-    Optimum out;
-    out.criterion = criterion;
-    out.alpha_max = region_.alpha_max();
-    out.beta_at_alpha_max = region_.beta_at_alpha_max();
-    switch (criterion) {
-      case Criterion::AlphaMax:
-        out.alpha = out.alpha_max;
-        out.beta = out.beta_at_alpha_max;
+    HAPTICOPT_DEFERRED
+    Optimum optimum(Criterion criterion) const {
+        Optimum out;
+        out.criterion = criterion;
+        out.alpha_max = region_.alpha_max();
+        out.beta_at_alpha_max = region_.beta_at_alpha_max();
+        switch (criterion) {
+            case Criterion::AlphaMax:
+                out.alpha = out.alpha_max;
+                out.beta = out.beta_at_alpha_max;
+                return out;
+            case Criterion::Overshoot: {
+                auto no_overshoot = [&](double a) {
+                    return curve_point(3, a, false).value <= options_.overshoot_tolerance;
+                };
+                const auto [lo, hi] = largest_alpha_where(no_overshoot);
+                out.alpha = lo;
+                out.beta = curve_point(3, hi, false).x;  // the tip's beta: minimal overshoot just outside
+                return out;
+            }
+            case Criterion::CE0:
+            case Criterion::CE1:
+            case Criterion::CE2: {
+                const int k = *energy_index(criterion);
+                const auto best = global_energy_minimum(k);
+                out.alpha = best.first;
+                out.beta = optimal_beta(k, best.first);
+                out.cost = energy_cost(k, out.alpha, out.beta);
+                return out;
+            }
+            case Criterion::CE0_OV:
+            case Criterion::CE1_OV:
+            case Criterion::CE2_OV: {
+                const int k = *energy_index(criterion);
+                auto no_overshoot = [&](double a) {
+                    return overshoot_cost(a, optimal_beta(k, a)) <= options_.overshoot_tolerance;
+                };
+                out.alpha = largest_alpha_where(no_overshoot).first;
+                out.beta = optimal_beta(k, out.alpha);
+                out.cost = energy_cost(k, out.alpha, out.beta);
+                return out;
+            }
+        }
         return out;
-      case Criterion::Overshoot: {
-        auto no_overshoot = [&](double a) { return curve_point(3, a, false).value <= options_.overshoot_tolerance; };
-        const auto [lo, hi] = largest_alpha_where(no_overshoot);
-        out.alpha = lo;
-        out.beta = curve_point(3, hi, false).x;  // the tip's beta: minimal overshoot just outside
-        return out;
-      }
-      case Criterion::CE0: case Criterion::CE1: case Criterion::CE2: {
-        const int k = *energy_index(criterion);
-        const auto best = global_energy_minimum(k);
-        out.alpha = best.first;
-        out.beta = optimal_beta(k, best.first);
-        out.cost = energy_cost(k, out.alpha, out.beta);
-        return out;
-      }
-      case Criterion::CE0_OV: case Criterion::CE1_OV: case Criterion::CE2_OV: {
-        const int k = *energy_index(criterion);
-        auto no_overshoot = [&](double a) {
-          return overshoot_cost(a, optimal_beta(k, a)) <= options_.overshoot_tolerance;
-        };
-        out.alpha = largest_alpha_where(no_overshoot).first;
-        out.beta = optimal_beta(k, out.alpha);
-        out.cost = energy_cost(k, out.alpha, out.beta);
-        return out;
-      }
     }
-    return out;
-  }
 
- private:
-  HAPTICOPT_DEFERRED
-  double criterion_value(int index, double alpha, double beta) const {
-    return index < 3 ? energy_cost(index, alpha, beta) : overshoot_cost(alpha, beta);
-  }
-
-  /// Coarse grid over the stable beta interval at alpha; Brent on the best point's neighbours;
-  /// optional Newton polish. Returns (beta, value).
-  HAPTICOPT_DEFERRED
-  detail::ScalarMinimum curve_point(int index, double alpha, bool polish) const {
-    const auto [lo, hi] = region_.beta_range(alpha);
-    const int n = options_.beta_grid;
-    const double step = (hi - lo) / n;
-    int best = 0;
-    double best_value = HUGE_VAL;
-    for (int i = 0; i < n; ++i) {
-      const double v = criterion_value(index, alpha, lo + (i + 0.5) * step);
-      if (v < best_value) { best_value = v; best = i; }
+  private:
+    HAPTICOPT_DEFERRED
+    double criterion_value(int index, double alpha, double beta) const {
+        return index < 3 ? energy_cost(index, alpha, beta) : overshoot_cost(alpha, beta);
     }
-    auto f = [&](double b) { return criterion_value(index, alpha, b); };
-    const double center = lo + (best + 0.5) * step;
-    detail::ScalarMinimum m = detail::minimize_scalar(f, std::max(lo, center - step), std::min(hi, center + step),
-                                                      1e-12 * std::max(1.0, std::abs(center)));
-    if (polish) m = newton_polish(f, m, lo, hi);
-    return m;
-  }
 
-  /// Newton steps on central differences (h = 1e-5 |x|): they take x from Brent's sqrt(eps)
-  /// flatness limit to ~1e-10. A step is kept unless it leaves the bracket, is large, or raises f
-  /// by more than rounding (values at a minimum differ by ~eps only, so a strict "lower" test
-  /// would reject good steps).
-  template <typename F>
-  static detail::ScalarMinimum newton_polish(F& f, detail::ScalarMinimum m, double lo, double hi) {
-    const double h = 1e-5 * std::max(1e-3, std::abs(m.x));
-    for (int it = 0; it < 4; ++it) {
-      if (m.x - h <= lo || m.x + h >= hi) break;
-      const double fp = f(m.x + h), fm = f(m.x - h);
-      const double curvature = (fp - 2 * m.value + fm) / (h * h);
-      if (!(curvature > 0)) break;
-      const double step = (fp - fm) / (2 * h) / curvature;
-      const double x = m.x - step;
-      if (!(x > lo && x < hi) || std::abs(step) > 10 * h) break;
-      const double v = f(x);
-      if (!(v <= m.value * (1 + 1e-12))) break;
-      m = {x, v};
-      if (std::abs(step) < 1e-12 * std::max(1.0, std::abs(x))) break;
+    /// Coarse grid over the stable beta interval at alpha; Brent on the best point's neighbours;
+    /// optional Newton polish. Returns (beta, value).
+    HAPTICOPT_DEFERRED
+    detail::ScalarMinimum curve_point(int index, double alpha, bool polish) const {
+        const auto [lo, hi] = region_.beta_range(alpha);
+        const int n = options_.beta_grid;
+        const double step = (hi - lo) / n;
+        int best = 0;
+        double best_value = HUGE_VAL;
+        for (int i = 0; i < n; ++i) {
+            const double v = criterion_value(index, alpha, lo + (i + 0.5) * step);
+            if (v < best_value) {
+                best_value = v;
+                best = i;
+            }
+        }
+        auto f = [&](double b) { return criterion_value(index, alpha, b); };
+        const double center = lo + (best + 0.5) * step;
+        detail::ScalarMinimum m = detail::minimize_scalar(f, std::max(lo, center - step), std::min(hi, center + step),
+                                                          1e-12 * std::max(1.0, std::abs(center)));
+        if (polish) m = newton_polish(f, m, lo, hi);
+        return m;
     }
-    return m;
-  }
 
-  /// (alpha, min over beta) of C_E<index> over the region: coarse grid, then Brent over alpha.
-  HAPTICOPT_DEFERRED
-  std::pair<double, double> global_energy_minimum(int index) const {
-    const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
-    const int n = options_.alpha_grid;
-    const double step = (a1 - a0) / n;
-    int best = 0;
-    double best_value = HUGE_VAL;
-    for (int i = 0; i < n; ++i) {
-      const double a = a0 + (i + 0.5) * step;
-      const auto [lo, hi] = region_.beta_range(a);
-      for (int j = 0; j < options_.beta_grid; ++j) {
-        const double v = energy_cost(index, a, lo + (j + 0.5) * (hi - lo) / options_.beta_grid);
-        if (v < best_value) { best_value = v; best = i; }
-      }
+    /// Newton steps on central differences (h = 1e-5 |x|): they take x from Brent's sqrt(eps)
+    /// flatness limit to ~1e-10. A step is kept unless it leaves the bracket, is large, or raises f
+    /// by more than rounding (values at a minimum differ by ~eps only, so a strict "lower" test
+    /// would reject good steps).
+    template <typename F>
+    static detail::ScalarMinimum newton_polish(F& f, detail::ScalarMinimum m, double lo, double hi) {
+        const double h = 1e-5 * std::max(1e-3, std::abs(m.x));
+        for (int it = 0; it < 4; ++it) {
+            if (m.x - h <= lo || m.x + h >= hi) break;
+            const double fp = f(m.x + h), fm = f(m.x - h);
+            const double curvature = (fp - 2 * m.value + fm) / (h * h);
+            if (!(curvature > 0)) break;
+            const double step = (fp - fm) / (2 * h) / curvature;
+            const double x = m.x - step;
+            if (!(x > lo && x < hi) || std::abs(step) > 10 * h) break;
+            const double v = f(x);
+            if (!(v <= m.value * (1 + 1e-12))) break;
+            m = {x, v};
+            if (std::abs(step) < 1e-12 * std::max(1.0, std::abs(x))) break;
+        }
+        return m;
     }
-    const double center = a0 + (best + 0.5) * step;
-    auto c = [&](double a) { return curve_point(index, a, false).value; };
-    const auto m = detail::minimize_scalar(c, std::max(a0 + 1e-12, center - step), std::min(a1, center + step),
-                                           options_.alpha_tolerance);
-    return {m.x, m.value};
-  }
 
-  /// Scan down from alpha_max to the first alpha where `ok` holds, bisect to alpha_tolerance.
-  /// Returns the bracket (ok at first, not ok at second).
-  template <typename Ok>
-  std::pair<double, double> largest_alpha_where(Ok&& ok) const {
-    const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
-    const int n = options_.alpha_grid;
-    double previous = a1 - 1e-9 * (a1 - a0);
-    for (int k = 1; k < n; ++k) {
-      const double a = a1 - (a1 - a0) * k / n;
-      if (ok(a)) return detail::bisect(ok, a, previous, options_.alpha_tolerance);
-      previous = a;
+    /// (alpha, min over beta) of C_E<index> over the region: coarse grid, then Brent over alpha.
+    HAPTICOPT_DEFERRED
+    std::pair<double, double> global_energy_minimum(int index) const {
+        const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
+        const int n = options_.alpha_grid;
+        const double step = (a1 - a0) / n;
+        int best = 0;
+        double best_value = HUGE_VAL;
+        for (int i = 0; i < n; ++i) {
+            const double a = a0 + (i + 0.5) * step;
+            const auto [lo, hi] = region_.beta_range(a);
+            for (int j = 0; j < options_.beta_grid; ++j) {
+                const double v = energy_cost(index, a, lo + (j + 0.5) * (hi - lo) / options_.beta_grid);
+                if (v < best_value) {
+                    best_value = v;
+                    best = i;
+                }
+            }
+        }
+        const double center = a0 + (best + 0.5) * step;
+        auto c = [&](double a) { return curve_point(index, a, false).value; };
+        const auto m = detail::minimize_scalar(c, std::max(a0 + 1e-12, center - step), std::min(a1, center + step),
+                                               options_.alpha_tolerance);
+        return {m.x, m.value};
     }
-    throw InvalidParameter("hapticopt::WallOptimizer", "overshoot_tolerance", options_.overshoot_tolerance,
-                           "a tolerance met somewhere in the stable region (none found on the scan)");
-  }
 
-  StabilityRegion region_;
-  SampledPlant<double> sampled_;
-  OptimumOptions options_;
+    /// Scan down from alpha_max to the first alpha where `ok` holds, bisect to alpha_tolerance.
+    /// Returns the bracket (ok at first, not ok at second).
+    template <typename Ok>
+    std::pair<double, double> largest_alpha_where(Ok&& ok) const {
+        const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
+        const int n = options_.alpha_grid;
+        double previous = a1 - 1e-9 * (a1 - a0);
+        for (int k = 1; k < n; ++k) {
+            const double a = a1 - (a1 - a0) * k / n;
+            if (ok(a)) return detail::bisect(ok, a, previous, options_.alpha_tolerance);
+            previous = a;
+        }
+        throw InvalidParameter("hapticopt::WallOptimizer", "overshoot_tolerance", options_.overshoot_tolerance,
+                               "a tolerance met somewhere in the stable region (none found on the scan)");
+    }
+
+    StabilityRegion region_;
+    SampledPlant<double> sampled_;
+    OptimumOptions options_;
 };
 
 /// The optimum of one criterion for a normalised plant (only that criterion is computed).
@@ -228,10 +238,10 @@ HAPTICOPT_FUNC Optimum optimal_point(Criterion criterion, const NormalizedPlant&
                                      const OptimumOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  return WallOptimizer(plant, options).optimum(criterion);
+    return WallOptimizer(plant, options).optimum(criterion);
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

@@ -35,17 +35,17 @@
 namespace hapticopt {
 
 struct OvershootOptions {
-  double tolerance = 1e-12;         ///< relative overshoot counted as "no overshoot"; (0, 1]
-  long long max_periods = 100000000;  ///< safety cap; reaching it is reported, never silent
+    double tolerance = 1e-12;           ///< relative overshoot counted as "no overshoot"; (0, 1]
+    long long max_periods = 100000000;  ///< safety cap; reaching it is reported, never silent
 };
 
 template <typename Scalar>
 struct OvershootResultT {
-  Scalar value = 0;           ///< C_OV >= 0 (exact when > tolerance); +inf when unstable
-  Scalar time = 0;            ///< time of the maximum (normalised; NaN when value == 0)
-  bool within_tolerance = false;  ///< value <= tolerance and no later excess above it
-  bool converged = false;     ///< the proven stop was reached (false: max_periods hit or unstable)
-  long long periods = 0;      ///< periods examined
+    Scalar value = 0;               ///< C_OV >= 0 (exact when > tolerance); +inf when unstable
+    Scalar time = 0;                ///< time of the maximum (normalised; NaN when value == 0)
+    bool within_tolerance = false;  ///< value <= tolerance and no later excess above it
+    bool converged = false;         ///< the proven stop was reached (false: max_periods hit or unstable)
+    long long periods = 0;          ///< periods examined
 };
 using OvershootResult = OvershootResultT<double>;
 
@@ -54,93 +54,95 @@ namespace detail {
 /// Maximum of x on a piece [0, h] given xi at its start, when x' > 0 at 0 and < 0 at h.
 /// Returns (tau*, x(tau*)) with x the first component of exp(A tau) xi.
 template <typename Scalar>
-std::pair<Scalar, Scalar> interior_maximum(const Matrix3<Scalar>& a, const Eigen::Matrix<Scalar, 3, 1>& xi,
-                                           Scalar h) {
-  // Taylor coefficients c_k of x(tau) = sum c_k tau^k, summed to machine precision on [0, h].
-  constexpr int kMax = 64;
-  std::array<Scalar, kMax> c{};
-  Eigen::Matrix<Scalar, 3, 1> w = xi;
-  int count = 0;
-  Scalar scale = 0;
-  Scalar hk = 1;  // h^k
-  for (int k = 0; k < kMax; ++k, hk *= h) {
-    c[static_cast<std::size_t>(k)] = w(0);
-    count = k + 1;
-    using std::abs;
-    const Scalar size = std::max(abs(w(0)), std::max(abs(w(1)), abs(w(2)))) * hk;
-    scale = std::max(scale, size);
-    if (k > 3 && size <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3) * scale) break;
-    const Eigen::Matrix<Scalar, 3, 1> v = w;
-    for (int i = 0; i < 3; ++i) w(i) = (a(i, 0) * v(0) + a(i, 1) * v(1) + a(i, 2) * v(2)) / Scalar(k + 1);
-  }
-  auto x_at = [&](Scalar tau) {
-    Scalar s = 0;
-    for (int k = count - 1; k >= 0; --k) s = s * tau + c[static_cast<std::size_t>(k)];
-    return s;
-  };
-  auto v_at = [&](Scalar tau) {
-    Scalar s = 0;
-    for (int k = count - 1; k >= 1; --k) s = s * tau + Scalar(k) * c[static_cast<std::size_t>(k)];
-    return s;
-  };
-  auto dv_at = [&](Scalar tau) {
-    Scalar s = 0;
-    for (int k = count - 1; k >= 2; --k) {
-      s = s * tau + Scalar(k * (k - 1)) * c[static_cast<std::size_t>(k)];
+std::pair<Scalar, Scalar> interior_maximum(const Matrix3<Scalar>& a, const Eigen::Matrix<Scalar, 3, 1>& xi, Scalar h) {
+    // Taylor coefficients c_k of x(tau) = sum c_k tau^k, summed to machine precision on [0, h].
+    constexpr int kMax = 64;
+    std::array<Scalar, kMax> c{};
+    Eigen::Matrix<Scalar, 3, 1> w = xi;
+    int count = 0;
+    Scalar scale = 0;
+    Scalar hk = 1;  // h^k
+    for (int k = 0; k < kMax; ++k, hk *= h) {
+        c[static_cast<std::size_t>(k)] = w(0);
+        count = k + 1;
+        using std::abs;
+        const Scalar size = std::max(abs(w(0)), std::max(abs(w(1)), abs(w(2)))) * hk;
+        scale = std::max(scale, size);
+        if (k > 3 && size <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3) * scale) break;
+        const Eigen::Matrix<Scalar, 3, 1> v = w;
+        for (int i = 0; i < 3; ++i) w(i) = (a(i, 0) * v(0) + a(i, 1) * v(1) + a(i, 2) * v(2)) / Scalar(k + 1);
     }
-    return s;
-  };
-  Scalar lo = 0, hi = h;
-  const Scalar v_lo = v_at(lo), v_hi = v_at(hi);
-  Scalar tau = v_lo / (v_lo - v_hi) * h;  // secant start
-  for (int it = 0; it < 100; ++it) {
-    const Scalar v = v_at(tau);
-    if (v > 0) lo = tau; else hi = tau;
-    const Scalar dv = dv_at(tau);
-    Scalar next = dv != Scalar(0) ? tau - v / dv : (lo + hi) / 2;
-    if (!(next > lo && next < hi)) next = (lo + hi) / 2;
-    const bool done = std::abs(next - tau) <= Scalar(4) * std::numeric_limits<Scalar>::epsilon() * h;
-    tau = next;
-    if (done || hi - lo <= std::numeric_limits<Scalar>::epsilon() * h) break;
-  }
-  return {tau, x_at(tau)};
+    auto x_at = [&](Scalar tau) {
+        Scalar s = 0;
+        for (int k = count - 1; k >= 0; --k) s = s * tau + c[static_cast<std::size_t>(k)];
+        return s;
+    };
+    auto v_at = [&](Scalar tau) {
+        Scalar s = 0;
+        for (int k = count - 1; k >= 1; --k) s = s * tau + Scalar(k) * c[static_cast<std::size_t>(k)];
+        return s;
+    };
+    auto dv_at = [&](Scalar tau) {
+        Scalar s = 0;
+        for (int k = count - 1; k >= 2; --k) {
+            s = s * tau + Scalar(k * (k - 1)) * c[static_cast<std::size_t>(k)];
+        }
+        return s;
+    };
+    Scalar lo = 0, hi = h;
+    const Scalar v_lo = v_at(lo), v_hi = v_at(hi);
+    Scalar tau = v_lo / (v_lo - v_hi) * h;  // secant start
+    for (int it = 0; it < 100; ++it) {
+        const Scalar v = v_at(tau);
+        if (v > 0)
+            lo = tau;
+        else
+            hi = tau;
+        const Scalar dv = dv_at(tau);
+        Scalar next = dv != Scalar(0) ? tau - v / dv : (lo + hi) / 2;
+        if (!(next > lo && next < hi)) next = (lo + hi) / 2;
+        const bool done = std::abs(next - tau) <= Scalar(4) * std::numeric_limits<Scalar>::epsilon() * h;
+        tau = next;
+        if (done || hi - lo <= std::numeric_limits<Scalar>::epsilon() * h) break;
+    }
+    return {tau, x_at(tau)};
 }
 
 /// kappa_s = sum_k h^k/k! ||e1^T A^k R_s||_2 plus a bound on the series' tail.
 template <typename Scalar>
 Scalar deviation_gain(const Matrix3<Scalar>& a, const DynamicMatrix<Scalar>& r, Scalar h) {
-  using std::sqrt;
-  const Scalar a_norm = sqrt(a.squaredNorm());  // Frobenius >= spectral
-  const Scalar r_norm = sqrt(r.squaredNorm());
-  Scalar row[3] = {1, 0, 0};
-  Scalar sum = 0;
-  Scalar weight = 1;  // h^k / k!
-  Scalar bound_term = r_norm;  // r_norm (a_norm h)^k / k!
-  for (int k = 0; k < 200; ++k) {
-    Scalar row_r = 0;  // ||row R||_2^2
-    for (Eigen::Index l = 0; l < r.cols(); ++l) {
-      const Scalar v = row[0] * r(0, l) + row[1] * r(1, l) + row[2] * r(2, l);
-      row_r += v * v;
+    using std::sqrt;
+    const Scalar a_norm = sqrt(a.squaredNorm());  // Frobenius >= spectral
+    const Scalar r_norm = sqrt(r.squaredNorm());
+    Scalar row[3] = {1, 0, 0};
+    Scalar sum = 0;
+    Scalar weight = 1;           // h^k / k!
+    Scalar bound_term = r_norm;  // r_norm (a_norm h)^k / k!
+    for (int k = 0; k < 200; ++k) {
+        Scalar row_r = 0;  // ||row R||_2^2
+        for (Eigen::Index l = 0; l < r.cols(); ++l) {
+            const Scalar v = row[0] * r(0, l) + row[1] * r(1, l) + row[2] * r(2, l);
+            row_r += v * v;
+        }
+        sum += weight * sqrt(row_r);
+        const Scalar next[3] = {row[0] * a(0, 0) + row[1] * a(1, 0) + row[2] * a(2, 0),
+                                row[0] * a(0, 1) + row[1] * a(1, 1) + row[2] * a(2, 1),
+                                row[0] * a(0, 2) + row[1] * a(1, 2) + row[2] * a(2, 2)};
+        for (int i = 0; i < 3; ++i) row[i] = next[i];
+        weight *= h / Scalar(k + 1);
+        bound_term *= a_norm * h / Scalar(k + 1);
+        const Scalar tail = bound_term * std::exp(a_norm * h);
+        if (tail <= Scalar(1e-9) * sum) return sum + tail;
     }
-    sum += weight * sqrt(row_r);
-    const Scalar next[3] = {row[0] * a(0, 0) + row[1] * a(1, 0) + row[2] * a(2, 0),
-                            row[0] * a(0, 1) + row[1] * a(1, 1) + row[2] * a(2, 1),
-                            row[0] * a(0, 2) + row[1] * a(1, 2) + row[2] * a(2, 2)};
-    for (int i = 0; i < 3; ++i) row[i] = next[i];
-    weight *= h / Scalar(k + 1);
-    bound_term *= a_norm * h / Scalar(k + 1);
-    const Scalar tail = bound_term * std::exp(a_norm * h);
-    if (tail <= Scalar(1e-9) * sum) return sum + tail;
-  }
-  return sum * Scalar(2);  // not reached for pieces with ||A|| h <= 2
+    return sum * Scalar(2);  // not reached for pieces with ||A|| h <= 2
 }
 
 template <typename Scalar>
 struct ContinuousMaximum {
-  Scalar value = 0;          ///< largest x(t) found (the start value when nothing exceeds it)
-  Scalar time = 0;           ///< where, in periods (0 when nothing exceeds the start value)
-  long long periods = 0;     ///< periods scanned
-  bool converged = false;    ///< the Lyapunov bound proved no later x(t) can exceed the maximum
+    Scalar value = 0;        ///< largest x(t) found (the start value when nothing exceeds it)
+    Scalar time = 0;         ///< where, in periods (0 when nothing exceeds the start value)
+    long long periods = 0;   ///< periods scanned
+    bool converged = false;  ///< the Lyapunov bound proved no later x(t) can exceed the maximum
 };
 
 /// The exact maximum over t >= 0 of x(t) for the loop started from loop.initial_state: each ZOH
@@ -152,69 +154,69 @@ template <typename Scalar>
 ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop,
                                              const DynamicMatrix<Scalar>& p, Scalar start_value, Scalar floor,
                                              long long max_periods) {
-  const Matrix3<Scalar>& a = plant.augmented_matrix();
-  Scalar kappa = 0;
-  for (int s = 0; s < plant.segment_count(); ++s) {
-    kappa = std::max(kappa, deviation_gain(a, loop.segment_map[static_cast<std::size_t>(s)],
-                                           plant.segment(s).length));
-  }
-  kappa *= Scalar(1) + Scalar(1e-6);  // rounding in P and in the series
-
-  ContinuousMaximum<Scalar> result;
-  result.value = start_value;
-  const Eigen::Index n = loop.transition.rows();
-  DynamicVector<Scalar> e = loop.initial_state;
-  DynamicVector<Scalar> next(n);
-  using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
-  for (long long j = 0; j < max_periods; ++j) {
+    const Matrix3<Scalar>& a = plant.augmented_matrix();
+    Scalar kappa = 0;
     for (int s = 0; s < plant.segment_count(); ++s) {
-      const auto& seg = plant.segment(s);
-      const auto& r = loop.segment_map[static_cast<std::size_t>(s)];
-      Vec3 xi = Vec3::Zero();  // R_s e
-      for (Eigen::Index l = 0; l < n; ++l) {
-        for (int i = 0; i < 3; ++i) xi(i) += r(i, l) * e(l);
-      }
-      const Scalar piece = seg.length / Scalar(seg.pieces);
-      const Matrix3<Scalar>& step = seg.piece_exp;
-      for (int q = 0; q < seg.pieces; ++q) {
-        Vec3 end;
-        for (int i = 0; i < 3; ++i) end(i) = step(i, 0) * xi(0) + step(i, 1) * xi(1) + step(i, 2) * xi(2);
-        const Scalar t0 = Scalar(j) + seg.start + Scalar(q) * piece;
-        if (end(0) > result.value) {
-          result.value = end(0);
-          result.time = t0 + piece;
+        kappa =
+            std::max(kappa, deviation_gain(a, loop.segment_map[static_cast<std::size_t>(s)], plant.segment(s).length));
+    }
+    kappa *= Scalar(1) + Scalar(1e-6);  // rounding in P and in the series
+
+    ContinuousMaximum<Scalar> result;
+    result.value = start_value;
+    const Eigen::Index n = loop.transition.rows();
+    DynamicVector<Scalar> e = loop.initial_state;
+    DynamicVector<Scalar> next(n);
+    using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
+    for (long long j = 0; j < max_periods; ++j) {
+        for (int s = 0; s < plant.segment_count(); ++s) {
+            const auto& seg = plant.segment(s);
+            const auto& r = loop.segment_map[static_cast<std::size_t>(s)];
+            Vec3 xi = Vec3::Zero();  // R_s e
+            for (Eigen::Index l = 0; l < n; ++l) {
+                for (int i = 0; i < 3; ++i) xi(i) += r(i, l) * e(l);
+            }
+            const Scalar piece = seg.length / Scalar(seg.pieces);
+            const Matrix3<Scalar>& step = seg.piece_exp;
+            for (int q = 0; q < seg.pieces; ++q) {
+                Vec3 end;
+                for (int i = 0; i < 3; ++i) end(i) = step(i, 0) * xi(0) + step(i, 1) * xi(1) + step(i, 2) * xi(2);
+                const Scalar t0 = Scalar(j) + seg.start + Scalar(q) * piece;
+                if (end(0) > result.value) {
+                    result.value = end(0);
+                    result.time = t0 + piece;
+                }
+                if (xi(1) > 0 && end(1) < 0) {
+                    const auto [tau, x] = interior_maximum(a, xi, piece);
+                    if (x > result.value) {
+                        result.value = x;
+                        result.time = t0 + tau;
+                    }
+                }
+                xi = end;
+            }
         }
-        if (xi(1) > 0 && end(1) < 0) {
-          const auto [tau, x] = interior_maximum(a, xi, piece);
-          if (x > result.value) {
-            result.value = x;
-            result.time = t0 + tau;
-          }
+        // e <- M e, written out (M dense here: the collision loop of impulse_costs.hpp uses this too).
+        next.setZero();
+        for (Eigen::Index l = 0; l < n; ++l) {
+            const Scalar el = e(l);
+            for (Eigen::Index i = 0; i < n; ++i) next(i) += loop.transition(i, l) * el;
         }
-        xi = end;
-      }
+        e.swap(next);
+        result.periods = j + 1;
+        Scalar v = 0;  // e^T P e
+        for (Eigen::Index l = 0; l < n; ++l) {
+            Scalar pl = 0;
+            for (Eigen::Index k = 0; k < n; ++k) pl += p(k, l) * e(k);
+            v += pl * e(l);
+        }
+        const Scalar bound = kappa * std::sqrt(std::max(v, Scalar(0)));
+        if (bound <= std::max(result.value, floor)) {
+            result.converged = true;
+            break;
+        }
     }
-    // e <- M e, written out (M dense here: the collision loop of impulse_costs.hpp uses this too).
-    next.setZero();
-    for (Eigen::Index l = 0; l < n; ++l) {
-      const Scalar el = e(l);
-      for (Eigen::Index i = 0; i < n; ++i) next(i) += loop.transition(i, l) * el;
-    }
-    e.swap(next);
-    result.periods = j + 1;
-    Scalar v = 0;  // e^T P e
-    for (Eigen::Index l = 0; l < n; ++l) {
-      Scalar pl = 0;
-      for (Eigen::Index k = 0; k < n; ++k) pl += p(k, l) * e(k);
-      v += pl * e(l);
-    }
-    const Scalar bound = kappa * std::sqrt(std::max(v, Scalar(0)));
-    if (bound <= std::max(result.value, floor)) {
-      result.converged = true;
-      break;
-    }
-  }
-  return result;
+    return result;
 }
 
 }  // namespace detail
@@ -223,42 +225,42 @@ ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, 
 template <typename Scalar>
 OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alpha, Scalar beta,
                                    const OvershootOptions& options = {}) {
-  detail::require_in_range("hapticopt::overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
-                           "0 < tolerance <= 1");
-  OvershootResultT<Scalar> result;
-  result.time = std::numeric_limits<Scalar>::quiet_NaN();
-  if (!loop_is_stable(plant, alpha, beta)) {
-    result.value = std::numeric_limits<Scalar>::infinity();
-    return result;
-  }
-  const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);
-  // Lyapunov matrix P = sum_k (M^T)^k M^k (P = M^T P M + I) by the shift-structured solver.
-  DynamicMatrix<Scalar> p;
-  {
-    const ShiftSteinSolver<Scalar> stein(loop.transition.topRows(2));
-    if (stein.ok()) p = stein.observability_gramian();
-  }
-  // P >= I for a Schur-stable M; anything else is rounding at the stability boundary.
-  bool p_ok = p.size() > 0;
-  for (Eigen::Index k = 0; p_ok && k < p.size(); ++k) p_ok = std::isfinite(static_cast<double>(p.data()[k]));
-  for (Eigen::Index k = 0; p_ok && k < p.rows(); ++k) p_ok = p(k, k) >= Scalar(1) - Scalar(1e-9);
-  if (!p_ok) {
-    result.value = std::numeric_limits<Scalar>::infinity();
-    return result;
-  }
+    detail::require_in_range("hapticopt::overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
+                             "0 < tolerance <= 1");
+    OvershootResultT<Scalar> result;
+    result.time = std::numeric_limits<Scalar>::quiet_NaN();
+    if (!loop_is_stable(plant, alpha, beta)) {
+        result.value = std::numeric_limits<Scalar>::infinity();
+        return result;
+    }
+    const ClosedLoop<Scalar> loop = make_closed_loop(plant, alpha, beta);
+    // Lyapunov matrix P = sum_k (M^T)^k M^k (P = M^T P M + I) by the shift-structured solver.
+    DynamicMatrix<Scalar> p;
+    {
+        const ShiftSteinSolver<Scalar> stein(loop.transition.topRows(2));
+        if (stein.ok()) p = stein.observability_gramian();
+    }
+    // P >= I for a Schur-stable M; anything else is rounding at the stability boundary.
+    bool p_ok = p.size() > 0;
+    for (Eigen::Index k = 0; p_ok && k < p.size(); ++k) p_ok = std::isfinite(static_cast<double>(p.data()[k]));
+    for (Eigen::Index k = 0; p_ok && k < p.rows(); ++k) p_ok = p(k, k) >= Scalar(1) - Scalar(1e-9);
+    if (!p_ok) {
+        result.value = std::numeric_limits<Scalar>::infinity();
+        return result;
+    }
 
-  const Scalar x_inf = loop.final_position;
-  // x - x_inf starts at -x_inf (t = 0); the scan stops once the bound is below the tolerance floor.
-  const detail::ContinuousMaximum<Scalar> scan = detail::continuous_maximum(
-      plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
-  result.periods = scan.periods;
-  result.converged = scan.converged;
-  const Scalar best = scan.value;
-  const Scalar best_time = scan.time;
-  result.value = best > 0 ? best / x_inf : Scalar(0);
-  if (result.value > 0) result.time = best_time;
-  result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);
-  return result;
+    const Scalar x_inf = loop.final_position;
+    // x - x_inf starts at -x_inf (t = 0); the scan stops once the bound is below the tolerance floor.
+    const detail::ContinuousMaximum<Scalar> scan =
+        detail::continuous_maximum(plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
+    result.periods = scan.periods;
+    result.converged = scan.converged;
+    const Scalar best = scan.value;
+    const Scalar best_time = scan.time;
+    result.value = best > 0 ? best / x_inf : Scalar(0);
+    if (result.value > 0) result.time = best_time;
+    result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);
+    return result;
 }
 
 /// Convenience: C_OV at (gamma, delta, d) and (alpha, beta).
@@ -266,11 +268,11 @@ HAPTICOPT_FUNC OvershootResult overshoot(const NormalizedPlant& plant, const Nor
                                          const OvershootOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::overshoot");
-  return overshoot(SampledPlant<double>(plant), gains.alpha, gains.beta, options);
+    validate(gains, "hapticopt::overshoot");
+    return overshoot(SampledPlant<double>(plant), gains.alpha, gains.beta, options);
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

@@ -81,41 +81,41 @@ inline constexpr double kPassivityPi = 3.14159265358979323846;
 
 /// sum_{k < n} a[k] T_k(c) by Clenshaw's recurrence.
 inline double chebyshev_value(const double* a, int n, double c) {
-  double b1 = 0, b2 = 0;
-  for (int k = n - 1; k >= 1; --k) {
-    const double b0 = a[k] + 2 * c * b1 - b2;
-    b2 = b1;
-    b1 = b0;
-  }
-  return n > 0 ? a[0] + c * b1 - b2 : 0.0;
+    double b1 = 0, b2 = 0;
+    for (int k = n - 1; k >= 1; --k) {
+        const double b0 = a[k] + 2 * c * b1 - b2;
+        b2 = b1;
+        b1 = b0;
+    }
+    return n > 0 ? a[0] + c * b1 - b2 : 0.0;
 }
 
 /// Chebyshev coefficients of the derivative of sum_{k<n} a[k] T_k (n - 1 of them; n >= 1).
 inline std::vector<double> chebyshev_derivative(const std::vector<double>& a) {
-  const int n = static_cast<int>(a.size());
-  std::vector<double> b(static_cast<std::size_t>(std::max(n - 1, 1)), 0.0);
-  if (n <= 1) return b;
-  double next = 0, next2 = 0;  // b_{k+1}, b_{k+2} in the recurrence b_{k-1} = b_{k+1} + 2 k a_k
-  for (int k = n - 1; k >= 1; --k) {
-    const double value = next2 + 2.0 * k * a[static_cast<std::size_t>(k)];
-    b[static_cast<std::size_t>(k - 1)] = value;
-    next2 = next;
-    next = value;
-  }
-  b[0] /= 2;
-  return b;
+    const int n = static_cast<int>(a.size());
+    std::vector<double> b(static_cast<std::size_t>(std::max(n - 1, 1)), 0.0);
+    if (n <= 1) return b;
+    double next = 0, next2 = 0;  // b_{k+1}, b_{k+2} in the recurrence b_{k-1} = b_{k+1} + 2 k a_k
+    for (int k = n - 1; k >= 1; --k) {
+        const double value = next2 + 2.0 * k * a[static_cast<std::size_t>(k)];
+        b[static_cast<std::size_t>(k - 1)] = value;
+        next2 = next;
+        next = value;
+    }
+    b[0] /= 2;
+    return b;
 }
 
 /// The integer delay of `plant`, or InvalidParameter naming `delay` when it is fractional.
 inline int integer_delay(double delay, const char* function) {
-  require_non_negative(function, "delay", delay);
-  const double whole = std::round(delay);
-  if (!(std::abs(delay - whole) <= 1e-9 * std::max(1.0, whole)) || whole > 1e6) {
-    throw InvalidParameter(function, "delay", delay,
-                           "an integer number of periods 0..10^6 (the passivity condition with a fractional "
-                           "delay, where the force switches inside a period, is not covered)");
-  }
-  return static_cast<int>(whole);
+    require_non_negative(function, "delay", delay);
+    const double whole = std::round(delay);
+    if (!(std::abs(delay - whole) <= 1e-9 * std::max(1.0, whole)) || whole > 1e6) {
+        throw InvalidParameter(function, "delay", delay,
+                               "an integer number of periods 0..10^6 (the passivity condition with a fractional "
+                               "delay, where the force switches inside a period, is not covered)");
+    }
+    return static_cast<int>(whole);
 }
 
 }  // namespace detail
@@ -126,102 +126,109 @@ inline constexpr const char* kPassivityNotCovered =
 
 /// Whether the passivity functions cover this plant's delay (an integer number of periods, header).
 inline bool passivity_is_covered(const NormalizedPlant& plant) {
-  try {
-    detail::integer_delay(plant.delay, "hapticopt::passivity_is_covered");
-    return true;
-  } catch (const InvalidParameter&) {
-    return false;
-  }
+    try {
+        detail::integer_delay(plant.delay, "hapticopt::passivity_is_covered");
+        return true;
+    } catch (const InvalidParameter&) {
+        return false;
+    }
 }
 
 /// Chebyshev coefficients of R(c) = alpha/2 + alpha sum_{k=1..d} T_k(c) - beta T_{d+1}(c) (header).
 inline std::vector<double> passivity_condition_coefficients(const NormalizedGains& gains, int delay) {
-  std::vector<double> a(static_cast<std::size_t>(delay) + 2, gains.alpha);
-  a[0] = gains.alpha / 2;
-  a.back() = -gains.beta;
-  return a;
+    std::vector<double> a(static_cast<std::size_t>(delay) + 2, gains.alpha);
+    a[0] = gains.alpha / 2;
+    a.back() = -gains.beta;
+    return a;
 }
 
 /// R(theta) of the header (closed form), the right-hand side of delta > R.
 inline double passivity_condition(const NormalizedGains& gains, double delay, double theta) {
-  validate(gains, "hapticopt::passivity_condition");
-  const int d = detail::integer_delay(delay, "hapticopt::passivity_condition");
-  detail::require_in_range("hapticopt::passivity_condition", "theta", theta, 0.0, false, detail::kPassivityPi, "0 <= theta <= pi");
-  const auto a = passivity_condition_coefficients(gains, d);
-  return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), std::cos(theta));
+    validate(gains, "hapticopt::passivity_condition");
+    const int d = detail::integer_delay(delay, "hapticopt::passivity_condition");
+    detail::require_in_range("hapticopt::passivity_condition", "theta", theta, 0.0, false, detail::kPassivityPi,
+                             "0 <= theta <= pi");
+    const auto a = passivity_condition_coefficients(gains, d);
+    return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), std::cos(theta));
 }
 
 struct PassivityConditionMaximum {
-  double value = 0;        ///< max over 0 <= theta <= pi of R(theta)
-  double theta = 0;        ///< where (one maximiser)
-  double error_bound = 0;  ///< |value - exact maximum| <= error_bound (header comment)
+    double value = 0;        ///< max over 0 <= theta <= pi of R(theta)
+    double theta = 0;        ///< where (one maximiser)
+    double error_bound = 0;  ///< |value - exact maximum| <= error_bound (header comment)
 };
 
 /// The exact maximum of R over frequency by the derivative cascade (header comment).
 HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const NormalizedGains& gains, double delay)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::passivity_condition_maximum");
-  const int d = detail::integer_delay(delay, "hapticopt::passivity_condition_maximum");
-  const int n = d + 2;  // number of coefficients, degree d + 1
-  std::vector<std::vector<double>> derivative(static_cast<std::size_t>(n));
-  derivative[0] = passivity_condition_coefficients(gains, d);
-  for (std::size_t k = 1; k < derivative.size(); ++k) derivative[k] = detail::chebyshev_derivative(derivative[k - 1]);
-  auto value = [&](int k, double c) {
-    const auto& a = derivative[static_cast<std::size_t>(k)];
-    return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), c);
-  };
-  struct Bracket {
-    double lo, hi;
-  };
-  // Zeros (with a sign change) of p^{(k)}, from k = degree - 1 down to 1.
-  std::vector<Bracket> zeros;
-  for (int k = n - 2; k >= 1; --k) {
-    std::vector<double> cuts{-1.0};
-    for (const Bracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
-    cuts.push_back(1.0);
-    std::vector<Bracket> next;
-    for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
-      double lo = cuts[i], hi = cuts[i + 1];
-      const double vlo = value(k, lo), vhi = value(k, hi);
-      if (!(hi > lo) || vlo == 0 || vhi == 0 || (vlo > 0) == (vhi > 0)) {
-        if (vlo == 0 && i > 0) next.push_back({lo, lo});  // an exact zero at an interior cut
-        continue;
-      }
-      const bool lo_positive = vlo > 0;
-      for (int it = 0; it < 200; ++it) {
-        const double mid = (lo + hi) / 2;
-        if (!(mid > lo && mid < hi)) break;
-        const double v = value(k, mid);
-        if (v == 0) { lo = hi = mid; break; }
-        ((v > 0) == lo_positive ? lo : hi) = mid;
-      }
-      next.push_back({lo, hi});
+    validate(gains, "hapticopt::passivity_condition_maximum");
+    const int d = detail::integer_delay(delay, "hapticopt::passivity_condition_maximum");
+    const int n = d + 2;  // number of coefficients, degree d + 1
+    std::vector<std::vector<double>> derivative(static_cast<std::size_t>(n));
+    derivative[0] = passivity_condition_coefficients(gains, d);
+    for (std::size_t k = 1; k < derivative.size(); ++k) derivative[k] = detail::chebyshev_derivative(derivative[k - 1]);
+    auto value = [&](int k, double c) {
+        const auto& a = derivative[static_cast<std::size_t>(k)];
+        return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), c);
+    };
+    struct Bracket {
+        double lo, hi;
+    };
+    // Zeros (with a sign change) of p^{(k)}, from k = degree - 1 down to 1.
+    std::vector<Bracket> zeros;
+    for (int k = n - 2; k >= 1; --k) {
+        std::vector<double> cuts{-1.0};
+        for (const Bracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
+        cuts.push_back(1.0);
+        std::vector<Bracket> next;
+        for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+            double lo = cuts[i], hi = cuts[i + 1];
+            const double vlo = value(k, lo), vhi = value(k, hi);
+            if (!(hi > lo) || vlo == 0 || vhi == 0 || (vlo > 0) == (vhi > 0)) {
+                if (vlo == 0 && i > 0) next.push_back({lo, lo});  // an exact zero at an interior cut
+                continue;
+            }
+            const bool lo_positive = vlo > 0;
+            for (int it = 0; it < 200; ++it) {
+                const double mid = (lo + hi) / 2;
+                if (!(mid > lo && mid < hi)) break;
+                const double v = value(k, mid);
+                if (v == 0) {
+                    lo = hi = mid;
+                    break;
+                }
+                ((v > 0) == lo_positive ? lo : hi) = mid;
+            }
+            next.push_back({lo, hi});
+        }
+        zeros = std::move(next);
     }
-    zeros = std::move(next);
-  }
-  double sum_abs = 0;
-  for (double a : derivative[0]) sum_abs += std::abs(a);
-  const double u = std::numeric_limits<double>::epsilon() / 2;
-  PassivityConditionMaximum best;
-  best.value = value(0, 1.0);
-  best.theta = 0.0;
-  double bracket_error = 0;
-  auto consider = [&](double c) {
-    const double v = value(0, c);
-    if (v > best.value) { best.value = v; best.theta = std::acos(std::clamp(c, -1.0, 1.0)); }
-  };
-  consider(-1.0);
-  for (const Bracket& z : zeros) {
-    consider((z.lo + z.hi) / 2);
-    const double slope = std::max(std::abs(value(1, z.lo)), std::abs(value(1, z.hi)));
-    bracket_error = std::max(bracket_error, (z.hi - z.lo) / 2 * slope);
-  }
-  best.error_bound = bracket_error + 8.0 * (d + 2) * (d + 2) * u * sum_abs;
-  return best;
+    double sum_abs = 0;
+    for (double a : derivative[0]) sum_abs += std::abs(a);
+    const double u = std::numeric_limits<double>::epsilon() / 2;
+    PassivityConditionMaximum best;
+    best.value = value(0, 1.0);
+    best.theta = 0.0;
+    double bracket_error = 0;
+    auto consider = [&](double c) {
+        const double v = value(0, c);
+        if (v > best.value) {
+            best.value = v;
+            best.theta = std::acos(std::clamp(c, -1.0, 1.0));
+        }
+    };
+    consider(-1.0);
+    for (const Bracket& z : zeros) {
+        consider((z.lo + z.hi) / 2);
+        const double slope = std::max(std::abs(value(1, z.lo)), std::abs(value(1, z.hi)));
+        bracket_error = std::max(bracket_error, (z.hi - z.lo) / 2 * slope);
+    }
+    best.error_bound = bracket_error + 8.0 * (d + 2) * (d + 2) * u * sum_abs;
+    return best;
 }
 #else
-;
+    ;
 #endif
 
 /// mu = delta - max R (alpha >= 0), min(delta - max R, alpha) (alpha < 0); > 0 iff passive. Throws
@@ -229,90 +236,90 @@ HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const Norma
 HAPTICOPT_FUNC double passivity_margin(const NormalizedPlant& plant, const NormalizedGains& gains)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(plant, "hapticopt::passivity_margin");
-  validate(gains, "hapticopt::passivity_margin");
-  detail::integer_delay(plant.delay, "hapticopt::passivity_margin");
-  const double mu = plant.delta - passivity_condition_maximum(gains, plant.delay).value;
-  return gains.alpha < 0 ? std::min(mu, gains.alpha) : mu;
+    validate(plant, "hapticopt::passivity_margin");
+    validate(gains, "hapticopt::passivity_margin");
+    detail::integer_delay(plant.delay, "hapticopt::passivity_margin");
+    const double mu = plant.delta - passivity_condition_maximum(gains, plant.delay).value;
+    return gains.alpha < 0 ? std::min(mu, gains.alpha) : mu;
 }
 #else
-;
+    ;
 #endif
 
 /// Colgate-Schenkel with the delay: delta > max_theta R(theta) and alpha >= 0.
 HAPTICOPT_FUNC bool is_passive(const NormalizedPlant& plant, const NormalizedGains& gains)
 #if HAPTICOPT_DEFINITIONS
 {
-  return passivity_margin(plant, gains) > 0;
+    return passivity_margin(plant, gains) > 0;
 }
 #else
-;
+    ;
 #endif
 
 /// Physical margin [N s/m] = passivity_margin(normalised) m / T; > 0 iff passive.
 HAPTICOPT_FUNC double passivity_margin(const PhysicalPlant& plant, const WallGains& gains)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(plant, "hapticopt::passivity_margin");
-  detail::require_finite("hapticopt::passivity_margin", "stiffness", gains.stiffness);
-  detail::require_finite("hapticopt::passivity_margin", "damping", gains.damping);
-  const NormalizedPlant np = normalize(plant);
-  return passivity_margin(np, normalize(gains, plant.mass, plant.period)) * plant.mass / plant.period;
+    validate(plant, "hapticopt::passivity_margin");
+    detail::require_finite("hapticopt::passivity_margin", "stiffness", gains.stiffness);
+    detail::require_finite("hapticopt::passivity_margin", "damping", gains.damping);
+    const NormalizedPlant np = normalize(plant);
+    return passivity_margin(np, normalize(gains, plant.mass, plant.period)) * plant.mass / plant.period;
 }
 #else
-;
+    ;
 #endif
 
 /// The open beta interval (lo, hi) of passive gains at alpha (empty: hi <= lo; alpha < 0: empty).
 HAPTICOPT_FUNC std::pair<double, double> passive_beta_interval(const NormalizedPlant& plant, double alpha)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(plant, "hapticopt::passive_beta_interval");
-  detail::require_finite("hapticopt::passive_beta_interval", "alpha", alpha);
-  const double d = detail::integer_delay(plant.delay, "hapticopt::passive_beta_interval");
-  if (alpha < 0 || !(plant.delta > 0)) return {0.0, 0.0};
-  auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d).value; };
-  // g(beta) >= |beta| - alpha (d + 1/2), so the interval lies inside |beta| < delta + alpha (d + 1/2).
-  const double reach = plant.delta + alpha * (d + 0.5);
-  const detail::ScalarMinimum m = detail::minimize_scalar(g, -reach, reach, 1e-15 * reach);
-  if (!(m.value < plant.delta)) return {0.0, 0.0};
-  auto passive = [&](double beta) { return g(beta) < plant.delta; };
-  const auto lo = detail::bisect(passive, -reach, m.x, 0.0, 80);
-  const auto hi = detail::bisect(passive, m.x, reach, 0.0, 80);
-  return {lo.second, hi.first};  // the passive ends of the brackets
+    validate(plant, "hapticopt::passive_beta_interval");
+    detail::require_finite("hapticopt::passive_beta_interval", "alpha", alpha);
+    const double d = detail::integer_delay(plant.delay, "hapticopt::passive_beta_interval");
+    if (alpha < 0 || !(plant.delta > 0)) return {0.0, 0.0};
+    auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d).value; };
+    // g(beta) >= |beta| - alpha (d + 1/2), so the interval lies inside |beta| < delta + alpha (d + 1/2).
+    const double reach = plant.delta + alpha * (d + 0.5);
+    const detail::ScalarMinimum m = detail::minimize_scalar(g, -reach, reach, 1e-15 * reach);
+    if (!(m.value < plant.delta)) return {0.0, 0.0};
+    auto passive = [&](double beta) { return g(beta) < plant.delta; };
+    const auto lo = detail::bisect(passive, -reach, m.x, 0.0, 80);
+    const auto hi = detail::bisect(passive, m.x, reach, 0.0, 80);
+    return {lo.second, hi.first};  // the passive ends of the brackets
 }
 #else
-;
+    ;
 #endif
 
 struct PassiveAlphaLimit {
-  double alpha = 0;  ///< sup of the passive alpha (open: alpha < this)
-  double beta = 0;   ///< the beta of that tip
+    double alpha = 0;  ///< sup of the passive alpha (open: alpha < this)
+    double beta = 0;   ///< the beta of that tip
 };
 
 /// The largest passive alpha over all beta, and its beta (bisection on h(alpha) = min_beta max R).
 HAPTICOPT_FUNC PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& plant)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(plant, "hapticopt::largest_passive_alpha");
-  const double d = detail::integer_delay(plant.delay, "hapticopt::largest_passive_alpha");
-  if (!(plant.delta > 0)) return {};
-  auto h = [&](double alpha) {
-    const double reach = plant.delta + alpha * (d + 0.5);
-    auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d).value; };
-    return detail::minimize_scalar(g, -reach, reach, 1e-15 * reach);
-  };
-  const auto bracket = detail::bisect([&](double a) { return h(a).value < plant.delta; }, 0.0,
-                                      2 * plant.delta, 0.0, 80);
-  return {bracket.first, h(bracket.first).x};
+    validate(plant, "hapticopt::largest_passive_alpha");
+    const double d = detail::integer_delay(plant.delay, "hapticopt::largest_passive_alpha");
+    if (!(plant.delta > 0)) return {};
+    auto h = [&](double alpha) {
+        const double reach = plant.delta + alpha * (d + 0.5);
+        auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d).value; };
+        return detail::minimize_scalar(g, -reach, reach, 1e-15 * reach);
+    };
+    const auto bracket =
+        detail::bisect([&](double a) { return h(a).value < plant.delta; }, 0.0, 2 * plant.delta, 0.0, 80);
+    return {bracket.first, h(bracket.first).x};
 }
 #else
-;
+    ;
 #endif
 
 struct PassivePoint {
-  double alpha;
-  double beta;
+    double alpha;
+    double beta;
 };
 
 /// The passive set's boundary as a closed polygon (counter-clockwise from (0, lo(0))): `points` alphas
@@ -321,48 +328,48 @@ struct PassivePoint {
 HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, int points = 64)
 #if HAPTICOPT_DEFINITIONS
 {
-  detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
-  const PassiveAlphaLimit top = largest_passive_alpha(plant);
-  std::vector<PassivePoint> lower, upper;
-  if (!(top.alpha > 0)) return {};
-  for (int i = 0; i < points; ++i) {
-    const double a = top.alpha * (1 - std::cos(detail::kPassivityPi * i / (points - 1))) / 2;
-    if (i == points - 1) {
-      lower.push_back({top.alpha, top.beta});
-      break;
+    detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
+    const PassiveAlphaLimit top = largest_passive_alpha(plant);
+    std::vector<PassivePoint> lower, upper;
+    if (!(top.alpha > 0)) return {};
+    for (int i = 0; i < points; ++i) {
+        const double a = top.alpha * (1 - std::cos(detail::kPassivityPi * i / (points - 1))) / 2;
+        if (i == points - 1) {
+            lower.push_back({top.alpha, top.beta});
+            break;
+        }
+        const auto [lo, hi] = passive_beta_interval(plant, a);
+        if (!(hi > lo)) continue;
+        lower.push_back({a, lo});
+        upper.push_back({a, hi});
     }
-    const auto [lo, hi] = passive_beta_interval(plant, a);
-    if (!(hi > lo)) continue;
-    lower.push_back({a, lo});
-    upper.push_back({a, hi});
-  }
-  std::vector<PassivePoint> out = lower;
-  for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
-  return out;
+    std::vector<PassivePoint> out = lower;
+    for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
+    return out;
 }
 #else
-;
+    ;
 #endif
 
 /// The stable beta interval at alpha clipped to the passive set (empty: hi <= lo).
 HAPTICOPT_FUNC std::pair<double, double> passive_beta_range(const StabilityRegion& region, double alpha)
 #if HAPTICOPT_DEFINITIONS
 {
-  if (!(alpha > region.alpha_min()) || alpha > region.alpha_max()) return {0.0, 0.0};
-  const auto [plo, phi] = passive_beta_interval(region.plant(), alpha);
-  if (!(phi > plo)) return {0.0, 0.0};
-  const auto [lo, hi] = region.beta_range(alpha);
-  return {std::max(lo, plo), std::min(hi, phi)};
+    if (!(alpha > region.alpha_min()) || alpha > region.alpha_max()) return {0.0, 0.0};
+    const auto [plo, phi] = passive_beta_interval(region.plant(), alpha);
+    if (!(phi > plo)) return {0.0, 0.0};
+    const auto [lo, hi] = region.beta_range(alpha);
+    return {std::max(lo, plo), std::min(hi, phi)};
 }
 #else
-;
+    ;
 #endif
 
 struct PassiveOptimum {
-  double alpha = 0;
-  double beta = 0;
-  double cost = 0;
-  double margin = 0;  ///< passivity margin there (>= 0; ~0 when the optimum is on the edge)
+    double alpha = 0;
+    double beta = 0;
+    double cost = 0;
+    double margin = 0;  ///< passivity margin there (>= 0; ~0 when the optimum is on the edge)
 };
 
 /// The minimum of cost(alpha, beta) over the stable passive gains; nullopt when there are none
@@ -370,14 +377,13 @@ struct PassiveOptimum {
 template <typename Cost>
 std::optional<PassiveOptimum> passive_minimum(const StabilityRegion& region, Cost&& cost,
                                               const RegionSearchOptions& options = {}) {
-  const double a0 = std::max(0.0, region.alpha_min());
-  const double a1 = std::min(largest_passive_alpha(region.plant()).alpha, region.alpha_max());
-  if (!(a1 > a0)) return std::nullopt;
-  auto interval = [&](double a) { return passive_beta_range(region, a); };
-  const RegionMinimum m = minimize_on_region(cost, a0, a1, interval, options);
-  if (!std::isfinite(m.value)) return std::nullopt;
-  return PassiveOptimum{m.alpha, m.beta, m.value,
-                        passivity_margin(region.plant(), NormalizedGains{m.alpha, m.beta})};
+    const double a0 = std::max(0.0, region.alpha_min());
+    const double a1 = std::min(largest_passive_alpha(region.plant()).alpha, region.alpha_max());
+    if (!(a1 > a0)) return std::nullopt;
+    auto interval = [&](double a) { return passive_beta_range(region, a); };
+    const RegionMinimum m = minimize_on_region(cost, a0, a1, interval, options);
+    if (!std::isfinite(m.value)) return std::nullopt;
+    return PassiveOptimum{m.alpha, m.beta, m.value, passivity_margin(region.plant(), NormalizedGains{m.alpha, m.beta})};
 }
 
 /// Best passive gains for the step criterion C_E<index> (index 0..2).
@@ -385,18 +391,18 @@ HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_optimum(int index, const No
                                                              const RegionSearchOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  detail::require_in_range("hapticopt::passive_optimum", "index", index, 0, false, 2, "0, 1 or 2");
-  detail::integer_delay(plant.delay, "hapticopt::passive_optimum");
-  const StabilityRegion region(plant);
-  const SampledPlant<double> sampled(plant);
-  auto c = [&](double a, double b) {
-    const EnergyCosts e = energy_costs(sampled, a, b);
-    return index == 0 ? e.ce0 : index == 1 ? e.ce1 : e.ce2;
-  };
-  return passive_minimum(region, c, options);
+    detail::require_in_range("hapticopt::passive_optimum", "index", index, 0, false, 2, "0, 1 or 2");
+    detail::integer_delay(plant.delay, "hapticopt::passive_optimum");
+    const StabilityRegion region(plant);
+    const SampledPlant<double> sampled(plant);
+    auto c = [&](double a, double b) {
+        const EnergyCosts e = energy_costs(sampled, a, b);
+        return index == 0 ? e.ce0 : index == 1 ? e.ce1 : e.ce2;
+    };
+    return passive_minimum(region, c, options);
 }
 #else
-;
+    ;
 #endif
 
 /// Best passive gains for the collision criterion C_I<index> (index 0..2).
@@ -404,15 +410,15 @@ HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_impulse_optimum(int index, 
                                                                      const RegionSearchOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  detail::require_in_range("hapticopt::passive_impulse_optimum", "index", index, 0, false, 2, "0, 1 or 2");
-  detail::integer_delay(plant.delay, "hapticopt::passive_impulse_optimum");
-  const StabilityRegion region(plant);
-  const SampledPlant<double> sampled(plant);
-  auto c = [&](double a, double b) { return impulse_costs(sampled, a, b)[index]; };
-  return passive_minimum(region, c, options);
+    detail::require_in_range("hapticopt::passive_impulse_optimum", "index", index, 0, false, 2, "0, 1 or 2");
+    detail::integer_delay(plant.delay, "hapticopt::passive_impulse_optimum");
+    const StabilityRegion region(plant);
+    const SampledPlant<double> sampled(plant);
+    auto c = [&](double a, double b) { return impulse_costs(sampled, a, b)[index]; };
+    return passive_minimum(region, c, options);
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

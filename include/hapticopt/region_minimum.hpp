@@ -24,14 +24,14 @@
 namespace hapticopt {
 
 struct RegionMinimum {
-  double alpha = 0;
-  double beta = 0;
-  double value = HUGE_VAL;  ///< +inf when no admissible point has a finite cost
+    double alpha = 0;
+    double beta = 0;
+    double value = HUGE_VAL;  ///< +inf when no admissible point has a finite cost
 };
 
 struct RegionSearchOptions {
-  int alpha_grid = 24;  ///< >= 4
-  int beta_grid = 16;   ///< >= 4
+    int alpha_grid = 24;  ///< >= 4
+    int beta_grid = 16;   ///< >= 4
 };
 
 namespace detail {
@@ -39,21 +39,24 @@ namespace detail {
 /// b_opt(a) and the cost there; value +inf when the interval is empty.
 template <typename Cost, typename Interval>
 ScalarMinimum minimize_over_beta(Cost& cost, Interval& interval, double a, int beta_grid) {
-  const auto [lo, hi] = interval(a);
-  if (!(hi > lo)) return {lo, HUGE_VAL};
-  const double step = (hi - lo) / beta_grid;
-  int best = 0;
-  double best_value = HUGE_VAL;
-  for (int i = 0; i < beta_grid; ++i) {
-    const double v = cost(a, lo + (i + 0.5) * step);
-    if (v < best_value) { best_value = v; best = i; }
-  }
-  const double centre = lo + (best + 0.5) * step;
-  auto f = [&](double b) { return cost(a, b); };
-  const ScalarMinimum m = minimize_scalar(f, std::max(lo, centre - step), std::min(hi, centre + step),
-                                          1e-12 * std::max(std::abs(centre), hi - lo));
-  if (!(m.value <= best_value)) return {centre, best_value};
-  return m;
+    const auto [lo, hi] = interval(a);
+    if (!(hi > lo)) return {lo, HUGE_VAL};
+    const double step = (hi - lo) / beta_grid;
+    int best = 0;
+    double best_value = HUGE_VAL;
+    for (int i = 0; i < beta_grid; ++i) {
+        const double v = cost(a, lo + (i + 0.5) * step);
+        if (v < best_value) {
+            best_value = v;
+            best = i;
+        }
+    }
+    const double centre = lo + (best + 0.5) * step;
+    auto f = [&](double b) { return cost(a, b); };
+    const ScalarMinimum m = minimize_scalar(f, std::max(lo, centre - step), std::min(hi, centre + step),
+                                            1e-12 * std::max(std::abs(centre), hi - lo));
+    if (!(m.value <= best_value)) return {centre, best_value};
+    return m;
 }
 
 }  // namespace detail
@@ -63,36 +66,39 @@ ScalarMinimum minimize_over_beta(Cost& cost, Interval& interval, double a, int b
 template <typename Cost, typename Interval>
 RegionMinimum minimize_on_region(Cost&& cost, double a0, double a1, Interval&& interval,
                                  const RegionSearchOptions& options = {}) {
-  const char* fn = "hapticopt::minimize_on_region";
-  detail::require_finite(fn, "a0", a0);
-  detail::require_in_range(fn, "a1", a1, a0, true, HUGE_VAL, "finite and > a0");
-  detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 4, false, 1e6, "4 <= alpha_grid <= 10^6");
-  detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e6, "4 <= beta_grid <= 10^6");
-  const int n = options.alpha_grid;
-  const double step = (a1 - a0) / n;
-  int best = -1;
-  double best_value = HUGE_VAL;
-  for (int i = 0; i < n; ++i) {
-    const double a = a0 + (i + 0.5) * step;
-    const auto [lo, hi] = interval(a);
-    if (!(hi > lo)) continue;
-    for (int j = 0; j < options.beta_grid; ++j) {
-      const double v = cost(a, lo + (j + 0.5) * (hi - lo) / options.beta_grid);
-      if (v < best_value) { best_value = v; best = i; }
+    const char* fn = "hapticopt::minimize_on_region";
+    detail::require_finite(fn, "a0", a0);
+    detail::require_in_range(fn, "a1", a1, a0, true, HUGE_VAL, "finite and > a0");
+    detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 4, false, 1e6, "4 <= alpha_grid <= 10^6");
+    detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e6, "4 <= beta_grid <= 10^6");
+    const int n = options.alpha_grid;
+    const double step = (a1 - a0) / n;
+    int best = -1;
+    double best_value = HUGE_VAL;
+    for (int i = 0; i < n; ++i) {
+        const double a = a0 + (i + 0.5) * step;
+        const auto [lo, hi] = interval(a);
+        if (!(hi > lo)) continue;
+        for (int j = 0; j < options.beta_grid; ++j) {
+            const double v = cost(a, lo + (j + 0.5) * (hi - lo) / options.beta_grid);
+            if (v < best_value) {
+                best_value = v;
+                best = i;
+            }
+        }
     }
-  }
-  RegionMinimum out;
-  if (best < 0) return out;
-  const double centre = a0 + (best + 0.5) * step;
-  auto curve = [&](double a) { return detail::minimize_over_beta(cost, interval, a, options.beta_grid).value; };
-  const double lo = std::max(a0 + 1e-12 * (a1 - a0), centre - step), hi = std::min(a1, centre + step);
-  const detail::ScalarMinimum m = detail::minimize_scalar(curve, lo, hi, 1e-10 * (a1 - a0));
-  const double a = std::isfinite(m.value) ? m.x : centre;
-  const detail::ScalarMinimum b = detail::minimize_over_beta(cost, interval, a, options.beta_grid);
-  out.alpha = a;
-  out.beta = b.x;
-  out.value = b.value;
-  return out;
+    RegionMinimum out;
+    if (best < 0) return out;
+    const double centre = a0 + (best + 0.5) * step;
+    auto curve = [&](double a) { return detail::minimize_over_beta(cost, interval, a, options.beta_grid).value; };
+    const double lo = std::max(a0 + 1e-12 * (a1 - a0), centre - step), hi = std::min(a1, centre + step);
+    const detail::ScalarMinimum m = detail::minimize_scalar(curve, lo, hi, 1e-10 * (a1 - a0));
+    const double a = std::isfinite(m.value) ? m.x : centre;
+    const detail::ScalarMinimum b = detail::minimize_over_beta(cost, interval, a, options.beta_grid);
+    out.alpha = a;
+    out.beta = b.x;
+    out.value = b.value;
+    return out;
 }
 
 }  // namespace hapticopt

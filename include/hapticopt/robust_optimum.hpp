@@ -55,92 +55,91 @@ namespace hapticopt {
 
 /// A closed interval [min, max] of a physical parameter (min == max: a known value).
 struct ParameterRange {
-  double min = 0;
-  double max = 0;
-  double mid() const { return (min + max) / 2; }
-  /// The i-th of n points spanning the range, ends included (one point when min == max).
-  double at(int i, int n) const { return n <= 1 || min == max ? mid() : min + (max - min) * i / (n - 1); }
+    double min = 0;
+    double max = 0;
+    double mid() const { return (min + max) / 2; }
+    /// The i-th of n points spanning the range, ends included (one point when min == max).
+    double at(int i, int n) const { return n <= 1 || min == max ? mid() : min + (max - min) * i / (n - 1); }
 };
 
 /// The uncertain plant: a box of masses, dampings, stiffnesses and delays at a fixed period.
 struct UncertainPlant {
-  ParameterRange mass;                ///< m [kg], min > 0
-  ParameterRange damping{0, 0};       ///< b [N s/m], >= 0
-  ParameterRange stiffness{0, 0};     ///< k [N/m], >= 0
-  double period = 0.001;              ///< T [s], > 0
-  ParameterRange time_delay{0, 0};    ///< t_d [s], >= 0, <= 1000 T
-  /// The box centre (used as the nominal plant).
-  PhysicalPlant nominal() const {
-    return PhysicalPlant{mass.mid(), damping.mid(), stiffness.mid(), period, time_delay.mid()};
-  }
+    ParameterRange mass;              ///< m [kg], min > 0
+    ParameterRange damping{0, 0};     ///< b [N s/m], >= 0
+    ParameterRange stiffness{0, 0};   ///< k [N/m], >= 0
+    double period = 0.001;            ///< T [s], > 0
+    ParameterRange time_delay{0, 0};  ///< t_d [s], >= 0, <= 1000 T
+    /// The box centre (used as the nominal plant).
+    PhysicalPlant nominal() const {
+        return PhysicalPlant{mass.mid(), damping.mid(), stiffness.mid(), period, time_delay.mid()};
+    }
 };
 
 inline void validate(const UncertainPlant& box, const char* function = "hapticopt::validate") {
-  auto range = [&](const char* name, const ParameterRange& r, double lower, bool strict) {
-    detail::require_in_range(function, name, r.min, lower, strict, HUGE_VAL,
-                             strict ? "finite and > 0, min <= max" : "finite and >= 0, min <= max");
-    const std::string upper = std::string(name) + ".max";
-    detail::require_in_range(function, upper.c_str(), r.max, r.min, false, HUGE_VAL,
-                             "finite and >= the range's minimum");
-  };
-  range("mass", box.mass, 0.0, true);
-  range("damping", box.damping, 0.0, false);
-  range("stiffness", box.stiffness, 0.0, false);
-  detail::require_positive(function, "period", box.period);
-  range("time_delay", box.time_delay, 0.0, false);
-  detail::require_in_range(function, "time_delay", box.time_delay.max / box.period, 0.0, false, 1e3,
-                           "t_d <= 1000 T");
+    auto range = [&](const char* name, const ParameterRange& r, double lower, bool strict) {
+        detail::require_in_range(function, name, r.min, lower, strict, HUGE_VAL,
+                                 strict ? "finite and > 0, min <= max" : "finite and >= 0, min <= max");
+        const std::string upper = std::string(name) + ".max";
+        detail::require_in_range(function, upper.c_str(), r.max, r.min, false, HUGE_VAL,
+                                 "finite and >= the range's minimum");
+    };
+    range("mass", box.mass, 0.0, true);
+    range("damping", box.damping, 0.0, false);
+    range("stiffness", box.stiffness, 0.0, false);
+    detail::require_positive(function, "period", box.period);
+    range("time_delay", box.time_delay, 0.0, false);
+    detail::require_in_range(function, "time_delay", box.time_delay.max / box.period, 0.0, false, 1e3, "t_d <= 1000 T");
 }
 
 /// Which energy criterion is robustified: C_E<index> (step) or C_I<index> (collision).
 struct RobustCriterion {
-  bool impulse = false;
-  int index = 2;
-  /// CE0..CE2 only (throws InvalidParameter for amax, OV and the +OV criteria).
-  static RobustCriterion step(Criterion c) {
-    const auto k = energy_index(c);
-    if (!k || requires_no_overshoot(c)) {
-      throw InvalidParameter("hapticopt::RobustCriterion::step", "criterion", static_cast<double>(c),
-                             "CE0, CE1, CE2 (energy criteria; robust amax/OV are not defined)");
+    bool impulse = false;
+    int index = 2;
+    /// CE0..CE2 only (throws InvalidParameter for amax, OV and the +OV criteria).
+    static RobustCriterion step(Criterion c) {
+        const auto k = energy_index(c);
+        if (!k || requires_no_overshoot(c)) {
+            throw InvalidParameter("hapticopt::RobustCriterion::step", "criterion", static_cast<double>(c),
+                                   "CE0, CE1, CE2 (energy criteria; robust amax/OV are not defined)");
+        }
+        return {false, *k};
     }
-    return {false, *k};
-  }
-  static RobustCriterion collision(ImpulseCriterion c) { return {true, energy_index(c)}; }
+    static RobustCriterion collision(ImpulseCriterion c) { return {true, energy_index(c)}; }
 };
 
 struct RobustOptions {
-  int mass_points = 5;            ///< optimisation grid, >= 2
-  int other_points = 3;           ///< over b and k when they are ranges, >= 2
-  int delay_points = 3;           ///< over t_d when it is a range, >= 2
-  int verify_mass_points = 33;    ///< verification grid, >= 2
-  int verify_other_points = 5;
-  int verify_delay_points = 9;
-  RegionSearchOptions search{16, 12};
+    int mass_points = 5;          ///< optimisation grid, >= 2
+    int other_points = 3;         ///< over b and k when they are ranges, >= 2
+    int delay_points = 3;         ///< over t_d when it is a range, >= 2
+    int verify_mass_points = 33;  ///< verification grid, >= 2
+    int verify_other_points = 5;
+    int verify_delay_points = 9;
+    RegionSearchOptions search{16, 12};
 };
 
 /// Where the worst case occurs and its value (+inf: unstable there).
 struct BoxWorstCase {
-  double cost = HUGE_VAL;
-  PhysicalPlant where{};
+    double cost = HUGE_VAL;
+    PhysicalPlant where{};
 };
 
 struct RobustStability {
-  bool stable = false;                   ///< stable at every verification point / mass segment
-  bool mass_segments_certified = false;  ///< every mass segment passed the exact crossing test (b = k = 0)
-  int plants_checked = 0;                ///< (b, k, t_d) combinations checked along their mass segment
+    bool stable = false;                   ///< stable at every verification point / mass segment
+    bool mass_segments_certified = false;  ///< every mass segment passed the exact crossing test (b = k = 0)
+    int plants_checked = 0;                ///< (b, k, t_d) combinations checked along their mass segment
 };
 
 struct RobustOptimum {
-  RobustCriterion criterion;
-  UncertainPlant box;
-  WallGains gains{0, 0};           ///< robust K [N/m], B [N s/m]
-  BoxWorstCase worst;              ///< its worst case over the box (verification grid + refinement)
-  RobustStability stability;
-  double K_max = 0;                ///< robust stiffness limit on the optimisation grid
-  PhysicalPlant nominal{};         ///< box centre
-  WallGains nominal_gains{0, 0};   ///< optimum of the criterion at the nominal plant
-  BoxWorstCase nominal_worst;      ///< its worst case over the box (+inf if unstable somewhere)
-  RobustStability nominal_stability;
+    RobustCriterion criterion;
+    UncertainPlant box;
+    WallGains gains{0, 0};  ///< robust K [N/m], B [N s/m]
+    BoxWorstCase worst;     ///< its worst case over the box (verification grid + refinement)
+    RobustStability stability;
+    double K_max = 0;               ///< robust stiffness limit on the optimisation grid
+    PhysicalPlant nominal{};        ///< box centre
+    WallGains nominal_gains{0, 0};  ///< optimum of the criterion at the nominal plant
+    BoxWorstCase nominal_worst;     ///< its worst case over the box (+inf if unstable somewhere)
+    RobustStability nominal_stability;
 };
 
 namespace detail {
@@ -149,12 +148,12 @@ HAPTICOPT_FUNC double criterion_cost(const RobustCriterion& c, const SampledPlan
                                      double beta)
 #if HAPTICOPT_DEFINITIONS
 {
-  if (c.impulse) return impulse_costs(plant, alpha, beta)[c.index];
-  const EnergyCosts e = energy_costs(plant, alpha, beta);
-  return c.index == 0 ? e.ce0 : c.index == 1 ? e.ce1 : e.ce2;
+    if (c.impulse) return impulse_costs(plant, alpha, beta)[c.index];
+    const EnergyCosts e = energy_costs(plant, alpha, beta);
+    return c.index == 0 ? e.ce0 : c.index == 1 ? e.ce1 : e.ce2;
 }
 #else
-;
+    ;
 #endif
 
 /// Cost at physical gains for a physical plant (normalising both).
@@ -162,35 +161,35 @@ HAPTICOPT_FUNC double physical_cost(const RobustCriterion& c, const PhysicalPlan
                                     double K, double B)
 #if HAPTICOPT_DEFINITIONS
 {
-  return criterion_cost(c, sp, K * p.period * p.period / p.mass, B * p.period / p.mass);
+    return criterion_cost(c, sp, K * p.period * p.period / p.mass, B * p.period / p.mass);
 }
 #else
-;
+    ;
 #endif
 
 /// The grid of (b, k, t_d) combinations, each with `nm` masses.
 HAPTICOPT_FUNC std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, int nm, int no, int nd)
 #if HAPTICOPT_DEFINITIONS
 {
-  std::vector<PhysicalPlant> out;
-  for (int ib = 0; ib < no; ++ib) {
-    if (ib > 0 && box.damping.min == box.damping.max) break;
-    for (int ik = 0; ik < no; ++ik) {
-      if (ik > 0 && box.stiffness.min == box.stiffness.max) break;
-      for (int id = 0; id < nd; ++id) {
-        if (id > 0 && box.time_delay.min == box.time_delay.max) break;
-        for (int im = 0; im < nm; ++im) {
-          if (im > 0 && box.mass.min == box.mass.max) break;
-          out.push_back(PhysicalPlant{box.mass.at(im, nm), box.damping.at(ib, no), box.stiffness.at(ik, no),
-                                      box.period, box.time_delay.at(id, nd)});
+    std::vector<PhysicalPlant> out;
+    for (int ib = 0; ib < no; ++ib) {
+        if (ib > 0 && box.damping.min == box.damping.max) break;
+        for (int ik = 0; ik < no; ++ik) {
+            if (ik > 0 && box.stiffness.min == box.stiffness.max) break;
+            for (int id = 0; id < nd; ++id) {
+                if (id > 0 && box.time_delay.min == box.time_delay.max) break;
+                for (int im = 0; im < nm; ++im) {
+                    if (im > 0 && box.mass.min == box.mass.max) break;
+                    out.push_back(PhysicalPlant{box.mass.at(im, nm), box.damping.at(ib, no), box.stiffness.at(ik, no),
+                                                box.period, box.time_delay.at(id, nd)});
+                }
+            }
         }
-      }
     }
-  }
-  return out;
+    return out;
 }
 #else
-;
+    ;
 #endif
 
 /// Exact unit-circle crossing test along the mass segment for b = k = 0 (header comment, step 4).
@@ -199,59 +198,59 @@ HAPTICOPT_FUNC std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, in
 HAPTICOPT_FUNC bool mass_segment_certified_stable(const UncertainPlant& box, double time_delay, double K, double B)
 #if HAPTICOPT_DEFINITIONS
 {
-  const double T = box.period;
-  const SampledPlant<double> sp(NormalizedPlant{0.0, 0.0, time_delay / T});
-  const AffineCharacteristicPolynomial<double> poly = characteristic_polynomial(sp);
-  // s = m_max / m in [1, m_max / m_min]; alpha = s alpha_ref, beta = s beta_ref.
-  const double a_ref = K * T * T / box.mass.max, b_ref = B * T / box.mass.max;
-  const double s0 = 1.0, s1 = box.mass.max / box.mass.min;
-  const Eigen::VectorXd p0 = poly.base;
-  const Eigen::VectorXd q = a_ref * poly.alpha + b_ref * poly.beta;
-  const Eigen::Index D = p0.size() - 1;
-  const double s_mid = (s0 + s1) / 2;
-  if (!(K > 0) || !schur_cohn<double>(poly.at(s_mid * a_ref, s_mid * b_ref)).stable) return false;
-  Eigen::VectorXd r = Eigen::VectorXd::Zero(2 * D + 1);
-  for (Eigen::Index i = 0; i <= D; ++i) {
-    for (Eigen::Index k = 0; k <= D; ++k) r(i - k + D) += p0(i) * q(k) - q(i) * p0(k);
-  }
-  // Trim: highest zero coefficients (degree drop) and lowest (roots at z = 0, irrelevant).
-  const double scale = r.cwiseAbs().maxCoeff();
-  Eigen::Index hi = 2 * D, lo = 0;
-  while (hi > 0 && std::abs(r(hi)) <= 1e-14 * scale) --hi;
-  while (lo < hi && std::abs(r(lo)) <= 1e-14 * scale) ++lo;
-  std::vector<std::complex<double>> candidates{{1.0, 0.0}, {-1.0, 0.0}};
-  const Eigen::Index deg = hi - lo;
-  if (deg >= 1) {
-    Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(deg, deg);
-    for (Eigen::Index i = 1; i < deg; ++i) companion(i, i - 1) = 1;
-    for (Eigen::Index i = 0; i < deg; ++i) companion(i, deg - 1) = -r(lo + i) / r(hi);
-    const Eigen::EigenSolver<Eigen::MatrixXd> es(companion, false);
-    for (Eigen::Index i = 0; i < deg; ++i) {
-      const std::complex<double> z = es.eigenvalues()(i);
-      if (std::abs(std::abs(z) - 1) < 1e-6) candidates.push_back(z / std::abs(z));
+    const double T = box.period;
+    const SampledPlant<double> sp(NormalizedPlant{0.0, 0.0, time_delay / T});
+    const AffineCharacteristicPolynomial<double> poly = characteristic_polynomial(sp);
+    // s = m_max / m in [1, m_max / m_min]; alpha = s alpha_ref, beta = s beta_ref.
+    const double a_ref = K * T * T / box.mass.max, b_ref = B * T / box.mass.max;
+    const double s0 = 1.0, s1 = box.mass.max / box.mass.min;
+    const Eigen::VectorXd p0 = poly.base;
+    const Eigen::VectorXd q = a_ref * poly.alpha + b_ref * poly.beta;
+    const Eigen::Index D = p0.size() - 1;
+    const double s_mid = (s0 + s1) / 2;
+    if (!(K > 0) || !schur_cohn<double>(poly.at(s_mid * a_ref, s_mid * b_ref)).stable) return false;
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(2 * D + 1);
+    for (Eigen::Index i = 0; i <= D; ++i) {
+        for (Eigen::Index k = 0; k <= D; ++k) r(i - k + D) += p0(i) * q(k) - q(i) * p0(k);
     }
-  }
-  auto horner = [](const Eigen::VectorXd& c, std::complex<double> z) {
-    std::complex<double> s = 0;
-    for (Eigen::Index k = c.size() - 1; k >= 0; --k) s = s * z + c(k);
-    return s;
-  };
-  for (const auto& z : candidates) {
-    const std::complex<double> pz = horner(p0, z), qz = horner(q, z);
-    if (std::abs(qz) <= 1e-14 * (std::abs(pz) + 1)) {
-      if (std::abs(pz) <= 1e-12) return false;  // a root on the circle for every s: not certified
-      continue;
+    // Trim: highest zero coefficients (degree drop) and lowest (roots at z = 0, irrelevant).
+    const double scale = r.cwiseAbs().maxCoeff();
+    Eigen::Index hi = 2 * D, lo = 0;
+    while (hi > 0 && std::abs(r(hi)) <= 1e-14 * scale) --hi;
+    while (lo < hi && std::abs(r(lo)) <= 1e-14 * scale) ++lo;
+    std::vector<std::complex<double>> candidates{{1.0, 0.0}, {-1.0, 0.0}};
+    const Eigen::Index deg = hi - lo;
+    if (deg >= 1) {
+        Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(deg, deg);
+        for (Eigen::Index i = 1; i < deg; ++i) companion(i, i - 1) = 1;
+        for (Eigen::Index i = 0; i < deg; ++i) companion(i, deg - 1) = -r(lo + i) / r(hi);
+        const Eigen::EigenSolver<Eigen::MatrixXd> es(companion, false);
+        for (Eigen::Index i = 0; i < deg; ++i) {
+            const std::complex<double> z = es.eigenvalues()(i);
+            if (std::abs(std::abs(z) - 1) < 1e-6) candidates.push_back(z / std::abs(z));
+        }
     }
-    const std::complex<double> s = -pz / qz;
-    if (std::abs(s.imag()) <= 1e-6 * std::max(1.0, std::abs(s)) && s.real() >= s0 * (1 - 1e-9) &&
-        s.real() <= s1 * (1 + 1e-9)) {
-      return false;
+    auto horner = [](const Eigen::VectorXd& c, std::complex<double> z) {
+        std::complex<double> s = 0;
+        for (Eigen::Index k = c.size() - 1; k >= 0; --k) s = s * z + c(k);
+        return s;
+    };
+    for (const auto& z : candidates) {
+        const std::complex<double> pz = horner(p0, z), qz = horner(q, z);
+        if (std::abs(qz) <= 1e-14 * (std::abs(pz) + 1)) {
+            if (std::abs(pz) <= 1e-12) return false;  // a root on the circle for every s: not certified
+            continue;
+        }
+        const std::complex<double> s = -pz / qz;
+        if (std::abs(s.imag()) <= 1e-6 * std::max(1.0, std::abs(s)) && s.real() >= s0 * (1 - 1e-9) &&
+            s.real() <= s1 * (1 + 1e-9)) {
+            return false;
+        }
     }
-  }
-  return true;
+    return true;
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace detail
@@ -261,39 +260,39 @@ HAPTICOPT_FUNC RobustStability robust_stability(const UncertainPlant& box, const
                                                 const RobustOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(box, "hapticopt::robust_stability");
-  RobustStability out;
-  out.stable = true;
-  out.mass_segments_certified = true;
-  const int nm = options.verify_mass_points;
-  const std::vector<PhysicalPlant> grid =
-      detail::box_grid(box, 1, options.verify_other_points, options.verify_delay_points);
-  for (const PhysicalPlant& corner : grid) {
-    ++out.plants_checked;
-    if (corner.damping == 0 && corner.stiffness == 0) {
-      if (!detail::mass_segment_certified_stable(box, corner.time_delay, gains.stiffness, gains.damping)) {
-        out.stable = false;
-        out.mass_segments_certified = false;
-        return out;
-      }
-    } else {
-      out.mass_segments_certified = false;
+    validate(box, "hapticopt::robust_stability");
+    RobustStability out;
+    out.stable = true;
+    out.mass_segments_certified = true;
+    const int nm = options.verify_mass_points;
+    const std::vector<PhysicalPlant> grid =
+        detail::box_grid(box, 1, options.verify_other_points, options.verify_delay_points);
+    for (const PhysicalPlant& corner : grid) {
+        ++out.plants_checked;
+        if (corner.damping == 0 && corner.stiffness == 0) {
+            if (!detail::mass_segment_certified_stable(box, corner.time_delay, gains.stiffness, gains.damping)) {
+                out.stable = false;
+                out.mass_segments_certified = false;
+                return out;
+            }
+        } else {
+            out.mass_segments_certified = false;
+        }
+        for (int im = 0; im < nm; ++im) {  // dense check (always; the only check when b or k > 0)
+            PhysicalPlant p = corner;
+            p.mass = box.mass.at(im, nm);
+            const NormalizedGains g = normalize(gains, p.mass, p.period);
+            if (!loop_is_stable(SampledPlant<double>(normalize(p)), g.alpha, g.beta)) {
+                out.stable = false;
+                out.mass_segments_certified = false;
+                return out;
+            }
+        }
     }
-    for (int im = 0; im < nm; ++im) {  // dense check (always; the only check when b or k > 0)
-      PhysicalPlant p = corner;
-      p.mass = box.mass.at(im, nm);
-      const NormalizedGains g = normalize(gains, p.mass, p.period);
-      if (!loop_is_stable(SampledPlant<double>(normalize(p)), g.alpha, g.beta)) {
-        out.stable = false;
-        out.mass_segments_certified = false;
-        return out;
-      }
-    }
-  }
-  return out;
+    return out;
 }
 #else
-;
+    ;
 #endif
 
 /// Worst case of the criterion at (K, B) over the box: the verification grid, then Brent over the
@@ -302,39 +301,43 @@ HAPTICOPT_FUNC BoxWorstCase robust_worst_case(const RobustCriterion& criterion, 
                                               const WallGains& gains, const RobustOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(box, "hapticopt::robust_worst_case");
-  const int nm = options.verify_mass_points;
-  const std::vector<PhysicalPlant> grid =
-      detail::box_grid(box, nm, options.verify_other_points, options.verify_delay_points);
-  BoxWorstCase worst;
-  worst.cost = -HUGE_VAL;
-  std::size_t at = 0;
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    const SampledPlant<double> sp(normalize(grid[i]));
-    const double c = detail::physical_cost(criterion, grid[i], sp, gains.stiffness, gains.damping);
-    if (!(c <= worst.cost)) { worst.cost = c; worst.where = grid[i]; at = i; }
-    if (!std::isfinite(c)) return worst;  // unstable (or NaN): that is the worst case
-  }
-  if (box.mass.min < box.mass.max) {
-    const PhysicalPlant base = grid[at];
-    const double step = (box.mass.max - box.mass.min) / (nm - 1);
-    auto negative = [&](double m) {
-      PhysicalPlant p = base;
-      p.mass = m;
-      return -detail::physical_cost(criterion, p, SampledPlant<double>(normalize(p)), gains.stiffness,
-                                    gains.damping);
-    };
-    const auto r = detail::minimize_scalar(negative, std::max(box.mass.min, base.mass - step),
-                                           std::min(box.mass.max, base.mass + step), 1e-9 * base.mass);
-    if (-r.value > worst.cost) {
-      worst.cost = -r.value;
-      worst.where.mass = r.x;
+    validate(box, "hapticopt::robust_worst_case");
+    const int nm = options.verify_mass_points;
+    const std::vector<PhysicalPlant> grid =
+        detail::box_grid(box, nm, options.verify_other_points, options.verify_delay_points);
+    BoxWorstCase worst;
+    worst.cost = -HUGE_VAL;
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+        const SampledPlant<double> sp(normalize(grid[i]));
+        const double c = detail::physical_cost(criterion, grid[i], sp, gains.stiffness, gains.damping);
+        if (!(c <= worst.cost)) {
+            worst.cost = c;
+            worst.where = grid[i];
+            at = i;
+        }
+        if (!std::isfinite(c)) return worst;  // unstable (or NaN): that is the worst case
     }
-  }
-  return worst;
+    if (box.mass.min < box.mass.max) {
+        const PhysicalPlant base = grid[at];
+        const double step = (box.mass.max - box.mass.min) / (nm - 1);
+        auto negative = [&](double m) {
+            PhysicalPlant p = base;
+            p.mass = m;
+            return -detail::physical_cost(criterion, p, SampledPlant<double>(normalize(p)), gains.stiffness,
+                                          gains.damping);
+        };
+        const auto r = detail::minimize_scalar(negative, std::max(box.mass.min, base.mass - step),
+                                               std::min(box.mass.max, base.mass + step), 1e-9 * base.mass);
+        if (-r.value > worst.cost) {
+            worst.cost = -r.value;
+            worst.where.mass = r.x;
+        }
+    }
+    return worst;
 }
 #else
-;
+    ;
 #endif
 
 namespace detail {
@@ -343,78 +346,80 @@ HAPTICOPT_FUNC RobustOptimum robust_optimum_impl(const RobustCriterion& criterio
                                                  const RobustOptions& options)
 #if HAPTICOPT_DEFINITIONS
 {
-  const char* fn = "hapticopt::robust_optimum";
-  validate(box, fn);
-  require_in_range(fn, "mass_points", options.mass_points, 2, false, 1e4, "2 <= mass_points <= 10^4");
-  require_in_range(fn, "other_points", options.other_points, 2, false, 1e3, "2 <= other_points <= 10^3");
-  require_in_range(fn, "delay_points", options.delay_points, 2, false, 1e3, "2 <= delay_points <= 10^3");
-  require_in_range(fn, "verify_mass_points", options.verify_mass_points, 2, false, 1e5, ">= 2");
-  require_in_range(fn, "verify_other_points", options.verify_other_points, 2, false, 1e3, ">= 2");
-  require_in_range(fn, "verify_delay_points", options.verify_delay_points, 2, false, 1e3, ">= 2");
-  const double T = box.period;
-  const std::vector<PhysicalPlant> grid =
-      box_grid(box, options.mass_points, options.other_points, options.delay_points);
-  std::vector<SampledPlant<double>> sampled;
-  std::vector<StabilityRegion> regions;
-  sampled.reserve(grid.size());
-  regions.reserve(grid.size());
-  double K_max = HUGE_VAL;
-  for (const PhysicalPlant& p : grid) {
-    sampled.emplace_back(normalize(p));
-    regions.emplace_back(normalize(p));
-    K_max = std::min(K_max, regions.back().alpha_max() * p.mass / (T * T));
-  }
-  auto interval = [&](double K) {
-    double lo = -HUGE_VAL, hi = HUGE_VAL;
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-      const double m = grid[i].mass;
-      const auto [bl, bh] = regions[i].beta_range(std::min(K * T * T / m, regions[i].alpha_max()));
-      lo = std::max(lo, bl * m / T);
-      hi = std::min(hi, bh * m / T);
+    const char* fn = "hapticopt::robust_optimum";
+    validate(box, fn);
+    require_in_range(fn, "mass_points", options.mass_points, 2, false, 1e4, "2 <= mass_points <= 10^4");
+    require_in_range(fn, "other_points", options.other_points, 2, false, 1e3, "2 <= other_points <= 10^3");
+    require_in_range(fn, "delay_points", options.delay_points, 2, false, 1e3, "2 <= delay_points <= 10^3");
+    require_in_range(fn, "verify_mass_points", options.verify_mass_points, 2, false, 1e5, ">= 2");
+    require_in_range(fn, "verify_other_points", options.verify_other_points, 2, false, 1e3, ">= 2");
+    require_in_range(fn, "verify_delay_points", options.verify_delay_points, 2, false, 1e3, ">= 2");
+    const double T = box.period;
+    const std::vector<PhysicalPlant> grid =
+        box_grid(box, options.mass_points, options.other_points, options.delay_points);
+    std::vector<SampledPlant<double>> sampled;
+    std::vector<StabilityRegion> regions;
+    sampled.reserve(grid.size());
+    regions.reserve(grid.size());
+    double K_max = HUGE_VAL;
+    for (const PhysicalPlant& p : grid) {
+        sampled.emplace_back(normalize(p));
+        regions.emplace_back(normalize(p));
+        K_max = std::min(K_max, regions.back().alpha_max() * p.mass / (T * T));
     }
-    return std::pair<double, double>{lo, hi};
-  };
-  auto worst = [&](double K, double B) {
-    double w = -HUGE_VAL;
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-      const double c = physical_cost(criterion, grid[i], sampled[i], K, B);
-      if (!std::isfinite(c)) return HUGE_VAL;
-      w = std::max(w, c);
+    auto interval = [&](double K) {
+        double lo = -HUGE_VAL, hi = HUGE_VAL;
+        for (std::size_t i = 0; i < grid.size(); ++i) {
+            const double m = grid[i].mass;
+            const auto [bl, bh] = regions[i].beta_range(std::min(K * T * T / m, regions[i].alpha_max()));
+            lo = std::max(lo, bl * m / T);
+            hi = std::min(hi, bh * m / T);
+        }
+        return std::pair<double, double>{lo, hi};
+    };
+    auto worst = [&](double K, double B) {
+        double w = -HUGE_VAL;
+        for (std::size_t i = 0; i < grid.size(); ++i) {
+            const double c = physical_cost(criterion, grid[i], sampled[i], K, B);
+            if (!std::isfinite(c)) return HUGE_VAL;
+            w = std::max(w, c);
+        }
+        return w;
+    };
+    const RegionMinimum m = minimize_on_region(worst, 0.0, K_max, interval, options.search);
+    if (!std::isfinite(m.value)) {
+        throw InvalidParameter(fn, "mass", box.mass.max,
+                               "a box with a common stable (K, B) region (none found on the grid)");
     }
-    return w;
-  };
-  const RegionMinimum m = minimize_on_region(worst, 0.0, K_max, interval, options.search);
-  if (!std::isfinite(m.value)) {
-    throw InvalidParameter(fn, "mass", box.mass.max,
-                           "a box with a common stable (K, B) region (none found on the grid)");
-  }
-  RobustOptimum out;
-  out.criterion = criterion;
-  out.box = box;
-  out.gains = WallGains{m.alpha, m.beta};
-  out.K_max = K_max;
-  out.worst = robust_worst_case(criterion, box, out.gains, options);
-  out.stability = robust_stability(box, out.gains, options);
-  out.nominal = box.nominal();
-  const NormalizedPlant np = normalize(out.nominal);
-  NormalizedGains ng{0, 0};
-  if (criterion.impulse) {
-    const ImpulseOptimum o = ImpulseOptimizer(np).optimum(
-        criterion.index == 0 ? ImpulseCriterion::CI0 : criterion.index == 1 ? ImpulseCriterion::CI1
-                                                                              : ImpulseCriterion::CI2);
-    ng = {o.alpha, o.beta};
-  } else {
-    const Optimum o = optimal_point(
-        criterion.index == 0 ? Criterion::CE0 : criterion.index == 1 ? Criterion::CE1 : Criterion::CE2, np);
-    ng = {o.alpha, o.beta};
-  }
-  out.nominal_gains = to_physical(ng, out.nominal.mass, T);
-  out.nominal_worst = robust_worst_case(criterion, box, out.nominal_gains, options);
-  out.nominal_stability = robust_stability(box, out.nominal_gains, options);
-  return out;
+    RobustOptimum out;
+    out.criterion = criterion;
+    out.box = box;
+    out.gains = WallGains{m.alpha, m.beta};
+    out.K_max = K_max;
+    out.worst = robust_worst_case(criterion, box, out.gains, options);
+    out.stability = robust_stability(box, out.gains, options);
+    out.nominal = box.nominal();
+    const NormalizedPlant np = normalize(out.nominal);
+    NormalizedGains ng{0, 0};
+    if (criterion.impulse) {
+        const ImpulseOptimum o = ImpulseOptimizer(np).optimum(criterion.index == 0   ? ImpulseCriterion::CI0
+                                                              : criterion.index == 1 ? ImpulseCriterion::CI1
+                                                                                     : ImpulseCriterion::CI2);
+        ng = {o.alpha, o.beta};
+    } else {
+        const Optimum o = optimal_point(criterion.index == 0   ? Criterion::CE0
+                                        : criterion.index == 1 ? Criterion::CE1
+                                                               : Criterion::CE2,
+                                        np);
+        ng = {o.alpha, o.beta};
+    }
+    out.nominal_gains = to_physical(ng, out.nominal.mass, T);
+    out.nominal_worst = robust_worst_case(criterion, box, out.nominal_gains, options);
+    out.nominal_stability = robust_stability(box, out.nominal_gains, options);
+    return out;
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace detail
@@ -424,10 +429,10 @@ HAPTICOPT_FUNC RobustOptimum robust_optimum(Criterion criterion, const Uncertain
                                             const RobustOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  return detail::robust_optimum_impl(RobustCriterion::step(criterion), box, options);
+    return detail::robust_optimum_impl(RobustCriterion::step(criterion), box, options);
 }
 #else
-;
+    ;
 #endif
 
 /// Robust optimum of a collision criterion (CI0, CI1, CI2) over the box.
@@ -435,10 +440,10 @@ HAPTICOPT_FUNC RobustOptimum robust_optimum(ImpulseCriterion criterion, const Un
                                             const RobustOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  return detail::robust_optimum_impl(RobustCriterion::collision(criterion), box, options);
+    return detail::robust_optimum_impl(RobustCriterion::collision(criterion), box, options);
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

@@ -11,80 +11,92 @@
 namespace hapticopt::detail {
 
 struct ScalarMinimum {
-  double x;
-  double value;
+    double x;
+    double value;
 };
 
 /// Minimum of f on [a, b] to an absolute tolerance `tol` in x (plus ~sqrt(eps) |x|).
 /// Converges to a local minimum; callers bracket the global one first.
 template <typename F>
 ScalarMinimum minimize_scalar(F&& f, double a, double b, double tol, int max_iterations = 200) {
-  const double golden = 0.3819660112501051;  // (3 - sqrt 5) / 2
-  const double rel = std::sqrt(std::numeric_limits<double>::epsilon());
-  auto eval = [&](double x) {
-    const double v = f(x);
-    return std::isfinite(v) ? v : std::numeric_limits<double>::max();
-  };
-  double x = a + golden * (b - a);
-  double w = x, v = x;
-  double fx = eval(x), fw = fx, fv = fx;
-  double d = 0, e = 0;
-  for (int it = 0; it < max_iterations; ++it) {
-    const double m = (a + b) / 2;
-    const double tol1 = rel * std::abs(x) + tol / 3;
-    const double tol2 = 2 * tol1;
-    if (std::abs(x - m) <= tol2 - (b - a) / 2) break;
-    bool golden_step = true;
-    if (std::abs(e) > tol1) {  // try a parabola through x, w, v
-      double r = (x - w) * (fx - fv);
-      double q = (x - v) * (fx - fw);
-      double p = (x - v) * q - (x - w) * r;
-      q = 2 * (q - r);
-      if (q > 0) p = -p; else q = -q;
-      const double e_prev = e;
-      e = d;
-      if (std::isfinite(p) && std::isfinite(q) && std::abs(p) < std::abs(q * e_prev / 2) &&
-          p > q * (a - x) && p < q * (b - x)) {
-        d = p / q;
-        const double u = x + d;
-        if (u - a < tol2 || b - u < tol2) d = x < m ? tol1 : -tol1;
-        golden_step = false;
-      }
+    const double golden = 0.3819660112501051;  // (3 - sqrt 5) / 2
+    const double rel = std::sqrt(std::numeric_limits<double>::epsilon());
+    auto eval = [&](double x) {
+        const double v = f(x);
+        return std::isfinite(v) ? v : std::numeric_limits<double>::max();
+    };
+    double x = a + golden * (b - a);
+    double w = x, v = x;
+    double fx = eval(x), fw = fx, fv = fx;
+    double d = 0, e = 0;
+    for (int it = 0; it < max_iterations; ++it) {
+        const double m = (a + b) / 2;
+        const double tol1 = rel * std::abs(x) + tol / 3;
+        const double tol2 = 2 * tol1;
+        if (std::abs(x - m) <= tol2 - (b - a) / 2) break;
+        bool golden_step = true;
+        if (std::abs(e) > tol1) {  // try a parabola through x, w, v
+            double r = (x - w) * (fx - fv);
+            double q = (x - v) * (fx - fw);
+            double p = (x - v) * q - (x - w) * r;
+            q = 2 * (q - r);
+            if (q > 0)
+                p = -p;
+            else
+                q = -q;
+            const double e_prev = e;
+            e = d;
+            if (std::isfinite(p) && std::isfinite(q) && std::abs(p) < std::abs(q * e_prev / 2) && p > q * (a - x) &&
+                p < q * (b - x)) {
+                d = p / q;
+                const double u = x + d;
+                if (u - a < tol2 || b - u < tol2) d = x < m ? tol1 : -tol1;
+                golden_step = false;
+            }
+        }
+        if (golden_step) {
+            e = (x < m ? b : a) - x;
+            d = golden * e;
+        }
+        const double u = x + (std::abs(d) >= tol1 ? d : (d > 0 ? tol1 : -tol1));
+        const double fu = eval(u);
+        if (fu <= fx) {
+            (u < x ? b : a) = x;
+            v = w;
+            fv = fw;
+            w = x;
+            fw = fx;
+            x = u;
+            fx = fu;
+        } else {
+            (u < x ? a : b) = u;
+            if (fu <= fw || w == x) {
+                v = w;
+                fv = fw;
+                w = u;
+                fw = fu;
+            } else if (fu <= fv || v == x || v == w) {
+                v = u;
+                fv = fu;
+            }
+        }
     }
-    if (golden_step) {
-      e = (x < m ? b : a) - x;
-      d = golden * e;
-    }
-    const double u = x + (std::abs(d) >= tol1 ? d : (d > 0 ? tol1 : -tol1));
-    const double fu = eval(u);
-    if (fu <= fx) {
-      (u < x ? b : a) = x;
-      v = w; fv = fw;
-      w = x; fw = fx;
-      x = u; fx = fu;
-    } else {
-      (u < x ? a : b) = u;
-      if (fu <= fw || w == x) {
-        v = w; fv = fw;
-        w = u; fw = fu;
-      } else if (fu <= fv || v == x || v == w) {
-        v = u; fv = fu;
-      }
-    }
-  }
-  return {x, fx};
+    return {x, fx};
 }
 
 /// A root of g on [lo, hi] given g(lo) and g(hi) of opposite signs (or `pred(lo) != pred(hi)` for the
 /// predicate form), by bisection down to |hi - lo| <= tol. Returns the bracket.
 template <typename Pred>
 std::pair<double, double> bisect(Pred&& pred, double lo, double hi, double tol, int max_iterations = 200) {
-  const bool at_lo = pred(lo);
-  for (int it = 0; it < max_iterations && std::abs(hi - lo) > tol; ++it) {
-    const double mid = (lo + hi) / 2;
-    if (pred(mid) == at_lo) lo = mid; else hi = mid;
-  }
-  return {lo, hi};
+    const bool at_lo = pred(lo);
+    for (int it = 0; it < max_iterations && std::abs(hi - lo) > tol; ++it) {
+        const double mid = (lo + hi) / 2;
+        if (pred(mid) == at_lo)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return {lo, hi};
 }
 
 }  // namespace hapticopt::detail

@@ -21,36 +21,36 @@ namespace hapticopt {
 
 template <typename Scalar>
 struct SchurCohnResult {
-  bool stable = false;  ///< every root strictly inside the unit circle
-  Scalar margin = 0;    ///< min (1 - |k_i|) over the recursion; <= 0 when unstable
+    bool stable = false;  ///< every root strictly inside the unit circle
+    Scalar margin = 0;    ///< min (1 - |k_i|) over the recursion; <= 0 when unstable
 };
 
 /// `coefficients` ascending (a_0 first); the leading one must be non-zero.
 template <typename Scalar>
 SchurCohnResult<Scalar> schur_cohn(Eigen::Matrix<Scalar, Eigen::Dynamic, 1> a) {
-  using std::abs;
-  SchurCohnResult<Scalar> result;
-  result.margin = Scalar(1);
-  for (Eigen::Index n = a.size() - 1; n > 0; --n) {
-    const Scalar lead = a(n);
-    if (!(std::isfinite(static_cast<double>(lead))) || lead == Scalar(0)) {
-      result.margin = Scalar(0);
-      return result;  // degenerate: not provably stable
+    using std::abs;
+    SchurCohnResult<Scalar> result;
+    result.margin = Scalar(1);
+    for (Eigen::Index n = a.size() - 1; n > 0; --n) {
+        const Scalar lead = a(n);
+        if (!(std::isfinite(static_cast<double>(lead))) || lead == Scalar(0)) {
+            result.margin = Scalar(0);
+            return result;  // degenerate: not provably stable
+        }
+        a.head(n + 1) /= lead;
+        const Scalar k = a(0);
+        const Scalar m = Scalar(1) - abs(k);
+        if (!(m > Scalar(0))) {  // also catches NaN
+            result.margin = m == m ? m : Scalar(0);
+            return result;
+        }
+        if (m < result.margin) result.margin = m;
+        Eigen::Matrix<Scalar, Eigen::Dynamic, 1> r(n);
+        for (Eigen::Index i = 0; i < n; ++i) r(i) = a(i + 1) - k * a(n - 1 - i);
+        a.head(n) = r;
     }
-    a.head(n + 1) /= lead;
-    const Scalar k = a(0);
-    const Scalar m = Scalar(1) - abs(k);
-    if (!(m > Scalar(0))) {  // also catches NaN
-      result.margin = m == m ? m : Scalar(0);
-      return result;
-    }
-    if (m < result.margin) result.margin = m;
-    Eigen::Matrix<Scalar, Eigen::Dynamic, 1> r(n);
-    for (Eigen::Index i = 0; i < n; ++i) r(i) = a(i + 1) - k * a(n - 1 - i);
-    a.head(n) = r;
-  }
-  result.stable = true;
-  return result;
+    result.stable = true;
+    return result;
 }
 
 }  // namespace hapticopt

@@ -18,38 +18,38 @@
 namespace hapticopt {
 
 struct StabilityReport {
-  bool stable = false;           ///< Schur-Cohn verdict (and alpha + gamma > 0)
-  double margin = 0;             ///< min (1 - |k_i|) of the deciding Schur-Cohn recursion
-  double spectral_radius = 0;    ///< max |eigenvalue| of the loop transition M
-  bool refined = false;          ///< verdict recomputed in long double (|margin| < 1e-4 in double)
+    bool stable = false;         ///< Schur-Cohn verdict (and alpha + gamma > 0)
+    double margin = 0;           ///< min (1 - |k_i|) of the deciding Schur-Cohn recursion
+    double spectral_radius = 0;  ///< max |eigenvalue| of the loop transition M
+    bool refined = false;        ///< verdict recomputed in long double (|margin| < 1e-4 in double)
 };
 
 HAPTICOPT_FUNC StabilityReport stability(const NormalizedPlant& plant, const NormalizedGains& gains)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::stability");
-  const SampledPlant<double> sampled(plant);
-  StabilityReport report;
-  const LoopVerdict<double> verdict = loop_verdict(sampled, gains.alpha, gains.beta);
-  report.stable = verdict.stable;
-  report.margin = verdict.margin;
-  report.refined = verdict.refined;
-  report.spectral_radius =
-      loop_schur_form(make_closed_loop(sampled, gains.alpha, gains.beta).transition).spectral_radius;
-  return report;
+    validate(gains, "hapticopt::stability");
+    const SampledPlant<double> sampled(plant);
+    StabilityReport report;
+    const LoopVerdict<double> verdict = loop_verdict(sampled, gains.alpha, gains.beta);
+    report.stable = verdict.stable;
+    report.margin = verdict.margin;
+    report.refined = verdict.refined;
+    report.spectral_radius =
+        loop_schur_form(make_closed_loop(sampled, gains.alpha, gains.beta).transition).spectral_radius;
+    return report;
 }
 #else
-;
+    ;
 #endif
 
 HAPTICOPT_FUNC bool is_stable(const NormalizedPlant& plant, const NormalizedGains& gains)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::is_stable");
-  return loop_is_stable(SampledPlant<double>(plant), gains.alpha, gains.beta);
+    validate(gains, "hapticopt::is_stable");
+    return loop_is_stable(SampledPlant<double>(plant), gains.alpha, gains.beta);
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

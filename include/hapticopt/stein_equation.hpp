@@ -39,35 +39,34 @@ using ComplexVector = Eigen::Matrix<std::complex<Scalar>, Eigen::Dynamic, 1>;
 
 /// Solves X = T X T^H + C for upper-triangular T (only the upper triangle of T is read).
 template <typename Scalar>
-ComplexMatrix<Scalar> solve_triangular_stein(const ComplexMatrix<Scalar>& t,
-                                             const ComplexMatrix<Scalar>& c) {
-  using Complex = std::complex<Scalar>;
-  const Eigen::Index n = t.rows();
-  ComplexMatrix<Scalar> x(n, n);
-  ComplexVector<Scalar> rhs(n);
-  ComplexVector<Scalar> acc(n);
-  for (Eigen::Index k = n - 1; k >= 0; --k) {
-    rhs = c.col(k);
-    const Eigen::Index later = n - k - 1;
-    if (later > 0) {
-      acc.noalias() = x.rightCols(later) * t.row(k).tail(later).adjoint();
-      rhs.noalias() += t.template triangularView<Eigen::Upper>() * acc;
+ComplexMatrix<Scalar> solve_triangular_stein(const ComplexMatrix<Scalar>& t, const ComplexMatrix<Scalar>& c) {
+    using Complex = std::complex<Scalar>;
+    const Eigen::Index n = t.rows();
+    ComplexMatrix<Scalar> x(n, n);
+    ComplexVector<Scalar> rhs(n);
+    ComplexVector<Scalar> acc(n);
+    for (Eigen::Index k = n - 1; k >= 0; --k) {
+        rhs = c.col(k);
+        const Eigen::Index later = n - k - 1;
+        if (later > 0) {
+            acc.noalias() = x.rightCols(later) * t.row(k).tail(later).adjoint();
+            rhs.noalias() += t.template triangularView<Eigen::Upper>() * acc;
+        }
+        const Complex tk = std::conj(t(k, k));
+        for (Eigen::Index i = n - 1; i >= 0; --i) {
+            Complex s = rhs(i);
+            for (Eigen::Index l = i + 1; l < n; ++l) s += tk * t(i, l) * x(l, k);
+            x(i, k) = s / (Scalar(1) - tk * t(i, i));
+        }
     }
-    const Complex tk = std::conj(t(k, k));
-    for (Eigen::Index i = n - 1; i >= 0; --i) {
-      Complex s = rhs(i);
-      for (Eigen::Index l = i + 1; l < n; ++l) s += tk * t(i, l) * x(l, k);
-      x(i, k) = s / (Scalar(1) - tk * t(i, i));
-    }
-  }
-  return x;
+    return x;
 }
 
 /// Reverses row and column order: J X J with J the exchange matrix. J T^H J is upper triangular
 /// for upper-triangular T, which turns  Y = T^H Y T + C  into the form solved above.
 template <typename Scalar>
 ComplexMatrix<Scalar> flip(const ComplexMatrix<Scalar>& x) {
-  return x.reverse();
+    return x.reverse();
 }
 
 /// Solver of X = M X M^T + C (C symmetric) for M with the shift structure of the loop: rows 0, 1 of
@@ -75,216 +74,216 @@ ComplexMatrix<Scalar> flip(const ComplexMatrix<Scalar>& x) {
 /// states (Eigen::Dynamic: heap). See the header comment for the method.
 template <typename Scalar, int MaxN = Eigen::Dynamic>
 class ShiftSteinSolver {
- public:
-  static constexpr int kMaxUnknowns = MaxN == Eigen::Dynamic ? Eigen::Dynamic : 2 * MaxN - 1;
-  using Square = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
-  using Top = Eigen::Matrix<Scalar, 2, Eigen::Dynamic, 0, 2, MaxN>;
+  public:
+    static constexpr int kMaxUnknowns = MaxN == Eigen::Dynamic ? Eigen::Dynamic : 2 * MaxN - 1;
+    using Square = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN>;
+    using Top = Eigen::Matrix<Scalar, 2, Eigen::Dynamic, 0, 2, MaxN>;
 
-  /// Assembles and factorises the reduced system. `ok()` is false if a pivot vanished (M has an
-  /// eigenvalue pair with lambda_i lambda_k = 1, i.e. M is not Schur-stable).
-  explicit ShiftSteinSolver(const Top& top) : top_(top), n_(static_cast<int>(top.cols())) {
-    const int n = n_;
-    const int u = 2 * n - 1;
-    ref_.resize(n, n);
-    for (int k = 0; k < n; ++k) {
-      for (int l = 0; l < n; ++l) {
-        ref_(k, l) = (k < 2 || l < 2) ? basic(std::min(k, l), std::max(k, l))
-                                      : ref_(shift_source(k), shift_source(l));
-      }
-    }
-    lu_.setZero(u, u);
-    for (int b = 0; b < n; ++b) {
-      for (int a = 0; a <= std::min(1, b); ++a) {
-        const int eq = basic(a, b);
-        lu_(eq, eq) += Scalar(1);
-        if (b >= 2) {
-          const int sb = shift_source(b);
-          for (int m = 0; m < n; ++m) lu_(eq, ref_(m, sb)) -= top_(a, m);
-        } else {
-          for (int m = 0; m < n; ++m) {
-            for (int l = 0; l < n; ++l) lu_(eq, ref_(m, l)) -= top_(a, m) * top_(b, l);
-          }
+    /// Assembles and factorises the reduced system. `ok()` is false if a pivot vanished (M has an
+    /// eigenvalue pair with lambda_i lambda_k = 1, i.e. M is not Schur-stable).
+    explicit ShiftSteinSolver(const Top& top) : top_(top), n_(static_cast<int>(top.cols())) {
+        const int n = n_;
+        const int u = 2 * n - 1;
+        ref_.resize(n, n);
+        for (int k = 0; k < n; ++k) {
+            for (int l = 0; l < n; ++l) {
+                ref_(k, l) =
+                    (k < 2 || l < 2) ? basic(std::min(k, l), std::max(k, l)) : ref_(shift_source(k), shift_source(l));
+            }
         }
-      }
-    }
-    // In-place LU with partial pivoting (row permutation in pivot_).
-    using std::abs;
-    pivot_.resize(u);
-    for (int j = 0; j < u; ++j) {
-      int p = j;
-      for (int i = j + 1; i < u; ++i) {
-        if (abs(lu_(i, j)) > abs(lu_(p, j))) p = i;
-      }
-      pivot_(j) = p;
-      if (p != j) {
-        for (int c = 0; c < u; ++c) std::swap(lu_(p, c), lu_(j, c));
-      }
-      const Scalar d = lu_(j, j);
-      if (!(d != Scalar(0)) || !std::isfinite(static_cast<double>(d))) {
-        ok_ = false;
-        return;
-      }
-      for (int i = j + 1; i < u; ++i) {
-        const Scalar f = lu_(i, j) / d;
-        lu_(i, j) = f;
-        if (f != Scalar(0)) {
-          for (int c = j + 1; c < u; ++c) lu_(i, c) -= f * lu_(j, c);
+        lu_.setZero(u, u);
+        for (int b = 0; b < n; ++b) {
+            for (int a = 0; a <= std::min(1, b); ++a) {
+                const int eq = basic(a, b);
+                lu_(eq, eq) += Scalar(1);
+                if (b >= 2) {
+                    const int sb = shift_source(b);
+                    for (int m = 0; m < n; ++m) lu_(eq, ref_(m, sb)) -= top_(a, m);
+                } else {
+                    for (int m = 0; m < n; ++m) {
+                        for (int l = 0; l < n; ++l) lu_(eq, ref_(m, l)) -= top_(a, m) * top_(b, l);
+                    }
+                }
+            }
         }
-      }
-    }
-  }
-
-  bool ok() const { return ok_; }
-  int size() const { return n_; }
-
-  /// X with X = M X M^T + c (c symmetric; only valid when ok()).
-  Square solve(const Square& c) const {
-    const int n = n_;
-    const int u = 2 * n - 1;
-    Square offset(n, n);  // X[k, l] = offset[k, l] + unknown[ref[k, l]]
-    for (int k = 0; k < n; ++k) {
-      for (int l = 0; l < n; ++l) {
-        offset(k, l) = (k < 2 || l < 2) ? Scalar(0) : offset(shift_source(k), shift_source(l)) + c(k, l);
-      }
-    }
-    const Top p = top_times(offset);
-    Vector rhs(u);
-    for (int b = 0; b < n; ++b) {
-      for (int a = 0; a <= std::min(1, b); ++a) {
-        Scalar v;
-        if (b >= 2) {
-          v = p(a, shift_source(b));
-        } else {
-          v = 0;
-          for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+        // In-place LU with partial pivoting (row permutation in pivot_).
+        using std::abs;
+        pivot_.resize(u);
+        for (int j = 0; j < u; ++j) {
+            int p = j;
+            for (int i = j + 1; i < u; ++i) {
+                if (abs(lu_(i, j)) > abs(lu_(p, j))) p = i;
+            }
+            pivot_(j) = p;
+            if (p != j) {
+                for (int c = 0; c < u; ++c) std::swap(lu_(p, c), lu_(j, c));
+            }
+            const Scalar d = lu_(j, j);
+            if (!(d != Scalar(0)) || !std::isfinite(static_cast<double>(d))) {
+                ok_ = false;
+                return;
+            }
+            for (int i = j + 1; i < u; ++i) {
+                const Scalar f = lu_(i, j) / d;
+                lu_(i, j) = f;
+                if (f != Scalar(0)) {
+                    for (int c = j + 1; c < u; ++c) lu_(i, c) -= f * lu_(j, c);
+                }
+            }
         }
-        rhs(basic(a, b)) = c(a, b) + v;
-      }
     }
-    for (int j = 0; j < u; ++j) {
-      if (pivot_(j) != j) std::swap(rhs(j), rhs(pivot_(j)));
-    }
-    for (int i = 1; i < u; ++i) {
-      Scalar v = 0;
-      for (int m = 0; m < i; ++m) v += lu_(i, m) * rhs(m);
-      rhs(i) -= v;
-    }
-    for (int i = u - 1; i >= 0; --i) {
-      Scalar v = 0;
-      for (int m = i + 1; m < u; ++m) v += lu_(i, m) * rhs(m);
-      rhs(i) = (rhs(i) - v) / lu_(i, i);
-    }
-    Square x(n, n);
-    for (int k = 0; k < n; ++k) {
-      for (int l = 0; l < n; ++l) x(k, l) = offset(k, l) + rhs(ref_(k, l));
-    }
-    return x;
-  }
 
-  /// P = sum_k (M^T)^k M^k, the solution of P = M^T P M + I (only valid when ok()). Since
-  /// tr X(C) = <P, C> for the solution X(C) of X = M X M^T + C, P is the gradient of that linear
-  /// function of C: one solve with the transposed LU, then the reverse of solve()'s substitutions.
-  /// Cost O(N^2) after the factorisation.
-  Square observability_gramian() const {
-    const int n = n_;
-    const int u = 2 * n - 1;
-    Vector lambda = Vector::Zero(u);  // K^-T (d tr X / d unknowns)
-    for (int k = 0; k < n; ++k) lambda(ref_(k, k)) += Scalar(1);
-    for (int i = 0; i < u; ++i) {  // U^T y = w
-      Scalar v = 0;
-      for (int m = 0; m < i; ++m) v += lu_(m, i) * lambda(m);
-      lambda(i) = (lambda(i) - v) / lu_(i, i);
-    }
-    for (int i = u - 2; i >= 0; --i) {  // L^T z = y
-      Scalar v = 0;
-      for (int m = i + 1; m < u; ++m) v += lu_(m, i) * lambda(m);
-      lambda(i) -= v;
-    }
-    for (int j = u - 1; j >= 0; --j) {
-      if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
-    }
-    // d tr X / d offset: the diagonal, plus lambda_eq times the offsets' weights in equation eq.
-    Square phi = Square::Identity(n, n);
-    for (int b = 0; b < n; ++b) {
-      for (int a = 0; a <= std::min(1, b); ++a) {
-        const Scalar l = lambda(basic(a, b));
-        if (b >= 2) {
-          const int sb = shift_source(b);
-          for (int k = 0; k < n; ++k) phi(k, sb) += l * top_(a, k);
-        } else {
-          for (int m = 0; m < n; ++m) {
-            for (int k = 0; k < n; ++k) phi(k, m) += l * top_(a, k) * top_(b, m);
-          }
+    bool ok() const { return ok_; }
+    int size() const { return n_; }
+
+    /// X with X = M X M^T + c (c symmetric; only valid when ok()).
+    Square solve(const Square& c) const {
+        const int n = n_;
+        const int u = 2 * n - 1;
+        Square offset(n, n);  // X[k, l] = offset[k, l] + unknown[ref[k, l]]
+        for (int k = 0; k < n; ++k) {
+            for (int l = 0; l < n; ++l) {
+                offset(k, l) = (k < 2 || l < 2) ? Scalar(0) : offset(shift_source(k), shift_source(l)) + c(k, l);
+            }
         }
-      }
+        const Top p = top_times(offset);
+        Vector rhs(u);
+        for (int b = 0; b < n; ++b) {
+            for (int a = 0; a <= std::min(1, b); ++a) {
+                Scalar v;
+                if (b >= 2) {
+                    v = p(a, shift_source(b));
+                } else {
+                    v = 0;
+                    for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+                }
+                rhs(basic(a, b)) = c(a, b) + v;
+            }
+        }
+        for (int j = 0; j < u; ++j) {
+            if (pivot_(j) != j) std::swap(rhs(j), rhs(pivot_(j)));
+        }
+        for (int i = 1; i < u; ++i) {
+            Scalar v = 0;
+            for (int m = 0; m < i; ++m) v += lu_(i, m) * rhs(m);
+            rhs(i) -= v;
+        }
+        for (int i = u - 1; i >= 0; --i) {
+            Scalar v = 0;
+            for (int m = i + 1; m < u; ++m) v += lu_(i, m) * rhs(m);
+            rhs(i) = (rhs(i) - v) / lu_(i, i);
+        }
+        Square x(n, n);
+        for (int k = 0; k < n; ++k) {
+            for (int l = 0; l < n; ++l) x(k, l) = offset(k, l) + rhs(ref_(k, l));
+        }
+        return x;
     }
-    // offset[k, l] = offset[s(k), s(l)] + C[k, l]: accumulate along the chains, children first.
-    Square g = Square::Zero(n, n);
-    for (int k = n - 1; k >= 2; --k) {
-      for (int l = n - 1; l >= 2; --l) {
-        g(k, l) += phi(k, l);
-        const int sk = shift_source(k), sl = shift_source(l);
-        if (sk >= 2 && sl >= 2) g(sk, sl) += g(k, l);
-      }
-    }
-    for (int b = 0; b < n; ++b) {
-      for (int a = 0; a <= std::min(1, b); ++a) g(a, b) = lambda(basic(a, b));
-    }
-    Square sym(n, n);
-    for (int l = 0; l < n; ++l) {
-      for (int k = 0; k < n; ++k) sym(k, l) = (g(k, l) + g(l, k)) / Scalar(2);
-    }
-    return sym;
-  }
 
-  /// M X M^T for symmetric X, using the shift structure: O(N^2).
-  Square propagate(const Square& x) const {
-    const int n = n_;
-    const Top p = top_times(x);  // rows 0, 1 of M X
-    Square y(n, n);
-    for (int a = 0; a < 2; ++a) {
-      for (int b = 0; b < 2; ++b) {
-        Scalar v = 0;
-        for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
-        y(a, b) = v;
-      }
+    /// P = sum_k (M^T)^k M^k, the solution of P = M^T P M + I (only valid when ok()). Since
+    /// tr X(C) = <P, C> for the solution X(C) of X = M X M^T + C, P is the gradient of that linear
+    /// function of C: one solve with the transposed LU, then the reverse of solve()'s substitutions.
+    /// Cost O(N^2) after the factorisation.
+    Square observability_gramian() const {
+        const int n = n_;
+        const int u = 2 * n - 1;
+        Vector lambda = Vector::Zero(u);  // K^-T (d tr X / d unknowns)
+        for (int k = 0; k < n; ++k) lambda(ref_(k, k)) += Scalar(1);
+        for (int i = 0; i < u; ++i) {  // U^T y = w
+            Scalar v = 0;
+            for (int m = 0; m < i; ++m) v += lu_(m, i) * lambda(m);
+            lambda(i) = (lambda(i) - v) / lu_(i, i);
+        }
+        for (int i = u - 2; i >= 0; --i) {  // L^T z = y
+            Scalar v = 0;
+            for (int m = i + 1; m < u; ++m) v += lu_(m, i) * lambda(m);
+            lambda(i) -= v;
+        }
+        for (int j = u - 1; j >= 0; --j) {
+            if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
+        }
+        // d tr X / d offset: the diagonal, plus lambda_eq times the offsets' weights in equation eq.
+        Square phi = Square::Identity(n, n);
+        for (int b = 0; b < n; ++b) {
+            for (int a = 0; a <= std::min(1, b); ++a) {
+                const Scalar l = lambda(basic(a, b));
+                if (b >= 2) {
+                    const int sb = shift_source(b);
+                    for (int k = 0; k < n; ++k) phi(k, sb) += l * top_(a, k);
+                } else {
+                    for (int m = 0; m < n; ++m) {
+                        for (int k = 0; k < n; ++k) phi(k, m) += l * top_(a, k) * top_(b, m);
+                    }
+                }
+            }
+        }
+        // offset[k, l] = offset[s(k), s(l)] + C[k, l]: accumulate along the chains, children first.
+        Square g = Square::Zero(n, n);
+        for (int k = n - 1; k >= 2; --k) {
+            for (int l = n - 1; l >= 2; --l) {
+                g(k, l) += phi(k, l);
+                const int sk = shift_source(k), sl = shift_source(l);
+                if (sk >= 2 && sl >= 2) g(sk, sl) += g(k, l);
+            }
+        }
+        for (int b = 0; b < n; ++b) {
+            for (int a = 0; a <= std::min(1, b); ++a) g(a, b) = lambda(basic(a, b));
+        }
+        Square sym(n, n);
+        for (int l = 0; l < n; ++l) {
+            for (int k = 0; k < n; ++k) sym(k, l) = (g(k, l) + g(l, k)) / Scalar(2);
+        }
+        return sym;
     }
-    for (int l = 2; l < n; ++l) {
-      const int sl = shift_source(l);
-      y(0, l) = y(l, 0) = p(0, sl);
-      y(1, l) = y(l, 1) = p(1, sl);
-      for (int k = 2; k < n; ++k) y(k, l) = x(shift_source(k), sl);
+
+    /// M X M^T for symmetric X, using the shift structure: O(N^2).
+    Square propagate(const Square& x) const {
+        const int n = n_;
+        const Top p = top_times(x);  // rows 0, 1 of M X
+        Square y(n, n);
+        for (int a = 0; a < 2; ++a) {
+            for (int b = 0; b < 2; ++b) {
+                Scalar v = 0;
+                for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+                y(a, b) = v;
+            }
+        }
+        for (int l = 2; l < n; ++l) {
+            const int sl = shift_source(l);
+            y(0, l) = y(l, 0) = p(0, sl);
+            y(1, l) = y(l, 1) = p(1, sl);
+            for (int k = 2; k < n; ++k) y(k, l) = x(shift_source(k), sl);
+        }
+        return y;
     }
-    return y;
-  }
 
- private:
-  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1>;
-  /// top x (2 x N), the product written out.
-  Top top_times(const Square& x) const {
-    const int n = n_;
-    Top p(2, n);
-    for (int l = 0; l < n; ++l) {
-      Scalar v0 = 0, v1 = 0;
-      for (int m = 0; m < n; ++m) {
-        v0 += top_(0, m) * x(m, l);
-        v1 += top_(1, m) * x(m, l);
-      }
-      p(0, l) = v0;
-      p(1, l) = v1;
+  private:
+    using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1>;
+    /// top x (2 x N), the product written out.
+    Top top_times(const Square& x) const {
+        const int n = n_;
+        Top p(2, n);
+        for (int l = 0; l < n; ++l) {
+            Scalar v0 = 0, v1 = 0;
+            for (int m = 0; m < n; ++m) {
+                v0 += top_(0, m) * x(m, l);
+                v1 += top_(1, m) * x(m, l);
+            }
+            p(0, l) = v0;
+            p(1, l) = v1;
+        }
+        return p;
     }
-    return p;
-  }
 
-  /// Index of the unknown X[a, b], a in {0, 1}, a <= b.
-  int basic(int a, int b) const { return a == 0 ? b : n_ + b - 1; }
+    /// Index of the unknown X[a, b], a in {0, 1}, a <= b.
+    int basic(int a, int b) const { return a == 0 ? b : n_ + b - 1; }
 
-  Top top_;
-  int n_;
-  bool ok_ = true;
-  Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN> ref_;
-  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, kMaxUnknowns, kMaxUnknowns> lu_;
-  Eigen::Matrix<int, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1> pivot_;
+    Top top_;
+    int n_;
+    bool ok_ = true;
+    Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN> ref_;
+    Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, kMaxUnknowns, kMaxUnknowns> lu_;
+    Eigen::Matrix<int, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1> pivot_;
 };
 
 }  // namespace hapticopt

@@ -69,15 +69,15 @@ enum class VelocityEstimatorKind { backward, lowpass, window };
 
 /// How the wall estimates velocity from the sampled position (header comment).
 struct VelocityEstimator {
-  VelocityEstimatorKind kind = VelocityEstimatorKind::backward;
-  double cutoff = 0;  ///< lowpass: normalised cutoff nu = f_c T, finite and > 0
-  int window = 1;     ///< window: N, 1 <= N <= kMaxVelocityWindow
+    VelocityEstimatorKind kind = VelocityEstimatorKind::backward;
+    double cutoff = 0;  ///< lowpass: normalised cutoff nu = f_c T, finite and > 0
+    int window = 1;     ///< window: N, 1 <= N <= kMaxVelocityWindow
 
-  static VelocityEstimator backward_difference() { return {}; }
-  /// Throws InvalidParameter unless nu is finite and > 0.
-  static VelocityEstimator low_pass(double nu);
-  /// Throws InvalidParameter unless 1 <= n <= kMaxVelocityWindow.
-  static VelocityEstimator moving_window(int n);
+    static VelocityEstimator backward_difference() { return {}; }
+    /// Throws InvalidParameter unless nu is finite and > 0.
+    static VelocityEstimator low_pass(double nu);
+    /// Throws InvalidParameter unless 1 <= n <= kMaxVelocityWindow.
+    static VelocityEstimator moving_window(int n);
 };
 
 /// Longest window accepted: 1000 periods (1 s at 1 kHz; the loop state grows by one per period).
@@ -86,143 +86,147 @@ inline constexpr int kMaxVelocityWindow = 1000;
 /// Throws InvalidParameter (message starting with `function`) for a low-pass cutoff that is not finite and
 /// > 0, or a window outside 1 .. kMaxVelocityWindow.
 inline void validate(const VelocityEstimator& e, const char* function = "hapticopt::validate") {
-  if (e.kind == VelocityEstimatorKind::lowpass) {
-    detail::require_in_range(function, "cutoff", e.cutoff, 0.0, true, HUGE_VAL,
-                             "finite and > 0 (normalised cutoff nu = f_c T)");
-  } else if (e.kind == VelocityEstimatorKind::window) {
-    detail::require_in_range(function, "window", e.window, 1.0, false, kMaxVelocityWindow,
-                             "1 <= N <= 1000 periods");
-  }
+    if (e.kind == VelocityEstimatorKind::lowpass) {
+        detail::require_in_range(function, "cutoff", e.cutoff, 0.0, true, HUGE_VAL,
+                                 "finite and > 0 (normalised cutoff nu = f_c T)");
+    } else if (e.kind == VelocityEstimatorKind::window) {
+        detail::require_in_range(function, "window", e.window, 1.0, false, kMaxVelocityWindow,
+                                 "1 <= N <= 1000 periods");
+    }
 }
 
 inline VelocityEstimator VelocityEstimator::low_pass(double nu) {
-  VelocityEstimator e;
-  e.kind = VelocityEstimatorKind::lowpass;
-  e.cutoff = nu;
-  validate(e, "hapticopt::VelocityEstimator::low_pass");
-  return e;
+    VelocityEstimator e;
+    e.kind = VelocityEstimatorKind::lowpass;
+    e.cutoff = nu;
+    validate(e, "hapticopt::VelocityEstimator::low_pass");
+    return e;
 }
 
 inline VelocityEstimator VelocityEstimator::moving_window(int n) {
-  VelocityEstimator e;
-  e.kind = VelocityEstimatorKind::window;
-  e.window = n;
-  validate(e, "hapticopt::VelocityEstimator::moving_window");
-  return e;
+    VelocityEstimator e;
+    e.kind = VelocityEstimatorKind::window;
+    e.window = n;
+    validate(e, "hapticopt::VelocityEstimator::moving_window");
+    return e;
 }
 
 /// The estimator as a difference equation v_j = sum_i b[i] y_{j-i} + sum_k a[k-1] v_{j-k} (header).
 template <typename Scalar>
 struct EstimatorCoefficients {
-  std::vector<Scalar> b;  ///< nb >= 2 coefficients on y_j, y_{j-1}, ...
-  std::vector<Scalar> a;  ///< na coefficients on v_{j-1}, ... (empty for FIR)
+    std::vector<Scalar> b;  ///< nb >= 2 coefficients on y_j, y_{j-1}, ...
+    std::vector<Scalar> a;  ///< na coefficients on v_{j-1}, ... (empty for FIR)
 };
 
 template <typename Scalar>
 EstimatorCoefficients<Scalar> estimator_coefficients(const VelocityEstimator& e) {
-  EstimatorCoefficients<Scalar> c;
-  switch (e.kind) {
-    case VelocityEstimatorKind::backward:
-      c.b = {Scalar(1), Scalar(-1)};
-      break;
-    case VelocityEstimatorKind::lowpass: {
-      using std::exp;
-      const Scalar pi = Scalar(3.141592653589793238462643383279502884L);
-      const Scalar lambda = exp(-Scalar(2) * pi * Scalar(e.cutoff));
-      c.b = {Scalar(1) - lambda, lambda - Scalar(1)};
-      c.a = {lambda};
-      break;
+    EstimatorCoefficients<Scalar> c;
+    switch (e.kind) {
+        case VelocityEstimatorKind::backward:
+            c.b = {Scalar(1), Scalar(-1)};
+            break;
+        case VelocityEstimatorKind::lowpass: {
+            using std::exp;
+            const Scalar pi = Scalar(3.141592653589793238462643383279502884L);
+            const Scalar lambda = exp(-Scalar(2) * pi * Scalar(e.cutoff));
+            c.b = {Scalar(1) - lambda, lambda - Scalar(1)};
+            c.a = {lambda};
+            break;
+        }
+        case VelocityEstimatorKind::window: {
+            c.b.assign(static_cast<std::size_t>(e.window) + 1, Scalar(0));
+            c.b.front() = Scalar(1) / Scalar(e.window);
+            c.b.back() = -Scalar(1) / Scalar(e.window);
+            break;
+        }
     }
-    case VelocityEstimatorKind::window: {
-      c.b.assign(static_cast<std::size_t>(e.window) + 1, Scalar(0));
-      c.b.front() = Scalar(1) / Scalar(e.window);
-      c.b.back() = -Scalar(1) / Scalar(e.window);
-      break;
-    }
-  }
-  return c;
+    return c;
 }
 
 /// The closed loop with the estimator (header comment): M, s_0, R_s as in ClosedLoop, plus the force's form.
 template <typename Scalar>
 struct EstimatorLoop {
-  ClosedLoop<Scalar> loop;
-  DynamicVector<Scalar> force;  ///< c: f_j - f_inf = c^T s_j
-  int noise_index = -1;         ///< index of e_j in s_j, -1 without the noise state
+    ClosedLoop<Scalar> loop;
+    DynamicVector<Scalar> force;  ///< c: f_j - f_inf = c^T s_j
+    int noise_index = -1;         ///< index of e_j in s_j, -1 without the noise state
 };
 
 /// Builds the loop of the header comment. Cost O(N^2). Requires alpha + gamma != 0.
 template <typename Scalar>
 EstimatorLoop<Scalar> make_estimator_loop(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
                                           Scalar alpha, Scalar beta, bool with_noise) {
-  const EstimatorCoefficients<Scalar> co = estimator_coefficients<Scalar>(estimator);
-  const int nb = static_cast<int>(co.b.size());
-  const int na = static_cast<int>(co.a.size());
-  const int age_max = plant.segment(0).force_age;  // segment 0 carries the older force
-  const bool fir = na == 0;
-  const int hy = fir ? std::max(1, age_max + nb - 1) : std::max({1, age_max, nb - 1});
-  const int hv = fir ? 0 : std::max({1, age_max, na});
-  const int n = 2 + hy + hv + (with_noise ? 1 : 0);
-  using Vec = DynamicVector<Scalar>;
-  auto unit = [n](int i) { Vec v = Vec::Zero(n); v(i) = Scalar(1); return v; };
-  const int noise = with_noise ? n - 1 : -1;
-  auto measured = [&](int i) {  // y_{j-i} - x_inf
-    if (i == 0) {
-      Vec v = unit(0);
-      if (noise >= 0) v(noise) = Scalar(1);
-      return v;
+    const EstimatorCoefficients<Scalar> co = estimator_coefficients<Scalar>(estimator);
+    const int nb = static_cast<int>(co.b.size());
+    const int na = static_cast<int>(co.a.size());
+    const int age_max = plant.segment(0).force_age;  // segment 0 carries the older force
+    const bool fir = na == 0;
+    const int hy = fir ? std::max(1, age_max + nb - 1) : std::max({1, age_max, nb - 1});
+    const int hv = fir ? 0 : std::max({1, age_max, na});
+    const int n = 2 + hy + hv + (with_noise ? 1 : 0);
+    using Vec = DynamicVector<Scalar>;
+    auto unit = [n](int i) {
+        Vec v = Vec::Zero(n);
+        v(i) = Scalar(1);
+        return v;
+    };
+    const int noise = with_noise ? n - 1 : -1;
+    auto measured = [&](int i) {  // y_{j-i} - x_inf
+        if (i == 0) {
+            Vec v = unit(0);
+            if (noise >= 0) v(noise) = Scalar(1);
+            return v;
+        }
+        return unit(1 + i);
+    };
+    auto v_slot = [&](int k) { return 1 + hy + k; };  // index of v_{j-k}, k >= 1
+    auto velocity = [&](int age) {                    // v_{j-age}
+        Vec v = Vec::Zero(n);
+        if (fir || age == 0) {
+            for (int i = 0; i < nb; ++i) v += co.b[static_cast<std::size_t>(i)] * measured(age + i);
+            if (!fir) {
+                for (int k = 1; k <= na; ++k) v(v_slot(k)) += co.a[static_cast<std::size_t>(k - 1)];
+            }
+        } else {
+            v(v_slot(age)) = Scalar(1);
+        }
+        return v;
+    };
+    EstimatorLoop<Scalar> out;
+    out.noise_index = noise;
+    out.force = alpha * measured(0) + beta * velocity(0);
+    ClosedLoop<Scalar>& loop = out.loop;
+    loop.alpha = alpha;
+    loop.beta = beta;
+    loop.total_stiffness = alpha + Scalar(plant.parameters().gamma);
+    loop.final_position = Scalar(1) / loop.total_stiffness;
+    DynamicMatrix<Scalar> rows = DynamicMatrix<Scalar>::Zero(2, n);
+    rows(0, 0) = 1;
+    rows(1, 1) = 1;
+    for (int s = 0; s < plant.segment_count(); ++s) {
+        const auto& seg = plant.segment(s);
+        DynamicMatrix<Scalar>& r = loop.segment_map[static_cast<std::size_t>(s)];
+        r = DynamicMatrix<Scalar>::Zero(3, n);
+        r.topRows(2) = rows;
+        r.row(2) = (alpha * measured(seg.force_age) + beta * velocity(seg.force_age)).transpose();
+        DynamicMatrix<Scalar> next(2, n);
+        for (int i = 0; i < 2; ++i) {
+            next.row(i) = seg.exp(i, 0) * r.row(0) + seg.exp(i, 1) * r.row(1) + seg.exp(i, 2) * r.row(2);
+        }
+        rows = next;
     }
-    return unit(1 + i);
-  };
-  auto v_slot = [&](int k) { return 1 + hy + k; };  // index of v_{j-k}, k >= 1
-  auto velocity = [&](int age) {                    // v_{j-age}
-    Vec v = Vec::Zero(n);
-    if (fir || age == 0) {
-      for (int i = 0; i < nb; ++i) v += co.b[static_cast<std::size_t>(i)] * measured(age + i);
-      if (!fir) {
-        for (int k = 1; k <= na; ++k) v(v_slot(k)) += co.a[static_cast<std::size_t>(k - 1)];
-      }
-    } else {
-      v(v_slot(age)) = Scalar(1);
+    DynamicMatrix<Scalar>& m = loop.transition;
+    m = DynamicMatrix<Scalar>::Zero(n, n);
+    m.topRows(2) = rows;
+    m.row(2) = measured(0).transpose();             // y_j becomes y_{(j+1)-1}
+    for (int i = 2; i <= hy; ++i) m(1 + i, i) = 1;  // y_{j-i+1} becomes y_{(j+1)-i}
+    if (hv > 0) {
+        m.row(v_slot(1)) = velocity(0).transpose();  // v_j becomes v_{(j+1)-1}
+        for (int k = 2; k <= hv; ++k) m(v_slot(k), v_slot(k - 1)) = 1;
     }
-    return v;
-  };
-  EstimatorLoop<Scalar> out;
-  out.noise_index = noise;
-  out.force = alpha * measured(0) + beta * velocity(0);
-  ClosedLoop<Scalar>& loop = out.loop;
-  loop.alpha = alpha;
-  loop.beta = beta;
-  loop.total_stiffness = alpha + Scalar(plant.parameters().gamma);
-  loop.final_position = Scalar(1) / loop.total_stiffness;
-  DynamicMatrix<Scalar> rows = DynamicMatrix<Scalar>::Zero(2, n);
-  rows(0, 0) = 1;
-  rows(1, 1) = 1;
-  for (int s = 0; s < plant.segment_count(); ++s) {
-    const auto& seg = plant.segment(s);
-    DynamicMatrix<Scalar>& r = loop.segment_map[static_cast<std::size_t>(s)];
-    r = DynamicMatrix<Scalar>::Zero(3, n);
-    r.topRows(2) = rows;
-    r.row(2) = (alpha * measured(seg.force_age) + beta * velocity(seg.force_age)).transpose();
-    DynamicMatrix<Scalar> next(2, n);
-    for (int i = 0; i < 2; ++i) {
-      next.row(i) = seg.exp(i, 0) * r.row(0) + seg.exp(i, 1) * r.row(1) + seg.exp(i, 2) * r.row(2);
-    }
-    rows = next;
-  }
-  DynamicMatrix<Scalar>& m = loop.transition;
-  m = DynamicMatrix<Scalar>::Zero(n, n);
-  m.topRows(2) = rows;
-  m.row(2) = measured(0).transpose();               // y_j becomes y_{(j+1)-1}
-  for (int i = 2; i <= hy; ++i) m(1 + i, i) = 1;    // y_{j-i+1} becomes y_{(j+1)-i}
-  if (hv > 0) {
-    m.row(v_slot(1)) = velocity(0).transpose();     // v_j becomes v_{(j+1)-1}
-    for (int k = 2; k <= hv; ++k) m(v_slot(k), v_slot(k - 1)) = 1;
-  }
-  loop.initial_state = Vec::Zero(n);
-  loop.initial_state(0) = -loop.final_position;
-  for (int i = 1; i <= hy; ++i) loop.initial_state(1 + i) = -loop.final_position;
-  return out;
+    loop.initial_state = Vec::Zero(n);
+    loop.initial_state(0) = -loop.final_position;
+    for (int i = 1; i <= hy; ++i) loop.initial_state(1 + i) = -loop.final_position;
+    return out;
 }
 
 namespace detail {
@@ -231,11 +235,12 @@ namespace detail {
 template <typename Scalar>
 Eigen::Matrix<Scalar, Eigen::Dynamic, 1> poly_product(const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& a,
                                                       const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& b) {
-  Eigen::Matrix<Scalar, Eigen::Dynamic, 1> c = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>::Zero(a.size() + b.size() - 1);
-  for (Eigen::Index i = 0; i < a.size(); ++i) {
-    for (Eigen::Index k = 0; k < b.size(); ++k) c(i + k) += a(i) * b(k);
-  }
-  return c;
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1> c =
+        Eigen::Matrix<Scalar, Eigen::Dynamic, 1>::Zero(a.size() + b.size() - 1);
+    for (Eigen::Index i = 0; i < a.size(); ++i) {
+        for (Eigen::Index k = 0; k < b.size(); ++k) c(i + k) += a(i) * b(k);
+    }
+    return c;
 }
 
 }  // namespace detail
@@ -244,57 +249,57 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, 1> poly_product(const Eigen::Matrix<Scalar
 template <typename Scalar>
 AffineCharacteristicPolynomial<Scalar> estimator_characteristic_polynomial(
     const AffineCharacteristicPolynomial<Scalar>& base, const VelocityEstimator& estimator) {
-  using Coefficients = typename AffineCharacteristicPolynomial<Scalar>::Coefficients;
-  const EstimatorCoefficients<Scalar> co = estimator_coefficients<Scalar>(estimator);
-  const int nb = static_cast<int>(co.b.size());
-  const int na = static_cast<int>(co.a.size());
-  const int l = std::max(nb - 1, na);
-  Coefficients at = Coefficients::Zero(l + 1), bt = Coefficients::Zero(l + 1);
-  at(l) = 1;
-  for (int k = 1; k <= na; ++k) at(l - k) = -co.a[static_cast<std::size_t>(k - 1)];
-  for (int i = 0; i < nb; ++i) bt(l - i) = co.b[static_cast<std::size_t>(i)];
-  AffineCharacteristicPolynomial<Scalar> p;
-  p.base = detail::poly_product(base.base, at);
-  p.alpha = detail::poly_product(base.alpha, at);
-  p.beta = detail::poly_product(base.alpha, bt);
-  return p;
+    using Coefficients = typename AffineCharacteristicPolynomial<Scalar>::Coefficients;
+    const EstimatorCoefficients<Scalar> co = estimator_coefficients<Scalar>(estimator);
+    const int nb = static_cast<int>(co.b.size());
+    const int na = static_cast<int>(co.a.size());
+    const int l = std::max(nb - 1, na);
+    Coefficients at = Coefficients::Zero(l + 1), bt = Coefficients::Zero(l + 1);
+    at(l) = 1;
+    for (int k = 1; k <= na; ++k) at(l - k) = -co.a[static_cast<std::size_t>(k - 1)];
+    for (int i = 0; i < nb; ++i) bt(l - i) = co.b[static_cast<std::size_t>(i)];
+    AffineCharacteristicPolynomial<Scalar> p;
+    p.base = detail::poly_product(base.base, at);
+    p.alpha = detail::poly_product(base.alpha, at);
+    p.beta = detail::poly_product(base.alpha, bt);
+    return p;
 }
 
 /// Stability of the loop with the estimator, by Schur-Cohn on p_est with the long double refinement below
 /// |margin| 1e-4 (as loop_verdict). Precomputes both polynomials once; stable(alpha, beta) is O(degree^2).
 class EstimatorStabilityTest {
- public:
-  HAPTICOPT_DEFERRED
-  EstimatorStabilityTest(const NormalizedPlant& plant, const VelocityEstimator& estimator)
-      : gamma_(plant.gamma),
-        poly_(estimator_characteristic_polynomial(characteristic_polynomial(SampledPlant<double>(plant)), estimator)),
-        fine_(estimator_characteristic_polynomial(characteristic_polynomial(plant_transitions<long double>(plant)),
-                                                  estimator)) {}
+  public:
+    HAPTICOPT_DEFERRED
+    EstimatorStabilityTest(const NormalizedPlant& plant, const VelocityEstimator& estimator)
+        : gamma_(plant.gamma),
+          poly_(estimator_characteristic_polynomial(characteristic_polynomial(SampledPlant<double>(plant)), estimator)),
+          fine_(estimator_characteristic_polynomial(characteristic_polynomial(plant_transitions<long double>(plant)),
+                                                    estimator)) {}
 
-  LoopVerdict<double> verdict(double alpha, double beta) const {
-    LoopVerdict<double> v;
-    if (!(alpha + gamma_ > 0)) return v;
-    const SchurCohnResult<double> test = schur_cohn<double>(poly_.at(alpha, beta));
-    v.stable = test.stable;
-    v.margin = test.margin;
-    if constexpr (std::numeric_limits<long double>::digits > std::numeric_limits<double>::digits) {
-      if (std::abs(test.margin) < kStabilityRefinementMargin) {
-        using LD = long double;
-        const SchurCohnResult<LD> r = schur_cohn<LD>(fine_.at(LD(alpha), LD(beta)));
-        v.stable = r.stable;
-        v.margin = static_cast<double>(r.margin);
-        v.refined = true;
-      }
+    LoopVerdict<double> verdict(double alpha, double beta) const {
+        LoopVerdict<double> v;
+        if (!(alpha + gamma_ > 0)) return v;
+        const SchurCohnResult<double> test = schur_cohn<double>(poly_.at(alpha, beta));
+        v.stable = test.stable;
+        v.margin = test.margin;
+        if constexpr (std::numeric_limits<long double>::digits > std::numeric_limits<double>::digits) {
+            if (std::abs(test.margin) < kStabilityRefinementMargin) {
+                using LD = long double;
+                const SchurCohnResult<LD> r = schur_cohn<LD>(fine_.at(LD(alpha), LD(beta)));
+                v.stable = r.stable;
+                v.margin = static_cast<double>(r.margin);
+                v.refined = true;
+            }
+        }
+        return v;
     }
-    return v;
-  }
-  bool stable(double alpha, double beta) const { return verdict(alpha, beta).stable; }
-  const AffineCharacteristicPolynomial<double>& polynomial() const { return poly_; }
+    bool stable(double alpha, double beta) const { return verdict(alpha, beta).stable; }
+    const AffineCharacteristicPolynomial<double>& polynomial() const { return poly_; }
 
- private:
-  double gamma_;
-  AffineCharacteristicPolynomial<double> poly_;
-  AffineCharacteristicPolynomial<long double> fine_;
+  private:
+    double gamma_;
+    AffineCharacteristicPolynomial<double> poly_;
+    AffineCharacteristicPolynomial<long double> fine_;
 };
 
 namespace detail {
@@ -305,33 +310,33 @@ namespace detail {
 /// vanishes or a cost is not positive and finite (rounding at the boundary).
 template <typename Scalar>
 EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop) {
-  const Scalar inf = std::numeric_limits<Scalar>::infinity();
-  using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
-  const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
-  if (!stein.ok()) return {inf, inf, inf};
-  using Square = typename Solver::Square;
-  std::array<Square, 3> g;
-  g[0] = stein.solve(Square(loop.initial_state * loop.initial_state.transpose()));
-  Square c = stein.propagate(g[0]);  // G_1 = M G_1 M^T + M G_0 M^T, G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T
-  g[1] = stein.solve(c);
-  g[2] = stein.solve(Square(Scalar(2) * g[1] - c));
-  std::array<Scalar, 3> j{0, 0, 0};
-  for (int s = 0; s < plant.segment_count(); ++s) {
-    const DynamicMatrix<Scalar>& r = loop.segment_map[static_cast<std::size_t>(s)];
-    const auto w = segment_weights(plant.segment(s), loop.total_stiffness);
-    std::array<Matrix3<Scalar>, 3> y;
-    for (std::size_t q = 0; q < 3; ++q) y[q] = r * g[q] * r.transpose();
-    auto tr = [](const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) { return a.cwiseProduct(b).sum(); };
-    j[0] += tr(w[0], y[0]);
-    j[1] += tr(w[0], y[1]) + tr(w[1], y[0]);
-    j[2] += tr(w[0], y[2]) + Scalar(2) * tr(w[1], y[1]) + tr(w[2], y[0]);
-  }
-  const Scalar k = loop.total_stiffness;  // C_Ep = k J_p (energy_costs_structured)
-  const EnergyCostsT<Scalar> out{k * j[0], k * j[1], k * j[2]};
-  for (Scalar v : {out.ce0, out.ce1, out.ce2}) {
-    if (!(v > Scalar(0)) || !std::isfinite(static_cast<double>(v))) return {inf, inf, inf};
-  }
-  return out;
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
+    const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
+    if (!stein.ok()) return {inf, inf, inf};
+    using Square = typename Solver::Square;
+    std::array<Square, 3> g;
+    g[0] = stein.solve(Square(loop.initial_state * loop.initial_state.transpose()));
+    Square c = stein.propagate(g[0]);  // G_1 = M G_1 M^T + M G_0 M^T, G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T
+    g[1] = stein.solve(c);
+    g[2] = stein.solve(Square(Scalar(2) * g[1] - c));
+    std::array<Scalar, 3> j{0, 0, 0};
+    for (int s = 0; s < plant.segment_count(); ++s) {
+        const DynamicMatrix<Scalar>& r = loop.segment_map[static_cast<std::size_t>(s)];
+        const auto w = segment_weights(plant.segment(s), loop.total_stiffness);
+        std::array<Matrix3<Scalar>, 3> y;
+        for (std::size_t q = 0; q < 3; ++q) y[q] = r * g[q] * r.transpose();
+        auto tr = [](const Matrix3<Scalar>& a, const Matrix3<Scalar>& b) { return a.cwiseProduct(b).sum(); };
+        j[0] += tr(w[0], y[0]);
+        j[1] += tr(w[0], y[1]) + tr(w[1], y[0]);
+        j[2] += tr(w[0], y[2]) + Scalar(2) * tr(w[1], y[1]) + tr(w[2], y[0]);
+    }
+    const Scalar k = loop.total_stiffness;  // C_Ep = k J_p (energy_costs_structured)
+    const EnergyCostsT<Scalar> out{k * j[0], k * j[1], k * j[2]};
+    for (Scalar v : {out.ce0, out.ce1, out.ce2}) {
+        if (!(v > Scalar(0)) || !std::isfinite(static_cast<double>(v))) return {inf, inf, inf};
+    }
+    return out;
 }
 
 }  // namespace detail
@@ -344,47 +349,47 @@ EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& p
 template <typename Scalar>
 EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
                                             Scalar alpha, Scalar beta, bool dense = false) {
-  const Scalar inf = std::numeric_limits<Scalar>::infinity();
-  if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return {inf, inf, inf};
-  const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
-  const bool fir = estimator.kind != VelocityEstimatorKind::lowpass;
-  if (fir && !dense) {
-    // The shift solver does not see instability by itself: Schur-Cohn on p_est first; near the boundary
-    // (|margin| < 1e-4) the complex-Schur path below decides by the spectral radius.
-    const SchurCohnResult<Scalar> sc = schur_cohn<Scalar>(
-        estimator_characteristic_polynomial(characteristic_polynomial(plant), estimator).at(alpha, beta));
-    using std::abs;
-    if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
-      if (!sc.stable) return {inf, inf, inf};
-      return detail::shift_structured_energy_costs(plant, el.loop);
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return {inf, inf, inf};
+    const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
+    const bool fir = estimator.kind != VelocityEstimatorKind::lowpass;
+    if (fir && !dense) {
+        // The shift solver does not see instability by itself: Schur-Cohn on p_est first; near the boundary
+        // (|margin| < 1e-4) the complex-Schur path below decides by the spectral radius.
+        const SchurCohnResult<Scalar> sc = schur_cohn<Scalar>(
+            estimator_characteristic_polynomial(characteristic_polynomial(plant), estimator).at(alpha, beta));
+        using std::abs;
+        if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
+            if (!sc.stable) return {inf, inf, inf};
+            return detail::shift_structured_energy_costs(plant, el.loop);
+        }
     }
-  }
-  const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);
-  if (!(schur.spectral_radius < Scalar(1))) return {inf, inf, inf};
-  const EnergyCostsT<Scalar> c = detail::energy_costs_from_schur(plant, el.loop, schur);
-  for (Scalar v : {c.ce0, c.ce1, c.ce2}) {
-    if (!(v > Scalar(0)) || !std::isfinite(static_cast<double>(v))) return {inf, inf, inf};
-  }
-  return c;
+    const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);
+    if (!(schur.spectral_radius < Scalar(1))) return {inf, inf, inf};
+    const EnergyCostsT<Scalar> c = detail::energy_costs_from_schur(plant, el.loop, schur);
+    for (Scalar v : {c.ce0, c.ce1, c.ce2}) {
+        if (!(v > Scalar(0)) || !std::isfinite(static_cast<double>(v))) return {inf, inf, inf};
+    }
+    return c;
 }
 
 /// g_F of the header comment: sigma_F = (m q / T^2) g_F; +inf when unstable.
 template <typename Scalar>
 Scalar estimator_force_noise_gain(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator, Scalar alpha,
                                   Scalar beta) {
-  const Scalar inf = std::numeric_limits<Scalar>::infinity();
-  if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return inf;
-  const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, true);
-  const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);
-  if (!(schur.spectral_radius < Scalar(1))) return inf;
-  using Complex = std::complex<Scalar>;
-  const ComplexVector<Scalar> gu = schur.u.row(el.noise_index).adjoint();  // U^H g
-  const ComplexMatrix<Scalar> c = (gu * gu.adjoint()) / Scalar(12);
-  const ComplexMatrix<Scalar> x = solve_triangular_stein<Scalar>(schur.t, c);  // P = U X U^H
-  const ComplexVector<Scalar> cu = schur.u.adjoint() * el.force.template cast<Complex>();
-  const Scalar variance = (cu.adjoint() * x * cu)(0, 0).real();
-  using std::sqrt;
-  return variance >= Scalar(0) ? sqrt(variance) : inf;
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return inf;
+    const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, true);
+    const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);
+    if (!(schur.spectral_radius < Scalar(1))) return inf;
+    using Complex = std::complex<Scalar>;
+    const ComplexVector<Scalar> gu = schur.u.row(el.noise_index).adjoint();  // U^H g
+    const ComplexMatrix<Scalar> c = (gu * gu.adjoint()) / Scalar(12);
+    const ComplexMatrix<Scalar> x = solve_triangular_stein<Scalar>(schur.t, c);  // P = U X U^H
+    const ComplexVector<Scalar> cu = schur.u.adjoint() * el.force.template cast<Complex>();
+    const Scalar variance = (cu.adjoint() * x * cu)(0, 0).real();
+    using std::sqrt;
+    return variance >= Scalar(0) ? sqrt(variance) : inf;
 }
 
 /// C_OV (eq. 9) with the estimator: the exact continuous-time maximum of overshoot.hpp
@@ -394,33 +399,33 @@ Scalar estimator_force_noise_gain(const SampledPlant<Scalar>& plant, const Veloc
 template <typename Scalar>
 OvershootResultT<Scalar> estimator_overshoot(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
                                              Scalar alpha, Scalar beta, const OvershootOptions& options = {}) {
-  detail::require_in_range("hapticopt::estimator_overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
-                           "0 < tolerance <= 1");
-  OvershootResultT<Scalar> result;
-  result.time = std::numeric_limits<Scalar>::quiet_NaN();
-  result.value = std::numeric_limits<Scalar>::infinity();
-  if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return result;
-  const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
-  const ClosedLoop<Scalar>& loop = el.loop;
-  const LoopSchurForm<Scalar> schur = loop_schur_form(DynamicMatrix<Scalar>(loop.transition.transpose()));
-  if (!(schur.spectral_radius < Scalar(1))) return result;
-  const Eigen::Index n = loop.transition.rows();
-  const ComplexMatrix<Scalar> x =
-      solve_triangular_stein<Scalar>(schur.t, ComplexMatrix<Scalar>::Identity(n, n));  // U^H I U = I
-  DynamicMatrix<Scalar> p = (schur.u * x * schur.u.adjoint()).real();
-  p = (p + p.transpose()) / Scalar(2);
-  for (Eigen::Index k = 0; k < n; ++k) {  // P >= I for a Schur-stable M; else rounding at the boundary
-    if (!(p(k, k) >= Scalar(1) - Scalar(1e-9)) || !std::isfinite(static_cast<double>(p(k, k)))) return result;
-  }
-  const Scalar x_inf = loop.final_position;
-  const detail::ContinuousMaximum<Scalar> scan = detail::continuous_maximum(
-      plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
-  result.periods = scan.periods;
-  result.converged = scan.converged;
-  result.value = scan.value > 0 ? scan.value / x_inf : Scalar(0);
-  if (result.value > 0) result.time = scan.time;
-  result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);
-  return result;
+    detail::require_in_range("hapticopt::estimator_overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
+                             "0 < tolerance <= 1");
+    OvershootResultT<Scalar> result;
+    result.time = std::numeric_limits<Scalar>::quiet_NaN();
+    result.value = std::numeric_limits<Scalar>::infinity();
+    if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return result;
+    const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
+    const ClosedLoop<Scalar>& loop = el.loop;
+    const LoopSchurForm<Scalar> schur = loop_schur_form(DynamicMatrix<Scalar>(loop.transition.transpose()));
+    if (!(schur.spectral_radius < Scalar(1))) return result;
+    const Eigen::Index n = loop.transition.rows();
+    const ComplexMatrix<Scalar> x =
+        solve_triangular_stein<Scalar>(schur.t, ComplexMatrix<Scalar>::Identity(n, n));  // U^H I U = I
+    DynamicMatrix<Scalar> p = (schur.u * x * schur.u.adjoint()).real();
+    p = (p + p.transpose()) / Scalar(2);
+    for (Eigen::Index k = 0; k < n; ++k) {  // P >= I for a Schur-stable M; else rounding at the boundary
+        if (!(p(k, k) >= Scalar(1) - Scalar(1e-9)) || !std::isfinite(static_cast<double>(p(k, k)))) return result;
+    }
+    const Scalar x_inf = loop.final_position;
+    const detail::ContinuousMaximum<Scalar> scan =
+        detail::continuous_maximum(plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
+    result.periods = scan.periods;
+    result.converged = scan.converged;
+    result.value = scan.value > 0 ? scan.value / x_inf : Scalar(0);
+    if (result.value > 0) result.time = scan.time;
+    result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);
+    return result;
 }
 
 /// C_OV with the estimator for a normalised plant; the backward difference is overshoot(plant, gains).
@@ -428,21 +433,21 @@ HAPTICOPT_FUNC OvershootResult overshoot(const NormalizedPlant& plant, const Nor
                                          const VelocityEstimator& estimator, const OvershootOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::overshoot");
-  validate(estimator, "hapticopt::overshoot");
-  if (estimator.kind == VelocityEstimatorKind::backward) return overshoot(plant, gains, options);
-  if (!EstimatorStabilityTest(plant, estimator).stable(gains.alpha, gains.beta)) {
-    detail::require_in_range("hapticopt::overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
-                             "0 < tolerance <= 1");
-    OvershootResult r;
-    r.value = HUGE_VAL;
-    r.time = std::nan("");
-    return r;
-  }
-  return estimator_overshoot(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta, options);
+    validate(gains, "hapticopt::overshoot");
+    validate(estimator, "hapticopt::overshoot");
+    if (estimator.kind == VelocityEstimatorKind::backward) return overshoot(plant, gains, options);
+    if (!EstimatorStabilityTest(plant, estimator).stable(gains.alpha, gains.beta)) {
+        detail::require_in_range("hapticopt::overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
+                                 "0 < tolerance <= 1");
+        OvershootResult r;
+        r.value = HUGE_VAL;
+        r.time = std::nan("");
+        return r;
+    }
+    return estimator_overshoot(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta, options);
 }
 #else
-;
+    ;
 #endif
 
 /// Stability with the estimator: the Schur-Cohn verdict (EstimatorStabilityTest) and the spectral radius of
@@ -451,22 +456,22 @@ HAPTICOPT_FUNC StabilityReport stability(const NormalizedPlant& plant, const Nor
                                          const VelocityEstimator& estimator)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::stability");
-  validate(estimator, "hapticopt::stability");
-  if (estimator.kind == VelocityEstimatorKind::backward) return stability(plant, gains);
-  const SampledPlant<double> sampled(plant);
-  const LoopVerdict<double> v = EstimatorStabilityTest(plant, estimator).verdict(gains.alpha, gains.beta);
-  StabilityReport report;
-  report.stable = v.stable;
-  report.margin = v.margin;
-  report.refined = v.refined;
-  report.spectral_radius =
-      loop_schur_form(make_estimator_loop(sampled, estimator, gains.alpha, gains.beta, false).loop.transition)
-          .spectral_radius;
-  return report;
+    validate(gains, "hapticopt::stability");
+    validate(estimator, "hapticopt::stability");
+    if (estimator.kind == VelocityEstimatorKind::backward) return stability(plant, gains);
+    const SampledPlant<double> sampled(plant);
+    const LoopVerdict<double> v = EstimatorStabilityTest(plant, estimator).verdict(gains.alpha, gains.beta);
+    StabilityReport report;
+    report.stable = v.stable;
+    report.margin = v.margin;
+    report.refined = v.refined;
+    report.spectral_radius =
+        loop_schur_form(make_estimator_loop(sampled, estimator, gains.alpha, gains.beta, false).loop.transition)
+            .spectral_radius;
+    return report;
 }
 #else
-;
+    ;
 #endif
 
 /// C_E0..2 with the estimator; +inf when unstable. The backward difference is energy_costs(plant, gains).
@@ -474,15 +479,15 @@ HAPTICOPT_FUNC EnergyCosts energy_costs(const NormalizedPlant& plant, const Norm
                                         const VelocityEstimator& estimator)
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::energy_costs");
-  validate(estimator, "hapticopt::energy_costs");
-  if (estimator.kind == VelocityEstimatorKind::backward) return energy_costs(plant, gains);
-  const EstimatorStabilityTest test(plant, estimator);
-  if (!test.stable(gains.alpha, gains.beta)) return {HUGE_VAL, HUGE_VAL, HUGE_VAL};
-  return estimator_energy_costs(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta);
+    validate(gains, "hapticopt::energy_costs");
+    validate(estimator, "hapticopt::energy_costs");
+    if (estimator.kind == VelocityEstimatorKind::backward) return energy_costs(plant, gains);
+    const EstimatorStabilityTest test(plant, estimator);
+    if (!test.stable(gains.alpha, gains.beta)) return {HUGE_VAL, HUGE_VAL, HUGE_VAL};
+    return estimator_energy_costs(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta);
 }
 #else
-;
+    ;
 #endif
 
 /// g_F (header comment): the steady-state standard deviation of the commanded force per encoder step, in
@@ -491,13 +496,13 @@ HAPTICOPT_FUNC double force_noise_gain(const NormalizedPlant& plant, const Norma
                                        const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  validate(gains, "hapticopt::force_noise_gain");
-  validate(estimator, "hapticopt::force_noise_gain");
-  if (!EstimatorStabilityTest(plant, estimator).stable(gains.alpha, gains.beta)) return HUGE_VAL;
-  return estimator_force_noise_gain(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta);
+    validate(gains, "hapticopt::force_noise_gain");
+    validate(estimator, "hapticopt::force_noise_gain");
+    if (!EstimatorStabilityTest(plant, estimator).stable(gains.alpha, gains.beta)) return HUGE_VAL;
+    return estimator_force_noise_gain(SampledPlant<double>(plant), estimator, gains.alpha, gains.beta);
 }
 #else
-;
+    ;
 #endif
 
 /// sigma_F [N] = (m q / T^2) g_F for the physical loop, gains and encoder step q [m] (> 0, finite).
@@ -505,26 +510,26 @@ HAPTICOPT_FUNC double force_noise_std(const PhysicalPlant& plant, const WallGain
                                       const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  const char* fn = "hapticopt::force_noise_std";
-  validate(plant, fn);
-  detail::require_positive(fn, "position_resolution", position_resolution);
-  const NormalizedGains g = normalize(gains, plant.mass, plant.period);
-  return plant.mass * position_resolution / (plant.period * plant.period) *
-         force_noise_gain(normalize(plant), g, estimator);
+    const char* fn = "hapticopt::force_noise_std";
+    validate(plant, fn);
+    detail::require_positive(fn, "position_resolution", position_resolution);
+    const NormalizedGains g = normalize(gains, plant.mass, plant.period);
+    return plant.mass * position_resolution / (plant.period * plant.period) *
+           force_noise_gain(normalize(plant), g, estimator);
 }
 #else
-;
+    ;
 #endif
 
 /// A stable set of the gain plane not connected to the main region, as seen on the region's scan grid
 /// (bounding box of its stable grid cells; islands thinner than a cell can be missed).
 struct StableIsland {
-  double alpha_min = 0, alpha_max = 0, beta_min = 0, beta_max = 0;
+    double alpha_min = 0, alpha_max = 0, beta_min = 0, beta_max = 0;
 };
 
 struct EstimatorRegionOptions {
-  int alpha_grid = 160;  ///< scan cells along alpha, >= 16
-  int beta_grid = 160;   ///< scan cells along beta, >= 16
+    int alpha_grid = 160;  ///< scan cells along alpha, >= 16
+    int beta_grid = 160;   ///< scan cells along beta, >= 16
 };
 
 /// The main stable region with the estimator: the connected stable set that contains small alpha > 0
@@ -538,236 +543,237 @@ struct EstimatorRegionOptions {
 /// are reported as islands. Accuracy: alpha_max to ~1e-12 where the maximum is a smooth tip (checked against
 /// the exact d = 0 value 12 - 8 sqrt(2) for window 1, tests/core/test_velocity_estimator.cpp).
 class EstimatorStabilityRegion {
- public:
-  HAPTICOPT_DEFERRED
-  EstimatorStabilityRegion(const NormalizedPlant& plant, const VelocityEstimator& estimator,
-                           const EstimatorRegionOptions& options = {})
-      : test_(plant, estimator), options_(options) {
-    const char* fn = "hapticopt::EstimatorStabilityRegion";
-    validate(plant, fn);
-    validate(estimator, fn);
-    detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 16, false, 1e5, "16 <= alpha_grid <= 10^5");
-    detail::require_in_range(fn, "beta_grid", options.beta_grid, 16, false, 1e5, "16 <= beta_grid <= 10^5");
-    double a1 = 1, b0 = -1, b1 = 4;
-    std::vector<StableIsland> wide;
-    bool have_wide = false;
-    for (int pass = 0; pass < 40; ++pass) {
-      scan(a1, b0, b1);
-      if (!have_wide) {
-        wide = other_components();
-        have_wide = true;
-      }
-      if (main_cells_ == 0) {  // nothing stable in the first column: the main region is below one cell, or empty
-        if (a1 < 1e-9) {
-          alpha_max_ = 0;
-          islands_ = wide;
-          return;
+  public:
+    HAPTICOPT_DEFERRED
+    EstimatorStabilityRegion(const NormalizedPlant& plant, const VelocityEstimator& estimator,
+                             const EstimatorRegionOptions& options = {})
+        : test_(plant, estimator), options_(options) {
+        const char* fn = "hapticopt::EstimatorStabilityRegion";
+        validate(plant, fn);
+        validate(estimator, fn);
+        detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 16, false, 1e5, "16 <= alpha_grid <= 10^5");
+        detail::require_in_range(fn, "beta_grid", options.beta_grid, 16, false, 1e5, "16 <= beta_grid <= 10^5");
+        double a1 = 1, b0 = -1, b1 = 4;
+        std::vector<StableIsland> wide;
+        bool have_wide = false;
+        for (int pass = 0; pass < 40; ++pass) {
+            scan(a1, b0, b1);
+            if (!have_wide) {
+                wide = other_components();
+                have_wide = true;
+            }
+            if (main_cells_ == 0) {  // nothing stable in the first column: the main region is below one cell, or empty
+                if (a1 < 1e-9) {
+                    alpha_max_ = 0;
+                    islands_ = wide;
+                    return;
+                }
+                const double w = (b1 - b0) / 4;
+                a1 /= 4;
+                b0 = -0.2 * w;
+                b1 = 0.8 * w;
+                continue;
+            }
+            // Re-fit the box: grow where the region touches an edge, shrink where it fills little of it.
+            const double da = a1 / na(), db = (b1 - b0) / nb();
+            const double top = (main_i1_ + 1) * da;
+            const double lo = b0 + main_j0_ * db, hi = b0 + (main_j1_ + 1) * db;
+            const bool touches = main_i1_ == na() - 1 || main_j0_ == 0 || main_j1_ == nb() - 1;
+            const bool loose = top < 0.6 * a1 || (hi - lo) < 0.6 * (b1 - b0);
+            if (!touches && !loose) break;
+            const double na1 = main_i1_ == na() - 1 ? 2 * a1 : 1.25 * top;
+            const double margin = 0.15 * (hi - lo);
+            const double nb0 = main_j0_ == 0 ? b0 - (b1 - b0) : lo - margin;
+            const double nb1 = main_j1_ == nb() - 1 ? b1 + (b1 - b0) : hi + margin;
+            a1 = na1;
+            b0 = nb0;
+            b1 = nb1;
         }
-        const double w = (b1 - b0) / 4;
-        a1 /= 4;
-        b0 = -0.2 * w;
-        b1 = 0.8 * w;
-        continue;
-      }
-      // Re-fit the box: grow where the region touches an edge, shrink where it fills little of it.
-      const double da = a1 / na(), db = (b1 - b0) / nb();
-      const double top = (main_i1_ + 1) * da;
-      const double lo = b0 + main_j0_ * db, hi = b0 + (main_j1_ + 1) * db;
-      const bool touches = main_i1_ == na() - 1 || main_j0_ == 0 || main_j1_ == nb() - 1;
-      const bool loose = top < 0.6 * a1 || (hi - lo) < 0.6 * (b1 - b0);
-      if (!touches && !loose) break;
-      const double na1 = main_i1_ == na() - 1 ? 2 * a1 : 1.25 * top;
-      const double margin = 0.15 * (hi - lo);
-      const double nb0 = main_j0_ == 0 ? b0 - (b1 - b0) : lo - margin;
-      const double nb1 = main_j1_ == nb() - 1 ? b1 + (b1 - b0) : hi + margin;
-      a1 = na1;
-      b0 = nb0;
-      b1 = nb1;
-    }
-    refine_tip();
-    // Islands: the components of the first (widest) scan not connected to its first column, except any that
-    // overlaps the main region's box (a main region thinner than that scan's cells can appear detached in it).
-    const double db = (b1_ - b0_) / nb();
-    const double main_lo = b0_ + main_j0_ * db, main_hi = b0_ + (main_j1_ + 1) * db;
-    for (const StableIsland& i : wide) {
-      const bool overlaps = i.alpha_min < alpha_max_ && i.beta_min < main_hi && i.beta_max > main_lo;
-      if (!overlaps) islands_.push_back(i);
-    }
-  }
-
-  double alpha_max() const { return alpha_max_; }
-  double beta_at_alpha_max() const { return beta_at_alpha_max_; }
-  const std::vector<StableIsland>& islands() const { return islands_; }
-  bool stable(double alpha, double beta) const { return test_.stable(alpha, beta); }
-  const EstimatorStabilityTest& test() const { return test_; }
-
-  /// The stable beta interval of the main region at alpha (0 < alpha < alpha_max), ends to ~1e-13;
-  /// (0, 0) when alpha is outside (0, alpha_max).
-  std::pair<double, double> beta_interval(double alpha) const {
-    if (!(alpha > 0 && alpha < alpha_max_)) return {0, 0};
-    const double da = a1_ / na(), db = (b1_ - b0_) / nb();
-    int i = std::clamp(static_cast<int>(alpha / da), 0, na() - 1);
-    // A stable beta of the main region at this alpha: main cells of the nearest columns, centre out.
-    double start = std::nan("");
-    for (int di = 0; di <= 2 && std::isnan(start); ++di) {
-      for (int sgn : {-1, 1}) {
-        const int c = std::clamp(i + sgn * di, 0, na() - 1);
-        for (int j = 0; j < nb() && std::isnan(start); ++j) {
-          const double b = b0_ + (j + 0.5) * db;
-          if (label(c, j) == 1 && test_.stable(alpha, b)) start = b;
+        refine_tip();
+        // Islands: the components of the first (widest) scan not connected to its first column, except any that
+        // overlaps the main region's box (a main region thinner than that scan's cells can appear detached in it).
+        const double db = (b1_ - b0_) / nb();
+        const double main_lo = b0_ + main_j0_ * db, main_hi = b0_ + (main_j1_ + 1) * db;
+        for (const StableIsland& i : wide) {
+            const bool overlaps = i.alpha_min < alpha_max_ && i.beta_min < main_hi && i.beta_max > main_lo;
+            if (!overlaps) islands_.push_back(i);
         }
-      }
     }
-    if (std::isnan(start)) return {0, 0};
-    auto edge = [&](double direction) {
-      double inside = start, outside = start;
-      for (int k = 1; k < 8 * nb(); ++k) {
-        outside = start + direction * k * db / 4;
-        if (!test_.stable(alpha, outside)) break;
-        inside = outside;
-      }
-      for (int k = 0; k < 80 && std::abs(outside - inside) > 1e-14 * std::max(1.0, std::abs(inside)); ++k) {
-        const double mid = (inside + outside) / 2;
-        (test_.stable(alpha, mid) ? inside : outside) = mid;
-      }
-      return inside;
-    };
-    return {edge(-1), edge(1)};
-  }
 
- private:
-  int na() const { return options_.alpha_grid; }
-  int nb() const { return options_.beta_grid; }
-  int label(int i, int j) const { return labels_[static_cast<std::size_t>(i * nb() + j)]; }
+    double alpha_max() const { return alpha_max_; }
+    double beta_at_alpha_max() const { return beta_at_alpha_max_; }
+    const std::vector<StableIsland>& islands() const { return islands_; }
+    bool stable(double alpha, double beta) const { return test_.stable(alpha, beta); }
+    const EstimatorStabilityTest& test() const { return test_; }
 
-  /// Labels: 0 unstable, 1 main component (flood fill from column 0), 2 stable elsewhere.
-  void scan(double a1, double b0, double b1) {
-    a1_ = a1;
-    b0_ = b0;
-    b1_ = b1;
-    const double da = a1 / na(), db = (b1 - b0) / nb();
-    labels_.assign(static_cast<std::size_t>(na() * nb()), 0);
-    for (int i = 0; i < na(); ++i) {
-      for (int j = 0; j < nb(); ++j) {
-        if (test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db)) labels_[static_cast<std::size_t>(i * nb() + j)] = 2;
-      }
+    /// The stable beta interval of the main region at alpha (0 < alpha < alpha_max), ends to ~1e-13;
+    /// (0, 0) when alpha is outside (0, alpha_max).
+    std::pair<double, double> beta_interval(double alpha) const {
+        if (!(alpha > 0 && alpha < alpha_max_)) return {0, 0};
+        const double da = a1_ / na(), db = (b1_ - b0_) / nb();
+        int i = std::clamp(static_cast<int>(alpha / da), 0, na() - 1);
+        // A stable beta of the main region at this alpha: main cells of the nearest columns, centre out.
+        double start = std::nan("");
+        for (int di = 0; di <= 2 && std::isnan(start); ++di) {
+            for (int sgn : {-1, 1}) {
+                const int c = std::clamp(i + sgn * di, 0, na() - 1);
+                for (int j = 0; j < nb() && std::isnan(start); ++j) {
+                    const double b = b0_ + (j + 0.5) * db;
+                    if (label(c, j) == 1 && test_.stable(alpha, b)) start = b;
+                }
+            }
+        }
+        if (std::isnan(start)) return {0, 0};
+        auto edge = [&](double direction) {
+            double inside = start, outside = start;
+            for (int k = 1; k < 8 * nb(); ++k) {
+                outside = start + direction * k * db / 4;
+                if (!test_.stable(alpha, outside)) break;
+                inside = outside;
+            }
+            for (int k = 0; k < 80 && std::abs(outside - inside) > 1e-14 * std::max(1.0, std::abs(inside)); ++k) {
+                const double mid = (inside + outside) / 2;
+                (test_.stable(alpha, mid) ? inside : outside) = mid;
+            }
+            return inside;
+        };
+        return {edge(-1), edge(1)};
     }
-    std::vector<int> stack;
-    for (int j = 0; j < nb(); ++j) {
-      if (label(0, j) == 2) stack.push_back(j);
-    }
-    main_cells_ = 0;
-    main_i1_ = -1;
-    main_j0_ = nb();
-    main_j1_ = -1;
-    while (!stack.empty()) {
-      const int cell = stack.back();
-      stack.pop_back();
-      auto& l = labels_[static_cast<std::size_t>(cell)];
-      if (l != 2) continue;
-      l = 1;
-      const int i = cell / nb(), j = cell % nb();
-      ++main_cells_;
-      main_i1_ = std::max(main_i1_, i);
-      main_j0_ = std::min(main_j0_, j);
-      main_j1_ = std::max(main_j1_, j);
-      if (i > 0) stack.push_back(cell - nb());
-      if (i + 1 < na()) stack.push_back(cell + nb());
-      if (j > 0) stack.push_back(cell - 1);
-      if (j + 1 < nb()) stack.push_back(cell + 1);
-    }
-  }
 
-  std::vector<StableIsland> other_components() {
-    const double da = a1_ / na(), db = (b1_ - b0_) / nb();
-    std::vector<StableIsland> out;
-    std::vector<int> seen(labels_.size(), 0);
-    for (std::size_t start = 0; start < labels_.size(); ++start) {
-      if (labels_[start] != 2 || seen[start]) continue;
-      StableIsland box{HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
-      std::vector<int> stack{static_cast<int>(start)};
-      while (!stack.empty()) {
-        const int cell = stack.back();
-        stack.pop_back();
-        if (labels_[static_cast<std::size_t>(cell)] != 2 || seen[static_cast<std::size_t>(cell)]) continue;
-        seen[static_cast<std::size_t>(cell)] = 1;
-        const int i = cell / nb(), j = cell % nb();
-        box.alpha_min = std::min(box.alpha_min, i * da);
-        box.alpha_max = std::max(box.alpha_max, (i + 1) * da);
-        box.beta_min = std::min(box.beta_min, b0_ + j * db);
-        box.beta_max = std::max(box.beta_max, b0_ + (j + 1) * db);
-        if (i > 0) stack.push_back(cell - nb());
-        if (i + 1 < na()) stack.push_back(cell + nb());
-        if (j > 0) stack.push_back(cell - 1);
-        if (j + 1 < nb()) stack.push_back(cell + 1);
-      }
-      out.push_back(box);
-    }
-    return out;
-  }
+  private:
+    int na() const { return options_.alpha_grid; }
+    int nb() const { return options_.beta_grid; }
+    int label(int i, int j) const { return labels_[static_cast<std::size_t>(i * nb() + j)]; }
 
-  /// The main region's edge at beta: march up from its highest cell in the nearest column, then bisect.
-  double edge_at(double beta) const {
-    const double da = a1_ / na(), db = (b1_ - b0_) / nb();
-    const int j = std::clamp(static_cast<int>((beta - b0_) / db), 0, nb() - 1);
-    double inside = -1;
-    for (int i = na() - 1; i >= 0 && inside < 0; --i) {
-      if (label(i, j) == 1 && test_.stable((i + 0.5) * da, beta)) inside = (i + 0.5) * da;
+    /// Labels: 0 unstable, 1 main component (flood fill from column 0), 2 stable elsewhere.
+    void scan(double a1, double b0, double b1) {
+        a1_ = a1;
+        b0_ = b0;
+        b1_ = b1;
+        const double da = a1 / na(), db = (b1 - b0) / nb();
+        labels_.assign(static_cast<std::size_t>(na() * nb()), 0);
+        for (int i = 0; i < na(); ++i) {
+            for (int j = 0; j < nb(); ++j) {
+                if (test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db))
+                    labels_[static_cast<std::size_t>(i * nb() + j)] = 2;
+            }
+        }
+        std::vector<int> stack;
+        for (int j = 0; j < nb(); ++j) {
+            if (label(0, j) == 2) stack.push_back(j);
+        }
+        main_cells_ = 0;
+        main_i1_ = -1;
+        main_j0_ = nb();
+        main_j1_ = -1;
+        while (!stack.empty()) {
+            const int cell = stack.back();
+            stack.pop_back();
+            auto& l = labels_[static_cast<std::size_t>(cell)];
+            if (l != 2) continue;
+            l = 1;
+            const int i = cell / nb(), j = cell % nb();
+            ++main_cells_;
+            main_i1_ = std::max(main_i1_, i);
+            main_j0_ = std::min(main_j0_, j);
+            main_j1_ = std::max(main_j1_, j);
+            if (i > 0) stack.push_back(cell - nb());
+            if (i + 1 < na()) stack.push_back(cell + nb());
+            if (j > 0) stack.push_back(cell - 1);
+            if (j + 1 < nb()) stack.push_back(cell + 1);
+        }
     }
-    if (inside < 0) return 0;
-    double outside = inside;
-    for (int k = 1; k < 16 * na(); ++k) {
-      outside = inside + da / 4;
-      if (!test_.stable(outside, beta)) break;
-      inside = outside;
-    }
-    for (int k = 0; k < 80 && outside - inside > 1e-14 * std::max(1.0, inside); ++k) {
-      const double mid = (inside + outside) / 2;
-      (test_.stable(mid, beta) ? inside : outside) = mid;
-    }
-    return inside;
-  }
 
-  void refine_tip() {
-    const double db = (b1_ - b0_) / nb();
-    int best_j = -1;
-    for (int j = 0; j < nb() && best_j < 0; ++j) {
-      if (label(main_i1_, j) == 1) best_j = j;
+    std::vector<StableIsland> other_components() {
+        const double da = a1_ / na(), db = (b1_ - b0_) / nb();
+        std::vector<StableIsland> out;
+        std::vector<int> seen(labels_.size(), 0);
+        for (std::size_t start = 0; start < labels_.size(); ++start) {
+            if (labels_[start] != 2 || seen[start]) continue;
+            StableIsland box{HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
+            std::vector<int> stack{static_cast<int>(start)};
+            while (!stack.empty()) {
+                const int cell = stack.back();
+                stack.pop_back();
+                if (labels_[static_cast<std::size_t>(cell)] != 2 || seen[static_cast<std::size_t>(cell)]) continue;
+                seen[static_cast<std::size_t>(cell)] = 1;
+                const int i = cell / nb(), j = cell % nb();
+                box.alpha_min = std::min(box.alpha_min, i * da);
+                box.alpha_max = std::max(box.alpha_max, (i + 1) * da);
+                box.beta_min = std::min(box.beta_min, b0_ + j * db);
+                box.beta_max = std::max(box.beta_max, b0_ + (j + 1) * db);
+                if (i > 0) stack.push_back(cell - nb());
+                if (i + 1 < na()) stack.push_back(cell + nb());
+                if (j > 0) stack.push_back(cell - 1);
+                if (j + 1 < nb()) stack.push_back(cell + 1);
+            }
+            out.push_back(box);
+        }
+        return out;
     }
-    int last_j = best_j;
-    while (last_j + 1 < nb() && label(main_i1_, last_j + 1) == 1) ++last_j;
-    const double centre = b0_ + ((best_j + last_j) / 2.0 + 0.5) * db;
-    const double half = (last_j - best_j + 1) * db / 2 + 2 * db;
-    const detail::ScalarMinimum m = detail::minimize_scalar([&](double b) { return -edge_at(b); }, centre - half,
-                                                            centre + half, 1e-13);
-    beta_at_alpha_max_ = m.x;
-    alpha_max_ = -m.value;
-  }
 
-  EstimatorStabilityTest test_;
-  EstimatorRegionOptions options_;
-  std::vector<int> labels_;
-  std::vector<StableIsland> islands_;
-  double a1_ = 1, b0_ = -1, b1_ = 4;
-  int main_cells_ = 0, main_i1_ = -1, main_j0_ = 0, main_j1_ = -1;
-  double alpha_max_ = 0, beta_at_alpha_max_ = 0;
+    /// The main region's edge at beta: march up from its highest cell in the nearest column, then bisect.
+    double edge_at(double beta) const {
+        const double da = a1_ / na(), db = (b1_ - b0_) / nb();
+        const int j = std::clamp(static_cast<int>((beta - b0_) / db), 0, nb() - 1);
+        double inside = -1;
+        for (int i = na() - 1; i >= 0 && inside < 0; --i) {
+            if (label(i, j) == 1 && test_.stable((i + 0.5) * da, beta)) inside = (i + 0.5) * da;
+        }
+        if (inside < 0) return 0;
+        double outside = inside;
+        for (int k = 1; k < 16 * na(); ++k) {
+            outside = inside + da / 4;
+            if (!test_.stable(outside, beta)) break;
+            inside = outside;
+        }
+        for (int k = 0; k < 80 && outside - inside > 1e-14 * std::max(1.0, inside); ++k) {
+            const double mid = (inside + outside) / 2;
+            (test_.stable(mid, beta) ? inside : outside) = mid;
+        }
+        return inside;
+    }
+
+    void refine_tip() {
+        const double db = (b1_ - b0_) / nb();
+        int best_j = -1;
+        for (int j = 0; j < nb() && best_j < 0; ++j) {
+            if (label(main_i1_, j) == 1) best_j = j;
+        }
+        int last_j = best_j;
+        while (last_j + 1 < nb() && label(main_i1_, last_j + 1) == 1) ++last_j;
+        const double centre = b0_ + ((best_j + last_j) / 2.0 + 0.5) * db;
+        const double half = (last_j - best_j + 1) * db / 2 + 2 * db;
+        const detail::ScalarMinimum m =
+            detail::minimize_scalar([&](double b) { return -edge_at(b); }, centre - half, centre + half, 1e-13);
+        beta_at_alpha_max_ = m.x;
+        alpha_max_ = -m.value;
+    }
+
+    EstimatorStabilityTest test_;
+    EstimatorRegionOptions options_;
+    std::vector<int> labels_;
+    std::vector<StableIsland> islands_;
+    double a1_ = 1, b0_ = -1, b1_ = 4;
+    int main_cells_ = 0, main_i1_ = -1, main_j0_ = 0, main_j1_ = -1;
+    double alpha_max_ = 0, beta_at_alpha_max_ = 0;
 };
 
 /// An optimum with the estimator: the criterion's point, its cost (none for amax) and the main region's tip.
 struct EstimatorOptimum {
-  Criterion criterion = Criterion::CE2;
-  double alpha = 0;
-  double beta = 0;
-  std::optional<double> cost;
-  double alpha_max = 0;
-  double beta_at_alpha_max = 0;
+    Criterion criterion = Criterion::CE2;
+    double alpha = 0;
+    double beta = 0;
+    std::optional<double> cost;
+    double alpha_max = 0;
+    double beta_at_alpha_max = 0;
 };
 
 /// Options of optimal_point with an estimator.
 struct EstimatorOptimumOptions {
-  RegionSearchOptions search;          ///< grids of the CEx search (region_minimum.hpp)
-  double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
-  double alpha_tolerance = 1e-10;      ///< bisection tolerance of the CEx+OV points, relative to alpha_max
+    RegionSearchOptions search;          ///< grids of the CEx search (region_minimum.hpp)
+    double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    double alpha_tolerance = 1e-10;      ///< bisection tolerance of the CEx+OV points, relative to alpha_max
 };
 
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
@@ -783,84 +789,84 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
                                               const EstimatorOptimumOptions& options = {})
 #if HAPTICOPT_DEFINITIONS
 {
-  const char* fn = "hapticopt::optimal_point";
-  validate(estimator, fn);
-  detail::require_in_range(fn, "overshoot_tolerance", options.overshoot_tolerance, 0.0, true, 1.0,
-                           "0 < tolerance <= 1");
-  detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-2,
-                           "0 < alpha_tolerance <= 0.01");
-  EstimatorOptimum out;
-  out.criterion = criterion;
-  if (estimator.kind == VelocityEstimatorKind::backward) {
-    OptimumOptions o;
-    o.overshoot_tolerance = options.overshoot_tolerance;
-    const Optimum b = optimal_point(criterion, plant, o);
-    out.alpha = b.alpha;
-    out.beta = b.beta;
-    out.cost = b.cost;
-    out.alpha_max = b.alpha_max;
-    out.beta_at_alpha_max = b.beta_at_alpha_max;
-    return out;
-  }
-  if (criterion == Criterion::Overshoot) {
-    throw InvalidParameter(fn, "criterion", static_cast<double>(criterion),
-                           "amax, CE0..2 or CE0+OV..CE2+OV with a velocity estimator other than backward");
-  }
-  const EstimatorStabilityRegion region(plant, estimator);
-  out.alpha_max = region.alpha_max();
-  out.beta_at_alpha_max = region.beta_at_alpha_max();
-  if (criterion == Criterion::AlphaMax) {
-    out.alpha = out.alpha_max;
-    out.beta = out.beta_at_alpha_max;
-    return out;
-  }
-  const int index = *energy_index(criterion);
-  const SampledPlant<double> sampled(plant);
-  auto cost = [&](double a, double b) {
-    const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
-    return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
-  };
-  auto interval = [&](double a) { return region.beta_interval(a); };
-  if (!requires_no_overshoot(criterion)) {
-    const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, options.search);
-    out.alpha = m.alpha;
-    out.beta = m.beta;
+    const char* fn = "hapticopt::optimal_point";
+    validate(estimator, fn);
+    detail::require_in_range(fn, "overshoot_tolerance", options.overshoot_tolerance, 0.0, true, 1.0,
+                             "0 < tolerance <= 1");
+    detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-2,
+                             "0 < alpha_tolerance <= 0.01");
+    EstimatorOptimum out;
+    out.criterion = criterion;
+    if (estimator.kind == VelocityEstimatorKind::backward) {
+        OptimumOptions o;
+        o.overshoot_tolerance = options.overshoot_tolerance;
+        const Optimum b = optimal_point(criterion, plant, o);
+        out.alpha = b.alpha;
+        out.beta = b.beta;
+        out.cost = b.cost;
+        out.alpha_max = b.alpha_max;
+        out.beta_at_alpha_max = b.beta_at_alpha_max;
+        return out;
+    }
+    if (criterion == Criterion::Overshoot) {
+        throw InvalidParameter(fn, "criterion", static_cast<double>(criterion),
+                               "amax, CE0..2 or CE0+OV..CE2+OV with a velocity estimator other than backward");
+    }
+    const EstimatorStabilityRegion region(plant, estimator);
+    out.alpha_max = region.alpha_max();
+    out.beta_at_alpha_max = region.beta_at_alpha_max();
+    if (criterion == Criterion::AlphaMax) {
+        out.alpha = out.alpha_max;
+        out.beta = out.beta_at_alpha_max;
+        return out;
+    }
+    const int index = *energy_index(criterion);
+    const SampledPlant<double> sampled(plant);
+    auto cost = [&](double a, double b) {
+        const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
+        return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+    };
+    auto interval = [&](double a) { return region.beta_interval(a); };
+    if (!requires_no_overshoot(criterion)) {
+        const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, options.search);
+        out.alpha = m.alpha;
+        out.beta = m.beta;
+        out.cost = m.value;
+        return out;
+    }
+    OvershootOptions ov;
+    ov.tolerance = options.overshoot_tolerance;
+    auto curve = [&](double a) { return detail::minimize_over_beta(cost, interval, a, options.search.beta_grid); };
+    auto no_overshoot = [&](double a) {
+        const detail::ScalarMinimum m = curve(a);
+        return std::isfinite(m.value) && estimator_overshoot(sampled, estimator, a, m.x, ov).within_tolerance;
+    };
+    const int n = options.search.alpha_grid;
+    double without = -1, with = out.alpha_max;
+    for (int i = 1; i < n; ++i) {
+        const double a = out.alpha_max * (1 - static_cast<double>(i) / n);
+        if (no_overshoot(a)) {
+            without = a;
+            break;
+        }
+        with = a;
+    }
+    if (without < 0) {
+        throw InvalidParameter(fn, "overshoot_tolerance", options.overshoot_tolerance,
+                               "a tolerance met somewhere on the optimal curve (none found on the scan)");
+    }
+    while (with - without > options.alpha_tolerance * out.alpha_max) {
+        const double mid = (with + without) / 2;
+        (no_overshoot(mid) ? without : with) = mid;
+    }
+    const detail::ScalarMinimum m = curve(without);
+    out.alpha = without;
+    out.beta = m.x;
     out.cost = m.value;
     return out;
-  }
-  OvershootOptions ov;
-  ov.tolerance = options.overshoot_tolerance;
-  auto curve = [&](double a) { return detail::minimize_over_beta(cost, interval, a, options.search.beta_grid); };
-  auto no_overshoot = [&](double a) {
-    const detail::ScalarMinimum m = curve(a);
-    return std::isfinite(m.value) && estimator_overshoot(sampled, estimator, a, m.x, ov).within_tolerance;
-  };
-  const int n = options.search.alpha_grid;
-  double without = -1, with = out.alpha_max;
-  for (int i = 1; i < n; ++i) {
-    const double a = out.alpha_max * (1 - static_cast<double>(i) / n);
-    if (no_overshoot(a)) {
-      without = a;
-      break;
-    }
-    with = a;
-  }
-  if (without < 0) {
-    throw InvalidParameter(fn, "overshoot_tolerance", options.overshoot_tolerance,
-                           "a tolerance met somewhere on the optimal curve (none found on the scan)");
-  }
-  while (with - without > options.alpha_tolerance * out.alpha_max) {
-    const double mid = (with + without) / 2;
-    (no_overshoot(mid) ? without : with) = mid;
-  }
-  const detail::ScalarMinimum m = curve(without);
-  out.alpha = without;
-  out.beta = m.x;
-  out.cost = m.value;
-  return out;
 }
 #else
-;
+    ;
 #endif
 
 }  // namespace hapticopt

@@ -33,7 +33,8 @@ Error transport_error(const std::string& function, const std::string& what) {
 Error error_from_reply(const std::string& function, const json& reply) {
     const std::string code = reply.value("code", std::string(to_string(ErrorCode::Unknown)));
     const std::string message = reply.value("message", std::string("(no message)"));
-    const int op_index = reply.contains("op_index") && reply["op_index"].is_number_integer() ? reply["op_index"].get<int>() : -1;
+    const int op_index =
+        reply.contains("op_index") && reply["op_index"].is_number_integer() ? reply["op_index"].get<int>() : -1;
     std::optional<double> largest;
     if (reply.contains("largest_stable_K") && reply["largest_stable_K"].is_number()) {
         largest = reply["largest_stable_K"].get<double>();
@@ -136,8 +137,10 @@ Batch& Batch::clear() {
 
 std::string default_socket_path() {
     if (const char* s = std::getenv("HAPTICD_SOCKET"); s != nullptr && *s != '\0') return s;
-    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
-    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
+    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0')
+        return std::string(s) + "/hapticd.sock";
+    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0')
+        return std::string(s) + "/hapticd.sock";
     return "/run/hapticd/hapticd.sock";
 }
 
@@ -155,19 +158,26 @@ Client Client::connect(const ConnectOptions& options) {
     if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
         const int e = errno;
         ::close(fd);
-        throw transport_error("Client::connect", "connect to '" + path + "': " + std::strerror(e) +
-                                                     " (is hapticd running with --serve? may this user open the socket?)");
+        throw transport_error("Client::connect",
+                              "connect to '" + path + "': " + std::strerror(e) +
+                                  " (is hapticd running with --serve? may this user open the socket?)");
     }
     Client c(fd, options.timeout_s);
     c.event_capacity_ = options.event_queue_capacity;
     c.contact_capacity_ = options.contact_queue_capacity;
     c.set_busy_retry(options.busy_retry);
-    json hello{{"type", "hello"}, {"protocol", options.protocol}, {"client", options.client_name}, {"lease_s", options.lease_s}};
+    json hello{{"type", "hello"},
+               {"protocol", options.protocol},
+               {"client", options.client_name},
+               {"lease_s", options.lease_s}};
     c.send_raw(hello.dump());
     const auto raw = c.receive_raw(options.timeout_s);
-    if (!raw) throw transport_error("Client::connect", "no answer to hello within " + std::to_string(options.timeout_s) + " s");
+    if (!raw)
+        throw transport_error("Client::connect",
+                              "no answer to hello within " + std::to_string(options.timeout_s) + " s");
     json w = json::parse(*raw, nullptr, false);
-    if (w.is_discarded() || !w.is_object()) throw Error(ErrorCode::BadJson, "Client::connect: the server's answer is not JSON");
+    if (w.is_discarded() || !w.is_object())
+        throw Error(ErrorCode::BadJson, "Client::connect: the server's answer is not JSON");
     if (w.value("type", std::string()) != "welcome") throw error_from_reply("Client::connect", w);
     Welcome& we = c.welcome_;
     we.protocol = w.value("protocol", 0);
@@ -186,15 +196,24 @@ Client Client::connect(const ConnectOptions& options) {
     we.device.mass_matrix = mass_matrix_from_welcome(d, we.device.axes);
     we.device.delay_s = d.value("delay_s", 0.0);
     we.device.max_force = d.value("max_force", 0.0);
-    if (d.contains("max_stiffness") && d["max_stiffness"].is_number()) we.device.max_stiffness = d["max_stiffness"].get<double>();
+    if (d.contains("max_stiffness") && d["max_stiffness"].is_number())
+        we.device.max_stiffness = d["max_stiffness"].get<double>();
     return c;
 }
 
 Client::Client(Client&& other) noexcept
-    : fd_(other.fd_), timeout_s_(other.timeout_s_), next_id_(other.next_id_), welcome_(std::move(other.welcome_)),
-      pending_states_(std::move(other.pending_states_)), events_(std::move(other.events_)), event_capacity_(other.event_capacity_),
-      events_dropped_(other.events_dropped_), contacts_(std::move(other.contacts_)), contact_capacity_(other.contact_capacity_),
-      contacts_dropped_(other.contacts_dropped_), busy_retry_(other.busy_retry_) {
+    : fd_(other.fd_),
+      timeout_s_(other.timeout_s_),
+      next_id_(other.next_id_),
+      welcome_(std::move(other.welcome_)),
+      pending_states_(std::move(other.pending_states_)),
+      events_(std::move(other.events_)),
+      event_capacity_(other.event_capacity_),
+      events_dropped_(other.events_dropped_),
+      contacts_(std::move(other.contacts_)),
+      contact_capacity_(other.contact_capacity_),
+      contacts_dropped_(other.contacts_dropped_),
+      busy_retry_(other.busy_retry_) {
     other.fd_ = -1;
 }
 
@@ -237,7 +256,8 @@ std::optional<std::string> Client::receive_raw(double timeout_s) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     std::string buffer(kMaxMessageBytes + 1, '\0');
     for (;;) {
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+        const auto left =
+            std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
         pollfd p{fd_, POLLIN, 0};
         const int r = ::poll(&p, 1, left > 0 ? static_cast<int>(left) : 0);
         if (r < 0 && errno == EINTR) continue;
@@ -263,7 +283,8 @@ std::string Client::request(const std::string& type, const std::string& body_jso
         const auto raw = receive_raw(timeout_s_);
         if (!raw) throw transport_error(function, "no reply within " + std::to_string(timeout_s_) + " s");
         json reply = json::parse(*raw, nullptr, false);
-        if (reply.is_discarded() || !reply.is_object()) throw Error(ErrorCode::BadJson, function + ": the reply is not JSON");
+        if (reply.is_discarded() || !reply.is_object())
+            throw Error(ErrorCode::BadJson, function + ": the reply is not JSON");
         const std::string t = reply.value("type", std::string());
         if (t == "state" || t == "event" || t == "expired" || t == "contact") {
             keep_unsolicited(*raw, function);
@@ -287,12 +308,18 @@ CommitResult Client::commit(const Batch& batch) {
     json ops = json::array();
     for (const auto& op : batch.operations()) {
         switch (op.kind) {
-            case Batch::Operation::Kind::Add: ops.push_back({{"op", "add"}, {"object", object_to_json(*op.object)}}); break;
+            case Batch::Operation::Kind::Add:
+                ops.push_back({{"op", "add"}, {"object", object_to_json(*op.object)}});
+                break;
             case Batch::Operation::Kind::Modify:
                 ops.push_back({{"op", "modify"}, {"object_id", op.object_id}, {"object", object_to_json(*op.object)}});
                 break;
-            case Batch::Operation::Kind::Remove: ops.push_back({{"op", "remove"}, {"object_id", op.object_id}}); break;
-            case Batch::Operation::Kind::Clear: ops.push_back({{"op", "clear"}}); break;
+            case Batch::Operation::Kind::Remove:
+                ops.push_back({{"op", "remove"}, {"object_id", op.object_id}});
+                break;
+            case Batch::Operation::Kind::Clear:
+                ops.push_back({{"op", "clear"}});
+                break;
         }
     }
     const std::string body = json{{"ops", ops}}.dump();
@@ -307,8 +334,9 @@ CommitResult Client::commit(const Batch& batch) {
             if (e.code() != ErrorCode::Busy) throw;
             if (attempt >= busy_retry_.tries) {
                 const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-                throw Error(ErrorCode::Busy, std::string(e.what()) + " (busy after " + std::to_string(attempt) + " tries over " +
-                                                 std::to_string(waited) + " s; ConnectOptions::busy_retry)",
+                throw Error(ErrorCode::Busy,
+                            std::string(e.what()) + " (busy after " + std::to_string(attempt) + " tries over " +
+                                std::to_string(waited) + " s; ConnectOptions::busy_retry)",
                             e.op_index());
             }
             std::this_thread::sleep_for(std::chrono::duration<double>(delay));
@@ -323,7 +351,8 @@ CommitResult Client::commit(const Batch& batch) {
 
 void Client::set_busy_retry(const BusyRetry& retry) {
     if (retry.tries < 1 || retry.tries > 1000) {
-        throw std::invalid_argument("Client: busy_retry.tries = " + std::to_string(retry.tries) + " is invalid; accepted range: 1 .. 1000");
+        throw std::invalid_argument("Client: busy_retry.tries = " + std::to_string(retry.tries) +
+                                    " is invalid; accepted range: 1 .. 1000");
     }
     if (!(retry.initial_delay_s >= 0.0 && retry.initial_delay_s <= 10.0)) {
         throw std::invalid_argument("Client: busy_retry.initial_delay_s = " + std::to_string(retry.initial_delay_s) +
@@ -416,7 +445,8 @@ bool Client::keep_unsolicited(const std::string& raw, const std::string& functio
     e.message = j.value("message", std::string());
     if (const auto ids = j.find("object_ids"); ids != j.end() && ids->is_array()) {
         for (const auto& id : *ids) {
-            if (id.is_number_unsigned() && id.get<std::uint64_t>() <= 0xffffffffULL) e.object_ids.push_back(id.get<std::uint32_t>());
+            if (id.is_number_unsigned() && id.get<std::uint64_t>() <= 0xffffffffULL)
+                e.object_ids.push_back(id.get<std::uint32_t>());
         }
     }
     e.json = raw;
@@ -455,7 +485,8 @@ std::vector<std::uint32_t> Client::subscribe_contacts(const std::vector<std::uin
     contacts_.clear();  // the reply's contacts are where the events that follow continue from
     std::vector<std::uint32_t> in_contact;
     for (const auto& id : r.value("contacts", json::array())) {
-        if (id.is_number_unsigned() && id.get<std::uint64_t>() <= 0xffffffffULL) in_contact.push_back(id.get<std::uint32_t>());
+        if (id.is_number_unsigned() && id.get<std::uint64_t>() <= 0xffffffffULL)
+            in_contact.push_back(id.get<std::uint32_t>());
     }
     return in_contact;
 }

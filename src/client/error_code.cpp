@@ -12,15 +12,24 @@ struct CodeName {
     const char* name;
 };
 constexpr CodeName kCodeNames[] = {
-    {ErrorCode::ProtocolVersion, "protocol_version"}, {ErrorCode::BadHello, "bad_hello"},
-    {ErrorCode::Oversized, "oversized"},              {ErrorCode::BadJson, "bad_json"},
-    {ErrorCode::BadMessage, "bad_message"},           {ErrorCode::UnstableGains, "unstable_gains"},
-    {ErrorCode::UnstableSum, "unstable_sum"},         {ErrorCode::BeyondDeviceLimits, "beyond_device_limits"},
-    {ErrorCode::UnknownCriterion, "unknown_criterion"}, {ErrorCode::UnknownObject, "unknown_object"},
-    {ErrorCode::NotOwner, "not_owner"},               {ErrorCode::Capacity, "capacity"},
-    {ErrorCode::Busy, "busy"},                        {ErrorCode::LeaseLost, "lease_lost"},
-    {ErrorCode::SlowConsumer, "slow_consumer"},       {ErrorCode::Transport, "transport"},
-    {ErrorCode::SessionLimit, "session_limit"},       {ErrorCode::Internal, "internal"},
+    {ErrorCode::ProtocolVersion, "protocol_version"},
+    {ErrorCode::BadHello, "bad_hello"},
+    {ErrorCode::Oversized, "oversized"},
+    {ErrorCode::BadJson, "bad_json"},
+    {ErrorCode::BadMessage, "bad_message"},
+    {ErrorCode::UnstableGains, "unstable_gains"},
+    {ErrorCode::UnstableSum, "unstable_sum"},
+    {ErrorCode::BeyondDeviceLimits, "beyond_device_limits"},
+    {ErrorCode::UnknownCriterion, "unknown_criterion"},
+    {ErrorCode::UnknownObject, "unknown_object"},
+    {ErrorCode::NotOwner, "not_owner"},
+    {ErrorCode::Capacity, "capacity"},
+    {ErrorCode::Busy, "busy"},
+    {ErrorCode::LeaseLost, "lease_lost"},
+    {ErrorCode::SlowConsumer, "slow_consumer"},
+    {ErrorCode::Transport, "transport"},
+    {ErrorCode::SessionLimit, "session_limit"},
+    {ErrorCode::Internal, "internal"},
     {ErrorCode::Unknown, "unknown"},
 };
 

@@ -51,7 +51,8 @@ bool read_vec(const json& j, const char* key, const std::string& where, Vec3& ou
     for (std::size_t i = 0; i < 3; ++i) {
         const json& e = (*it)[i];
         if (!e.is_number() || !std::isfinite(e.get<double>())) {
-            error = where + "." + key + "[" + std::to_string(i) + "]: expected a finite number, got " + truncate_utf8(e.dump(), 40);
+            error = where + "." + key + "[" + std::to_string(i) + "]: expected a finite number, got " +
+                    truncate_utf8(e.dump(), 40);
             return false;
         }
         out[i] = e.get<double>();
@@ -66,7 +67,8 @@ bool read_gains(const json& j, const std::string& where, Gains& out, std::string
         return false;
     }
     if (!it->is_object()) {
-        error = where + ".gains: expected an object {\"K\", \"B\"} or {\"criterion\"}, got " + truncate_utf8(it->dump(), 80);
+        error = where + ".gains: expected an object {\"K\", \"B\"} or {\"criterion\"}, got " +
+                truncate_utf8(it->dump(), 80);
         return false;
     }
     const auto c = it->find("criterion");
@@ -98,25 +100,36 @@ bool read_gains(const json& j, const std::string& where, Gains& out, std::string
 
 const char* kind_name(const ObjectDescription& object) noexcept {
     switch (object.index()) {
-        case 0: return "plane";
-        case 1: return "spring";
-        default: return "field";
+        case 0:
+            return "plane";
+        case 1:
+            return "spring";
+        default:
+            return "field";
     }
 }
 
 json object_to_json(const ObjectDescription& object) {
     if (const auto* p = std::get_if<Plane>(&object)) {
-        return json{{"kind", "plane"}, {"normal", vec(p->normal)}, {"offset", p->offset},
-                    {"mode", p->bilateral ? "bilateral" : "unilateral"}, {"gains", gains_json(p->gains)}};
+        return json{{"kind", "plane"},
+                    {"normal", vec(p->normal)},
+                    {"offset", p->offset},
+                    {"mode", p->bilateral ? "bilateral" : "unilateral"},
+                    {"gains", gains_json(p->gains)}};
     }
     if (const auto* s = std::get_if<Spring>(&object)) {
-        const char* c = s->constraint == Constraint::Point ? "point" : s->constraint == Constraint::Line ? "line" : "plane";
+        const char* c = s->constraint == Constraint::Point  ? "point"
+                        : s->constraint == Constraint::Line ? "line"
+                                                            : "plane";
         json j{{"kind", "spring"}, {"constraint", c}, {"point", vec(s->point)}, {"gains", gains_json(s->gains)}};
         if (s->constraint != Constraint::Point) j["direction"] = vec(s->direction);
         return j;
     }
     const auto& f = std::get<Field>(object);
-    return json{{"kind", "field"}, {"center", vec(f.center)}, {"radius", f.radius}, {"force", vec(f.force)},
+    return json{{"kind", "field"},
+                {"center", vec(f.center)},
+                {"radius", f.radius},
+                {"force", vec(f.force)},
                 {"jacobian", json::array({vec(f.jacobian[0]), vec(f.jacobian[1]), vec(f.jacobian[2])})},
                 {"damping", f.damping}};
 }
@@ -178,7 +191,8 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
     if (k == "field") {
         Field f;
         if (!read_vec(j, "center", where, f.center, error) || !read_number(j, "radius", where, f.radius, error) ||
-            !read_vec(j, "force", where, f.force, error) || !read_number(j, "damping", where, f.damping, error, false)) {
+            !read_vec(j, "force", where, f.force, error) ||
+            !read_number(j, "damping", where, f.damping, error, false)) {
             return std::nullopt;
         }
         const auto jac = j.find("jacobian");

@@ -22,13 +22,16 @@ StateReader StateReader::open(const std::string& shm_name) {
     void* p = ::mmap(nullptr, sizeof(StateLayout), PROT_READ, MAP_SHARED, fd, 0);
     const int e = errno;
     ::close(fd);
-    if (p == MAP_FAILED) throw Error(ErrorCode::Transport, "StateReader::open: mmap('" + shm_name + "'): " + std::strerror(e));
+    if (p == MAP_FAILED)
+        throw Error(ErrorCode::Transport, "StateReader::open: mmap('" + shm_name + "'): " + std::strerror(e));
     const auto* layout = static_cast<const StateLayout*>(p);
-    if (layout->magic != kStateMagic || layout->layout_version != kStateLayoutVersion || layout->size != sizeof(StateLayout)) {
+    if (layout->magic != kStateMagic || layout->layout_version != kStateLayoutVersion ||
+        layout->size != sizeof(StateLayout)) {
         const std::uint32_t version = layout->layout_version;
         ::munmap(p, sizeof(StateLayout));
-        throw Error(ErrorCode::Transport, "StateReader::open: '" + shm_name + "' is not a hapticd state of layout version " +
-                                              std::to_string(kStateLayoutVersion) + " (found version " + std::to_string(version) + ")");
+        throw Error(ErrorCode::Transport,
+                    "StateReader::open: '" + shm_name + "' is not a hapticd state of layout version " +
+                        std::to_string(kStateLayoutVersion) + " (found version " + std::to_string(version) + ")");
     }
     return StateReader(layout);
 }
@@ -80,8 +83,9 @@ bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
             ::clock_gettime(CLOCK_MONOTONIC, &ts);
             const std::int64_t now = static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
             out.heartbeat_age_s = beat == 0 ? -1.0 : 1e-9 * static_cast<double>(now - beat);
-            out.stale = beat == 0 || out.heartbeat_age_s > stale_after_s() || out.fault == static_cast<std::uint32_t>(StateFault::FatalSignal) ||
-                    out.fault == static_cast<std::uint32_t>(StateFault::Terminate);
+            out.stale = beat == 0 || out.heartbeat_age_s > stale_after_s() ||
+                        out.fault == static_cast<std::uint32_t>(StateFault::FatalSignal) ||
+                        out.fault == static_cast<std::uint32_t>(StateFault::Terminate);
             out.fatal_signal = l.fatal_signal.load(std::memory_order_relaxed);
             return true;
         }

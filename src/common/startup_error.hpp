@@ -26,11 +26,11 @@ enum class ErrorKind : std::uint8_t {
 
 // An error that ends the program (with the exit code of `kind`) after printing what().
 class StartupError : public std::runtime_error {
-public:
+  public:
     StartupError(ErrorKind kind, const std::string& message) : std::runtime_error(message), kind_(kind) {}
     [[nodiscard]] ErrorKind kind() const noexcept { return kind_; }
 
-private:
+  private:
     ErrorKind kind_;
 };
 

@@ -27,11 +27,16 @@ Takes takes_of(const CLI::Option& option) {
 
 bool accepts(Takes takes, ConfigValueType type) {
     switch (takes) {
-        case Takes::Number: return type == ConfigValueType::Integer || type == ConfigValueType::Float;
-        case Takes::Integer: return type == ConfigValueType::Integer;
-        case Takes::String: return type == ConfigValueType::String;
-        case Takes::Boolean: return type == ConfigValueType::Boolean;
-        case Takes::AsText: return true;
+        case Takes::Number:
+            return type == ConfigValueType::Integer || type == ConfigValueType::Float;
+        case Takes::Integer:
+            return type == ConfigValueType::Integer;
+        case Takes::String:
+            return type == ConfigValueType::String;
+        case Takes::Boolean:
+            return type == ConfigValueType::Boolean;
+        case Takes::AsText:
+            return true;
     }
     return false;
 }
@@ -40,11 +45,24 @@ std::string accepted_text(Takes takes, bool many) {
     const char* one = "a value";
     const char* several = "values";
     switch (takes) {
-        case Takes::Number: one = "a number"; several = "numbers"; break;
-        case Takes::Integer: one = "an integer"; several = "integers"; break;
-        case Takes::String: one = "a string in quotes"; several = "strings"; break;
-        case Takes::Boolean: one = "true or false"; several = "true/false"; break;
-        case Takes::AsText: break;
+        case Takes::Number:
+            one = "a number";
+            several = "numbers";
+            break;
+        case Takes::Integer:
+            one = "an integer";
+            several = "integers";
+            break;
+        case Takes::String:
+            one = "a string in quotes";
+            several = "strings";
+            break;
+        case Takes::Boolean:
+            one = "true or false";
+            several = "true/false";
+            break;
+        case Takes::AsText:
+            break;
     }
     return many ? std::string("an array of ") + several + " ([a, b, ...]) or " + one : std::string(one);
 }
@@ -56,7 +74,8 @@ void apply_entry(CLI::App& app, const ConfigEntry& entry, const std::string& at)
     const bool many = option->get_items_expected_max() > 1;
     const std::string assignment = entry.key + " = " + entry.written;
     if (entry.is_array && !many) {
-        throw StartupError(ErrorKind::BadConfig, at + assignment + " is an array; accepted: " + accepted_text(takes, false));
+        throw StartupError(ErrorKind::BadConfig,
+                           at + assignment + " is an array; accepted: " + accepted_text(takes, false));
     }
     if (entry.values.empty() && entry.key == "wall") {  // wall = []: the scene starts empty (clients fill it)
         CLI::Option* no_walls = app.get_option("--no-walls");
@@ -65,13 +84,14 @@ void apply_entry(CLI::App& app, const ConfigEntry& entry, const std::string& at)
         return;
     }
     if (entry.values.empty()) {
-        throw StartupError(ErrorKind::BadConfig, at + assignment + " is empty; accepted: " + accepted_text(takes, many));
+        throw StartupError(ErrorKind::BadConfig,
+                           at + assignment + " is empty; accepted: " + accepted_text(takes, many));
     }
     for (const ConfigValue& value : entry.values) {
         if (!accepts(takes, value.type)) {
             throw StartupError(ErrorKind::BadConfig, at + assignment + " has the wrong type (" +
-                                                   config_value_type_name(value.type) +
-                                                   "); accepted: " + accepted_text(takes, many));
+                                                         config_value_type_name(value.type) +
+                                                         "); accepted: " + accepted_text(takes, many));
         }
     }
     try {
@@ -95,8 +115,9 @@ KeyLocations apply_config_file(CLI::App& app, const std::string& file, const std
     if (contents.issue) {
         const ConfigFileIssue& issue = *contents.issue;
         if (issue.at.line == 0) throw StartupError(ErrorKind::BadConfig, file + ": " + issue.message);
-        throw StartupError(ErrorKind::BadConfig, file + " is malformed: line " + std::to_string(issue.at.line) + ", column " +
-                                               std::to_string(issue.at.column) + ": " + issue.message);
+        throw StartupError(ErrorKind::BadConfig, file + " is malformed: line " + std::to_string(issue.at.line) +
+                                                     ", column " + std::to_string(issue.at.column) + ": " +
+                                                     issue.message);
     }
     KeyLocations locations(file, name_file_always);
     for (const ConfigEntry& entry : contents.entries) locations.add(entry.key, entry.at);

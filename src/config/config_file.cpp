@@ -14,7 +14,9 @@ namespace hapticd {
 
 namespace {
 
-int clamp_to_int(toml::source_index v) { return v > static_cast<toml::source_index>(INT_MAX) ? INT_MAX : static_cast<int>(v); }
+int clamp_to_int(toml::source_index v) {
+    return v > static_cast<toml::source_index>(INT_MAX) ? INT_MAX : static_cast<int>(v);
+}
 
 FilePosition position_of(const toml::source_position& p) { return {clamp_to_int(p.line), clamp_to_int(p.column)}; }
 
@@ -39,7 +41,9 @@ std::optional<ConfigValue> scalar_of(const toml::node& node) {
     return std::nullopt;
 }
 
-std::string written_scalar(const ConfigValue& v) { return v.type == ConfigValueType::String ? "\"" + v.text + "\"" : v.text; }
+std::string written_scalar(const ConfigValue& v) {
+    return v.type == ConfigValueType::String ? "\"" + v.text + "\"" : v.text;
+}
 
 std::string unused_type_message(const std::string& key, const toml::node& node) {
     if (node.is_table()) {
@@ -78,10 +82,14 @@ std::string excerpt(const std::string& text, const FilePosition& at) {
 
 const char* config_value_type_name(ConfigValueType type) {
     switch (type) {
-        case ConfigValueType::String: return "a string";
-        case ConfigValueType::Integer: return "an integer";
-        case ConfigValueType::Float: return "a float";
-        case ConfigValueType::Boolean: return "a boolean";
+        case ConfigValueType::String:
+            return "a string";
+        case ConfigValueType::Integer:
+            return "an integer";
+        case ConfigValueType::Float:
+            return "a float";
+        case ConfigValueType::Boolean:
+            return "a boolean";
     }
     return "a value";
 }
@@ -121,7 +129,8 @@ ConfigFileContents parse_config_text(const std::string& text, const std::string&
             entry.values.push_back(*value);
             entry.written = written_scalar(*value);
         } else {
-            note_issue(node.is_table() ? position_of(node.source().begin) : entry.at, unused_type_message(entry.key, node));
+            note_issue(node.is_table() ? position_of(node.source().begin) : entry.at,
+                       unused_type_message(entry.key, node));
             continue;
         }
         out.entries.push_back(std::move(entry));

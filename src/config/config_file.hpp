@@ -28,7 +28,7 @@ struct ConfigValue {
 // One `key = value` of the file.
 struct ConfigEntry {
     std::string key;
-    FilePosition at;                 // where the key is written
+    FilePosition at;  // where the key is written
     bool is_array = false;
     std::vector<ConfigValue> values;  // one for a scalar; the elements of an array (possibly none)
     std::string written;              // the value for messages: "\"fast\"", "1.5", "[0.22, 0.3]"
@@ -40,7 +40,7 @@ struct ConfigFileIssue {
 };
 
 struct ConfigFileContents {
-    std::vector<ConfigEntry> entries;     // in the order they are written
+    std::vector<ConfigEntry> entries;      // in the order they are written
     std::optional<ConfigFileIssue> issue;  // set: the file is unusable (entries then empty)
 };
 

@@ -11,11 +11,12 @@
 namespace hapticd {
 
 class KeyLocations {
-public:
+  public:
     KeyLocations() = default;  // no file: prefix() is always ""
     // file: what messages call the file ("device profile 'P'"). name_file_always: also prefix keys that
     // are not written in it with the file's name (a profile: each of its values is the file's or a default).
-    KeyLocations(std::string file, bool name_file_always) : file_(std::move(file)), name_file_always_(name_file_always) {}
+    KeyLocations(std::string file, bool name_file_always)
+        : file_(std::move(file)), name_file_always_(name_file_always) {}
 
     void add(const std::string& key, FilePosition at) { positions_[key] = at; }
     void forget(const std::string& key) { positions_.erase(key); }  // e.g. overridden on the command line
@@ -25,12 +26,13 @@ public:
     [[nodiscard]] std::string prefix(const std::string& key) const {
         const auto it = positions_.find(key);
         if (it != positions_.end()) {
-            return file_ + ", line " + std::to_string(it->second.line) + ", column " + std::to_string(it->second.column) + ": ";
+            return file_ + ", line " + std::to_string(it->second.line) + ", column " +
+                   std::to_string(it->second.column) + ": ";
         }
         return name_file_always_ ? file_ + ": " : "";
     }
 
-private:
+  private:
     std::string file_;
     bool name_file_always_ = false;
     std::map<std::string, FilePosition> positions_;

@@ -45,8 +45,9 @@ struct Given {
 void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--criterion", o.criterion, "Tuning criterion of the wall (default CE2)")
         ->check(CLI::IsMember(accepted_criteria()));
-    app.add_option("--device", o.device,
-                   "Device profile: a name in <config dir>/devices/<name>.toml, or a path to a .toml file (default sim)");
+    app.add_option(
+        "--device", o.device,
+        "Device profile: a name in <config dir>/devices/<name>.toml, or a path to a .toml file (default sim)");
     app.add_option("--rate", o.rate, "Loop rate in Hz (default 1000)");
     app.add_option("--delay-buffer", o.delay_buffer,
                    "Extra delay of the wall force in samples, N >= 0 (total delay = device delay + N/rate)");
@@ -57,12 +58,15 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--scenario", o.scenario,
                    "Simulated hand's intent: rest, step, push, hold, path (default auto: rest with --serve, else step)")
         ->check(CLI::IsMember(kScenarios));
-    app.add_option("--hand-mass", o.hand_mass, "Simulated hand: mass added to the profile's (which includes the arm), kg (default 0)");
+    app.add_option("--hand-mass", o.hand_mass,
+                   "Simulated hand: mass added to the profile's (which includes the arm), kg (default 0)");
     app.add_option("--hand-damping", o.hand_damping,
                    "Simulated hand: damping b_H, N s/m (default -1: 13.3 s^-1 times the profile's mass; 0: no hand)");
     app.add_option("--hand-stiffness", o.hand_stiffness,
-                   "Simulated hand: stiffness k_H around its rest position, N/m (default -1: 667 s^-2 times the profile's mass; 0: no hand)");
-    app.add_option("--path-amplitude", o.path_amplitude, "path intent: amplitude of the hand's rest position, m (default 0.01)");
+                   "Simulated hand: stiffness k_H around its rest position, N/m (default -1: 667 s^-2 times the "
+                   "profile's mass; 0: no hand)");
+    app.add_option("--path-amplitude", o.path_amplitude,
+                   "path intent: amplitude of the hand's rest position, m (default 0.01)");
     app.add_option("--path-frequency", o.path_frequency, "path intent: frequency, Hz (default 0.5)");
     app.add_flag("--bilateral", o.bilateral, "Walls without a mode render bilaterally (as analysed in the paper)");
     app.add_flag("--simulate", o.simulate, "Simulate the profile's physics even if its driver is a real device");
@@ -74,9 +78,10 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_flag("--no-walls", o.no_walls,
                  "Start with no walls: a scene that only clients fill (--serve); in the config file: wall = []");
     app.add_option("--rt-priority", o.rt_priority, "SCHED_FIFO priority 1..99, 0: do not ask (default 80)");
-    app.add_option("--spin-us", o.spin_us,
-                   "Sleep until this long before each tick's deadline, then busy-wait for it: the tick starts on time "
-                   "whatever the kernel's wake-up latency, for this much CPU per period (default 0: sleep until the deadline)");
+    app.add_option(
+        "--spin-us", o.spin_us,
+        "Sleep until this long before each tick's deadline, then busy-wait for it: the tick starts on time "
+        "whatever the kernel's wake-up latency, for this much CPU per period (default 0: sleep until the deadline)");
     app.add_option("--cpu", o.cpu, "Pin the loop thread to this CPU (default -1: no pinning)");
     app.add_option("--mlock", o.mlock, "Lock memory with mlockall (default true)");
     app.add_option("--watchdog-overruns", o.watchdog_overruns,
@@ -84,16 +89,19 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--watchdog-stall-periods", o.watchdog_stall_periods,
                    "Fault when one late tick skips more than this many periods (default 100)");
     app.add_option("--trace-capacity", o.trace_capacity, "Trace ring capacity in records (default 65536)");
-    app.add_option("--record", o.record,
-                   "Record every tick's state and every client batch the loop applies to FILE, for --replay and the scope "
-                   "(docs/recording.md)");
+    app.add_option(
+        "--record", o.record,
+        "Record every tick's state and every client batch the loop applies to FILE, for --replay and the scope "
+        "(docs/recording.md)");
     app.add_option("--record-capacity", o.record_capacity, "Recorder's tick ring capacity in records (default 65536)");
     app.add_option("--step-force", o.step_force, "step scenario: external force step, N (default 1)");
     app.add_option("--push-speed", o.push_speed, "push scenario: approach speed, m/s (default 0.1)");
-    app.add_option("--push-distance", o.push_distance, "push scenario: start distance from the wall, m (default 0.002)");
+    app.add_option("--push-distance", o.push_distance,
+                   "push scenario: start distance from the wall, m (default 0.002)");
     app.add_option("--push-force", o.push_force, "push scenario: external force while pushing, N (default 0)");
     app.add_option("--hold-force", o.hold_force, "hold scenario: constant human force, N (default 2)");
-    app.add_option("--hold-distance", o.hold_distance, "hold scenario: start distance from the wall, m (default 0.001)");
+    app.add_option("--hold-distance", o.hold_distance,
+                   "hold scenario: start distance from the wall, m (default 0.001)");
     app.add_flag("--quiet", o.quiet, "Print only warnings and errors");
     app.add_flag("--identify", o.identify,
                  "Identify mass, damping, stiffness and delay by a short excitation before rendering; tune from them");
@@ -103,11 +111,13 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--identify-distance", o.identify_distance,
                    "Excitation position limit in m from the start (default 0: 5 mm, 0.05 rad rotary)");
     app.add_option("--identify-duration", o.identify_duration, "Excitation time in s (default 2)");
-    app.add_flag("--passivity-control", o.passivity_control,
-                 "Time-domain passivity control (Hannaford-Ryu observer + variable damper) on the force after the delay "
-                 "buffer; explicit gains outside the stability region are then accepted (docs/passivity.md)");
-    app.add_option("--passivity-damping-cap", o.passivity_damping_cap,
-                   "Largest damping the passivity controller adds, N s/m (default 0: 2 m / ((N + 1) T), N the delay buffer)");
+    app.add_flag(
+        "--passivity-control", o.passivity_control,
+        "Time-domain passivity control (Hannaford-Ryu observer + variable damper) on the force after the delay "
+        "buffer; explicit gains outside the stability region are then accepted (docs/passivity.md)");
+    app.add_option(
+        "--passivity-damping-cap", o.passivity_damping_cap,
+        "Largest damping the passivity controller adds, N s/m (default 0: 2 m / ((N + 1) T), N the delay buffer)");
     app.add_option("--passivity-velocity-guard", o.passivity_velocity_guard,
                    "Speed below which the passivity controller adds no damping, m/s (default 1e-4)");
     app.add_flag("--robust", o.robust,
@@ -115,23 +125,29 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
                  "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
     app.add_flag("--serve", o.serve, "Serve client applications on a control socket (docs/protocol.md)");
     app.add_option("--serve-socket", o.serve_socket,
-                   "Control socket path (default $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock or /run/hapticd/hapticd.sock)");
+                   "Control socket path (default $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock or "
+                   "/run/hapticd/hapticd.sock)");
     app.add_option("--serve-mode", o.serve_mode, "Octal file mode of the control socket (default 0660)");
     app.add_option("--serve-group", o.serve_group, "Group of the control socket and the state (default: the daemon's)");
     app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");
     app.add_option("--ramp-time", o.ramp_time, "Ramp in/out time of client objects in s (default 0.03; 0: none)");
-    app.add_option("--max-force-rate", o.max_force_rate, "Limit on the change of the total force in N/s (default 10000)");
+    app.add_option("--max-force-rate", o.max_force_rate,
+                   "Limit on the change of the total force in N/s (default 10000)");
     app.add_option("--move-interval-max", o.move_interval_max,
                    "Client moves are interpolated over their measured update interval, at most this long, s "
                    "(default 0.05; 0: applied at once; docs/protocol.md, section 4)");
-    app.add_option("--activation-speed", o.activation_speed,
-                   "A unilateral plane added with the handle behind its surface starts at the handle and moves out at this "
-                   "speed, m/s (default 0.01; 0: at once; docs/protocol.md, section 4)");
-    app.add_option("--session-max-objects", o.session_max_objects,
-                   "Objects one client session may hold, 1 .. 64 (default 32; the scene holds 64; docs/protocol.md, section 7)");
+    app.add_option(
+        "--activation-speed", o.activation_speed,
+        "A unilateral plane added with the handle behind its surface starts at the handle and moves out at this "
+        "speed, m/s (default 0.01; 0: at once; docs/protocol.md, section 4)");
+    app.add_option(
+        "--session-max-objects", o.session_max_objects,
+        "Objects one client session may hold, 1 .. 64 (default 32; the scene holds 64; docs/protocol.md, section 7)");
     app.add_option("--session-max-in-flight", o.session_max_in_flight,
-                   "Batches of one client session handed to the loop and not yet applied, 1 .. 64 (default 8; docs/protocol.md, section 7)");
-    app.add_flag("--serve-wait-commit", o.serve_wait_commit, "Start the loop only once a client batch was accepted (tests)");
+                   "Batches of one client session handed to the loop and not yet applied, 1 .. 64 (default 8; "
+                   "docs/protocol.md, section 7)");
+    app.add_flag("--serve-wait-commit", o.serve_wait_commit,
+                 "Start the loop only once a client batch was accepted (tests)");
     app.add_option("--trace-axis", o.trace_axis, "Axis the trace records (default -1: the first wall's)");
     app.add_option("--falcon-firmware", o.falcon_firmware,
                    "Novint Falcon firmware image to upload at start (user-supplied; overrides the profile's firmware)");
@@ -182,18 +198,20 @@ Options parse_options(int argc, const char* const* argv, const std::string& help
     {
         Options scratch;
         Handles h;
-        CLI::App app{"hapticd: a virtual wall at a fixed rate, with K and B tuned optimally for the device's mass, "
-                     "period and delay (Hulin et al., IROS 2011)",
-                     "hapticd"};
+        CLI::App app{
+            "hapticd: a virtual wall at a fixed rate, with K and B tuned optimally for the device's mass, "
+            "period and delay (Hulin et al., IROS 2011)",
+            "hapticd"};
         app.footer(config_search_help() + " Keys are the long option names.\n" + help_footer);
         app.set_version_flag("--version", kVersion);
         define_common(app, scratch, h);
         auto* cfg = app.add_option("--config", config_arg, "Config file (TOML; default: the search below)");
         app.add_flag("--dry-run", scratch.dry_run, "Tune, print and exit without running the loop");
         app.add_flag("--list-devices", scratch.list_devices, "List the USB/HID devices hapticd can drive and exit");
-        app.add_option("--replay", scratch.replay,
-                       "Re-render a recording (--record) with the options it was made with, in lockstep, and compare the "
-                       "forces bit for bit (alone, or with --quiet; exit 11 on a difference, 10 on a bad recording)");
+        app.add_option(
+            "--replay", scratch.replay,
+            "Re-render a recording (--record) with the options it was made with, in lockstep, and compare the "
+            "forces bit for bit (alone, or with --quiet; exit 11 on a difference, 10 on a bad recording)");
         try {
             app.parse(argc, argv);
         } catch (const CLI::CallForHelp&) {
@@ -219,8 +237,8 @@ Options parse_options(int argc, const char* const* argv, const std::string& help
     if (!config_path.empty()) {  // "": --config "" or nothing found, built-in defaults only
         if (!fs::is_regular_file(config_path)) {
             throw StartupError(ErrorKind::BadConfig, "config file '" + config_path + "'" +
-                                                   (from_environment ? " (from $HAPTICD_CONFIG)" : "") +
-                                                   " does not exist or is not a file");
+                                                         (from_environment ? " (from $HAPTICD_CONFIG)" : "") +
+                                                         " does not exist or is not a file");
         }
         from_file = load_config_file(config_path, o);
         o.config_path = config_path;
@@ -255,7 +273,7 @@ Options parse_options(int argc, const char* const* argv, const std::string& help
     const bool b_set = from_file.damping || from_cli.damping;
     if (k_set != b_set) {
         throw StartupError(ErrorKind::Usage, std::string("explicit gains need both --stiffness and --damping; only ") +
-                                           (k_set ? "--stiffness" : "--damping") + " was given");
+                                                 (k_set ? "--stiffness" : "--damping") + " was given");
     }
     o.gains_set = k_set;
     o.walls_from_command_line = from_cli.wall;
@@ -280,8 +298,9 @@ void validate_options(const Options& o) {
     if (o.cpu < -1 || o.cpu >= 1024) invalid(w, "cpu", std::to_string(o.cpu), "-1 (no pinning) .. 1023");
     check_range(w, "spin-us", o.spin_us, 0.0, 1e6, false, "0 .. 1e6 us, and less than one period");
     if (o.spin_us * o.rate >= 1e6) {
-        invalid(w, "spin-us", shortest_text(o.spin_us), "0 .. less than one period (" + shortest_text(1e6 / o.rate) + " us at rate " +
-                                                            shortest_text(o.rate) + " Hz)");
+        invalid(w, "spin-us", shortest_text(o.spin_us),
+                "0 .. less than one period (" + shortest_text(1e6 / o.rate) + " us at rate " + shortest_text(o.rate) +
+                    " Hz)");
     }
     if (o.watchdog_overruns < 0 || o.watchdog_overruns > 1000000000) {
         invalid(w, "watchdog-overruns", std::to_string(o.watchdog_overruns), "0 .. 1e9");
@@ -302,8 +321,10 @@ void validate_options(const Options& o) {
     check_range(w, "hold-force", o.hold_force, -1e6, 1e6, false, "finite, |F| <= 1e6 N");
     check_range(w, "hold-distance", o.hold_distance, 0.0, 1e3, false, "0 .. 1000 m");
     check_range(w, "hand-mass", o.hand_mass, 0.0, 1e3, false, "0 .. 1000 kg");
-    if (o.hand_damping != -1.0) check_range(w, "hand-damping", o.hand_damping, 0.0, 1e6, false, "0 .. 1e6 N s/m, or -1 (default)");
-    if (o.hand_stiffness != -1.0) check_range(w, "hand-stiffness", o.hand_stiffness, 0.0, 1e9, false, "0 .. 1e9 N/m, or -1 (default)");
+    if (o.hand_damping != -1.0)
+        check_range(w, "hand-damping", o.hand_damping, 0.0, 1e6, false, "0 .. 1e6 N s/m, or -1 (default)");
+    if (o.hand_stiffness != -1.0)
+        check_range(w, "hand-stiffness", o.hand_stiffness, 0.0, 1e9, false, "0 .. 1e9 N/m, or -1 (default)");
     check_range(w, "path-amplitude", o.path_amplitude, 0.0, 1e3, false, "0 .. 1000 m");
     check_range(w, "path-frequency", o.path_frequency, 0.0, 1e3, false, "0 .. 1000 Hz");
     check_range(w, "passivity-damping-cap", o.passivity_damping_cap, 0.0, 1e9, false, "0 (auto) .. 1e9 N s/m");
@@ -315,7 +336,8 @@ void validate_options(const Options& o) {
     check_range(w, "max-force-rate", o.max_force_rate, 0.0, 1e9, true, "> 0 and <= 1e9 N/s");
     check_range(w, "move-interval-max", o.move_interval_max, 0.0, 10.0, false, "0 .. 10 s");
     check_range(w, "activation-speed", o.activation_speed, 0.0, 1e3, false, "0 .. 1000 m/s");
-    if (o.serve_mode.empty() || o.serve_mode.size() > 4 || o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
+    if (o.serve_mode.empty() || o.serve_mode.size() > 4 ||
+        o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
         invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
     }
     if (o.serve_shm.size() < 2 || o.serve_shm[0] != '/' || o.serve_shm.find('/', 1) != std::string::npos) {
@@ -327,7 +349,8 @@ void validate_options(const Options& o) {
     if (o.session_max_in_flight < 1 || o.session_max_in_flight > 64) {
         invalid(w, "session-max-in-flight", std::to_string(o.session_max_in_flight), "1 .. 64 batches");
     }
-    if (o.trace_axis < -1 || o.trace_axis > 2) invalid(w, "trace-axis", std::to_string(o.trace_axis), "-1 (the first wall's), 0, 1, 2");
+    if (o.trace_axis < -1 || o.trace_axis > 2)
+        invalid(w, "trace-axis", std::to_string(o.trace_axis), "-1 (the first wall's), 0, 1, 2");
 }
 
 std::string resolve_device_profile_path(const Options& o) {
@@ -337,8 +360,9 @@ std::string resolve_device_profile_path(const Options& o) {
     }
     static const std::regex name_re(R"([A-Za-z0-9_-]+)");
     if (!std::regex_match(d, name_re)) {
-        throw StartupError(ErrorKind::Usage, "device = '" + d +
-                                           "' is invalid; accepted: a profile name ([A-Za-z0-9_-]+) or a path to a .toml file");
+        throw StartupError(
+            ErrorKind::Usage,
+            "device = '" + d + "' is invalid; accepted: a profile name ([A-Za-z0-9_-]+) or a path to a .toml file");
     }
     // The first devices/<name>.toml of device_profile_dirs(); the last candidate (for the error) when none exists.
     const std::vector<std::string> dirs = device_profile_dirs(o);
@@ -355,7 +379,7 @@ DeviceProfile load_device_profile(const Options& o) {
     p.path = resolve_device_profile_path(o);
     if (!fs::is_regular_file(p.path)) {
         throw StartupError(ErrorKind::BadConfig, "device profile '" + p.path + "' (device = '" + o.device +
-                                               "') does not exist or is not a file");
+                                                     "') does not exist or is not a file");
     }
     CLI::App app{"hapticd device profile"};
     app.set_help_flag();
@@ -403,9 +427,10 @@ DeviceProfile load_device_profile(const Options& o) {
         for (auto [set, option] : {std::pair{o.identify, "--identify"}, std::pair{o.robust, "--robust"},
                                    std::pair{o.passivity_control, "--passivity-control"}}) {
             if (set) {
-                throw StartupError(ErrorKind::Usage, where.prefix(mass_keys.mass_given ? "mass" : "mass_matrix") + std::string(option) +
-                                                   " models one mass for every axis; this profile's mass is anisotropic (" +
-                                                   p.mass_model.describe() + "); accepted: a profile with one mass");
+                throw StartupError(ErrorKind::Usage,
+                                   where.prefix(mass_keys.mass_given ? "mass" : "mass_matrix") + std::string(option) +
+                                       " models one mass for every axis; this profile's mass is anisotropic (" +
+                                       p.mass_model.describe() + "); accepted: a profile with one mass");
             }
         }
         if (!p.mass_range.empty()) {
@@ -435,12 +460,11 @@ DeviceProfile load_device_profile(const Options& o) {
         bool lo_open;
         const char* accepted;
     };
-    for (const RangeKey& r : {RangeKey{"mass_range", &p.mass_range, p.mass, 0.0, 1e6, true, "finite, > 0 kg"},
-                              RangeKey{"damping_range", &p.damping_range, p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m"},
-                              RangeKey{"stiffness_range", &p.stiffness_range, p.stiffness, 0.0, 1e12, false,
-                                       "finite, >= 0 N/m"},
-                              RangeKey{"inherent_delay_range", &p.inherent_delay_range, p.inherent_delay, 0.0, 1.0,
-                                       false, "0 .. 1 s"}}) {
+    for (const RangeKey& r :
+         {RangeKey{"mass_range", &p.mass_range, p.mass, 0.0, 1e6, true, "finite, > 0 kg"},
+          RangeKey{"damping_range", &p.damping_range, p.damping, 0.0, 1e9, false, "finite, >= 0 N s/m"},
+          RangeKey{"stiffness_range", &p.stiffness_range, p.stiffness, 0.0, 1e12, false, "finite, >= 0 N/m"},
+          RangeKey{"inherent_delay_range", &p.inherent_delay_range, p.inherent_delay, 0.0, 1.0, false, "0 .. 1 s"}}) {
         const std::vector<double>& v = *r.range;
         if (v.empty()) continue;
         if (v.size() != 2) invalid(where, r.key, std::to_string(v.size()) + " values", "[min, max]");

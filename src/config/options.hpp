@@ -18,40 +18,40 @@ namespace hapticd {
 
 struct Options {
     std::string criterion = "CE2";
-    std::string config_path;          // the config file actually used ("" when none)
+    std::string config_path;  // the config file actually used ("" when none)
     std::string device = "sim";
-    double rate = 1000.0;             // Hz
-    long long delay_buffer = 0;       // samples
+    double rate = 1000.0;        // Hz
+    long long delay_buffer = 0;  // samples
     bool duration_set = false;
-    double duration = 0.0;            // s; unset: run until stopped
-    std::string trace;                // CSV path ("" : no trace)
-    std::string summary_json;         // JSON path ("" : none)
+    double duration = 0.0;     // s; unset: run until stopped
+    std::string trace;         // CSV path ("" : no trace)
+    std::string summary_json;  // JSON path ("" : none)
     bool lockstep = false;
-    std::string scenario = "auto";   // the simulated hand's intent; auto: rest with --serve, else step
-    double hand_mass = 0.0;          // kg added to the profile's mass (which includes the arm's, Table II)
-    double hand_damping = -1.0;      // b_H, N s/m; < 0: kHandDampingPerMass times the profile's mass
-    double hand_stiffness = -1.0;    // k_H, N/m; < 0: kHandStiffnessPerMass times the profile's mass
-    double path_amplitude = 0.01;    // m
-    double path_frequency = 0.5;     // Hz
+    std::string scenario = "auto";  // the simulated hand's intent; auto: rest with --serve, else step
+    double hand_mass = 0.0;         // kg added to the profile's mass (which includes the arm's, Table II)
+    double hand_damping = -1.0;     // b_H, N s/m; < 0: kHandDampingPerMass times the profile's mass
+    double hand_stiffness = -1.0;   // k_H, N/m; < 0: kHandStiffnessPerMass times the profile's mass
+    double path_amplitude = 0.01;   // m
+    double path_frequency = 0.5;    // Hz
     bool bilateral = false;
-    bool simulate = false;            // simulate the profile's physics even when its driver is a real device
+    bool simulate = false;  // simulate the profile's physics even when its driver is a real device
     bool gains_set = false;
-    double stiffness = 0.0;           // explicit K, N/m
-    double damping = 0.0;             // explicit B, N s/m
+    double stiffness = 0.0;  // explicit K, N/m
+    double damping = 0.0;    // explicit B, N s/m
     std::vector<std::string> walls{"axis=0 position=0.0 direction=+1"};
     bool walls_from_command_line = false;
-    bool no_walls = false;            // start with no config walls (--no-walls, or wall = [] in the file)
-    bool dry_run = false;             // tune, print and exit without running the loop
+    bool no_walls = false;  // start with no config walls (--no-walls, or wall = [] in the file)
+    bool dry_run = false;   // tune, print and exit without running the loop
     int rt_priority = 80;
-    double spin_us = 0.0;             // busy-wait this long before each deadline (0: sleep until it)
+    double spin_us = 0.0;  // busy-wait this long before each deadline (0: sleep until it)
     int cpu = -1;
     bool mlock = true;
     long long watchdog_overruns = 50;
     long long watchdog_stall_periods = 100;
     long long trace_capacity = 65536;
-    std::string record;               // --record FILE: every tick and client batch (docs/recording.md; "" : none)
+    std::string record;                 // --record FILE: every tick and client batch (docs/recording.md; "" : none)
     long long record_capacity = 65536;  // the recorder's tick ring, records
-    std::string replay;               // --replay FILE (handled by replay_main before the options are parsed)
+    std::string replay;                 // --replay FILE (handled by replay_main before the options are parsed)
     double step_force = 1.0;
     double push_speed = 0.1;
     double push_distance = 0.002;
@@ -59,32 +59,33 @@ struct Options {
     double hold_force = 2.0;
     double hold_distance = 0.001;
     bool quiet = false;
-    std::string falcon_firmware;      // Novint Falcon firmware image (overrides the profile's `firmware`)
-    bool list_devices = false;        // list the USB/HID devices hapticd can drive and exit
-    bool identify = false;            // identify mass, damping, stiffness and delay at start-up (identification_run.hpp)
+    std::string falcon_firmware;  // Novint Falcon firmware image (overrides the profile's `firmware`)
+    bool list_devices = false;    // list the USB/HID devices hapticd can drive and exit
+    bool identify = false;        // identify mass, damping, stiffness and delay at start-up (identification_run.hpp)
     std::string identification_file;  // JSON: written after --identify, reused without it ("" : none)
     double identify_force = 0.0;      // excitation force limit, N (0: 25 % of the profile's max_force)
     double identify_distance = 0.0;   // excitation position limit, m (0: 5 mm, 0.05 rad for rotary devices)
     double identify_duration = 2.0;   // s of excitation (plus 0.3 s of zero force)
     bool robust = false;              // tune for the worst case over the profile's parameter ranges (tuning.hpp)
-    bool passivity_control = false;   // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
-    double passivity_damping_cap = 0.0;        // N s/m; 0: 2 m / ((N + 1) T), N the delay buffer (beta <= 2 / (N + 1))
-    double passivity_velocity_guard = 1e-4;    // m/s: no damper below this speed
+    bool passivity_control =
+        false;  // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
+    double passivity_damping_cap = 0.0;      // N s/m; 0: 2 m / ((N + 1) T), N the delay buffer (beta <= 2 / (N + 1))
+    double passivity_velocity_guard = 1e-4;  // m/s: no damper below this speed
     // The control socket for client applications (docs/protocol.md, server/server.hpp).
     bool serve = false;
-    std::string serve_socket;                 // "" : $RUNTIME_DIRECTORY or $XDG_RUNTIME_DIR /hapticd.sock, else /run/hapticd/
-    std::string serve_mode = "0660";          // octal file mode of the socket
-    std::string serve_group;                  // group of the socket and the state ("" : the daemon's group)
-    std::string serve_shm = "/hapticd-state"; // POSIX shared-memory name of the state stream
-    double ramp_time = 0.03;                  // s, ramp in/out of client objects
-    double max_force_rate = 10000.0;          // N/s, limit on the change of the total force per tick
-    double move_interval_max = 0.05;          // s, longest first-order hold of a client's move (0: at once)
-    double activation_speed = 0.01;           // m/s, a plane appearing around the handle moves out at this speed (0: at once)
-    int session_max_objects = 32;             // --serve: objects one session may hold (of the scene's 64)
-    int session_max_in_flight = 8;            // --serve: one session's batches handed to the loop, not yet applied
-    bool serve_wait_commit = false;           // start the loop only once a client batch was accepted (tests)
-    long long trace_axis = -1;                // axis the trace records (-1: the first wall's)
-    KeyLocations config_locations;    // where the config file wrote the values the command line did not override
+    std::string serve_socket;         // "" : $RUNTIME_DIRECTORY or $XDG_RUNTIME_DIR /hapticd.sock, else /run/hapticd/
+    std::string serve_mode = "0660";  // octal file mode of the socket
+    std::string serve_group;          // group of the socket and the state ("" : the daemon's group)
+    std::string serve_shm = "/hapticd-state";  // POSIX shared-memory name of the state stream
+    double ramp_time = 0.03;                   // s, ramp in/out of client objects
+    double max_force_rate = 10000.0;           // N/s, limit on the change of the total force per tick
+    double move_interval_max = 0.05;           // s, longest first-order hold of a client's move (0: at once)
+    double activation_speed = 0.01;  // m/s, a plane appearing around the handle moves out at this speed (0: at once)
+    int session_max_objects = 32;    // --serve: objects one session may hold (of the scene's 64)
+    int session_max_in_flight = 8;   // --serve: one session's batches handed to the loop, not yet applied
+    bool serve_wait_commit = false;  // start the loop only once a client batch was accepted (tests)
+    long long trace_axis = -1;       // axis the trace records (-1: the first wall's)
+    KeyLocations config_locations;   // where the config file wrote the values the command line did not override
 };
 
 // The simulated hand's default impedance per kg of the profile's mass: the limits of Hulin et al. 2008 that
@@ -103,10 +104,10 @@ struct DeviceProfile {
     double mass = 0.0;
     DeviceMass mass_model;                // M from `mass` (one value or one per axis) or `mass_matrix`
     std::optional<double> max_stiffness;  // N/m (N m/rad), `max_stiffness`; none: only the stability region limits K
-    double damping = 0.0;         // N s/m
-    double stiffness = 0.0;       // N/m
-    double inherent_delay = 0.0;  // s
-    double max_force = 0.0;       // N (N m)
+    double damping = 0.0;                 // N s/m
+    double stiffness = 0.0;               // N/m
+    double inherent_delay = 0.0;          // s
+    double max_force = 0.0;               // N (N m)
     long long axes = 1;
     std::vector<double> workspace_min;
     std::vector<double> workspace_max;
@@ -115,7 +116,7 @@ struct DeviceProfile {
     double position_resolution = 0.0;
     long long noise_seed = 1;
     long long fail_at_tick = -1;
-    RealDeviceKeys real;              // keys of the falcon / hid drivers (config/profile_keys.hpp)
+    RealDeviceKeys real;  // keys of the falcon / hid drivers (config/profile_keys.hpp)
     // Uncertainty of the plant for --robust: [min, max] each, empty = the nominal value is exact.
     std::vector<double> mass_range;
     std::vector<double> damping_range;

@@ -28,8 +28,10 @@ void add_real_device_keys(CLI::App& app, RealDeviceKeys& k) {
 
 namespace {
 
-[[noreturn]] void invalid_key(const KeyLocations& where, const std::string& key, const std::string& value, const std::string& range) {
-    throw StartupError(ErrorKind::InvalidParameter, where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
+[[noreturn]] void invalid_key(const KeyLocations& where, const std::string& key, const std::string& value,
+                              const std::string& range) {
+    throw StartupError(ErrorKind::InvalidParameter,
+                       where.prefix(key) + key + " = " + value + " is invalid; accepted range: " + range);
 }
 
 void check_int(const KeyLocations& where, const std::string& key, long long v, long long lo, long long hi) {
@@ -38,8 +40,9 @@ void check_int(const KeyLocations& where, const std::string& key, long long v, l
 
 void check_real(const KeyLocations& where, const std::string& key, double v, double lo, double hi, bool nonzero) {
     if (!std::isfinite(v) || v < lo || v > hi || (nonzero && v == 0.0)) {
-        invalid_key(where, key, std::to_string(v), "finite" + std::string(nonzero ? ", non-zero" : "") + ", " +
-                                                   std::to_string(lo) + " .. " + std::to_string(hi));
+        invalid_key(where, key, std::to_string(v),
+                    "finite" + std::string(nonzero ? ", non-zero" : "") + ", " + std::to_string(lo) + " .. " +
+                        std::to_string(hi));
     }
 }
 
@@ -52,13 +55,16 @@ void validate_real_device_keys(const KeyLocations& where, const std::string& dri
         invalid_key(where, "origin", std::to_string(k.origin.size()) + " values", "3 values (x, y, z in m)");
     }
     for (double v : k.origin) check_real(where, "origin", v, -1.0, 1.0, false);
-    if (k.force_sign.size() > 3) invalid_key(where, "force_sign", std::to_string(k.force_sign.size()) + " values", "1 to 3 values, one per axis");
+    if (k.force_sign.size() > 3)
+        invalid_key(where, "force_sign", std::to_string(k.force_sign.size()) + " values",
+                    "1 to 3 values, one per axis");
     for (double v : k.force_sign) {
         if (v != 1.0 && v != -1.0) invalid_key(where, "force_sign", std::to_string(v), "+1 or -1 per axis");
     }
     if (driver == "hid") {
         if (k.usb_vid < 0 || k.usb_pid < 0) {
-            throw StartupError(ErrorKind::BadConfig, where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
+            throw StartupError(ErrorKind::BadConfig,
+                               where.prefix("driver") + "driver = \"hid\" needs usb_vid and usb_pid");
         }
         check_int(where, "usb_vid", k.usb_vid, 0, 0xFFFF);
         check_int(where, "usb_pid", k.usb_pid, 0, 0xFFFF);
@@ -111,12 +117,14 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                                double stiffness) {
     const std::string n_axes = std::to_string(axes);
     if (!k.mass_given && !k.mass_matrix_given) {
-        throw StartupError(ErrorKind::BadConfig, where.prefix("mass") + "missing key 'mass'; accepted: mass = M (kg, every axis), "
-                                           "mass = [one value per axis] or mass_matrix = [" + n_axes + " x " + n_axes +
-                                           " values, row by row]");
+        throw StartupError(ErrorKind::BadConfig, where.prefix("mass") +
+                                                     "missing key 'mass'; accepted: mass = M (kg, every axis), "
+                                                     "mass = [one value per axis] or mass_matrix = [" +
+                                                     n_axes + " x " + n_axes + " values, row by row]");
     }
     if (k.mass_given && k.mass_matrix_given) {
-        throw StartupError(ErrorKind::BadConfig, where.prefix("mass_matrix") + "mass and mass_matrix are both given; accepted: one of them");
+        throw StartupError(ErrorKind::BadConfig,
+                           where.prefix("mass_matrix") + "mass and mass_matrix are both given; accepted: one of them");
     }
     ProfileMass out;
     if (k.mass_given) {
@@ -126,7 +134,8 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         for (double v : k.mass) {
             if (!std::isfinite(v) || v <= 0.0 || v > 1e6) {
                 invalid_key(where, "mass", k.mass.size() == 1 ? number(v) : list(k.mass),
-                        "finite, > 0 and <= 1e6 kg (kg m^2 for rotary devices)" + std::string(k.mass.size() == 1 ? "" : " per value"));
+                            "finite, > 0 and <= 1e6 kg (kg m^2 for rotary devices)" +
+                                std::string(k.mass.size() == 1 ? "" : " per value"));
             }
         }
         MassMatrix M{};
@@ -139,7 +148,8 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         }
         double largest_entry = 0.0;
         for (double v : k.mass_matrix) {
-            if (!std::isfinite(v) || std::abs(v) > 1e6) invalid_key(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
+            if (!std::isfinite(v) || std::abs(v) > 1e6)
+                invalid_key(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
             largest_entry = std::max(largest_entry, std::abs(v));
         }
         MassMatrix M{};
@@ -151,9 +161,10 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                 // Symmetric to 1e-9 of the largest entry: values written alike are exactly symmetric; the
                 // tolerance only forgives a last-digit difference, never a real asymmetry.
                 if (std::abs(M[i][j] - M[j][i]) > 1e-9 * largest_entry) {
-                    invalid_key(where, "mass_matrix", "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
-                                                      " but M[" + std::to_string(j) + "][" + std::to_string(i) + "] = " + number(M[j][i]),
-                            "a symmetric matrix (|M_ij - M_ji| <= 1e-9 max |M_kl|)");
+                    invalid_key(where, "mass_matrix",
+                                "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
+                                    " but M[" + std::to_string(j) + "][" + std::to_string(i) + "] = " + number(M[j][i]),
+                                "a symmetric matrix (|M_ij - M_ji| <= 1e-9 max |M_kl|)");
                 }
             }
         }
@@ -163,22 +174,25 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
         const double lo = es.eigenvalues().minCoeff(), hi = es.eigenvalues().maxCoeff();
         if (cholesky.info() != Eigen::Success || !(lo > 0.0) || lo < 1e-9 * hi || hi > 1e6) {
-            invalid_key(where, "mass_matrix", list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
-                    "positive definite (Cholesky), eigenvalues in (0, 1e6] kg, smallest / largest >= 1e-9");
+            invalid_key(where, "mass_matrix",
+                        list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
+                        "positive definite (Cholesky), eigenvalues in (0, 1e6] kg, smallest / largest >= 1e-9");
         }
         out.mass = DeviceMass::from_matrix(M, axes);
     }
     if (!out.mass.isotropic && (damping != 0.0 || stiffness != 0.0)) {
-        throw StartupError(ErrorKind::InvalidParameter,
-                           where.prefix(k.mass_given ? "mass" : "mass_matrix") + "an anisotropic mass (" + out.mass.describe() +
-                               ") with damping = " + number(damping) + " N s/m, stiffness = " + number(stiffness) +
-                               " N/m is not supported: the plant along a direction is then not one scalar loop, and the "
-                               "stability checks would use a wrong model; accepted: damping = 0 and stiffness = 0 with a mass "
-                               "per axis or mass_matrix, or one mass for every axis (docs/devices.md)");
+        throw StartupError(
+            ErrorKind::InvalidParameter,
+            where.prefix(k.mass_given ? "mass" : "mass_matrix") + "an anisotropic mass (" + out.mass.describe() +
+                ") with damping = " + number(damping) + " N s/m, stiffness = " + number(stiffness) +
+                " N/m is not supported: the plant along a direction is then not one scalar loop, and the "
+                "stability checks would use a wrong model; accepted: damping = 0 and stiffness = 0 with a mass "
+                "per axis or mass_matrix, or one mass for every axis (docs/devices.md)");
     }
     if (k.max_stiffness_given) {
         if (!std::isfinite(k.max_stiffness) || k.max_stiffness <= 0.0 || k.max_stiffness > 1e12) {
-            invalid_key(where, "max_stiffness", number(k.max_stiffness), "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
+            invalid_key(where, "max_stiffness", number(k.max_stiffness),
+                        "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
         }
         out.max_stiffness = k.max_stiffness;
     }

@@ -25,10 +25,10 @@ namespace hapticd {
 // --replay (daemon/replay.hpp): called at the start of every tick, before the objects' apply_commits, to hand
 // the loop the batches it took at that tick in the recording. Real-time rules apply.
 class TickFeeder {
-public:
+  public:
     virtual void before_commits(std::uint64_t tick) noexcept = 0;
 
-protected:
+  protected:
     TickFeeder() = default;
     TickFeeder(const TickFeeder&) = default;
     TickFeeder& operator=(const TickFeeder&) = default;
@@ -37,8 +37,8 @@ protected:
 
 struct DaemonConfig {
     LoopConfig loop;
-    std::uint64_t max_ticks = 0;   // 0: until stopped
-    std::size_t delay_samples = 0; // the delay buffer N
+    std::uint64_t max_ticks = 0;    // 0: until stopped
+    std::size_t delay_samples = 0;  // the delay buffer N
     WatchdogConfig watchdog;
     bool watchdog_enabled = true;  // off in lockstep (no deadlines)
     std::size_t trace_axis = 0;
@@ -62,7 +62,7 @@ struct RunResult {
 };
 
 class Daemon {
-public:
+  public:
     // Device, scene and trace (may be null) must outlive the daemon. The device must be open and homed.
     Daemon(Device& device, Scene& scene, TraceWriter* trace, const DaemonConfig& config);
 
@@ -73,7 +73,7 @@ public:
 
     [[nodiscard]] const RealtimeLoop& loop() const noexcept { return loop_; }
 
-private:
+  private:
     TickOutput tick(const TickInput& in) noexcept;
 
     Device& device_;

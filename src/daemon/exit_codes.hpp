@@ -17,8 +17,9 @@ enum ExitCode : int {
     kExitRunFault = 7,          // fault during the run: watchdog or non-finite value
     kExitServerError = 8,       // --serve: the control socket or the state's shared memory could not be created
     kExitSocketPathInUse = 9,   // --serve: the socket path holds a file that is not a stale hapticd socket (left alone)
-    kExitBadRecording = 10,     // --replay: the recording is unreadable, truncated, corrupt, incomplete or cannot be rebuilt
-    kExitReplayMismatch = 11,   // --replay: a replayed force differs from the recorded one (or the batches or ticks do)
+    kExitBadRecording =
+        10,  // --replay: the recording is unreadable, truncated, corrupt, incomplete or cannot be rebuilt
+    kExitReplayMismatch = 11,  // --replay: a replayed force differs from the recorded one (or the batches or ticks do)
 };
 
 inline constexpr const char* kExitCodeHelp =
@@ -32,18 +33,30 @@ inline constexpr const char* kExitCodeHelp =
 // The exit code of an error of this kind (what hapticd, `hapticd experiment` and `hapticd check-device` return).
 [[nodiscard]] constexpr int exit_code(ErrorKind kind) noexcept {
     switch (kind) {
-        case ErrorKind::Ok: return kExitOk;
-        case ErrorKind::Internal: return kExitInternal;
-        case ErrorKind::Usage: return kExitUsage;
-        case ErrorKind::BadConfig: return kExitBadConfig;
-        case ErrorKind::InvalidParameter: return kExitInvalidParameter;
-        case ErrorKind::UnstableGains: return kExitUnstableGains;
-        case ErrorKind::Device: return kExitDeviceError;
-        case ErrorKind::RunFault: return kExitRunFault;
-        case ErrorKind::Server: return kExitServerError;
-        case ErrorKind::SocketPathInUse: return kExitSocketPathInUse;
-        case ErrorKind::BadRecording: return kExitBadRecording;
-        case ErrorKind::ReplayMismatch: return kExitReplayMismatch;
+        case ErrorKind::Ok:
+            return kExitOk;
+        case ErrorKind::Internal:
+            return kExitInternal;
+        case ErrorKind::Usage:
+            return kExitUsage;
+        case ErrorKind::BadConfig:
+            return kExitBadConfig;
+        case ErrorKind::InvalidParameter:
+            return kExitInvalidParameter;
+        case ErrorKind::UnstableGains:
+            return kExitUnstableGains;
+        case ErrorKind::Device:
+            return kExitDeviceError;
+        case ErrorKind::RunFault:
+            return kExitRunFault;
+        case ErrorKind::Server:
+            return kExitServerError;
+        case ErrorKind::SocketPathInUse:
+            return kExitSocketPathInUse;
+        case ErrorKind::BadRecording:
+            return kExitBadRecording;
+        case ErrorKind::ReplayMismatch:
+            return kExitReplayMismatch;
     }
     return kExitInternal;
 }

@@ -91,14 +91,19 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
         if (o.gains_set) {
             auto it = tuned.find("explicit" + axis_key);
             if (it == tuned.end()) {
-                it = tuned.emplace("explicit" + axis_key, check_explicit_gains(o.stiffness, o.damping, o.criterion, wall_plant,
-                                                                                    o.passivity_control)).first;
+                it = tuned
+                         .emplace("explicit" + axis_key, check_explicit_gains(o.stiffness, o.damping, o.criterion,
+                                                                              wall_plant, o.passivity_control))
+                         .first;
             }
             w.tuning = it->second;
         } else {
             auto it = tuned.find(criterion + axis_key);
             if (it == tuned.end()) {
-                it = tuned.emplace(criterion + axis_key, box ? tune_wall_robust(criterion, *box) : tune_wall(criterion, wall_plant)).first;
+                it = tuned
+                         .emplace(criterion + axis_key,
+                                  box ? tune_wall_robust(criterion, *box) : tune_wall(criterion, wall_plant))
+                         .first;
             }
             w.tuning = it->second;
         }
@@ -106,8 +111,9 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             std::ostringstream m;
             m << origin << " '" << text << "': K = " << w.tuning.K << " N/m"
               << (o.gains_set ? std::string() : " (the optimum of criterion " + criterion + ")")
-              << " exceeds the device's stiffness limit (device profile '" << p.path << "': max_stiffness = " << *p.max_stiffness
-              << " N/m); accepted range: K <= " << *p.max_stiffness << " N/m";
+              << " exceeds the device's stiffness limit (device profile '" << p.path
+              << "': max_stiffness = " << *p.max_stiffness << " N/m); accepted range: K <= " << *p.max_stiffness
+              << " N/m";
             throw StartupError(ErrorKind::InvalidParameter, m.str());
         }
         walls.push_back(w);
@@ -135,10 +141,12 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
         b.delay_max = (r.delay_periods + k * r.delay_stderr) * period + buffer;
         return b;
     }
-    if (p.mass_range.empty() && p.damping_range.empty() && p.stiffness_range.empty() && p.inherent_delay_range.empty()) {
-        throw StartupError(ErrorKind::BadConfig, "device profile '" + p.path +
-                                               "': --robust needs at least one of the keys mass_range, damping_range, "
-                                               "stiffness_range, inherent_delay_range ([min, max]), or --identify");
+    if (p.mass_range.empty() && p.damping_range.empty() && p.stiffness_range.empty() &&
+        p.inherent_delay_range.empty()) {
+        throw StartupError(ErrorKind::BadConfig,
+                           "device profile '" + p.path +
+                               "': --robust needs at least one of the keys mass_range, damping_range, "
+                               "stiffness_range, inherent_delay_range ([min, max]), or --identify");
     }
     auto lo = [](const std::vector<double>& r, double nominal) { return r.empty() ? nominal : r[0]; };
     auto hi = [](const std::vector<double>& r, double nominal) { return r.empty() ? nominal : r[1]; };
@@ -155,7 +163,8 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
 
 // The walls were tuned and checked for the profile's plant (the device with the arm's mass); the simulated
 // hand adds b_H, k_H (and m_H). Usually that keeps them stable (docs/simulated-hand.md), not always: say so.
-void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profile, const SimHand& hand, double period, double delay) {
+void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profile, const SimHand& hand, double period,
+                             double delay) {
     if (hand.damping == 0.0 && hand.stiffness == 0.0 && hand.mass == 0.0) return;
     GainCheckPlant held;
     held.mass = profile.mass + hand.mass;
@@ -167,8 +176,9 @@ void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profi
     for (const auto& r : report.walls) {
         if (!checker.pair_is_stable(r.tuning.K, r.tuning.B, held.mass)) {
             std::cerr << "hapticd: warning: wall " << r.spec << " (K = " << r.tuning.K << ", B = " << r.tuning.B
-                      << ") is not stable with the simulated hand (m_H +" << hand.mass << " kg, b_H " << hand.damping << " N s/m, k_H "
-                      << hand.stiffness << " N/m): the checks are made for the profile's plant; give the hand more damping "
+                      << ") is not stable with the simulated hand (m_H +" << hand.mass << " kg, b_H " << hand.damping
+                      << " N s/m, k_H " << hand.stiffness
+                      << " N/m): the checks are made for the profile's plant; give the hand more damping "
                       << "(docs/simulated-hand.md)\n";
         }
     }
@@ -185,9 +195,12 @@ int replay_verdict(const Recording& r, const RunResult& run, const PlaybackDevic
     char line[512];
     if (device.mismatched_ticks() > 0) {
         const auto& m = device.first_mismatch();
-        std::snprintf(line, sizeof line, "%llu of %llu ticks differ; the first is tick %llu: force[%zu] recorded %.17g N, replayed %.17g N",
-                      static_cast<unsigned long long>(device.mismatched_ticks()), static_cast<unsigned long long>(device.ticks_compared()),
-                      static_cast<unsigned long long>(m.tick), m.axis, m.recorded, m.replayed);
+        std::snprintf(
+            line, sizeof line,
+            "%llu of %llu ticks differ; the first is tick %llu: force[%zu] recorded %.17g N, replayed %.17g N",
+            static_cast<unsigned long long>(device.mismatched_ticks()),
+            static_cast<unsigned long long>(device.ticks_compared()), static_cast<unsigned long long>(m.tick), m.axis,
+            m.recorded, m.replayed);
         std::cerr << "hapticd: error: replay of '" << r.path << "': " << line << "\n";
         same = false;
     }
@@ -196,9 +209,13 @@ int replay_verdict(const Recording& r, const RunResult& run, const PlaybackDevic
         same = false;
     }
     if (device.ticks_compared() != r.ticks.size() || taken != r.batches.size()) {
-        std::cerr << "hapticd: error: replay of '" << r.path << "': the replay ran " << device.ticks_compared() << " ticks and took "
-                  << taken << " batches; the recording has " << r.ticks.size() << " ticks and " << r.batches.size() << " batches"
-                  << (run.fault != StateFault::None ? " (the replay faulted at tick " + std::to_string(run.fault_tick) + ")" : std::string()) << "\n";
+        std::cerr << "hapticd: error: replay of '" << r.path << "': the replay ran " << device.ticks_compared()
+                  << " ticks and took " << taken << " batches; the recording has " << r.ticks.size() << " ticks and "
+                  << r.batches.size() << " batches"
+                  << (run.fault != StateFault::None
+                          ? " (the replay faulted at tick " + std::to_string(run.fault_tick) + ")"
+                          : std::string())
+                  << "\n";
         same = false;
     }
     if (!same) return kExitReplayMismatch;
@@ -220,7 +237,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         o.dry_run = false;
         o.list_devices = false;
     } else if (!o.replay.empty()) {
-        throw StartupError(ErrorKind::Usage, "--replay takes the options from the recording: only --quiet may be given with it");
+        throw StartupError(ErrorKind::Usage,
+                           "--replay takes the options from the recording: only --quiet may be given with it");
     }
     validate_options(o);
     if (o.list_devices) return list_devices(std::cout, o);
@@ -237,16 +255,18 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     std::optional<IdentifiedTuning> ident_tuning;
     if (ident && !o.gains_set) {
         configured_tuning = tune_wall(o.criterion, configured_plant);
-        ident_tuning = tune_identified(o.criterion, ident->result, period, static_cast<double>(o.delay_buffer) / o.rate);
+        ident_tuning =
+            tune_identified(o.criterion, ident->result, period, static_cast<double>(o.delay_buffer) / o.rate);
     }
-    const TuningPlant plant = !ident ? configured_plant
-                              : ident_tuning ? ident_tuning->plant
-                                             : TuningPlant{ident->result.mass, std::max(0.0, ident->result.damping),
-                                                           std::max(0.0, ident->result.stiffness), period,
-                                                           ident->result.delay_periods * period +
-                                                               static_cast<double>(o.delay_buffer) / o.rate};
-    const std::optional<TuningBox> box = o.robust && !o.gains_set ? std::optional<TuningBox>(robust_box(o, profile, ident, period))
-                                                                   : std::nullopt;
+    const TuningPlant plant =
+        !ident ? configured_plant
+        : ident_tuning
+            ? ident_tuning->plant
+            : TuningPlant{ident->result.mass, std::max(0.0, ident->result.damping),
+                          std::max(0.0, ident->result.stiffness), period,
+                          ident->result.delay_periods * period + static_cast<double>(o.delay_buffer) / o.rate};
+    const std::optional<TuningBox> box =
+        o.robust && !o.gains_set ? std::optional<TuningBox>(robust_box(o, profile, ident, period)) : std::nullopt;
     const std::vector<ResolvedWall> walls = resolve_walls(o, profile, plant, box);
 
     const std::int64_t period_ns = std::llround(1e9 / o.rate);
@@ -255,7 +275,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         max_ticks = static_cast<std::uint64_t>(std::ceil(o.duration * o.rate - 1e-9));
         if (max_ticks == 0) max_ticks = 1;
     }
-    if (replay != nullptr) max_ticks = replay->ticks.size();  // the recorded run's last tick wrote zero force, as this one's will
+    if (replay != nullptr)
+        max_ticks = replay->ticks.size();  // the recorded run's last tick wrote zero force, as this one's will
 
     RunReport report;
     report.options = &o;
@@ -269,17 +290,16 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     }
 
     if (!o.quiet) {
-        out << "hapticd: device '" << profile.name << "' (" << profile.path << ")" << (o.simulate || profile.driver == "sim" ? ", simulated" : "")
-            << ": mass ";
+        out << "hapticd: device '" << profile.name << "' (" << profile.path << ")"
+            << (o.simulate || profile.driver == "sim" ? ", simulated" : "") << ": mass ";
         if (profile.mass_model.isotropic) {
             out << profile.mass << (profile.rotary ? " kg m^2" : " kg");
         } else {
             out << profile.mass_model.describe();
         }
-        out << ", damping " << profile.damping
-            << ", stiffness " << profile.stiffness << "; rate " << o.rate << " Hz (T = " << period * 1e3
-            << " ms), delay " << delay * 1e3 << " ms = " << delay / period << " periods (device " << profile.inherent_delay * 1e3
-            << " ms + buffer " << o.delay_buffer << ")\n";
+        out << ", damping " << profile.damping << ", stiffness " << profile.stiffness << "; rate " << o.rate
+            << " Hz (T = " << period * 1e3 << " ms), delay " << delay * 1e3 << " ms = " << delay / period
+            << " periods (device " << profile.inherent_delay * 1e3 << " ms + buffer " << o.delay_buffer << ")\n";
         if (std::abs(static_cast<double>(period_ns) - 1e9 / o.rate) > 1e-6) {
             out << "hapticd: note: the scheduler period is " << period_ns << " ns (1e9/rate rounded to whole ns); "
                 << "the wall and the tuning use T = 1/rate exactly\n";
@@ -288,9 +308,9 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         if (ident) {
             out << identification_text(*ident, profile, period) << "\n";
             if (configured_tuning && ident_tuning) {
-                out << "hapticd: tuned from the identified plant: K = " << ident_tuning->tuning.K << " +- " << ident_tuning->K_stderr
-                    << ", B = " << ident_tuning->tuning.B << " +- " << ident_tuning->B_stderr << " (from the profile: K = "
-                    << configured_tuning->K << ", B = " << configured_tuning->B << ")\n";
+                out << "hapticd: tuned from the identified plant: K = " << ident_tuning->tuning.K << " +- "
+                    << ident_tuning->K_stderr << ", B = " << ident_tuning->tuning.B << " +- " << ident_tuning->B_stderr
+                    << " (from the profile: K = " << configured_tuning->K << ", B = " << configured_tuning->B << ")\n";
             }
         }
         for (const auto& r : report.walls) {
@@ -298,7 +318,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         }
         if (o.gains_set) {
             for (const auto& w : walls) {
-                if (w.spec.criterion) out << "hapticd: note: explicit gains override the wall's criterion=" << *w.spec.criterion << "\n";
+                if (w.spec.criterion)
+                    out << "hapticd: note: explicit gains override the wall's criterion=" << *w.spec.criterion << "\n";
             }
         }
     }
@@ -329,14 +350,16 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     std::ofstream summary;
     if (!o.summary_json.empty()) {
         summary.open(o.summary_json);
-        if (!summary) throw StartupError(ErrorKind::Usage, "summary-json = '" + o.summary_json + "': cannot open for writing");
+        if (!summary)
+            throw StartupError(ErrorKind::Usage, "summary-json = '" + o.summary_json + "': cannot open for writing");
     }
     auto write_summary = [&](int code) {
         report.exit_code = code;
         if (summary.is_open()) {
             nlohmann::json j = summary_json(report);
             if (ident) {
-                j["identified"] = identification_summary_json(*ident, profile, period, configured_tuning ? &*configured_tuning : nullptr,
+                j["identified"] = identification_summary_json(*ident, profile, period,
+                                                              configured_tuning ? &*configured_tuning : nullptr,
                                                               ident_tuning ? &*ident_tuning : nullptr);
             }
             summary << j.dump(2) << "\n";
@@ -348,9 +371,9 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         write_summary(kExitOk);
         return kExitOk;
     }
-    std::unique_ptr<Device> device = replay != nullptr
-                                         ? std::make_unique<PlaybackDevice>(*replay, capabilities_from_profile(profile), profile.name)
-                                         : make_device(profile, o, scenario, period);
+    std::unique_ptr<Device> device =
+        replay != nullptr ? std::make_unique<PlaybackDevice>(*replay, capabilities_from_profile(profile), profile.name)
+                          : make_device(profile, o, scenario, period);
     auto* playback = replay != nullptr ? static_cast<PlaybackDevice*>(device.get()) : nullptr;
 
     std::vector<VirtualWall> scene_walls;
@@ -401,7 +424,9 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     cfg.watchdog.max_consecutive_overruns = static_cast<std::uint32_t>(o.watchdog_overruns);
     cfg.watchdog.max_skipped_periods = static_cast<std::uint64_t>(o.watchdog_stall_periods);
     cfg.watchdog_enabled = !o.lockstep;
-    cfg.trace_axis = o.trace_axis >= 0 ? static_cast<std::size_t>(o.trace_axis) : walls.empty() ? 0 : walls.front().geometry.axis;
+    cfg.trace_axis = o.trace_axis >= 0 ? static_cast<std::size_t>(o.trace_axis)
+                     : walls.empty()   ? 0
+                                       : walls.front().geometry.axis;
     std::optional<PassivityController> passivity;
     if (o.passivity_control) {
         PassivityControlConfig pc;
@@ -429,7 +454,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     if (replay != nullptr && o.serve) {
         replay_ring = std::make_unique<CommitRing>(replay_ring_capacity(*replay));
         replay_departures = std::make_unique<CommitRing>(replay_ring_capacity(*replay));
-        replay_objects = std::make_unique<SceneObjects>(scene_objects_config(o, profile, period), *replay_ring, replay_departures.get());
+        replay_objects = std::make_unique<SceneObjects>(scene_objects_config(o, profile, period), *replay_ring,
+                                                        replay_departures.get());
         feeder = std::make_unique<ReplayFeeder>(*replay, *replay_objects, *replay_ring, *replay_departures);
         replay_objects->set_observer(feeder.get());
         cfg.feeder = feeder.get();
@@ -459,10 +485,13 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         report.realtime_requested = true;
         report.realtime = apply_realtime(RealtimeRequest{o.rt_priority, o.mlock, o.cpu});
         if (!o.quiet) {
-            out << "hapticd: real-time: SCHED_FIFO " << (report.realtime.fifo ? "priority " + std::to_string(o.rt_priority) : std::string("off"))
+            out << "hapticd: real-time: SCHED_FIFO "
+                << (report.realtime.fifo ? "priority " + std::to_string(o.rt_priority) : std::string("off"))
                 << ", memory " << (report.realtime.memory_locked ? "locked" : "not locked") << ", CPU "
                 << (report.realtime.pinned ? std::to_string(o.cpu) : std::string("not pinned"))
-                << (o.spin_us > 0.0 ? ", spinning the last " + std::to_string(std::llround(o.spin_us)) + " us before each tick" : std::string())
+                << (o.spin_us > 0.0
+                        ? ", spinning the last " + std::to_string(std::llround(o.spin_us)) + " us before each tick"
+                        : std::string())
                 << "\n";
         }
         if (!report.realtime.failures.empty()) {
@@ -475,8 +504,10 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
             << (max_ticks ? " for " + std::to_string(max_ticks) + " ticks" : std::string(" until SIGINT/SIGTERM"))
             << ", scenario " << to_string(scenario.kind);
         if (profile.driver == "sim" || o.simulate) {
-            out << " (simulated hand: b_H " << scenario.hand.damping << " N s/m, k_H " << scenario.hand.stiffness << " N/m"
-                << (scenario.hand.mass > 0.0 ? ", m_H +" + std::to_string(scenario.hand.mass) + " kg" : std::string()) << ")";
+            out << " (simulated hand: b_H " << scenario.hand.damping << " N s/m, k_H " << scenario.hand.stiffness
+                << " N/m"
+                << (scenario.hand.mass > 0.0 ? ", m_H +" + std::to_string(scenario.hand.mass) + " kg" : std::string())
+                << ")";
         }
         out << std::endl;
     }
@@ -511,15 +542,18 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     }
     if (recorder) {
         const bool ok = recorder->close();
-        if (!ok) std::cerr << "hapticd: error: writing recording '" << o.record << "' failed (it is marked incomplete)\n";
+        if (!ok)
+            std::cerr << "hapticd: error: writing recording '" << o.record << "' failed (it is marked incomplete)\n";
         if (recorder->dropped_ticks() + recorder->dropped_batches() > 0) {
-            std::cerr << "hapticd: warning: " << recorder->dropped_ticks() << " tick and " << recorder->dropped_batches()
-                      << " batch records dropped (recorder ring full; raise --record-capacity, or record with --lockstep): the "
+            std::cerr << "hapticd: warning: " << recorder->dropped_ticks() << " tick and "
+                      << recorder->dropped_batches()
+                      << " batch records dropped (recorder ring full; raise --record-capacity, or record with "
+                         "--lockstep): the "
                       << "recording '" << o.record << "' is marked incomplete and cannot be replayed\n";
         }
         if (!o.quiet) {
-            out << "hapticd: recorded " << recorder->ticks_written() << " ticks and " << recorder->batches_written() << " batches to '"
-                << o.record << "'\n";
+            out << "hapticd: recorded " << recorder->ticks_written() << " ticks and " << recorder->batches_written()
+                << " batches to '" << o.record << "'\n";
         }
     }
     if (replay != nullptr) return replay_verdict(*replay, report.run, *playback, feeder.get());
@@ -528,30 +562,32 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         report.passivity_control = true;
         report.passivity = passivity->stats();
     }
-    if (const DeviceCounters c = device->counters(); c.packets_malformed + c.packets_short + c.garbage_bytes > 0 && !o.quiet) {
+    if (const DeviceCounters c = device->counters();
+        c.packets_malformed + c.packets_short + c.garbage_bytes > 0 && !o.quiet) {
         std::cerr << "hapticd: warning: device '" << profile.name << "': " << c.packets_malformed << " malformed and "
-                  << c.packets_short << " short packets dropped, " << c.garbage_bytes << " bytes skipped while resynchronising ("
-                  << c.packets_ok << " good packets)\n";
+                  << c.packets_short << " short packets dropped, " << c.garbage_bytes
+                  << " bytes skipped while resynchronising (" << c.packets_ok << " good packets)\n";
     }
 
     int code = kExitOk;
     switch (report.run.fault) {
-        case StateFault::None: break;
+        case StateFault::None:
+            break;
         case StateFault::Device:
             code = kExitDeviceError;
-            std::cerr << "hapticd: error: device '" << profile.name << "' failed at tick " << report.run.fault_tick << ": "
-                      << report.device_error << "; zero force, loop stopped\n";
+            std::cerr << "hapticd: error: device '" << profile.name << "' failed at tick " << report.run.fault_tick
+                      << ": " << report.device_error << "; zero force, loop stopped\n";
             break;
         case StateFault::NonFinite:
             code = kExitRunFault;
-            std::cerr << "hapticd: error: fault at tick " << report.run.fault_tick << ": " << to_string(report.run.scene_fault)
-                      << "; zero force, loop stopped\n";
+            std::cerr << "hapticd: error: fault at tick " << report.run.fault_tick << ": "
+                      << to_string(report.run.scene_fault) << "; zero force, loop stopped\n";
             break;
         case StateFault::Watchdog:
             code = kExitRunFault;
             std::cerr << "hapticd: error: watchdog fault at tick " << report.run.fault_tick << ": more than "
-                      << o.watchdog_overruns << " consecutive overruns or a stall of more than " << o.watchdog_stall_periods
-                      << " periods; zero force, loop stopped\n";
+                      << o.watchdog_overruns << " consecutive overruns or a stall of more than "
+                      << o.watchdog_stall_periods << " periods; zero force, loop stopped\n";
             break;
         case StateFault::FatalSignal:
         case StateFault::Terminate:
@@ -579,8 +615,10 @@ int replay_main(int argc, const char* const* argv) {
         } else if (a == "--quiet") {
             quiet = true;
         } else {
-            throw StartupError(ErrorKind::Usage, "--replay takes the options from the recording: only --quiet may be given with it (got '" +
-                                               std::string(a) + "')");
+            throw StartupError(
+                ErrorKind::Usage,
+                "--replay takes the options from the recording: only --quiet may be given with it (got '" +
+                    std::string(a) + "')");
         }
     }
     if (file.empty()) throw StartupError(ErrorKind::Usage, "--replay needs a FILE (a recording made with --record)");
@@ -591,20 +629,24 @@ int replay_main(int argc, const char* const* argv) {
         throw StartupError(ErrorKind::BadRecording, e.what());
     }
     const nlohmann::json& args = r.header.contains("argv") ? r.header["argv"] : nlohmann::json();
-    if (!args.is_array() || !std::all_of(args.begin(), args.end(), [](const nlohmann::json& a) { return a.is_string(); })) {
-        throw StartupError(ErrorKind::BadRecording, "recording '" + file + "': corrupt header: 'argv' is not an array of strings");
+    if (!args.is_array() ||
+        !std::all_of(args.begin(), args.end(), [](const nlohmann::json& a) { return a.is_string(); })) {
+        throw StartupError(ErrorKind::BadRecording,
+                           "recording '" + file + "': corrupt header: 'argv' is not an array of strings");
     }
     const std::string cwd = r.header.value("cwd", std::string());
     if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) {
-        throw StartupError(ErrorKind::BadRecording, "recording '" + file + "': cannot enter its working directory '" + cwd +
-                                                  "' (the relative paths of its command line are relative to it)");
+        throw StartupError(ErrorKind::BadRecording,
+                           "recording '" + file + "': cannot enter its working directory '" + cwd +
+                               "' (the relative paths of its command line are relative to it)");
     }
     std::vector<std::string> strings{"hapticd"};
     for (const auto& a : args) strings.push_back(a.get<std::string>());
     std::vector<const char*> pointers;
     for (const auto& a : strings) pointers.push_back(a.c_str());
     if (!quiet) {
-        std::cout << "hapticd: replaying '" << file << "': " << r.ticks.size() << " ticks, " << r.batches.size() << " batches, recorded with:";
+        std::cout << "hapticd: replaying '" << file << "': " << r.ticks.size() << " ticks, " << r.batches.size()
+                  << " batches, recorded with:";
         for (std::size_t i = 1; i < strings.size(); ++i) {
             const bool quote = strings[i].empty() || strings[i].find_first_of(" \t'\"") != std::string::npos;
             std::cout << " " << (quote ? "'" + strings[i] + "'" : strings[i]);

@@ -26,37 +26,45 @@ json field(const char* name, const char* type, std::size_t offset, std::size_t c
 json layout() {
     using namespace recording;
     json l;
-    l["tick"] = json::array({field("kind", "<u4", offsetof(TickChunk, kind)), field("read_status", "u1", offsetof(TickChunk, read_status)),
-                             field("write_status", "u1", offsetof(TickChunk, write_status)), field("fault", "u1", offsetof(TickChunk, fault)),
-                             field("tick", "<u8", offsetof(TickChunk, tick)), field("time_s", "<f8", offsetof(TickChunk, time_s)),
-                             field("position", "<f8", offsetof(TickChunk, position), 3),
-                             field("velocity", "<f8", offsetof(TickChunk, velocity), 3),
-                             field("force", "<f8", offsetof(TickChunk, force), 3),
-                             field("contact_mask", "<u8", offsetof(TickChunk, contact_mask)),
-                             field("config_contact_mask", "<u8", offsetof(TickChunk, config_contact_mask)),
-                             field("wake_latency_ns", "<i8", offsetof(TickChunk, wake_latency_ns)),
-                             field("batches", "<u4", offsetof(TickChunk, batches))});
-    l["batch"] = json::array({field("kind", "<u4", offsetof(BatchChunk, kind)), field("source", "u1", offsetof(BatchChunk, source)),
-                              field("tick", "<u8", offsetof(BatchChunk, tick)), field("seq", "<u8", offsetof(BatchChunk, seq)),
-                              field("count", "<u4", offsetof(BatchChunk, count)), field("index", "<u4", offsetof(BatchChunk, index))});
-    l["update_a"] = json::array({field("kind", "<u4", offsetof(UpdateChunkA, kind)), field("slot", "u1", offsetof(UpdateChunkA, slot)),
-                                 field("action", "u1", offsetof(UpdateChunkA, action)),
-                                 field("object_kind", "u1", offsetof(UpdateChunkA, object_kind)),
-                                 field("bilateral", "u1", offsetof(UpdateChunkA, bilateral)),
-                                 field("constraint", "u1", offsetof(UpdateChunkA, constraint)), field("id", "<u4", offsetof(UpdateChunkA, id)),
-                                 field("direction", "<f8", offsetof(UpdateChunkA, direction), 3),
-                                 field("offset", "<f8", offsetof(UpdateChunkA, offset)), field("point", "<f8", offsetof(UpdateChunkA, point), 3),
-                                 field("radius", "<f8", offsetof(UpdateChunkA, radius)), field("force", "<f8", offsetof(UpdateChunkA, force), 3),
-                                 field("K", "<f8", offsetof(UpdateChunkA, K)), field("B", "<f8", offsetof(UpdateChunkA, B)),
-                                 field("offset_rate", "<f8", offsetof(UpdateChunkA, offset_rate))});
-    l["update_b"] = json::array({field("kind", "<u4", offsetof(UpdateChunkB, kind)), field("jacobian", "<f8", offsetof(UpdateChunkB, jacobian), 9),
+    l["tick"] = json::array(
+        {field("kind", "<u4", offsetof(TickChunk, kind)), field("read_status", "u1", offsetof(TickChunk, read_status)),
+         field("write_status", "u1", offsetof(TickChunk, write_status)),
+         field("fault", "u1", offsetof(TickChunk, fault)), field("tick", "<u8", offsetof(TickChunk, tick)),
+         field("time_s", "<f8", offsetof(TickChunk, time_s)),
+         field("position", "<f8", offsetof(TickChunk, position), 3),
+         field("velocity", "<f8", offsetof(TickChunk, velocity), 3),
+         field("force", "<f8", offsetof(TickChunk, force), 3),
+         field("contact_mask", "<u8", offsetof(TickChunk, contact_mask)),
+         field("config_contact_mask", "<u8", offsetof(TickChunk, config_contact_mask)),
+         field("wake_latency_ns", "<i8", offsetof(TickChunk, wake_latency_ns)),
+         field("batches", "<u4", offsetof(TickChunk, batches))});
+    l["batch"] = json::array(
+        {field("kind", "<u4", offsetof(BatchChunk, kind)), field("source", "u1", offsetof(BatchChunk, source)),
+         field("tick", "<u8", offsetof(BatchChunk, tick)), field("seq", "<u8", offsetof(BatchChunk, seq)),
+         field("count", "<u4", offsetof(BatchChunk, count)), field("index", "<u4", offsetof(BatchChunk, index))});
+    l["update_a"] = json::array(
+        {field("kind", "<u4", offsetof(UpdateChunkA, kind)), field("slot", "u1", offsetof(UpdateChunkA, slot)),
+         field("action", "u1", offsetof(UpdateChunkA, action)),
+         field("object_kind", "u1", offsetof(UpdateChunkA, object_kind)),
+         field("bilateral", "u1", offsetof(UpdateChunkA, bilateral)),
+         field("constraint", "u1", offsetof(UpdateChunkA, constraint)), field("id", "<u4", offsetof(UpdateChunkA, id)),
+         field("direction", "<f8", offsetof(UpdateChunkA, direction), 3),
+         field("offset", "<f8", offsetof(UpdateChunkA, offset)),
+         field("point", "<f8", offsetof(UpdateChunkA, point), 3),
+         field("radius", "<f8", offsetof(UpdateChunkA, radius)),
+         field("force", "<f8", offsetof(UpdateChunkA, force), 3), field("K", "<f8", offsetof(UpdateChunkA, K)),
+         field("B", "<f8", offsetof(UpdateChunkA, B)),
+         field("offset_rate", "<f8", offsetof(UpdateChunkA, offset_rate))});
+    l["update_b"] = json::array({field("kind", "<u4", offsetof(UpdateChunkB, kind)),
+                                 field("jacobian", "<f8", offsetof(UpdateChunkB, jacobian), 9),
                                  field("point_rate", "<f8", offsetof(UpdateChunkB, point_rate), 3)});
-    l["end"] = json::array({field("kind", "<u4", offsetof(EndChunk, kind)), field("complete", "<u4", offsetof(EndChunk, complete)),
-                            field("ticks", "<u8", offsetof(EndChunk, ticks)), field("batches", "<u8", offsetof(EndChunk, batches)),
-                            field("updates", "<u8", offsetof(EndChunk, updates)),
-                            field("dropped_ticks", "<u8", offsetof(EndChunk, dropped_ticks)),
-                            field("dropped_batches", "<u8", offsetof(EndChunk, dropped_batches)),
-                            field("checksum", "<u8", offsetof(EndChunk, checksum))});
+    l["end"] = json::array(
+        {field("kind", "<u4", offsetof(EndChunk, kind)), field("complete", "<u4", offsetof(EndChunk, complete)),
+         field("ticks", "<u8", offsetof(EndChunk, ticks)), field("batches", "<u8", offsetof(EndChunk, batches)),
+         field("updates", "<u8", offsetof(EndChunk, updates)),
+         field("dropped_ticks", "<u8", offsetof(EndChunk, dropped_ticks)),
+         field("dropped_batches", "<u8", offsetof(EndChunk, dropped_batches)),
+         field("checksum", "<u8", offsetof(EndChunk, checksum))});
     return l;
 }
 
@@ -71,7 +79,8 @@ json file_entry(const std::string& path) {
 
 void check_file(const Recording& r, const char* key, const char* what, const std::string& path_now) {
     const json& e = r.header.contains(key) ? r.header.at(key) : json(nullptr);
-    const std::string recorded = e.is_object() && e.contains("path") && e["path"].is_string() ? e["path"].get<std::string>() : "";
+    const std::string recorded =
+        e.is_object() && e.contains("path") && e["path"].is_string() ? e["path"].get<std::string>() : "";
     if (recorded != path_now) {
         refuse(r, std::string("it was made with ") + what + " '" + recorded + "', this replay reads '" + path_now +
                       "' (replay in the recording's environment)");
@@ -80,8 +89,9 @@ void check_file(const Recording& r, const char* key, const char* what, const std
     const std::string hash = e.contains("fnv1a64") && e["fnv1a64"].is_string() ? e["fnv1a64"].get<std::string>() : "";
     const std::string now = file_fnv1a64(path_now);
     if (hash != now) {
-        refuse(r, std::string("the ") + what + " '" + path_now + "' changed since the recording (FNV-1a 64 " + hash + ", now " +
-                      (now.empty() ? std::string("unreadable") : now) + "): the replay would not render the same scene");
+        refuse(r, std::string("the ") + what + " '" + path_now + "' changed since the recording (FNV-1a 64 " + hash +
+                      ", now " + (now.empty() ? std::string("unreadable") : now) +
+                      "): the replay would not render the same scene");
     }
 }
 
@@ -92,7 +102,8 @@ std::string file_fnv1a64(const std::string& path) {
     if (!in) return "";
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     char text[17];
-    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(recording::fnv1a64(bytes.data(), bytes.size())));
+    std::snprintf(text, sizeof text, "%016llx",
+                  static_cast<unsigned long long>(recording::fnv1a64(bytes.data(), bytes.size())));
     return text;
 }
 
@@ -120,14 +131,18 @@ json recording_header(int argc, const char* const* argv, const Options& o, const
 
 void check_replayable(const Recording& r, const Options& o, const DeviceProfile& profile) {
     if (o.identify) {
-        refuse(r, "it was made with --identify, whose tuning comes from measuring the device at start-up; replay cannot rebuild "
-                  "it (record with --identification-file instead)");
+        refuse(r,
+               "it was made with --identify, whose tuning comes from measuring the device at start-up; replay cannot "
+               "rebuild "
+               "it (record with --identification-file instead)");
     }
     check_file(r, "config_file", "config file", o.config_path);
     check_file(r, "device_profile", "device profile", profile.path);
     check_file(r, "identification_file", "identification file", o.identification_file);
     const auto axes = r.header.value("axes", -1LL);
-    if (axes != profile.axes) refuse(r, "the header's axes (" + std::to_string(axes) + ") is not the profile's " + std::to_string(profile.axes));
+    if (axes != profile.axes)
+        refuse(r,
+               "the header's axes (" + std::to_string(axes) + ") is not the profile's " + std::to_string(profile.axes));
 }
 
 PlaybackDevice::PlaybackDevice(const Recording& recording, const DeviceCapabilities& capabilities, std::string name)
@@ -189,8 +204,8 @@ void ReplayFeeder::before_commits(std::uint64_t tick) noexcept {
 void ReplayFeeder::on_taken(const ObjectCommit& commit, CommitSource source) noexcept {
     const std::size_t i = taken_++;
     if (mismatch_) return;
-    const bool expected = i < recording_.batches.size() && recording_.batches[i].tick == tick_ && recording_.batches[i].source == source &&
-                          recording_.batches[i].seq == commit.seq;
+    const bool expected = i < recording_.batches.size() && recording_.batches[i].tick == tick_ &&
+                          recording_.batches[i].source == source && recording_.batches[i].seq == commit.seq;
     if (!expected || push_failed_) {
         mismatch_ = true;
         mismatch_tick_ = tick_;
@@ -202,13 +217,17 @@ void ReplayFeeder::on_taken(const ObjectCommit& commit, CommitSource source) noe
 
 std::string ReplayFeeder::mismatch_text() const {
     if (!mismatch_) return "";
-    static constexpr const char* kSource[] = {"the commit ring", "the departures ring", "the commit ring (jumped ahead of a departure)"};
+    static constexpr const char* kSource[] = {"the commit ring", "the departures ring",
+                                              "the commit ring (jumped ahead of a departure)"};
     std::string s = "batch " + std::to_string(mismatch_index_) + " (seq " + std::to_string(mismatch_seq_) + ", from " +
-                    kSource[static_cast<int>(mismatch_source_)] + ") was taken at tick " + std::to_string(mismatch_tick_);
+                    kSource[static_cast<int>(mismatch_source_)] + ") was taken at tick " +
+                    std::to_string(mismatch_tick_);
     if (push_failed_) return s + "; a replay ring was full";
-    if (mismatch_index_ >= recording_.batches.size()) return s + "; the recording has only " + std::to_string(recording_.batches.size()) + " batches";
+    if (mismatch_index_ >= recording_.batches.size())
+        return s + "; the recording has only " + std::to_string(recording_.batches.size()) + " batches";
     const RecordedBatch& b = recording_.batches[mismatch_index_];
-    return s + "; recorded: seq " + std::to_string(b.seq) + " from " + kSource[static_cast<int>(b.source)] + " at tick " + std::to_string(b.tick);
+    return s + "; recorded: seq " + std::to_string(b.seq) + " from " + kSource[static_cast<int>(b.source)] +
+           " at tick " + std::to_string(b.tick);
 }
 
 std::size_t replay_ring_capacity(const Recording& recording) {

@@ -39,7 +39,7 @@ void check_replayable(const Recording& recording, const Options& options, const 
 // The device of a replay: position and read status of tick i from the recording; write_force compares the
 // force with the recorded one bit for bit (each axis's 64 bits) and returns the recorded write status.
 class PlaybackDevice final : public Device {
-public:
+  public:
     PlaybackDevice(const Recording& recording, const DeviceCapabilities& capabilities, std::string name);
 
     DeviceStatus open() override { return DeviceStatus::Ok; }
@@ -61,7 +61,7 @@ public:
     [[nodiscard]] std::uint64_t mismatched_ticks() const noexcept { return mismatches_; }
     [[nodiscard]] const Mismatch& first_mismatch() const noexcept { return first_; }
 
-private:
+  private:
     const Recording& recording_;
     DeviceCapabilities capabilities_;
     std::string name_;
@@ -77,7 +77,7 @@ private:
 // reproduced by an apply_commits call for the batches before it; that call starts with a fresh
 // commits_per_tick budget (docs/recording.md, "Limits").
 class ReplayFeeder final : public TickFeeder, public CommitObserver {
-public:
+  public:
     ReplayFeeder(const Recording& recording, SceneObjects& objects, CommitRing& ring, CommitRing& departures);
 
     void before_commits(std::uint64_t tick) noexcept override;
@@ -88,7 +88,7 @@ public:
     // The first batch taken otherwise than recorded (empty when none).
     [[nodiscard]] std::string mismatch_text() const;
 
-private:
+  private:
     void push(CommitRing& ring, const RecordedBatch& b) noexcept;
 
     const Recording& recording_;

@@ -10,7 +10,8 @@
 
 namespace hapticd {
 
-static_assert(std::endian::native == std::endian::little, "the recording format is little-endian (daemon/recording_format.hpp)");
+static_assert(std::endian::native == std::endian::little,
+              "the recording format is little-endian (daemon/recording_format.hpp)");
 
 Recorder::Recorder(const std::string& path, const std::string& header_json, std::size_t tick_capacity, bool blocking)
     : path_(path), ticks_(tick_capacity), batches_(kBatchCapacity), blocking_(blocking) {
@@ -19,7 +20,8 @@ Recorder::Recorder(const std::string& path, const std::string& header_json, std:
         throw std::runtime_error("record: cannot open '" + path + "' for writing: " + std::strerror(errno));
     }
     // Header: magic, version, size H (16 + the JSON, padded with spaces to a multiple of the chunk size).
-    const std::size_t h = (16 + header_json.size() + recording::kChunkSize - 1) / recording::kChunkSize * recording::kChunkSize;
+    const std::size_t h =
+        (16 + header_json.size() + recording::kChunkSize - 1) / recording::kChunkSize * recording::kChunkSize;
     std::vector<char> header(h, ' ');
     std::memcpy(header.data(), recording::kMagic, 8);
     const std::uint32_t version = recording::kFormatVersion;

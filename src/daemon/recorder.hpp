@@ -20,7 +20,7 @@
 namespace hapticd {
 
 class Recorder final : public CommitObserver {
-public:
+  public:
     // Opens `path` for writing and writes the header (header_json: the JSON object of the header; throws
     // std::runtime_error naming the path on failure), then starts the writer thread. tick_capacity: the tick
     // ring's records; the batch ring holds kBatchCapacity batches.
@@ -42,14 +42,22 @@ public:
     // Stops the writer after draining, writes the end chunk, closes. Idempotent. Returns false on a write error.
     bool close() noexcept;
 
-    [[nodiscard]] std::uint64_t dropped_ticks() const noexcept { return dropped_ticks_.load(std::memory_order_relaxed); }
-    [[nodiscard]] std::uint64_t dropped_batches() const noexcept { return dropped_batches_.load(std::memory_order_relaxed); }
-    [[nodiscard]] std::uint64_t ticks_written() const noexcept { return ticks_written_.load(std::memory_order_relaxed); }
-    [[nodiscard]] std::uint64_t batches_written() const noexcept { return batches_written_.load(std::memory_order_relaxed); }
+    [[nodiscard]] std::uint64_t dropped_ticks() const noexcept {
+        return dropped_ticks_.load(std::memory_order_relaxed);
+    }
+    [[nodiscard]] std::uint64_t dropped_batches() const noexcept {
+        return dropped_batches_.load(std::memory_order_relaxed);
+    }
+    [[nodiscard]] std::uint64_t ticks_written() const noexcept {
+        return ticks_written_.load(std::memory_order_relaxed);
+    }
+    [[nodiscard]] std::uint64_t batches_written() const noexcept {
+        return batches_written_.load(std::memory_order_relaxed);
+    }
     [[nodiscard]] bool write_error() const noexcept { return write_error_.load(std::memory_order_relaxed); }
     [[nodiscard]] const std::string& path() const noexcept { return path_; }
 
-private:
+  private:
     struct BatchEntry {
         std::uint64_t tick = 0;
         std::uint32_t index = 0;
@@ -66,9 +74,9 @@ private:
     SpscRing<recording::TickChunk> ticks_;
     SpscRing<BatchEntry> batches_;
     bool blocking_;
-    std::uint64_t tick_ = 0;     // loop thread
-    std::uint32_t index_ = 0;    // loop thread: batches taken in this tick
-    BatchEntry scratch_;         // loop thread: filled, then copied into the ring (no 14 KB zeroing per batch)
+    std::uint64_t tick_ = 0;   // loop thread
+    std::uint32_t index_ = 0;  // loop thread: batches taken in this tick
+    BatchEntry scratch_;       // loop thread: filled, then copied into the ring (no 14 KB zeroing per batch)
     std::FILE* file_ = nullptr;
     std::uint64_t checksum_ = 0;  // writer thread
     std::uint64_t updates_ = 0;   // writer thread

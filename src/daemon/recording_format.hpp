@@ -24,9 +24,9 @@ enum ChunkKind : std::uint32_t { kTick = 1, kBatch = 2, kUpdateA = 3, kUpdateB =
 
 // Which ring the loop took a batch from (SceneObjects::apply_commits).
 enum BatchSource : std::uint8_t {
-    kFromCommitRing = 0,   // the clients' batches, applied (or held until the ramps in progress end)
-    kFromDepartures = 1,   // a departure (a client that left), taken ahead of the others
-    kJumpedAhead = 2,      // a batch of the commit ring applied at once ahead of a departure (take_departures)
+    kFromCommitRing = 0,  // the clients' batches, applied (or held until the ramps in progress end)
+    kFromDepartures = 1,  // a departure (a client that left), taken ahead of the others
+    kJumpedAhead = 2,     // a batch of the commit ring applied at once ahead of a departure (take_departures)
 };
 
 struct TickChunk {
@@ -36,14 +36,14 @@ struct TickChunk {
     std::uint8_t fault = 0;         // the protocol's fault numbers: 0 none, 1 device, 2 non-finite, 3 watchdog
     std::uint8_t reserved0 = 0;
     std::uint64_t tick = 0;
-    double time_s = 0.0;            // the tick's scheduled time since the loop started, s (period x slot: skipped periods count)
-    double position[3] = {};        // m (rad), as read from the device
-    double velocity[3] = {};        // m/s, the objects' backward difference (0 without --serve)
-    double force[3] = {};           // N (N m), the force written to the device in this tick
-    std::uint64_t contact_mask = 0;        // bit s: client object in slot s in contact (SceneObjects::contact_mask)
-    std::uint64_t config_contact_mask = 0; // bit i: config wall i in contact (Scene::contact_mask)
-    std::int64_t wake_latency_ns = 0;      // wake-up less the deadline (0 in lockstep)
-    std::uint32_t batches = 0;             // batch chunks of this tick (they precede it)
+    double time_s = 0.0;  // the tick's scheduled time since the loop started, s (period x slot: skipped periods count)
+    double position[3] = {};                // m (rad), as read from the device
+    double velocity[3] = {};                // m/s, the objects' backward difference (0 without --serve)
+    double force[3] = {};                   // N (N m), the force written to the device in this tick
+    std::uint64_t contact_mask = 0;         // bit s: client object in slot s in contact (SceneObjects::contact_mask)
+    std::uint64_t config_contact_mask = 0;  // bit i: config wall i in contact (Scene::contact_mask)
+    std::int64_t wake_latency_ns = 0;       // wake-up less the deadline (0 in lockstep)
+    std::uint32_t batches = 0;              // batch chunks of this tick (they precede it)
     std::uint32_t reserved1 = 0;
 };
 
@@ -51,10 +51,10 @@ struct BatchChunk {
     std::uint32_t kind = kBatch;
     std::uint8_t source = kFromCommitRing;  // BatchSource
     std::uint8_t reserved0[3] = {};
-    std::uint64_t tick = 0;    // the tick whose apply_commits took it
-    std::uint64_t seq = 0;     // the server's batch sequence number
-    std::uint32_t count = 0;   // updates (each two chunks) that follow
-    std::uint32_t index = 0;   // its place among the batches of its tick (0, 1, ...)
+    std::uint64_t tick = 0;   // the tick whose apply_commits took it
+    std::uint64_t seq = 0;    // the server's batch sequence number
+    std::uint32_t count = 0;  // updates (each two chunks) that follow
+    std::uint32_t index = 0;  // its place among the batches of its tick (0, 1, ...)
     std::uint8_t reserved1[96] = {};
 };
 
@@ -65,7 +65,7 @@ struct UpdateChunkA {
     std::uint8_t action = 0;       // SlotUpdate::Action: 0 Set, 1 Move, 2 Remove, 3 Cut
     std::uint8_t object_kind = 0;  // ObjectKind: 0 plane, 1 spring, 2 field
     std::uint8_t bilateral = 0;
-    std::uint8_t constraint = 0;   // SpringConstraint: 0 point, 1 line, 2 plane
+    std::uint8_t constraint = 0;  // SpringConstraint: 0 point, 1 line, 2 plane
     std::uint8_t reserved0[3] = {};
     std::uint32_t id = 0;
     double direction[3] = {};
@@ -89,30 +89,35 @@ struct UpdateChunkB {
 
 struct EndChunk {
     std::uint32_t kind = kEnd;
-    std::uint32_t complete = 0;        // 1: no record was dropped and every write succeeded
-    std::uint64_t ticks = 0;           // tick chunks written
-    std::uint64_t batches = 0;         // batch chunks written
-    std::uint64_t updates = 0;         // update pairs written
-    std::uint64_t dropped_ticks = 0;   // tick records dropped (ring full, real-time mode)
-    std::uint64_t dropped_batches = 0; // batch records dropped
-    std::uint64_t checksum = 0;        // FNV-1a 64 of every chunk before this one
+    std::uint32_t complete = 0;         // 1: no record was dropped and every write succeeded
+    std::uint64_t ticks = 0;            // tick chunks written
+    std::uint64_t batches = 0;          // batch chunks written
+    std::uint64_t updates = 0;          // update pairs written
+    std::uint64_t dropped_ticks = 0;    // tick records dropped (ring full, real-time mode)
+    std::uint64_t dropped_batches = 0;  // batch records dropped
+    std::uint64_t checksum = 0;         // FNV-1a 64 of every chunk before this one
     std::uint8_t reserved[72] = {};
 };
 
-static_assert(sizeof(TickChunk) == kChunkSize && offsetof(TickChunk, tick) == 8 && offsetof(TickChunk, position) == 24 &&
-              offsetof(TickChunk, velocity) == 48 && offsetof(TickChunk, force) == 72 && offsetof(TickChunk, contact_mask) == 96 &&
+static_assert(sizeof(TickChunk) == kChunkSize && offsetof(TickChunk, tick) == 8 &&
+              offsetof(TickChunk, position) == 24 && offsetof(TickChunk, velocity) == 48 &&
+              offsetof(TickChunk, force) == 72 && offsetof(TickChunk, contact_mask) == 96 &&
               offsetof(TickChunk, config_contact_mask) == 104 && offsetof(TickChunk, wake_latency_ns) == 112 &&
               offsetof(TickChunk, batches) == 120);
 static_assert(sizeof(BatchChunk) == kChunkSize && offsetof(BatchChunk, tick) == 8 && offsetof(BatchChunk, seq) == 16 &&
               offsetof(BatchChunk, count) == 24 && offsetof(BatchChunk, index) == 28);
-static_assert(sizeof(UpdateChunkA) == kChunkSize && offsetof(UpdateChunkA, id) == 12 && offsetof(UpdateChunkA, direction) == 16 &&
-              offsetof(UpdateChunkA, offset) == 40 && offsetof(UpdateChunkA, point) == 48 && offsetof(UpdateChunkA, radius) == 72 &&
-              offsetof(UpdateChunkA, force) == 80 && offsetof(UpdateChunkA, K) == 104 && offsetof(UpdateChunkA, offset_rate) == 120);
-static_assert(sizeof(UpdateChunkB) == kChunkSize && offsetof(UpdateChunkB, jacobian) == 8 && offsetof(UpdateChunkB, point_rate) == 80);
+static_assert(sizeof(UpdateChunkA) == kChunkSize && offsetof(UpdateChunkA, id) == 12 &&
+              offsetof(UpdateChunkA, direction) == 16 && offsetof(UpdateChunkA, offset) == 40 &&
+              offsetof(UpdateChunkA, point) == 48 && offsetof(UpdateChunkA, radius) == 72 &&
+              offsetof(UpdateChunkA, force) == 80 && offsetof(UpdateChunkA, K) == 104 &&
+              offsetof(UpdateChunkA, offset_rate) == 120);
+static_assert(sizeof(UpdateChunkB) == kChunkSize && offsetof(UpdateChunkB, jacobian) == 8 &&
+              offsetof(UpdateChunkB, point_rate) == 80);
 static_assert(sizeof(EndChunk) == kChunkSize && offsetof(EndChunk, ticks) == 8 && offsetof(EndChunk, checksum) == 48);
 
 // FNV-1a 64 (Fowler, Noll, Vo: offset basis 14695981039346656037, prime 1099511628211), continued from `h`.
-[[nodiscard]] inline std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t h = 14695981039346656037ULL) noexcept {
+[[nodiscard]] inline std::uint64_t fnv1a64(const void* data, std::size_t size,
+                                           std::uint64_t h = 14695981039346656037ULL) noexcept {
     const auto* p = static_cast<const unsigned char*>(data);
     for (std::size_t i = 0; i < size; ++i) {
         h ^= p[i];

@@ -33,24 +33,28 @@ Recording read_recording(const std::string& path) {
     if (in.bad()) bad(path, "read error");
     Recording r;
     r.path = path;
-    if (bytes.size() < 16) bad(path, "too short (" + std::to_string(bytes.size()) + " bytes) to be a hapticd recording");
-    if (std::memcmp(bytes.data(), kMagic, 8) != 0) bad(path, "not a hapticd recording (wrong magic: the file must start with \"HAPTREC\\0\")");
+    if (bytes.size() < 16)
+        bad(path, "too short (" + std::to_string(bytes.size()) + " bytes) to be a hapticd recording");
+    if (std::memcmp(bytes.data(), kMagic, 8) != 0)
+        bad(path, "not a hapticd recording (wrong magic: the file must start with \"HAPTREC\\0\")");
     std::uint32_t header_size = 0;
     std::memcpy(&r.version, bytes.data() + 8, 4);
     std::memcpy(&header_size, bytes.data() + 12, 4);
     if (r.version != kFormatVersion) {
-        bad(path, "format version " + std::to_string(r.version) + " is not supported; accepted: " + std::to_string(kFormatVersion));
+        bad(path, "format version " + std::to_string(r.version) +
+                      " is not supported; accepted: " + std::to_string(kFormatVersion));
     }
     if (header_size < kChunkSize || header_size % kChunkSize != 0 || header_size > bytes.size()) {
-        bad(path, "header size " + std::to_string(header_size) + " is invalid (a multiple of " + std::to_string(kChunkSize) +
-                      " within the file's " + std::to_string(bytes.size()) + " bytes): truncated or corrupt");
+        bad(path, "header size " + std::to_string(header_size) + " is invalid (a multiple of " +
+                      std::to_string(kChunkSize) + " within the file's " + std::to_string(bytes.size()) +
+                      " bytes): truncated or corrupt");
     }
     r.header = nlohmann::json::parse(bytes.begin() + 16, bytes.begin() + header_size, nullptr, false);
     if (!r.header.is_object()) bad(path, "the header is not a JSON object: corrupt");
     const std::size_t body = bytes.size() - header_size;
     if (body % kChunkSize != 0) {
-        bad(path, "truncated: " + std::to_string(body % kChunkSize) + " bytes after the last whole " + std::to_string(kChunkSize) +
-                      "-byte record");
+        bad(path, "truncated: " + std::to_string(body % kChunkSize) + " bytes after the last whole " +
+                      std::to_string(kChunkSize) + "-byte record");
     }
     const std::size_t chunks = body / kChunkSize;
     if (chunks == 0 || chunk_at<EndChunk>(bytes, bytes.size() - kChunkSize).kind != kEnd) {
@@ -60,7 +64,8 @@ Recording read_recording(const std::string& path) {
     const std::uint64_t checksum = fnv1a64(bytes.data() + header_size, body - kChunkSize);
     if (checksum != r.end.checksum) bad(path, "corrupt: the records' checksum does not match the end record's");
     if (r.end.complete != 1) {
-        bad(path, "incomplete: " + std::to_string(r.end.dropped_ticks) + " tick and " + std::to_string(r.end.dropped_batches) +
+        bad(path, "incomplete: " + std::to_string(r.end.dropped_ticks) + " tick and " +
+                      std::to_string(r.end.dropped_batches) +
                       " batch records were dropped (recorder ring full) or a write failed; a replay needs every record "
                       "(record with --lockstep, or raise --record-capacity)");
     }
@@ -74,24 +79,24 @@ Recording read_recording(const std::string& path) {
             const auto t = chunk_at<TickChunk>(bytes, at);
             // DeviceStatus runs 0 .. 7 (devices/device.hpp), the protocol's fault numbers 0 .. 3.
             if (t.read_status > 7 || t.write_status > 7 || t.fault > static_cast<std::uint8_t>(StateFault::Watchdog)) {
-                bad(path, "corrupt: tick " + std::to_string(t.tick) + " has device statuses " + std::to_string(t.read_status) + ", " +
-                              std::to_string(t.write_status) + " and fault " + std::to_string(t.fault) +
-                              " (accepted: statuses 0 .. 7, fault 0 .. 3)");
+                bad(path, "corrupt: tick " + std::to_string(t.tick) + " has device statuses " +
+                              std::to_string(t.read_status) + ", " + std::to_string(t.write_status) + " and fault " +
+                              std::to_string(t.fault) + " (accepted: statuses 0 .. 7, fault 0 .. 3)");
             }
             if (t.tick != r.ticks.size()) {
-                bad(path, "corrupt: record " + std::to_string(i) + " is tick " + std::to_string(t.tick) + ", expected tick " +
-                              std::to_string(r.ticks.size()));
+                bad(path, "corrupt: record " + std::to_string(i) + " is tick " + std::to_string(t.tick) +
+                              ", expected tick " + std::to_string(r.ticks.size()));
             }
             r.ticks.push_back(t);
         } else if (kind == kBatch) {
             const auto b = chunk_at<BatchChunk>(bytes, at);
             if (b.count > kSceneObjectCapacity || b.source > kJumpedAhead || i + 2 * b.count + 1 >= chunks) {
-                bad(path, "corrupt: batch record " + std::to_string(i) + " (count " + std::to_string(b.count) + ", source " +
-                              std::to_string(b.source) + ") is invalid or its updates are missing");
+                bad(path, "corrupt: batch record " + std::to_string(i) + " (count " + std::to_string(b.count) +
+                              ", source " + std::to_string(b.source) + ") is invalid or its updates are missing");
             }
             if (b.tick != r.ticks.size()) {
-                bad(path, "corrupt: batch record " + std::to_string(i) + " names tick " + std::to_string(b.tick) + " before tick " +
-                              std::to_string(r.ticks.size()));
+                bad(path, "corrupt: batch record " + std::to_string(i) + " names tick " + std::to_string(b.tick) +
+                              " before tick " + std::to_string(r.ticks.size()));
             }
             RecordedBatch rb;
             rb.tick = b.tick;
@@ -102,9 +107,10 @@ Recording read_recording(const std::string& path) {
                 const std::size_t a_at = at + (1 + 2 * u) * kChunkSize;
                 const auto a = chunk_at<UpdateChunkA>(bytes, a_at);
                 const auto bb = chunk_at<UpdateChunkB>(bytes, a_at + kChunkSize);
-                if (a.kind != kUpdateA || bb.kind != kUpdateB || a.slot >= kSceneObjectCapacity || a.action > 3 || a.object_kind > 2 ||
-                    a.constraint > 2) {
-                    bad(path, "corrupt: update " + std::to_string(u) + " of batch record " + std::to_string(i) + " is invalid");
+                if (a.kind != kUpdateA || bb.kind != kUpdateB || a.slot >= kSceneObjectCapacity || a.action > 3 ||
+                    a.object_kind > 2 || a.constraint > 2) {
+                    bad(path, "corrupt: update " + std::to_string(u) + " of batch record " + std::to_string(i) +
+                                  " is invalid");
                 }
                 SlotUpdate s;
                 s.slot = a.slot;
@@ -132,13 +138,15 @@ Recording read_recording(const std::string& path) {
             r.batches.push_back(std::move(rb));
             i += 2 * b.count;
         } else {
-            bad(path, "corrupt: record " + std::to_string(i) + " has kind " + std::to_string(kind) + " (accepted: 1 tick, 2 batch)");
+            bad(path, "corrupt: record " + std::to_string(i) + " has kind " + std::to_string(kind) +
+                          " (accepted: 1 tick, 2 batch)");
         }
     }
     if (r.ticks.size() != r.end.ticks || r.batches.size() != r.end.batches || updates != r.end.updates) {
-        bad(path, "corrupt: " + std::to_string(r.ticks.size()) + " ticks, " + std::to_string(r.batches.size()) + " batches and " +
-                      std::to_string(updates) + " updates found; the end record counts " + std::to_string(r.end.ticks) + ", " +
-                      std::to_string(r.end.batches) + " and " + std::to_string(r.end.updates));
+        bad(path, "corrupt: " + std::to_string(r.ticks.size()) + " ticks, " + std::to_string(r.batches.size()) +
+                      " batches and " + std::to_string(updates) + " updates found; the end record counts " +
+                      std::to_string(r.end.ticks) + ", " + std::to_string(r.end.batches) + " and " +
+                      std::to_string(r.end.updates));
     }
     if (r.ticks.empty()) bad(path, "holds no tick: nothing to replay");
     return r;

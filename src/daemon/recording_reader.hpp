@@ -19,7 +19,7 @@
 namespace hapticd {
 
 class RecordingError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -34,9 +34,9 @@ struct RecordedBatch {
 struct Recording {
     std::string path;
     std::uint32_t version = 0;
-    nlohmann::json header;                        // the header's JSON object
-    std::vector<recording::TickChunk> ticks;      // in order, tick numbers 0, 1, 2, ...
-    std::vector<RecordedBatch> batches;           // in the order the loop took them
+    nlohmann::json header;                    // the header's JSON object
+    std::vector<recording::TickChunk> ticks;  // in order, tick numbers 0, 1, 2, ...
+    std::vector<RecordedBatch> batches;       // in the order the loop took them
     recording::EndChunk end;
 };
 

@@ -44,7 +44,8 @@ std::string statistics_text(const RunReport& r) {
     std::string s;
     char buf[512];
     const auto& c = r.run.counters;
-    std::snprintf(buf, sizeof buf, "ticks %llu, overruns %llu (skipped periods %llu, longest run %u), trace drops %llu\n",
+    std::snprintf(buf, sizeof buf,
+                  "ticks %llu, overruns %llu (skipped periods %llu, longest run %u), trace drops %llu\n",
                   static_cast<unsigned long long>(c.ticks), static_cast<unsigned long long>(c.overruns),
                   static_cast<unsigned long long>(c.skipped_periods), c.max_consecutive_overruns,
                   static_cast<unsigned long long>(r.trace_dropped));
@@ -62,14 +63,15 @@ std::string statistics_text(const RunReport& r) {
     }
     if (r.passivity_control) {
         const PassivityControlStats& p = r.passivity;
-        std::snprintf(buf, sizeof buf,
-                      "passivity control: damper on %llu ticks (capped %llu, guarded %llu, saturated %llu, non-finite %llu), "
-                      "max added damping %.6g N s/m, dissipated %.6g J, observed energy min %.6g J, port energy min %.6g J "
-                      "(bound: -(shortfall %.6g J + prediction error %.6g J))\n",
-                      static_cast<unsigned long long>(p.damper_ticks), static_cast<unsigned long long>(p.capped_ticks),
-                      static_cast<unsigned long long>(p.guarded_ticks), static_cast<unsigned long long>(p.saturated_ticks),
-                      static_cast<unsigned long long>(p.nonfinite_events), p.max_added_damping, p.dissipated,
-                      p.min_observed_energy, p.min_port_energy, p.shortfall, p.prediction_error);
+        std::snprintf(
+            buf, sizeof buf,
+            "passivity control: damper on %llu ticks (capped %llu, guarded %llu, saturated %llu, non-finite %llu), "
+            "max added damping %.6g N s/m, dissipated %.6g J, observed energy min %.6g J, port energy min %.6g J "
+            "(bound: -(shortfall %.6g J + prediction error %.6g J))\n",
+            static_cast<unsigned long long>(p.damper_ticks), static_cast<unsigned long long>(p.capped_ticks),
+            static_cast<unsigned long long>(p.guarded_ticks), static_cast<unsigned long long>(p.saturated_ticks),
+            static_cast<unsigned long long>(p.nonfinite_events), p.max_added_damping, p.dissipated,
+            p.min_observed_energy, p.min_port_energy, p.shortfall, p.prediction_error);
         s += buf;
     }
     return s;
@@ -97,8 +99,11 @@ nlohmann::json tuning_json(const TuningResult& t) {
                        {"stiffness", {r.box.stiffness_min, r.box.stiffness_max}},
                        {"delay", {r.box.delay_min, r.box.delay_max}},
                        {"worst_case", r.worst_case},
-                       {"worst_at", {{"mass", r.worst_mass}, {"damping", r.worst_damping},
-                                     {"stiffness", r.worst_stiffness}, {"delay", r.worst_delay}}},
+                       {"worst_at",
+                        {{"mass", r.worst_mass},
+                         {"damping", r.worst_damping},
+                         {"stiffness", r.worst_stiffness},
+                         {"delay", r.worst_delay}}},
                        {"nominal_worst_case", finite_or_null(r.nominal_worst_case)},
                        {"mass_stability_certified", r.mass_certified}};
     }
@@ -167,13 +172,17 @@ nlohmann::json summary_json(const RunReport& r) {
     j["saturated_ticks"] = r.saturated_ticks;
     if (r.passivity_control) {
         const PassivityControlStats& p = r.passivity;
-        j["passivity_control"] = {{"damper_ticks", p.damper_ticks},         {"capped_ticks", p.capped_ticks},
-                                   {"guarded_ticks", p.guarded_ticks},       {"saturated_ticks", p.saturated_ticks},
-                                   {"nonfinite_events", p.nonfinite_events}, {"max_added_damping", p.max_added_damping},
-                                   {"dissipated", p.dissipated},             {"shortfall", p.shortfall},
-                                   {"prediction_error", p.prediction_error},
-                                   {"min_observed_energy", p.min_observed_energy},
-                                   {"min_port_energy", p.min_port_energy}};
+        j["passivity_control"] = {{"damper_ticks", p.damper_ticks},
+                                  {"capped_ticks", p.capped_ticks},
+                                  {"guarded_ticks", p.guarded_ticks},
+                                  {"saturated_ticks", p.saturated_ticks},
+                                  {"nonfinite_events", p.nonfinite_events},
+                                  {"max_added_damping", p.max_added_damping},
+                                  {"dissipated", p.dissipated},
+                                  {"shortfall", p.shortfall},
+                                  {"prediction_error", p.prediction_error},
+                                  {"min_observed_energy", p.min_observed_energy},
+                                  {"min_port_energy", p.min_port_energy}};
     } else {
         j["passivity_control"] = nullptr;
     }

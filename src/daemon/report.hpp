@@ -16,7 +16,7 @@
 namespace hapticd {
 
 struct WallReport {
-    std::string spec;          // canonical "axis=.. position=.. direction=.. mode=.."
+    std::string spec;  // canonical "axis=.. position=.. direction=.. mode=.."
     TuningResult tuning;
 };
 
@@ -24,9 +24,9 @@ struct RunReport {
     const Options* options = nullptr;
     const DeviceProfile* profile = nullptr;
     double period = 0.0;
-    double delay = 0.0;                  // total, s
+    double delay = 0.0;  // total, s
     std::vector<WallReport> walls;
-    bool ran = false;                    // false: dry run or stopped before the loop
+    bool ran = false;  // false: dry run or stopped before the loop
     RunResult run;
     const RealtimeLoop* loop = nullptr;  // statistics (null when not run)
     RealtimeReport realtime;
@@ -35,9 +35,9 @@ struct RunReport {
     std::uint64_t trace_written = 0;
     bool trace_error = false;
     std::uint64_t saturated_ticks = 0;
-    bool passivity_control = false;      // --passivity-control: `passivity` holds its counters
+    bool passivity_control = false;  // --passivity-control: `passivity` holds its counters
     PassivityControlStats passivity;
-    std::string device_error;            // device's last_error() after a device fault
+    std::string device_error;  // device's last_error() after a device fault
     int exit_code = 0;
 };
 

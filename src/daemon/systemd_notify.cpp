@@ -47,16 +47,20 @@ void SystemdNotifier::ready(const std::string& status, const std::atomic<std::ui
     const std::string message = "READY=1\nSTATUS=" + one_line(status);
     const int rc = sd_notify(0, message.c_str());
     if (rc < 0) {
-        std::fprintf(stderr, "hapticd: warning: SystemdNotifier::ready: sd_notify(READY=1) failed (error %d); "
-                             "systemd will not see the service as started\n", -rc);
+        std::fprintf(stderr,
+                     "hapticd: warning: SystemdNotifier::ready: sd_notify(READY=1) failed (error %d); "
+                     "systemd will not see the service as started\n",
+                     -rc);
     }
     ready_sent_ = true;
     if (watchdog_timeout_.count() > 0) {
         try {
             thread_ = std::thread([this, &heartbeat] { watch(heartbeat); });
         } catch (const std::system_error& e) {  // e.g. no locked memory left for its stack after mlockall
-            std::fprintf(stderr, "hapticd: warning: SystemdNotifier::ready: the watchdog thread could not start (%s): "
-                                 "no WATCHDOG=1 will be sent; systemd acts on the service after WatchdogSec\n", e.what());
+            std::fprintf(stderr,
+                         "hapticd: warning: SystemdNotifier::ready: the watchdog thread could not start (%s): "
+                         "no WATCHDOG=1 will be sent; systemd acts on the service after WatchdogSec\n",
+                         e.what());
         }
     }
 }

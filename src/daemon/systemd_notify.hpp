@@ -23,7 +23,7 @@
 namespace hapticd {
 
 class SystemdNotifier {
-public:
+  public:
     // Reads NOTIFY_SOCKET and the watchdog interval (sd_watchdog_enabled) from the environment.
     SystemdNotifier();
     SystemdNotifier(const SystemdNotifier&) = delete;
@@ -44,9 +44,11 @@ public:
 
     // Keep-alives sent and checks at which the heartbeat had not advanced (readable after stopping()).
     [[nodiscard]] std::uint64_t keepalives_sent() const noexcept { return sent_.load(std::memory_order_relaxed); }
-    [[nodiscard]] std::uint64_t keepalives_withheld() const noexcept { return withheld_.load(std::memory_order_relaxed); }
+    [[nodiscard]] std::uint64_t keepalives_withheld() const noexcept {
+        return withheld_.load(std::memory_order_relaxed);
+    }
 
-private:
+  private:
     void watch(const std::atomic<std::uint64_t>& heartbeat) noexcept;
     void stop_watching() noexcept;
 

@@ -13,7 +13,7 @@ namespace hapticd {
 namespace {
 
 class Ticker {
-public:
+  public:
     Ticker(double period, bool lockstep)
         : period_(std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(period * 1e9)))),
           lockstep_(lockstep),
@@ -24,7 +24,7 @@ public:
         std::this_thread::sleep_until(next_);
     }
 
-private:
+  private:
     std::chrono::nanoseconds period_;
     bool lockstep_;
     std::chrono::steady_clock::time_point next_;
@@ -57,7 +57,8 @@ ForceSignResult measure_force_sign(Device& device, const ForceSignSettings& s) {
             return false;
         }
         if (std::isfinite(start) && std::abs(position[axis] - start) > s.position_limit) {
-            stop = {DeviceStatus::Ok, "axis " + std::to_string(axis) + " moved more than " + std::to_string(s.position_limit) +
+            stop = {DeviceStatus::Ok, "axis " + std::to_string(axis) + " moved more than " +
+                                          std::to_string(s.position_limit) +
                                           " from its start: stopped with zero force (is the handle free to move?)"};
             return false;
         }

@@ -39,8 +39,8 @@ std::string_view to_string(DeviceStatus status) noexcept;
 
 struct DeviceCapabilities {
     std::size_t axes = 1;
-    double max_force = 0.0;       // saturation per axis, N (N m)
-    AxisVector workspace_min{};   // per axis, m (rad)
+    double max_force = 0.0;      // saturation per axis, N (N m)
+    AxisVector workspace_min{};  // per axis, m (rad)
     AxisVector workspace_max{};
     double inherent_delay = 0.0;  // estimate of the device's own loop delay, s
     bool rotary = false;          // units are rad / N m / kg m^2 instead of m / N / kg
@@ -59,7 +59,7 @@ struct DeviceCounters {
 };
 
 class Device {
-public:
+  public:
     Device() = default;
     Device(const Device&) = delete;
     Device& operator=(const Device&) = delete;

@@ -31,7 +31,8 @@ DeviceCapabilities capabilities_from_profile(const DeviceProfile& p) {
 bool apply_first_run_limit(DeviceCapabilities& c, const std::string& profile_name, bool quiet) {
     if (force_sign_confirmed(profile_name) || c.max_force <= kFirstRunMaxForce) return false;
     if (!quiet) {
-        std::cerr << "hapticd: warning: device '" << profile_name << "': first run, the force sign is not confirmed yet: "
+        std::cerr << "hapticd: warning: device '" << profile_name
+                  << "': first run, the force sign is not confirmed yet: "
                   << "forces limited to " << kFirstRunMaxForce << " (instead of max_force " << c.max_force
                   << ") until `hapticd check-device --device " << profile_name << "` has measured it (docs/devices.md, "
                   << "\"First run\")" << std::endl;
@@ -121,9 +122,10 @@ std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, co
         return std::make_unique<ForceSignDevice>(std::move(d), sign);
     }
     if (p.driver != "sim" && !o.simulate) {
-        throw StartupError(ErrorKind::Device,
-                           "device '" + p.name + "': driver '" + p.driver +
-                               "' is not available in this build; run with --simulate to simulate this profile's physics");
+        throw StartupError(
+            ErrorKind::Device,
+            "device '" + p.name + "': driver '" + p.driver +
+                "' is not available in this build; run with --simulate to simulate this profile's physics");
     }
     SimDeviceConfig cfg;
     cfg.capabilities = capabilities_from_profile(p);

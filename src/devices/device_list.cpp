@@ -76,7 +76,8 @@ std::string hid_open_problem(const char* path) {
     return std::string("cannot open: ") + std::strerror(e);
 }
 
-void list_hid(const std::vector<DeviceProfile>& profiles, std::vector<ListedDevice>& out, std::vector<std::string>& notes) {
+void list_hid(const std::vector<DeviceProfile>& profiles, std::vector<ListedDevice>& out,
+              std::vector<std::string>& notes) {
     if (hid_init() != 0) {
         notes.push_back("hidapi unavailable: HID devices not listed");
         return;
@@ -133,7 +134,8 @@ std::vector<DeviceProfile> discover_hid_profiles(const Options& o, std::vector<s
     return found;
 }
 
-std::vector<ListedDevice> enumerate_devices(const std::vector<DeviceProfile>& hid_profiles, std::vector<std::string>& notes) {
+std::vector<ListedDevice> enumerate_devices(const std::vector<DeviceProfile>& hid_profiles,
+                                            std::vector<std::string>& notes) {
     std::vector<ListedDevice> out;
     list_falcons(out, notes);
     list_hid(hid_profiles, out, notes);
@@ -145,9 +147,12 @@ int list_devices(std::ostream& out, const Options& o) {
     const std::vector<DeviceProfile> hid_profiles = discover_hid_profiles(o, notes);
     const std::vector<ListedDevice> devices = enumerate_devices(hid_profiles, notes);
     for (const auto& n : notes) out << "hapticd: note: " << n << "\n";
-    std::string looked_for = "Novint Falcon (USB " + usb_id(ftdi::kFalconVendorId, ftdi::kFalconProductId) + ", libusb)";
+    std::string looked_for =
+        "Novint Falcon (USB " + usb_id(ftdi::kFalconVendorId, ftdi::kFalconProductId) + ", libusb)";
     for (const auto& p : hid_profiles) {
-        looked_for += ", " + p.name + " (HID " + usb_id(static_cast<unsigned>(p.real.usb_vid), static_cast<unsigned>(p.real.usb_pid)) + ", hidapi)";
+        looked_for += ", " + p.name + " (HID " +
+                      usb_id(static_cast<unsigned>(p.real.usb_vid), static_cast<unsigned>(p.real.usb_pid)) +
+                      ", hidapi)";
     }
     if (devices.empty()) {
         out << "hapticd: no supported device found; looked for: " << looked_for << "\n";

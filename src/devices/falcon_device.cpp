@@ -14,12 +14,16 @@ namespace {
 
 DeviceStatus to_device_status(TransportStatus s) noexcept {
     switch (s) {
-        case TransportStatus::Ok: return DeviceStatus::Ok;
-        case TransportStatus::Timeout: return DeviceStatus::Timeout;
+        case TransportStatus::Ok:
+            return DeviceStatus::Ok;
+        case TransportStatus::Timeout:
+            return DeviceStatus::Timeout;
         case TransportStatus::Disconnected:
-        case TransportStatus::NotFound: return DeviceStatus::Disconnected;
+        case TransportStatus::NotFound:
+            return DeviceStatus::Disconnected;
         case TransportStatus::AccessDenied:
-        case TransportStatus::Error: return DeviceStatus::HardwareFault;
+        case TransportStatus::Error:
+            return DeviceStatus::HardwareFault;
     }
     return DeviceStatus::HardwareFault;
 }
@@ -41,7 +45,7 @@ DeviceStatus FalconDevice::fail(DeviceStatus status, std::string message) {
 
 DeviceStatus FalconDevice::transport_failure(TransportStatus status) noexcept {
     rt_error_ = status == TransportStatus::Disconnected ? "Falcon disconnected (USB transfer: no device)"
-                                                         : "Falcon USB transfer failed";
+                                                        : "Falcon USB transfer failed";
     return to_device_status(status);
 }
 
@@ -50,7 +54,8 @@ DeviceStatus FalconDevice::poll_input(std::size_t& frames) noexcept {
     // Drain what arrived; a few reads at most. While streaming, poll() never waits; during the set-up
     // (homing) the first read may wait up to io_timeout_ms.
     for (int i = 0; i < 4; ++i) {
-        const TransportResult r = streaming_ ? transport_->poll(rx_) : transport_->read(rx_, i == 0 ? config_.io_timeout_ms : 0);
+        const TransportResult r =
+            streaming_ ? transport_->poll(rx_) : transport_->read(rx_, i == 0 ? config_.io_timeout_ms : 0);
         if (r.status != TransportStatus::Ok && r.status != TransportStatus::Timeout) return transport_failure(r.status);
         if (r.bytes == 0) break;
         frames += parser_.feed(rx_.data(), r.bytes, status_);
@@ -86,8 +91,9 @@ DeviceStatus FalconDevice::open() {
     if (!config_.open_transport) return fail(DeviceStatus::Unsupported, "no transport configured for the Falcon");
     OpenedTransport opened = config_.open_transport();
     if (!opened.transport) {
-        return fail(opened.status == TransportStatus::AccessDenied ? DeviceStatus::HardwareFault : DeviceStatus::Disconnected,
-                    opened.error);
+        return fail(
+            opened.status == TransportStatus::AccessDenied ? DeviceStatus::HardwareFault : DeviceStatus::Disconnected,
+            opened.error);
     }
     transport_ = std::move(opened.transport);
     if (!probe_firmware()) {
@@ -159,8 +165,8 @@ DeviceStatus FalconDevice::home() {
         }
         if (state == falcon::HomingState::TimedOut) {
             return fail(DeviceStatus::NotHomed, std::string(falcon::kHomingInstructions) + "; gave up after " +
-                                                    std::to_string(config_.homing_timeout) + " s (" +
-                                                    gate_.describe() + ")");
+                                                    std::to_string(config_.homing_timeout) + " s (" + gate_.describe() +
+                                                    ")");
         }
         if (!told && config_.notify) {
             config_.notify(falcon::kHomingInstructions);
@@ -177,12 +183,14 @@ DeviceStatus FalconDevice::home() {
     for (std::size_t i = 0; i < 3; ++i) theta[i] = falcon::encoder_to_angle(status_.encoder[i], config_.geometry);
     const falcon::ForwardResult fk = falcon::forward_kinematics(theta, config_.geometry, kinematic_position_, 100);
     if (!fk.converged) {
-        return fail(DeviceStatus::HardwareFault, "homing: the encoder counts do not correspond to a reachable position");
+        return fail(DeviceStatus::HardwareFault,
+                    "homing: the encoder counts do not correspond to a reachable position");
     }
     if (config_.notify) config_.notify("Falcon homed (LED green)");
     if (const DeviceStatus s = wait_for_release(); s != DeviceStatus::Ok) return s;
     if (const TransportStatus t = transport_->start_streaming(); t != TransportStatus::Ok) {
-        return fail(to_device_status(t), "cannot start the Falcon's asynchronous transfers: " + transport_->last_error());
+        return fail(to_device_status(t),
+                    "cannot start the Falcon's asynchronous transfers: " + transport_->last_error());
     }
     streaming_ = true;
     return DeviceStatus::Ok;
@@ -213,12 +221,14 @@ DeviceStatus FalconDevice::wait_for_release() {
         }
         if (frames > 0) {
             if ((status_.homed_mask & falcon::kAllAxesHomed) != falcon::kAllAxesHomed) {
-                return fail(DeviceStatus::NotHomed, "the Falcon lost its homing while waiting for the grip to be pulled out");
+                return fail(DeviceStatus::NotHomed,
+                            "the Falcon lost its homing while waiting for the grip to be pulled out");
             }
             if (update_kinematics(100) && kinematic_position_[2] > config_.release_z) return DeviceStatus::Ok;
         }
         if (config_.cancel && config_.cancel()) {
-            return fail(DeviceStatus::NotHomed, "interrupted by a stop request while waiting for the grip to be pulled out");
+            return fail(DeviceStatus::NotHomed,
+                        "interrupted by a stop request while waiting for the grip to be pulled out");
         }
         if (config_.homing_poll_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(config_.homing_poll_ms));
     }
@@ -305,7 +315,8 @@ DeviceStatus FalconDevice::write_force(const AxisVector& force) noexcept {
             const double scale = largest > falcon::kMaxTorqueCommand ? falcon::kMaxTorqueCommand / largest : 1.0;
             saturated = saturated || scale < 1.0;
             for (std::size_t i = 0; i < 3; ++i) {
-                command_.torque[i] = static_cast<std::int16_t>(std::lround(tau[i] * config_.geometry.torque_to_command * scale));
+                command_.torque[i] =
+                    static_cast<std::int16_t>(std::lround(tau[i] * config_.geometry.torque_to_command * scale));
             }
         }
         if (saturated) ++saturated_;
@@ -313,8 +324,9 @@ DeviceStatus FalconDevice::write_force(const AxisVector& force) noexcept {
     // Never waits: queued for the event thread (one command in flight); a command the Falcon had not
     // taken yet is replaced by this newer one and counted as late.
     bool replaced = false;
-    const TransportStatus w = streaming_ ? transport_->post(falcon::encode_command(command_), replaced)
-                                         : transport_->write(falcon::encode_command(command_), config_.io_timeout_ms + 1).status;
+    const TransportStatus w =
+        streaming_ ? transport_->post(falcon::encode_command(command_), replaced)
+                   : transport_->write(falcon::encode_command(command_), config_.io_timeout_ms + 1).status;
     if (replaced) ++late_commands_;
     if (w != TransportStatus::Ok) return transport_failure(w);
     return result;

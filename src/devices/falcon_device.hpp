@@ -29,19 +29,19 @@ struct OpenedTransport {
 
 struct FalconDeviceConfig {
     DeviceCapabilities capabilities;
-    std::string firmware_path;                 // "" : only works when the firmware is already running
+    std::string firmware_path;  // "" : only works when the firmware is already running
     falcon::Geometry geometry = falcon::Geometry::published();
-    falcon::Vec3 origin{0.0, 0.0, 0.125};      // m, subtracted from the kinematic position
-    double homing_timeout = 60.0;              // s
-    int homing_poll_ms = 1;                    // sleep between homing polls (0 in tests)
-    int io_timeout_ms = 1;                     // read timeout of the set-up exchanges (the loop never waits)
+    falcon::Vec3 origin{0.0, 0.0, 0.125};  // m, subtracted from the kinematic position
+    double homing_timeout = 60.0;          // s
+    int homing_poll_ms = 1;                // sleep between homing polls (0 in tests)
+    int io_timeout_ms = 1;                 // read timeout of the set-up exchanges (the loop never waits)
     // Forces start only after the grip has left the homing pose: libnifalcon's examples
     // (examples/falcon_test_cli/FalconCubeTest.cpp) wait until the kinematic z exceeds 0.170 m
     // ("Move the end effector all the way out") before rendering anything.
-    double release_z = 0.170;                  // m, kinematic frame (before `origin` is subtracted)
-    int probe_tries = 50;                      // packets sent to see whether the firmware runs
-    int max_stale_reads = 100;                 // consecutive ticks without a packet -> Timeout
-    int max_kinematics_failures = 10;          // consecutive unsolvable positions -> HardwareFault
+    double release_z = 0.170;          // m, kinematic frame (before `origin` is subtracted)
+    int probe_tries = 50;              // packets sent to see whether the firmware runs
+    int max_stale_reads = 100;         // consecutive ticks without a packet -> Timeout
+    int max_kinematics_failures = 10;  // consecutive unsolvable positions -> HardwareFault
     falcon::FirmwareUploadConfig upload;
     std::function<OpenedTransport()> open_transport;
     std::function<void(const std::string&)> notify;  // user instructions (homing); may be empty
@@ -49,7 +49,7 @@ struct FalconDeviceConfig {
 };
 
 class FalconDevice final : public Device {
-public:
+  public:
     explicit FalconDevice(FalconDeviceConfig config);
     ~FalconDevice() override;
 
@@ -71,7 +71,7 @@ public:
     // Commands that replaced one the Falcon had not taken yet (one command in flight; see transport.hpp).
     [[nodiscard]] std::uint64_t late_commands() const noexcept { return late_commands_; }
 
-private:
+  private:
     // One exchange without the kinematics: sends `command_`, reads and parses what arrived.
     // Returns Ok / Disconnected / HardwareFault; `frames` = valid frames decoded.
     DeviceStatus exchange(std::size_t& frames) noexcept;
@@ -98,8 +98,8 @@ private:
     int consecutive_kinematics_failures_ = 0;
     bool open_ = false;
     bool streaming_ = false;
-    std::string error_;             // set outside the real-time path
-    const char* rt_error_ = "";     // set in the real-time path (static text: no allocation)
+    std::string error_;          // set outside the real-time path
+    const char* rt_error_ = "";  // set in the real-time path (static text: no allocation)
 };
 
 }  // namespace hapticd

@@ -36,12 +36,18 @@ std::string hex(unsigned value) {
 
 std::string_view status_text(TransportStatus s) {
     switch (s) {
-        case TransportStatus::Ok: return "ok";
-        case TransportStatus::Timeout: return "timeout";
-        case TransportStatus::Disconnected: return "device disconnected";
-        case TransportStatus::AccessDenied: return "access denied";
-        case TransportStatus::NotFound: return "device not found";
-        case TransportStatus::Error: return "transfer error";
+        case TransportStatus::Ok:
+            return "ok";
+        case TransportStatus::Timeout:
+            return "timeout";
+        case TransportStatus::Disconnected:
+            return "device disconnected";
+        case TransportStatus::AccessDenied:
+            return "access denied";
+        case TransportStatus::NotFound:
+            return "device not found";
+        case TransportStatus::Error:
+            return "transfer error";
     }
     return "?";
 }
@@ -89,8 +95,9 @@ bool configure(FtdiTransport& t, StepError& err) {
     for (const auto& [request, value] : steps) {
         const TransportStatus s = t.control(request, value, kIndex);
         if (s != TransportStatus::Ok) {
-            err = {FirmwareStage::Configure, s, "FTDI control request " + std::to_string(request) + " (value " +
-                                                    hex(value) + ") failed: " + t.last_error()};
+            err = {FirmwareStage::Configure, s,
+                   "FTDI control request " + std::to_string(request) + " (value " + hex(value) +
+                       ") failed: " + t.last_error()};
             return false;
         }
     }
@@ -104,8 +111,8 @@ bool handshake(FtdiTransport& t, const FirmwareUploadConfig& cfg, StepError& err
     const Clock::time_point start = Clock::now();
     TransportStatus last = TransportStatus::Timeout;
     int tries = 0;
-    int empty = 0;   // reads with nothing but the FTDI status bytes (the loader is silent)
-    int wrong = 0;   // reads with bytes that are not the answer
+    int empty = 0;  // reads with nothing but the FTDI status bytes (the loader is silent)
+    int wrong = 0;  // reads with bytes that are not the answer
     for (; tries < cfg.handshake_tries; ++tries) {
         const TransportResult w = t.write(kQuery, cfg.timeout_ms);
         if (w.status != TransportStatus::Ok) {
@@ -118,25 +125,27 @@ bool handshake(FtdiTransport& t, const FirmwareUploadConfig& cfg, StepError& err
         last = r.status;
         if (r.status == TransportStatus::Disconnected) break;
         const bool plain = r.bytes == 4 && std::equal(kAnswer.begin(), kAnswer.end(), in.begin());
-        const bool with_zero = r.bytes == 5 && in[0] == 0x00 && std::equal(kAnswer.begin(), kAnswer.end(), in.begin() + 1);
+        const bool with_zero =
+            r.bytes == 5 && in[0] == 0x00 && std::equal(kAnswer.begin(), kAnswer.end(), in.begin() + 1);
         if (plain || with_zero) return true;
         ++(r.bytes == 0 ? empty : wrong);
     }
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     char took[32];
     std::snprintf(took, sizeof took, "%.2f s", seconds);
-    err = {FirmwareStage::Handshake, last == TransportStatus::Ok ? TransportStatus::Error : last,
-           "the Falcon's loader did not answer the handshake: " + std::to_string(tries) + " of " +
-               std::to_string(cfg.handshake_tries) + " tries in " + took + ", " + std::to_string(empty) +
-               " read(s) with no answer, " + std::to_string(wrong) + " with a wrong one" +
-               (last == TransportStatus::Ok ? std::string() : " (last transfer: " + std::string(status_text(last)) + ")")};
+    err = {
+        FirmwareStage::Handshake, last == TransportStatus::Ok ? TransportStatus::Error : last,
+        "the Falcon's loader did not answer the handshake: " + std::to_string(tries) + " of " +
+            std::to_string(cfg.handshake_tries) + " tries in " + took + ", " + std::to_string(empty) +
+            " read(s) with no answer, " + std::to_string(wrong) + " with a wrong one" +
+            (last == TransportStatus::Ok ? std::string() : " (last transfer: " + std::string(status_text(last)) + ")")};
     return false;
 }
 
 bool sync(FtdiTransport& t, const FirmwareUploadConfig& cfg, StepError& err) {
     using namespace ftdi;
-    for (const auto& [request, value] : {std::pair{kRequestModemCtrl, modem_dtr(false)},
-                                         std::pair{kRequestBaudRate, kBaudBootloader}}) {
+    for (const auto& [request, value] :
+         {std::pair{kRequestModemCtrl, modem_dtr(false)}, std::pair{kRequestBaudRate, kBaudBootloader}}) {
         const TransportStatus s = t.control(request, value, kIndex);
         if (s != TransportStatus::Ok) {
             err = {FirmwareStage::Sync, s, "FTDI control request failed: " + t.last_error()};
@@ -172,15 +181,16 @@ bool upload(FtdiTransport& t, std::span<const std::uint8_t> image, const Firmwar
         }
         const TransportStatus r = read_exact(t, echo.data(), n, cfg);
         if (r != TransportStatus::Ok) {
-            err = {FirmwareStage::Upload, r, "no echo for firmware bytes " + std::to_string(confirmed) + ".." +
-                                                 std::to_string(confirmed + n) + ": " + std::string(status_text(r))};
+            err = {FirmwareStage::Upload, r,
+                   "no echo for firmware bytes " + std::to_string(confirmed) + ".." + std::to_string(confirmed + n) +
+                       ": " + std::string(status_text(r))};
             return false;
         }
         for (std::size_t i = 0; i < n; ++i) {
             if (echo[i] != chunk[i]) {
                 err = {FirmwareStage::Upload, TransportStatus::Error,
-                       "echo mismatch at firmware byte " + std::to_string(confirmed + i) + " (sent " +
-                           hex(chunk[i]) + ", got " + hex(echo[i]) + ")"};
+                       "echo mismatch at firmware byte " + std::to_string(confirmed + i) + " (sent " + hex(chunk[i]) +
+                           ", got " + hex(echo[i]) + ")"};
                 return false;
             }
         }
@@ -193,12 +203,18 @@ bool upload(FtdiTransport& t, std::span<const std::uint8_t> image, const Firmwar
 
 std::string_view to_string(FirmwareStage stage) noexcept {
     switch (stage) {
-        case FirmwareStage::Configure: return "configure";
-        case FirmwareStage::Handshake: return "handshake";
-        case FirmwareStage::Sync: return "sync";
-        case FirmwareStage::Upload: return "upload";
-        case FirmwareStage::NormalMode: return "normal mode";
-        case FirmwareStage::Done: return "done";
+        case FirmwareStage::Configure:
+            return "configure";
+        case FirmwareStage::Handshake:
+            return "handshake";
+        case FirmwareStage::Sync:
+            return "sync";
+        case FirmwareStage::Upload:
+            return "upload";
+        case FirmwareStage::NormalMode:
+            return "normal mode";
+        case FirmwareStage::Done:
+            return "done";
     }
     return "?";
 }
@@ -229,7 +245,8 @@ FirmwareUploadResult upload_firmware(FtdiTransport& transport, std::span<const s
             std::string reopen_error;
             t = reopen(reopen_error);
             if (t == nullptr) {
-                err = {FirmwareStage::Configure, TransportStatus::Disconnected, "reopening the Falcon failed: " + reopen_error};
+                err = {FirmwareStage::Configure, TransportStatus::Disconnected,
+                       "reopening the Falcon failed: " + reopen_error};
                 break;
             }
         }

@@ -45,8 +45,8 @@ struct FirmwareUploadConfig {
     int attempts = 10;
     int handshake_tries = 100;
     int timeout_ms = 1000;
-    int echo_patience_ms = 2000;             // no echo byte for this long: the chunk fails
-    int max_consecutive_empty_reads = 250;   // ~4 s of 16 ms status-only packets; bounds scripted tests
+    int echo_patience_ms = 2000;            // no echo byte for this long: the chunk fails
+    int max_consecutive_empty_reads = 250;  // ~4 s of 16 ms status-only packets; bounds scripted tests
 };
 
 // Closes the transport and opens the device again; returns the new transport or null (then `error`

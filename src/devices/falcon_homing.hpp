@@ -21,7 +21,7 @@ inline constexpr const char* kHomingInstructions =
     "(the LED is red until every axis is homed, then green)";
 
 class HomingGate {
-public:
+  public:
     // timeout_polls: status updates (or polls without one) after which waiting gives up; 0: never.
     explicit HomingGate(std::uint64_t timeout_polls = 0) noexcept : timeout_polls_(timeout_polls) {}
 
@@ -36,7 +36,7 @@ public:
     [[nodiscard]] std::string describe() const;
     void reset() noexcept;
 
-private:
+  private:
     std::uint64_t timeout_polls_;
     std::uint64_t polls_ = 0;
     std::uint8_t mask_ = 0;

@@ -105,8 +105,8 @@ bool invert(const Mat3& m, Mat3& inv, double min_det) noexcept {
     return true;
 }
 
-ForwardResult forward_kinematics(const Vec3& theta, const Geometry& g, Vec3& p, int max_iterations,
-                                 double tolerance, double max_step) noexcept {
+ForwardResult forward_kinematics(const Vec3& theta, const Geometry& g, Vec3& p, int max_iterations, double tolerance,
+                                 double max_step) noexcept {
     ForwardResult r;
     Vec3 x = p;
     for (int it = 0; it <= max_iterations; ++it) {

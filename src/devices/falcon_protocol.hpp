@@ -40,7 +40,7 @@ using Packet = std::array<std::uint8_t, kPacketSize>;
 
 struct Command {
     std::array<std::int16_t, 3> torque{};  // clamped to +-kMaxTorqueCommand by encode_command()
-    std::uint8_t leds = 0;                  // kLed* bits
+    std::uint8_t leds = 0;                 // kLed* bits
     bool homing_mode = false;
 };
 
@@ -69,13 +69,13 @@ struct FrameCounters {
 // Reassembles frames from an arbitrary byte stream: resynchronises on the next '<' after garbage,
 // counts and drops short and malformed frames. Fixed storage: no allocation, noexcept.
 class FrameParser {
-public:
+  public:
     // Feeds bytes; returns how many valid frames were decoded; `latest` receives the newest one.
     std::size_t feed(const std::uint8_t* data, std::size_t size, Status& latest) noexcept;
     void reset() noexcept { pending_size_ = 0; }
     [[nodiscard]] const FrameCounters& counters() const noexcept { return counters_; }
 
-private:
+  private:
     Packet pending_{};
     std::size_t pending_size_ = 0;
     FrameCounters counters_;

@@ -12,7 +12,7 @@
 namespace hapticd {
 
 class ForceSignDevice final : public Device {
-public:
+  public:
     ForceSignDevice(std::unique_ptr<Device> inner, const AxisVector& sign) : inner_(std::move(inner)), sign_(sign) {}
 
     DeviceStatus open() override { return inner_->open(); }
@@ -34,7 +34,7 @@ public:
 
     [[nodiscard]] const AxisVector& sign() const noexcept { return sign_; }
 
-private:
+  private:
     std::unique_ptr<Device> inner_;
     AxisVector sign_;
 };

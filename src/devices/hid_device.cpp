@@ -47,7 +47,8 @@ bool read_report_descriptor(const std::string& path, std::vector<std::uint8_t>& 
 
 }  // namespace
 
-HidFfbDevice::HidFfbDevice(HidDeviceConfig config) : config_(std::move(config)), pid_(std::make_unique<hid::PidLayout>()) {}
+HidFfbDevice::HidFfbDevice(HidDeviceConfig config)
+    : config_(std::move(config)), pid_(std::make_unique<hid::PidLayout>()) {}
 
 HidFfbDevice::~HidFfbDevice() { close(); }
 
@@ -77,10 +78,11 @@ DeviceStatus HidFfbDevice::open() {
     }
     hid_free_enumeration(list);
     if (path_.empty()) {
-        return fail(DeviceStatus::Disconnected, "no force-feedback device found (looked for " + ids +
-                                                    (config_.device_index > 0 ? ", device #" + std::to_string(config_.device_index) : "") +
-                                                    "); is it plugged in? `hapticd --list-devices` shows what hapticd sees; "
-                                                    "--simulate runs the profile on the simulated device");
+        return fail(DeviceStatus::Disconnected,
+                    "no force-feedback device found (looked for " + ids +
+                        (config_.device_index > 0 ? ", device #" + std::to_string(config_.device_index) : "") +
+                        "); is it plugged in? `hapticd --list-devices` shows what hapticd sees; "
+                        "--simulate runs the profile on the simulated device");
     }
     std::vector<std::uint8_t> descriptor;
     std::string error;
@@ -94,7 +96,8 @@ DeviceStatus HidFfbDevice::open() {
     }
     handle_ = hid_open_path(path_.c_str());
     if (handle_ == nullptr) {
-        return fail(DeviceStatus::HardwareFault, "cannot open " + ids + " (" + path_ + ", permission denied?): " + std::string(kUdevHint));
+        return fail(DeviceStatus::HardwareFault,
+                    "cannot open " + ids + " (" + path_ + ", permission denied?): " + std::string(kUdevHint));
     }
     hid_set_nonblocking(handle_, 1);
     // Start-up as Linux's hid-pidff.c: Reset and Stop All Effects (effects or blocks left by another
@@ -107,17 +110,21 @@ DeviceStatus HidFfbDevice::open() {
                           write_report(hid::encode_device_gain(1.0, p)) &&
                           write_report(hid::encode_device_control(hid::DeviceControl::EnableActuators, p));
     const hid::Report create = hid::encode_create_effect(p);
-    if (!reset_ok || hid_send_feature_report(handle_, create.bytes.data(), create.size) != static_cast<int>(create.size)) {
+    if (!reset_ok ||
+        hid_send_feature_report(handle_, create.bytes.data(), create.size) != static_cast<int>(create.size)) {
         close();
-        return fail(DeviceStatus::HardwareFault, ids + ": the device refused the force-feedback set-up reports "
-                                                       "(Reset / Stop All / Device Gain / Enable Actuators / Create New Effect)");
+        return fail(DeviceStatus::HardwareFault,
+                    ids +
+                        ": the device refused the force-feedback set-up reports "
+                        "(Reset / Stop All / Device Gain / Enable Actuators / Create New Effect)");
     }
     std::array<std::uint8_t, hid::kMaxReportBytes> load{};
     load[0] = p.block_load_id;
     const int got = hid_get_feature_report(handle_, load.data(), std::max<std::size_t>(p.block_load_bytes, 2));
     if (got < 2 || !hid::decode_block_load(load.data(), static_cast<std::size_t>(got), p, block_)) {
         close();
-        return fail(DeviceStatus::HardwareFault, ids + ": the device did not allocate a constant-force effect (PID Block Load)");
+        return fail(DeviceStatus::HardwareFault,
+                    ids + ": the device did not allocate a constant-force effect (PID Block Load)");
     }
     bool saturated = false;
     if (!write_report(hid::encode_set_effect(block_, p)) ||
@@ -146,7 +153,8 @@ DeviceStatus HidFfbDevice::home() {
         }
     }
     if (!have_position_) {
-        return fail(DeviceStatus::Timeout, "HidFfbDevice::home: no input report with id " + std::to_string(pid_->input_id) +
+        return fail(DeviceStatus::Timeout, "HidFfbDevice::home: no input report with id " +
+                                               std::to_string(pid_->input_id) +
                                                " (the one holding X, from the report descriptor) within 1 s");
     }
     return DeviceStatus::Ok;
@@ -175,7 +183,8 @@ DeviceStatus HidFfbDevice::read_position(AxisVector& position) noexcept {
         if (n == 0) break;
         if (pid_->ids && report_[0] != pid_->input_id) continue;  // other reports (PID state, ...)
         double p = 0.0;
-        if (hid::decode_position(report_.data(), static_cast<std::size_t>(n), *pid_, config_.layout, p) && std::isfinite(p)) {
+        if (hid::decode_position(report_.data(), static_cast<std::size_t>(n), *pid_, config_.layout, p) &&
+            std::isfinite(p)) {
             position_ = p;
             fresh = true;
             ++counters_.packets_ok;

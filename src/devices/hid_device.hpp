@@ -28,7 +28,7 @@ struct HidDeviceConfig {
 };
 
 class HidFfbDevice final : public Device {
-public:
+  public:
     explicit HidFfbDevice(HidDeviceConfig config);
     ~HidFfbDevice() override;
 
@@ -48,7 +48,7 @@ public:
     [[nodiscard]] const hid::PidLayout& pid_layout() const noexcept { return *pid_; }
     [[nodiscard]] const std::string& path() const noexcept { return path_; }
 
-private:
+  private:
     DeviceStatus fail(DeviceStatus status, std::string message);
     bool write_report(const hid::Report& report) noexcept;
 

@@ -25,7 +25,8 @@ const ReportField* array_in(const ReportDescriptor& d, ReportType type, std::uin
     return nullptr;
 }
 
-const ReportField* first_in_collection(const ReportDescriptor& d, ReportType type, std::uint8_t id, std::uint32_t collection) {
+const ReportField* first_in_collection(const ReportDescriptor& d, ReportType type, std::uint8_t id,
+                                       std::uint32_t collection) {
     for (const ReportField& f : d.fields) {
         if (f.type == type && f.report_id == id && !f.array && f.collection == collection) return &f;
     }
@@ -80,7 +81,8 @@ bool build_pid_layout(const std::uint8_t* data, std::size_t size, PidLayout& p, 
         return false;
     }
     if (p.position->bit_size > 32 || p.position->bit_size < 2) {
-        error = "build_pid_layout: the X axis is " + std::to_string(p.position->bit_size) + " bits wide (accepted: 2..32)";
+        error =
+            "build_pid_layout: the X axis is " + std::to_string(p.position->bit_size) + " bits wide (accepted: 2..32)";
         return false;
     }
     p.input_id = p.position->report_id;
@@ -115,8 +117,9 @@ bool build_pid_layout(const std::uint8_t* data, std::size_t size, PidLayout& p, 
     p.se_direction_enable = field_in(d, ReportType::Output, p.set_effect_id, kDirectionEnable);
     p.se_direction = first_in_collection(d, ReportType::Output, p.set_effect_id, kDirection);
     if (p.se_direction_enable == nullptr || p.se_direction == nullptr) {
-        error = missing("Direction Enable / Direction field in the Set Effect report (hapticd always sets a direction, "
-                        "as Linux's hid-pidff does)");
+        error = missing(
+            "Direction Enable / Direction field in the Set Effect report (hapticd always sets a direction, "
+            "as Linux's hid-pidff does)");
         return false;
     }
     // Set Constant Force.
@@ -156,7 +159,8 @@ bool build_pid_layout(const std::uint8_t* data, std::size_t size, PidLayout& p, 
     p.op_loop_count = field_in(d, ReportType::Output, p.operation_id, kLoopCount);
     // Device Control (Reset, Stop All, Enable Actuators).
     for (const ReportField& f : d.fields) {
-        if (f.type == ReportType::Output && f.array && std::find(f.usages.begin(), f.usages.end(), kDcReset) != f.usages.end()) {
+        if (f.type == ReportType::Output && f.array &&
+            std::find(f.usages.begin(), f.usages.end(), kDcReset) != f.usages.end()) {
             p.control = &f;
             break;
         }
@@ -253,7 +257,7 @@ Report encode_set_effect(std::uint8_t block, const PidLayout& pid) noexcept {
 
 Report encode_effect_operation(std::uint8_t block, EffectOperation op, const PidLayout& pid) noexcept {
     Report r = start(pid.operation_id, pid.operation_bytes);
-    const std::uint32_t which = op == EffectOperation::Start ? kOpEffectStart
+    const std::uint32_t which = op == EffectOperation::Start       ? kOpEffectStart
                                 : op == EffectOperation::StartSolo ? kOpEffectStartSolo
                                                                    : kOpEffectStop;
     put(r, pid.op_block, block);
@@ -264,7 +268,7 @@ Report encode_effect_operation(std::uint8_t block, EffectOperation op, const Pid
 
 Report encode_device_control(DeviceControl control, const PidLayout& pid) noexcept {
     Report r = start(pid.control_id, pid.control_bytes);
-    const std::uint32_t which = control == DeviceControl::EnableActuators ? kDcEnableActuators
+    const std::uint32_t which = control == DeviceControl::EnableActuators    ? kDcEnableActuators
                                 : control == DeviceControl::DisableActuators ? kDcDisableActuators
                                 : control == DeviceControl::StopAll          ? kDcStopAllEffects
                                                                              : kDcReset;
@@ -277,7 +281,9 @@ Report encode_device_gain(double fraction, const PidLayout& pid) noexcept {
     Report r = start(pid.gain_id, pid.gain_bytes);
     const double f = std::isfinite(fraction) ? std::clamp(fraction, 0.0, 1.0) : 0.0;
     const ReportField& g = *pid.device_gain;
-    put(r, &g, g.logical_min + static_cast<std::int64_t>(std::lround(f * (static_cast<double>(g.logical_max) - g.logical_min))));
+    put(r, &g,
+        g.logical_min +
+            static_cast<std::int64_t>(std::lround(f * (static_cast<double>(g.logical_max) - g.logical_min))));
     return r;
 }
 
@@ -295,11 +301,14 @@ Report encode_create_effect(const PidLayout& pid) noexcept {
     return r;
 }
 
-bool decode_block_load(const std::uint8_t* report, std::size_t size, const PidLayout& pid, std::uint8_t& block) noexcept {
-    if (pid.bl_block == nullptr || pid.bl_status == nullptr || size == 0 || report[0] != pid.block_load_id) return false;
+bool decode_block_load(const std::uint8_t* report, std::size_t size, const PidLayout& pid,
+                       std::uint8_t& block) noexcept {
+    if (pid.bl_block == nullptr || pid.bl_status == nullptr || size == 0 || report[0] != pid.block_load_id)
+        return false;
     std::int64_t index = 0;
     std::int64_t status = 0;
-    if (!get_field(report, size, *pid.bl_block, true, index) || !get_field(report, size, *pid.bl_status, true, status)) {
+    if (!get_field(report, size, *pid.bl_block, true, index) ||
+        !get_field(report, size, *pid.bl_status, true, status)) {
         return false;
     }
     if (status != select(pid.bl_status, kBlockLoadSuccess) || index <= 0 || index > 255) return false;

@@ -146,7 +146,8 @@ Report encode_block_free(std::uint8_t block, const PidLayout& pid) noexcept;
 // Create New Effect feature report (constant force, byte count 0).
 Report encode_create_effect(const PidLayout& pid) noexcept;
 // PID Block Load feature report: the block index when the status is Success; false otherwise.
-bool decode_block_load(const std::uint8_t* report, std::size_t size, const PidLayout& pid, std::uint8_t& block) noexcept;
+bool decode_block_load(const std::uint8_t* report, std::size_t size, const PidLayout& pid,
+                       std::uint8_t& block) noexcept;
 
 // The value of the Direction field for 90 deg: a quarter of its logical range.
 std::int64_t direction_90_degrees(const ReportField& direction) noexcept;

@@ -45,14 +45,17 @@ std::size_t ReportDescriptor::report_bytes(ReportType type, std::uint8_t report_
     return (uses_report_ids ? 1U : 0U) + (bits + 7) / 8;
 }
 
-const ReportField* ReportDescriptor::find(ReportType type, std::uint32_t collection, std::uint32_t wanted) const noexcept {
+const ReportField* ReportDescriptor::find(ReportType type, std::uint32_t collection,
+                                          std::uint32_t wanted) const noexcept {
     for (const ReportField& f : fields) {
-        if (f.type == type && !f.array && f.usage == wanted && (collection == 0 || f.collection == collection)) return &f;
+        if (f.type == type && !f.array && f.usage == wanted && (collection == 0 || f.collection == collection))
+            return &f;
     }
     return nullptr;
 }
 
-const ReportField* ReportDescriptor::find_array(ReportType type, std::uint32_t collection, std::uint32_t selector) const noexcept {
+const ReportField* ReportDescriptor::find_array(ReportType type, std::uint32_t collection,
+                                                std::uint32_t selector) const noexcept {
     for (const ReportField& f : fields) {
         if (f.type != type || !f.array || (collection != 0 && f.collection != collection)) continue;
         for (std::uint32_t u : f.usages) {
@@ -66,10 +69,10 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
     out = ReportDescriptor{};
     GlobalState g;
     std::vector<GlobalState> stack;
-    std::vector<std::uint32_t> usages;        // local: Usage items (and expanded min..max ranges)
+    std::vector<std::uint32_t> usages;  // local: Usage items (and expanded min..max ranges)
     std::uint32_t usage_min = 0;
     bool have_usage_min = false;
-    std::vector<std::uint32_t> collections;  // usages of the open collections
+    std::vector<std::uint32_t> collections;                 // usages of the open collections
     std::map<std::pair<int, int>, std::uint32_t> next_bit;  // (type, id) -> next free bit
 
     auto full_usage = [&g](std::uint32_t raw, std::uint32_t bytes) {
@@ -100,8 +103,12 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
         const unsigned tag = prefix >> 4;
         if (type == 1) {  // global
             switch (tag) {
-                case 0x0: g.usage_page = static_cast<std::uint16_t>(raw); break;
-                case 0x1: g.logical_min = sign_extend(raw, bytes); break;
+                case 0x0:
+                    g.usage_page = static_cast<std::uint16_t>(raw);
+                    break;
+                case 0x1:
+                    g.logical_min = sign_extend(raw, bytes);
+                    break;
                 case 0x2:
                     g.logical_max = sign_extend(raw, bytes);
                     g.logical_max_raw = raw;
@@ -119,8 +126,12 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
                     g.report_id = static_cast<std::uint8_t>(raw);
                     out.uses_report_ids = true;
                     break;
-                case 0x9: g.report_count = raw; break;
-                case 0xA: stack.push_back(g); break;
+                case 0x9:
+                    g.report_count = raw;
+                    break;
+                case 0xA:
+                    stack.push_back(g);
+                    break;
                 case 0xB:
                     if (stack.empty()) {
                         error = "parse_report_descriptor: Pop without Push at byte " + std::to_string(at);
@@ -129,7 +140,8 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
                     g = stack.back();
                     stack.pop_back();
                     break;
-                default: break;  // physical range, units: not needed
+                default:
+                    break;  // physical range, units: not needed
             }
             continue;
         }
@@ -141,7 +153,8 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
                 have_usage_min = true;
             } else if (tag == 0x2 && have_usage_min) {
                 const std::uint32_t usage_max = full_usage(raw, bytes);
-                for (std::uint32_t u = usage_min; u <= usage_max && usages.size() < kMaxFields; ++u) usages.push_back(u);
+                for (std::uint32_t u = usage_min; u <= usage_max && usages.size() < kMaxFields; ++u)
+                    usages.push_back(u);
                 have_usage_min = false;
             }
             continue;
@@ -160,7 +173,8 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
             }
             collections.pop_back();
         } else if (tag == 0x8 || tag == 0x9 || tag == 0xB) {  // Input, Output, Feature
-            const ReportType rt = tag == 0x8 ? ReportType::Input : (tag == 0x9 ? ReportType::Output : ReportType::Feature);
+            const ReportType rt =
+                tag == 0x8 ? ReportType::Input : (tag == 0x9 ? ReportType::Output : ReportType::Feature);
             std::uint32_t& bit = next_bit[{static_cast<int>(rt), g.report_id}];
             const bool constant = (raw & 1U) != 0;
             const bool variable = (raw & 2U) != 0;
@@ -168,15 +182,16 @@ bool parse_report_descriptor(const std::uint8_t* data, std::size_t size, ReportD
             // the wrapped product passed this check and the loop below made 2^28 fields).
             const std::uint64_t total64 = std::uint64_t{g.report_size} * g.report_count;
             if (std::uint64_t{bit} + total64 > kMaxReportBits) {
-                error = "parse_report_descriptor: report " + std::to_string(g.report_id) + " longer than 4096 bytes at byte " +
-                        std::to_string(at);
+                error = "parse_report_descriptor: report " + std::to_string(g.report_id) +
+                        " longer than 4096 bytes at byte " + std::to_string(at);
                 return false;
             }
             const auto total = static_cast<std::uint32_t>(total64);
             // A logical maximum written in fewer bytes than needed for an unsigned value (e.g. 0xFF in one
             // byte) is read as unsigned when the minimum is not negative (as Linux's hid-core does).
             std::int32_t lmax = g.logical_max;
-            if (g.logical_min >= 0 && lmax < g.logical_min && g.logical_max_size < 4) lmax = static_cast<std::int32_t>(g.logical_max_raw);
+            if (g.logical_min >= 0 && lmax < g.logical_min && g.logical_max_size < 4)
+                lmax = static_cast<std::int32_t>(g.logical_max_raw);
             const std::uint32_t collection = collections.empty() ? 0 : collections.back();
             const std::uint32_t parent = collections.size() < 2 ? 0 : collections[collections.size() - 2];
             if (!constant && g.report_size > 0 && g.report_count > 0) {

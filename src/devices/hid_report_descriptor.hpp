@@ -29,12 +29,12 @@ constexpr std::uint32_t usage(std::uint16_t page, std::uint16_t id) noexcept {
 struct ReportField {
     ReportType type = ReportType::Input;
     std::uint8_t report_id = 0;
-    std::uint32_t usage = 0;            // variable field: its usage; array field: 0
-    std::uint32_t collection = 0;       // usage of the innermost enclosing collection (0: none)
+    std::uint32_t usage = 0;              // variable field: its usage; array field: 0
+    std::uint32_t collection = 0;         // usage of the innermost enclosing collection (0: none)
     std::uint32_t parent_collection = 0;  // usage of the collection around that one
-    std::uint32_t bit_offset = 0;       // from the first bit after the report id byte
-    std::uint32_t bit_size = 0;         // per element
-    std::uint32_t count = 1;            // elements (variable fields: 1 per usage)
+    std::uint32_t bit_offset = 0;         // from the first bit after the report id byte
+    std::uint32_t bit_size = 0;           // per element
+    std::uint32_t count = 1;              // elements (variable fields: 1 per usage)
     std::int32_t logical_min = 0;
     std::int32_t logical_max = 0;
     bool array = false;                 // array (selector) field: value = logical_min + index in `usages`
@@ -49,9 +49,11 @@ struct ReportDescriptor {
     // used); 0 if no such report.
     [[nodiscard]] std::size_t report_bytes(ReportType type, std::uint8_t report_id) const noexcept;
     // The first variable field with `usage` inside a collection with usage `collection` (0: any).
-    [[nodiscard]] const ReportField* find(ReportType type, std::uint32_t collection, std::uint32_t usage) const noexcept;
+    [[nodiscard]] const ReportField* find(ReportType type, std::uint32_t collection,
+                                          std::uint32_t usage) const noexcept;
     // The first array field of `type` inside `collection` that offers `selector`.
-    [[nodiscard]] const ReportField* find_array(ReportType type, std::uint32_t collection, std::uint32_t selector) const noexcept;
+    [[nodiscard]] const ReportField* find_array(ReportType type, std::uint32_t collection,
+                                                std::uint32_t selector) const noexcept;
 };
 
 // Parses `size` bytes; false (with `error` naming the byte offset and the cause) if the descriptor is

@@ -13,11 +13,16 @@ namespace hapticd {
 
 std::string_view to_string(Scenario scenario) noexcept {
     switch (scenario) {
-        case Scenario::Step: return "step";
-        case Scenario::Push: return "push";
-        case Scenario::Hold: return "hold";
-        case Scenario::Rest: return "rest";
-        case Scenario::Path: return "path";
+        case Scenario::Step:
+            return "step";
+        case Scenario::Push:
+            return "push";
+        case Scenario::Hold:
+            return "hold";
+        case Scenario::Rest:
+            return "rest";
+        case Scenario::Path:
+            return "path";
     }
     return "unknown";
 }
@@ -59,8 +64,9 @@ SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
                 const double mij = M[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
                 const double mji = M[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)];
                 if (!std::isfinite(mij)) {
-                    throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(i) + "][" + std::to_string(j) +
-                                                "] = " + std::to_string(mij) + " is invalid; accepted range: finite");
+                    throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(i) + "][" +
+                                                std::to_string(j) + "] = " + std::to_string(mij) +
+                                                " is invalid; accepted range: finite");
                 }
                 m(i, j) = 0.5 * (mij + mji) + (i == j ? hand.mass : 0.0);
             }
@@ -78,7 +84,8 @@ SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
             const double ma = m(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a));
             if (!(ma > 0.0) || !std::isfinite(ma)) {
                 throw std::invalid_argument("SimDevice: mass_matrix[" + std::to_string(a) + "][" + std::to_string(a) +
-                                            "] = " + std::to_string(ma) + " is invalid; accepted range: finite, > 0 kg");
+                                            "] = " + std::to_string(ma) +
+                                            " is invalid; accepted range: finite, > 0 kg");
             }
             modal_mass[a] = ma;
         }
@@ -124,7 +131,8 @@ AxisVector SimDevice::hand_force(std::int64_t tick) const noexcept {
     const double t = (static_cast<double>(tick) + 0.5) * config_.period;
     if (s.kind == Scenario::Path && s.axis < kMaxAxes) {
         const double w = 2.0 * std::numbers::pi * s.path_frequency;
-        f[s.axis] += total_.stiffness * s.path_amplitude * std::sin(w * t) + total_.damping * s.path_amplitude * w * std::cos(w * t);
+        f[s.axis] += total_.stiffness * s.path_amplitude * std::sin(w * t) +
+                     total_.damping * s.path_amplitude * w * std::cos(w * t);
     }
     if (s.kind == Scenario::Push && s.axis < kMaxAxes && s.push_speed > 0.0) {
         // The hand moves in at push_speed until its rest position is on the wall surface, then stays there.
@@ -205,7 +213,8 @@ const AxisVector& SimDevice::written(std::int64_t tick) const noexcept {
     return history_[static_cast<std::size_t>(tick) % history_.size()];
 }
 
-void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force, const AxisVector& hand) noexcept {
+void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force,
+                      const AxisVector& hand) noexcept {
     const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
     AxisVector u{};
     for (std::size_t m = 0; m < axes; ++m) {  // Q^T (F_H + u)

@@ -45,37 +45,36 @@ std::string_view to_string(Scenario scenario) noexcept;
 
 struct SimScenario {
     Scenario kind = Scenario::Step;
-    std::size_t axis = 0;     // the axis the scenario acts on
-    double surface = 0.0;     // wall surface on that axis, m
-    double direction = 1.0;   // +1: the wall is entered moving in +axis direction; -1: in -axis direction
-    double step_force = 1.0;  // N
-    double push_speed = 0.1;  // m/s
+    std::size_t axis = 0;          // the axis the scenario acts on
+    double surface = 0.0;          // wall surface on that axis, m
+    double direction = 1.0;        // +1: the wall is entered moving in +axis direction; -1: in -axis direction
+    double step_force = 1.0;       // N
+    double push_speed = 0.1;       // m/s
     double push_distance = 0.002;  // m
-    double push_force = 0.0;  // N, external force during the push (0: free collision)
-    double hold_force = 2.0;  // N
+    double push_force = 0.0;       // N, external force during the push (0: free collision)
+    double hold_force = 2.0;       // N
     double hold_distance = 0.001;  // m
-    AxisVector centre{};           // the workspace centre: the hand's rest position off the scenario axis (all axes: Rest, Path)
+    AxisVector centre{};  // the workspace centre: the hand's rest position off the scenario axis (all axes: Rest, Path)
     double path_amplitude = 0.01;  // m
     double path_frequency = 0.5;   // Hz
     SimHand hand;                  // the impedance holding the handle (zero: none)
 };
 
-
 struct SimDeviceConfig {
-    DeviceCapabilities capabilities;   // capabilities.inherent_delay is simulated
-    PlantParameters plant;             // b, k; and the mass of every axis unless mass_matrix is set
+    DeviceCapabilities capabilities;  // capabilities.inherent_delay is simulated
+    PlantParameters plant;            // b, k; and the mass of every axis unless mass_matrix is set
     // M on the device's axes (rows/columns beyond them ignored), symmetric positive definite.
     std::optional<std::array<AxisVector, kMaxAxes>> mass_matrix;
     double period = 1e-3;              // s
     double position_noise = 0.0;       // standard deviation of additive Gaussian noise, m (0: off)
     double position_resolution = 0.0;  // quantisation step of the reported position, m (0: off)
     std::uint64_t noise_seed = 1;
-    std::int64_t fail_at_tick = -1;    // fault injection for tests: Disconnected from this tick on (-1: never)
+    std::int64_t fail_at_tick = -1;  // fault injection for tests: Disconnected from this tick on (-1: never)
     SimScenario scenario;
 };
 
 class SimDevice final : public Device {
-public:
+  public:
     // Throws std::invalid_argument naming the parameter for a mass_matrix that is not symmetric positive
     // definite, or a hand with a negative or non-finite parameter.
     explicit SimDevice(const SimDeviceConfig& config);
@@ -98,7 +97,7 @@ public:
     [[nodiscard]] double true_position(std::size_t axis) const noexcept { return rest_[axis] + physical(x_, axis); }
     [[nodiscard]] double true_velocity(std::size_t axis) const noexcept { return physical(v_, axis); }
 
-private:
+  private:
     void reset_state() noexcept;
     void advance_period(std::int64_t tick) noexcept;  // integrates [tick T, (tick+1) T)
     // (Q y)[axis]: a modal vector in the device's axes.
@@ -110,12 +109,13 @@ private:
 
     SimDeviceConfig config_;
     // Per mode (the axes themselves for a diagonal M).
-    std::array<ZohStep, kMaxAxes> full_{};    // h = T
-    std::array<ZohStep, kMaxAxes> first_{};   // h = phi T       (fractional part of the delay)
-    std::array<ZohStep, kMaxAxes> second_{};  // h = (1 - phi) T
+    std::array<ZohStep, kMaxAxes> full_{};      // h = T
+    std::array<ZohStep, kMaxAxes> first_{};     // h = phi T       (fractional part of the delay)
+    std::array<ZohStep, kMaxAxes> second_{};    // h = (1 - phi) T
     std::array<AxisVector, kMaxAxes> modes_{};  // Q, columns the modes (modes_[axis][mode]); identity for a diagonal M
-    PlantParameters total_{};                  // b and k of eq. 1 (plant + hand)
-    void apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force, const AxisVector& hand) noexcept;
+    PlantParameters total_{};                   // b and k of eq. 1 (plant + hand)
+    void apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force,
+               const AxisVector& hand) noexcept;
     std::int64_t delay_periods_ = 0;  // integer part n of t_inh / T
     bool fractional_ = false;
     std::vector<AxisVector> history_;  // written forces of ticks tick-n-1 .. tick, ring of n + 2

@@ -30,7 +30,7 @@ struct TransportResult {
 };
 
 class FtdiTransport {
-public:
+  public:
     FtdiTransport() = default;
     FtdiTransport(const FtdiTransport&) = delete;
     FtdiTransport& operator=(const FtdiTransport&) = delete;

@@ -18,12 +18,18 @@ namespace {
 
 TransportStatus map_error(int code) noexcept {
     switch (code) {
-        case LIBUSB_SUCCESS: return TransportStatus::Ok;
-        case LIBUSB_ERROR_TIMEOUT: return TransportStatus::Timeout;
-        case LIBUSB_ERROR_NO_DEVICE: return TransportStatus::Disconnected;
-        case LIBUSB_ERROR_ACCESS: return TransportStatus::AccessDenied;
-        case LIBUSB_ERROR_NOT_FOUND: return TransportStatus::NotFound;
-        default: return TransportStatus::Error;
+        case LIBUSB_SUCCESS:
+            return TransportStatus::Ok;
+        case LIBUSB_ERROR_TIMEOUT:
+            return TransportStatus::Timeout;
+        case LIBUSB_ERROR_NO_DEVICE:
+            return TransportStatus::Disconnected;
+        case LIBUSB_ERROR_ACCESS:
+            return TransportStatus::AccessDenied;
+        case LIBUSB_ERROR_NOT_FOUND:
+            return TransportStatus::NotFound;
+        default:
+            return TransportStatus::Error;
     }
 }
 
@@ -109,7 +115,8 @@ TransportResult LibusbFtdiTransport::write(std::span<const std::uint8_t> data, i
     int transferred = 0;
     // libusb's buffer argument is not const, but an OUT transfer does not modify it.
     const int rc = libusb_bulk_transfer(handle_, ftdi::kEndpointOut, const_cast<std::uint8_t*>(data.data()),
-                                        static_cast<int>(data.size()), &transferred, static_cast<unsigned>(std::max(1, timeout_ms)));
+                                        static_cast<int>(data.size()), &transferred,
+                                        static_cast<unsigned>(std::max(1, timeout_ms)));
     const TransportStatus s = map(rc);
     return {s == TransportStatus::Timeout && transferred > 0 ? TransportStatus::Ok : s,
             static_cast<std::size_t>(transferred)};
@@ -277,20 +284,26 @@ void LibusbFtdiTransport::on_in_done(libusb_transfer* transfer) {
     switch (transfer->status) {
         case LIBUSB_TRANSFER_COMPLETED: {
             std::array<std::uint8_t, 512> payload{};
-            const std::size_t n = ftdi::strip_ftdi_status(transfer->buffer, static_cast<std::size_t>(transfer->actual_length),
-                                                          payload.data());
-            if (n > 0 && !self->ring_push(payload.data(), n)) self->ring_overflows_.fetch_add(1, std::memory_order_relaxed);
+            const std::size_t n = ftdi::strip_ftdi_status(
+                transfer->buffer, static_cast<std::size_t>(transfer->actual_length), payload.data());
+            if (n > 0 && !self->ring_push(payload.data(), n))
+                self->ring_overflows_.fetch_add(1, std::memory_order_relaxed);
             if (!self->stop_.load() && libusb_submit_transfer(transfer) == 0) return;  // keep one IN in flight
             if (!self->stop_.load()) self->fail_stream(TransportStatus::Disconnected);
             break;
         }
-        case LIBUSB_TRANSFER_CANCELLED: break;
-        case LIBUSB_TRANSFER_NO_DEVICE: self->fail_stream(TransportStatus::Disconnected); break;
+        case LIBUSB_TRANSFER_CANCELLED:
+            break;
+        case LIBUSB_TRANSFER_NO_DEVICE:
+            self->fail_stream(TransportStatus::Disconnected);
+            break;
         case LIBUSB_TRANSFER_TIMED_OUT:
             if (!self->stop_.load() && libusb_submit_transfer(transfer) == 0) return;
             self->fail_stream(TransportStatus::Error);
             break;
-        default: self->fail_stream(TransportStatus::Error); break;  // STALL, ERROR, OVERFLOW
+        default:
+            self->fail_stream(TransportStatus::Error);
+            break;  // STALL, ERROR, OVERFLOW
     }
     self->in_active_.store(false);
 }
@@ -299,10 +312,17 @@ void LibusbFtdiTransport::on_out_done(libusb_transfer* transfer) {
     auto* self = static_cast<LibusbFtdiTransport*>(transfer->user_data);
     switch (transfer->status) {
         case LIBUSB_TRANSFER_COMPLETED:
-        case LIBUSB_TRANSFER_CANCELLED: break;
-        case LIBUSB_TRANSFER_NO_DEVICE: self->fail_stream(TransportStatus::Disconnected); break;
-        case LIBUSB_TRANSFER_TIMED_OUT: self->fail_stream(TransportStatus::Timeout); break;
-        default: self->fail_stream(TransportStatus::Error); break;
+        case LIBUSB_TRANSFER_CANCELLED:
+            break;
+        case LIBUSB_TRANSFER_NO_DEVICE:
+            self->fail_stream(TransportStatus::Disconnected);
+            break;
+        case LIBUSB_TRANSFER_TIMED_OUT:
+            self->fail_stream(TransportStatus::Timeout);
+            break;
+        default:
+            self->fail_stream(TransportStatus::Error);
+            break;
     }
     self->out_active_.store(false);
     if (!self->stop_.load()) self->submit_out_if_due();  // a newer command may be waiting

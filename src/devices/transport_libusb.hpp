@@ -32,7 +32,7 @@ inline constexpr const char* kUdevHint =
     "(sudo usermod -aG plugdev $USER, then log in again) and replug the device";
 
 class LibusbFtdiTransport final : public FtdiTransport {
-public:
+  public:
     // Opens the `index`-th device with the Falcon's VID:PID and claims interface 0.
     static OpenedTransport open_falcon(int index = 0);
     ~LibusbFtdiTransport() override;
@@ -48,9 +48,11 @@ public:
     TransportResult poll(std::span<std::uint8_t> buffer) noexcept override;
 
     // Streaming statistics (any thread).
-    [[nodiscard]] std::uint64_t ring_overflows() const noexcept { return ring_overflows_.load(std::memory_order_relaxed); }
+    [[nodiscard]] std::uint64_t ring_overflows() const noexcept {
+        return ring_overflows_.load(std::memory_order_relaxed);
+    }
 
-private:
+  private:
     LibusbFtdiTransport(libusb_context* context, libusb_device_handle* handle) noexcept
         : context_(context), handle_(handle) {}
     TransportStatus map(int libusb_error) noexcept;
@@ -83,12 +85,12 @@ private:
     std::atomic<bool> stop_{false};
     std::atomic<bool> in_active_{false};
     std::atomic<bool> out_active_{false};
-    std::atomic<int> stream_status_{0};           // TransportStatus of the first failure, 0 = Ok
+    std::atomic<int> stream_status_{0};  // TransportStatus of the first failure, 0 = Ok
     // Seqlock mailbox for the newest command: odd sequence = being written.
     std::atomic<std::uint32_t> mailbox_seq_{0};
     std::array<std::atomic<std::uint64_t>, 2> mailbox_{};
-    std::uint32_t posted_seq_ = 0;                 // real-time thread: last sequence it published
-    std::atomic<std::uint32_t> sent_seq_{0};       // event thread: sequence of the last packet submitted
+    std::uint32_t posted_seq_ = 0;            // real-time thread: last sequence it published
+    std::atomic<std::uint32_t> sent_seq_{0};  // event thread: sequence of the last packet submitted
     // Received payload ring (event thread produces, real-time thread consumes).
     std::array<std::uint8_t, kRingSize> ring_{};
     std::atomic<std::size_t> ring_head_{0};

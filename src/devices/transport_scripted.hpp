@@ -15,7 +15,7 @@
 namespace hapticd {
 
 class ScriptedTransport final : public FtdiTransport {
-public:
+  public:
     struct Control {
         std::uint8_t request = 0;
         std::uint16_t value = 0;
@@ -30,16 +30,16 @@ public:
 
     void push_rx(std::span<const std::uint8_t> bytes) { rx.insert(rx.end(), bytes.begin(), bytes.end()); }
 
-    std::vector<Control> controls;                 // every control request, in order
-    std::vector<std::vector<std::uint8_t>> writes;  // every write, in order
-    std::deque<std::uint8_t> rx;                    // payload bytes the next reads return
-    Responder on_write;                             // called after each write
+    std::vector<Control> controls;                    // every control request, in order
+    std::vector<std::vector<std::uint8_t>> writes;    // every write, in order
+    std::deque<std::uint8_t> rx;                      // payload bytes the next reads return
+    Responder on_write;                               // called after each write
     std::function<void(ScriptedTransport&)> on_read;  // called before each read (e.g. a slow device)
-    std::size_t max_read_chunk = 62;                // payload bytes per read (one FTDI packet)
-    bool disconnected = false;                      // every call fails with Disconnected
-    long fail_control_at = -1;                      // the control request with this index fails (Error)
+    std::size_t max_read_chunk = 62;                  // payload bytes per read (one FTDI packet)
+    bool disconnected = false;                        // every call fails with Disconnected
+    long fail_control_at = -1;                        // the control request with this index fails (Error)
 
-private:
+  private:
     std::string error_;
 };
 

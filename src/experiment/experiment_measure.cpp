@@ -65,7 +65,8 @@ MeasuredCosts measure_costs(const TrialRecord& r, const TrialSettings& trial, co
     const double whole = fractional ? std::floor(d) : nearest;
     const auto n = static_cast<std::size_t>(whole);
     const double phi = d - whole;
-    if (r.samples < n + 3) throw std::invalid_argument("measure_costs: the record is shorter than the delay + 3 samples");
+    if (r.samples < n + 3)
+        throw std::invalid_argument("measure_costs: the record is shorter than the delay + 3 samples");
 
     const PlantParameters plant{model.mass, model.damping, model.stiffness};
     const double total_stiffness = trial.K + model.stiffness;
@@ -73,7 +74,9 @@ MeasuredCosts measure_costs(const TrialRecord& r, const TrialSettings& trial, co
     const double x_inf = F / total_stiffness;
     const double e0 = F * F / (2.0 * total_stiffness);
     const double sign = F >= 0.0 ? 1.0 : -1.0;
-    auto energy = [&](State s) { return 0.5 * total_stiffness * (s.x - x_inf) * (s.x - x_inf) + 0.5 * model.mass * s.v * s.v; };
+    auto energy = [&](State s) {
+        return 0.5 * total_stiffness * (s.x - x_inf) * (s.x - x_inf) + 0.5 * model.mass * s.v * s.v;
+    };
     auto force = [&](std::ptrdiff_t k) { return k < 0 ? 0.0 : r.u[static_cast<std::size_t>(k)]; };
 
     // Pieces: fractional delay: [0, phi T) with u_{j-n-1}, [phi T, T) with u_{j-n}; else one piece.

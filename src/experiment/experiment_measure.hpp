@@ -36,8 +36,8 @@ struct CostModel {
 
 struct MeasuredCosts {
     double ce0 = 0.0, ce1 = 0.0, ce2 = 0.0;  // eqs. 6-8
-    double overshoot = 0.0;                   // eq. 9, >= 0
-    double tail_estimate = 0.0;               // relative truncation of the integrals (largest of the three)
+    double overshoot = 0.0;                  // eq. 9, >= 0
+    double tail_estimate = 0.0;              // relative truncation of the integrals (largest of the three)
 };
 
 // Throws std::invalid_argument when the record is too short (fewer than n + 3 samples).

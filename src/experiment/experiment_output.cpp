@@ -26,7 +26,7 @@ std::string num(double v) {
 std::string short_num(double v) { return hapticopt::cli::short_number(v); }
 
 class CsvFile {
-public:
+  public:
     CsvFile(const std::string& path, const std::string& header) : path_(path), out_(path) {
         if (!out_) throw std::runtime_error("cannot open '" + path + "' for writing");
         out_ << header << "\n";
@@ -37,13 +37,14 @@ public:
         if (!out_) throw std::runtime_error("writing '" + path_ + "' failed");
     }
 
-private:
+  private:
     std::string path_;
     std::ofstream out_;
 };
 
 const char* kTrialHeader =
-    "index,phase,K_N_per_m,B_Ns_per_m,step_force_N,outcome,unstable,ticks,max_growth,max_abs_force_N,max_abs_position_m";
+    "index,phase,K_N_per_m,B_Ns_per_m,step_force_N,outcome,unstable,ticks,max_growth,max_abs_force_N,max_abs_position_"
+    "m";
 
 void trial_columns(std::ofstream& o, const TrialRow& r) {
     o << r.index << "," << r.phase << "," << num(r.K) << "," << num(r.B) << "," << num(r.step_force) << ","
@@ -59,7 +60,10 @@ svg::Axes& figure_axes(svg::Document& doc, const Theory& theory, const std::vect
                        const std::string& title) {
     const svg::Polyline boundary = theory.boundary_polyline();
     double x1 = 0, y1 = 0;
-    for (const auto& [k, b] : boundary) { x1 = std::max(x1, k); y1 = std::max(y1, b); }
+    for (const auto& [k, b] : boundary) {
+        x1 = std::max(x1, k);
+        y1 = std::max(y1, b);
+    }
     for (const auto& [k, b] : measured) {
         if (std::isfinite(k)) x1 = std::max(x1, k);
         if (std::isfinite(b)) y1 = std::max(y1, b);
@@ -76,7 +80,7 @@ svg::Axes& figure_axes(svg::Document& doc, const Theory& theory, const std::vect
 
 // The output directory (created) and the files written into it, in order.
 class OutputFiles {
-public:
+  public:
     explicit OutputFiles(const std::string& dir) : base_(dir) {
         std::error_code ec;
         std::filesystem::create_directories(dir, ec);
@@ -98,11 +102,10 @@ public:
     }
     [[nodiscard]] std::vector<std::string> written() const { return written_; }
 
-private:
+  private:
     std::filesystem::path base_;
     std::vector<std::string> written_;
 };
-
 
 }  // namespace
 
@@ -142,32 +145,37 @@ std::vector<std::string> write_optimal_outputs(const std::string& dir, const Opt
                                                const OptimalSettings& settings, const Theory& theory,
                                                const FigureCaption& caption) {
     OutputFiles files(dir);
-    files.csv("optimal_trials.csv", std::string(kTrialHeader) + ",CE0,CE1,CE2,COV,tail_estimate", [&](std::ofstream& out) {
-        for (const auto& r : result.trials) {
-            trial_columns(out, r);
-            const double nan = std::nan("");
-            const MeasuredCosts& c = r.costs;
-            out << "," << num(r.has_costs ? c.ce0 : nan) << "," << num(r.has_costs ? c.ce1 : nan) << ","
-                << num(r.has_costs ? c.ce2 : nan) << "," << num(r.has_costs ? c.overshoot : nan) << ","
-                << num(r.has_costs ? c.tail_estimate : nan) << "\n";
-        }
-    });
-    files.csv("optimal.csv",
-              "K_N_per_m,criterion,B_grid_Ns_per_m,cost_grid,B_refined_Ns_per_m,B_theory_Ns_per_m,B_step_Ns_per_m,on_edge",
+    files.csv("optimal_trials.csv", std::string(kTrialHeader) + ",CE0,CE1,CE2,COV,tail_estimate",
               [&](std::ofstream& out) {
-                  for (const auto& p : result.points) {
-                      out << num(p.K) << ",CE" << p.criterion << "," << num(p.B_grid) << "," << num(p.cost_grid) << ","
-                          << num(p.B_refined) << "," << num(p.B_theory) << "," << num(p.b_step) << ","
-                          << (p.on_edge ? 1 : 0) << "\n";
+                  for (const auto& r : result.trials) {
+                      trial_columns(out, r);
+                      const double nan = std::nan("");
+                      const MeasuredCosts& c = r.costs;
+                      out << "," << num(r.has_costs ? c.ce0 : nan) << "," << num(r.has_costs ? c.ce1 : nan) << ","
+                          << num(r.has_costs ? c.ce2 : nan) << "," << num(r.has_costs ? c.overshoot : nan) << ","
+                          << num(r.has_costs ? c.tail_estimate : nan) << "\n";
                   }
               });
+    files.csv(
+        "optimal.csv",
+        "K_N_per_m,criterion,B_grid_Ns_per_m,cost_grid,B_refined_Ns_per_m,B_theory_Ns_per_m,B_step_Ns_per_m,on_edge",
+        [&](std::ofstream& out) {
+            for (const auto& p : result.points) {
+                out << num(p.K) << ",CE" << p.criterion << "," << num(p.B_grid) << "," << num(p.cost_grid) << ","
+                    << num(p.B_refined) << "," << num(p.B_theory) << "," << num(p.b_step) << "," << (p.on_edge ? 1 : 0)
+                    << "\n";
+            }
+        });
     std::vector<std::pair<double, double>> measured;
     for (const auto& p : result.points) measured.emplace_back(p.K, p.B_refined);
     svg::Document doc(800, 600, "Measured optimal curves, " + caption.text);
     svg::Axes& ax = figure_axes(doc, theory, measured, "Optimal B per K: measured vs analysis, " + caption.text);
     // Theory curves over the K range of the grid (the optimal curve is defined inside the region).
     double k_lo = HUGE_VAL, k_hi = 0;
-    for (const double K : settings.k_values) { k_lo = std::min(k_lo, K); k_hi = std::max(k_hi, K); }
+    for (const double K : settings.k_values) {
+        k_lo = std::min(k_lo, K);
+        k_hi = std::max(k_hi, K);
+    }
     const svg::MarkerShape shapes[3] = {svg::MarkerShape::Square, svg::MarkerShape::Diamond, svg::MarkerShape::Circle};
     for (int c = 0; c < 3 && k_hi > 0; ++c) {
         const svg::Style style{svg::color(c + 1), 1.5, "6 3", "none", 1};
@@ -195,7 +203,9 @@ std::vector<std::string> write_optimal_outputs(const std::string& dir, const Opt
             any_plus = true;
         }
     }
-    if (any_plus) ax.legend_marker("no overshoot (C_OV <= " + short_num(settings.overshoot_tolerance) + ")", svg::MarkerShape::Plus, plus);
+    if (any_plus)
+        ax.legend_marker("no overshoot (C_OV <= " + short_num(settings.overshoot_tolerance) + ")",
+                         svg::MarkerShape::Plus, plus);
     files.figure("optimal.svg", doc);
     return files.written();
 }

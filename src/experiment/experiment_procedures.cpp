@@ -15,7 +15,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // One trial and the return phase after it; fills the row; returns false when the experiment must stop.
 class TrialSequence {
-public:
+  public:
     TrialSequence(TrialRunner& runner, const ExperimentSetup& setup) : runner_(runner), setup_(setup) {}
 
     bool run(double K, double B, const char* phase, TrialRow& row, Abort& abort, TrialRecord& record) {
@@ -60,14 +60,19 @@ public:
         return b;
     }
 
-private:
+  private:
     static std::string describe(TrialOutcome o, double K, double B, std::size_t tick, const std::string& device_error) {
-        const std::string where = "trial at K = " + number(K) + " N/m, B = " + number(B) + " N s/m, tick " + std::to_string(tick);
+        const std::string where =
+            "trial at K = " + number(K) + " N/m, B = " + number(B) + " N s/m, tick " + std::to_string(tick);
         switch (o) {
-            case TrialOutcome::DeviceFault: return where + ": device error: " + device_error + "; zero force, experiment stopped";
-            case TrialOutcome::NonFinite: return where + ": non-finite position; zero force, experiment stopped";
-            case TrialOutcome::Stopped: return where + ": stopped by signal; zero force";
-            default: return where + ": " + to_string(o);
+            case TrialOutcome::DeviceFault:
+                return where + ": device error: " + device_error + "; zero force, experiment stopped";
+            case TrialOutcome::NonFinite:
+                return where + ": non-finite position; zero force, experiment stopped";
+            case TrialOutcome::Stopped:
+                return where + ": stopped by signal; zero force";
+            default:
+                return where + ": " + to_string(o);
         }
     }
 

@@ -26,19 +26,19 @@
 namespace hapticd::experiment {
 
 struct ExperimentSetup {
-    TrialSettings trial;        // axis, direction, period, buffer, mass, k, |step force|, limits, detection
-    SettleSettings settle;      // return phase (gains, home, caps)
-    CostModel model;            // the plant used to reconstruct between samples
+    TrialSettings trial;    // axis, direction, period, buffer, mass, k, |step force|, limits, detection
+    SettleSettings settle;  // return phase (gains, home, caps)
+    CostModel model;        // the plant used to reconstruct between samples
 };
 
 struct TrialRow {
     std::size_t index = 0;
-    std::string phase;          // "step", "bisect" (boundary) or "grid" (optimal)
+    std::string phase;  // "step", "bisect" (boundary) or "grid" (optimal)
     double K = 0.0, B = 0.0, step_force = 0.0;
     TrialOutcome outcome = TrialOutcome::Stable;
     std::size_t ticks = 0;
     double max_growth = 0.0, max_abs_force = 0.0, max_abs_position = 0.0;
-    MeasuredCosts costs;        // optimal experiment, stable trials only (NaN otherwise)
+    MeasuredCosts costs;  // optimal experiment, stable trials only (NaN otherwise)
     bool has_costs = false;
 };
 
@@ -68,15 +68,15 @@ struct BoundaryResult {
 struct OptimalSettings {
     std::vector<double> k_values;
     int b_points = 11;
-    double b_margin = 0.1;         // fraction of the stable B interval left out at each end
+    double b_margin = 0.1;              // fraction of the stable B interval left out at each end
     double overshoot_tolerance = 1e-6;  // relative: C_OV <= this counts as no overshoot (markers)
 };
 
 struct OptimalPointRow {
     double K = 0.0;
-    int criterion = 0;             // 0, 1, 2: C_E0, C_E1, C_E2
+    int criterion = 0;  // 0, 1, 2: C_E0, C_E1, C_E2
     double B_grid = 0.0, cost_grid = 0.0, B_refined = 0.0, B_theory = 0.0, b_step = 0.0;
-    bool on_edge = false;          // the grid minimum is at the grid's end: not refined
+    bool on_edge = false;  // the grid minimum is at the grid's end: not refined
 };
 
 struct OptimalResult {

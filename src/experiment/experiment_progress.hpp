@@ -13,7 +13,7 @@
 namespace hapticd::experiment {
 
 class Progress {
-public:
+  public:
     Progress(std::ostream& out, bool interactive, bool quiet, double plain_interval = 2.0);
     ~Progress();
     Progress(const Progress&) = delete;
@@ -29,7 +29,7 @@ public:
     // Whether stderr is a terminal (isatty).
     static bool stderr_is_terminal() noexcept;
 
-private:
+  private:
     void emit(bool force);
     std::ostream& out_;
     bool interactive_, quiet_;

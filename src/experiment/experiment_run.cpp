@@ -41,15 +41,20 @@ struct DeviceCloser {
 // Every parameter that does not depend on the analysis.
 void validate_common(const ExperimentOptions& o, const DeviceProfile& p) {
     require(std::isfinite(o.rate) && o.rate >= 1.0 && o.rate <= 100000.0, "--rate", o.rate, "1 <= rate <= 100000 Hz");
-    require(o.delay_buffer >= 0 && o.delay_buffer <= 10000, "--delay-buffer", static_cast<double>(o.delay_buffer), "0 .. 10000 samples");
-    require(o.axis >= 0 && o.axis < p.axes, "--axis", static_cast<double>(o.axis), "0 .. " + std::to_string(p.axes - 1) + " (device axes)");
+    require(o.delay_buffer >= 0 && o.delay_buffer <= 10000, "--delay-buffer", static_cast<double>(o.delay_buffer),
+            "0 .. 10000 samples");
+    require(o.axis >= 0 && o.axis < p.axes, "--axis", static_cast<double>(o.axis),
+            "0 .. " + std::to_string(p.axes - 1) + " (device axes)");
     require(std::isfinite(o.position_limit) && o.position_limit > 0.0 && o.position_limit <= 1.0, "--position-limit",
             o.position_limit, "0 < limit <= 1 m");
-    require(std::isfinite(o.settle) && o.settle >= 0.05 && o.settle <= 60.0, "--settle", o.settle, "0.05 <= settle <= 60 s");
+    require(std::isfinite(o.settle) && o.settle >= 0.05 && o.settle <= 60.0, "--settle", o.settle,
+            "0.05 <= settle <= 60 s");
     require(o.window >= 10 && o.window <= 100000, "--window", static_cast<double>(o.window), "10 .. 100000 ticks");
     require(std::isfinite(o.growth) && o.growth > 1.0 && o.growth <= 100.0, "--growth", o.growth, "1 < growth <= 100");
-    require(o.consecutive >= 1 && o.consecutive <= 100, "--consecutive", static_cast<double>(o.consecutive), "1 .. 100");
-    require(std::isfinite(o.energy_cap) && o.energy_cap > 1.0 && o.energy_cap <= 1e12, "--energy-cap", o.energy_cap, "1 < cap <= 1e12");
+    require(o.consecutive >= 1 && o.consecutive <= 100, "--consecutive", static_cast<double>(o.consecutive),
+            "1 .. 100");
+    require(std::isfinite(o.energy_cap) && o.energy_cap > 1.0 && o.energy_cap <= 1e12, "--energy-cap", o.energy_cap,
+            "1 < cap <= 1e12");
     require(o.force_cap == 0.0 || (std::isfinite(o.force_cap) && o.force_cap > 0.0 && o.force_cap <= p.max_force),
             "--force-cap", o.force_cap, "0 < cap <= max_force = " + g(p.max_force) + " N");
     require(o.trial_time == 0.0 || (std::isfinite(o.trial_time) && o.trial_time > 0.0 && o.trial_time <= 600.0),
@@ -92,9 +97,11 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
 
     if (boundary) {
         if (bs.b_values.empty()) {
-            for (int i = 0; i < 8; ++i) bs.b_values.push_back(b_lo_theory + (b_hi_theory - b_lo_theory) * (0.1 + 0.8 * i / 7.0));
+            for (int i = 0; i < 8; ++i)
+                bs.b_values.push_back(b_lo_theory + (b_hi_theory - b_lo_theory) * (0.1 + 0.8 * i / 7.0));
         }
-        for (const double B : bs.b_values) require(std::isfinite(B) && B >= 0.0 && B <= 1e9, "--b-values/--b-range value", B, "0 <= B <= 1e9 N s/m");
+        for (const double B : bs.b_values)
+            require(std::isfinite(B) && B >= 0.0 && B <= 1e9, "--b-values/--b-range value", B, "0 <= B <= 1e9 N s/m");
         bs.k_step = o.k_step != 0.0 ? o.k_step : k_max_theory / 20.0;
         require(std::isfinite(bs.k_step) && bs.k_step > 0.0, "--k-step", bs.k_step, "k-step > 0 N/m");
         bs.k_min = o.k_min != 0.0 ? o.k_min : bs.k_step;
@@ -104,8 +111,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
         require(std::isfinite(bs.k_max) && bs.k_max >= bs.k_min && bs.k_max <= 1e12, "--k-max", bs.k_max,
                 "k-min = " + g(bs.k_min) + " <= k-max <= 1e12 N/m");
         require((bs.k_max - bs.k_min) / bs.k_step <= 100000, "--k-step", bs.k_step, ">= (k-max - k-min) / 100000 N/m");
-        require(std::isfinite(bs.k_resolution) && bs.k_resolution > 0.0 && bs.k_resolution <= bs.k_step, "--k-resolution",
-                bs.k_resolution, "0 < resolution <= k-step = " + g(bs.k_step) + " N/m");
+        require(std::isfinite(bs.k_resolution) && bs.k_resolution > 0.0 && bs.k_resolution <= bs.k_step,
+                "--k-resolution", bs.k_resolution, "0 < resolution <= k-step = " + g(bs.k_step) + " N/m");
     } else {
         if (os.k_values.empty()) {
             for (int i = 0; i < 5; ++i) os.k_values.push_back(k_max_theory * (0.1 + 0.7 * i / 4.0));
@@ -115,7 +122,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
                     "0 < K < analysed K_max = " + g(k_max_theory) + " N/m");
         }
         require(o.b_points >= 3 && o.b_points <= 1000, "--b-points", static_cast<double>(o.b_points), "3 .. 1000");
-        require(std::isfinite(o.b_margin) && o.b_margin >= 0.0 && o.b_margin <= 0.45, "--b-margin", o.b_margin, "0 <= margin <= 0.45");
+        require(std::isfinite(o.b_margin) && o.b_margin >= 0.0 && o.b_margin <= 0.45, "--b-margin", o.b_margin,
+                "0 <= margin <= 0.45");
         require(std::isfinite(o.overshoot_tol) && o.overshoot_tol > 0.0 && o.overshoot_tol <= 1.0, "--overshoot-tol",
                 o.overshoot_tol, "0 < tol <= 1");
         os.b_points = static_cast<int>(o.b_points);
@@ -132,7 +140,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
     t.stiffness = profile.stiffness;
     t.step_force = step_force;
     t.ticks = trial_ticks;
-    t.detection = DetectionSettings{static_cast<std::size_t>(o.window), o.growth, static_cast<int>(o.consecutive), o.energy_cap};
+    t.detection =
+        DetectionSettings{static_cast<std::size_t>(o.window), o.growth, static_cast<int>(o.consecutive), o.energy_cap};
     t.force_cap = force_cap;
     t.position_limit = o.position_limit;
     const auto [K_return, B_return] = theory->ce2_optimum();
@@ -170,16 +179,17 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
                                 " ms, k = " + g(profile.stiffness) + " N/m, b = " + g(profile.damping) + " N s/m"};
     if (!o.quiet) {
         std::cout << "hapticd experiment " << (boundary ? "boundary" : "optimal") << ": device '" << profile.name << "'"
-                  << (simulated ? " (simulated, lockstep)" : "") << ", " << caption.text << "; step F = " << g(step_force)
-                  << " N, force cap " << g(force_cap) << " N, position limit " << g(o.position_limit) << " m; analysed K_max = "
-                  << g(k_max_theory) << " N/m; return gains K = " << g(K_return) << " N/m, B = " << g(B_return) << " N s/m"
-                  << std::endl;
+                  << (simulated ? " (simulated, lockstep)" : "") << ", " << caption.text
+                  << "; step F = " << g(step_force) << " N, force cap " << g(force_cap) << " N, position limit "
+                  << g(o.position_limit) << " m; analysed K_max = " << g(k_max_theory)
+                  << " N/m; return gains K = " << g(K_return) << " N/m, B = " << g(B_return) << " N s/m" << std::endl;
     }
     const std::int64_t period_ns = std::llround(1e9 / o.rate);
     TrialRunner runner(*device, period_ns, simulated);
     st.home = runner.read_position(t.axis);
     if (!std::isfinite(st.home)) {
-        throw StartupError(ErrorKind::Device, "device '" + profile.name + "': reading the start position failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device,
+                           "device '" + profile.name + "': reading the start position failed: " + device->last_error());
     }
     Progress progress(std::cerr, Progress::stderr_is_terminal(), o.quiet);
 
@@ -195,8 +205,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
             files = write_boundary_outputs(o.out_dir, r, *theory, caption);
             for (const auto& p : r.points) {
                 summary << "B = " << g(p.B) << " N s/m: K boundary measured " << g(p.K_boundary) << " N/m (stable "
-                        << g(p.K_last_stable) << ", unstable " << g(p.K_first_unstable) << "), analysis " << g(p.K_theory)
-                        << " N/m, " << p.trials << " trials\n";
+                        << g(p.K_last_stable) << ", unstable " << g(p.K_first_unstable) << "), analysis "
+                        << g(p.K_theory) << " N/m, " << p.trials << " trials\n";
             }
         } else {
             const OptimalResult r = run_optimal(runner, setup, os, *theory, progress);
@@ -206,8 +216,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
             files = write_optimal_outputs(o.out_dir, r, os, *theory, caption);
             for (const auto& p : r.points) {
                 summary << "K = " << g(p.K) << " N/m, CE" << p.criterion << ": optimal B measured " << g(p.B_refined)
-                        << (p.on_edge ? " (grid edge)" : "") << " N s/m, analysis " << g(p.B_theory) << " N s/m (grid step "
-                        << g(p.b_step) << ")\n";
+                        << (p.on_edge ? " (grid edge)" : "") << " N s/m, analysis " << g(p.B_theory)
+                        << " N s/m (grid step " << g(p.b_step) << ")\n";
             }
         }
     } catch (const std::runtime_error& e) {
@@ -218,7 +228,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
         for (const auto& f : files) std::cout << "wrote " << f << "\n";
     }
     switch (abort.outcome) {
-        case TrialOutcome::Stable: return ErrorKind::Ok;
+        case TrialOutcome::Stable:
+            return ErrorKind::Ok;
         case TrialOutcome::Stopped:
             std::cerr << "hapticd experiment: " << abort.detail << "; partial results written\n";
             return ErrorKind::Ok;

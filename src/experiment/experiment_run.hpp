@@ -27,7 +27,7 @@ struct ExperimentOptions {
 // Throws StartupError for a bad parameter, device, or output file. Returns how the run ended: Ok (finished, or
 // stopped by SIGINT/SIGTERM), Device (a device error during a trial) or RunFault (any other abort).
 ErrorKind run_experiment(const ExperimentOptions& options, bool boundary, BoundarySettings boundary_settings,
-                   OptimalSettings optimal_settings);
+                         OptimalSettings optimal_settings);
 
 // Throws StartupError(ErrorKind::InvalidParameter) "NAME = VALUE is invalid; accepted range: RANGE" unless ok
 // (NaN always fails).

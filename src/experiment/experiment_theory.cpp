@@ -37,7 +37,9 @@ const TheoryPlant& Theory::plant() const noexcept { return impl_->physical; }
 double Theory::k_scale() const noexcept { return impl_->k_scale; }
 double Theory::b_scale() const noexcept { return impl_->b_scale; }
 double Theory::max_stiffness() const { return impl_->optimizer.region().alpha_max() * impl_->k_scale; }
-double Theory::damping_at_max_stiffness() const { return impl_->optimizer.region().beta_at_alpha_max() * impl_->b_scale; }
+double Theory::damping_at_max_stiffness() const {
+    return impl_->optimizer.region().beta_at_alpha_max() * impl_->b_scale;
+}
 
 std::pair<double, double> Theory::damping_extent() const {
     double lo = HUGE_VAL, hi = -HUGE_VAL;

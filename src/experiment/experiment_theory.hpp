@@ -22,7 +22,7 @@ struct TheoryCosts {
 };
 
 class Theory {
-public:
+  public:
     // Throws hapticopt::InvalidParameter for an invalid plant.
     explicit Theory(const TheoryPlant& plant);
     ~Theory();
@@ -52,7 +52,7 @@ public:
     // The closed boundary (complex branch, the tip, alpha = -gamma) in (K, B), as drawn by hapticopt plot.
     [[nodiscard]] std::vector<std::pair<double, double>> boundary_polyline(int points = 400) const;
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -12,14 +12,22 @@ namespace hapticd::experiment {
 
 const char* to_string(TrialOutcome outcome) noexcept {
     switch (outcome) {
-        case TrialOutcome::Stable: return "stable";
-        case TrialOutcome::Growing: return "energy_growth";
-        case TrialOutcome::EnergyCap: return "energy_cap";
-        case TrialOutcome::ForceCap: return "force_cap";
-        case TrialOutcome::PositionLimit: return "position_limit";
-        case TrialOutcome::NonFinite: return "non_finite";
-        case TrialOutcome::DeviceFault: return "device_fault";
-        case TrialOutcome::Stopped: return "stopped";
+        case TrialOutcome::Stable:
+            return "stable";
+        case TrialOutcome::Growing:
+            return "energy_growth";
+        case TrialOutcome::EnergyCap:
+            return "energy_cap";
+        case TrialOutcome::ForceCap:
+            return "force_cap";
+        case TrialOutcome::PositionLimit:
+            return "position_limit";
+        case TrialOutcome::NonFinite:
+            return "non_finite";
+        case TrialOutcome::DeviceFault:
+            return "device_fault";
+        case TrialOutcome::Stopped:
+            return "stopped";
     }
     return "unknown";
 }
@@ -101,12 +109,14 @@ void TrialRunner::run(const TrialSettings& s, TrialRecord& r) {
             const double dx = x - x_inf;
             window_sum += 0.5 * total_stiffness * dx * dx + 0.5 * s.mass * velocity * velocity;
             if (++in_window == det.window) {
-                if (window_sum > det.energy_cap * static_cast<double>(det.window) * e0) verdict = TrialOutcome::EnergyCap;
+                if (window_sum > det.energy_cap * static_cast<double>(det.window) * e0)
+                    verdict = TrialOutcome::EnergyCap;
                 if (previous_window > 0.0 && window_sum > 1e-6 * largest_window) {
                     const double ratio = window_sum / previous_window;
                     r.max_growth = std::max(r.max_growth, ratio);
                     growth_run = ratio > det.growth ? growth_run + 1 : 0;
-                    if (growth_run >= det.consecutive && verdict == TrialOutcome::Stable) verdict = TrialOutcome::Growing;
+                    if (growth_run >= det.consecutive && verdict == TrialOutcome::Stable)
+                        verdict = TrialOutcome::Growing;
                 } else {
                     growth_run = 0;
                 }

@@ -32,10 +32,10 @@
 namespace hapticd::experiment {
 
 struct DetectionSettings {
-    std::size_t window = 100;      // W, ticks per energy window
-    double growth = 1.05;          // g, window-to-window energy ratio counted as growth
-    int consecutive = 3;           // c, windows of growth in a row
-    double energy_cap = 100.0;     // S_w > energy_cap W E(0): unstable
+    std::size_t window = 100;   // W, ticks per energy window
+    double growth = 1.05;       // g, window-to-window energy ratio counted as growth
+    int consecutive = 3;        // c, windows of growth in a row
+    double energy_cap = 100.0;  // S_w > energy_cap W E(0): unstable
 };
 
 struct TrialSettings {
@@ -74,15 +74,15 @@ enum class TrialOutcome : std::uint8_t {
 }
 
 struct TrialRecord {
-    std::vector<double> x;         // penetration at each tick, m (relative to the start position)
-    std::vector<double> u;         // force written at each tick along the penetration, N (0 on the last)
-    std::size_t samples = 0;       // ticks recorded
+    std::vector<double> x;    // penetration at each tick, m (relative to the start position)
+    std::vector<double> u;    // force written at each tick along the penetration, N (0 on the last)
+    std::size_t samples = 0;  // ticks recorded
     TrialOutcome outcome = TrialOutcome::Stable;
-    std::size_t end_tick = 0;      // tick of the outcome (samples - 1)
-    double max_growth = 0.0;       // largest S_w / S_{w-1} seen (0 before two windows)
-    double max_abs_force = 0.0;    // N
-    double max_abs_position = 0.0; // m
-    std::string device_error;      // DeviceFault: the device's last_error()
+    std::size_t end_tick = 0;       // tick of the outcome (samples - 1)
+    double max_growth = 0.0;        // largest S_w / S_{w-1} seen (0 before two windows)
+    double max_abs_force = 0.0;     // N
+    double max_abs_position = 0.0;  // m
+    std::string device_error;       // DeviceFault: the device's last_error()
 };
 
 // Gentle return to the experiment's home position between trials: the wall law towards `home` with gains
@@ -91,22 +91,22 @@ struct SettleSettings {
     std::size_t axis = 0;
     double period = 1e-3;
     std::size_t delay_buffer = 0;
-    double K = 0.0, B = 0.0;       // return gains
-    double home = 0.0;             // device-frame position, m
-    std::size_t ticks = 500;       // return phase
-    std::size_t zero_ticks = 50;   // zero force at the end
+    double K = 0.0, B = 0.0;      // return gains
+    double home = 0.0;            // device-frame position, m
+    std::size_t ticks = 500;      // return phase
+    std::size_t zero_ticks = 50;  // zero force at the end
     double force_cap = 1.0;
     double position_limit = 0.02;  // |p - home| beyond this: fault
 };
 
 struct SettleResult {
     TrialOutcome outcome = TrialOutcome::Stable;  // Stable, PositionLimit, NonFinite, DeviceFault, Stopped
-    double final_offset = 0.0;     // p - home at the end, m
+    double final_offset = 0.0;                    // p - home at the end, m
     std::string device_error;
 };
 
 class TrialRunner {
-public:
+  public:
     // The device must be open and homed; it must outlive the runner.
     TrialRunner(Device& device, std::int64_t period_ns, bool lockstep);
 
@@ -116,7 +116,7 @@ public:
     // The device-frame position now (one read; NaN on error): the home position of the experiment.
     double read_position(std::size_t axis);
 
-private:
+  private:
     Device& device_;
     std::int64_t period_ns_;
     bool lockstep_;

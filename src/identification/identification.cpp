@@ -13,9 +13,9 @@ namespace hapticd {
 
 namespace {
 
-constexpr int kNonlinear = 3;  // m, b, k
+constexpr int kNonlinear = 3;         // m, b, k
 constexpr int kFixedDelayParams = 6;  // m, b, k, x0, v0, F0
-constexpr int kAllParams = 7;  // + d
+constexpr int kAllParams = 7;         // + d
 
 PlantEstimate with_params(const PlantEstimate& base, const Eigen::VectorXd& theta) {
     PlantEstimate p = base;
@@ -62,7 +62,8 @@ Eigen::MatrixXd jacobian(const IdentificationData& data, const PlantEstimate& p,
         double* fields_hi[] = {&hi.mass, &hi.damping, &hi.stiffness};
         *fields_lo[i] -= h[static_cast<std::size_t>(i)];
         *fields_hi[i] += h[static_cast<std::size_t>(i)];
-        J.col(i) = (to_eigen(simulate_sampled_plant(hi, T, data.force)) - to_eigen(simulate_sampled_plant(lo, T, data.force))) /
+        J.col(i) = (to_eigen(simulate_sampled_plant(hi, T, data.force)) -
+                    to_eigen(simulate_sampled_plant(lo, T, data.force))) /
                    (2.0 * h[static_cast<std::size_t>(i)]);
     }
     // x0, v0, F0 enter linearly: their columns are the responses to a unit value alone.
@@ -80,7 +81,8 @@ Eigen::MatrixXd jacobian(const IdentificationData& data, const PlantEstimate& p,
         PlantEstimate lo = p;
         hi.delay_periods = p.delay_periods + hd;
         lo.delay_periods = std::max(0.0, p.delay_periods - hd);
-        J.col(6) = (to_eigen(simulate_sampled_plant(hi, T, data.force)) - to_eigen(simulate_sampled_plant(lo, T, data.force))) /
+        J.col(6) = (to_eigen(simulate_sampled_plant(hi, T, data.force)) -
+                    to_eigen(simulate_sampled_plant(lo, T, data.force))) /
                    (hi.delay_periods - lo.delay_periods);
     }
     return J;
@@ -150,7 +152,9 @@ std::vector<double> simulate_sampled_plant(const PlantEstimate& p, double period
     const PlantParameters plant{p.mass, p.damping, p.stiffness};
     const ZohStep first = discretize(plant, f * period);
     const ZohStep second = discretize(plant, (1.0 - f) * period);
-    const auto input = [&](long long i) { return i < 0 || i >= static_cast<long long>(N) ? 0.0 : force[static_cast<std::size_t>(i)]; };
+    const auto input = [&](long long i) {
+        return i < 0 || i >= static_cast<long long>(N) ? 0.0 : force[static_cast<std::size_t>(i)];
+    };
     double xs = p.x0;
     double vs = p.v0;
     x[0] = xs;
@@ -196,7 +200,8 @@ std::optional<ArxFit> fit_arx(const IdentificationData& data, int n) {
         bool sane = true;
         for (std::size_t j = 1; j + 1 < N; ++j) {
             const auto jj = static_cast<long long>(j);
-            xs[j + 1] = c(0) * xs[j] + c(1) * xs[j - 1] + c(2) * u(jj - n) + c(3) * u(jj - n - 1) + c(4) * u(jj - n - 2) + c(5);
+            xs[j + 1] =
+                c(0) * xs[j] + c(1) * xs[j - 1] + c(2) * u(jj - n) + c(3) * u(jj - n - 1) + c(4) * u(jj - n - 2) + c(5);
             if (!std::isfinite(xs[j + 1]) || std::abs(xs[j + 1]) > 100.0 * bound + 1.0) {
                 sane = false;
                 break;
@@ -266,8 +271,8 @@ IdentificationResult identify_plant(const IdentificationData& raw, const Identif
         return out;
     }
     if (raw.force.size() != N || N < 50) {
-        out.message = "need at least 50 samples of force and position of equal length (got " + std::to_string(raw.force.size()) +
-                      " and " + std::to_string(N) + ")";
+        out.message = "need at least 50 samples of force and position of equal length (got " +
+                      std::to_string(raw.force.size()) + " and " + std::to_string(N) + ")";
         return out;
     }
     for (std::size_t j = 0; j < N; ++j) {
@@ -334,7 +339,8 @@ IdentificationResult identify_plant(const IdentificationData& raw, const Identif
     }
     {
         const OeFit pass1 = best;
-        for (double d = std::max(0.0, pass1.plant.delay_periods - 2.0); d <= pass1.plant.delay_periods + 2.0 + 1e-12; d += 2.0 * step) {
+        for (double d = std::max(0.0, pass1.plant.delay_periods - 2.0); d <= pass1.plant.delay_periods + 2.0 + 1e-12;
+             d += 2.0 * step) {
             PlantEstimate p = pass1.plant;
             p.delay_periods = d;
             const OeFit f = fit_output_error(data, p, s.max_iterations);

@@ -82,8 +82,8 @@ struct IdentificationResult {
     double x0 = 0.0, v0 = 0.0;
     double residual_rms = 0.0;  // m, sqrt(R / N)
     std::size_t samples = 0;
-    int arx_delay = -1;         // integer delay chosen by the ARX start
-    double period = 0.0;        // s
+    int arx_delay = -1;                   // integer delay chosen by the ARX start
+    double period = 0.0;                  // s
     std::array<double, 16> covariance{};  // row-major 4x4 of (m, b, k, d)
 };
 

@@ -57,9 +57,9 @@ void add_ns(timespec& t, std::int64_t ns) {
 namespace {
 
 struct Block {
-    std::size_t start = 0;  // tick
-    std::size_t length = 0; // L
-    double amplitude = 0.0; // A with its random sign
+    std::size_t start = 0;   // tick
+    std::size_t length = 0;  // L
+    double amplitude = 0.0;  // A with its random sign
 };
 
 // The blocks and the total length (blocks + settle tail + 1).
@@ -194,7 +194,8 @@ ExcitationRecord run_excitation(Device& device, const ExcitationSettings& s) {
         }
         double centering = -Kc * (y - rec.start_position);
         if (j >= kVelocityLag) {
-            centering -= Bc * (y - rec.data.position[j - kVelocityLag]) / (static_cast<double>(kVelocityLag) * s.period);
+            centering -=
+                Bc * (y - rec.data.position[j - kVelocityLag]) / (static_cast<double>(kVelocityLag) * s.period);
         }
         // The blocks use at most block_force_fraction of the limit and the centering the rest, so the sum
         // is never clipped (a clipped block would lose its zero net impulse).
@@ -210,7 +211,8 @@ ExcitationRecord run_excitation(Device& device, const ExcitationSettings& s) {
             if (j == b.start) {
                 block_sign = 1.0;
                 if (j >= kVelocityLag) {
-                    const double v = (y - rec.data.position[j - kVelocityLag]) / (static_cast<double>(kVelocityLag) * s.period);
+                    const double v =
+                        (y - rec.data.position[j - kVelocityLag]) / (static_cast<double>(kVelocityLag) * s.period);
                     const double ahead = (y - rec.start_position) + v * static_cast<double>(b.length) * s.period;
                     if (std::abs(ahead) > 0.05 * limit) block_sign = (ahead > 0.0) == (b.amplitude > 0.0) ? -1.0 : 1.0;
                 }
@@ -241,7 +243,8 @@ IdentifiedTuning tune_identified(const std::string& criterion, const Identificat
     IdentifiedTuning out;
     out.plant = plant_of(r.mass, r.damping, r.stiffness, r.delay_periods);
     out.tuning = tune_wall(criterion, out.plant);
-    const std::array<double, 4> x{r.mass, std::max(0.0, r.damping), std::max(0.0, r.stiffness), std::max(0.0, r.delay_periods)};
+    const std::array<double, 4> x{r.mass, std::max(0.0, r.damping), std::max(0.0, r.stiffness),
+                                  std::max(0.0, r.delay_periods)};
     const std::array<double, 4> se{r.mass_stderr, r.damping_stderr, r.stiffness_stderr, r.delay_stderr};
     const std::array<double, 4> floor{1e-6 * r.mass, 1e-6 * r.mass / period, 1e-6 * r.mass / (period * period), 1e-4};
     std::array<double, 4> gK{};
@@ -298,7 +301,8 @@ IdentificationResult identification_from_json(const nlohmann::json& j, std::stri
         throw std::runtime_error("not a hapticd identification file (\"format\": \"hapticd-identification\" missing)");
     }
     auto num = [&](const char* key) {
-        if (!j.contains(key) || !j[key].is_number()) throw std::runtime_error(std::string("missing or non-numeric key '") + key + "'");
+        if (!j.contains(key) || !j[key].is_number())
+            throw std::runtime_error(std::string("missing or non-numeric key '") + key + "'");
         const double v = j[key].get<double>();
         if (!std::isfinite(v)) throw std::runtime_error(std::string("key '") + key + "' is not finite");
         return v;
@@ -318,8 +322,8 @@ IdentificationResult identification_from_json(const nlohmann::json& j, std::stri
     r.residual_rms = j.contains("residual_rms") ? num("residual_rms") : 0.0;
     r.samples = j.value("samples", std::size_t{0});
     r.arx_delay = j.value("arx_delay", -1);
-    if (!(r.period > 0.0) || !(r.mass > 0.0) || r.delay_periods < 0.0 || r.mass_stderr < 0.0 || r.damping_stderr < 0.0 ||
-        r.stiffness_stderr < 0.0 || r.delay_stderr < 0.0) {
+    if (!(r.period > 0.0) || !(r.mass > 0.0) || r.delay_periods < 0.0 || r.mass_stderr < 0.0 ||
+        r.damping_stderr < 0.0 || r.stiffness_stderr < 0.0 || r.delay_stderr < 0.0) {
         throw std::runtime_error("period and mass must be > 0, delay and standard errors >= 0");
     }
     if (j.contains("covariance_mbkd")) {
@@ -357,9 +361,9 @@ std::vector<std::string> compare_identifications(const IdentificationResult& a, 
         const double diff = std::abs(it.vb - it.va);
         const double sigma = std::hypot(it.sa, it.sb);
         if (diff > std::max(n_sigma * sigma, it.floor)) {
-            changes.push_back(std::string(it.name) + " changed: " + fmt(it.va) + " +- " + fmt(it.sa, 2) + " -> " + fmt(it.vb) +
-                              " +- " + fmt(it.sb, 2) + " " + it.unit + " (" + fmt(sigma > 0.0 ? diff / sigma : 0.0, 3) +
-                              " standard errors)");
+            changes.push_back(std::string(it.name) + " changed: " + fmt(it.va) + " +- " + fmt(it.sa, 2) + " -> " +
+                              fmt(it.vb) + " +- " + fmt(it.sb, 2) + " " + it.unit + " (" +
+                              fmt(sigma > 0.0 ? diff / sigma : 0.0, 3) + " standard errors)");
         }
     }
     return changes;
@@ -386,8 +390,9 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
             previous.reset();
         } else if (std::abs(previous->period - period) > 1e-12 * period) {
             // The delay is kept in seconds; its share in periods changes with the rate.
-            err << "hapticd: warning: identification-file '" << stage.file << "' was measured at T = " << previous->period
-                << " s, now T = " << period << " s: delay converted through seconds\n";
+            err << "hapticd: warning: identification-file '" << stage.file
+                << "' was measured at T = " << previous->period << " s, now T = " << period
+                << " s: delay converted through seconds\n";
             const double scale = previous->period / period;
             previous->delay_periods *= scale;
             previous->delay_stderr *= scale;
@@ -435,7 +440,8 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
             << std::endl;
     }
     if (device->open() != DeviceStatus::Ok) {
-        throw StartupError(ErrorKind::Device, "identification: device '" + p.name + "': open failed: " + device->last_error());
+        throw StartupError(ErrorKind::Device,
+                           "identification: device '" + p.name + "': open failed: " + device->last_error());
     }
     if (device->home() != DeviceStatus::Ok) {
         const std::string e = device->last_error();
@@ -445,7 +451,9 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
     stage.record = run_excitation(*device, s);
     device->close();  // zero force
     if (!stage.record.completed) {
-        const ErrorKind kind = stage.record.stopped ? ErrorKind::Ok : stage.record.guard_tripped ? ErrorKind::RunFault : ErrorKind::Device;
+        const ErrorKind kind = stage.record.stopped         ? ErrorKind::Ok
+                               : stage.record.guard_tripped ? ErrorKind::RunFault
+                                                            : ErrorKind::Device;
         throw StartupError(kind, "identification aborted: " + stage.record.abort_reason + "; zero force");
     }
     stage.result = identify_plant(stage.record.data);
@@ -455,7 +463,8 @@ std::optional<IdentificationStage> run_identification_stage(const Options& o, co
     }
     stage.excited = true;
     if (stage.result.mass_stderr > 0.05 * stage.result.mass) {
-        err << "hapticd: warning: identified mass is uncertain (standard error " << fmt(stage.result.mass_stderr / stage.result.mass * 100, 3)
+        err << "hapticd: warning: identified mass is uncertain (standard error "
+            << fmt(stage.result.mass_stderr / stage.result.mass * 100, 3)
             << " %): a larger --identify-force or --identify-distance helps\n";
     }
     if (previous) stage.changes = compare_identifications(*previous, stage.result);
@@ -476,14 +485,17 @@ std::string identification_text(const IdentificationStage& st, const DeviceProfi
     const IdentificationResult& r = st.result;
     const char* mu = p.rotary ? " kg m^2" : " kg";
     std::string s = "hapticd: identified (" +
-                    std::string(st.excited ? "excitation, " + std::to_string(r.samples) + " samples, residual rms " + fmt(r.residual_rms, 3)
+                    std::string(st.excited ? "excitation, " + std::to_string(r.samples) + " samples, residual rms " +
+                                                 fmt(r.residual_rms, 3)
                                            : "from '" + st.file + "'") +
                     "), configured -> identified +- standard error:\n";
     s += "hapticd:   mass " + fmt(p.mass) + " -> " + fmt(r.mass) + " +- " + fmt(r.mass_stderr, 2) + mu + "\n";
     s += "hapticd:   damping " + fmt(p.damping) + " -> " + fmt(r.damping) + " +- " + fmt(r.damping_stderr, 2) + "\n";
-    s += "hapticd:   stiffness " + fmt(p.stiffness) + " -> " + fmt(r.stiffness) + " +- " + fmt(r.stiffness_stderr, 2) + "\n";
+    s += "hapticd:   stiffness " + fmt(p.stiffness) + " -> " + fmt(r.stiffness) + " +- " + fmt(r.stiffness_stderr, 2) +
+         "\n";
     s += "hapticd:   delay " + fmt(p.inherent_delay / period) + " -> " + fmt(r.delay_periods, 5) + " +- " +
-         fmt(r.delay_stderr, 2) + " periods (" + std::to_string(r.delay_whole) + " whole + " + fmt(r.delay_fraction, 3) + ")";
+         fmt(r.delay_stderr, 2) + " periods (" + std::to_string(r.delay_whole) + " whole + " +
+         fmt(r.delay_fraction, 3) + ")";
     if (st.saved) s += "\nhapticd:   saved to '" + st.file + "'";
     return s;
 }
@@ -502,15 +514,13 @@ nlohmann::json identification_summary_json(const IdentificationStage& st, const 
                        {"stiffness", p.stiffness},
                        {"delay_periods", p.inherent_delay / period}};
     if (st.excited) {
-        j["excitation"] = {{"force_limit", st.excitation.force_limit},
-                           {"position_limit", st.excitation.position_limit},
-                           {"duration", st.excitation.duration},
-                           {"seed", st.excitation.seed},
-                           {"max_abs_force", st.record.max_abs_force},
-                           {"max_excursion", st.record.max_excursion}};
+        j["excitation"] = {{"force_limit", st.excitation.force_limit}, {"position_limit", st.excitation.position_limit},
+                           {"duration", st.excitation.duration},       {"seed", st.excitation.seed},
+                           {"max_abs_force", st.record.max_abs_force}, {"max_excursion", st.record.max_excursion}};
     }
     if (configured != nullptr) {
-        j["configured_tuning"] = {{"K", configured->K}, {"B", configured->B}, {"alpha", configured->alpha}, {"beta", configured->beta}};
+        j["configured_tuning"] = {
+            {"K", configured->K}, {"B", configured->B}, {"alpha", configured->alpha}, {"beta", configured->beta}};
     }
     if (identified != nullptr) {
         j["K"] = identified->tuning.K;

@@ -16,14 +16,14 @@
 // At run time a block's sign stays random while the device is near rest; when the position predicted L
 // periods ahead (from y and a 5-period backward-difference velocity) is more than 5 % of the limit away
 // from the start, the block's first push opposes it (blocks then remove energy from a spring's ringing
-// instead of pumping it). The force written is that plus a weak centering PD, -Kc (y_j - y_start) - Bc (y_j - y_{j-5})/(5T),
-// Kc = m_d (2 pi f_c)^2, Bc = 2 0.7 m_d 2 pi f_c, f_c = 1 Hz (m_d the design mass), clamped to the 0.2
-// force_limit the blocks leave free (so the sum is never clipped and each block keeps zero impulse): it keeps a spring's resonance or a drift from accumulating over blocks. The estimator uses the
-// force actually written, so the feedback does not bias it (output error with known input).
-// At run time (run_excitation) a guard aborts when |y - y_start| > guard_fraction (0.8) * position_limit
-// or on any device error, non-finite position or stop request: zero force is written on that tick and on
-// every path out. The excitation is not in the real-time loop (rendering has not started): it paces
-// itself with clock_nanosleep to absolute deadlines (or runs back to back for lockstep simulations).
+// instead of pumping it). The force written is that plus a weak centering PD, -Kc (y_j - y_start) - Bc (y_j -
+// y_{j-5})/(5T), Kc = m_d (2 pi f_c)^2, Bc = 2 0.7 m_d 2 pi f_c, f_c = 1 Hz (m_d the design mass), clamped to the 0.2
+// force_limit the blocks leave free (so the sum is never clipped and each block keeps zero impulse): it keeps a
+// spring's resonance or a drift from accumulating over blocks. The estimator uses the force actually written, so the
+// feedback does not bias it (output error with known input). At run time (run_excitation) a guard aborts when |y -
+// y_start| > guard_fraction (0.8) * position_limit or on any device error, non-finite position or stop request: zero
+// force is written on that tick and on every path out. The excitation is not in the real-time loop (rendering has not
+// started): it paces itself with clock_nanosleep to absolute deadlines (or runs back to back for lockstep simulations).
 #pragma once
 
 #include <cstdint>
@@ -43,19 +43,19 @@ namespace hapticd {
 
 struct ExcitationSettings {
     std::size_t axis = 0;
-    double period = 1e-3;             // s
-    double duration = 2.0;            // s of excitation blocks
-    double settle = 0.3;              // s of zero force at the end
-    double force_limit = 1.0;         // N (N m), |u| <= force_limit
-    double position_limit = 0.005;    // m (rad), allowed |x - x_start|
-    double design_mass = 0.3;         // kg (kg m^2): the profile's mass
-    double mass_margin = 2.0;         // amplitudes designed for design_mass / mass_margin
-    double excursion_fraction = 0.3;  // designed pure-mass peak / position_limit
-    double guard_fraction = 0.8;      // abort above this fraction of position_limit
-    double centering_hz = 1.0;        // weak PD centering (for design_mass): natural frequency, Hz (0: off)
+    double period = 1e-3;               // s
+    double duration = 2.0;              // s of excitation blocks
+    double settle = 0.3;                // s of zero force at the end
+    double force_limit = 1.0;           // N (N m), |u| <= force_limit
+    double position_limit = 0.005;      // m (rad), allowed |x - x_start|
+    double design_mass = 0.3;           // kg (kg m^2): the profile's mass
+    double mass_margin = 2.0;           // amplitudes designed for design_mass / mass_margin
+    double excursion_fraction = 0.3;    // designed pure-mass peak / position_limit
+    double guard_fraction = 0.8;        // abort above this fraction of position_limit
+    double centering_hz = 1.0;          // weak PD centering (for design_mass): natural frequency, Hz (0: off)
     double block_force_fraction = 0.8;  // of force_limit for the blocks; the rest is the centering's
     std::uint64_t seed = 1;
-    bool paced = true;                // sleep to absolute deadlines; false: back to back (simulation)
+    bool paced = true;  // sleep to absolute deadlines; false: back to back (simulation)
 };
 
 // The open-loop force sequence u_j with the random signs (the settle tail included; the last sample is
@@ -63,14 +63,14 @@ struct ExcitationSettings {
 std::vector<double> excitation_signal(const ExcitationSettings& settings);
 
 struct ExcitationRecord {
-    IdentificationData data;       // what was written and read (up to the abort)
+    IdentificationData data;  // what was written and read (up to the abort)
     bool completed = false;
-    std::string abort_reason;      // when not completed
+    std::string abort_reason;  // when not completed
     DeviceStatus status = DeviceStatus::Ok;
     bool guard_tripped = false;
-    bool stopped = false;          // SIGINT/SIGTERM
+    bool stopped = false;  // SIGINT/SIGTERM
     double max_abs_force = 0.0;
-    double max_excursion = 0.0;    // max |y - y_start|
+    double max_excursion = 0.0;  // max |y - y_start|
     double start_position = 0.0;
 };
 
@@ -102,14 +102,14 @@ std::vector<std::string> compare_identifications(const IdentificationResult& bef
 
 // What `--identify` / `--identification-file` did at start-up.
 struct IdentificationStage {
-    bool excited = false;             // the excitation ran now
-    bool reused = false;              // results read from the file
-    std::string file;                 // identification file ("" : none)
+    bool excited = false;  // the excitation ran now
+    bool reused = false;   // results read from the file
+    std::string file;      // identification file ("" : none)
     bool saved = false;
     IdentificationResult result;
-    ExcitationSettings excitation;    // when excited
-    ExcitationRecord record;          // when excited (data cleared)
-    std::vector<std::string> changes; // vs the previous file
+    ExcitationSettings excitation;     // when excited
+    ExcitationRecord record;           // when excited (data cleared)
+    std::vector<std::string> changes;  // vs the previous file
 };
 
 // Runs or reuses the identification as the options ask; nullopt when neither was asked (or the file to

@@ -31,10 +31,10 @@ struct LoopConfig {
 };
 
 struct TickInput {
-    std::uint64_t tick = 0;              // ticks processed before this one (consecutive, no gaps)
-    double time_s = 0.0;                 // scheduled time of this tick since the start (period * slot)
-    std::int64_t wake_latency_ns = 0;    // actual wake-up - deadline (0 in lockstep)
-    std::uint64_t skipped_periods = 0;   // periods skipped just before this tick (late previous tick)
+    std::uint64_t tick = 0;             // ticks processed before this one (consecutive, no gaps)
+    double time_s = 0.0;                // scheduled time of this tick since the start (period * slot)
+    std::int64_t wake_latency_ns = 0;   // actual wake-up - deadline (0 in lockstep)
+    std::uint64_t skipped_periods = 0;  // periods skipped just before this tick (late previous tick)
     std::uint32_t consecutive_overruns = 0;
 };
 
@@ -50,7 +50,7 @@ struct LoopCounters {
 };
 
 class RealtimeLoop {
-public:
+  public:
     explicit RealtimeLoop(const LoopConfig& config) : config_(config) {}
 
     template <class Callback>
@@ -124,7 +124,7 @@ public:
     // Sleeps until the absolute CLOCK_MONOTONIC time; resumes after signals (EINTR).
     static void sleep_until(std::int64_t t_ns) noexcept;
 
-private:
+  private:
     LoopConfig config_;
     LatencyStats wake_latency_;
     LatencyStats compute_time_;

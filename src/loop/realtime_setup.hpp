@@ -10,7 +10,7 @@ namespace hapticd {
 struct RealtimeRequest {
     int priority = 80;  // SCHED_FIFO priority 1..99; 0: do not ask for SCHED_FIFO
     bool lock_memory = true;
-    int cpu = -1;       // pin the calling thread to this CPU; -1: no pinning
+    int cpu = -1;  // pin the calling thread to this CPU; -1: no pinning
 };
 
 struct RealtimeReport {

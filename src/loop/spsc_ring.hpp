@@ -13,7 +13,7 @@ namespace hapticd {
 
 template <class T>
 class SpscRing {
-public:
+  public:
     explicit SpscRing(std::size_t capacity) : buffer_(round_up(capacity)), mask_(buffer_.size() - 1) {}
 
     [[nodiscard]] std::size_t capacity() const noexcept { return buffer_.size(); }
@@ -61,7 +61,7 @@ public:
     // Consumer: removes the element front() returned (only after a non-null front()).
     void pop() noexcept { tail_.store(tail_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
 
-private:
+  private:
     static std::size_t round_up(std::size_t n) {
         std::size_t c = 2;
         while (c < n) c <<= 1U;

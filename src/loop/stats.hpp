@@ -15,7 +15,7 @@
 namespace hapticd {
 
 class LatencyStats {
-public:
+  public:
     static constexpr unsigned kSubBits = 5;
     static constexpr std::uint64_t kSub = 1ULL << kSubBits;
     static constexpr unsigned kMaxExponent = 40;  // values >= 2^40 ns (18 min) land in the top bucket
@@ -51,7 +51,7 @@ public:
     static std::uint64_t bucket_upper(std::size_t bucket) noexcept;  // largest value in the bucket
     static std::uint64_t bucket_lower(std::size_t bucket) noexcept;
 
-private:
+  private:
     std::array<std::uint64_t, kBuckets> buckets_{};
     std::uint64_t count_ = 0;
     double sum_ = 0.0;

@@ -31,8 +31,8 @@ std::size_t TraceWriter::drain() noexcept {
     std::size_t n = 0;
     while (ring_.try_pop(r)) {
         // %.17g round-trips doubles exactly; time_s is a whole number of ns.
-        if (std::fprintf(file_, "%llu,%.9f,%.17g,%.17g,%.17g,%.3f\n", static_cast<unsigned long long>(r.tick),
-                         r.time_s, r.position_m, r.wall_force_N, r.external_force_N, r.wake_latency_us) < 0) {
+        if (std::fprintf(file_, "%llu,%.9f,%.17g,%.17g,%.17g,%.3f\n", static_cast<unsigned long long>(r.tick), r.time_s,
+                         r.position_m, r.wall_force_N, r.external_force_N, r.wake_latency_us) < 0) {
             write_error_.store(true, std::memory_order_relaxed);
         }
         ++n;

@@ -25,7 +25,7 @@ struct TraceRecord {
 };
 
 class TraceWriter {
-public:
+  public:
     // Opens `path` for writing (throws std::runtime_error naming the path on failure) and starts the
     // writer thread.
     TraceWriter(const std::string& path, std::size_t capacity, bool blocking);
@@ -57,7 +57,7 @@ public:
 
     static const char* header() noexcept;
 
-private:
+  private:
     void run() noexcept;
     std::size_t drain() noexcept;
 

@@ -11,7 +11,7 @@ namespace hapticd {
 
 template <class T>
 class DelayRing {
-public:
+  public:
     explicit DelayRing(std::size_t samples) : buffer_(samples, T{}) {}
 
     [[nodiscard]] std::size_t samples() const noexcept { return buffer_.size(); }
@@ -34,7 +34,7 @@ public:
         head_ = 0;
     }
 
-private:
+  private:
     std::vector<T> buffer_;
     std::size_t head_ = 0;
 };

@@ -66,7 +66,7 @@ struct PassivityControlStats {
 void validate(const PassivityControlConfig& config);
 
 class PassivityController {
-public:
+  public:
     explicit PassivityController(const PassivityControlConfig& config);
 
     // Adjusts `force` (device frame, about to be written) for the sampled `position`. Real-time safe.
@@ -79,7 +79,7 @@ public:
     [[nodiscard]] double last_added_damping(std::size_t axis) const noexcept { return last_damping_[axis]; }
     void reset() noexcept;
 
-private:
+  private:
     PassivityControlConfig config_;
     PassivityControlStats stats_;
     AxisVector previous_position_{};

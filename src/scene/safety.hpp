@@ -16,7 +16,7 @@ struct WatchdogConfig {
 };
 
 class Watchdog {
-public:
+  public:
     explicit Watchdog(const WatchdogConfig& config) : config_(config) {}
     // true when the timing of this tick is a fault.
     [[nodiscard]] bool check(std::uint32_t consecutive_overruns, std::uint64_t skipped_periods) const noexcept {
@@ -24,7 +24,7 @@ public:
     }
     [[nodiscard]] const WatchdogConfig& config() const noexcept { return config_; }
 
-private:
+  private:
     WatchdogConfig config_;
 };
 

@@ -11,9 +11,12 @@ namespace hapticd {
 
 std::string_view to_string(SceneFault fault) noexcept {
     switch (fault) {
-        case SceneFault::None: return "none";
-        case SceneFault::NonFinitePosition: return "non-finite position";
-        case SceneFault::NonFiniteForce: return "non-finite force";
+        case SceneFault::None:
+            return "none";
+        case SceneFault::NonFinitePosition:
+            return "non-finite position";
+        case SceneFault::NonFiniteForce:
+            return "non-finite force";
     }
     return "unknown";
 }

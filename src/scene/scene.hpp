@@ -40,7 +40,7 @@ struct SceneStats {
 };
 
 class Scene {
-public:
+  public:
     Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force);
 
     // Force on the device for the sampled position. Real-time safe (no allocation, no exceptions).
@@ -56,7 +56,7 @@ public:
     [[nodiscard]] double max_force() const noexcept { return max_force_; }
     void reset() noexcept;
 
-private:
+  private:
     std::vector<VirtualWall> walls_;
     std::size_t axes_;
     double max_force_;

@@ -40,7 +40,8 @@ SurfaceDistance surface_distance(const ObjectParams& p, const AxisVector& x, dou
 SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, CommitRing* departures)
     : config_(config), ring_(ring), departures_(departures) {
     if (!(config_.period > 0.0) || !std::isfinite(config_.period)) {
-        throw std::invalid_argument("SceneObjects: period = " + std::to_string(config_.period) + " is invalid; accepted range: finite, > 0");
+        throw std::invalid_argument("SceneObjects: period = " + std::to_string(config_.period) +
+                                    " is invalid; accepted range: finite, > 0");
     }
     if (!(config_.ramp_time >= 0.0) || !std::isfinite(config_.ramp_time)) {
         throw std::invalid_argument("SceneObjects: ramp_time = " + std::to_string(config_.ramp_time) +
@@ -69,9 +70,12 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
 bool is_move(const ObjectParams& before, const ObjectParams& after) noexcept {
     if (before.id != after.id || before.kind != after.kind || before.K != after.K || before.B != after.B) return false;
     switch (after.kind) {
-        case ObjectKind::Plane: return before.bilateral == after.bilateral && before.direction == after.direction;
-        case ObjectKind::Spring: return before.constraint == after.constraint && before.direction == after.direction;
-        case ObjectKind::Field: return before.radius == after.radius && before.jacobian == after.jacobian;
+        case ObjectKind::Plane:
+            return before.bilateral == after.bilateral && before.direction == after.direction;
+        case ObjectKind::Spring:
+            return before.constraint == after.constraint && before.direction == after.direction;
+        case ObjectKind::Field:
+            return before.radius == after.radius && before.jacobian == after.jacobian;
     }
     return false;
 }
@@ -336,7 +340,8 @@ void SceneObjects::apply_moves() noexcept {
                 pressed_planes_.rate[place.index] = p.offset_rate;
                 pressed_rate_ = std::fabs(p.offset_rate) > pressed_rate_ ? std::fabs(p.offset_rate) : pressed_rate_;
                 replace_constant(pressed_, entry_c_[2 * s], linear_constant(p, w));
-                least_pressed_ = d < least_pressed_ ? d : least_pressed_;  // may fall to <= 0: the tick's test then fails
+                least_pressed_ =
+                    d < least_pressed_ ? d : least_pressed_;  // may fall to <= 0: the tick's test then fails
                 break;
             }
             case EntryPlace::NearPlane:
@@ -347,8 +352,9 @@ void SceneObjects::apply_moves() noexcept {
                 near_flags_.offset[place.index] = p.offset;
                 replace_constant(linear_, entry_c_[2 * s], linear_constant(p, w));
                 break;
-            case EntryPlace::NearField: break;  // evaluated from its params, which the move has updated
-            case EntryPlace::None:              // a unilateral plane far out of contact, or a field far outside
+            case EntryPlace::NearField:
+                break;              // evaluated from its params, which the move has updated
+            case EntryPlace::None:  // a unilateral plane far out of contact, or a field far outside
                 if (p.kind == ObjectKind::Plane ? !(d <= -kNearDistance) : !(d >= kNearDistance)) scene_changed_ = true;
                 rho_ = ad < rho_ ? ad : rho_;
                 break;
@@ -569,7 +575,10 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                         n.rate[n.count] = p.offset_rate;
                         append_plane(n, p, s);
                         pressed_mask_ |= bit;
-                        pressed_rate = std::fabs(p.offset_rate) > pressed_rate ? std::fabs(p.offset_rate) : pressed_rate;  // their surfaces do not bound rho: the tick's test covers them
+                        pressed_rate =
+                            std::fabs(p.offset_rate) > pressed_rate
+                                ? std::fabs(p.offset_rate)
+                                : pressed_rate;  // their surfaces do not bound rho: the tick's test covers them
                         least_pressed = ad < least_pressed ? ad : least_pressed;
                         const double t = p.B / (w * p.K);  // b / k = r B / (r^2 K)
                         tau = t > tau ? t : tau;
@@ -652,8 +661,9 @@ void SceneObjects::step_ramps() noexcept {
 // the contact test as lane masks, not branches: the flags of planes the handle moves across flip from tick
 // to tick and a branch on them mispredicts; the flags are each lane's slot bit ANDed with its contact mask
 // and ORed across lanes once at the end (a shift per lane took about a third of the loop's samples in
-// perf). The lists are padded with zero planes to a multiple of four (pen = 0: no contact, no force). Each lane is its own partial sum, added (l0 + l1) + (l2 + l3) at the
-// end. Rounding: at most (n / 4 + 2) eps of the magnitudes (Higham 2002, section 4.2).
+// perf). The lists are padded with zero planes to a multiple of four (pen = 0: no contact, no force). Each lane is its
+// own partial sum, added (l0 + l1) + (l2 + l3) at the end. Rounding: at most (n / 4 + 2) eps of the magnitudes (Higham
+// 2002, section 4.2).
 namespace {
 using Lanes = double __attribute__((vector_size(32)));
 using LaneMask = std::int64_t __attribute__((vector_size(32)));
@@ -719,7 +729,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     velocity_ = {v0, v1, v2};
     previous_position_ = x;
 
-    if ((activation_mask_ | gliding_mask_) != 0) [[unlikely]] glide_tick(x);
+    if ((activation_mask_ | gliding_mask_) != 0) [[unlikely]]
+        glide_tick(x);
     ++ticks_;
     const double d0 = x0 - reference_[0], d1 = x1 - reference_[1], d2 = x2 - reference_[2];
     const double moved2 = d0 * d0 + d1 * d1 + d2 * d2;
@@ -802,7 +813,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
 
 void SceneObjects::add_law(const AffineLaw& l, const double (&x)[3], const double (&v)[3], double (&f)[3]) noexcept {
     for (std::size_t r = 0; r < 3; ++r) {
-        f[r] += l.c[r] - (l.K[r][0] * x[0] + l.K[r][1] * x[1] + l.K[r][2] * x[2]) - (l.B[r][0] * v[0] + l.B[r][1] * v[1] + l.B[r][2] * v[2]);
+        f[r] += l.c[r] - (l.K[r][0] * x[0] + l.K[r][1] * x[1] + l.K[r][2] * x[2]) -
+                (l.B[r][0] * v[0] + l.B[r][1] * v[1] + l.B[r][2] * v[2]);
     }
 }
 
@@ -992,8 +1004,8 @@ void SceneObjects::rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisV
     B = l.B;
 }
 
-void SceneObjects::rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B,
-                                  std::uint64_t& engaged) const noexcept {
+void SceneObjects::rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K,
+                                  std::array<AxisVector, 3>& B, std::uint64_t& engaged) const noexcept {
     AffineLaw l;
     engaged = 0;
     for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {

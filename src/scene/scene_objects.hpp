@@ -6,7 +6,8 @@
 //
 // Force laws, per tick, with x_j the sampled position and v_j = (x_j - x_{j-1}) / T (backward difference;
 // the first tick takes v = 0):
-//   plane   p = offset - n.x_j:                   f = n (K p - B (n.v_j - offset_rate))  (unilateral: only p > 0, f.n >= 0)
+//   plane   p = offset - n.x_j:                   f = n (K p - B (n.v_j - offset_rate))  (unilateral: only p > 0, f.n
+//   >= 0)
 //           — for a fixed plane exactly the analysed wall law f_j = K x_j + B (x_j - x_{j-1}) / T along n;
 //   spring  r = P (x_j - point):                  f = -K r - B P (v_j - point_rate)   (P: the constrained directions)
 //   field   ||x_j - x0|| <= radius:               f = F0 + J (x_j - x0) - B (v_j - point_rate)
@@ -29,10 +30,10 @@
 //
 // How a tick is computed (the cost does not grow with the objects that cannot change the force law):
 //  * Linear part, in closed form. Springs, bilateral planes and fields with the handle inside them are
-//    affine in (x, v): f = r^2 (c_i - K_i x) - r B_i v (+ r F0 for a field). Their sum is one affine law f = c - K x - B v (3-vectors
-//    and 3x3 matrices), summed when the scene changes (a commit, a ramp step, a move) and then evaluated in
-//    ~20 flops whatever the number of objects. It equals the per-object sum up to rounding (relative
-//    ~n eps of the sum of the magnitudes; tests/scene/test_scene_objects_closed_form.cpp compares the two).
+//    affine in (x, v): f = r^2 (c_i - K_i x) - r B_i v (+ r F0 for a field). Their sum is one affine law f = c - K x -
+//    B v (3-vectors and 3x3 matrices), summed when the scene changes (a commit, a ramp step, a move) and then evaluated
+//    in ~20 flops whatever the number of objects. It equals the per-object sum up to rounding (relative ~n eps of the
+//    sum of the magnitudes; tests/scene/test_scene_objects_closed_form.cpp compares the two).
 //  * Switching surfaces, by a safe radius. Each object whose law or contact flag switches with x has a
 //    surface: the plane (p = 0) or the field's sphere (||x - x0|| = radius). At each re-classification the
 //    handle's distance to every surface farther than kNearDistance is taken, and their minimum rho. While the
@@ -99,8 +100,8 @@ inline constexpr std::size_t kHeldCommitCapacity = 64;
 // The activation's end (the god-object rule): the time constant of the exponential approach over its last
 // activation_speed x 20 ms (0.2 mm at 0.01 m/s), and the gap below which the surface is placed on its target
 // (1 nm: K times it is below 1e-4 N for K up to 1e5 N/m).
-inline constexpr double kActivationTailTime = 0.02;   // s
-inline constexpr double kActivationArrival = 1e-9;    // m
+inline constexpr double kActivationTailTime = 0.02;  // s
+inline constexpr double kActivationArrival = 1e-9;   // m
 
 enum class ObjectKind : std::uint8_t { Plane, Spring, Field };
 enum class SpringConstraint : std::uint8_t { Point, Line, Plane };
@@ -109,16 +110,16 @@ enum class SpringConstraint : std::uint8_t { Point, Line, Plane };
 struct ObjectParams {
     std::uint32_t id = 0;
     ObjectKind kind = ObjectKind::Plane;
-    bool bilateral = false;                               // plane
+    bool bilateral = false;                                 // plane
     SpringConstraint constraint = SpringConstraint::Point;  // spring
-    AxisVector direction{};  // plane normal, spring line direction / plane normal (unit)
-    double offset = 0.0;     // plane, m
-    AxisVector point{};      // spring anchor, field centre x0, m
-    double radius = 0.0;     // field, m
-    AxisVector force{};      // field F0, N
-    std::array<AxisVector, 3> jacobian{};  // field J, N/m (rows)
-    double K = 0.0;          // N/m (plane, spring)
-    double B = 0.0;          // N s/m (plane, spring, field)
+    AxisVector direction{};                                 // plane normal, spring line direction / plane normal (unit)
+    double offset = 0.0;                                    // plane, m
+    AxisVector point{};                                     // spring anchor, field centre x0, m
+    double radius = 0.0;                                    // field, m
+    AxisVector force{};                                     // field F0, N
+    std::array<AxisVector, 3> jacobian{};                   // field J, N/m (rows)
+    double K = 0.0;                                         // N/m (plane, spring)
+    double B = 0.0;                                         // N s/m (plane, spring, field)
     // The loop's own (clients' objects arrive with zeros): the velocity of the rendered pose while a move is
     // interpolated, d(offset)/dt (m/s) and d(point)/dt (m/s), so that the damping acts on the handle's
     // velocity relative to the object's surface (SceneObjects::advance_glides).
@@ -142,10 +143,10 @@ struct ObjectParams {
 
 struct SlotUpdate {
     enum class Action : std::uint8_t {
-        Set,       // a new object, or another description: the old one (if any) fades out, this one ramps in
-        Move,      // the same object moved (offset / point / center / F0 only): applied at once, no ramp
-        Remove,    // ramp out, then free the slot
-        Cut,       // gone at once, its fading entry too (no ramp): a departure with no stable ramp-out
+        Set,     // a new object, or another description: the old one (if any) fades out, this one ramps in
+        Move,    // the same object moved (offset / point / center / F0 only): applied at once, no ramp
+        Remove,  // ramp out, then free the slot
+        Cut,     // gone at once, its fading entry too (no ramp): a departure with no stable ramp-out
     };
     std::uint8_t slot = 0;
     Action action = Action::Set;
@@ -183,10 +184,10 @@ enum class CommitSource : std::uint8_t {
 // Told of every batch the loop takes from a ring, in order, before it is popped (--record: daemon/recorder.hpp;
 // --replay: daemon/replay.hpp). Called on the loop thread: must be real-time safe.
 class CommitObserver {
-public:
+  public:
     virtual void on_taken(const ObjectCommit& commit, CommitSource source) noexcept = 0;
 
-protected:
+  protected:
     CommitObserver() = default;
     CommitObserver(const CommitObserver&) = default;
     CommitObserver& operator=(const CommitObserver&) = default;
@@ -194,10 +195,10 @@ protected:
 };
 
 struct SceneObjectsConfig {
-    double period = 1e-3;          // s
-    double ramp_time = 0.03;       // s (0: no ramp)
-    double max_force = 10.0;       // N per axis
-    double max_force_rate = 1e4;   // N/s, infinity norm of the change of the total force
+    double period = 1e-3;         // s
+    double ramp_time = 0.03;      // s (0: no ramp)
+    double max_force = 10.0;      // N per axis
+    double max_force_rate = 1e4;  // N/s, infinity norm of the change of the total force
     std::size_t axes = 3;
     std::size_t commits_per_tick = 8;  // bound on the commits applied in one tick
     double move_interval_max = 0.0;    // s: longest first-order hold of a move (0: moves are applied at once)
@@ -206,16 +207,16 @@ struct SceneObjectsConfig {
 
 struct SceneObjectsStats {
     std::uint64_t commits_applied = 0;
-    std::uint64_t last_commit_seq = 0;  // every batch up to this seq is applied
-    std::uint64_t commits_held = 0;     // batches held until the ramps of an earlier one had ended
+    std::uint64_t last_commit_seq = 0;     // every batch up to this seq is applied
+    std::uint64_t commits_held = 0;        // batches held until the ramps of an earlier one had ended
     std::uint64_t departures_applied = 0;  // departure batches (the second ring)
-    std::uint64_t commits_jumped = 0;   // batches brought to their final state at once ahead of a departure
+    std::uint64_t commits_jumped = 0;      // batches brought to their final state at once ahead of a departure
     std::uint64_t rate_limited_ticks = 0;
     std::uint64_t saturated_ticks = 0;
 };
 
 class SceneObjects {
-public:
+  public:
     // The rings must outlive this object; their consumer is the loop thread (apply_commits()). `departures`
     // (optional) carries the server's departure batches (a client that left): each is applied within the
     // tick it is seen, ahead of the batches held or waiting in `ring` (take_departures). Without it the
@@ -261,8 +262,8 @@ public:
     // Slots whose rendered pose is still on its way to the commanded one (move interpolation, activation).
     [[nodiscard]] std::uint64_t gliding() const noexcept { return gliding_mask_; }
     // The linear gains of the scene the next add_forces() renders (call it after apply_commits()), every
-    // object counted as in contact (the all-engaged pattern the server checks): the sum over the active entries (current and
-    // fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
+    // object counted as in contact (the all-engaged pattern the server checks): the sum over the active entries
+    // (current and fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
     // tests (tests/server/test_rendered_scene_property.cpp); O(64), never called by the loop.
     void rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept;
     // The same for the handle at x with the velocity estimate v (the tick's add_forces(x) computes v =
@@ -271,10 +272,10 @@ public:
     // ||x - x0|| <= radius: the engagement pattern the loop renders at that tick. `engaged`: the slots of
     // the conditional entries among them (engages_conditionally; each has its flag in contact_mask() after
     // that tick). O(64), never called by the loop.
-    void rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B,
-                        std::uint64_t& engaged) const noexcept;
+    void rendered_gains(const AxisVector& x, const AxisVector& v, std::array<AxisVector, 3>& K,
+                        std::array<AxisVector, 3>& B, std::uint64_t& engaged) const noexcept;
 
-private:
+  private:
     struct Entry {
         bool active = false;
         double ramp = 0.0;        // r in [0, 1]: steps x step (ramping in), start - steps x step (fading)
@@ -304,7 +305,8 @@ private:
     // slot_bit: 1 << the plane's slot (its contact flag's bit), so that four flags are set with one
     // vector AND and OR.
     struct NearPlanes {
-        std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{}, B{};  // K, B: times the ramp's weights
+        std::array<double, 2 * kSceneObjectCapacity> nx{}, ny{}, nz{}, offset{}, K{},
+            B{};                                              // K, B: times the ramp's weights
         std::array<double, 2 * kSceneObjectCapacity> rate{};  // offset_rate
         std::array<std::uint64_t, 2 * kSceneObjectCapacity> slot_bit{};
         std::size_t count = 0;
@@ -364,7 +366,7 @@ private:
         bool settling = false;              // returning to the last commanded pose (no next pose came)
         double offset_rate = 0.0;           // the commanded poses' velocity: the rate the damping is relative to
         AxisVector point_rate{};
-        bool approaching = false;           // activation: the offset approaches to.offset at activation_speed
+        bool approaching = false;  // activation: the offset approaches to.offset at activation_speed
     };
     [[nodiscard]] static Pose pose_of(const ObjectParams& p) noexcept { return {p.offset, p.point, p.force}; }
     void begin_glide(std::size_t slot, const ObjectParams& commanded) noexcept;
@@ -398,9 +400,9 @@ private:
 
     // The classification (rebuilt when the scene changes or the handle leaves the safe radius).
     bool scene_changed_ = true;
-    std::uint32_t ramping_ = 0;           // entries whose ramp is still moving
-    std::uint32_t occupied_ = 0;          // slots with an object
-    std::uint64_t occupied_mask_ = 0;     // their bits
+    std::uint32_t ramping_ = 0;             // entries whose ramp is still moving
+    std::uint32_t occupied_ = 0;            // slots with an object
+    std::uint64_t occupied_mask_ = 0;       // their bits
     std::uint64_t slot_table_version_ = 0;  // bumped when an id or a ramp factor changes
     AffineLaw linear_;
     // Where each entry (2 slot + 0 current / 1 fading) went at the last classification.
@@ -412,11 +414,11 @@ private:
     std::array<AxisVector, 2 * kSceneObjectCapacity> entry_c_{};  // w c_i of the entries in an affine law
     Members linear_members_;
     Members pressed_members_;
-    AffineLaw pressed_;          // the deeply pressed unilateral planes' sum (used while their clamp is idle)
-    NearPlanes pressed_planes_;  // the same planes one by one (a tick whose motion fails the test)
-    double pressed_depth_ = 0.0;  // P: their least penetration at the classification, less the rounding tol
-    double pressed_tau_ = 0.0;    // tau: their largest b / k (s)
-    double pressed_rate_ = 0.0;   // their largest |offset_rate| since the classification (m/s)
+    AffineLaw pressed_;             // the deeply pressed unilateral planes' sum (used while their clamp is idle)
+    NearPlanes pressed_planes_;     // the same planes one by one (a tick whose motion fails the test)
+    double pressed_depth_ = 0.0;    // P: their least penetration at the classification, less the rounding tol
+    double pressed_tau_ = 0.0;      // tau: their largest b / k (s)
+    double pressed_rate_ = 0.0;     // their largest |offset_rate| since the classification (m/s)
     std::uint64_t moved_mask_ = 0;  // slots moved (Move commits only) since the last classification
     NearPlanes near_planes_;
     NearFlags near_flags_;
@@ -435,11 +437,11 @@ private:
     std::array<Glide, kSceneObjectCapacity> glides_{};
     std::array<std::uint64_t, kSceneObjectCapacity> pose_tick_{};  // tick of the slot's last commanded pose
     std::array<double, kSceneObjectCapacity> pose_interval_{};     // its mean update interval (ticks), see begin_glide
-    std::uint64_t gliding_mask_ = 0;      // slots whose rendered pose is on its way to the commanded one
-    std::uint64_t activation_mask_ = 0;   // new unilateral planes, to be checked against the handle this tick
-    std::uint64_t ticks_ = 0;             // add_forces calls so far
-    std::uint32_t move_hold_max_ = 0;     // move_interval_max in ticks
-    double activation_step_ = 0.0;        // activation_speed T, m per tick
+    std::uint64_t gliding_mask_ = 0;         // slots whose rendered pose is on its way to the commanded one
+    std::uint64_t activation_mask_ = 0;      // new unilateral planes, to be checked against the handle this tick
+    std::uint64_t ticks_ = 0;                // add_forces calls so far
+    std::uint32_t move_hold_max_ = 0;        // move_interval_max in ticks
+    double activation_step_ = 0.0;           // activation_speed T, m per tick
     double activation_tail_fraction_ = 1.0;  // T / kActivationTailTime: the share of the gap taken per tick at the end
 };
 

@@ -7,9 +7,7 @@
 
 namespace hapticd {
 
-std::string_view to_string(WallMode mode) noexcept {
-    return mode == WallMode::Bilateral ? "bilateral" : "unilateral";
-}
+std::string_view to_string(WallMode mode) noexcept { return mode == WallMode::Bilateral ? "bilateral" : "unilateral"; }
 
 VirtualWall::VirtualWall(const WallGeometry& geometry, double stiffness, double damping, double period)
     : geometry_(geometry), stiffness_(stiffness), damping_(damping), period_(period) {

@@ -18,14 +18,14 @@ enum class WallMode : unsigned char { Unilateral, Bilateral };
 std::string_view to_string(WallMode mode) noexcept;
 
 struct WallGeometry {
-    std::size_t axis = 0;     // device axis the wall acts on
-    double position = 0.0;    // surface position on that axis, m
-    double direction = 1.0;   // +1: solid for coordinates > position; -1: solid below position
+    std::size_t axis = 0;    // device axis the wall acts on
+    double position = 0.0;   // surface position on that axis, m
+    double direction = 1.0;  // +1: solid for coordinates > position; -1: solid below position
     WallMode mode = WallMode::Unilateral;
 };
 
 class VirtualWall {
-public:
+  public:
     // Throws std::invalid_argument for non-finite or negative gains, period <= 0, |direction| != 1.
     VirtualWall(const WallGeometry& geometry, double stiffness, double damping, double period);
 
@@ -63,7 +63,7 @@ public:
     [[nodiscard]] double stiffness() const noexcept { return stiffness_; }
     [[nodiscard]] double damping() const noexcept { return damping_; }
 
-private:
+  private:
     WallGeometry geometry_;
     double stiffness_;
     double damping_;

@@ -15,17 +15,23 @@ using client::ErrorCode;
 
 // One batch under construction: the proposed slot table and one merged update per slot it changes.
 class Transaction {
-public:
-    Transaction(const CommitContext& context, const SlotTable& slots, std::uint64_t session, std::uint32_t next_object_id)
+  public:
+    Transaction(const CommitContext& context, const SlotTable& slots, std::uint64_t session,
+                std::uint32_t next_object_id)
         : context_(context), before_(slots), proposal_(slots), session_(session), next_id_(next_object_id) {}
 
     // The operation applied to the proposal, or why it is refused (the message without the commit's prefix).
     std::optional<Refusal> apply(const CommitOperation& op) {
         switch (op.kind) {
-            case CommitOperation::Kind::Add: return add(*op.object);
-            case CommitOperation::Kind::Modify: return modify(op.object_id, *op.object);
-            case CommitOperation::Kind::Remove: return remove(op.object_id);
-            case CommitOperation::Kind::Clear: clear(); return std::nullopt;
+            case CommitOperation::Kind::Add:
+                return add(*op.object);
+            case CommitOperation::Kind::Modify:
+                return modify(op.object_id, *op.object);
+            case CommitOperation::Kind::Remove:
+                return remove(op.object_id);
+            case CommitOperation::Kind::Clear:
+                clear();
+                return std::nullopt;
         }
         return std::nullopt;
     }
@@ -44,9 +50,11 @@ public:
         const double largest = GainChecker::largest_stiffness(K_sum);
         if (!(largest > *limit)) return std::nullopt;
         return Refusal{ErrorCode::BeyondDeviceLimits,
-                       "commit: the summed stiffness of the scene along its stiffest direction, " + short_number(largest) +
-                           " N/m, exceeds the device's stiffness limit (device profile key max_stiffness = " + short_number(*limit) +
-                           " N/m); accepted range: <= " + short_number(*limit) + " N/m (all objects are counted as in contact at once)"};
+                       "commit: the summed stiffness of the scene along its stiffest direction, " +
+                           short_number(largest) +
+                           " N/m, exceeds the device's stiffness limit (device profile key max_stiffness = " +
+                           short_number(*limit) + " N/m); accepted range: <= " + short_number(*limit) +
+                           " N/m (all objects are counted as in contact at once)"};
     }
 
     // Every scene the loop can render from this batch (tuning/engagement_patterns.hpp): the final scene and
@@ -58,8 +66,10 @@ public:
         std::vector<SceneTerm> terms = terms_of_config_walls(context_.config.config_walls);
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
             if (updates_[i] && updates_[i]->action != SlotUpdate::Action::Move) {
-                if (updates_[i]->action == SlotUpdate::Action::Set) terms.push_back(slot_term(proposal_[i], SceneTerm::Role::In));
-                if (before_[i].state == ServerSlot::State::Used) terms.push_back(slot_term(before_[i], SceneTerm::Role::Out));
+                if (updates_[i]->action == SlotUpdate::Action::Set)
+                    terms.push_back(slot_term(proposal_[i], SceneTerm::Role::In));
+                if (before_[i].state == ServerSlot::State::Used)
+                    terms.push_back(slot_term(before_[i], SceneTerm::Role::Out));
             } else if (proposal_[i].state == ServerSlot::State::Used) {
                 terms.push_back(slot_term(proposal_[i], SceneTerm::Role::Base));
             }
@@ -82,7 +92,7 @@ public:
         return plan;
     }
 
-private:
+  private:
     std::optional<Refusal> add(const client::ObjectDescription& object) {
         Resolved r;
         if (auto refusal = context_.resolver.resolve(object, r)) return refusal;
@@ -90,14 +100,16 @@ private:
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) taken[i] = updates_[i].has_value();
         const int slot = free_slot(proposal_, taken);
         if (const std::size_t held = objects_held(proposal_, session_); held >= context_.config.session_max_objects) {
-            return Refusal{ErrorCode::SessionLimit, "this session holds " + std::to_string(held) + " objects; accepted: at most " +
+            return Refusal{ErrorCode::SessionLimit, "this session holds " + std::to_string(held) +
+                                                        " objects; accepted: at most " +
                                                         std::to_string(context_.config.session_max_objects) +
                                                         " per session (option session-max-objects; the scene holds " +
                                                         std::to_string(kSceneObjectCapacity) + ")"};
         }
         if (slot < 0) {
-            return Refusal{ErrorCode::Capacity, "the scene holds " + std::to_string(kSceneObjectCapacity) +
-                                                    " client objects (removed ones count until their ramp-out ends); remove some first"};
+            return Refusal{ErrorCode::Capacity,
+                           "the scene holds " + std::to_string(kSceneObjectCapacity) +
+                               " client objects (removed ones count until their ramp-out ends); remove some first"};
         }
         const auto first_client_id = static_cast<std::uint32_t>(1 + context_.config.config_walls.size());
         if (next_id_ < first_client_id) next_id_ = first_client_id;
@@ -124,7 +136,8 @@ private:
         const bool move = is_move(s.resolved.params, r.params);
         s.description = object;
         s.resolved = r;
-        merge(static_cast<std::size_t>(found.slot), move ? SlotUpdate::Action::Move : SlotUpdate::Action::Set, r.params);
+        merge(static_cast<std::size_t>(found.slot), move ? SlotUpdate::Action::Move : SlotUpdate::Action::Set,
+              r.params);
         return std::nullopt;
     }
 
@@ -175,8 +188,8 @@ private:
 
 }  // namespace
 
-CommitOutcome plan_commit(const CommitContext& context, const SlotTable& slots, std::uint64_t session, std::uint32_t next_object_id,
-                          const CommitRequest& request) {
+CommitOutcome plan_commit(const CommitContext& context, const SlotTable& slots, std::uint64_t session,
+                          std::uint32_t next_object_id, const CommitRequest& request) {
     Transaction t(context, slots, session, next_object_id);
     int op_index = 0;
     for (const auto& op : request.ops) {

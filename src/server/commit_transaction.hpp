@@ -27,8 +27,8 @@ struct CommitContext {
 };
 
 struct CommitPlan {
-    SlotTable slots{};                   // the table after the batch (removed objects Draining, drain_seq kNotPushed)
-    ObjectCommit batch;                  // the loop's updates, one per changed slot (count 0: nothing changes); seq unset
+    SlotTable slots{};   // the table after the batch (removed objects Draining, drain_seq kNotPushed)
+    ObjectCommit batch;  // the loop's updates, one per changed slot (count 0: nothing changes); seq unset
     std::vector<std::uint32_t> new_ids;  // the added objects' ids, in the order of the adds
     std::uint32_t next_object_id = 1;    // the id the next add gets
 };

@@ -21,9 +21,9 @@ struct StateTick;
 
 struct ContactRecord {
     std::uint64_t tick = 0;
-    double time_s = 0.0;      // the state's time_s of that tick
-    AxisVector position{};    // the handle, m
-    AxisVector force{};       // the force commanded to the device that tick, N (the state's `force`)
+    double time_s = 0.0;            // the state's time_s of that tick
+    AxisVector position{};          // the handle, m
+    AxisVector force{};             // the force commanded to the device that tick, N (the state's `force`)
     std::uint64_t lost_before = 0;  // records the ring could not take since the loop started, before this one
     std::uint32_t object_id = 0;    // config walls 1 .. n, client objects by their id
     bool begin = false;             // true: contact began this tick; false: it ended this tick
@@ -36,7 +36,7 @@ using ContactRing = SpscRing<ContactRecord>;
 inline constexpr std::size_t kContactRingCapacity = 4096;
 
 class ContactDetector {
-public:
+  public:
     explicit ContactDetector(ContactRing& ring) noexcept : ring_(ring) {}
 
     // The loop, once per tick after StatePublisher::publish(t, objects) (objects may be null). Within a tick:
@@ -47,13 +47,13 @@ public:
     // Records the ring could not take so far (loop thread).
     [[nodiscard]] std::uint64_t lost() const noexcept { return lost_; }
 
-private:
+  private:
     void push(const StateTick& t, std::uint32_t object_id, bool begin) noexcept;
 
     ContactRing& ring_;
-    std::uint64_t config_mask_ = 0;  // the last tick's config_contact_mask
-    std::uint64_t object_mask_ = 0;  // the last tick's published contact_mask
-    std::uint64_t slot_table_version_ = 0;  // SceneObjects::slot_table_version() at the last tick
+    std::uint64_t config_mask_ = 0;                          // the last tick's config_contact_mask
+    std::uint64_t object_mask_ = 0;                          // the last tick's published contact_mask
+    std::uint64_t slot_table_version_ = 0;                   // SceneObjects::slot_table_version() at the last tick
     std::array<std::uint32_t, kStateObjectCapacity> ids_{};  // the object in contact in each slot last tick (0: none)
     std::uint64_t lost_ = 0;
 };

@@ -9,9 +9,9 @@ namespace {
 
 // Base (fixed + the staying objects not in `removed`) and every ramp scene of `out` fading over it, each with
 // every engagement pattern; `checks` counts the verdicts spent.
-bool departure_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& fixed, const std::vector<const DepartureObject*>& out,
-                         const std::vector<DepartureObject>& staying, const std::vector<bool>& removed, double step, std::string& why,
-                         std::size_t& checks) {
+bool departure_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& fixed,
+                         const std::vector<const DepartureObject*>& out, const std::vector<DepartureObject>& staying,
+                         const std::vector<bool>& removed, double step, std::string& why, std::size_t& checks) {
     std::vector<SceneTerm> terms = fixed;
     for (std::size_t i = 0; i < staying.size(); ++i) {
         if (removed[i]) continue;
@@ -45,8 +45,9 @@ bool next_combination(std::vector<std::size_t>& c, std::size_t n) {
 
 }  // namespace
 
-DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed, const std::vector<DepartureObject>& leaving,
-                             const std::vector<DepartureObject>& staying, double step) {
+DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed,
+                             const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying,
+                             double step) {
     DeparturePlan plan;
     for (const DepartureObject& o : leaving) plan.out.push_back(o.slot);
     std::vector<const DepartureObject*> out;

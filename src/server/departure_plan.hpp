@@ -6,8 +6,9 @@
 // base + (1 - s_j) B_out (s_j = j T / ramp_s, the loop's ramp weights r^2 for stiffness, r for damping),
 // then base alone: "out" the objects that ramp out, "base" the config walls and every object that stays,
 // at its final weight (the loop brings every batch sent before the departure to its final state before it
-// starts the ramp-out, SceneObjects::take_departures, so base is the scene the server's slots describe). The departing session's objects alone need not leave a
-// stable scene: a sum may be stable only with them (A + B unstable, A + B + C stable). So:
+// starts the ramp-out, SceneObjects::take_departures, so base is the scene the server's slots describe). The departing
+// session's objects alone need not leave a stable scene: a sum may be stable only with them (A + B unstable, A + B + C
+// stable). So:
 //   1. out = the departing objects; accepted if base and every ramp scene pass, each with every engagement
 //      pattern of the conditional objects (check_engagement_patterns: every scene the loop will render).
 //   2. Otherwise the fewest further client objects ramp out with them: every set of 1, then 2, ... of the
@@ -45,14 +46,15 @@ struct DepartureObject {
 };
 
 struct DeparturePlan {
-    std::vector<std::size_t> out;          // slots that ramp out (or are cut): the departing ones first
-    std::vector<std::size_t> further;      // of those, the staying objects removed with them (steps 2-4)
-    bool cut = false;                      // step 4: removed at once, no ramp
-    std::string reason;                    // why the departing objects alone could not ramp out (steps 2-4)
+    std::vector<std::size_t> out;      // slots that ramp out (or are cut): the departing ones first
+    std::vector<std::size_t> further;  // of those, the staying objects removed with them (steps 2-4)
+    bool cut = false;                  // step 4: removed at once, no ramp
+    std::string reason;                // why the departing objects alone could not ramp out (steps 2-4)
 };
 
 // The rule above. `fixed`: the config walls (Base terms); `step` = T / ramp_s (>= 1: no ramp).
-DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed, const std::vector<DepartureObject>& leaving,
-                             const std::vector<DepartureObject>& staying, double step);
+DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed,
+                             const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying,
+                             double step);
 
 }  // namespace hapticd

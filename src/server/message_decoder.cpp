@@ -12,8 +12,8 @@ namespace hapticd::server {
 
 namespace {
 
-using nlohmann::json;
 using client::ErrorCode;
+using nlohmann::json;
 
 DecodeError error(ErrorCode code, std::string message, std::optional<std::uint64_t> id = std::nullopt) {
     DecodeError e;
@@ -27,18 +27,20 @@ constexpr std::uint64_t kMaxId = (std::uint64_t{1} << 53);
 
 DecodeResult decode_hello(const json& j) {
     if (!j.contains("type") || !j["type"].is_string() || j["type"].get<std::string>() != "hello") {
-        return error(ErrorCode::BadHello, "decode_message: the first message must be {\"type\": \"hello\", \"protocol\": 1, ...}");
+        return error(ErrorCode::BadHello,
+                     "decode_message: the first message must be {\"type\": \"hello\", \"protocol\": 1, ...}");
     }
     const auto p = j.find("protocol");
     if (p == j.end() || !p->is_number_integer()) {
-        return error(ErrorCode::BadHello, "decode_message: hello.protocol: missing or not an integer; this server speaks protocol 1");
+        return error(ErrorCode::BadHello,
+                     "decode_message: hello.protocol: missing or not an integer; this server speaks protocol 1");
     }
     HelloRequest h;
     const auto v = p->get<std::int64_t>();
     if (v != kServerProtocol) {
         DecodeError e = error(ErrorCode::ProtocolVersion, "hello: protocol = " + std::to_string(v) +
-                                                      " is not supported; this server speaks protocol " +
-                                                      std::to_string(kServerProtocol));
+                                                              " is not supported; this server speaks protocol " +
+                                                              std::to_string(kServerProtocol));
         e.client_protocol = v > 1000000 || v < -1000000 ? -1 : static_cast<int>(v);
         return e;
     }
@@ -51,12 +53,14 @@ DecodeResult decode_hello(const json& j) {
     }
     if (const auto l = j.find("lease_s"); l != j.end() && !l->is_null()) {
         if (!l->is_number() || !std::isfinite(l->get<double>())) {
-            return error(ErrorCode::BadHello, "decode_message: hello.lease_s: expected a number; accepted range: 0 (no lease) or 0.01 .. 60 s");
+            return error(
+                ErrorCode::BadHello,
+                "decode_message: hello.lease_s: expected a number; accepted range: 0 (no lease) or 0.01 .. 60 s");
         }
         h.lease_s = l->get<double>();
         if (!(h.lease_s == 0.0 || (h.lease_s >= 0.01 && h.lease_s <= 60.0))) {
             return error(ErrorCode::BadHello, "decode_message: hello.lease_s = " + std::to_string(h.lease_s) +
-                                          " is invalid; accepted range: 0 (no lease) or 0.01 .. 60 s");
+                                                  " is invalid; accepted range: 0 (no lease) or 0.01 .. 60 s");
         }
     }
     return Request{std::nullopt, h};
@@ -65,17 +69,20 @@ DecodeResult decode_hello(const json& j) {
 DecodeResult decode_commit(const json& j, std::uint64_t id) {
     const auto ops = j.find("ops");
     if (ops == j.end() || !ops->is_array()) {
-        return error(ErrorCode::BadMessage, "decode_message: commit.ops: missing or not an array; expected 1 .. 64 operations", id);
+        return error(ErrorCode::BadMessage,
+                     "decode_message: commit.ops: missing or not an array; expected 1 .. 64 operations", id);
     }
     if (ops->empty() || ops->size() > kMaxOpsPerCommit) {
-        return error(ErrorCode::BadMessage, "decode_message: commit.ops: " + std::to_string(ops->size()) +
-                                        " operations; accepted range: 1 .. 64", id);
+        return error(
+            ErrorCode::BadMessage,
+            "decode_message: commit.ops: " + std::to_string(ops->size()) + " operations; accepted range: 1 .. 64", id);
     }
     CommitRequest c;
     int index = 0;
     for (const json& op : *ops) {
         auto fail = [&](const std::string& what) {
-            DecodeError e = error(ErrorCode::BadMessage, "decode_message: commit.ops[" + std::to_string(index) + "]" + what, id);
+            DecodeError e =
+                error(ErrorCode::BadMessage, "decode_message: commit.ops[" + std::to_string(index) + "]" + what, id);
             e.op_index = index;
             return e;
         };
@@ -93,7 +100,8 @@ DecodeResult decode_commit(const json& j, std::uint64_t id) {
         } else if (kind == "clear") {
             o.kind = CommitOperation::Kind::Clear;
         } else {
-            return fail(".op: \"" + client::truncate_utf8(kind, 40) + "\" is invalid; accepted: add, modify, remove, clear");
+            return fail(".op: \"" + client::truncate_utf8(kind, 40) +
+                        "\" is invalid; accepted: add, modify, remove, clear");
         }
         if (o.kind == CommitOperation::Kind::Modify || o.kind == CommitOperation::Kind::Remove) {
             const auto oid = op.find("object_id");
@@ -120,18 +128,23 @@ DecodeResult decode_subscribe_contacts(const json& j, std::uint64_t id) {
     SubscribeContactsRequest r;
     const auto ids = j.find("object_ids");
     if (ids == j.end() || ids->is_null()) return Request{id, r};
-    const std::string accepted = "; accepted: an array of 1 .. 64 object ids, each 1 .. 2^32-1 (absent or null: every object)";
+    const std::string accepted =
+        "; accepted: an array of 1 .. 64 object ids, each 1 .. 2^32-1 (absent or null: every object)";
     if (!ids->is_array() || ids->empty() || ids->size() > kMaxContactFilterIds) {
-        return error(ErrorCode::BadMessage, "decode_message: subscribe_contacts.object_ids: " +
-                                        (ids->is_array() ? std::to_string(ids->size()) + " ids" : std::string("not an array")) + accepted,
+        return error(ErrorCode::BadMessage,
+                     "decode_message: subscribe_contacts.object_ids: " +
+                         (ids->is_array() ? std::to_string(ids->size()) + " ids" : std::string("not an array")) +
+                         accepted,
                      id);
     }
     std::vector<std::uint32_t> out;
     for (std::size_t i = 0; i < ids->size(); ++i) {
         const json& v = (*ids)[i];
         if (!v.is_number_unsigned() || v.get<std::uint64_t>() == 0 || v.get<std::uint64_t>() > 0xffffffffULL) {
-            return error(ErrorCode::BadMessage, "decode_message: subscribe_contacts.object_ids[" + std::to_string(i) + "] = " +
-                                            client::truncate_utf8(v.dump(-1, ' ', false, json::error_handler_t::replace), 40) + " is invalid" + accepted,
+            return error(ErrorCode::BadMessage,
+                         "decode_message: subscribe_contacts.object_ids[" + std::to_string(i) + "] = " +
+                             client::truncate_utf8(v.dump(-1, ' ', false, json::error_handler_t::replace), 40) +
+                             " is invalid" + accepted,
                          id);
         }
         out.push_back(static_cast<std::uint32_t>(v.get<std::uint64_t>()));
@@ -146,7 +159,7 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
     try {
         if (bytes.size() > client::kMaxMessageBytes) {
             return error(ErrorCode::Oversized, "decode_message: message of " + std::to_string(bytes.size()) +
-                                          " bytes; accepted: at most 65536 bytes");
+                                                   " bytes; accepted: at most 65536 bytes");
         }
         const ErrorCode bad = expect_hello ? ErrorCode::BadHello : ErrorCode::BadJson;
         if (bytes.empty()) return error(bad, "decode_message: an empty message; expected one JSON object per message");
@@ -158,26 +171,31 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         json j;
         std::string last_key;  // the key whose value was being read when the parse failed
         const json::parser_callback_t track_keys = [&last_key](int, json::parse_event_t event, json& parsed) {
-            if (event == json::parse_event_t::key && parsed.is_string()) last_key = client::truncate_utf8(parsed.get_ref<const std::string&>(), 40);
+            if (event == json::parse_event_t::key && parsed.is_string())
+                last_key = client::truncate_utf8(parsed.get_ref<const std::string&>(), 40);
             return true;
         };
         try {
             j = json::parse(bytes.begin(), bytes.end(), track_keys, true);
         } catch (const json::out_of_range&) {  // 406: a number beyond the range of a double (1e400)
-            return error(bad, "decode_message: " + (last_key.empty() ? std::string("a number") : "the value of \"" + last_key + "\"") +
-                                  " is beyond the range of a double; accepted: finite numbers, |x| <= 1.7976931348623157e308");
+            return error(
+                bad, "decode_message: " +
+                         (last_key.empty() ? std::string("a number") : "the value of \"" + last_key + "\"") +
+                         " is beyond the range of a double; accepted: finite numbers, |x| <= 1.7976931348623157e308");
         } catch (const json::parse_error& e) {
             return error(bad, "decode_message: not valid UTF-8 JSON at byte " + std::to_string(e.byte) +
                                   (last_key.empty() ? std::string() : " (after the key \"" + last_key + "\")") +
                                   "; expected one JSON object per message");
         }
         if (!j.is_object()) {
-            return error(expect_hello ? ErrorCode::BadHello : ErrorCode::BadJson, "decode_message: expected a JSON object, got " + std::string(j.type_name()));
+            return error(expect_hello ? ErrorCode::BadHello : ErrorCode::BadJson,
+                         "decode_message: expected a JSON object, got " + std::string(j.type_name()));
         }
         if (expect_hello) return decode_hello(j);
         const auto idit = j.find("id");
         if (idit == j.end() || !idit->is_number_unsigned() || idit->get<std::uint64_t>() > kMaxId) {
-            return error(ErrorCode::BadMessage, "decode_message: id: missing or invalid; accepted range: an integer 0 .. 2^53");
+            return error(ErrorCode::BadMessage,
+                         "decode_message: id: missing or invalid; accepted range: an integer 0 .. 2^53");
         }
         const std::uint64_t id = idit->get<std::uint64_t>();
         const auto type = j.find("type");
@@ -196,14 +214,18 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         if (t == "subscribe") {
             const auto r = j.find("rate_hz");
             if (r == j.end() || !r->is_number() || !(r->get<double>() >= 0.1 && r->get<double>() <= 1000.0)) {
-                return error(ErrorCode::BadMessage, "decode_message: subscribe.rate_hz: missing or out of range; accepted range: 0.1 .. 1000 Hz", id);
+                return error(
+                    ErrorCode::BadMessage,
+                    "decode_message: subscribe.rate_hz: missing or out of range; accepted range: 0.1 .. 1000 Hz", id);
             }
             return Request{id, SubscribeRequest{r->get<double>()}};
         }
-        if (t == "hello") return error(ErrorCode::BadMessage, "decode_message: hello: already welcomed (hello only once)", id);
-        return error(ErrorCode::BadMessage, "decode_message: type = \"" + client::truncate_utf8(t, 40) +
-                                        "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, "
-                                        "subscribe_contacts, unsubscribe_contacts, bye",
+        if (t == "hello")
+            return error(ErrorCode::BadMessage, "decode_message: hello: already welcomed (hello only once)", id);
+        return error(ErrorCode::BadMessage,
+                     "decode_message: type = \"" + client::truncate_utf8(t, 40) +
+                         "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, "
+                         "subscribe_contacts, unsubscribe_contacts, bye",
                      id);
     } catch (const std::exception& e) {
         return error(ErrorCode::BadMessage, std::string("decode_message: ") + e.what());

@@ -49,9 +49,9 @@ struct SubscribeContactsRequest {
 struct UnsubscribeContactsRequest {};
 struct ByeRequest {};
 
-using RequestBody = std::variant<HelloRequest, HeartbeatRequest, CommitRequest, ListRequest, StatusRequest,
-                                 SubscribeRequest, UnsubscribeRequest, SubscribeContactsRequest,
-                                 UnsubscribeContactsRequest, ByeRequest>;
+using RequestBody =
+    std::variant<HelloRequest, HeartbeatRequest, CommitRequest, ListRequest, StatusRequest, SubscribeRequest,
+                 UnsubscribeRequest, SubscribeContactsRequest, UnsubscribeContactsRequest, ByeRequest>;
 
 struct Request {
     std::optional<std::uint64_t> id;  // absent for hello
@@ -59,10 +59,11 @@ struct Request {
 };
 
 struct DecodeError {
-    client::ErrorCode code = client::ErrorCode::BadMessage;  // BadJson, BadMessage, BadHello, ProtocolVersion, Oversized
-    std::string message;  // names the field and the accepted range
-    std::optional<std::uint64_t> id;  // when the message had a readable id
-    int client_protocol = 0;          // protocol_version: what the client asked for
+    client::ErrorCode code =
+        client::ErrorCode::BadMessage;  // BadJson, BadMessage, BadHello, ProtocolVersion, Oversized
+    std::string message;                // names the field and the accepted range
+    std::optional<std::uint64_t> id;    // when the message had a readable id
+    int client_protocol = 0;            // protocol_version: what the client asked for
     int op_index = -1;
 };
 

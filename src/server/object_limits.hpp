@@ -34,11 +34,13 @@ inline constexpr double kMaxGainB = 1e9;   // N s/m
 [[nodiscard]] std::string short_number(double v);
 
 // `field`[a] inside [min_a, max_a] on the device's axes (beyond_device_limits naming the field and the range).
-[[nodiscard]] std::optional<LimitRefusal> check_in_workspace(const client::Vec3& v, const std::string& field, const WorkspaceBox& box);
+[[nodiscard]] std::optional<LimitRefusal> check_in_workspace(const client::Vec3& v, const std::string& field,
+                                                             const WorkspaceBox& box);
 
 // The plane n.x = offset meets the box: offset between the smallest and the largest n.x over its corners,
 // sum_a min(n_a lo_a, n_a hi_a) .. sum_a max(n_a lo_a, n_a hi_a).
-[[nodiscard]] std::optional<LimitRefusal> check_plane_in_workspace(const client::Vec3& normal, double offset, const WorkspaceBox& box);
+[[nodiscard]] std::optional<LimitRefusal> check_plane_in_workspace(const client::Vec3& normal, double offset,
+                                                                   const WorkspaceBox& box);
 
 // `kind` names the object ("plane") in the message.
 [[nodiscard]] std::optional<LimitRefusal> check_explicit_gains(double K, double B, const std::string& kind);

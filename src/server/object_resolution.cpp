@@ -79,7 +79,8 @@ std::size_t objects_held(const SlotTable& slots, std::uint64_t session) {
     return n;
 }
 
-SlotLookup owned_slot(const SlotTable& slots, std::uint32_t object_id, std::uint64_t session, std::size_t config_walls) {
+SlotLookup owned_slot(const SlotTable& slots, std::uint32_t object_id, std::uint64_t session,
+                      std::size_t config_walls) {
     int slot = -1;
     for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
         if (slots[i].state == ServerSlot::State::Used && slots[i].id == object_id) {
@@ -89,14 +90,17 @@ SlotLookup owned_slot(const SlotTable& slots, std::uint32_t object_id, std::uint
     }
     if (slot < 0) {
         if (object_id >= 1 && object_id <= config_walls) {
-            return {-1, Refusal{ErrorCode::NotOwner, "object " + std::to_string(object_id) + " is a config-file wall, owned by the daemon"}};
+            return {-1, Refusal{ErrorCode::NotOwner,
+                                "object " + std::to_string(object_id) + " is a config-file wall, owned by the daemon"}};
         }
-        return {-1, Refusal{ErrorCode::UnknownObject, "object_id = " + std::to_string(object_id) + ": no such object in the scene"}};
+        return {-1, Refusal{ErrorCode::UnknownObject,
+                            "object_id = " + std::to_string(object_id) + ": no such object in the scene"}};
     }
     const std::uint64_t owner = slots[static_cast<std::size_t>(slot)].owner;
     if (owner != session) {
-        return {-1, Refusal{ErrorCode::NotOwner, "object " + std::to_string(object_id) + " belongs to session " + std::to_string(owner) +
-                                                     ", not to this one (" + std::to_string(session) + ")"}};
+        return {-1, Refusal{ErrorCode::NotOwner, "object " + std::to_string(object_id) + " belongs to session " +
+                                                     std::to_string(owner) + ", not to this one (" +
+                                                     std::to_string(session) + ")"}};
     }
     return {slot, std::nullopt};
 }
@@ -111,16 +115,20 @@ int free_slot(const SlotTable& slots, const std::array<bool, kSceneObjectCapacit
 std::optional<Refusal> ObjectResolver::check_vector(const cl::Vec3& v, const std::string& field, bool unit) const {
     for (std::size_t a = config_.axes; a < 3; ++a) {
         if (v[a] != 0.0) {
-            return Refusal{ErrorCode::BadMessage, field + "[" + std::to_string(a) + "] = " + g(v[a]) + " is invalid: the device has " +
-                                                      std::to_string(config_.axes) + " axes; accepted: 0 beyond axis " +
-                                                      std::to_string(config_.axes - 1), std::nullopt};
+            return Refusal{ErrorCode::BadMessage,
+                           field + "[" + std::to_string(a) + "] = " + g(v[a]) + " is invalid: the device has " +
+                               std::to_string(config_.axes) + " axes; accepted: 0 beyond axis " +
+                               std::to_string(config_.axes - 1),
+                           std::nullopt};
         }
     }
     if (unit) {
         const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
         if (!(std::fabs(n - 1.0) <= 1e-6)) {
-            return Refusal{ErrorCode::BadMessage, field + ": length " + g(n) + " is invalid; accepted range: a unit vector, | |n| - 1 | <= 1e-6",
-                           std::nullopt};
+            return Refusal{
+                ErrorCode::BadMessage,
+                field + ": length " + g(n) + " is invalid; accepted range: a unit vector, | |n| - 1 | <= 1e-6",
+                std::nullopt};
         }
     }
     return std::nullopt;
@@ -140,28 +148,34 @@ WorkspaceBox ObjectResolver::workspace() const {
 std::optional<Refusal> ObjectResolver::check_stiffness_limit(double K, const std::string& what) const {
     const std::optional<double> limit = checker_.max_stiffness();
     if (!limit || !(K > *limit)) return std::nullopt;
-    return Refusal{ErrorCode::BeyondDeviceLimits, what + " = " + g(K) + " N/m exceeds the device's stiffness limit (device profile key "
-                                                      "max_stiffness = " + g(*limit) + " N/m); accepted range: <= " + g(*limit) + " N/m",
+    return Refusal{ErrorCode::BeyondDeviceLimits,
+                   what + " = " + g(K) +
+                       " N/m exceeds the device's stiffness limit (device profile key "
+                       "max_stiffness = " +
+                       g(*limit) + " N/m); accepted range: <= " + g(*limit) + " N/m",
                    std::nullopt};
 }
 
 // Gains of an object acting with gains (K P, B P) and the masses `masses` (GainChecker::masses_of):
 // explicit or the cached optimum of the criterion for the lightest of them; then the stiffness limit
 // and the exact verdict for every mass.
-std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, const std::string& kind, const std::vector<double>& masses,
-                                                     double& K, double& B) {
-    const double lightest = masses.empty() ? checker_.mass().smallest() : *std::min_element(masses.begin(), masses.end());
+std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, const std::string& kind,
+                                                     const std::vector<double>& masses, double& K, double& B) {
+    const double lightest =
+        masses.empty() ? checker_.mass().smallest() : *std::min_element(masses.begin(), masses.end());
     if (!gains.criterion.empty()) {
         std::optional<CriterionGains> c;
         try {
             c = checker_.criterion_gains(gains.criterion, lightest);
         } catch (const std::exception& e) {
-            return Refusal{ErrorCode::BadMessage, kind + ".gains.criterion = " + cl::truncate_utf8(gains.criterion, 40) + ": " + e.what(),
+            return Refusal{ErrorCode::BadMessage,
+                           kind + ".gains.criterion = " + cl::truncate_utf8(gains.criterion, 40) + ": " + e.what(),
                            std::nullopt};
         }
         if (!c) {
-            return Refusal{ErrorCode::UnknownCriterion, kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
-                                                            "\" is invalid; accepted: " + accepted_criteria_text(),
+            return Refusal{ErrorCode::UnknownCriterion,
+                           kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
+                               "\" is invalid; accepted: " + accepted_criteria_text(),
                            std::nullopt};
         }
         K = c->K;
@@ -176,20 +190,24 @@ std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, con
     // The verdict per mass (one Schur-Cohn test each); the largest stable K only for the refusal.
     const PairVerdict v = checker_.check_object(K, B, masses);
     if (!v.stable) {
-        const std::string along = masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
+        const std::string along =
+            masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
         return Refusal{ErrorCode::UnstableGains,
-                       kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
-                           ") are outside the stability region for " + along + ", " + g(v.mass) + " kg (device mass " +
-                           checker_.mass().describe() + "), period " + g(config_.period) + " s, delay " + g(config_.delay) +
-                           " s; the largest stable K at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +
-                           " N/m (alpha_max = " + g(v.alpha_max) + "); " +
-                           (v.damping_stable ? "K = " + g(K) + " N/m is stable for " + g(v.damping_stable->first) + " < B < " +
-                                                   g(v.damping_stable->second) + " N s/m" +
-                                                   (v.damping_needed ? ", accepted for " + g(v.damping_needed->first) + " < B < " +
-                                                                           g(v.damping_needed->second) + " N s/m (damping_needed; the spectral radius "
-                                                                           "below 1 - 1e-6)"
-                                                                     : " but never 1e-6 below a spectral radius of 1, which the daemon requires")
-                                             : "no B makes K = " + g(K) + " N/m stable with " + along),
+                       kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " +
+                           g(v.beta) + ") are outside the stability region for " + along + ", " + g(v.mass) +
+                           " kg (device mass " + checker_.mass().describe() + "), period " + g(config_.period) +
+                           " s, delay " + g(config_.delay) + " s; the largest stable K at B = " + g(B) + " N s/m is " +
+                           g(v.largest_stable_K) + " N/m (alpha_max = " + g(v.alpha_max) + "); " +
+                           (v.damping_stable
+                                ? "K = " + g(K) + " N/m is stable for " + g(v.damping_stable->first) + " < B < " +
+                                      g(v.damping_stable->second) + " N s/m" +
+                                      (v.damping_needed
+                                           ? ", accepted for " + g(v.damping_needed->first) + " < B < " +
+                                                 g(v.damping_needed->second) +
+                                                 " N s/m (damping_needed; the spectral radius "
+                                                 "below 1 - 1e-6)"
+                                           : " but never 1e-6 below a spectral radius of 1, which the daemon requires")
+                                : "no B makes K = " + g(K) + " N/m stable with " + along),
                        v.largest_stable_K, v.damping_needed};
     }
     return std::nullopt;
@@ -242,8 +260,9 @@ std::optional<Refusal> ObjectResolver::resolve_spring(const cl::Spring& spring, 
             add_to(P, dd);
         }
     }
-    const std::vector<double> masses = p.constraint == SpringConstraint::Plane ? std::vector<double>{checker_.mass_along(p.direction)}
-                                                                               : checker_.masses_of(P);
+    const std::vector<double> masses = p.constraint == SpringConstraint::Plane
+                                           ? std::vector<double>{checker_.mass_along(p.direction)}
+                                           : checker_.masses_of(P);
     if (auto r = resolve_gains(spring.gains, "spring", masses, p.K, p.B)) return r;
     for (std::size_t i = 0; i < 3; ++i) {
         for (std::size_t j = 0; j < 3; ++j) {
@@ -263,43 +282,54 @@ std::optional<Refusal> ObjectResolver::resolve_field(const cl::Field& field, Res
     if (auto r = from_limits(check_in_workspace(field.center, "field.center", workspace()))) return r;
     if (auto r = from_limits(check_field_damping(field.damping))) return r;
     if (!(field.radius > 0.0) || !std::isfinite(field.radius)) {
-        return Refusal{ErrorCode::BadMessage, "field.radius = " + g(field.radius) + " is invalid; accepted range: finite, > 0 m", std::nullopt};
+        return Refusal{ErrorCode::BadMessage,
+                       "field.radius = " + g(field.radius) + " is invalid; accepted range: finite, > 0 m",
+                       std::nullopt};
     }
     Matrix3 J{};
     for (std::size_t i = 0; i < 3; ++i) {
         for (std::size_t j = 0; j < 3; ++j) {
             J[i][j] = field.jacobian[i][j];
             if ((i >= config_.axes || j >= config_.axes) && J[i][j] != 0.0) {
-                return Refusal{ErrorCode::BadMessage, "field.jacobian[" + std::to_string(i) + "][" + std::to_string(j) +
-                                                          "] is invalid: the device has " + std::to_string(config_.axes) +
-                                                          " axes; accepted: 0 outside them", std::nullopt};
+                return Refusal{ErrorCode::BadMessage,
+                               "field.jacobian[" + std::to_string(i) + "][" + std::to_string(j) +
+                                   "] is invalid: the device has " + std::to_string(config_.axes) +
+                                   " axes; accepted: 0 outside them",
+                               std::nullopt};
             }
         }
     }
     const GainChecker::FieldStiffness fs = GainChecker::field_stiffness(J);
     const double scale = 1e-12 * (1.0 + fs.jacobian_norm);
     if (fs.min_stiffness < -scale) {
-        return Refusal{ErrorCode::UnstableGains, "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.min_stiffness) +
-                                                     " N/m > 0 (a negative stiffness, unstable); accepted: sym(J) negative semi-definite",
+        return Refusal{ErrorCode::UnstableGains,
+                       "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.min_stiffness) +
+                           " N/m > 0 (a negative stiffness, unstable); accepted: sym(J) negative semi-definite",
                        std::nullopt};
     }
-    const double f0 = std::sqrt(field.force[0] * field.force[0] + field.force[1] * field.force[1] + field.force[2] * field.force[2]);
+    const double f0 =
+        std::sqrt(field.force[0] * field.force[0] + field.force[1] * field.force[1] + field.force[2] * field.force[2]);
     const double largest = f0 + fs.jacobian_norm * field.radius;
     if (largest > config_.max_force) {
-        return Refusal{ErrorCode::BeyondDeviceLimits, "field: the largest force |F0| + ||J|| radius = " + g(largest) +
-                                                          " N exceeds the device's max_force; accepted range: <= " + g(config_.max_force) + " N",
+        return Refusal{ErrorCode::BeyondDeviceLimits,
+                       "field: the largest force |F0| + ||J|| radius = " + g(largest) +
+                           " N exceeds the device's max_force; accepted range: <= " + g(config_.max_force) + " N",
                        std::nullopt};
     }
     if (!(field.damping >= 0.0)) {
-        return Refusal{ErrorCode::BadMessage, "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
+        return Refusal{ErrorCode::BadMessage,
+                       "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
                        std::nullopt};
     }
-    if (auto r = check_stiffness_limit(fs.max_stiffness, "field: the stiffness of its Jacobian (largest eigenvalue of -sym(J))")) return r;
+    if (auto r = check_stiffness_limit(fs.max_stiffness,
+                                       "field: the stiffness of its Jacobian (largest eigenvalue of -sym(J))"))
+        return r;
     Matrix3 B_field{};
     for (std::size_t i = 0; i < config_.axes; ++i) B_field[i][i] = field.damping;
     std::string why;
     std::optional<double> largest_stable_K;
-    if (!checker_.field_is_stable(J, B_field, why, largest_stable_K)) return Refusal{ErrorCode::UnstableGains, why, largest_stable_K};
+    if (!checker_.field_is_stable(J, B_field, why, largest_stable_K))
+        return Refusal{ErrorCode::UnstableGains, why, largest_stable_K};
     p.kind = ObjectKind::Field;
     p.point = to_axis(field.center);
     p.radius = field.radius;

@@ -74,7 +74,8 @@ struct SlotLookup {
     int slot = -1;
     std::optional<Refusal> refusal;
 };
-[[nodiscard]] SlotLookup owned_slot(const SlotTable& slots, std::uint32_t object_id, std::uint64_t session, std::size_t config_walls);
+[[nodiscard]] SlotLookup owned_slot(const SlotTable& slots, std::uint32_t object_id, std::uint64_t session,
+                                    std::size_t config_walls);
 
 // The first free slot that `taken` (slots this batch already changes) leaves, or -1.
 [[nodiscard]] int free_slot(const SlotTable& slots, const std::array<bool, kSceneObjectCapacity>& taken);
@@ -83,14 +84,14 @@ struct SlotLookup {
 // max_force) with `checker` (masses, stiffness limit, stability verdicts, the criteria's cached optima).
 // Both must outlive the resolver.
 class ObjectResolver {
-public:
+  public:
     ObjectResolver(const ServerConfig& config, GainChecker& checker) : config_(config), checker_(checker) {}
 
     // `out` the resolved object (its params' id left 0), or the refusal naming the field (without the
     // "commit: ops[i]: " prefix the commit adds).
     [[nodiscard]] std::optional<Refusal> resolve(const client::ObjectDescription& d, Resolved& out);
 
-private:
+  private:
     [[nodiscard]] std::optional<Refusal> check_vector(const client::Vec3& v, const std::string& field, bool unit) const;
     [[nodiscard]] WorkspaceBox workspace() const;
     [[nodiscard]] std::optional<Refusal> check_stiffness_limit(double K, const std::string& what) const;

@@ -53,20 +53,28 @@ json device_json(const ServerConfig& config, const GainChecker& checker) {
     for (std::size_t a = 0; a < 3; ++a) mass.push_back(M.of_axis(a < config.axes ? a : 0));
     for (std::size_t i = 0; i < config.axes; ++i) {
         json row = json::array();
-        for (std::size_t j = 0; j < config.axes; ++j) row.push_back(M.isotropic ? (i == j ? M.matrix[0][0] : 0.0) : M.matrix[i][j]);
+        for (std::size_t j = 0; j < config.axes; ++j)
+            row.push_back(M.isotropic ? (i == j ? M.matrix[0][0] : 0.0) : M.matrix[i][j]);
         matrix.push_back(row);
     }
     const std::optional<double> limit = checker.max_stiffness();
-    return json{{"name", config.device_name}, {"axes", config.axes}, {"period_s", config.period},
-                {"mass", mass}, {"mass_matrix", matrix}, {"delay_s", config.delay},
+    return json{{"name", config.device_name},    {"axes", config.axes},
+                {"period_s", config.period},     {"mass", mass},
+                {"mass_matrix", matrix},         {"delay_s", config.delay},
                 {"max_force", config.max_force}, {"max_stiffness", limit ? json(*limit) : json(nullptr)}};
 }
 
 json welcome_reply(const ServerConfig& config, const GainChecker& checker, std::uint64_t session, double lease_s,
                    const std::string& state_shm) {
-    return json{{"type", "welcome"}, {"protocol", kServerProtocol}, {"session", session}, {"lease_s", lease_s},
-                {"max_message_bytes", cl::kMaxMessageBytes}, {"capacity", kSceneObjectCapacity},
-                {"state_shm", state_shm}, {"ramp_s", config.ramp_time}, {"max_force_rate", config.max_force_rate},
+    return json{{"type", "welcome"},
+                {"protocol", kServerProtocol},
+                {"session", session},
+                {"lease_s", lease_s},
+                {"max_message_bytes", cl::kMaxMessageBytes},
+                {"capacity", kSceneObjectCapacity},
+                {"state_shm", state_shm},
+                {"ramp_s", config.ramp_time},
+                {"max_force_rate", config.max_force_rate},
                 {"device", device_json(config, checker)}};
 }
 
@@ -80,13 +88,21 @@ json list_json(const std::vector<ConfigWallInfo>& config_walls, const SlotTable&
         p.offset = -w.direction * w.position;
         p.bilateral = w.bilateral;
         p.gains = cl::Gains::explicit_gains(w.K, w.B);
-        objects.push_back({{"id", wall_id++}, {"owner", 0}, {"kind", "plane"}, {"K", w.K}, {"B", w.B},
-                           {"object", cl::object_to_json(p)}, {"ramping_out", false}});
+        objects.push_back({{"id", wall_id++},
+                           {"owner", 0},
+                           {"kind", "plane"},
+                           {"K", w.K},
+                           {"B", w.B},
+                           {"object", cl::object_to_json(p)},
+                           {"ramping_out", false}});
     }
     for (const auto& slot : slots) {
         if (slot.state == ServerSlot::State::Free || !slot.description) continue;
-        objects.push_back({{"id", slot.id}, {"owner", slot.owner}, {"kind", cl::kind_name(*slot.description)},
-                           {"K", slot.resolved.params.K}, {"B", slot.resolved.params.B},
+        objects.push_back({{"id", slot.id},
+                           {"owner", slot.owner},
+                           {"kind", cl::kind_name(*slot.description)},
+                           {"K", slot.resolved.params.K},
+                           {"B", slot.resolved.params.B},
                            {"object", cl::object_to_json(*slot.description)},
                            {"ramping_out", slot.state == ServerSlot::State::Draining}});
     }
@@ -110,19 +126,33 @@ json state_message(const StateLayout& snapshot, std::uint64_t dropped) {
         if ((snapshot.config_contact_mask >> i) & 1U) contact.push_back(i + 1);  // config wall ids 1 .. n
     }
     for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
-        if (((snapshot.contact_mask >> i) & 1U) != 0U && snapshot.slot_object_id[i] != 0) contact.push_back(snapshot.slot_object_id[i]);
+        if (((snapshot.contact_mask >> i) & 1U) != 0U && snapshot.slot_object_id[i] != 0)
+            contact.push_back(snapshot.slot_object_id[i]);
     }
-    return json{{"type", "state"}, {"tick", snapshot.tick}, {"time_s", snapshot.time_s},
-                {"position", vector_json(snapshot.position)}, {"velocity", vector_json(snapshot.velocity)},
-                {"force", vector_json(snapshot.force)}, {"contact", contact}, {"contact_mask", snapshot.contact_mask},
-                {"config_contact_mask", snapshot.config_contact_mask}, {"overruns", snapshot.overruns},
-                {"wake_latency_ns", snapshot.wake_latency_ns}, {"last_commit_seq", snapshot.last_commit_seq},
-                {"objects", snapshot.objects}, {"fault", to_string(static_cast<StateFault>(snapshot.fault))}, {"dropped", dropped}};
+    return json{{"type", "state"},
+                {"tick", snapshot.tick},
+                {"time_s", snapshot.time_s},
+                {"position", vector_json(snapshot.position)},
+                {"velocity", vector_json(snapshot.velocity)},
+                {"force", vector_json(snapshot.force)},
+                {"contact", contact},
+                {"contact_mask", snapshot.contact_mask},
+                {"config_contact_mask", snapshot.config_contact_mask},
+                {"overruns", snapshot.overruns},
+                {"wake_latency_ns", snapshot.wake_latency_ns},
+                {"last_commit_seq", snapshot.last_commit_seq},
+                {"objects", snapshot.objects},
+                {"fault", to_string(static_cast<StateFault>(snapshot.fault))},
+                {"dropped", dropped}};
 }
 
 json contact_message(const ContactRecord& record) {
-    return json{{"type", "contact"}, {"event", record.begin ? "begin" : "end"}, {"object_id", record.object_id},
-                {"tick", record.tick}, {"time_s", record.time_s}, {"position", vector_json(record.position)},
+    return json{{"type", "contact"},
+                {"event", record.begin ? "begin" : "end"},
+                {"object_id", record.object_id},
+                {"tick", record.tick},
+                {"time_s", record.time_s},
+                {"position", vector_json(record.position)},
                 {"force", vector_json(record.force)}};
 }
 

@@ -21,7 +21,8 @@ int group_id(const std::string& name) {
     if (name.empty()) return -1;
     const group* g = ::getgrnam(name.c_str());
     if (g == nullptr) {
-        throw StartupError(ErrorKind::InvalidParameter, "serve-group = " + name + " is invalid; accepted: an existing group name");
+        throw StartupError(ErrorKind::InvalidParameter,
+                           "serve-group = " + name + " is invalid; accepted: an existing group name");
     }
     return static_cast<int>(g->gr_gid);
 }
@@ -44,7 +45,9 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
                            const std::vector<ConfigWallInfo>& config_walls) {
     const int gid = group_id(o.serve_group);
     const unsigned mode = static_cast<unsigned>(std::strtoul(o.serve_mode.c_str(), nullptr, 8));
-    if (mode > 0777U) throw StartupError(ErrorKind::InvalidParameter, "serve-mode = " + o.serve_mode + " is invalid; accepted: 0 .. 0777");
+    if (mode > 0777U)
+        throw StartupError(ErrorKind::InvalidParameter,
+                           "serve-mode = " + o.serve_mode + " is invalid; accepted: 0 .. 0777");
     const std::size_t axes = static_cast<std::size_t>(profile.axes);
 
     ring_ = std::make_unique<CommitRing>(kCommitRingCapacity);
@@ -80,8 +83,10 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     }
 
     if (const std::string why = config_walls_unstable(*checker_, config_walls); !why.empty()) {
-        throw StartupError(ErrorKind::InvalidParameter, "the config walls are not stable in every combination the handle can engage "
-                                                  "(docs/protocol.md, section 5): " + why);
+        throw StartupError(ErrorKind::InvalidParameter,
+                           "the config walls are not stable in every combination the handle can engage "
+                           "(docs/protocol.md, section 5): " +
+                               why);
     }
 
     ServerConfig sc;

@@ -18,10 +18,11 @@
 namespace hapticd {
 
 // The loop's object slots' configuration for these options and this profile (also what --replay rebuilds).
-[[nodiscard]] SceneObjectsConfig scene_objects_config(const Options& options, const DeviceProfile& profile, double period);
+[[nodiscard]] SceneObjectsConfig scene_objects_config(const Options& options, const DeviceProfile& profile,
+                                                      double period);
 
 class ServeRuntime {
-public:
+  public:
     // Throws StartupError: ErrorKind::InvalidParameter for a bad --serve-group / --serve-mode, ErrorKind::Server
     // when the socket or the shared memory cannot be created, ErrorKind::SocketPathInUse when the socket path holds
     // anything but a stale hapticd socket (server.hpp, remove_stale_socket).
@@ -36,12 +37,12 @@ public:
     void stop();
     [[nodiscard]] const Server& server() const noexcept { return *server_; }
 
-private:
+  private:
     std::unique_ptr<CommitRing> ring_;
     std::unique_ptr<CommitRing> departure_ring_;  // clients that left: taken by the loop ahead of ring_
     std::unique_ptr<SceneObjects> objects_;
     std::unique_ptr<StatePublisher> state_;
-    std::unique_ptr<ContactRing> contact_ring_;       // loop -> server: contact begins and ends
+    std::unique_ptr<ContactRing> contact_ring_;  // loop -> server: contact begins and ends
     std::unique_ptr<ContactDetector> contacts_;
     std::unique_ptr<GainChecker> checker_;
     std::unique_ptr<Server> server_;

@@ -58,7 +58,13 @@ std::string g(double v) { return server::short_number(v); }
 struct Server::Impl {
     Impl(const ServerConfig& c, GainChecker& k, CommitRing& r, CommitRing* d, const StatePublisher& s,
          std::atomic<std::uint64_t>& pushed, ContactRing* contacts)
-        : config(c), checker(k), resolver(config, k), ring(r), departure_ring(d != nullptr ? *d : r), state(s), commits_pushed(pushed),
+        : config(c),
+          checker(k),
+          resolver(config, k),
+          ring(r),
+          departure_ring(d != nullptr ? *d : r),
+          state(s),
+          commits_pushed(pushed),
           contact_ring(contacts) {}
 
     ServerConfig config;
@@ -104,16 +110,21 @@ struct Server::Impl {
     void send_reply(Session& s, json message) {
         if (s.closed) return;
         switch (server::send_message(s.fd, server::reply_text(std::move(message)))) {
-            case server::SendResult::Sent: return;
-            case server::SendResult::Full:
-                close_session(s, std::string(cl::to_string(cl::ErrorCode::SlowConsumer)) + " (a reply did not fit: the client does not read)");
+            case server::SendResult::Sent:
                 return;
-            case server::SendResult::Failed: close_session(s, std::string("send failed: ") + std::strerror(errno)); return;
+            case server::SendResult::Full:
+                close_session(s, std::string(cl::to_string(cl::ErrorCode::SlowConsumer)) +
+                                     " (a reply did not fit: the client does not read)");
+                return;
+            case server::SendResult::Failed:
+                close_session(s, std::string("send failed: ") + std::strerror(errno));
+                return;
         }
     }
 
-    void send_error(Session& s, std::optional<std::uint64_t> id, cl::ErrorCode code, const std::string& message, int op_index = -1,
-                    std::optional<double> largest = std::nullopt, std::optional<std::pair<double, double>> damping = std::nullopt) {
+    void send_error(Session& s, std::optional<std::uint64_t> id, cl::ErrorCode code, const std::string& message,
+                    int op_index = -1, std::optional<double> largest = std::nullopt,
+                    std::optional<std::pair<double, double>> damping = std::nullopt) {
         send_reply(s, server::error_reply(id, code, message, op_index, largest, damping));
     }
 
@@ -121,9 +132,11 @@ struct Server::Impl {
     void accept_all() {
         while (const std::optional<server::Peer> peer = server::accept_peer(socket.listen_fd)) {
             if (sessions.size() >= server::kMaxSessions) {
-                (void)server::send_message(peer->fd, server::refused_reply(cl::ErrorCode::Capacity, "Server: " + std::to_string(server::kMaxSessions) +
-                                                                                                       " sessions already open")
-                                                         .dump());
+                (void)server::send_message(
+                    peer->fd,
+                    server::refused_reply(cl::ErrorCode::Capacity,
+                                          "Server: " + std::to_string(server::kMaxSessions) + " sessions already open")
+                        .dump());
                 ::close(peer->fd);
                 continue;
             }
@@ -147,8 +160,8 @@ struct Server::Impl {
         ::close(s.fd);
         s.fd = -1;
         ramp_out_objects_of(s.id);
-        log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " + std::to_string(s.pid) +
-            ", uid " + std::to_string(s.uid) + ") closed: " + why);
+        log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " +
+            std::to_string(s.pid) + ", uid " + std::to_string(s.uid) + ") closed: " + why);
         count(&ServerCounters::sessions_closed);
     }
 
@@ -167,16 +180,21 @@ struct Server::Impl {
     void close_silent_sessions(Clock::time_point now) {
         for (auto& [sid, s] : sessions) {
             switch (server::silence_of(s, now)) {
-                case server::Silence::None: break;
+                case server::Silence::None:
+                    break;
                 case server::Silence::NoHello:
-                    (void)server::send_message(s.fd, server::refused_hello_reply(cl::ErrorCode::BadHello, "Server: no hello within " +
-                                                                                                            std::to_string(server::kHelloTimeoutS) + " s")
-                                                         .dump());
+                    (void)server::send_message(
+                        s.fd, server::refused_hello_reply(
+                                  cl::ErrorCode::BadHello,
+                                  "Server: no hello within " + std::to_string(server::kHelloTimeoutS) + " s")
+                                  .dump());
                     close_session(s, "no hello within " + std::to_string(server::kHelloTimeoutS) + " s");
                     break;
                 case server::Silence::LeaseLost:
-                    (void)server::send_message(
-                        s.fd, server::lease_expired_message("lease: no message for " + g(s.lease_s) + " s; the session's objects ramp out").dump());
+                    (void)server::send_message(s.fd,
+                                               server::lease_expired_message("lease: no message for " + g(s.lease_s) +
+                                                                             " s; the session's objects ramp out")
+                                                   .dump());
                     close_session(s, "lease lost (no message for " + g(s.lease_s) + " s)");
                     break;
             }
@@ -197,7 +215,8 @@ struct Server::Impl {
         }
         if (leaving.empty()) return;
         const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
-        const DeparturePlan plan = plan_departure(checker, server::terms_of_config_walls(config.config_walls), leaving, staying, step);
+        const DeparturePlan plan =
+            plan_departure(checker, server::terms_of_config_walls(config.config_walls), leaving, staying, step);
         ObjectCommit c;
         std::map<std::uint64_t, std::vector<std::uint32_t>> further_by_owner;
         for (const std::size_t i : plan.out) {
@@ -213,15 +232,17 @@ struct Server::Impl {
         pending.push_back(c);  // before the events: a send may close another session, whose batch must follow
         push_pending();
         if (!plan.further.empty()) {
-            const std::string how = plan.cut ? "removed at once (no ramp-out of them all is stable either)" : "ramped out with them";
-            log("session " + std::to_string(session) + " left; " + std::to_string(plan.further.size()) + " objects of other sessions " +
-                how + ": " + plan.reason);
+            const std::string how =
+                plan.cut ? "removed at once (no ramp-out of them all is stable either)" : "ramped out with them";
+            log("session " + std::to_string(session) + " left; " + std::to_string(plan.further.size()) +
+                " objects of other sessions " + how + ": " + plan.reason);
             for (const auto& [owner, ids] : further_by_owner) {
                 const auto it = sessions.find(owner);
                 if (it == sessions.end() || it->second.closed) continue;
-                send_reply(it->second, server::objects_removed_event(ids, "objects " + json(ids).dump() + " are " + how + " because session " +
-                                                                              std::to_string(session) + " left and, without them, " + plan.reason +
-                                                                              " (docs/protocol.md, section 5)"));
+                send_reply(it->second, server::objects_removed_event(
+                                           ids, "objects " + json(ids).dump() + " are " + how + " because session " +
+                                                    std::to_string(session) + " left and, without them, " +
+                                                    plan.reason + " (docs/protocol.md, section 5)"));
             }
         }
     }
@@ -261,9 +282,10 @@ struct Server::Impl {
         send_error(s, id, cl::ErrorCode::SessionLimit,
                    "commit: this session has " + std::to_string(s.in_flight.size()) +
                        " batches handed to the loop and not yet applied (the loop has applied up to commit_seq " +
-                       std::to_string(snapshot.last_commit_seq) + "); accepted: at most " + std::to_string(config.session_max_in_flight) +
-                       " in flight per session (option session-max-in-flight); retry when commit_seq " + std::to_string(s.in_flight.front()) +
-                       " is applied",
+                       std::to_string(snapshot.last_commit_seq) + "); accepted: at most " +
+                       std::to_string(config.session_max_in_flight) +
+                       " in flight per session (option session-max-in-flight); retry when commit_seq " +
+                       std::to_string(s.in_flight.front()) + " is applied",
                    -1);
         return true;
     }
@@ -272,10 +294,12 @@ struct Server::Impl {
     // it is in the ring; busy when the ring has no room (nothing changes).
     void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req) {
         if (refuse_over_in_flight_limit(s, id)) return;
-        server::CommitOutcome outcome = server::plan_commit(server::CommitContext{config, checker, resolver}, slots, s.id, next_object_id, req);
+        server::CommitOutcome outcome =
+            server::plan_commit(server::CommitContext{config, checker, resolver}, slots, s.id, next_object_id, req);
         if (const auto* r = std::get_if<server::CommitRefusal>(&outcome)) {
             count(&ServerCounters::commits_refused);
-            send_error(s, id, r->refusal.code, r->refusal.message, r->op_index, r->refusal.largest_stable_K, r->refusal.damping_needed);
+            send_error(s, id, r->refusal.code, r->refusal.message, r->op_index, r->refusal.largest_stable_K,
+                       r->refusal.damping_needed);
             return;
         }
         server::CommitPlan& plan = std::get<server::CommitPlan>(outcome);
@@ -311,7 +335,8 @@ struct Server::Impl {
     // ---- requests ------------------------------------------------------------------------------
     void handle_decode_error(Session& s, const server::DecodeError& e) {
         if (e.code == cl::ErrorCode::ProtocolVersion || e.code == cl::ErrorCode::BadHello) {
-            const std::optional<int> client_protocol = e.code == cl::ErrorCode::ProtocolVersion ? std::optional<int>(e.client_protocol) : std::nullopt;
+            const std::optional<int> client_protocol =
+                e.code == cl::ErrorCode::ProtocolVersion ? std::optional<int>(e.client_protocol) : std::nullopt;
             send_reply(s, server::refused_hello_reply(e.code, e.message, client_protocol));
             close_session(s, "refused: " + cl::escape_for_log(e.message, 256));
             return;
@@ -398,9 +423,11 @@ struct Server::Impl {
 
     void internal_error(Session& s, const char* what) noexcept {
         try {
-            log("session " + std::to_string(s.id) + ": internal error while handling a request: " + cl::escape_for_log(what, 256));
-            send_error(s, std::nullopt, cl::ErrorCode::Internal, std::string("Server: internal error while handling the request (") +
-                                                                    cl::truncate_utf8(what, 256) + "); the session goes on");
+            log("session " + std::to_string(s.id) +
+                ": internal error while handling a request: " + cl::escape_for_log(what, 256));
+            send_error(s, std::nullopt, cl::ErrorCode::Internal,
+                       std::string("Server: internal error while handling the request (") +
+                           cl::truncate_utf8(what, 256) + "); the session goes on");
         } catch (...) {
         }
     }
@@ -437,12 +464,15 @@ struct Server::Impl {
             s.next_state += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.rate_hz));
             if (s.next_state < now) s.next_state = now;  // never send bursts to catch up
             switch (server::send_message(s.fd, server::state_message(snapshot, s.dropped).dump())) {
-                case server::SendResult::Sent: break;
+                case server::SendResult::Sent:
+                    break;
                 case server::SendResult::Full:
                     ++s.dropped;
                     count(&ServerCounters::states_dropped);
                     break;
-                case server::SendResult::Failed: close_session(s, std::string("send failed: ") + std::strerror(errno)); break;
+                case server::SendResult::Failed:
+                    close_session(s, std::string("send failed: ") + std::strerror(errno));
+                    break;
             }
         }
     }
@@ -466,7 +496,8 @@ struct Server::Impl {
             for (auto& [sid, s] : sessions) {
                 if (s.closed || !s.contacts) continue;
                 s.contact_dropped += lost;
-                if (s.contact_filter && std::find(s.contact_filter->begin(), s.contact_filter->end(), r.object_id) == s.contact_filter->end()) {
+                if (s.contact_filter && std::find(s.contact_filter->begin(), s.contact_filter->end(), r.object_id) ==
+                                            s.contact_filter->end()) {
                     continue;
                 }
                 if (s.contact_queue.size() >= server::kContactQueueCapacity) {
@@ -492,9 +523,14 @@ struct Server::Impl {
     void flush_contacts(Session& s) {
         while (!s.closed && !s.contact_queue.empty()) {
             switch (server::send_message(s.fd, s.contact_queue.front())) {
-                case server::SendResult::Sent: s.contact_queue.pop_front(); break;
-                case server::SendResult::Full: return;
-                case server::SendResult::Failed: close_session(s, std::string("send failed: ") + std::strerror(errno)); return;
+                case server::SendResult::Sent:
+                    s.contact_queue.pop_front();
+                    break;
+                case server::SendResult::Full:
+                    return;
+                case server::SendResult::Failed:
+                    close_session(s, std::string("send failed: ") + std::strerror(errno));
+                    return;
             }
         }
     }
@@ -507,7 +543,8 @@ struct Server::Impl {
         s.contact_dropped = 0;
         json ids = json::array();
         for (const std::uint32_t oid : in_contact) {
-            if (!s.contact_filter || std::find(s.contact_filter->begin(), s.contact_filter->end(), oid) != s.contact_filter->end()) {
+            if (!s.contact_filter ||
+                std::find(s.contact_filter->begin(), s.contact_filter->end(), oid) != s.contact_filter->end()) {
                 ids.push_back(oid);
             }
         }
@@ -526,7 +563,8 @@ struct Server::Impl {
                 return;
             } catch (const std::exception& e) {
                 try {
-                    log(std::string("internal error in the server loop (it goes on): ") + cl::escape_for_log(e.what(), 256));
+                    log(std::string("internal error in the server loop (it goes on): ") +
+                        cl::escape_for_log(e.what(), 256));
                 } catch (...) {
                 }
             } catch (...) {
@@ -584,8 +622,8 @@ std::string config_walls_unstable(const GainChecker& checker, const std::vector<
     return verdict.stable ? std::string() : verdict.why;
 }
 
-Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state, CommitRing* departures,
-               ContactRing* contacts)
+Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& ring, const StatePublisher& state,
+               CommitRing* departures, ContactRing* contacts)
     : impl_(std::make_unique<Impl>(config, checker, ring, departures, state, commits_pushed_, contacts)) {
     impl_->open_socket();
     impl_->log("listening on " + impl_->config.socket_path + " (mode 0" +

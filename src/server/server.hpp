@@ -37,9 +37,9 @@ struct ConfigWallInfo {
 };
 
 struct ServerConfig {
-    std::string socket_path;      // empty: default_server_socket_path()
+    std::string socket_path;  // empty: default_server_socket_path()
     unsigned socket_mode = 0660;
-    int socket_gid = -1;          // -1: the process's group
+    int socket_gid = -1;  // -1: the process's group
     std::string device_name = "sim";
     std::size_t axes = 1;
     double period = 1e-3;         // s
@@ -51,16 +51,16 @@ struct ServerConfig {
     AxisVector workspace_min{-1e9, -1e9, -1e9};
     AxisVector workspace_max{1e9, 1e9, 1e9};
     std::vector<ConfigWallInfo> config_walls;
-    bool log_connections = true;  // SO_PEERCRED lines on stderr
-    std::size_t session_max_objects = 32;    // objects one session may hold (used, not ramping out)
-    std::size_t session_max_in_flight = 8;   // one session's batches pushed to the loop and not yet applied
+    bool log_connections = true;            // SO_PEERCRED lines on stderr
+    std::size_t session_max_objects = 32;   // objects one session may hold (used, not ramping out)
+    std::size_t session_max_in_flight = 8;  // one session's batches pushed to the loop and not yet applied
 };
 
 [[nodiscard]] std::string default_server_socket_path();
 
 // The socket path holds something that is not a stale hapticd socket (a file, a live socket): left alone.
 class SocketPathError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -86,7 +86,7 @@ struct ServerCounters {
 std::string config_walls_unstable(const GainChecker& checker, const std::vector<ConfigWallInfo>& walls);
 
 class Server {
-public:
+  public:
     // Creates and binds the socket (mode, group), throws std::runtime_error naming the path on failure.
     // checker, the rings (producer side) and state must outlive the server. `departures`: the ring the
     // departure batches of clients that left go through, which the loop takes ahead of every other batch
@@ -104,10 +104,12 @@ public:
 
     [[nodiscard]] const std::string& socket_path() const noexcept;
     // Batches handed to the loop so far (any thread).
-    [[nodiscard]] std::uint64_t commits_pushed() const noexcept { return commits_pushed_.load(std::memory_order_acquire); }
+    [[nodiscard]] std::uint64_t commits_pushed() const noexcept {
+        return commits_pushed_.load(std::memory_order_acquire);
+    }
     [[nodiscard]] ServerCounters counters() const;
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
     std::atomic<std::uint64_t> commits_pushed_{0};

@@ -18,8 +18,10 @@
 namespace hapticd {
 
 std::string default_server_socket_path() {
-    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
-    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0') return std::string(s) + "/hapticd.sock";
+    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0')
+        return std::string(s) + "/hapticd.sock";
+    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0')
+        return std::string(s) + "/hapticd.sock";
     return "/run/hapticd/hapticd.sock";
 }
 
@@ -32,7 +34,8 @@ void remove_stale_socket(const std::string& path) {
         throw SocketPathError("Server: socket path '" + path + "': lstat: " + std::strerror(errno));
     }
     if (!S_ISSOCK(st.st_mode)) {
-        throw SocketPathError("Server: socket path '" + path + "' exists and is not a socket; hapticd replaces only a stale socket "
+        throw SocketPathError("Server: socket path '" + path +
+                              "' exists and is not a socket; hapticd replaces only a stale socket "
                               "of its own: remove the file or choose another --serve-socket");
     }
     const int probe = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
@@ -43,7 +46,8 @@ void remove_stale_socket(const std::string& path) {
     const int connect_errno = errno;
     ::close(probe);
     if (c == 0) {
-        throw SocketPathError("Server: socket path '" + path + "' is in use: a process is listening on it (another hapticd?); "
+        throw SocketPathError("Server: socket path '" + path +
+                              "' is in use: a process is listening on it (another hapticd?); "
                               "stop it or choose another --serve-socket");
     }
     if (connect_errno != ECONNREFUSED) {
@@ -70,7 +74,8 @@ ListeningSocket open_listening_socket(const std::string& path, unsigned mode, in
         const std::string dir = path.substr(0, slash);
         struct stat st {};
         if (::stat(dir.c_str(), &st) != 0 && ::mkdir(dir.c_str(), 0755) != 0) {
-            throw std::runtime_error("Server: cannot create the socket directory '" + dir + "': " + std::strerror(errno));
+            throw std::runtime_error("Server: cannot create the socket directory '" + dir +
+                                     "': " + std::strerror(errno));
         }
     }
     std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
@@ -97,7 +102,8 @@ ListeningSocket open_listening_socket(const std::string& path, unsigned mode, in
     if (gid >= 0 && ::chown(path.c_str(), static_cast<uid_t>(-1), static_cast<gid_t>(gid)) != 0) {
         fail("Server: chown('" + path + "', group " + std::to_string(gid) + "): " + std::strerror(errno));
     }
-    if (::chmod(path.c_str(), static_cast<mode_t>(mode)) != 0) fail("Server: chmod('" + path + "'): " + std::strerror(errno));
+    if (::chmod(path.c_str(), static_cast<mode_t>(mode)) != 0)
+        fail("Server: chmod('" + path + "'): " + std::strerror(errno));
     if (::listen(out.listen_fd, 64) != 0) fail(std::string("Server: listen: ") + std::strerror(errno));
     out.wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     if (out.wake_fd < 0) fail(std::string("Server: eventfd: ") + std::strerror(errno));

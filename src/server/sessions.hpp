@@ -84,13 +84,13 @@ enum class Silence { None, NoHello, LeaseLost };
 // Finds the sessions whose peer has gone (POLLRDHUP, POLLHUP or POLLERR) with one zero-timeout poll; keeps
 // its storage between calls.
 class DepartureDetector {
-public:
+  public:
     void clear();
     void watch(int fd, std::uint64_t session);
     // The watched sessions whose peer has gone, in the order watched.
     [[nodiscard]] const std::vector<std::uint64_t>& departed();
 
-private:
+  private:
     std::vector<pollfd> fds_;
     std::vector<std::uint64_t> ids_;
     std::vector<std::uint64_t> departed_;

@@ -17,8 +17,10 @@
 
 namespace hapticd {
 
-StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid) : name_(shm_name) {
-    if (shm_name.size() < 2 || shm_name[0] != '/' || shm_name.find('/', 1) != std::string::npos || shm_name.size() > 200) {
+StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid)
+    : name_(shm_name) {
+    if (shm_name.size() < 2 || shm_name[0] != '/' || shm_name.find('/', 1) != std::string::npos ||
+        shm_name.size() > 200) {
         throw std::runtime_error("StatePublisher: shm name '" + shm_name +
                                  "' is invalid; accepted: '/' followed by 1..199 characters without '/'");
     }
@@ -35,7 +37,8 @@ StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, do
         const int e = errno;
         ::close(fd);
         ::shm_unlink(shm_name.c_str());
-        throw std::runtime_error("StatePublisher: fchown('" + shm_name + "', group " + std::to_string(gid) + "): " + std::strerror(e));
+        throw std::runtime_error("StatePublisher: fchown('" + shm_name + "', group " + std::to_string(gid) +
+                                 "): " + std::strerror(e));
     }
     void* p = ::mmap(nullptr, sizeof(StateLayout), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
     const int e = errno;
@@ -126,14 +129,16 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
     put(l.fault, static_cast<std::uint32_t>(t.fault));
     put(l.config_contact_mask, t.config_contact_mask);
     if (objects != nullptr) {
-        put(l.contact_mask, objects->contact_mask() & objects->occupied_mask());  // no contact without an object (a slot freed this tick)
+        put(l.contact_mask, objects->contact_mask() &
+                                objects->occupied_mask());  // no contact without an object (a slot freed this tick)
         put(l.last_commit_seq, objects->stats().last_commit_seq);
         // The slot table changes only with a commit or a ramp step: rewritten then, otherwise what the
         // segment holds is still this tick's (64 ids and ramps are most of a publication's cost).
         if (objects->slot_table_version() != published_slot_table_ || !slot_table_written_) {
             for (std::size_t i = 0; i < kStateObjectCapacity; ++i) {
                 put(l.slot_object_id[i], objects->slot_object_id(i));
-                put(l.slot_ramp[i], static_cast<std::uint8_t>(255.0 * objects->slot_ramp(i) + 0.5));  // ramp in [0, 1]: rounds, no lround call
+                put(l.slot_ramp[i], static_cast<std::uint8_t>(255.0 * objects->slot_ramp(i) +
+                                                              0.5));  // ramp in [0, 1]: rounds, no lround call
             }
             put(l.objects, objects->occupied());
             published_slot_table_ = objects->slot_table_version();

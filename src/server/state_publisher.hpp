@@ -30,7 +30,7 @@ struct StateTick {
 };
 
 class StatePublisher {
-public:
+  public:
     // Throws std::runtime_error naming the shm name and errno on failure. gid < 0: keep the group.
     StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid);
     ~StatePublisher();
@@ -53,7 +53,7 @@ public:
 
     [[nodiscard]] const std::string& name() const noexcept { return name_; }
 
-private:
+  private:
     std::string name_;
     StateLayout* layout_ = nullptr;
     std::uint64_t published_slot_table_ = 0;  // SceneObjects::slot_table_version() last written

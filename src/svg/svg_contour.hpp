@@ -19,8 +19,8 @@ namespace hapticopt::cli::svg {
 
 /// Values f(xs[i], ys[j]) stored at values[j * xs.size() + i].
 struct SampledGrid {
-  std::vector<double> xs, ys, values;
-  double at(std::size_t i, std::size_t j) const { return values[j * xs.size() + i]; }
+    std::vector<double> xs, ys, values;
+    double at(std::size_t i, std::size_t j) const { return values[j * xs.size() + i]; }
 };
 
 using Polyline = std::vector<std::pair<double, double>>;

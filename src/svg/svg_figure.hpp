@@ -23,29 +23,29 @@ namespace hapticopt::cli {
 /// --mass and --period are given (--time-delay, --stiffness k, --damping b), which also switches the
 /// gain axes to K [N/m] and B [N s/m] (K = alpha m / T^2, B = beta m / T) and time to milliseconds.
 struct FigureOptions {
-  std::string out;
-  double width = 800, height = 600;
-  std::vector<double> gamma{0.0}, delta{0.0}, stiffness{0.0}, damping{0.0};
-  double delay = 0, mass = 0, period = 0, time_delay = 0;
-  CLI::Option* mass_option = nullptr;
+    std::string out;
+    double width = 800, height = 600;
+    std::vector<double> gamma{0.0}, delta{0.0}, stiffness{0.0}, damping{0.0};
+    double delay = 0, mass = 0, period = 0, time_delay = 0;
+    CLI::Option* mass_option = nullptr;
 
-  /// Registers the options; with `corner_lists` --gamma/--delta (--stiffness/--damping) take several
-  /// values and every combination is one plant (the corners of a parameter box).
-  void add_to(CLI::App& app, bool corner_lists = false, double default_height = 600);
-  bool physical() const { return mass_option != nullptr && mass_option->count() > 0; }
-  /// Every (gamma, delta) corner, normalised; the first one is the plant of single-plant figures.
-  std::vector<NormalizedPlant> plants() const;
-  NormalizedPlant plant() const { return plants().front(); }
-  double k_scale() const { return physical() ? mass / (period * period) : 1.0; }  ///< alpha -> axis
-  double b_scale() const { return physical() ? mass / period : 1.0; }             ///< beta -> axis
-  double t_scale() const { return physical() ? period * 1e3 : 1.0; }              ///< t/T -> axis
-  std::string alpha_label() const { return physical() ? "stiffness K [N/m]" : "\u03b1 = K T\u00b2/m"; }
-  std::string beta_label() const { return physical() ? "damping B [N s/m]" : "\u03b2 = B T/m"; }
-  std::string time_label() const { return physical() ? "time t [ms]" : "time t/T"; }
-  /// "d = 1, γ = 0, δ = 0" or "m = 0.3 kg, T = 1 ms, t_d = 1 ms, k = 0 N/m, b = 0 N s/m".
-  std::string caption(const NormalizedPlant& p) const;
-  /// The plant's corner label for legends: "γ = 0, δ = 0.02" or "k = 0 N/m, b = 6 N s/m".
-  std::string corner_label(const NormalizedPlant& p) const;
+    /// Registers the options; with `corner_lists` --gamma/--delta (--stiffness/--damping) take several
+    /// values and every combination is one plant (the corners of a parameter box).
+    void add_to(CLI::App& app, bool corner_lists = false, double default_height = 600);
+    bool physical() const { return mass_option != nullptr && mass_option->count() > 0; }
+    /// Every (gamma, delta) corner, normalised; the first one is the plant of single-plant figures.
+    std::vector<NormalizedPlant> plants() const;
+    NormalizedPlant plant() const { return plants().front(); }
+    double k_scale() const { return physical() ? mass / (period * period) : 1.0; }  ///< alpha -> axis
+    double b_scale() const { return physical() ? mass / period : 1.0; }             ///< beta -> axis
+    double t_scale() const { return physical() ? period * 1e3 : 1.0; }              ///< t/T -> axis
+    std::string alpha_label() const { return physical() ? "stiffness K [N/m]" : "\u03b1 = K T\u00b2/m"; }
+    std::string beta_label() const { return physical() ? "damping B [N s/m]" : "\u03b2 = B T/m"; }
+    std::string time_label() const { return physical() ? "time t [ms]" : "time t/T"; }
+    /// "d = 1, γ = 0, δ = 0" or "m = 0.3 kg, T = 1 ms, t_d = 1 ms, k = 0 N/m, b = 0 N s/m".
+    std::string caption(const NormalizedPlant& p) const;
+    /// The plant's corner label for legends: "γ = 0, δ = 0.02" or "k = 0 N/m, b = 6 N s/m".
+    std::string corner_label(const NormalizedPlant& p) const;
 };
 
 /// --curve-points (4..10000, default shown): points sampled on each optimal curve of a figure.
@@ -67,8 +67,8 @@ svg::Polyline scaled(const svg::Polyline& points, double sx, double sy);
 
 /// The standard single-panel layout (margins for ticks and labels).
 svg::Axes& main_axes(svg::Document& doc, const FigureOptions& o, std::pair<double, double> x_domain,
-                     std::pair<double, double> y_domain, std::string x_label, std::string y_label,
-                     std::string title, double top_fraction = 1.0);
+                     std::pair<double, double> y_domain, std::string x_label, std::string y_label, std::string title,
+                     double top_fraction = 1.0);
 
 /// Writes the document and reports the file and the elapsed time on stdout; returns 0 (success).
 int save_figure(const svg::Document& doc, const FigureOptions& o, std::chrono::steady_clock::time_point start);

@@ -36,7 +36,8 @@ Eigen::Matrix3d to_eigen(const MassMatrix& m, std::size_t axes) {
 MassMatrix from_eigen(const Eigen::MatrixXd& e) {
     MassMatrix m{};
     for (Eigen::Index i = 0; i < e.rows(); ++i) {
-        for (Eigen::Index j = 0; j < e.cols(); ++j) m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = e(i, j);
+        for (Eigen::Index j = 0; j < e.cols(); ++j)
+            m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = e(i, j);
     }
     return m;
 }

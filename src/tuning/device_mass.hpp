@@ -46,7 +46,7 @@ struct DeviceMass {
     // "0.3 kg", "[0.3, 0.3, 0.45] kg per axis" or "matrix [[...], ...] kg" (for messages).
     [[nodiscard]] std::string describe() const;
 
-private:
+  private:
     double smallest_ = 0.0, largest_ = 0.0;
 };
 

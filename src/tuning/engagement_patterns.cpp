@@ -33,9 +33,12 @@ std::size_t find_root(std::vector<std::size_t>& parent, std::size_t i) {
 // The weights of a term's stiffness and damping in the scene at ramp position s (s = 1: the final scene).
 std::pair<double, double> role_weights(SceneTerm::Role role, double s) {
     switch (role) {
-        case SceneTerm::Role::Base: return {1.0, 1.0};
-        case SceneTerm::Role::In: return {s * s, s};
-        case SceneTerm::Role::Out: return {(1.0 - s) * (1.0 - s), 1.0 - s};
+        case SceneTerm::Role::Base:
+            return {1.0, 1.0};
+        case SceneTerm::Role::In:
+            return {s * s, s};
+        case SceneTerm::Role::Out:
+            return {(1.0 - s) * (1.0 - s), 1.0 - s};
     }
     return {1.0, 1.0};
 }
@@ -60,11 +63,10 @@ struct PatternUnit {
     }
 };
 
-bool identical_terms(const SceneTerm& a, const SceneTerm& b) {
-    return a.role == b.role && a.K == b.K && a.B == b.B;
-}
+bool identical_terms(const SceneTerm& a, const SceneTerm& b) { return a.role == b.role && a.K == b.K && a.B == b.B; }
 
-std::vector<PatternUnit> pattern_units(const std::vector<SceneTerm>& terms, const std::vector<std::size_t>& conditional) {
+std::vector<PatternUnit> pattern_units(const std::vector<SceneTerm>& terms,
+                                       const std::vector<std::size_t>& conditional) {
     std::vector<PatternUnit> units;
     std::vector<bool> used(conditional.size(), false);
     for (std::size_t a = 0; a < conditional.size(); ++a) {
@@ -130,8 +132,8 @@ SumKey sum_key(const Matrix3& K, const Matrix3& B) {
 
 // Every pattern of one group in the scene at ramp position s (s = 1: final). False on the first unstable
 // pattern, with `why`.
-bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& terms, const std::vector<std::size_t>& group,
-                           double s, EngagementCheck& result, std::string& why) {
+bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& terms,
+                           const std::vector<std::size_t>& group, double s, EngagementCheck& result, std::string& why) {
     Matrix3 K_always{}, B_always{};
     std::vector<std::size_t> conditional;
     std::vector<std::pair<double, double>> weight(terms.size(), {0.0, 0.0});
@@ -170,14 +172,18 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
         std::vector<std::size_t> engaged, free;
         for (std::size_t u = 0; u < units.size(); ++u) {
             const std::vector<std::size_t> in = units[u].engaged(digits[u]);
-            for (const std::size_t i : units[u].members) (std::find(in.begin(), in.end(), i) != in.end() ? engaged : free).push_back(i);
+            for (const std::size_t i : units[u].members)
+                (std::find(in.begin(), in.end(), i) != in.end() ? engaged : free).push_back(i);
         }
         if (free.empty()) {
             why = reason + " (every object in contact at once)";
         } else {
-            why = "with the conditionally engaged objects " + id_list(terms, engaged) + " in contact and " + id_list(terms, free) +
-                  " not (a unilateral plane, a field or a unilateral config wall acts only while the handle is in it; any such "
-                  "pattern is reachable, since moves are not checked): " + reason;
+            why = "with the conditionally engaged objects " + id_list(terms, engaged) + " in contact and " +
+                  id_list(terms, free) +
+                  " not (a unilateral plane, a field or a unilateral config wall acts only while the handle is in it; "
+                  "any such "
+                  "pattern is reachable, since moves are not checked): " +
+                  reason;
         }
         return false;
     }
@@ -204,7 +210,9 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
         if (walls[a].bilateral || walls[a].direction < 0.0 || pair[a] >= 0) continue;
         for (std::size_t b = 0; b < walls.size(); ++b) {
             // a: solid x > p (direction +1); b: solid x < q (direction -1); both engaged needs p < x < q.
-            if (b == a || pair[b] >= 0 || walls[b].bilateral || walls[b].direction > 0.0 || walls[b].axis != walls[a].axis) continue;
+            if (b == a || pair[b] >= 0 || walls[b].bilateral || walls[b].direction > 0.0 ||
+                walls[b].axis != walls[a].axis)
+                continue;
             if (walls[a].position >= walls[b].position) {
                 pair[a] = pair[b] = next++;
                 break;
@@ -220,7 +228,8 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // then have orthogonal spans up to that level: the coupling neglected is below 64 eps of the gains, which
 // moves a root by at most ~sqrt(1.5e-14) = 1.2e-7 (a double root), below the verdict's margin of 1e-6 —
 // the same bound by which matrix_gain_stability.hpp leaves out directions touched below rounding.
-EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step, PatternLimit limit) {
+EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step,
+                                          PatternLimit limit) {
     EngagementCheck result;
     const Eigen::Matrix3d Mis = as_eigen(checker.mass().inverse_sqrt);
     std::vector<Eigen::Matrix3d> span(terms.size());
@@ -273,10 +282,12 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
         for (const std::size_t i : group) spans += span[i] / size[i];
         const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(spans, Eigen::EigenvaluesOnly);
         const bool one_direction = es.eigenvalues()(1) <= hapticopt::kMatrixGainRoundingLevel * es.eigenvalues()(2);
-        const bool ramps = std::any_of(group.begin(), group.end(), [&](std::size_t i) { return terms[i].role != SceneTerm::Role::Base; });
+        const bool ramps = std::any_of(group.begin(), group.end(),
+                                       [&](std::size_t i) { return terms[i].role != SceneTerm::Role::Base; });
         const double scenes = 1.0 + (ramps ? ramp_scenes : 0.0);
         largest_scenes = std::max(largest_scenes, scenes);
-        units += static_cast<double>(count) * scenes / (one_direction ? static_cast<double>(kOneDirectionPatternsPerUnit) : 1.0);
+        units += static_cast<double>(count) * scenes /
+                 (one_direction ? static_cast<double>(kOneDirectionPatternsPerUnit) : 1.0);
     }
     if (limit == PatternLimit::Enforced && units > static_cast<double>(kMaxEngagementPatternScenes) &&
         units > largest_scenes) {  // a scene without conditional objects is always checked, whatever its ramp
@@ -286,8 +297,10 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
           << " pattern-scenes to check (each group's engagement patterns times its scenes, the final one and "
           << ramp_scenes << " ramp scenes; a group acting along one direction counts 1/" << kOneDirectionPatternsPerUnit
           << "); accepted: at most " << kMaxEngagementPatternScenes << " (" << kMaxEngagementPatterns
-          << " patterns at the default 30 ms ramp: a group's patterns are the product of 2 per conditional object, m + 1 per m "
-             "identical ones, 3 per pair of facing config walls; e.g. 7 different conditional objects on coupled directions, or 9 "
+          << " patterns at the default 30 ms ramp: a group's patterns are the product of 2 per conditional object, m + "
+             "1 per m "
+             "identical ones, 3 per pair of facing config walls; e.g. 7 different conditional objects on coupled "
+             "directions, or 9 "
              "along one direction; fewer with a longer ramp-time); make some bilateral, remove some, or place them on "
              "M-orthogonal directions";
         result.stable = false;
@@ -307,7 +320,8 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
     }
     if (!(step > 0.0) || step >= 1.0) return result;  // no ramp: the scene jumps from before to after
     for (const auto& group : groups) {
-        const bool ramps = std::any_of(group.begin(), group.end(), [&](std::size_t i) { return terms[i].role != SceneTerm::Role::Base; });
+        const bool ramps = std::any_of(group.begin(), group.end(),
+                                       [&](std::size_t i) { return terms[i].role != SceneTerm::Role::Base; });
         if (!ramps) continue;  // every ramp scene of this group is its final scene
         for (int j = 1;; ++j) {
             const double s = static_cast<double>(j) * step;  // the loop's arithmetic (SceneObjects::step_ramps)

@@ -82,11 +82,11 @@ SceneTerm plane_term(const std::array<double, 3>& n, double K, double B);
 
 struct EngagementCheck {
     bool stable = true;
-    bool over_limit = false;        // more than kMaxEngagementPatternScenes (weighted as above): not checked
-    std::size_t checks = 0;         // scene verdicts computed
+    bool over_limit = false;  // more than kMaxEngagementPatternScenes (weighted as above): not checked
+    std::size_t checks = 0;   // scene verdicts computed
     std::size_t largest_group_patterns = 0;
     std::size_t groups = 0;
-    std::string why;                // on failure or over_limit: which scene, which pattern, why
+    std::string why;  // on failure or over_limit: which scene, which pattern, why
 };
 
 // The config walls' exclusive pairs: for walls on one axis (axis, position, direction +1 / -1, bilateral),

@@ -34,15 +34,18 @@ GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
     mass_ = plant_.mass_matrix ? *plant_.mass_matrix : DeviceMass::isotropic_mass(plant_.mass, 3);
     free_mass_plant_ = plant_.damping == 0.0 && plant_.stiffness == 0.0;
     if (!mass_.isotropic && !free_mass_plant_) {
-        throw std::invalid_argument("GainChecker: an anisotropic mass (" + mass_.describe() + ") with damping = " +
-                                    number_text(plant_.damping) + " N s/m, stiffness = " + number_text(plant_.stiffness) +
-                                    " N/m has no scalar loop per direction; accepted: damping = stiffness = 0, or one mass");
+        throw std::invalid_argument(
+            "GainChecker: an anisotropic mass (" + mass_.describe() +
+            ") with damping = " + number_text(plant_.damping) + " N s/m, stiffness = " + number_text(plant_.stiffness) +
+            " N/m has no scalar loop per direction; accepted: damping = stiffness = 0, or one mass");
     }
     if (mass_.isotropic) plant_.mass = mass_.matrix[0][0];
     const Eigen::Matrix3d M = as_eigen(mass_.matrix), Mis = as_eigen(mass_.inverse_sqrt);
     const Eigen::Matrix3d Ms = M * Mis;  // M^1/2 = M M^-1/2 (zero beyond the device's axes)
     for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) mass_sqrt_[i][j] = 0.5 * (Ms(static_cast<int>(i), static_cast<int>(j)) + Ms(static_cast<int>(j), static_cast<int>(i)));
+        for (std::size_t j = 0; j < 3; ++j)
+            mass_sqrt_[i][j] =
+                0.5 * (Ms(static_cast<int>(i), static_cast<int>(j)) + Ms(static_cast<int>(j), static_cast<int>(i)));
     }
     alpha_max_ = hapticopt::StabilityRegion(normalized_for(plant_.mass)).alpha_max();
 }
@@ -111,7 +114,9 @@ std::optional<std::pair<double, double>> GainChecker::damping_range(double K, co
             // rho(beta) = 1 at both ends; the ends of rho < 1 - margin, by bisection between each end and the
             // middle of the interval (none when the middle does not reach below 1 - margin).
             const double target = 1.0 - hapticopt::kMatrixGainRadiusMargin;
-            auto rho = [&](double beta) { return hapticopt::stability(np, hapticopt::NormalizedGains{alpha, beta}).spectral_radius; };
+            auto rho = [&](double beta) {
+                return hapticopt::stability(np, hapticopt::NormalizedGains{alpha, beta}).spectral_radius;
+            };
             const double mid = 0.5 * (beta_lo + beta_hi);
             if (!(rho(mid) < target)) return std::nullopt;
             double a = beta_lo, b = mid;  // rho(a) >= target > rho(b)
@@ -220,7 +225,8 @@ hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const 
     const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
     const Eigen::Matrix3d A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
     const Eigen::Matrix3d Bn = T * (Mis * as_eigen(B_sum) * Mis);
-    return hapticopt::general_matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A), Eigen::MatrixXd(Bn));
+    return hapticopt::general_matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A),
+                                                    Eigen::MatrixXd(Bn));
 }
 
 Matrix3 GainChecker::field_stiffness_matrix(const Matrix3& J) {
@@ -240,12 +246,15 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
     if (!curl && mass_.isotropic) {
         // One mass, J symmetric: -J and B I commute; the stiffest eigen-direction with B is the verdict.
         const double B = B_field[0][0];
-        if (fs.max_stiffness <= 1e-12 * (1.0 + fs.jacobian_norm) || pair_is_stable(fs.max_stiffness, B, mass_.smallest())) {
+        if (fs.max_stiffness <= 1e-12 * (1.0 + fs.jacobian_norm) ||
+            pair_is_stable(fs.max_stiffness, B, mass_.smallest())) {
             return sum_is_stable(field_stiffness_matrix(J), B_field, why);  // the margin and the free directions
         }
         const PairVerdict v = check_pair(fs.max_stiffness, B, mass_.smallest());
-        why = "field: stiffness " + number_text(fs.max_stiffness) + " N/m (largest eigenvalue of -J) with B = " + number_text(B) +
-              " N s/m is outside the stability region; the largest stable K at that B is " + number_text(v.largest_stable_K) + " N/m";
+        why = "field: stiffness " + number_text(fs.max_stiffness) +
+              " N/m (largest eigenvalue of -J) with B = " + number_text(B) +
+              " N s/m is outside the stability region; the largest stable K at that B is " +
+              number_text(v.largest_stable_K) + " N/m";
         largest_stable_K = v.largest_stable_K;
         return false;
     }
@@ -256,7 +265,8 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
     s << "field: the loop it renders, stiffness -J (symmetric part with eigenvalues " << fs.min_stiffness << " .. "
       << fs.max_stiffness << " N/m";
     if (curl) s << ", and a curl (antisymmetric part) of norm " << 0.5 * (j - j.transpose()).norm() << " N/m";
-    s << ") with B = " << B_field[0][0] << " N s/m, is unstable for the device mass " << mass_.describe() << ": " << reason;
+    s << ") with B = " << B_field[0][0] << " N s/m, is unstable for the device mass " << mass_.describe() << ": "
+      << reason;
     why = s.str();
     return false;
 }
@@ -291,24 +301,27 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
         for (int c = 0; c < 3; ++c) {
             const Eigen::Vector3d u = solver->eigenvectors().col(c);
             const double alpha = u.dot(A * u), beta = u.dot(Bn * u);
-            if (alpha <= 1e-12 * (1.0 + A.norm()) && beta <= 1e-12 * (1.0 + Bn.norm())) continue;  // nothing acts along u
+            if (alpha <= 1e-12 * (1.0 + A.norm()) && beta <= 1e-12 * (1.0 + Bn.norm()))
+                continue;  // nothing acts along u
             if (hapticopt::is_stable(np, hapticopt::NormalizedGains{alpha, beta})) continue;
             const Eigen::Vector3d n = (Ms * u).normalized();
             const double m_n = mass_.along({n(0), n(1), n(2)});
             const PairVerdict v = check_pair(alpha * m_n / (T * T), beta * m_n / T, m_n);
             std::ostringstream s;
             s.precision(6);
-            s << "summed gains along n = (" << n(0) << ", " << n(1) << ", " << n(2) << "): K = " << alpha * m_n / (T * T)
-              << " N/m, B = " << beta * m_n / T << " N s/m with the mass along n " << m_n << " kg (alpha = " << alpha
-              << ", beta = " << beta << ") are outside the stability region; the largest stable K at that B is "
-              << v.largest_stable_K << " N/m";
+            s << "summed gains along n = (" << n(0) << ", " << n(1) << ", " << n(2)
+              << "): K = " << alpha * m_n / (T * T) << " N/m, B = " << beta * m_n / T << " N s/m with the mass along n "
+              << m_n << " kg (alpha = " << alpha << ", beta = " << beta
+              << ") are outside the stability region; the largest stable K at that B is " << v.largest_stable_K
+              << " N/m";
             why = s.str();
             return false;
         }
     }
     std::ostringstream s;
     s.precision(10);
-    s << "summed gains: each direction is stable on its own, but the coupled loop of K_sum and B_sum has spectral radius "
+    s << "summed gains: each direction is stable on its own, but the coupled loop of K_sum and B_sum has spectral "
+         "radius "
       << verdict.spectral_radius << " (stable needs < 1 - " << hapticopt::kMatrixGainRadiusMargin << ")";
     why = s.str();
     return false;

@@ -84,7 +84,7 @@ struct GainCheckPlant : TuningPlant {
 
 struct PairVerdict {
     bool stable = false;
-    double mass = 0.0;              // kg, the effective mass the pair was checked with
+    double mass = 0.0;  // kg, the effective mass the pair was checked with
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
     double largest_stable_K = 0.0;  // N/m at this B (0: none)
@@ -100,7 +100,7 @@ struct CriterionGains {
 };
 
 class GainChecker {
-public:
+  public:
     // Throws std::invalid_argument naming the parameter for an anisotropic mass with b or k != 0.
     explicit GainChecker(const GainCheckPlant& plant);
 
@@ -169,18 +169,19 @@ public:
     // (s = 1). Sums of stable scenes need not be stable (the stable set of gain matrices is not convex when
     // the directions do not commute), so every intermediate s_j, 0 < s_j < 1, is checked with sum_is_stable:
     // at most 1 / step - 1 verdicts. On failure `why` says at which s and why.
-    [[nodiscard]] bool ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in, const Matrix3& B_in,
-                                      const Matrix3& K_out, const Matrix3& B_out, double step, std::string& why) const;
+    [[nodiscard]] bool ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in,
+                                      const Matrix3& B_in, const Matrix3& K_out, const Matrix3& B_out, double step,
+                                      std::string& why) const;
 
-private:
+  private:
     [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m) const;
     [[nodiscard]] double alpha_max_for(double m) const;
 
     GainCheckPlant plant_;
     DeviceMass mass_;
-    MassMatrix mass_sqrt_{};   // M^1/2
+    MassMatrix mass_sqrt_{};        // M^1/2
     bool free_mass_plant_ = false;  // b = k = 0: the normalised plant does not depend on the mass
-    double alpha_max_ = 0.0;       // for the profile's mass (any mass when free_mass_plant_)
+    double alpha_max_ = 0.0;        // for the profile's mass (any mass when free_mass_plant_)
     std::mutex cache_mutex_;
     std::map<std::pair<std::string, double>, CriterionGains> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
 };

@@ -25,7 +25,9 @@ namespace {
 
 hapticopt::Criterion parse(const std::string& name) {
     const auto c = hapticopt::parse_criterion(name);
-    if (!c) throw StartupError(ErrorKind::Usage, "criterion = " + name + " is invalid; accepted: " + accepted_criteria_text());
+    if (!c)
+        throw StartupError(ErrorKind::Usage,
+                           "criterion = " + name + " is invalid; accepted: " + accepted_criteria_text());
     return *c;
 }
 
@@ -75,10 +77,11 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         // Every tuned wall is checked as explicit gains are: an optimum on or outside the boundary is refused.
         const hapticopt::NormalizedGains gains{r.alpha, r.beta};
         if (!hapticopt::is_stable(hapticopt::normalize(physical), gains)) {
-            throw StartupError(ErrorKind::UnstableGains, "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
-                                                       " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
-                                                       ") is not strictly inside the stability region; accepted: a criterion "
-                                                       "whose optimum is, or explicit --stiffness/--damping");
+            throw StartupError(ErrorKind::UnstableGains,
+                               "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
+                                   " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
+                                   ") is not strictly inside the stability region; accepted: a criterion "
+                                   "whose optimum is, or explicit --stiffness/--damping");
         }
         return r;
     } catch (const hapticopt::InvalidParameter& e) {
@@ -89,8 +92,9 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
     const hapticopt::Criterion c = parse(criterion);
     if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
-        throw StartupError(ErrorKind::Usage, "criterion = " + criterion + " is invalid with --robust; accepted: CE0, CE1, CE2 "
-                                                                    "(a robust OV or CEx+OV optimum is not defined)");
+        throw StartupError(ErrorKind::Usage, "criterion = " + criterion +
+                                                 " is invalid with --robust; accepted: CE0, CE1, CE2 "
+                                                 "(a robust OV or CEx+OV optimum is not defined)");
     }
     hapticopt::UncertainPlant u;
     u.mass = {box.mass_min, box.mass_max};
@@ -104,8 +108,9 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
             throw StartupError(ErrorKind::InvalidParameter,
                                "robust tuning: no wall gains are stable over the whole parameter box (mass " +
                                    g(box.mass_min) + " .. " + g(box.mass_max) + ", delay " + g(box.delay_min) + " .. " +
-                                   g(box.delay_max) + " s); accepted: a box that some (K, B) stabilises, e.g. "
-                                                      "narrower ranges or a shorter delay");
+                                   g(box.delay_max) +
+                                   " s); accepted: a box that some (K, B) stabilises, e.g. "
+                                   "narrower ranges or a shorter delay");
         }
         const hapticopt::NormalizedPlant nominal = hapticopt::normalize(r.nominal);
         const hapticopt::NormalizedGains gains = hapticopt::normalize(r.gains, r.nominal.mass, r.nominal.period);
@@ -144,30 +149,40 @@ TuningResult check_explicit_gains(double K, double B, const std::string& criteri
     try {
         const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
         const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
-        const hapticopt::NormalizedGains gains = hapticopt::normalize(hapticopt::WallGains{K, B}, plant.mass, plant.period);
+        const hapticopt::NormalizedGains gains =
+            hapticopt::normalize(hapticopt::WallGains{K, B}, plant.mass, plant.period);
         r.alpha = gains.alpha;
         r.beta = gains.beta;
         r.alpha_max = hapticopt::StabilityRegion(normalized).alpha_max();
         if (!hapticopt::is_stable(normalized, gains)) {
             if (allow_unstable) return r;  // no predicted cost: the loop without the controller diverges
-            throw StartupError(
-                ErrorKind::UnstableGains,
-                "explicit gains stiffness K = " + g(K) + " N/m, damping B = " + g(B) + " N s/m (alpha = " + g(gains.alpha) +
-                    ", beta = " + g(gains.beta) + ") are outside the stability region for mass = " + g(plant.mass) +
-                    ", period = " + g(plant.period) + " s, delay = " + g(plant.time_delay) +
-                    " s; accepted: a stable (K, B), which needs alpha < alpha_max = " + g(r.alpha_max) +
-                    " (K < " + g(r.alpha_max * plant.mass / (plant.period * plant.period)) +
-                    " N/m) and a matching B; omit --stiffness/--damping to use the optimal gains");
+            throw StartupError(ErrorKind::UnstableGains,
+                               "explicit gains stiffness K = " + g(K) + " N/m, damping B = " + g(B) +
+                                   " N s/m (alpha = " + g(gains.alpha) + ", beta = " + g(gains.beta) +
+                                   ") are outside the stability region for mass = " + g(plant.mass) +
+                                   ", period = " + g(plant.period) + " s, delay = " + g(plant.time_delay) +
+                                   " s; accepted: a stable (K, B), which needs alpha < alpha_max = " + g(r.alpha_max) +
+                                   " (K < " + g(r.alpha_max * plant.mass / (plant.period * plant.period)) +
+                                   " N/m) and a matching B; omit --stiffness/--damping to use the optimal gains");
         }
         switch (c) {
             case hapticopt::Criterion::CE0:
-            case hapticopt::Criterion::CE0_OV: r.cost = hapticopt::energy_costs(normalized, gains).ce0; break;
+            case hapticopt::Criterion::CE0_OV:
+                r.cost = hapticopt::energy_costs(normalized, gains).ce0;
+                break;
             case hapticopt::Criterion::CE1:
-            case hapticopt::Criterion::CE1_OV: r.cost = hapticopt::energy_costs(normalized, gains).ce1; break;
+            case hapticopt::Criterion::CE1_OV:
+                r.cost = hapticopt::energy_costs(normalized, gains).ce1;
+                break;
             case hapticopt::Criterion::CE2:
-            case hapticopt::Criterion::CE2_OV: r.cost = hapticopt::energy_costs(normalized, gains).ce2; break;
-            case hapticopt::Criterion::Overshoot: r.cost = hapticopt::overshoot(normalized, gains).value; break;
-            default: break;
+            case hapticopt::Criterion::CE2_OV:
+                r.cost = hapticopt::energy_costs(normalized, gains).ce2;
+                break;
+            case hapticopt::Criterion::Overshoot:
+                r.cost = hapticopt::overshoot(normalized, gains).value;
+                break;
+            default:
+                break;
         }
     } catch (const hapticopt::InvalidParameter& e) {
         throw StartupError(ErrorKind::InvalidParameter, std::string("explicit gains: ") + e.what());

@@ -36,19 +36,19 @@ struct RobustSummary {
     TuningBox box;
     double worst_case = 0.0;
     double worst_mass = 0.0, worst_damping = 0.0, worst_stiffness = 0.0, worst_delay = 0.0;
-    double nominal_worst_case = 0.0;                  // +inf: the nominal optimum is unstable somewhere in the box
-    bool mass_certified = false;                      // stability over the mass range proven (not only sampled)
+    double nominal_worst_case = 0.0;  // +inf: the nominal optimum is unstable somewhere in the box
+    bool mass_certified = false;      // stability over the mass range proven (not only sampled)
 };
 
 struct TuningResult {
-    std::string criterion;          // "CE2", ...
-    bool explicit_gains = false;    // K, B given by the user (then `criterion` only names the reported cost)
-    double K = 0.0;                 // N/m
-    double B = 0.0;                 // N s/m
-    double alpha = 0.0;             // K T^2 / m
-    double beta = 0.0;              // B T / m
-    std::optional<double> cost;     // predicted cost of `criterion` at (alpha, beta)
-    double alpha_max = 0.0;         // largest stable alpha of the plant
+    std::string criterion;                // "CE2", ...
+    bool explicit_gains = false;          // K, B given by the user (then `criterion` only names the reported cost)
+    double K = 0.0;                       // N/m
+    double B = 0.0;                       // N s/m
+    double alpha = 0.0;                   // K T^2 / m
+    double beta = 0.0;                    // B T / m
+    std::optional<double> cost;           // predicted cost of `criterion` at (alpha, beta)
+    double alpha_max = 0.0;               // largest stable alpha of the plant
     std::optional<RobustSummary> robust;  // --robust: alpha, beta, alpha_max of the box centre; cost = worst case
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };

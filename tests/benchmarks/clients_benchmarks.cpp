@@ -72,13 +72,35 @@ void report(benchmark::State& state, const std::string& prefix, const LatencySta
 
 // hapticd --serve (tests/common/process.hpp), ready once a connect succeeds; stopped with SIGTERM.
 class DaemonProcess {
-public:
+  public:
     DaemonProcess(const std::string& socket, const std::string& shm, long spin_us)
         : process_(HAPTICD_BINARY,
-                   {"--config", "", "--serve", "--serve-socket", socket, "--serve-shm", shm, "--spin-us", std::to_string(spin_us),
-                    "--wall", "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
-                    "--hold-distance", "0.055", "--hold-force", "2", "--watchdog-overruns", "1000000",
-                    "--watchdog-stall-periods", "1000000", "--quiet"},
+                   {"--config",
+                    "",
+                    "--serve",
+                    "--serve-socket",
+                    socket,
+                    "--serve-shm",
+                    shm,
+                    "--spin-us",
+                    std::to_string(spin_us),
+                    "--wall",
+                    "axis=0 position=0.05 direction=+1",
+                    "--stiffness",
+                    "100",
+                    "--damping",
+                    "1",
+                    "--scenario",
+                    "hold",
+                    "--hold-distance",
+                    "0.055",
+                    "--hold-force",
+                    "2",
+                    "--watchdog-overruns",
+                    "1000000",
+                    "--watchdog-stall-periods",
+                    "1000000",
+                    "--quiet"},
                    "bench_daemon", "", hapticd::test::scratch_dir("hapticd_bench")) {
         ready_ = process_.pid() > 0 && hapticd::test::wait_for_socket(socket, std::chrono::seconds(20));
     }
@@ -88,7 +110,7 @@ public:
     }
     [[nodiscard]] bool started() const { return ready_; }
 
-private:
+  private:
     hapticd::test::Process process_;
     bool ready_ = false;
 };
@@ -187,11 +209,13 @@ void BM_CommandToForceLatency(benchmark::State& state) {
         report(state, "status", status_reply);
         report(state, "pingpong", pingpong);
         state.counters["commits"] = static_cast<double>(to_force.count());
-        state.counters["goal_us"] = static_cast<double>(period_ns) * 1e-3 + static_cast<double>(pingpong.percentile_ns(0.5)) * 1e-3;
+        state.counters["goal_us"] =
+            static_cast<double>(period_ns) * 1e-3 + static_cast<double>(pingpong.percentile_ns(0.5)) * 1e-3;
         // The worst a commit should take here if the server added no stall of its own: one period, the
         // loop's worst wake-up in the same run, and the worst bare ping-pong (the socket's own stalls).
         state.counters["loop_wake_max_us"] = static_cast<double>(loop_wake_max_ns) * 1e-3;
-        state.counters["machine_bound_max_us"] = static_cast<double>(period_ns) * 1e-3 + static_cast<double>(loop_wake_max_ns) * 1e-3 +
+        state.counters["machine_bound_max_us"] = static_cast<double>(period_ns) * 1e-3 +
+                                                 static_cast<double>(loop_wake_max_ns) * 1e-3 +
                                                  static_cast<double>(pingpong.max_ns()) * 1e-3;
     }
     state.counters["client_fifo"] = rt.fifo ? 1.0 : 0.0;
@@ -240,23 +264,32 @@ struct OneWallTick {
 // computed"): the normals of the planes go around the z axis, so their forces cancel at the origin and the
 // simulated handle stays within a fraction of a millimetre of it.
 enum class TickScene : int {
-    BilateralPlanes = 0,     // in contact, 5 mm inside: linear, summed in closed form
-    UnilateralOutside = 1,   // 2 mm out of contact: beyond the safe radius, skipped
-    UnilateralInside = 2,    // all pressed 1 mm deep, within the clamp's reach: each evaluated every tick (the worst case)
-    FieldsInside = 3,        // the handle inside 64 fields of 1 cm radius: linear, summed
+    BilateralPlanes = 0,    // in contact, 5 mm inside: linear, summed in closed form
+    UnilateralOutside = 1,  // 2 mm out of contact: beyond the safe radius, skipped
+    UnilateralInside =
+        2,             // all pressed 1 mm deep, within the clamp's reach: each evaluated every tick (the worst case)
+    FieldsInside = 3,  // the handle inside 64 fields of 1 cm radius: linear, summed
     BilateralOneMoving = 4,  // 64 bilateral planes, one of them moved by a commit every tick (re-summed each tick)
     UnilateralDeep = 5,      // all pressed 5 mm deep: summed while the motion test proves their clamps idle
-    BilateralOneGliding = 6, // 64 bilateral planes, one moved every 5 ticks with the daemon's interpolation (a move each tick)
+    BilateralOneGliding =
+        6,  // 64 bilateral planes, one moved every 5 ticks with the daemon's interpolation (a move each tick)
 };
 const char* to_string(TickScene s) {
     switch (s) {
-        case TickScene::BilateralPlanes: return "bilateral_planes_in_contact";
-        case TickScene::UnilateralOutside: return "unilateral_planes_out_of_contact";
-        case TickScene::UnilateralInside: return "unilateral_planes_all_pressed";
-        case TickScene::FieldsInside: return "fields_handle_inside";
-        case TickScene::BilateralOneMoving: return "bilateral_planes_one_moved_every_tick";
-        case TickScene::UnilateralDeep: return "unilateral_planes_all_pressed_5mm";
-        case TickScene::BilateralOneGliding: return "bilateral_planes_one_interpolated_200Hz";
+        case TickScene::BilateralPlanes:
+            return "bilateral_planes_in_contact";
+        case TickScene::UnilateralOutside:
+            return "unilateral_planes_out_of_contact";
+        case TickScene::UnilateralInside:
+            return "unilateral_planes_all_pressed";
+        case TickScene::FieldsInside:
+            return "fields_handle_inside";
+        case TickScene::BilateralOneMoving:
+            return "bilateral_planes_one_moved_every_tick";
+        case TickScene::UnilateralDeep:
+            return "unilateral_planes_all_pressed_5mm";
+        case TickScene::BilateralOneGliding:
+            return "bilateral_planes_one_interpolated_200Hz";
     }
     return "?";
 }
@@ -367,7 +400,9 @@ struct ObjectsTick {
     }
 };
 
-std::string bench_shm(const char* what) { return "/hapticd-bench-" + std::string(what) + "-" + std::to_string(::getpid()); }
+std::string bench_shm(const char* what) {
+    return "/hapticd-bench-" + std::string(what) + "-" + std::to_string(::getpid());
+}
 
 void BM_TickOneWall(benchmark::State& state) {
     OneWallTick rig;
@@ -390,12 +425,15 @@ void BM_Tick64Objects(benchmark::State& state) {
         ++n;
     }
     state.counters["x_range_mm"] = (hi - lo) * 1e3;
-    state.counters["pressed_summed_per_tick"] = static_cast<double>(rig.objects.pressed_summed() - s0) / static_cast<double>(n);
-    state.counters["pressed_one_by_one_per_tick"] = static_cast<double>(rig.objects.pressed_fallbacks() - b0) / static_cast<double>(n);
+    state.counters["pressed_summed_per_tick"] =
+        static_cast<double>(rig.objects.pressed_summed() - s0) / static_cast<double>(n);
+    state.counters["pressed_one_by_one_per_tick"] =
+        static_cast<double>(rig.objects.pressed_fallbacks() - b0) / static_cast<double>(n);
     state.SetLabel(to_string(scene));
     state.counters["objects"] = static_cast<double>(rig.objects.occupied());
     state.counters["contacts"] = static_cast<double>(__builtin_popcountll(rig.objects.contact_mask()));
-    state.counters["classified_per_tick"] = static_cast<double>(rig.objects.classifications() - c0) / static_cast<double>(n);
+    state.counters["classified_per_tick"] =
+        static_cast<double>(rig.objects.classifications() - c0) / static_cast<double>(n);
 }
 BENCHMARK(BM_Tick64Objects)->DenseRange(0, 5);
 
@@ -446,7 +484,8 @@ void BM_TickPartContacts64(benchmark::State& state) {
         while (rig.contact_ring.try_pop(r)) ++pushed;
     }
     state.SetLabel(toggling ? "64 transitions per tick" : "64 in contact, steady");
-    state.counters["contacts"] = static_cast<double>(__builtin_popcountll(rig.objects.contact_mask() & rig.objects.occupied_mask()));
+    state.counters["contacts"] =
+        static_cast<double>(__builtin_popcountll(rig.objects.contact_mask() & rig.objects.occupied_mask()));
     state.counters["records_per_tick"] = static_cast<double>(pushed) / static_cast<double>(state.iterations());
     state.counters["lost"] = static_cast<double>(rig.contacts.lost());
 }

@@ -14,64 +14,69 @@ using namespace hapticopt;
 
 // Gains near the CE2 optimum of each delay (Table III/IV; 0.6x alpha_max for larger d).
 NormalizedGains gains_for(double d) {
-  if (d == 0) return {0.2474, 0.7445};
-  if (d == 1) return {0.0582, 0.3796};
-  return {0.006, 0.09};  // d = 6: inside the region, alpha_max = 0.01126
+    if (d == 0) return {0.2474, 0.7445};
+    if (d == 1) return {0.0582, 0.3796};
+    return {0.006, 0.09};  // d = 6: inside the region, alpha_max = 0.01126
 }
 
 void BM_EnergyCosts(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(0));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const NormalizedGains g = gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(energy_costs(plant, g.alpha, g.beta));
+    const double d = static_cast<double>(state.range(0));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const NormalizedGains g = gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(energy_costs(plant, g.alpha, g.beta));
 }
 BENCHMARK(BM_EnergyCosts)->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
 // C_E<k> alone (what the CEk optimiser evaluates): C_E0 needs one Stein solve, C_E2 all three.
 void BM_EnergyCostSingleIndex(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(0));
-  const int k = static_cast<int>(state.range(1));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const NormalizedGains g = gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(energy_cost(plant, g.alpha, g.beta, k));
+    const double d = static_cast<double>(state.range(0));
+    const int k = static_cast<int>(state.range(1));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const NormalizedGains g = gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(energy_cost(plant, g.alpha, g.beta, k));
 }
-BENCHMARK(BM_EnergyCostSingleIndex)->Args({1, 0})->Args({1, 2})->Args({6, 0})->Args({6, 2})
+BENCHMARK(BM_EnergyCostSingleIndex)
+    ->Args({1, 0})
+    ->Args({1, 2})
+    ->Args({6, 0})
+    ->Args({6, 2})
     ->Unit(benchmark::kMicrosecond);
 
 // The complex Schur form + triangular Stein solves: the tests' independent method, the baseline here.
 void BM_EnergyCostsComplexSchur(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(0));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const NormalizedGains g = gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(hapticopt::detail::energy_costs_complex_schur(plant, g.alpha, g.beta));
+    const double d = static_cast<double>(state.range(0));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const NormalizedGains g = gains_for(d);
+    for (auto _ : state)
+        benchmark::DoNotOptimize(hapticopt::detail::energy_costs_complex_schur(plant, g.alpha, g.beta));
 }
 BENCHMARK(BM_EnergyCostsComplexSchur)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
 void BM_EnergyCostsIncludingPlantSetup(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(0));
-  const NormalizedGains g = gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(energy_costs(NormalizedPlant{0.001, 0.02, d}, g));
+    const double d = static_cast<double>(state.range(0));
+    const NormalizedGains g = gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(energy_costs(NormalizedPlant{0.001, 0.02, d}, g));
 }
 BENCHMARK(BM_EnergyCostsIncludingPlantSetup)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 void BM_Overshoot(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(0));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const NormalizedGains g = gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(overshoot(plant, g.alpha, g.beta));
+    const double d = static_cast<double>(state.range(0));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const NormalizedGains g = gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(overshoot(plant, g.alpha, g.beta));
 }
 BENCHMARK(BM_Overshoot)->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
 void BM_StabilityTest(benchmark::State& state) {
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, 1});
-  for (auto _ : state) benchmark::DoNotOptimize(loop_is_stable(plant, 0.0582, 0.3796));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, 1});
+    for (auto _ : state) benchmark::DoNotOptimize(loop_is_stable(plant, 0.0582, 0.3796));
 }
 BENCHMARK(BM_StabilityTest)->Unit(benchmark::kMicrosecond);
 
 void BM_Optimum(benchmark::State& state) {
-  const auto c = static_cast<Criterion>(state.range(0));
-  const double d = static_cast<double>(state.range(1));
-  for (auto _ : state) benchmark::DoNotOptimize(optimal_point(c, NormalizedPlant{0, 0, d}));
+    const auto c = static_cast<Criterion>(state.range(0));
+    const double d = static_cast<double>(state.range(1));
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point(c, NormalizedPlant{0, 0, d}));
 }
 BENCHMARK(BM_Optimum)
     ->Args({static_cast<int>(Criterion::CE2), 1})
@@ -80,80 +85,91 @@ BENCHMARK(BM_Optimum)
     ->Args({static_cast<int>(Criterion::Overshoot), 1})
     ->Unit(benchmark::kMillisecond);
 
-
 // Velocity estimators (velocity_estimator.hpp). Kind 0: the backward difference through the estimator's
 // dense loop (complex Schur; compare BM_EnergyCosts, the shift-structured backward path, in the same run);
 // 1: low-pass nu = 0.02 (20 Hz at 1 kHz); 2: window N = 15. Gains: BM_EstimatorOptimum's CE2 optima of
 // these estimators are about (0.0047, 0.09..0.11) at d = 0, 1 and (0.0013, 0.05) at d = 6: use points inside
 // every main region.
 VelocityEstimator estimator_for(std::int64_t kind) {
-  if (kind == 1) return VelocityEstimator::low_pass(0.02);
-  if (kind == 2) return VelocityEstimator::moving_window(15);
-  return VelocityEstimator::backward_difference();
+    if (kind == 1) return VelocityEstimator::low_pass(0.02);
+    if (kind == 2) return VelocityEstimator::moving_window(15);
+    return VelocityEstimator::backward_difference();
 }
-NormalizedGains estimator_gains_for(double d) { return d >= 6 ? NormalizedGains{0.0013, 0.05} : NormalizedGains{0.0046, 0.09}; }
+NormalizedGains estimator_gains_for(double d) {
+    return d >= 6 ? NormalizedGains{0.0013, 0.05} : NormalizedGains{0.0046, 0.09};
+}
 
 void BM_EstimatorEnergyCosts(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(1));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const VelocityEstimator e = estimator_for(state.range(0));
-  const NormalizedGains g = estimator_gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(estimator_energy_costs(plant, e, g.alpha, g.beta));
+    const double d = static_cast<double>(state.range(1));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const VelocityEstimator e = estimator_for(state.range(0));
+    const NormalizedGains g = estimator_gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(estimator_energy_costs(plant, e, g.alpha, g.beta));
 }
 BENCHMARK(BM_EstimatorEnergyCosts)
-    ->Args({0, 1})->Args({1, 1})->Args({2, 1})->Args({0, 6})->Args({1, 6})->Args({2, 6})
+    ->Args({0, 1})
+    ->Args({1, 1})
+    ->Args({2, 1})
+    ->Args({0, 6})
+    ->Args({1, 6})
+    ->Args({2, 6})
     ->Unit(benchmark::kMicrosecond);
 
 // The backward baseline of BM_EstimatorEnergyCosts at the same gains (shift-structured path).
 void BM_EstimatorBaselineEnergyCosts(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(0));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const NormalizedGains g = estimator_gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(energy_costs(plant, g.alpha, g.beta));
+    const double d = static_cast<double>(state.range(0));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const NormalizedGains g = estimator_gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(energy_costs(plant, g.alpha, g.beta));
 }
 BENCHMARK(BM_EstimatorBaselineEnergyCosts)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
 void BM_ForceNoiseGain(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(1));
-  const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
-  const VelocityEstimator e = estimator_for(state.range(0));
-  const NormalizedGains g = estimator_gains_for(d);
-  for (auto _ : state) benchmark::DoNotOptimize(estimator_force_noise_gain(plant, e, g.alpha, g.beta));
+    const double d = static_cast<double>(state.range(1));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const VelocityEstimator e = estimator_for(state.range(0));
+    const NormalizedGains g = estimator_gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(estimator_force_noise_gain(plant, e, g.alpha, g.beta));
 }
 BENCHMARK(BM_ForceNoiseGain)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMicrosecond);
 
 // CE2 optimum with the estimator; kind 0 is the existing backward optimiser (optimal_point, optimum.hpp).
 void BM_EstimatorOptimum(benchmark::State& state) {
-  const double d = static_cast<double>(state.range(1));
-  const VelocityEstimator e = estimator_for(state.range(0));
-  for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, e));
+    const double d = static_cast<double>(state.range(1));
+    const VelocityEstimator e = estimator_for(state.range(0));
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, e));
 }
 BENCHMARK(BM_EstimatorOptimum)
-    ->Args({0, 1})->Args({1, 1})->Args({2, 1})->Args({0, 6})->Args({1, 6})->Args({2, 6})
+    ->Args({0, 1})
+    ->Args({1, 1})
+    ->Args({2, 1})
+    ->Args({0, 6})
+    ->Args({1, 6})
+    ->Args({2, 6})
     ->Unit(benchmark::kMillisecond);
 
 // CE2 under a force-noise budget (noise_budget.hpp), d = 1: half the g_F of the unconstrained optimum (the budget
 // binds); the unconstrained optimum is part of the call (compare BM_EstimatorOptimum in the same run).
 void BM_NoiseBudgetOptimum(benchmark::State& state) {
-  const NormalizedPlant plant{0, 0, static_cast<double>(state.range(1))};
-  const VelocityEstimator e = estimator_for(state.range(0));
-  const EstimatorOptimum free = optimal_point(Criterion::CE2, plant, e);
-  const double budget = 0.5 * force_noise_gain(plant, {free.alpha, free.beta}, e);
-  for (auto _ : state) benchmark::DoNotOptimize(optimal_point_under_noise_budget(Criterion::CE2, plant, e, budget));
+    const NormalizedPlant plant{0, 0, static_cast<double>(state.range(1))};
+    const VelocityEstimator e = estimator_for(state.range(0));
+    const EstimatorOptimum free = optimal_point(Criterion::CE2, plant, e);
+    const double budget = 0.5 * force_noise_gain(plant, {free.alpha, free.beta}, e);
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point_under_noise_budget(Criterion::CE2, plant, e, budget));
 }
 BENCHMARK(BM_NoiseBudgetOptimum)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMillisecond);
 
 void BM_AllTableRows(benchmark::State& state) {
-  for (auto _ : state) {
-    for (double d : {0.0, 1.0}) {
-      for (double gamma : {0.0, 0.001}) {
-        for (double delta : {0.0, 0.02}) {
-          const WallOptimizer opt(NormalizedPlant{gamma, delta, d});
-          for (const Criterion c : kAllCriteria) benchmark::DoNotOptimize(opt.optimum(c));
+    for (auto _ : state) {
+        for (double d : {0.0, 1.0}) {
+            for (double gamma : {0.0, 0.001}) {
+                for (double delta : {0.0, 0.02}) {
+                    const WallOptimizer opt(NormalizedPlant{gamma, delta, d});
+                    for (const Criterion c : kAllCriteria) benchmark::DoNotOptimize(opt.optimum(c));
+                }
+            }
         }
-      }
     }
-  }
 }
 BENCHMARK(BM_AllTableRows)->Unit(benchmark::kMillisecond)->Iterations(1);
 

@@ -185,9 +185,10 @@ void BM_WakeLatency(benchmark::State& state) {
             state.counters["cyclictest_p99_us"] = ct.percentile_us(0.99);
             state.counters["cyclictest_p99.9_us"] = ct.percentile_us(0.999);
             state.counters["cyclictest_max_us"] = static_cast<double>(ct.max_us);
-            state.counters["cyclictest_overruns"] = static_cast<double>(ct.at_least(static_cast<std::size_t>(period / 1000)));
-            state.counters["ratio_p99_loop_cyclictest"] =
-                static_cast<double>(loop.wake_latency().percentile_ns(0.99)) * 1e-3 / std::max(1.0, ct.percentile_us(0.99));
+            state.counters["cyclictest_overruns"] =
+                static_cast<double>(ct.at_least(static_cast<std::size_t>(period / 1000)));
+            state.counters["ratio_p99_loop_cyclictest"] = static_cast<double>(loop.wake_latency().percentile_ns(0.99)) *
+                                                          1e-3 / std::max(1.0, ct.percentile_us(0.99));
         } else {
             state.SetLabel("cyclictest (rt-tests) not run: not installed or no permission for SCHED_FIFO");
         }

@@ -41,7 +41,8 @@ GainCheckPlant bench_plant(int d, bool anisotropic) {
     return p;
 }
 
-SceneTerm bench_plane(const std::array<double, 3>& n, double K, double B, bool conditional, SceneTerm::Role role = SceneTerm::Role::Base) {
+SceneTerm bench_plane(const std::array<double, 3>& n, double K, double B, bool conditional,
+                      SceneTerm::Role role = SceneTerm::Role::Base) {
     SceneTerm t = plane_term(n, K, B);
     t.conditional = conditional;
     t.role = role;
@@ -72,7 +73,7 @@ std::vector<SceneTerm> typical_scene(GainChecker& checker, int d) {
     const std::array<double, 3> n1 = unit(0.3, 0.5, 0.8), n2 = unit(-0.7, 0.2, 0.4);
     terms.push_back(bench_plane(n1, 1000.0 * scale, 10.0 * scale, true));  // unilateral
     terms.push_back(bench_plane(n2, 500.0 * scale, 5.0 * scale, false));   // bilateral
-    SceneTerm field;                                                        // -J = 300 I, damping 5: being added
+    SceneTerm field;                                                       // -J = 300 I, damping 5: being added
     for (std::size_t i = 0; i < 3; ++i) {
         field.K[i][i] = 300.0 * scale;
         field.B[i][i] = 5.0 * scale;
@@ -90,7 +91,8 @@ std::vector<SceneTerm> one_direction_scene(const GainChecker& checker) {
     const std::array<double, 3> n = unit(0.0, 0.6, 0.8);
     const double m = checker.mass_along(n);
     for (int i = 0; i < 9; ++i) {
-        terms.push_back(bench_plane(n, (0.001 + 0.0002 * i) * m / (kBenchPeriod * kBenchPeriod), 0.015 * m / kBenchPeriod, true,
+        terms.push_back(bench_plane(n, (0.001 + 0.0002 * i) * m / (kBenchPeriod * kBenchPeriod),
+                                    0.015 * m / kBenchPeriod, true,
                                     i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
     }
     return terms;

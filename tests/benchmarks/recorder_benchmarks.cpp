@@ -18,9 +18,7 @@ namespace {
 
 using namespace hapticd;
 
-std::string scratch_file(const char* name) {
-    return (std::filesystem::temp_directory_path() / name).string();
-}
+std::string scratch_file(const char* name) { return (std::filesystem::temp_directory_path() / name).string(); }
 
 void BM_RecorderPushTick(benchmark::State& state) {
     Recorder recorder(scratch_file("hapticd_bench_push_tick.rec"), "{}", 1U << 16U, false);

@@ -23,7 +23,7 @@ inline std::filesystem::path scratch_dir() { return hapticd::test::scratch_dir("
 
 // A program as a child process (tests/common/process.hpp), its output in this suite's scratch directory.
 class Process : public hapticd::test::Process {
-public:
+  public:
     Process(const std::string& binary, const std::vector<std::string>& args, const std::string& tag,
             const std::string& stdin_path = "")
         : hapticd::test::Process(binary, args, tag, stdin_path, scratch_dir()) {}
@@ -38,7 +38,7 @@ inline Result run(const std::string& binary, const std::vector<std::string>& arg
 // N s/m, so that client objects along x pass the summed-gain check), the simulated hand holding the handle
 // at x = -5 mm and pushing towards +x with 2 N (scenario hold). Runs until SIGTERM.
 class LockstepDaemon {
-public:
+  public:
     // extra: more hapticd arguments (e.g. --device PROFILE).
     explicit LockstepDaemon(const std::string& tag, const std::vector<std::string>& extra = {})
         : socket_((scratch_dir() / (tag + ".sock")).string()),
@@ -46,10 +46,18 @@ public:
           process_(HAPTICD_BINARY, arguments(socket_, shm_, extra), tag + "_daemon") {
         ready_ = hapticd::test::wait_for_socket(socket_, std::chrono::seconds(20));
     }
-    static std::vector<std::string> arguments(const std::string& socket, const std::string& shm, const std::vector<std::string>& extra) {
-        std::vector<std::string> a{"--config", "", "--lockstep", "--serve", "--serve-socket", socket, "--serve-shm", shm, "--wall",
-                                   "axis=0 position=0.05 direction=+1", "--stiffness", "100", "--damping", "1", "--scenario", "hold",
-                                   "--hold-distance", "0.055", "--hold-force", "2"};
+    static std::vector<std::string> arguments(const std::string& socket, const std::string& shm,
+                                              const std::vector<std::string>& extra) {
+        std::vector<std::string> a{"--config",        "",
+                                   "--lockstep",      "--serve",
+                                   "--serve-socket",  socket,
+                                   "--serve-shm",     shm,
+                                   "--wall",          "axis=0 position=0.05 direction=+1",
+                                   "--stiffness",     "100",
+                                   "--damping",       "1",
+                                   "--scenario",      "hold",
+                                   "--hold-distance", "0.055",
+                                   "--hold-force",    "2"};
         a.insert(a.end(), extra.begin(), extra.end());
         return a;
     }
@@ -66,7 +74,7 @@ public:
     [[nodiscard]] const std::string& shm() const { return shm_; }
     [[nodiscard]] std::string log() const { return process_.out() + process_.err(); }
 
-private:
+  private:
     std::string socket_;
     std::string shm_;
     Process process_;

@@ -19,8 +19,8 @@ TEST(Examples, MovingWallRunsForItsDurationAndTheLoopAppliesEveryUpdate) {
     ASSERT_TRUE(daemon.ready()) << daemon.log();
     // The wall surface at x = -5 mm +- 2 mm (normal -x, offset 0.005): the hand is pressed against it.
     const Result r = clients_test::run(MOVING_WALL_BINARY,
-                                       {"--socket", daemon.socket(), "--duration", "1", "--update-rate", "100", "--stiffness",
-                                        "2000", "--damping", "10"},
+                                       {"--socket", daemon.socket(), "--duration", "1", "--update-rate", "100",
+                                        "--stiffness", "2000", "--damping", "10"},
                                        "moving_wall");
     ASSERT_EQ(r.code, 0) << r.out << r.err;
     unsigned long long updates = 0, contact = 0, samples = 0;
@@ -45,8 +45,8 @@ TEST(Examples, PushButtonPrintsPressedWhenTheHandPushesPastTheClick) {
     ASSERT_TRUE(daemon.ready()) << daemon.log();
     // K = 1000 N/m against the hand's 2 N less its spring (k_H = 200 N/m, held at the surface): 1000 d = 2 - 200 d,
     // 1.67 mm deep at rest, past the 1.5 mm click; --presses 1 ends it.
-    const Result r = clients_test::run(PUSH_BUTTON_BINARY, {"--socket", daemon.socket(), "--duration", "10", "--presses", "1"},
-                                       "push_button");
+    const Result r = clients_test::run(
+        PUSH_BUTTON_BINARY, {"--socket", daemon.socket(), "--duration", "10", "--presses", "1"}, "push_button");
     ASSERT_EQ(r.code, 0) << r.out << r.err;
     EXPECT_NE(r.out.find("ready"), std::string::npos) << r.out;
     double depth = 0, force = 0;
@@ -79,10 +79,11 @@ WallRun moving_wall_against_readme_daemon(const std::string& tag, const std::vec
     const std::string socket = (clients_test::scratch_dir() / (tag + ".sock")).string();
     const std::string shm = "/hapticd-clients-" + std::to_string(::getpid()) + "-" + tag;
     const std::string trace = (clients_test::scratch_dir() / (tag + ".csv")).string();
-    std::vector<std::string> args{"--config", "", "--serve", "--no-walls", "--serve-socket", socket, "--serve-shm", shm, "--rt-priority",
-                                  "0", "--mlock", "false", "--duration", "4", "--trace", trace, "--trace-axis", "0", "--quiet",
-                                  // the example gives up on session_limit; a loop delayed by a loaded machine must not end it
-                                  "--session-max-in-flight", "64"};
+    std::vector<std::string> args{
+        "--config", "", "--serve", "--no-walls", "--serve-socket", socket, "--serve-shm", shm, "--rt-priority", "0",
+        "--mlock", "false", "--duration", "4", "--trace", trace, "--trace-axis", "0", "--quiet",
+        // the example gives up on session_limit; a loop delayed by a loaded machine must not end it
+        "--session-max-in-flight", "64"};
     args.insert(args.end(), extra.begin(), extra.end());
     clients_test::Process daemon(HAPTICD_BINARY, args, tag + "_daemon");
     EXPECT_TRUE(hapticd::test::wait_for_socket(socket, std::chrono::seconds(10))) << daemon.err();
@@ -115,14 +116,15 @@ WallRun moving_wall_against_readme_daemon(const std::string& tag, const std::vec
         ++run.counted;
     }
     run.roughness = run.counted > 0 ? std::sqrt(sum2 / static_cast<double>(run.counted)) : 0.0;
-    std::printf("[ moving wall, real time%s ] %zu ticks judged: %zu releases, roughness %.4f N\n", extra.empty() ? "" : ", moves at once",
-                run.counted, run.releases, run.roughness);
+    std::printf("[ moving wall, real time%s ] %zu ticks judged: %zu releases, roughness %.4f N\n",
+                extra.empty() ? "" : ", moves at once", run.counted, run.releases, run.roughness);
     return run;
 }
 
 TEST(Examples, MovingWallRendersWithoutChatterAgainstTheReadmeDaemon) {
     const WallRun held = moving_wall_against_readme_daemon("moving_held", {});
-    const WallRun at_once = moving_wall_against_readme_daemon("moving_at_once", {"--move-interval-max", "0", "--activation-speed", "0"});
+    const WallRun at_once =
+        moving_wall_against_readme_daemon("moving_at_once", {"--move-interval-max", "0", "--activation-speed", "0"});
     ASSERT_GT(held.counted, 600U) << "too many late ticks to judge";
     ASSERT_GT(at_once.counted, 600U) << "too many late ticks to judge";
     EXPECT_LE(10 * held.releases, at_once.releases);

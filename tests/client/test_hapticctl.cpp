@@ -17,7 +17,7 @@ using clients_test::Process;
 using clients_test::Result;
 
 class Hapticctl : public ::testing::Test {
-protected:
+  protected:
     static void SetUpTestSuite() { daemon_ = new LockstepDaemon("hapticctl"); }
     static void TearDownTestSuite() {
         EXPECT_EQ(daemon_->stop(), 0) << daemon_->log();
@@ -30,7 +30,8 @@ protected:
         args.insert(args.begin(), {"--socket", daemon_->socket()});
         return args;
     }
-    static Result ctl(const std::vector<std::string>& args, const std::string& tag, const std::string& stdin_path = "") {
+    static Result ctl(const std::vector<std::string>& args, const std::string& tag,
+                      const std::string& stdin_path = "") {
         return clients_test::run(HAPTICCTL_BINARY, with_socket(args), tag, stdin_path);
     }
     // The scene's objects (hapticctl list --json).
@@ -109,11 +110,13 @@ TEST_F(Hapticctl, StatusShowsTheMassTheGainsAreCheckedFor) {
 
     LockstepDaemon aniso("hapticctl_aniso", {"--device", HAPTICD_ANISO_PROFILE});
     ASSERT_TRUE(aniso.ready()) << aniso.log();
-    const Result j = clients_test::run(HAPTICCTL_BINARY, {"--socket", aniso.socket(), "status", "--json"}, "status_aniso_json");
+    const Result j =
+        clients_test::run(HAPTICCTL_BINARY, {"--socket", aniso.socket(), "status", "--json"}, "status_aniso_json");
     ASSERT_EQ(j.code, 0) << j.err;
     const auto a = nlohmann::json::parse(j.out)["device"];
     // The profile's matrix, row by row (exact: the numbers are read and sent as doubles).
-    EXPECT_EQ(a["mass_matrix"], (nlohmann::json{{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}})) << a.dump();
+    EXPECT_EQ(a["mass_matrix"], (nlohmann::json{{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}}))
+        << a.dump();
     EXPECT_EQ(a["max_stiffness"], 100000.0);
     // Along axis 0 a plane acts with 1 / (M^-1)_00 = det M / (M_11 M_22 - M_12^2) = 0.0295 / 0.075 (cofactors).
     const double det = 0.45 * (0.30 * 0.25) - 0.10 * (0.10 * 0.25) + 0.12 * (0.0 - 0.30 * 0.12);
@@ -126,7 +129,8 @@ TEST_F(Hapticctl, StatusShowsTheMassTheGainsAreCheckedFor) {
 
 TEST_F(Hapticctl, EachFailureHasItsExitCode) {
     // 3: no daemon at that socket.
-    const Result none = clients_test::run(HAPTICCTL_BINARY, {"--socket", "/nonexistent/hapticd.sock", "status"}, "nodaemon");
+    const Result none =
+        clients_test::run(HAPTICCTL_BINARY, {"--socket", "/nonexistent/hapticd.sock", "status"}, "nodaemon");
     EXPECT_EQ(none.code, 3) << none.err;
     EXPECT_NE(none.err.find("connect to '/nonexistent/hapticd.sock'"), std::string::npos) << none.err;
     // 2: malformed objects, before connecting (the message names the word and the accepted form).
@@ -153,7 +157,8 @@ TEST_F(Hapticctl, EachFailureHasItsExitCode) {
     const Result not_owner = ctl({"session", script}, "notowner");
     EXPECT_EQ(not_owner.code, 6) << not_owner.err;
     EXPECT_NE(not_owner.err.find("not_owner"), std::string::npos) << not_owner.err;
-    EXPECT_NE(not_owner.err.find("remove_config.txt:1"), std::string::npos) << "the message names the script line: " << not_owner.err;
+    EXPECT_NE(not_owner.err.find("remove_config.txt:1"), std::string::npos)
+        << "the message names the script line: " << not_owner.err;
     // 2: an unknown script command, naming the line.
     const std::string typo = clients_test::write_file("typo.txt", "# comment\nstatus\nfrobnicate 3\n");
     const Result t = ctl({"session", typo}, "typo");
@@ -162,27 +167,26 @@ TEST_F(Hapticctl, EachFailureHasItsExitCode) {
 }
 
 TEST_F(Hapticctl, SessionAddsModifiesAndRemovesInOneSessionThenItsObjectsGo) {
-    const std::string script = clients_test::write_file(
-        "session.txt",
-        "add plane normal=-1,0,0 offset=0.005 K=1000 B=5\n"
-        "begin\n"
-        "add spring constraint=plane point=0,0,0 direction=1,0,0 K=50 B=1\n"
-        "add field center=0,0,0 radius=0.001 force=0.1,0,0\n"
-        "commit\n"
-        "modify 1000000 plane normal=-1,0,0 offset=0.004 K=1000 B=5\n");
+    const std::string script =
+        clients_test::write_file("session.txt",
+                                 "add plane normal=-1,0,0 offset=0.005 K=1000 B=5\n"
+                                 "begin\n"
+                                 "add spring constraint=plane point=0,0,0 direction=1,0,0 K=50 B=1\n"
+                                 "add field center=0,0,0 radius=0.001 force=0.1,0,0\n"
+                                 "commit\n"
+                                 "modify 1000000 plane normal=-1,0,0 offset=0.004 K=1000 B=5\n");
     // The last line names an object that does not exist: exit 6 after the earlier lines took effect.
     const Result r = ctl({"session", script}, "session_unknown");
     EXPECT_EQ(r.code, 6) << r.out << r.err;
     EXPECT_NE(r.err.find("session.txt:6"), std::string::npos) << r.err;
 
     // A script that holds its session while a second hapticctl looks at the scene.
-    const std::string hold = clients_test::write_file(
-        "hold.txt",
-        "add plane normal=-1,0,0 offset=0.005 K=1000 B=5\n"
-        "list\n"
-        "state\n"
-        "sleep 1\n"
-        "clear\n");
+    const std::string hold = clients_test::write_file("hold.txt",
+                                                      "add plane normal=-1,0,0 offset=0.005 K=1000 B=5\n"
+                                                      "list\n"
+                                                      "state\n"
+                                                      "sleep 1\n"
+                                                      "clear\n");
     Process p(HAPTICCTL_BINARY, with_socket({"session", hold}), "session_hold");
     std::uint32_t id = 0;
     const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
@@ -206,7 +210,8 @@ TEST_F(Hapticctl, SessionAddsModifiesAndRemovesInOneSessionThenItsObjectsGo) {
 }
 
 TEST_F(Hapticctl, AddHoldsTheObjectUntilSigtermThenItRampsOut) {
-    Process p(HAPTICCTL_BINARY, with_socket({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=CE2"}), "add_hold");
+    Process p(HAPTICCTL_BINARY, with_socket({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=CE2"}),
+              "add_hold");
     std::uint32_t id = 0;
     const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     while (id == 0 && std::chrono::steady_clock::now() < end) {
@@ -245,7 +250,8 @@ TEST_F(Hapticctl, WatchPrintsOneLinePerSampleWithAdvancingTicks) {
         for (std::size_t i = 1; i < ticks.size(); ++i) EXPECT_GT(ticks[i], ticks[i - 1]) << "lockstep ticks advance";
     }
     // 9: a shared-memory name that does not exist.
-    const Result missing = clients_test::run(HAPTICCTL_BINARY, {"watch", "--shm", "/hapticd-no-such-state", "--count", "1"}, "watch_missing");
+    const Result missing = clients_test::run(
+        HAPTICCTL_BINARY, {"watch", "--shm", "/hapticd-no-such-state", "--count", "1"}, "watch_missing");
     EXPECT_EQ(missing.code, 9) << missing.err;
 }
 
@@ -253,23 +259,25 @@ TEST_F(Hapticctl, WatchPrintsOneLinePerSampleWithAdvancingTicks) {
 // lockstep, its wall tuned to the region's tip moved inwards: alpha/alpha_max = 0.9990), hapticctl's refusal
 // of an unknown one lists all eight, and an OV and an amax plane are added.
 TEST_F(Hapticctl, EveryHapticoptCriterionIsAcceptedByName) {
-    const Result d = clients_test::run(HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "amax"},
-                                       "hapticd_amax");
+    const Result d = clients_test::run(
+        HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "amax"}, "hapticd_amax");
     EXPECT_EQ(d.code, 0) << d.err;
     EXPECT_NE((d.out + d.err).find("tuned for amax"), std::string::npos) << d.out << d.err;
     EXPECT_NE((d.out + d.err).find("alpha/alpha_max = 0.9990"), std::string::npos) << d.out << d.err;
-    const Result bad = clients_test::run(HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "CE9"},
-                                         "hapticd_ce9");
+    const Result bad = clients_test::run(
+        HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "CE9"}, "hapticd_ce9");
     EXPECT_EQ(bad.code, 2) << bad.err;
     EXPECT_NE(bad.err.find("{amax,OV,CE0,CE1,CE2,CE0+OV,CE1+OV,CE2+OV}"), std::string::npos) << bad.err;
     const Result unknown = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=CE9"}, "add_ce9");
     EXPECT_EQ(unknown.code, 5) << unknown.err;
     EXPECT_NE(unknown.err.find("unknown_criterion"), std::string::npos) << unknown.err;
-    EXPECT_NE(unknown.err.find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"), std::string::npos) << unknown.err;
+    EXPECT_NE(unknown.err.find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"), std::string::npos)
+        << unknown.err;
     const Result ov = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=OV", "--for", "0.05"}, "add_ov");
     EXPECT_EQ(ov.code, 0) << ov.err;
     EXPECT_NE(ov.out.find("added "), std::string::npos) << ov.out;
-    const Result amax = ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=amax", "--for", "0.05"}, "add_amax");
+    const Result amax =
+        ctl({"add", "plane", "normal=-1,0,0", "offset=0.005", "criterion=amax", "--for", "0.05"}, "add_amax");
     EXPECT_EQ(amax.code, 0) << amax.err;
     EXPECT_NE(amax.out.find("added "), std::string::npos) << amax.out;
 }
@@ -283,11 +291,13 @@ TEST_F(Hapticctl, EveryHapticoptCriterionIsAcceptedByName) {
 TEST_F(Hapticctl, WatchShowsTheConfigWallInContactAndTheLoopsTime) {
     LockstepDaemon d("hapticctl_config_contact", {"--wall", "axis=0 position=0.02 direction=-1"});
     ASSERT_TRUE(d.ready()) << d.log();
-    const Result st = clients_test::run(HAPTICCTL_BINARY, {"--socket", d.socket(), "status", "--json"}, "config_contact_status");
+    const Result st =
+        clients_test::run(HAPTICCTL_BINARY, {"--socket", d.socket(), "status", "--json"}, "config_contact_status");
     ASSERT_EQ(st.code, 0) << st.err;
     const double period = nlohmann::json::parse(st.out)["device"]["period_s"].get<double>();
     ASSERT_GT(period, 0.0);
-    const Result l = clients_test::run(HAPTICCTL_BINARY, {"--socket", d.socket(), "list", "--json"}, "config_contact_list");
+    const Result l =
+        clients_test::run(HAPTICCTL_BINARY, {"--socket", d.socket(), "list", "--json"}, "config_contact_list");
     ASSERT_EQ(l.code, 0) << l.err;
     const auto list = nlohmann::json::parse(l.out);
     ASSERT_EQ(list.size(), 2U) << l.out;
@@ -296,7 +306,8 @@ TEST_F(Hapticctl, WatchShowsTheConfigWallInContactAndTheLoopsTime) {
     for (const bool via_socket : {false, true}) {
         std::vector<std::string> args{"--socket", d.socket(), "watch", "--count", "5", "--rate", "50"};
         if (via_socket) args.push_back("--via-socket");
-        const Result r = clients_test::run(HAPTICCTL_BINARY, args, via_socket ? "config_contact_socket" : "config_contact_shm");
+        const Result r =
+            clients_test::run(HAPTICCTL_BINARY, args, via_socket ? "config_contact_socket" : "config_contact_shm");
         ASSERT_EQ(r.code, 0) << r.err;
         std::istringstream lines(r.out);
         std::string line;

@@ -55,7 +55,7 @@ inline double monotonic_s() {
 }
 
 class Process {
-public:
+  public:
     /// Starts `binary` with `args`; stdin from `stdin_path` ("": /dev/null); stdout and stderr in
     /// <dir>/<tag>.stdout and <dir>/<tag>.stderr. pid() is -1 when posix_spawn failed.
     Process(const std::string& binary, const std::vector<std::string>& args, const std::string& tag,
@@ -116,7 +116,7 @@ public:
     [[nodiscard]] std::string out() const { return read_file(out_path_); }
     [[nodiscard]] std::string err() const { return read_file(err_path_); }
 
-private:
+  private:
     pid_t pid_ = -1;
     bool reaped_ = false;
     int code_ = -1;
@@ -140,7 +140,9 @@ inline Result run(const std::string& binary, const std::vector<std::string>& arg
 
 #ifdef HAPTICD_BINARY
 /// Runs hapticd (HAPTICD_BINARY) to its end (at most 30 s).
-inline Result run(const std::vector<std::string>& args, const std::string& tag) { return run(HAPTICD_BINARY, args, tag); }
+inline Result run(const std::vector<std::string>& args, const std::string& tag) {
+    return run(HAPTICD_BINARY, args, tag);
+}
 #endif
 
 }  // namespace hapticd::test

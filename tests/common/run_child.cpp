@@ -18,9 +18,7 @@ namespace {
 
 // Between fork() and exec() in a multi-threaded parent only async-signal-safe calls are allowed: no
 // allocation, so the messages are literals written with write(2).
-void say(const char* text) {
-    [[maybe_unused]] const ssize_t n = ::write(STDERR_FILENO, text, std::strlen(text));
-}
+void say(const char* text) { [[maybe_unused]] const ssize_t n = ::write(STDERR_FILENO, text, std::strlen(text)); }
 
 [[noreturn]] void drop_failed(const char* what) {
     say("run_child: cannot drop privileges: ");
@@ -65,7 +63,8 @@ ChildResult run_child(const std::vector<std::string>& argv, std::chrono::millise
             uid_t r = 0, e = 0, s = 0;
             gid_t rg = 0, eg = 0, sg = 0;
             if (::getresuid(&r, &e, &s) != 0 || r != as->uid || e != as->uid || s != as->uid) drop_failed("uid check");
-            if (::getresgid(&rg, &eg, &sg) != 0 || rg != as->gid || eg != as->gid || sg != as->gid) drop_failed("gid check");
+            if (::getresgid(&rg, &eg, &sg) != 0 || rg != as->gid || eg != as->gid || sg != as->gid)
+                drop_failed("gid check");
             if (as->uid != 0 && ::setresuid(0, 0, 0) == 0) drop_failed("irreversibility check");
         }
         ::execv(args[0], args.data());
@@ -78,7 +77,8 @@ ChildResult run_child(const std::vector<std::string>& argv, std::chrono::millise
     const auto deadline = start + limit;
     char buf[4096];
     while (true) {
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        const auto left =
+            std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
         if (left.count() <= 0) {
             ::kill(pid, SIGKILL);
             result.timed_out = true;

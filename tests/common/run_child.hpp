@@ -16,9 +16,9 @@
 namespace hapticd::test {
 
 struct ChildResult {
-    int exit_code = -1;       // the child's exit status, -1 when killed by a signal
-    bool timed_out = false;   // killed after the time limit
-    std::string output;       // stdout and stderr, interleaved as written
+    int exit_code = -1;      // the child's exit status, -1 when killed by a signal
+    bool timed_out = false;  // killed after the time limit
+    std::string output;      // stdout and stderr, interleaved as written
     std::chrono::steady_clock::duration took{};
 };
 

@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 
 // A scratch file of this process, removed with the fixture.
 class ConfigFileTest : public ::testing::Test {
-protected:
+  protected:
     void TearDown() override {
         std::error_code ec;
         fs::remove_all(dir_, ec);
@@ -82,8 +82,9 @@ protected:
     fs::path dir_ = fs::temp_directory_path() / ("hapticd_config_file_" + std::to_string(::getpid()));
 };
 
-#define EXPECT_CONTAINS(haystack, needle) \
-    EXPECT_NE(std::string(haystack).find(needle), std::string::npos) << "missing '" << (needle) << "' in: " << (haystack)
+#define EXPECT_CONTAINS(haystack, needle)                            \
+    EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
+        << "missing '" << (needle) << "' in: " << (haystack)
 
 const std::string kMinimalProfile = "mass = 0.3\nmax_force = 10.0\n";
 
@@ -104,9 +105,10 @@ TEST_F(ConfigFileTest, ReadsEveryShippedFile) {
 }
 
 TEST_F(ConfigFileTest, ReadsScalarsWithTheirTypesAndTextsInFileOrder) {
-    const auto c = parse_config_text("b = -2.5e-3 # comment\n  a = 1_000\nc = \"x # y\"\nd = true\nf = 'lit'\n"
-                                     "h = 0x10\ni = 1_000.0\nj = -0.3\nk = inf\nl = -nan\n",
-                                     "t.toml");
+    const auto c = parse_config_text(
+        "b = -2.5e-3 # comment\n  a = 1_000\nc = \"x # y\"\nd = true\nf = 'lit'\n"
+        "h = 0x10\ni = 1_000.0\nj = -0.3\nk = inf\nl = -nan\n",
+        "t.toml");
     ASSERT_FALSE(c.issue) << c.issue->message;
     // {key, line, column, type, text}: what the option parser will read.
     struct Expected {
@@ -117,11 +119,11 @@ TEST_F(ConfigFileTest, ReadsScalarsWithTheirTypesAndTextsInFileOrder) {
         const char* text;
     };
     const Expected expected[] = {
-        {"b", 1, 1, ConfigValueType::Float, "-0.0025"},  {"a", 2, 3, ConfigValueType::Integer, "1000"},
-        {"c", 3, 1, ConfigValueType::String, "x # y"},   {"d", 4, 1, ConfigValueType::Boolean, "true"},
-        {"f", 5, 1, ConfigValueType::String, "lit"},     {"h", 6, 1, ConfigValueType::Integer, "16"},
-        {"i", 7, 1, ConfigValueType::Float, "1000"},     {"j", 8, 1, ConfigValueType::Float, "-0.3"},
-        {"k", 9, 1, ConfigValueType::Float, "inf"},      {"l", 10, 1, ConfigValueType::Float, "nan"},
+        {"b", 1, 1, ConfigValueType::Float, "-0.0025"}, {"a", 2, 3, ConfigValueType::Integer, "1000"},
+        {"c", 3, 1, ConfigValueType::String, "x # y"},  {"d", 4, 1, ConfigValueType::Boolean, "true"},
+        {"f", 5, 1, ConfigValueType::String, "lit"},    {"h", 6, 1, ConfigValueType::Integer, "16"},
+        {"i", 7, 1, ConfigValueType::Float, "1000"},    {"j", 8, 1, ConfigValueType::Float, "-0.3"},
+        {"k", 9, 1, ConfigValueType::Float, "inf"},     {"l", 10, 1, ConfigValueType::Float, "nan"},
     };
     ASSERT_EQ(c.entries.size(), std::size(expected));
     for (std::size_t i = 0; i < std::size(expected); ++i) {
@@ -138,10 +140,11 @@ TEST_F(ConfigFileTest, ReadsScalarsWithTheirTypesAndTextsInFileOrder) {
 }
 
 TEST_F(ConfigFileTest, ReadsMultiLineArraysAndTripleQuotedStrings) {
-    const auto c = parse_config_text("wall = [\n  \"axis=0 position=0.0 direction=+1\", # first\n"
-                                     "  \"axis=0 position=0.05 direction=-1\",\n]\n"
-                                     "d = \"\"\"\nfirst line\nsecond \"quoted\" line\"\"\"\nl = '''C:\\path'''\n",
-                                     "t.toml");
+    const auto c = parse_config_text(
+        "wall = [\n  \"axis=0 position=0.0 direction=+1\", # first\n"
+        "  \"axis=0 position=0.05 direction=-1\",\n]\n"
+        "d = \"\"\"\nfirst line\nsecond \"quoted\" line\"\"\"\nl = '''C:\\path'''\n",
+        "t.toml");
     ASSERT_FALSE(c.issue) << c.issue->message;
     ASSERT_EQ(c.entries.size(), 3U);
     EXPECT_EQ(c.entries[0].key, "wall");
@@ -151,7 +154,7 @@ TEST_F(ConfigFileTest, ReadsMultiLineArraysAndTripleQuotedStrings) {
     EXPECT_EQ(c.entries[1].key, "d");
     EXPECT_EQ(c.entries[1].at.line, 5);
     EXPECT_EQ(c.entries[1].values[0].text, "first line\nsecond \"quoted\" line");  // TOML drops the first newline
-    EXPECT_EQ(c.entries[2].values[0].text, "C:\\path");                             // literal: no escapes
+    EXPECT_EQ(c.entries[2].values[0].text, "C:\\path");                            // literal: no escapes
     EXPECT_EQ(c.entries[2].at.line, 8);
 }
 
@@ -170,13 +173,13 @@ TEST_F(ConfigFileTest, SyntaxErrorsHaveLineColumnAndTheLine) {
         int first_column;
         int last_column;
     };
-    for (const Case& k : {Case{"just words\n", 1, 6, 6},               // 'w': '=' expected
+    for (const Case& k : {Case{"just words\n", 1, 6, 6},                   // 'w': '=' expected
                           Case{"a = \"unterminated\nb = 1\n", 1, 18, 18},  // the newline inside the string
-                          Case{"a = 1\na = 2\n", 2, 5, 5},                // the second value of 'a'
+                          Case{"a = 1\na = 2\n", 2, 5, 5},                 // the second value of 'a'
                           Case{"a = 1, 2\n", 1, 6, 6},                     // ','
                           Case{"a =\n", 1, 4, 4},                          // the newline: value expected
                           Case{"a = fast\n", 1, 5, 8},                     // the bare word
-                          Case{"x = 1\n\n  y = [1, 2\n", 3, 12, 13}}) {     // past "  y = [1, 2" (11 characters)
+                          Case{"x = 1\n\n  y = [1, 2\n", 3, 12, 13}}) {    // past "  y = [1, 2" (11 characters)
         const auto r = parse_config_text(k.text, "t.toml");
         ASSERT_TRUE(r.issue) << k.text;
         EXPECT_EQ(r.issue->at.line, k.line) << k.text << r.issue->message;
@@ -219,7 +222,10 @@ TEST_F(ConfigFileTest, KnownTomlPlusPlusBugInputsGiveTheTomlAnswer) {
         int column;
     };
     for (const Case& k : {Case{"[&\n", 1, 2}, Case{std::string("[\0\0table]\nkey = 1\n", 18), 1, 2},
-                          Case{std::string("t = 1979-05-27T\0\x19" "2:00Z\n", 23), 1, 16}}) {
+                          Case{std::string("t = 1979-05-27T\0\x19"
+                                           "2:00Z\n",
+                                           23),
+                               1, 16}}) {
         const auto r = parse_config_text(k.text, "t.toml");
         ASSERT_TRUE(r.issue);
         EXPECT_EQ(r.issue->at.line, k.line) << r.issue->message;
@@ -267,9 +273,10 @@ TEST_F(ConfigFileTest, KnownTomlPlusPlusBugInputsGiveTheTomlAnswer) {
 // The config file as `hapticd --config F` loads it.
 
 TEST_F(ConfigFileTest, NewUserSyntaxLoads) {
-    const auto r = load_config("wall = [\n  \"axis=0 position=0.0 direction=+1\",\n"
-                               "  \"axis=0 position=0.05 direction=-1 mode=bilateral\",\n]\n"
-                               "rate = 1_000.0\ncriterion = \"\"\"CE1\"\"\"\ntrace-capacity = 0x1000\n");
+    const auto r = load_config(
+        "wall = [\n  \"axis=0 position=0.0 direction=+1\",\n"
+        "  \"axis=0 position=0.05 direction=-1 mode=bilateral\",\n]\n"
+        "rate = 1_000.0\ncriterion = \"\"\"CE1\"\"\"\ntrace-capacity = 0x1000\n");
     ASSERT_EQ(r.code, -1) << r.message;
     EXPECT_EQ(r.options.rate, 1000.0);
     EXPECT_EQ(r.options.criterion, "CE1");
@@ -283,9 +290,10 @@ TEST_F(ConfigFileTest, NewUserSyntaxLoads) {
 }
 
 TEST_F(ConfigFileTest, ValuesOfEveryTypeLoadAndTheCommandLineWins) {
-    const auto r = load_config("rate = 500\nlockstep = true\nmlock = false\ndelay-buffer = 3\n"
-                               "wall = \"axis=0 position=0.01 direction=+1\"\nstep-force = -2\n",
-                               {"--rate", "250"});
+    const auto r = load_config(
+        "rate = 500\nlockstep = true\nmlock = false\ndelay-buffer = 3\n"
+        "wall = \"axis=0 position=0.01 direction=+1\"\nstep-force = -2\n",
+        {"--rate", "250"});
     ASSERT_EQ(r.code, -1) << r.message;
     EXPECT_EQ(r.options.rate, 250.0);
     EXPECT_TRUE(r.options.lockstep);
@@ -333,7 +341,9 @@ struct BadFile {
 TEST_F(ConfigFileTest, UnknownKeysAndRejectedValuesNameTheirPlace) {
     std::vector<BadFile> cases{
         {"rate = 1000.0\n  stiffnes = 3.0\n", kExitBadConfig, {"line 2, column 3: unknown key 'stiffnes'"}},
-        {"criterion = \"CE9\"\n", kExitBadConfig, {"line 1, column 1: criterion = \"CE9\": ", "CE0"}},  // and the choices
+        {"criterion = \"CE9\"\n",
+         kExitBadConfig,
+         {"line 1, column 1: criterion = \"CE9\": ", "CE0"}},  // and the choices
         {"\nrt-priority = 10000000000\n", kExitBadConfig, {"line 2, column 1: rt-priority = 10000000000"}},
         {"rate = [1, 2]\n", kExitBadConfig, {"rate = [1, 2] is an array; accepted: a number"}}};
     for (const std::string pass_one_only : {"config", "dry-run", "list-devices", "help", "version"}) {
@@ -379,11 +389,16 @@ TEST_F(ConfigFileTest, EveryKeyRejectsTheWrongType) {
         if (command_line_only.count(key) != 0) continue;
         SCOPED_TRACE(key + " " + type);
         std::vector<std::string> wrong;
-        if (type == "FLOAT") wrong = {"\"1\"", "true"};
-        else if (type == "INT") wrong = {"\"1\"", "1.5", "true"};
-        else if (type == "TEXT") wrong = {"1", "true"};
-        else if (type.empty() || type == "BOOLEAN") wrong = {"1", "\"true\""};  // a flag or a bool
-        else ADD_FAILURE() << "type " << type << " is new: teach takes_of() in config/apply_config_file.cpp";
+        if (type == "FLOAT")
+            wrong = {"\"1\"", "true"};
+        else if (type == "INT")
+            wrong = {"\"1\"", "1.5", "true"};
+        else if (type == "TEXT")
+            wrong = {"1", "true"};
+        else if (type.empty() || type == "BOOLEAN")
+            wrong = {"1", "\"true\""};  // a flag or a bool
+        else
+            ADD_FAILURE() << "type " << type << " is new: teach takes_of() in config/apply_config_file.cpp";
         for (const std::string& value : wrong) {
             const auto r = load_config("# first line\n" + key + " = " + value + "\n");
             EXPECT_EQ(r.code, kExitBadConfig);
@@ -400,11 +415,25 @@ TEST_F(ConfigFileTest, EveryKeyRejectsTheWrongType) {
 // when the command line gave it.
 TEST_F(ConfigFileTest, RangeErrorsOfFileValuesNameLineAndColumn) {
     const std::pair<const char*, const char*> out_of_range[] = {
-        {"rate", "-5"}, {"delay-buffer", "-2"}, {"duration", "inf"}, {"rt-priority", "100"}, {"cpu", "-2"},
-        {"watchdog-overruns", "-1"}, {"watchdog-stall-periods", "-1"}, {"trace-capacity", "1"},
-        {"step-force", "nan"}, {"push-speed", "-1"}, {"push-distance", "-1"}, {"push-force", "1e7"},
-        {"hold-force", "-1e7"}, {"hold-distance", "-1"}, {"identify-force", "-1"}, {"identify-distance", "-1"},
-        {"identify-duration", "0.01"}, {"spin-us", "-1"}, {"spin-us", "1000"}};  // 1000 us: a whole period at 1 kHz
+        {"rate", "-5"},
+        {"delay-buffer", "-2"},
+        {"duration", "inf"},
+        {"rt-priority", "100"},
+        {"cpu", "-2"},
+        {"watchdog-overruns", "-1"},
+        {"watchdog-stall-periods", "-1"},
+        {"trace-capacity", "1"},
+        {"step-force", "nan"},
+        {"push-speed", "-1"},
+        {"push-distance", "-1"},
+        {"push-force", "1e7"},
+        {"hold-force", "-1e7"},
+        {"hold-distance", "-1"},
+        {"identify-force", "-1"},
+        {"identify-distance", "-1"},
+        {"identify-duration", "0.01"},
+        {"spin-us", "-1"},
+        {"spin-us", "1000"}};  // 1000 us: a whole period at 1 kHz
     for (const auto& [key, value] : out_of_range) {
         SCOPED_TRACE(key);
         const auto r = load_config("\n\n   " + std::string(key) + " = " + value + "\n");
@@ -425,8 +454,9 @@ TEST_F(ConfigFileTest, RangeErrorsOfFileValuesNameLineAndColumn) {
 // Device profiles.
 
 TEST_F(ConfigFileTest, ProfileLoadsNewUserSyntax) {
-    const auto r = load_profile("mass = 0.3\nmax_force = 10.0\ndescription = \"\"\"\nmy device,\nsecond line\"\"\"\n"
-                                "mass_range = [\n  0.2,\n  0.4,\n]\nstiffness = 1_000.0\n");
+    const auto r = load_profile(
+        "mass = 0.3\nmax_force = 10.0\ndescription = \"\"\"\nmy device,\nsecond line\"\"\"\n"
+        "mass_range = [\n  0.2,\n  0.4,\n]\nstiffness = 1_000.0\n");
     ASSERT_EQ(r.code, -1) << r.message;
     EXPECT_EQ(r.profile.description, "my device,\nsecond line");
     EXPECT_EQ(r.profile.stiffness, 1000.0);
@@ -435,16 +465,19 @@ TEST_F(ConfigFileTest, ProfileLoadsNewUserSyntax) {
 
 TEST_F(ConfigFileTest, ProfileErrorsNameLineAndColumn) {
     const std::vector<BadFile> cases{
-        {"max_force = 10.0\nmass = -0.3\n", kExitInvalidParameter,
+        {"max_force = 10.0\nmass = -0.3\n",
+         kExitInvalidParameter,
          {"device profile '", "line 2, column 1: mass = -0.3 is invalid; accepted range"}},
         {kMinimalProfile + "mas = 1\n", kExitBadConfig, {"line 3, column 1: unknown key 'mas'"}},
         {"max_force = 10.0\n", kExitBadConfig, {"missing key 'mass'"}},
         {"mass = 0.3\nmax_force = 10.0.0\n", kExitBadConfig, {"device profile '", "is malformed: line 2, column "}},
-        {kMinimalProfile + "mass_range = [0.2, 0.3, 0.4]\n", kExitInvalidParameter,
+        {kMinimalProfile + "mass_range = [0.2, 0.3, 0.4]\n",
+         kExitInvalidParameter,
          {"line 3, column 1: mass_range = 3 values is invalid"}},
         {kMinimalProfile + "driver = \"usb\"\n", kExitBadConfig, {"line 3, column 1: driver = \"usb\": "}},
         // the real-device keys (config/profile_keys.cpp)
-        {kMinimalProfile + "homing_timeout = 0.0\n", kExitInvalidParameter,
+        {kMinimalProfile + "homing_timeout = 0.0\n",
+         kExitInvalidParameter,
          {"line 3, column 1: homing_timeout = 0.000000 is invalid; accepted range"}},
         {kMinimalProfile + "driver = \"hid\"\n", kExitBadConfig, {"line 3, column 1: driver = \"hid\" needs usb_vid"}}};
     for (const BadFile& c : cases) {
@@ -475,8 +508,9 @@ TEST_F(ConfigFileTest, EveryShippedProfileKeyRejectsTheWrongType) {
     }
     const auto mass = load_profile("mass = \"0.3\"\nmax_force = 10.0\n");
     EXPECT_EQ(mass.code, kExitBadConfig);
-    EXPECT_CONTAINS(mass.message, "line 1, column 1: mass = \"0.3\" has the wrong type (a string); accepted: an array of "
-                                    "numbers ([a, b, ...]) or a number");  // one mass, or one per axis
+    EXPECT_CONTAINS(mass.message,
+                    "line 1, column 1: mass = \"0.3\" has the wrong type (a string); accepted: an array of "
+                    "numbers ([a, b, ...]) or a number");  // one mass, or one per axis
 }
 
 }  // namespace

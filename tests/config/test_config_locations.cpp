@@ -24,7 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 
 class ConfigLocationsTest : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override { ::unsetenv("HAPTICD_CONFIG"); }
     void TearDown() override {
         ::unsetenv("HAPTICD_CONFIG");
@@ -71,7 +71,8 @@ TEST_F(ConfigLocationsTest, EnvironmentOverridesTheSearchAndTheCommandLineOverri
     const Options none = parse({"--config", ""});
     EXPECT_EQ(none.config_path, "");
     ::setenv("HAPTICD_CONFIG", "", 1);  // empty: skipped, the search's file
-    EXPECT_EQ(fs::canonical(parse({}).config_path), fs::canonical(fs::path(HAPTICD_SOURCE_CONFIG_DIR) / "hapticd.toml"));
+    EXPECT_EQ(fs::canonical(parse({}).config_path),
+              fs::canonical(fs::path(HAPTICD_SOURCE_CONFIG_DIR) / "hapticd.toml"));
 }
 
 TEST_F(ConfigLocationsTest, MissingEnvironmentFileIsAConfigErrorNamingTheVariable) {
@@ -82,7 +83,8 @@ TEST_F(ConfigLocationsTest, MissingEnvironmentFileIsAConfigErrorNamingTheVariabl
         FAIL() << "no error for a missing $HAPTICD_CONFIG file";
     } catch (const StartupError& e) {
         EXPECT_EQ(exit_code(e.kind()), 3);
-        EXPECT_NE(std::string(e.what()).find("'" + missing + "' (from $HAPTICD_CONFIG) does not exist"), std::string::npos)
+        EXPECT_NE(std::string(e.what()).find("'" + missing + "' (from $HAPTICD_CONFIG) does not exist"),
+                  std::string::npos)
             << e.what();
     }
 }

@@ -21,29 +21,29 @@ using Kind = VelocityEstimatorKind;
 
 /// The estimator's difference equation v_j = sum b_i y_{j-i} + sum a_k v_{j-k}, from the definitions.
 struct EstimatorEquation {
-  std::vector<double> b, a;
+    std::vector<double> b, a;
 };
 
 EstimatorEquation estimator_equation(const VelocityEstimator& e) {
-  if (e.kind == Kind::lowpass) {
-    const double lambda = std::exp(-2 * 3.14159265358979323846 * e.cutoff);
-    return {{1 - lambda, lambda - 1}, {lambda}};
-  }
-  if (e.kind == Kind::window) {
-    std::vector<double> b(static_cast<std::size_t>(e.window) + 1, 0.0);
-    b.front() = 1.0 / e.window;
-    b.back() = -1.0 / e.window;
-    return {b, {}};
-  }
-  return {{1, -1}, {}};
+    if (e.kind == Kind::lowpass) {
+        const double lambda = std::exp(-2 * 3.14159265358979323846 * e.cutoff);
+        return {{1 - lambda, lambda - 1}, {lambda}};
+    }
+    if (e.kind == Kind::window) {
+        std::vector<double> b(static_cast<std::size_t>(e.window) + 1, 0.0);
+        b.front() = 1.0 / e.window;
+        b.back() = -1.0 / e.window;
+        return {b, {}};
+    }
+    return {{1, -1}, {}};
 }
 
 struct EstimatorRun {
-  std::array<double, 3> costs{};  ///< (1/E(0)) int_0^P E(t) t^p dt by composite Simpson (step input only)
-  std::vector<double> x;          ///< x_j
-  std::vector<double> f;          ///< f_j
-  double max_x = -HUGE_VAL;       ///< max of x over the sub-step grid
-  double max_accel = 0;           ///< max of |x''| over the sub-step grid (for the O(h^2) bound of a sampled max)
+    std::array<double, 3> costs{};  ///< (1/E(0)) int_0^P E(t) t^p dt by composite Simpson (step input only)
+    std::vector<double> x;          ///< x_j
+    std::vector<double> f;          ///< f_j
+    double max_x = -HUGE_VAL;       ///< max of x over the sub-step grid
+    double max_accel = 0;           ///< max of |x''| over the sub-step grid (for the O(h^2) bound of a sampled max)
 };
 
 /// Time-steps the loop of Fig. 2 with the estimator: `substeps` (even) sub-steps per period, each the exact
@@ -52,57 +52,57 @@ struct EstimatorRun {
 EstimatorRun run_loop(double gamma, double delta, double d, double alpha, double beta, const EstimatorEquation& est,
                       int substeps, int periods, const std::function<double(int, double)>& measure,
                       const std::function<double(int)>& external, bool integrate) {
-  const double h = 1.0 / substeps;
-  Eigen::Matrix4d aug = Eigen::Matrix4d::Zero();
-  aug(0, 1) = 1;
-  aug(1, 0) = -gamma;
-  aug(1, 1) = -delta;
-  aug(1, 2) = -1;
-  aug(1, 3) = 1;
-  const Eigen::Matrix4d step = (aug * h).exp();
-  const long long delay_steps = std::llround(d * substeps);
-  const double x_inf = 1 / (alpha + gamma);
-  std::vector<double> y, v;
-  EstimatorRun out;
-  Eigen::Vector4d s(0, 0, 0, 0);
-  auto energy = [&](const Eigen::Vector4d& z) {
-    const double dx = z(0) - x_inf;
-    return 0.5 * (alpha + gamma) * dx * dx + 0.5 * z(1) * z(1);
-  };
-  const double e0 = 0.5 / (alpha + gamma);
-  const long long total = static_cast<long long>(periods) * substeps;
-  auto accumulate = [&](long long k, const Eigen::Vector4d& z) {  // composite Simpson weights 1 4 2 4 ... 4 1
-    if (!integrate) return;
-    const double w = (k == 0 || k == total) ? 1.0 : (k % 2 == 1 ? 4.0 : 2.0);
-    const double t = static_cast<double>(k) * h;
-    const double e = energy(z) / e0;
-    for (int p = 0; p < 3; ++p) out.costs[static_cast<std::size_t>(p)] += w * h / 3 * std::pow(t, p) * e;
-  };
-  for (long long k = 0; k < total; ++k) {
-    if (k % substeps == 0) {
-      const int j = static_cast<int>(k / substeps);
-      y.push_back(measure(j, s(0)));
-      double vj = 0;
-      for (std::size_t i = 0; i < est.b.size(); ++i) {
-        if (static_cast<std::size_t>(j) >= i) vj += est.b[i] * y[static_cast<std::size_t>(j) - i];
-      }
-      for (std::size_t q = 1; q <= est.a.size(); ++q) {
-        if (static_cast<std::size_t>(j) >= q) vj += est.a[q - 1] * v[static_cast<std::size_t>(j) - q];
-      }
-      v.push_back(vj);
-      out.x.push_back(s(0));
-      out.f.push_back(alpha * y.back() + beta * vj);
-      s(3) = external(j);
+    const double h = 1.0 / substeps;
+    Eigen::Matrix4d aug = Eigen::Matrix4d::Zero();
+    aug(0, 1) = 1;
+    aug(1, 0) = -gamma;
+    aug(1, 1) = -delta;
+    aug(1, 2) = -1;
+    aug(1, 3) = 1;
+    const Eigen::Matrix4d step = (aug * h).exp();
+    const long long delay_steps = std::llround(d * substeps);
+    const double x_inf = 1 / (alpha + gamma);
+    std::vector<double> y, v;
+    EstimatorRun out;
+    Eigen::Vector4d s(0, 0, 0, 0);
+    auto energy = [&](const Eigen::Vector4d& z) {
+        const double dx = z(0) - x_inf;
+        return 0.5 * (alpha + gamma) * dx * dx + 0.5 * z(1) * z(1);
+    };
+    const double e0 = 0.5 / (alpha + gamma);
+    const long long total = static_cast<long long>(periods) * substeps;
+    auto accumulate = [&](long long k, const Eigen::Vector4d& z) {  // composite Simpson weights 1 4 2 4 ... 4 1
+        if (!integrate) return;
+        const double w = (k == 0 || k == total) ? 1.0 : (k % 2 == 1 ? 4.0 : 2.0);
+        const double t = static_cast<double>(k) * h;
+        const double e = energy(z) / e0;
+        for (int p = 0; p < 3; ++p) out.costs[static_cast<std::size_t>(p)] += w * h / 3 * std::pow(t, p) * e;
+    };
+    for (long long k = 0; k < total; ++k) {
+        if (k % substeps == 0) {
+            const int j = static_cast<int>(k / substeps);
+            y.push_back(measure(j, s(0)));
+            double vj = 0;
+            for (std::size_t i = 0; i < est.b.size(); ++i) {
+                if (static_cast<std::size_t>(j) >= i) vj += est.b[i] * y[static_cast<std::size_t>(j) - i];
+            }
+            for (std::size_t q = 1; q <= est.a.size(); ++q) {
+                if (static_cast<std::size_t>(j) >= q) vj += est.a[q - 1] * v[static_cast<std::size_t>(j) - q];
+            }
+            v.push_back(vj);
+            out.x.push_back(s(0));
+            out.f.push_back(alpha * y.back() + beta * vj);
+            s(3) = external(j);
+        }
+        const long long acting = k - delay_steps;  // the force acting on this sub-step is f_{floor(acting / S)}
+        s(2) = acting < 0 ? 0.0 : out.f[static_cast<std::size_t>(acting / substeps)];
+        accumulate(k, s);
+        out.max_x = std::max(out.max_x, s(0));
+        out.max_accel = std::max(out.max_accel, std::abs(-gamma * s(0) - delta * s(1) - s(2) + s(3)));
+        s = step * s;
     }
-    const long long acting = k - delay_steps;  // the force acting on this sub-step is f_{floor(acting / S)}
-    s(2) = acting < 0 ? 0.0 : out.f[static_cast<std::size_t>(acting / substeps)];
-    accumulate(k, s);
-    out.max_x = std::max(out.max_x, s(0));
-    out.max_accel = std::max(out.max_accel, std::abs(-gamma * s(0) - delta * s(1) - s(2) + s(3)));
-    s = step * s;
-  }
-  accumulate(total, s);
-  return out;
+    accumulate(total, s);
+    return out;
 }
 
 double step_input(int) { return 1.0; }
@@ -111,17 +111,17 @@ double exact_measurement(int, double x) { return x; }
 /// Std of f_j over [burn, burn + count) estimated by `batches` batch means of f^2 (zero-mean signal), and
 /// the standard error of that std (delta method: se(s) = se(s^2) / (2 s)).
 std::pair<double, double> batch_std(const std::vector<double>& f, int burn, int count, int batches) {
-  std::vector<double> means(static_cast<std::size_t>(batches), 0.0);
-  const int size = count / batches;
-  for (int k = 0; k < size * batches; ++k) {
-    const double v = f[static_cast<std::size_t>(burn + k)];
-    means[static_cast<std::size_t>(k / size)] += v * v / size;
-  }
-  double mean = 0, sq = 0;
-  for (double m : means) mean += m / batches;
-  for (double m : means) sq += (m - mean) * (m - mean) / (batches - 1);
-  const double s = std::sqrt(mean);
-  return {s, std::sqrt(sq / batches) / (2 * s)};
+    std::vector<double> means(static_cast<std::size_t>(batches), 0.0);
+    const int size = count / batches;
+    for (int k = 0; k < size * batches; ++k) {
+        const double v = f[static_cast<std::size_t>(burn + k)];
+        means[static_cast<std::size_t>(k / size)] += v * v / size;
+    }
+    double mean = 0, sq = 0;
+    for (double m : means) mean += m / batches;
+    for (double m : means) sq += (m - mean) * (m - mean) / (batches - 1);
+    const double s = std::sqrt(mean);
+    return {s, std::sqrt(sq / batches) / (2 * s)};
 }
 
 // The generic loop (every estimator, the dense path) reproduces the backward-difference code for the
@@ -129,94 +129,96 @@ std::pair<double, double> batch_std(const std::vector<double>& f, int burn, int 
 // below rounding (nu = 1000: lambda = 0 in double; nu = 6: lambda = 4e-17). Both paths are exact, so they
 // agree to the rounding of the costs (relative 1e-10 for rho <= 0.999, energy_costs.hpp).
 TEST(VelocityEstimator, WindowOneAndFastLowPassEqualBackward) {
-  for (double d : {0.0, 1.0, 1.5, 6.0}) {
-    const NormalizedPlant plant{0.001, 0.02, d};
-    const SampledPlant<double> sampled(plant);
-    for (auto [a, b] : {std::pair{0.05, 0.3}, std::pair{0.005, 0.1}}) {
-      if (!is_stable(plant, {a, b})) continue;
-      const EnergyCosts ref = energy_costs(sampled, a, b);
-      const double rho = stability(plant, {a, b}).spectral_radius;
-      for (const VelocityEstimator& e :
-           {VelocityEstimator::moving_window(1), VelocityEstimator::low_pass(1000), VelocityEstimator::low_pass(6)}) {
-        for (bool dense : {false, true}) {  // the window's shift-structured path and the complex-Schur path
-          const EnergyCosts c = estimator_energy_costs(sampled, e, a, b, dense);
-          EXPECT_NEAR(c.ce0, ref.ce0, 1e-10 * ref.ce0) << d << " " << a;
-          EXPECT_NEAR(c.ce1, ref.ce1, 1e-10 * ref.ce1);
-          EXPECT_NEAR(c.ce2, ref.ce2, 1e-10 * ref.ce2);
+    for (double d : {0.0, 1.0, 1.5, 6.0}) {
+        const NormalizedPlant plant{0.001, 0.02, d};
+        const SampledPlant<double> sampled(plant);
+        for (auto [a, b] : {std::pair{0.05, 0.3}, std::pair{0.005, 0.1}}) {
+            if (!is_stable(plant, {a, b})) continue;
+            const EnergyCosts ref = energy_costs(sampled, a, b);
+            const double rho = stability(plant, {a, b}).spectral_radius;
+            for (const VelocityEstimator& e : {VelocityEstimator::moving_window(1), VelocityEstimator::low_pass(1000),
+                                               VelocityEstimator::low_pass(6)}) {
+                for (bool dense : {false, true}) {  // the window's shift-structured path and the complex-Schur path
+                    const EnergyCosts c = estimator_energy_costs(sampled, e, a, b, dense);
+                    EXPECT_NEAR(c.ce0, ref.ce0, 1e-10 * ref.ce0) << d << " " << a;
+                    EXPECT_NEAR(c.ce1, ref.ce1, 1e-10 * ref.ce1);
+                    EXPECT_NEAR(c.ce2, ref.ce2, 1e-10 * ref.ce2);
+                }
+                const StabilityReport r = stability(plant, {a, b}, e);
+                EXPECT_TRUE(r.stable);
+                EXPECT_NEAR(r.spectral_radius, rho, 1e-12);
+                const OvershootResult ov_ref = overshoot(plant, {a, b});
+                const OvershootResult ov = estimator_overshoot(sampled, e, a, b);
+                EXPECT_NEAR(ov.value, ov_ref.value, 1e-10 * std::max(ov_ref.value, 1e-12));
+                EXPECT_EQ(ov.within_tolerance, ov_ref.within_tolerance);
+            }
         }
-        const StabilityReport r = stability(plant, {a, b}, e);
-        EXPECT_TRUE(r.stable);
-        EXPECT_NEAR(r.spectral_radius, rho, 1e-12);
-        const OvershootResult ov_ref = overshoot(plant, {a, b});
-        const OvershootResult ov = estimator_overshoot(sampled, e, a, b);
-        EXPECT_NEAR(ov.value, ov_ref.value, 1e-10 * std::max(ov_ref.value, 1e-12));
-        EXPECT_EQ(ov.within_tolerance, ov_ref.within_tolerance);
-      }
     }
-  }
-  // The main region of window 1 is the backward region: alpha_max = 12 - 8 sqrt(2) at beta = 2 sqrt(2) - 2
-  // (d = 0, gamma = delta = 0). alpha to 1e-11 (bisection to 1e-14, Brent over a flat maximum); beta is
-  // ill-conditioned at a flat maximum (|d alpha| ~ |d beta|^2): 1e-5.
-  const EstimatorStabilityRegion region({0, 0, 0}, VelocityEstimator::moving_window(1));
-  EXPECT_NEAR(region.alpha_max(), 12 - 8 * std::sqrt(2.0), 1e-11);
-  EXPECT_NEAR(region.beta_at_alpha_max(), 2 * std::sqrt(2.0) - 2, 1e-5);
-  EXPECT_TRUE(region.islands().empty());
-  // Every plant of the paper's box, fractional and long delays (the d = 13 region is smaller than one cell of
-  // the first scan): against the D-decomposition of the backward loop (stability_region.hpp, ~1e-12). 1e-10
-  // relative: both sides are bisection / root-finding results good to ~1e-12.
-  for (double d : {0.5, 1.0, 2.5, 6.0, 13.0}) {
-    for (double gamma : {0.0, 0.001}) {
-      for (double delta : {0.0, 0.02}) {
-        const NormalizedPlant plant{gamma, delta, d};
-        const double exact = StabilityRegion(plant).alpha_max();
-        const EstimatorStabilityRegion r(plant, VelocityEstimator::moving_window(1));
-        EXPECT_NEAR(r.alpha_max(), exact, 1e-10 * exact) << d << " " << gamma << " " << delta;
-        EXPECT_TRUE(r.islands().empty());
-      }
+    // The main region of window 1 is the backward region: alpha_max = 12 - 8 sqrt(2) at beta = 2 sqrt(2) - 2
+    // (d = 0, gamma = delta = 0). alpha to 1e-11 (bisection to 1e-14, Brent over a flat maximum); beta is
+    // ill-conditioned at a flat maximum (|d alpha| ~ |d beta|^2): 1e-5.
+    const EstimatorStabilityRegion region({0, 0, 0}, VelocityEstimator::moving_window(1));
+    EXPECT_NEAR(region.alpha_max(), 12 - 8 * std::sqrt(2.0), 1e-11);
+    EXPECT_NEAR(region.beta_at_alpha_max(), 2 * std::sqrt(2.0) - 2, 1e-5);
+    EXPECT_TRUE(region.islands().empty());
+    // Every plant of the paper's box, fractional and long delays (the d = 13 region is smaller than one cell of
+    // the first scan): against the D-decomposition of the backward loop (stability_region.hpp, ~1e-12). 1e-10
+    // relative: both sides are bisection / root-finding results good to ~1e-12.
+    for (double d : {0.5, 1.0, 2.5, 6.0, 13.0}) {
+        for (double gamma : {0.0, 0.001}) {
+            for (double delta : {0.0, 0.02}) {
+                const NormalizedPlant plant{gamma, delta, d};
+                const double exact = StabilityRegion(plant).alpha_max();
+                const EstimatorStabilityRegion r(plant, VelocityEstimator::moving_window(1));
+                EXPECT_NEAR(r.alpha_max(), exact, 1e-10 * exact) << d << " " << gamma << " " << delta;
+                EXPECT_TRUE(r.islands().empty());
+            }
+        }
     }
-  }
 }
 
 // The window's two methods agree (shift-structured LU and complex Schur form, both exact up to rounding:
 // 1e-10 relative as for the backward loop at rho <= 0.999), and both are +inf outside the region.
 TEST(VelocityEstimator, WindowMethodsAgree) {
-  for (double d : {0.0, 1.0, 2.5}) {
-    const SampledPlant<double> sampled(NormalizedPlant{0.001, 0.02, d});
-    for (int n : {2, 4, 15}) {
-      const VelocityEstimator e = VelocityEstimator::moving_window(n);
-      const EstimatorStabilityRegion region(sampled.parameters(), e);
-      for (double f : {0.2, 0.6, 0.95}) {
-        const double a = f * region.alpha_max();
-        const auto [lo, hi] = region.beta_interval(a);
-        const double b = (lo + hi) / 2;
-        const EnergyCosts fast = estimator_energy_costs(sampled, e, a, b);
-        const EnergyCosts dense = estimator_energy_costs(sampled, e, a, b, true);
-        ASSERT_TRUE(std::isfinite(fast.ce2)) << d << " " << n << " " << f;
-        EXPECT_NEAR(fast.ce0, dense.ce0, 1e-10 * dense.ce0);
-        EXPECT_NEAR(fast.ce1, dense.ce1, 1e-10 * dense.ce1);
-        EXPECT_NEAR(fast.ce2, dense.ce2, 1e-10 * dense.ce2);
-      }
-      EXPECT_TRUE(std::isinf(estimator_energy_costs(sampled, e, 1.05 * region.alpha_max(),
-                                                    region.beta_at_alpha_max()).ce0));
+    for (double d : {0.0, 1.0, 2.5}) {
+        const SampledPlant<double> sampled(NormalizedPlant{0.001, 0.02, d});
+        for (int n : {2, 4, 15}) {
+            const VelocityEstimator e = VelocityEstimator::moving_window(n);
+            const EstimatorStabilityRegion region(sampled.parameters(), e);
+            for (double f : {0.2, 0.6, 0.95}) {
+                const double a = f * region.alpha_max();
+                const auto [lo, hi] = region.beta_interval(a);
+                const double b = (lo + hi) / 2;
+                const EnergyCosts fast = estimator_energy_costs(sampled, e, a, b);
+                const EnergyCosts dense = estimator_energy_costs(sampled, e, a, b, true);
+                ASSERT_TRUE(std::isfinite(fast.ce2)) << d << " " << n << " " << f;
+                EXPECT_NEAR(fast.ce0, dense.ce0, 1e-10 * dense.ce0);
+                EXPECT_NEAR(fast.ce1, dense.ce1, 1e-10 * dense.ce1);
+                EXPECT_NEAR(fast.ce2, dense.ce2, 1e-10 * dense.ce2);
+            }
+            EXPECT_TRUE(std::isinf(
+                estimator_energy_costs(sampled, e, 1.05 * region.alpha_max(), region.beta_at_alpha_max()).ce0));
+        }
     }
-  }
 }
 
 // The paper's C_E2 optima (d = 0, d = 1) are unstable with a 20 Hz low-pass at 1 kHz (nu = 0.02) and with a
 // 15-sample window. The spectral radius is the largest eigenvalue modulus of the loop matrix (Eigen's
 // complex Schur form); the expected figures are given to 3 decimals, so +-5e-4.
 TEST(VelocityEstimator, PaperCE2OptimaAreUnstableWithFilters) {
-  struct Row { double d, alpha, beta, lowpass_radius, window_radius; };
-  for (const Row& r : {Row{0, 0.2474, 0.7445, 1.065, 1.053}, Row{1, 0.0582, 0.3796, 1.046, 1.071}}) {
-    const NormalizedPlant plant{0, 0, r.d};
-    EXPECT_TRUE(is_stable(plant, {r.alpha, r.beta}));
-    const StabilityReport lp = stability(plant, {r.alpha, r.beta}, VelocityEstimator::low_pass(0.02));
-    const StabilityReport w = stability(plant, {r.alpha, r.beta}, VelocityEstimator::moving_window(15));
-    EXPECT_FALSE(lp.stable);
-    EXPECT_FALSE(w.stable);
-    EXPECT_NEAR(lp.spectral_radius, r.lowpass_radius, 5e-4);
-    EXPECT_NEAR(w.spectral_radius, r.window_radius, 5e-4);
-  }
+    struct Row {
+        double d, alpha, beta, lowpass_radius, window_radius;
+    };
+    for (const Row& r : {Row{0, 0.2474, 0.7445, 1.065, 1.053}, Row{1, 0.0582, 0.3796, 1.046, 1.071}}) {
+        const NormalizedPlant plant{0, 0, r.d};
+        EXPECT_TRUE(is_stable(plant, {r.alpha, r.beta}));
+        const StabilityReport lp = stability(plant, {r.alpha, r.beta}, VelocityEstimator::low_pass(0.02));
+        const StabilityReport w = stability(plant, {r.alpha, r.beta}, VelocityEstimator::moving_window(15));
+        EXPECT_FALSE(lp.stable);
+        EXPECT_FALSE(w.stable);
+        EXPECT_NEAR(lp.spectral_radius, r.lowpass_radius, 5e-4);
+        EXPECT_NEAR(w.spectral_radius, r.window_radius, 5e-4);
+    }
 }
 
 // Closed form against time-stepping with composite Simpson (32 sub-steps per period, 6000 periods).
@@ -225,114 +227,123 @@ TEST(VelocityEstimator, PaperCE2OptimaAreUnstableWithFilters) {
 // truncated tail is below rho^12000 (rho < 0.99 here). Tolerance 1e-7 relative: 20x the Simpson scale, far
 // below any modelling error (a wrong delay or estimator state moves the costs by percents).
 TEST(VelocityEstimator, CostsMatchTimeStepping) {
-  struct Case { VelocityEstimator e; double d, alpha, beta; };
-  const std::vector<Case> cases = {
-      {VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107},
-      {VelocityEstimator::low_pass(0.1), 1.5, 0.02, 0.25},
-      {VelocityEstimator::moving_window(15), 0.0, 0.0047, 0.09},
-      {VelocityEstimator::moving_window(4), 1.5, 0.01, 0.2},
-  };
-  for (const Case& c : cases) {
-    const NormalizedPlant plant{0.001, 0.02, c.d};
-    const StabilityReport r = stability(plant, {c.alpha, c.beta}, c.e);
-    ASSERT_TRUE(r.stable) << c.d;
-    ASSERT_LT(r.spectral_radius, 0.99);
-    const EnergyCosts closed = energy_costs(plant, {c.alpha, c.beta}, c.e);
-    const EstimatorRun run = run_loop(plant.gamma, plant.delta, c.d, c.alpha, c.beta, estimator_equation(c.e), 32,
-                                      6000, exact_measurement, step_input, true);
-    EXPECT_NEAR(run.costs[0], closed.ce0, 1e-7 * closed.ce0) << c.d;
-    EXPECT_NEAR(run.costs[1], closed.ce1, 1e-7 * closed.ce1) << c.d;
-    EXPECT_NEAR(run.costs[2], closed.ce2, 1e-7 * closed.ce2) << c.d;
-  }
+    struct Case {
+        VelocityEstimator e;
+        double d, alpha, beta;
+    };
+    const std::vector<Case> cases = {
+        {VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107},
+        {VelocityEstimator::low_pass(0.1), 1.5, 0.02, 0.25},
+        {VelocityEstimator::moving_window(15), 0.0, 0.0047, 0.09},
+        {VelocityEstimator::moving_window(4), 1.5, 0.01, 0.2},
+    };
+    for (const Case& c : cases) {
+        const NormalizedPlant plant{0.001, 0.02, c.d};
+        const StabilityReport r = stability(plant, {c.alpha, c.beta}, c.e);
+        ASSERT_TRUE(r.stable) << c.d;
+        ASSERT_LT(r.spectral_radius, 0.99);
+        const EnergyCosts closed = energy_costs(plant, {c.alpha, c.beta}, c.e);
+        const EstimatorRun run = run_loop(plant.gamma, plant.delta, c.d, c.alpha, c.beta, estimator_equation(c.e), 32,
+                                          6000, exact_measurement, step_input, true);
+        EXPECT_NEAR(run.costs[0], closed.ce0, 1e-7 * closed.ce0) << c.d;
+        EXPECT_NEAR(run.costs[1], closed.ce1, 1e-7 * closed.ce1) << c.d;
+        EXPECT_NEAR(run.costs[2], closed.ce2, 1e-7 * closed.ce2) << c.d;
+    }
 }
 
 // C_OV with the estimator against the maximum of the time-stepped x over its sub-step grid (64 per period):
 // the sampled maximum approaches the continuous one from below, within max|x''| h^2 / 8 (the true maximum is
 // within h/2 of a grid point, where x' = 0), plus 1e-12 x_inf for rounding.
 TEST(VelocityEstimator, OvershootMatchesTimeStepping) {
-  struct Case { VelocityEstimator e; double d, alpha, beta; };
-  for (const Case& c : {Case{VelocityEstimator::low_pass(0.1), 1.0, 0.05, 0.3},
-                        Case{VelocityEstimator::low_pass(0.1), 0.0, 0.2, 0.5},
-                        Case{VelocityEstimator::moving_window(4), 1.5, 0.01, 0.2},
-                        Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107}}) {
-    const NormalizedPlant plant{0.001, 0.02, c.d};
-    const OvershootResult ov = overshoot(plant, {c.alpha, c.beta}, c.e);
-    ASSERT_TRUE(ov.converged);
-    const EstimatorRun run = run_loop(plant.gamma, plant.delta, c.d, c.alpha, c.beta, estimator_equation(c.e), 64,
-                                      3000, exact_measurement, step_input, false);
-    const double x_inf = 1 / (c.alpha + plant.gamma);
-    const double closed = x_inf * (1 + ov.value);
-    const double h = 1.0 / 64;
-    EXPECT_LE(run.max_x, closed + 1e-12 * x_inf) << c.d;
-    EXPECT_GE(run.max_x, closed - run.max_accel * h * h / 8 - 1e-12 * x_inf) << c.d;
-  }
+    struct Case {
+        VelocityEstimator e;
+        double d, alpha, beta;
+    };
+    for (const Case& c :
+         {Case{VelocityEstimator::low_pass(0.1), 1.0, 0.05, 0.3}, Case{VelocityEstimator::low_pass(0.1), 0.0, 0.2, 0.5},
+          Case{VelocityEstimator::moving_window(4), 1.5, 0.01, 0.2},
+          Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107}}) {
+        const NormalizedPlant plant{0.001, 0.02, c.d};
+        const OvershootResult ov = overshoot(plant, {c.alpha, c.beta}, c.e);
+        ASSERT_TRUE(ov.converged);
+        const EstimatorRun run = run_loop(plant.gamma, plant.delta, c.d, c.alpha, c.beta, estimator_equation(c.e), 64,
+                                          3000, exact_measurement, step_input, false);
+        const double x_inf = 1 / (c.alpha + plant.gamma);
+        const double closed = x_inf * (1 + ov.value);
+        const double h = 1.0 / 64;
+        EXPECT_LE(run.max_x, closed + 1e-12 * x_inf) << c.d;
+        EXPECT_GE(run.max_x, closed - run.max_accel * h * h / 8 - 1e-12 * x_inf) << c.d;
+    }
 }
 
 // The main region's tip against long simulation: 1 % inside alpha_max the step response decays, 1 % outside
 // it grows (the envelope of |x_j - x_inf| over the last 2000 of 60000 periods against periods 2000..4000).
 // Includes regions smaller than one cell of the first scan (low-pass nu = 0.002, window 60 at d = 3).
 TEST(VelocityEstimator, MainRegionTipAgainstSimulation) {
-  struct Case { VelocityEstimator e; double d; };
-  for (const Case& c : {Case{VelocityEstimator::low_pass(0.02), 1.0}, Case{VelocityEstimator::moving_window(15), 0.0},
-                        Case{VelocityEstimator::moving_window(3), 2.0}, Case{VelocityEstimator::low_pass(0.002), 1.0},
-                        Case{VelocityEstimator::moving_window(60), 3.0}}) {
-    const NormalizedPlant plant{0, 0, c.d};
-    const EstimatorStabilityRegion region(plant, c.e);
-    ASSERT_GT(region.alpha_max(), 0);
-    for (double factor : {0.99, 1.01}) {
-      const double a = region.alpha_max() * factor, b = region.beta_at_alpha_max();
-      const EstimatorRun run = run_loop(0, 0, c.d, a, b, estimator_equation(c.e), 2, 60000, exact_measurement,
-                                        step_input, false);
-      auto envelope = [&](std::size_t from, std::size_t to) {
-        double m = 0;
-        for (std::size_t j = from; j < to; ++j) m = std::max(m, std::abs(run.x[j] - 1 / a));
-        return m;
-      };
-      const double early = envelope(2000, 4000), late = envelope(58000, 60000);
-      if (factor < 1) {
-        EXPECT_LT(late, early) << c.d;
-        EXPECT_TRUE(region.stable(a, b));
-      } else {
-        EXPECT_GT(late, early) << c.d;
-        EXPECT_FALSE(region.stable(a, b));
-      }
+    struct Case {
+        VelocityEstimator e;
+        double d;
+    };
+    for (const Case& c : {Case{VelocityEstimator::low_pass(0.02), 1.0}, Case{VelocityEstimator::moving_window(15), 0.0},
+                          Case{VelocityEstimator::moving_window(3), 2.0}, Case{VelocityEstimator::low_pass(0.002), 1.0},
+                          Case{VelocityEstimator::moving_window(60), 3.0}}) {
+        const NormalizedPlant plant{0, 0, c.d};
+        const EstimatorStabilityRegion region(plant, c.e);
+        ASSERT_GT(region.alpha_max(), 0);
+        for (double factor : {0.99, 1.01}) {
+            const double a = region.alpha_max() * factor, b = region.beta_at_alpha_max();
+            const EstimatorRun run =
+                run_loop(0, 0, c.d, a, b, estimator_equation(c.e), 2, 60000, exact_measurement, step_input, false);
+            auto envelope = [&](std::size_t from, std::size_t to) {
+                double m = 0;
+                for (std::size_t j = from; j < to; ++j) m = std::max(m, std::abs(run.x[j] - 1 / a));
+                return m;
+            };
+            const double early = envelope(2000, 4000), late = envelope(58000, 60000);
+            if (factor < 1) {
+                EXPECT_LT(late, early) << c.d;
+                EXPECT_TRUE(region.stable(a, b));
+            } else {
+                EXPECT_GT(late, early) << c.d;
+                EXPECT_FALSE(region.stable(a, b));
+            }
+        }
     }
-  }
 }
 
 // The 15-sample window at d = 0 has a stable island above the main region (negative beta): reported as an
 // island, with alpha_max the main region's, far below it.
 TEST(VelocityEstimator, LongWindowIslandIsSeparate) {
-  const EstimatorStabilityRegion region({0, 0, 0}, VelocityEstimator::moving_window(15));
-  ASSERT_FALSE(region.islands().empty());
-  const StableIsland& island = region.islands().front();
-  EXPECT_GT(island.alpha_min, 2 * region.alpha_max());
-  const double a = (island.alpha_min + island.alpha_max) / 2;
-  bool found = false;
-  for (int k = 0; k < 400 && !found; ++k) {
-    found = region.stable(a, island.beta_min + (k + 0.5) / 400 * (island.beta_max - island.beta_min));
-  }
-  EXPECT_TRUE(found);
-  EXPECT_FALSE(region.stable(region.alpha_max() * 1.01, region.beta_at_alpha_max()));
+    const EstimatorStabilityRegion region({0, 0, 0}, VelocityEstimator::moving_window(15));
+    ASSERT_FALSE(region.islands().empty());
+    const StableIsland& island = region.islands().front();
+    EXPECT_GT(island.alpha_min, 2 * region.alpha_max());
+    const double a = (island.alpha_min + island.alpha_max) / 2;
+    bool found = false;
+    for (int k = 0; k < 400 && !found; ++k) {
+        found = region.stable(a, island.beta_min + (k + 0.5) / 400 * (island.beta_max - island.beta_min));
+    }
+    EXPECT_TRUE(found);
+    EXPECT_FALSE(region.stable(region.alpha_max() * 1.01, region.beta_at_alpha_max()));
 }
 
 // The C_E2 optimum with a filter: no point of a 60 x 40 grid over the main region has a lower cost.
 TEST(VelocityEstimator, OptimumBeatsGrid) {
-  const NormalizedPlant plant{0, 0, 1};
-  const VelocityEstimator e = VelocityEstimator::low_pass(0.02);
-  const EstimatorOptimum o = optimal_point(Criterion::CE2, plant, e);
-  ASSERT_TRUE(o.cost.has_value());
-  EXPECT_LT(o.alpha, o.alpha_max);
-  const EstimatorStabilityRegion region(plant, e);
-  const SampledPlant<double> sampled(plant);
-  for (int i = 0; i < 60; ++i) {
-    const double a = (i + 0.5) / 60 * region.alpha_max();
-    const auto [lo, hi] = region.beta_interval(a);
-    for (int k = 0; k < 40; ++k) {
-      const double b = lo + (k + 0.5) / 40 * (hi - lo);
-      EXPECT_GE(estimator_energy_costs(sampled, e, a, b).ce2, *o.cost * (1 - 1e-12)) << a << " " << b;
+    const NormalizedPlant plant{0, 0, 1};
+    const VelocityEstimator e = VelocityEstimator::low_pass(0.02);
+    const EstimatorOptimum o = optimal_point(Criterion::CE2, plant, e);
+    ASSERT_TRUE(o.cost.has_value());
+    EXPECT_LT(o.alpha, o.alpha_max);
+    const EstimatorStabilityRegion region(plant, e);
+    const SampledPlant<double> sampled(plant);
+    for (int i = 0; i < 60; ++i) {
+        const double a = (i + 0.5) / 60 * region.alpha_max();
+        const auto [lo, hi] = region.beta_interval(a);
+        for (int k = 0; k < 40; ++k) {
+            const double b = lo + (k + 0.5) / 40 * (hi - lo);
+            EXPECT_GE(estimator_energy_costs(sampled, e, a, b).ce2, *o.cost * (1 - 1e-12)) << a << " " << b;
+        }
     }
-  }
 }
 
 // CEx+OV with the estimator. Window 1 against the paper's optimiser (optimum.hpp): alpha to 1e-7 and beta to
@@ -340,55 +351,62 @@ TEST(VelocityEstimator, OptimumBeatsGrid) {
 // backward optimiser polishes by Newton; the no-overshoot limit moves with beta_opt). The low-pass point
 // against the definition: no overshoot (C_OV <= 1e-12) on the optimal curve at alpha, overshoot just beyond.
 TEST(VelocityEstimator, NoOvershootPoints) {
-  for (double d : {0.0, 1.0}) {
-    const NormalizedPlant plant{0, 0, d};
-    for (Criterion c : {Criterion::CE0_OV, Criterion::CE2_OV}) {
-      const Optimum ref = optimal_point(c, plant);
-      const EstimatorOptimum w = optimal_point(c, plant, VelocityEstimator::moving_window(1));
-      EXPECT_NEAR(w.alpha, ref.alpha, 1e-7 * ref.alpha) << d;
-      EXPECT_NEAR(w.beta, ref.beta, 1e-6 * ref.beta) << d;
-      EXPECT_NEAR(*w.cost, *ref.cost, 1e-5 * *ref.cost) << d;
+    for (double d : {0.0, 1.0}) {
+        const NormalizedPlant plant{0, 0, d};
+        for (Criterion c : {Criterion::CE0_OV, Criterion::CE2_OV}) {
+            const Optimum ref = optimal_point(c, plant);
+            const EstimatorOptimum w = optimal_point(c, plant, VelocityEstimator::moving_window(1));
+            EXPECT_NEAR(w.alpha, ref.alpha, 1e-7 * ref.alpha) << d;
+            EXPECT_NEAR(w.beta, ref.beta, 1e-6 * ref.beta) << d;
+            EXPECT_NEAR(*w.cost, *ref.cost, 1e-5 * *ref.cost) << d;
+        }
     }
-  }
-  const NormalizedPlant plant{0, 0, 1};
-  const VelocityEstimator e = VelocityEstimator::low_pass(0.1);
-  const SampledPlant<double> sampled(plant);
-  const EstimatorOptimum o = optimal_point(Criterion::CE2_OV, plant, e);
-  EXPECT_TRUE(estimator_overshoot(sampled, e, o.alpha, o.beta).within_tolerance);
-  const EstimatorStabilityRegion region(plant, e);
-  auto curve_beta = [&](double a) {  // beta_opt(a) by a fine scan of the main region's interval
-    const auto [lo, hi] = region.beta_interval(a);
-    double best = lo, value = HUGE_VAL;
-    for (int k = 0; k < 2000; ++k) {
-      const double b = lo + (k + 0.5) / 2000 * (hi - lo);
-      const double v = estimator_energy_costs(sampled, e, a, b).ce2;
-      if (v < value) { value = v; best = b; }
-    }
-    return best;
-  };
-  const double beyond = o.alpha + 1e-3 * o.alpha_max;
-  EXPECT_FALSE(estimator_overshoot(sampled, e, beyond, curve_beta(beyond)).within_tolerance);
-  EXPECT_LT(o.alpha, o.alpha_max);
+    const NormalizedPlant plant{0, 0, 1};
+    const VelocityEstimator e = VelocityEstimator::low_pass(0.1);
+    const SampledPlant<double> sampled(plant);
+    const EstimatorOptimum o = optimal_point(Criterion::CE2_OV, plant, e);
+    EXPECT_TRUE(estimator_overshoot(sampled, e, o.alpha, o.beta).within_tolerance);
+    const EstimatorStabilityRegion region(plant, e);
+    auto curve_beta = [&](double a) {  // beta_opt(a) by a fine scan of the main region's interval
+        const auto [lo, hi] = region.beta_interval(a);
+        double best = lo, value = HUGE_VAL;
+        for (int k = 0; k < 2000; ++k) {
+            const double b = lo + (k + 0.5) / 2000 * (hi - lo);
+            const double v = estimator_energy_costs(sampled, e, a, b).ce2;
+            if (v < value) {
+                value = v;
+                best = b;
+            }
+        }
+        return best;
+    };
+    const double beyond = o.alpha + 1e-3 * o.alpha_max;
+    EXPECT_FALSE(estimator_overshoot(sampled, e, beyond, curve_beta(beyond)).within_tolerance);
+    EXPECT_LT(o.alpha, o.alpha_max);
 }
 
 // g_F against Monte-Carlo: y = x + e with e uniform on (-1/2, 1/2) (variance 1/12, q = 1), 400000 periods
 // after 4000 of burn-in; the std of f_j by 40 batch means. Tolerance 4 standard errors of that estimate.
 TEST(VelocityEstimator, NoiseMatchesMonteCarlo) {
-  struct Case { VelocityEstimator e; double d, alpha, beta; };
-  for (const Case& c : {Case{VelocityEstimator::backward_difference(), 1.0, 0.0582, 0.3796},
-                        Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107},
-                        Case{VelocityEstimator::moving_window(15), 0.0, 0.0047, 0.09}}) {
-    const NormalizedPlant plant{0, 0, c.d};
-    const double g = force_noise_gain(plant, {c.alpha, c.beta}, c.e);
-    ASSERT_TRUE(std::isfinite(g));
-    std::mt19937_64 rng(12345);
-    std::uniform_real_distribution<double> u(-0.5, 0.5);
-    const int burn = 4000, count = 400000;
-    const EstimatorRun run = run_loop(0, 0, c.d, c.alpha, c.beta, estimator_equation(c.e), 2, burn + count,
-                                      [&](int, double x) { return x + u(rng); }, [](int) { return 0.0; }, false);
-    const auto [s, se] = batch_std(run.f, burn, count, 40);
-    EXPECT_NEAR(s, g, 4 * se) << c.d;
-  }
+    struct Case {
+        VelocityEstimator e;
+        double d, alpha, beta;
+    };
+    for (const Case& c : {Case{VelocityEstimator::backward_difference(), 1.0, 0.0582, 0.3796},
+                          Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107},
+                          Case{VelocityEstimator::moving_window(15), 0.0, 0.0047, 0.09}}) {
+        const NormalizedPlant plant{0, 0, c.d};
+        const double g = force_noise_gain(plant, {c.alpha, c.beta}, c.e);
+        ASSERT_TRUE(std::isfinite(g));
+        std::mt19937_64 rng(12345);
+        std::uniform_real_distribution<double> u(-0.5, 0.5);
+        const int burn = 4000, count = 400000;
+        const EstimatorRun run = run_loop(
+            0, 0, c.d, c.alpha, c.beta, estimator_equation(c.e), 2, burn + count,
+            [&](int, double x) { return x + u(rng); }, [](int) { return 0.0; }, false);
+        const auto [s, se] = batch_std(run.f, burn, count, 40);
+        EXPECT_NEAR(s, g, 4 * se) << c.d;
+    }
 }
 
 // Real rounding: y = round(x) (q = 1) while a slow sinusoidal force moves x over ~10^4 counts, hundreds of
@@ -397,61 +415,66 @@ TEST(VelocityEstimator, NoiseMatchesMonteCarlo) {
 // batch-means tolerance (4 standard errors). At rest (motion within a count) the rounding error is not
 // white and the model does not apply (docs/velocity-estimation.md).
 TEST(VelocityEstimator, NoiseMatchesRoundingWhenMotionSpansManyCounts) {
-  struct Case { VelocityEstimator e; double d, alpha, beta; };
-  for (const Case& c : {Case{VelocityEstimator::backward_difference(), 1.0, 0.0582, 0.3796},
-                        Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107}}) {
-    const NormalizedPlant plant{0, 0, c.d};
-    const double g = force_noise_gain(plant, {c.alpha, c.beta}, c.e);
-    const double omega = 2 * 3.14159265358979323846 * 0.01234567;
-    const double amplitude = 1e4 * std::abs(c.alpha - omega * omega);
-    auto force = [&](int j) { return amplitude * std::sin(omega * j); };
-    const int burn = 4000, count = 400000;
-    const EstimatorEquation eq = estimator_equation(c.e);
-    const EstimatorRun rounded = run_loop(0, 0, c.d, c.alpha, c.beta, eq, 2, burn + count,
-                                          [](int, double x) { return std::round(x); }, force, false);
-    const EstimatorRun exact = run_loop(0, 0, c.d, c.alpha, c.beta, eq, 2, burn + count, exact_measurement, force, false);
-    std::vector<double> diff(rounded.f.size());
-    double span = 0;
-    for (std::size_t j = 0; j < diff.size(); ++j) {
-      diff[j] = rounded.f[j] - exact.f[j];
-      span = std::max(span, std::abs(exact.x[j]));
+    struct Case {
+        VelocityEstimator e;
+        double d, alpha, beta;
+    };
+    for (const Case& c : {Case{VelocityEstimator::backward_difference(), 1.0, 0.0582, 0.3796},
+                          Case{VelocityEstimator::low_pass(0.02), 1.0, 0.0046, 0.107}}) {
+        const NormalizedPlant plant{0, 0, c.d};
+        const double g = force_noise_gain(plant, {c.alpha, c.beta}, c.e);
+        const double omega = 2 * 3.14159265358979323846 * 0.01234567;
+        const double amplitude = 1e4 * std::abs(c.alpha - omega * omega);
+        auto force = [&](int j) { return amplitude * std::sin(omega * j); };
+        const int burn = 4000, count = 400000;
+        const EstimatorEquation eq = estimator_equation(c.e);
+        const EstimatorRun rounded = run_loop(
+            0, 0, c.d, c.alpha, c.beta, eq, 2, burn + count, [](int, double x) { return std::round(x); }, force, false);
+        const EstimatorRun exact =
+            run_loop(0, 0, c.d, c.alpha, c.beta, eq, 2, burn + count, exact_measurement, force, false);
+        std::vector<double> diff(rounded.f.size());
+        double span = 0;
+        for (std::size_t j = 0; j < diff.size(); ++j) {
+            diff[j] = rounded.f[j] - exact.f[j];
+            span = std::max(span, std::abs(exact.x[j]));
+        }
+        EXPECT_GT(span, 1000);
+        const auto [s, se] = batch_std(diff, burn, count, 40);
+        EXPECT_NEAR(s, g, 4 * se) << c.d;
     }
-    EXPECT_GT(span, 1000);
-    const auto [s, se] = batch_std(diff, burn, count, 40);
-    EXPECT_NEAR(s, g, 4 * se) << c.d;
-  }
 }
 
 TEST(VelocityEstimator, InvalidParametersNameTheFunctionAndRange) {
-  auto message = [](auto&& f) {
-    try {
-      f();
-    } catch (const InvalidParameter& e) {
-      return std::string(e.what());
+    auto message = [](auto&& f) {
+        try {
+            f();
+        } catch (const InvalidParameter& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    for (double nu : {0.0, -1.0, std::nan(""), HUGE_VAL}) {
+        const std::string m = message([&] { VelocityEstimator::low_pass(nu); });
+        EXPECT_EQ(m.rfind("hapticopt::VelocityEstimator::low_pass: cutoff", 0), 0u) << m;
+        EXPECT_NE(m.find("finite and > 0"), std::string::npos);
     }
-    return std::string();
-  };
-  for (double nu : {0.0, -1.0, std::nan(""), HUGE_VAL}) {
-    const std::string m = message([&] { VelocityEstimator::low_pass(nu); });
-    EXPECT_EQ(m.rfind("hapticopt::VelocityEstimator::low_pass: cutoff", 0), 0u) << m;
-    EXPECT_NE(m.find("finite and > 0"), std::string::npos);
-  }
-  for (int n : {0, -3, 1001}) {
-    const std::string m = message([&] { VelocityEstimator::moving_window(n); });
-    EXPECT_EQ(m.rfind("hapticopt::VelocityEstimator::moving_window: window", 0), 0u) << m;
-    EXPECT_NE(m.find("1 <= N <= 1000"), std::string::npos);
-  }
-  VelocityEstimator bad;
-  bad.kind = Kind::window;
-  bad.window = 0;
-  const std::string m = message([&] { force_noise_gain({0, 0, 0}, {0.1, 0.5}, bad); });
-  EXPECT_EQ(m.rfind("hapticopt::force_noise_gain: window", 0), 0u) << m;
-  EXPECT_EQ(message([&] { force_noise_std({0.3, 0, 0, 1e-3, 0}, {1000, 10}, 0); })
-                .rfind("hapticopt::force_noise_std: position_resolution", 0),
-            0u);
-  // sigma_F = (m q / T^2) g_F with alpha = K T^2 / m, beta = B T / m.
-  EXPECT_NEAR(force_noise_std({0.3, 0, 0, 1e-3, 0}, {1000, 10}, 2e-5),
-              0.3 * 2e-5 / 1e-6 * force_noise_gain({0, 0, 0}, {1000 * 1e-6 / 0.3, 10 * 1e-3 / 0.3}), 1e-12);
+    for (int n : {0, -3, 1001}) {
+        const std::string m = message([&] { VelocityEstimator::moving_window(n); });
+        EXPECT_EQ(m.rfind("hapticopt::VelocityEstimator::moving_window: window", 0), 0u) << m;
+        EXPECT_NE(m.find("1 <= N <= 1000"), std::string::npos);
+    }
+    VelocityEstimator bad;
+    bad.kind = Kind::window;
+    bad.window = 0;
+    const std::string m = message([&] { force_noise_gain({0, 0, 0}, {0.1, 0.5}, bad); });
+    EXPECT_EQ(m.rfind("hapticopt::force_noise_gain: window", 0), 0u) << m;
+    EXPECT_EQ(message([&] {
+                  force_noise_std({0.3, 0, 0, 1e-3, 0}, {1000, 10}, 0);
+              }).rfind("hapticopt::force_noise_std: position_resolution", 0),
+              0u);
+    // sigma_F = (m q / T^2) g_F with alpha = K T^2 / m, beta = B T / m.
+    EXPECT_NEAR(force_noise_std({0.3, 0, 0, 1e-3, 0}, {1000, 10}, 2e-5),
+                0.3 * 2e-5 / 1e-6 * force_noise_gain({0, 0, 0}, {1000 * 1e-6 / 0.3, 10 * 1e-3 / 0.3}), 1e-12);
 }
 
 }  // namespace

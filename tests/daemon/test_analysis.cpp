@@ -55,10 +55,30 @@ RunOutput run_daemon(const Case& c) {
     }
     const std::string trace = (dir() / (std::string(c.name) + ".csv")).string();
     const std::string summary = (dir() / (std::string(c.name) + ".json")).string();
-    std::vector<std::string> args{"hapticd", "--config", "", "--device", profile.string(), "--lockstep", "--quiet",
-                                  "--scenario", "step", "--hand-damping", "0", "--hand-stiffness", "0", "--bilateral", "--rate", "1000",
-                                  "--delay-buffer", std::to_string(c.buffer), "--duration", std::to_string(c.duration_s),
-                                  "--trace", trace, "--summary-json", summary};
+    std::vector<std::string> args{"hapticd",
+                                  "--config",
+                                  "",
+                                  "--device",
+                                  profile.string(),
+                                  "--lockstep",
+                                  "--quiet",
+                                  "--scenario",
+                                  "step",
+                                  "--hand-damping",
+                                  "0",
+                                  "--hand-stiffness",
+                                  "0",
+                                  "--bilateral",
+                                  "--rate",
+                                  "1000",
+                                  "--delay-buffer",
+                                  std::to_string(c.buffer),
+                                  "--duration",
+                                  std::to_string(c.duration_s),
+                                  "--trace",
+                                  trace,
+                                  "--summary-json",
+                                  summary};
     args.insert(args.end(), c.gains.begin(), c.gains.end());
     std::vector<const char*> argv;
     for (const auto& a : args) argv.push_back(a.c_str());
@@ -233,20 +253,26 @@ TEST_P(DaemonMatchesAnalysis, StepResponseAndEnergyCosts) {
 // b = 6 N s/m).
 INSTANTIATE_TEST_SUITE_P(
     Cases, DaemonMatchesAnalysis,
-    ::testing::Values(
-        Case{"d0_CE2", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE2"}, 2.0},
-        Case{"d1_CE2_human_arm", 0.3, 6.0, 300.0, 0.0, 1, {"--criterion", "CE2"}, 3.0},
-        Case{"d4_buffer_CE1", 0.3, 0.0, 0.0, 0.0, 4, {"--criterion", "CE1"}, 8.0},
-        Case{"d3_device1_buffer2_CE0", 0.065, 0.0, 0.0, 1.0, 2, {"--criterion", "CE0"}, 6.0},
-        Case{"d1p5_fractional_device_delay", 0.22, 0.0, 0.0, 0.5, 1, {"--criterion", "CE2"}, 4.0},
-        // The paper's C_E0 point for d = 0 as explicit gains: alpha 0.3220, beta 0.9800 (cost 2.583).
-        Case{"d0_paper_CE0_point", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE0", "--stiffness", "96600", "--damping", "294"},
-             2.0}),
+    ::testing::Values(Case{"d0_CE2", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE2"}, 2.0},
+                      Case{"d1_CE2_human_arm", 0.3, 6.0, 300.0, 0.0, 1, {"--criterion", "CE2"}, 3.0},
+                      Case{"d4_buffer_CE1", 0.3, 0.0, 0.0, 0.0, 4, {"--criterion", "CE1"}, 8.0},
+                      Case{"d3_device1_buffer2_CE0", 0.065, 0.0, 0.0, 1.0, 2, {"--criterion", "CE0"}, 6.0},
+                      Case{"d1p5_fractional_device_delay", 0.22, 0.0, 0.0, 0.5, 1, {"--criterion", "CE2"}, 4.0},
+                      // The paper's C_E0 point for d = 0 as explicit gains: alpha 0.3220, beta 0.9800 (cost 2.583).
+                      Case{"d0_paper_CE0_point",
+                           0.3,
+                           0.0,
+                           0.0,
+                           0.0,
+                           0,
+                           {"--criterion", "CE0", "--stiffness", "96600", "--damping", "294"},
+                           2.0}),
     [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 
 TEST(DaemonMatchesAnalysis, PaperCE0PointCost) {
     // alpha = 96600 * 1e-6 / 0.3 = 0.322, beta = 294 * 1e-3 / 0.3 = 0.98: Table III, C_E0 = 2.583.
-    const Case c{"paper_ce0", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE0", "--stiffness", "96600", "--damping", "294"}, 2.0};
+    const Case c{"paper_ce0", 0.3, 0.0, 0.0, 0.0, 0, {"--criterion", "CE0", "--stiffness", "96600", "--damping", "294"},
+                 2.0};
     const RunOutput out = run_daemon(c);
     const auto costs = energy_costs_from_trace(c, out, 8);
     EXPECT_NEAR(costs[0], 2.583, 0.0005);
@@ -255,13 +281,14 @@ TEST(DaemonMatchesAnalysis, PaperCE0PointCost) {
 
 // Removes this process's scratch files at the end.
 class ScratchCleanup : public ::testing::Environment {
-public:
+  public:
     void TearDown() override {
         std::error_code ec;
         std::filesystem::remove_all(dir(), ec);
     }
 };
-[[maybe_unused]] ::testing::Environment* const kScratchCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+[[maybe_unused]] ::testing::Environment* const kScratchCleanup =
+    ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
 
 }  // namespace
 }  // namespace hapticd

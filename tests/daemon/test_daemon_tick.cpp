@@ -79,7 +79,7 @@ TEST(Watchdog, RunOfOverrunsOrStallIsAFault) {
 
 // A device replaying scripted positions and recording what it was told.
 class ScriptedDevice final : public Device {
-public:
+  public:
     explicit ScriptedDevice(std::vector<double> positions, std::int64_t fail_write_at = -1)
         : positions_(std::move(positions)), fail_write_at_(fail_write_at) {
         caps_.axes = 1;
@@ -107,7 +107,7 @@ public:
     std::atomic<std::size_t> writes{0};
     bool closed = false;
 
-private:
+  private:
     std::vector<double> positions_;
     std::int64_t fail_write_at_;
     std::int64_t reads_ = 0;
@@ -141,10 +141,10 @@ TEST(Daemon, DelayBufferAndZeroForceOnTheLastTick) {
     // forces computed at ticks 0..: -(1000 x_j + 1 (x_j - x_{j-1})/T), applied 2 ticks later
     EXPECT_EQ(dev.forces[0], 0.0);
     EXPECT_EQ(dev.forces[1], 0.0);
-    EXPECT_DOUBLE_EQ(dev.forces[2], -(1.0 + 0.0));   // tick 0: x_{-1} = x_0
-    EXPECT_DOUBLE_EQ(dev.forces[3], -(2.0 + 1.0));   // tick 1
-    EXPECT_DOUBLE_EQ(dev.forces[4], -(3.0 + 1.0));   // tick 2
-    EXPECT_EQ(dev.forces[5], 0.0);                   // last tick: zero
+    EXPECT_DOUBLE_EQ(dev.forces[2], -(1.0 + 0.0));  // tick 0: x_{-1} = x_0
+    EXPECT_DOUBLE_EQ(dev.forces[3], -(2.0 + 1.0));  // tick 1
+    EXPECT_DOUBLE_EQ(dev.forces[4], -(3.0 + 1.0));  // tick 2
+    EXPECT_EQ(dev.forces[5], 0.0);                  // last tick: zero
 }
 
 TEST(Daemon, StopRequestGivesZeroForceOnTheNextTick) {

@@ -20,7 +20,7 @@ namespace {
 
 // A device whose only observable act is the signal-safe zero: it writes a byte into shared memory.
 class ZeroMarkDevice final : public Device {
-public:
+  public:
     explicit ZeroMarkDevice(volatile char* mark) : mark_(mark) {}
     DeviceStatus open() override { return DeviceStatus::Ok; }
     DeviceStatus home() override { return DeviceStatus::Ok; }
@@ -38,7 +38,7 @@ public:
     [[nodiscard]] std::string_view name() const noexcept override { return "zero-mark"; }
     [[nodiscard]] std::string last_error() const override { return {}; }
 
-private:
+  private:
     volatile char* mark_;
     DeviceCapabilities caps_{};
 };
@@ -48,7 +48,8 @@ TEST(FatalSignalHandlers, TerminateMarksTheStateAndZeroesTheDeviceFirst) {
     const std::string shm = "/hapticd-test-fatal-" + std::to_string(::getpid());
     StatePublisher state(shm, 3, 1e-3, -1);
     state.publish(StateTick{}, nullptr);
-    auto* mark = static_cast<volatile char*>(::mmap(nullptr, 1, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0));
+    auto* mark =
+        static_cast<volatile char*>(::mmap(nullptr, 1, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0));
     ASSERT_NE(mark, MAP_FAILED);
     *mark = '-';
     ZeroMarkDevice device(mark);
@@ -57,7 +58,8 @@ TEST(FatalSignalHandlers, TerminateMarksTheStateAndZeroesTheDeviceFirst) {
             install_fatal_signal_handlers(&device, &state);
             std::terminate();
         },
-        ::testing::KilledBySignal(SIGABRT), "hapticd: fatal: std::terminate; zero force written to the device; the state says fault 5");
+        ::testing::KilledBySignal(SIGABRT),
+        "hapticd: fatal: std::terminate; zero force written to the device; the state says fault 5");
     StateLayout s{};
     ASSERT_TRUE(state.read(s));
     EXPECT_EQ(s.fault, static_cast<std::uint32_t>(StateFault::Terminate));

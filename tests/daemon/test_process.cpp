@@ -54,7 +54,8 @@ std::vector<Row> read_trace(const std::string& path) {
 // (SimulatedHand.TheFreeDeviceChecksStayConservativeForTheDefaultHand): hapticd says so at start-up, and
 // not for the default hand.
 TEST(HapticdProcess, WarnsWhenAWallIsUnstableWithTheSimulatedHand) {
-    const auto undamped = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5", "--hand-damping", "0", "--hand-stiffness", "300"}),
+    const auto undamped = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5", "--hand-damping", "0",
+                                    "--hand-stiffness", "300"}),
                               "hand_warning");
     EXPECT_EQ(undamped.code, 0) << undamped.err;
     EXPECT_NE(undamped.err.find("is not stable with the simulated hand"), std::string::npos) << undamped.err;
@@ -75,9 +76,10 @@ TEST(HapticdProcess, SigtermStopsWithZeroForceAndCompleteTrace) {
     const std::string summary = (test::scratch_dir() / "sigterm.json").string();
     // Stiffness/damping explicit so that start-up does not depend on the optimiser's run time; the wall
     // pushes back during the run (unit force step into a bilateral wall).
-    Process p(args({"--stiffness", "3000", "--damping", "10", "--bilateral", "--trace", trace, "--summary-json", summary,
-                    "--rt-priority", "0", "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000"}),
-              "sigterm");
+    Process p(
+        args({"--stiffness", "3000", "--damping", "10", "--bilateral", "--trace", trace, "--summary-json", summary,
+              "--rt-priority", "0", "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000"}),
+        "sigterm");
     ASSERT_GT(p.pid(), 0);
     // Wait until the loop is running (the trace has data), then stop it.
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -105,9 +107,9 @@ TEST(HapticdProcess, SigtermStopsWithZeroForceAndCompleteTrace) {
 
 TEST(HapticdProcess, LockstepDurationWritesSummary) {
     const std::string summary = (test::scratch_dir() / "lockstep.json").string();
-    const auto r = run(args({"--lockstep", "--duration", "0.5", "--stiffness", "2000", "--damping", "5",
-                             "--summary-json", summary}),
-                       "lockstep");
+    const auto r = run(
+        args({"--lockstep", "--duration", "0.5", "--stiffness", "2000", "--damping", "5", "--summary-json", summary}),
+        "lockstep");
     ASSERT_EQ(r.code, 0) << r.err;
     const auto j = nlohmann::json::parse(test::read_file(summary));
     for (const char* key : {"criterion", "K", "B", "alpha", "beta", "mass", "damping", "stiffness", "period", "delay",
@@ -132,14 +134,16 @@ TEST(HapticdProcess, LockstepDurationWritesSummary) {
 // inverse of condition 3.1 (a few ulp each); mistaking M_aa for the mass along axis a is 9 % off on axis 1.
 TEST(HapticdProcess, SummaryGivesTheMassMatrixAndTheMassAlongEachAxis) {
     const double M[3][3] = {{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}};
-    const std::string profile = write_file("aniso_summary_device.toml",
-                                           "name = \"aniso\"\nmass_matrix = [0.45, 0.10, 0.12, 0.10, 0.30, 0.00, 0.12, 0.00, 0.25]\n"
-                                           "damping = 0.0\nstiffness = 0.0\nmax_force = 10.0\nmax_stiffness = 100000.0\naxes = 3\n"
-                                           "workspace_min = [-0.06, -0.06, -0.06]\nworkspace_max = [0.06, 0.06, 0.06]\n");
+    const std::string profile =
+        write_file("aniso_summary_device.toml",
+                   "name = \"aniso\"\nmass_matrix = [0.45, 0.10, 0.12, 0.10, 0.30, 0.00, 0.12, 0.00, 0.25]\n"
+                   "damping = 0.0\nstiffness = 0.0\nmax_force = 10.0\nmax_stiffness = 100000.0\naxes = 3\n"
+                   "workspace_min = [-0.06, -0.06, -0.06]\nworkspace_max = [0.06, 0.06, 0.06]\n");
     const std::string summary = (test::scratch_dir() / "aniso_summary.json").string();
-    const auto r = run(args({"--device", profile, "--lockstep", "--duration", "0.05", "--wall", "axis=1 position=0.05 direction=+1",
-                             "--stiffness", "2000", "--damping", "5", "--summary-json", summary}),
-                       "aniso_summary");
+    const auto r = run(
+        args({"--device", profile, "--lockstep", "--duration", "0.05", "--wall", "axis=1 position=0.05 direction=+1",
+              "--stiffness", "2000", "--damping", "5", "--summary-json", summary}),
+        "aniso_summary");
     ASSERT_EQ(r.code, 0) << r.err;
     const auto j = nlohmann::json::parse(test::read_file(summary));
     ASSERT_TRUE(j["mass_matrix"].is_array() && j["mass_matrix"].size() == 3) << j.dump();
@@ -148,7 +152,8 @@ TEST(HapticdProcess, SummaryGivesTheMassMatrixAndTheMassAlongEachAxis) {
         ASSERT_EQ(j["mass_matrix"][i].size(), 3U) << j["mass_matrix"];
         for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(j["mass_matrix"][i][k].get<double>(), M[i][k]) << i << "," << k;
     }
-    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                       M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
                        M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
     const double cofactor[3] = {M[1][1] * M[2][2] - M[1][2] * M[2][1], M[0][0] * M[2][2] - M[0][2] * M[2][0],
                                 M[0][0] * M[1][1] - M[0][1] * M[1][0]};
@@ -159,14 +164,15 @@ TEST(HapticdProcess, SummaryGivesTheMassMatrixAndTheMassAlongEachAxis) {
     // Hand values (the profile's comment: 0.359 kg along axis 0).
     EXPECT_NEAR(j["axis_masses"][0].get<double>(), 0.02693 / 0.075, 1e-12);
     EXPECT_EQ(j["mass"].get<double>(), j["axis_masses"][0].get<double>());
-    EXPECT_NEAR(j["alpha"].get<double>(), 2000.0 * 1e-6 / j["axis_masses"][1].get<double>(), 1e-12 * j["alpha"].get<double>());
+    EXPECT_NEAR(j["alpha"].get<double>(), 2000.0 * 1e-6 / j["axis_masses"][1].get<double>(),
+                1e-12 * j["alpha"].get<double>());
     EXPECT_EQ(j["max_stiffness"].get<double>(), 100000.0);
 }
 
 struct BadCase {
     const char* name;
-    std::string config;           // hapticd.toml contents ("" : none)
-    std::string profile;          // device profile contents ("" : the shipped sim)
+    std::string config;   // hapticd.toml contents ("" : none)
+    std::string profile;  // device profile contents ("" : the shipped sim)
     std::vector<std::string> extra;
     int code;
     std::vector<std::string> message_parts;
@@ -213,53 +219,114 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"malformed_toml", "rate = 1000.0\nmass = 0.3.2\n", "", {}, kExitBadConfig, {"line 2", "mass"}},
         BadCase{"malformed_section", "[loop]\nrate = 1000.0\n", "", {}, kExitBadConfig, {"line 1", "[loop]"}},
         BadCase{"bad_choice_in_config", "criterion = \"CE9\"\n", "", {}, kExitBadConfig, {"criterion", "CE9"}},
-        BadCase{"missing_config", "", "", {"--config", "/nonexistent/hapticd.toml"}, kExitBadConfig,
+        BadCase{"missing_config",
+                "",
+                "",
+                {"--config", "/nonexistent/hapticd.toml"},
+                kExitBadConfig,
                 {"/nonexistent/hapticd.toml"}},
-        BadCase{"negative_mass", "", "mass = -0.3\nmax_force = 10.0\n", {}, kExitInvalidParameter,
+        BadCase{"negative_mass",
+                "",
+                "mass = -0.3\nmax_force = 10.0\n",
+                {},
+                kExitInvalidParameter,
                 {"mass = -0.3", "accepted range"}},
-        BadCase{"profile_unknown_key", "", "mass = 0.3\nmax_force = 10.0\nmas = 1\n", {}, kExitBadConfig,
+        BadCase{"profile_unknown_key",
+                "",
+                "mass = 0.3\nmax_force = 10.0\nmas = 1\n",
+                {},
+                kExitBadConfig,
                 {"unknown key", "mas"}},
         BadCase{"profile_missing_mass", "", "max_force = 10.0\n", {}, kExitBadConfig, {"missing key 'mass'"}},
         BadCase{"nan_rate", "", "", {"--rate", "nan"}, kExitInvalidParameter, {"rate = nan", "accepted range"}},
         BadCase{"inf_duration", "", "", {"--duration", "inf"}, kExitInvalidParameter, {"duration = inf"}},
-        BadCase{"hand_stiffness", "", "", {"--hand-stiffness", "-5"}, kExitInvalidParameter, {"hand-stiffness = -5", "0 .. 1e9 N/m"}},
+        BadCase{"hand_stiffness",
+                "",
+                "",
+                {"--hand-stiffness", "-5"},
+                kExitInvalidParameter,
+                {"hand-stiffness = -5", "0 .. 1e9 N/m"}},
         BadCase{"hand_damping", "", "", {"--hand-damping", "nan"}, kExitInvalidParameter, {"hand-damping = nan"}},
-        BadCase{"hand_mass", "", "", {"--hand-mass", "-0.1"}, kExitInvalidParameter, {"hand-mass = -0.1", "0 .. 1000 kg"}},
-        BadCase{"activation_speed", "", "", {"--activation-speed", "-1"}, kExitInvalidParameter, {"activation-speed = -1"}},
-        BadCase{"move_interval_max", "", "", {"--move-interval-max", "11"}, kExitInvalidParameter, {"move-interval-max = 11", "0 .. 10 s"}},
-        BadCase{"nan_stiffness", "", "", {"--stiffness", "nan", "--damping", "1"}, kExitInvalidParameter,
+        BadCase{
+            "hand_mass", "", "", {"--hand-mass", "-0.1"}, kExitInvalidParameter, {"hand-mass = -0.1", "0 .. 1000 kg"}},
+        BadCase{
+            "activation_speed", "", "", {"--activation-speed", "-1"}, kExitInvalidParameter, {"activation-speed = -1"}},
+        BadCase{"move_interval_max",
+                "",
+                "",
+                {"--move-interval-max", "11"},
+                kExitInvalidParameter,
+                {"move-interval-max = 11", "0 .. 10 s"}},
+        BadCase{"nan_stiffness",
+                "",
+                "",
+                {"--stiffness", "nan", "--damping", "1"},
+                kExitInvalidParameter,
                 {"stiffness = nan"}},
-        BadCase{"negative_delay_buffer", "", "", {"--delay-buffer", "-2"}, kExitInvalidParameter,
+        BadCase{"negative_delay_buffer",
+                "",
+                "",
+                {"--delay-buffer", "-2"},
+                kExitInvalidParameter,
                 {"delay-buffer = -2", "accepted range"}},
-        BadCase{"unstable_gains", "", "", {"--stiffness", "1e6", "--damping", "0"}, kExitUnstableGains,
+        BadCase{"unstable_gains",
+                "",
+                "",
+                {"--stiffness", "1e6", "--damping", "0"},
+                kExitUnstableGains,
                 {"K = 1e+06", "B = 0", "alpha_max"}},
         BadCase{"only_stiffness", "", "", {"--stiffness", "100"}, kExitUsage, {"--damping"}},
         BadCase{"unknown_option", "", "", {"--stifness", "100"}, kExitUsage, {"--stifness"}},
         BadCase{"bad_criterion", "", "", {"--criterion", "CE3"}, kExitUsage, {"CE3"}},
         BadCase{"bad_wall", "", "", {"--wall", "axis=1 position=0"}, kExitUsage, {"axis = 1"}},
-        BadCase{"real_driver", "", "driver = \"falcon\"\nmass = 0.3\nmax_force = 9.0\n", {}, kExitDeviceError,
+        BadCase{"real_driver",
+                "",
+                "driver = \"falcon\"\nmass = 0.3\nmax_force = 9.0\n",
+                {},
+                kExitDeviceError,
                 {"falcon", "--simulate"}},
-        BadCase{"robust_with_overshoot_criterion", "", "", {"--robust", "--criterion", "CE2+OV"}, kExitUsage,
+        BadCase{"robust_with_overshoot_criterion",
+                "",
+                "",
+                {"--robust", "--criterion", "CE2+OV"},
+                kExitUsage,
                 {"--robust", "CE2+OV", "CE0, CE1, CE2"}},
-        BadCase{"robust_without_ranges", "", "mass = 0.3\nmax_force = 10.0\n", {"--robust"}, kExitBadConfig,
+        BadCase{"robust_without_ranges",
+                "",
+                "mass = 0.3\nmax_force = 10.0\n",
+                {"--robust"},
+                kExitBadConfig,
                 {"--robust", "mass_range"}},
-        BadCase{"range_excludes_nominal", "", "mass = 0.3\nmax_force = 10.0\nmass_range = [0.4, 0.5]\n", {"--robust"},
-                kExitInvalidParameter, {"mass_range", "min <= nominal value"}},
-        BadCase{"range_wrong_length", "", "mass = 0.3\nmax_force = 10.0\nmass_range = [0.2, 0.3, 0.4]\n", {},
-                kExitInvalidParameter, {"mass_range", "3 values", "[min, max]"}},
-        BadCase{"device_fails_during_run", "", "mass = 0.3\nmax_force = 10.0\nfail_at_tick = 5\n",
-                {"--stiffness", "1000", "--damping", "1"}, kExitDeviceError, {"failed at tick 5", "disconnected"}}),
+        BadCase{"range_excludes_nominal",
+                "",
+                "mass = 0.3\nmax_force = 10.0\nmass_range = [0.4, 0.5]\n",
+                {"--robust"},
+                kExitInvalidParameter,
+                {"mass_range", "min <= nominal value"}},
+        BadCase{"range_wrong_length",
+                "",
+                "mass = 0.3\nmax_force = 10.0\nmass_range = [0.2, 0.3, 0.4]\n",
+                {},
+                kExitInvalidParameter,
+                {"mass_range", "3 values", "[min, max]"}},
+        BadCase{"device_fails_during_run",
+                "",
+                "mass = 0.3\nmax_force = 10.0\nfail_at_tick = 5\n",
+                {"--stiffness", "1000", "--damping", "1"},
+                kExitDeviceError,
+                {"failed at tick 5", "disconnected"}}),
     [](const ::testing::TestParamInfo<BadCase>& info) { return std::string(info.param.name); });
 
 // Removes this process's scratch files at the end.
 class ScratchCleanup : public ::testing::Environment {
-public:
+  public:
     void TearDown() override {
         std::error_code ec;
         std::filesystem::remove_all(test::scratch_dir(), ec);
     }
 };
-[[maybe_unused]] ::testing::Environment* const kScratchCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+[[maybe_unused]] ::testing::Environment* const kScratchCleanup =
+    ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
 
 }  // namespace
 }  // namespace hapticd

@@ -92,12 +92,14 @@ const std::string& recorded_run() {
         const Names n = names("record");
         const std::string file = (scratch() / "run.rec").string();
         Child daemon(HAPTICD_BINARY,
-                     daemon_args(n, {"--lockstep", "--serve-wait-commit", "--hand-stiffness", "-1", "--hand-damping", "-1", "--record", file}),
+                     daemon_args(n, {"--lockstep", "--serve-wait-commit", "--hand-stiffness", "-1", "--hand-damping",
+                                     "-1", "--record", file}),
                      "record_daemon");
         EXPECT_TRUE(wait_for_socket(n.socket)) << daemon.err();
         const cl::StateReader state = cl::StateReader::open(n.shm);
         {
-            cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "recorder-test", .timeout_s = 60.0});
+            cl::Client c =
+                cl::Client::connect({.socket_path = n.socket, .client_name = "recorder-test", .timeout_s = 60.0});
             // The handle rests at the origin: the plane's surface (y = -offset; normal -y, across the config wall's x)
             // is behind it, so it appears at the handle and moves out (the activation rule) against the hand's spring.
             const auto plane = [](double offset) {
@@ -108,13 +110,15 @@ const std::string& recorded_run() {
             const cl::CommitResult r = c.commit(add);
             std::uint64_t seq = r.commit_seq;
             for (int i = 1; i <= 5; ++i) {
-                const cl::StateSample applied = wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; });
+                const cl::StateSample applied =
+                    wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; });
                 wait_state(state, [&](const cl::StateSample& s) { return s.tick >= applied.tick + kGap; });
                 cl::Batch move;
                 move.modify(r.object_ids.at(0), plane(0.002 + 0.0005 * i));
                 seq = c.commit(move).commit_seq;
             }
-            const cl::StateSample applied = wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; });
+            const cl::StateSample applied =
+                wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; });
             wait_state(state, [&](const cl::StateSample& s) { return s.tick >= applied.tick + kGap; });
         }  // the client leaves: a departure, the plane ramps out
         const cl::StateSample gone = wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; });
@@ -133,8 +137,8 @@ TEST(RecordReplay, TheReplayReproducesEveryForceBitForBit) {
     std::size_t departures = 0, nonzero = 0;
     for (const auto& b : r.batches) departures += b.source == CommitSource::Departure ? 1 : 0;
     for (const auto& t : r.ticks) nonzero += t.force[1] != 0.0 ? 1 : 0;
-    std::printf("[ record ] %zu ticks (%zu with force), %zu batches (%zu departures), %zu bytes\n", r.ticks.size(), nonzero,
-                r.batches.size(), departures, read_bytes(recorded_run()).size());
+    std::printf("[ record ] %zu ticks (%zu with force), %zu batches (%zu departures), %zu bytes\n", r.ticks.size(),
+                nonzero, r.batches.size(), departures, read_bytes(recorded_run()).size());
     EXPECT_EQ(departures, 1U);
     ASSERT_GT(nonzero, 1000U);  // the comparison is not one of zeros
 
@@ -181,7 +185,8 @@ TEST(RecordReplay, AChangedForceIsNamedAtItsTick) {
     EXPECT_EQ(out.code, 11) << out.err;
     char values[200];
     std::snprintf(values, sizeof values, "force[1] recorded %.17g N, replayed %.17g N", t.force[1], original);
-    EXPECT_NE(out.err.find("1 of " + std::to_string(r.ticks.size()) + " ticks differ; the first is tick " + std::to_string(tick) + ": "),
+    EXPECT_NE(out.err.find("1 of " + std::to_string(r.ticks.size()) + " ticks differ; the first is tick " +
+                           std::to_string(tick) + ": "),
               std::string::npos)
         << out.err;
     EXPECT_NE(out.err.find(values), std::string::npos) << out.err;
@@ -206,7 +211,8 @@ TEST(RecordReplay, AChangedPositionIsNamedAtItsTick) {
 
     const Replay out = replay(file, "replay_position");
     EXPECT_EQ(out.code, 11) << out.err;
-    EXPECT_NE(out.err.find("ticks differ; the first is tick " + std::to_string(tick) + ": force[1]"), std::string::npos) << out.err;
+    EXPECT_NE(out.err.find("ticks differ; the first is tick " + std::to_string(tick) + ": force[1]"), std::string::npos)
+        << out.err;
 }
 
 // Bad files: exit 10, the file's path and the defect in the message, never a crash.
@@ -226,7 +232,8 @@ TEST(RecordReplay, BadRecordingsAreRefusedWithTheirDefect) {
     std::vector<char> version = good;
     version[8] = 7;
     cases.push_back({"version", version, "format version 7 is not supported; accepted: 1"});
-    cases.push_back({"cut_mid_record", std::vector<char>(good.begin(), good.end() - 300), "truncated: 84 bytes after the last whole"});
+    cases.push_back({"cut_mid_record", std::vector<char>(good.begin(), good.end() - 300),
+                     "truncated: 84 bytes after the last whole"});
     cases.push_back({"cut_at_record", std::vector<char>(good.begin(), good.end() - 256), "truncated: no end record"});
     std::vector<char> flipped = good;
     flipped[header_size_of(good) + 3 * rec::kChunkSize + 30] ^= 0x10;
@@ -244,7 +251,8 @@ TEST(RecordReplay, BadRecordingsAreRefusedWithTheirDefect) {
     std::vector<char> status = good;  // intact (checksum resealed), but a device status no device returns
     status[tick_offset(status, 5) + 4] = 9;
     reseal(status);
-    cases.push_back({"status", status, "corrupt: tick 5 has device statuses 9, 0 and fault 0 (accepted: statuses 0 .. 7, fault 0 .. 3)"});
+    cases.push_back({"status", status,
+                     "corrupt: tick 5 has device statuses 9, 0 and fault 0 (accepted: statuses 0 .. 7, fault 0 .. 3)"});
     for (const Case& c : cases) {
         const std::string file = (scratch() / ("bad_" + c.name + ".rec")).string();
         write_bytes(file, c.bytes);
@@ -258,15 +266,18 @@ TEST(RecordReplay, BadRecordingsAreRefusedWithTheirDefect) {
     EXPECT_NE(missing.err.find("cannot open"), std::string::npos) << missing.err;
     Child extra(HAPTICD_BINARY, {"--replay", recorded_run(), "--duration", "1"}, "replay_extra_option");
     EXPECT_EQ(extra.wait(), 2);
-    EXPECT_NE(extra.err().find("only --quiet may be given with it (got '--duration')"), std::string::npos) << extra.err();
+    EXPECT_NE(extra.err().find("only --quiet may be given with it (got '--duration')"), std::string::npos)
+        << extra.err();
 }
 
 // The profile a recording was made with changed: the replay refuses (exit 10) rather than compare another scene.
 TEST(RecordReplay, AChangedDeviceProfileIsRefused) {
     const std::string profile = (scratch() / "changing.toml").string();
-    std::filesystem::copy_file(HAPTICD_SERVER_TEST_DIR "/sim3.toml", profile, std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(HAPTICD_SERVER_TEST_DIR "/sim3.toml", profile,
+                               std::filesystem::copy_options::overwrite_existing);
     const std::string file = (scratch() / "profile.rec").string();
-    Child run(HAPTICD_BINARY, {"--config", "", "--device", profile, "--lockstep", "--duration", "0.2", "--quiet", "--record", file},
+    Child run(HAPTICD_BINARY,
+              {"--config", "", "--device", profile, "--lockstep", "--duration", "0.2", "--quiet", "--record", file},
               "profile_record");
     ASSERT_EQ(run.wait(), 0) << run.err();
     const Replay same = replay(file, "profile_replay_same");
@@ -274,7 +285,8 @@ TEST(RecordReplay, AChangedDeviceProfileIsRefused) {
     std::ofstream(profile, std::ios::app) << "\n# changed\n";
     const Replay changed = replay(file, "profile_replay_changed");
     EXPECT_EQ(changed.code, 10) << changed.err;
-    EXPECT_NE(changed.err.find("the device profile '" + profile + "' changed since the recording"), std::string::npos) << changed.err;
+    EXPECT_NE(changed.err.find("the device profile '" + profile + "' changed since the recording"), std::string::npos)
+        << changed.err;
 }
 
 }  // namespace
@@ -288,10 +300,12 @@ namespace {
 // reproduces the zero-force end: 151 ticks, identical.
 TEST(RecordReplay, ADeviceFaultReplaysAtItsTick) {
     const std::string profile = (scratch() / "failing.toml").string();
-    std::filesystem::copy_file(HAPTICD_SOURCE_CONFIG_DIR "/devices/sim.toml", profile, std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(HAPTICD_SOURCE_CONFIG_DIR "/devices/sim.toml", profile,
+                               std::filesystem::copy_options::overwrite_existing);
     std::ofstream(profile, std::ios::app) << "\nfail_at_tick = 150\n";
     const std::string file = (scratch() / "failing.rec").string();
-    Child run(HAPTICD_BINARY, {"--config", "", "--device", profile, "--lockstep", "--duration", "1", "--quiet", "--record", file},
+    Child run(HAPTICD_BINARY,
+              {"--config", "", "--device", profile, "--lockstep", "--duration", "1", "--quiet", "--record", file},
               "failing_record");
     ASSERT_EQ(run.wait(), 6) << run.err();
     const Recording r = read_recording(file);

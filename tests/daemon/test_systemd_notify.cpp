@@ -42,7 +42,7 @@ struct Notification {
 
 // The service manager's end: a bound AF_UNIX datagram socket.
 class NotifyListener {
-public:
+  public:
     explicit NotifyListener(const std::string& path) : path_(path) {
         std::filesystem::remove(path_);
         fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
@@ -70,7 +70,7 @@ public:
         }
     }
 
-private:
+  private:
     std::string path_;
     int fd_ = -1;
     bool bound_ = false;
@@ -78,7 +78,8 @@ private:
 
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 
-std::size_t count_prefix(const std::vector<Notification>& v, const char* prefix, Clock::time_point from = Clock::time_point::min(),
+std::size_t count_prefix(const std::vector<Notification>& v, const char* prefix,
+                         Clock::time_point from = Clock::time_point::min(),
                          Clock::time_point to = Clock::time_point::max()) {
     std::size_t n = 0;
     for (const auto& m : v) {
@@ -90,12 +91,14 @@ std::size_t count_prefix(const std::vector<Notification>& v, const char* prefix,
 // Sets NOTIFY_SOCKET and WATCHDOG_USEC for the child processes the test starts (posix_spawn passes environ on)
 // and removes them afterwards, so no other test of this binary sees them.
 class SystemdNotify : public ::testing::Test {
-protected:
+  protected:
     // 100 ms: hapticd checks its heartbeat every 50 ms (half of it, as sd_watchdog_enabled(3) recommends).
     static constexpr long kWatchdogUsec = 100000;
 
     void SetUp() override {
-        socket_path_ = (test::scratch_dir() / ("notify_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()))).string();
+        socket_path_ = (test::scratch_dir() /
+                        ("notify_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name())))
+                           .string();
         listener_ = std::make_unique<NotifyListener>(socket_path_);
         ASSERT_TRUE(listener_->ok()) << "bind " << socket_path_ << ": " << std::strerror(errno);
         ::setenv("NOTIFY_SOCKET", socket_path_.c_str(), 1);
@@ -109,7 +112,8 @@ protected:
     }
 
     // Collects notifications until the process exits (or the timeout); returns its exit code.
-    int collect_until_exit(test::Process& p, std::vector<Notification>& got, milliseconds timeout = milliseconds(20000)) {
+    int collect_until_exit(test::Process& p, std::vector<Notification>& got,
+                           milliseconds timeout = milliseconds(20000)) {
         const auto end = Clock::now() + timeout;
         int code = -1;
         while (Clock::now() < end) {
@@ -232,8 +236,8 @@ TEST_F(SystemdNotify, WatchdogStopsWhileTheLoopStallsAndResumesWithIt) {
     ASSERT_GE(trace_fd, 0) << std::strerror(errno);
     // Lockstep: ticks back to back, paced only by the blocking trace ring; 10^6 s of ticks (10^9) is far more than
     // the test lets it run, SIGTERM ends it.
-    test::Process p(base_args({"--lockstep", "--stiffness", "3000", "--damping", "10", "--duration", "1e6", "--trace", fifo,
-                               "--trace-capacity", "64"}),
+    test::Process p(base_args({"--lockstep", "--stiffness", "3000", "--damping", "10", "--duration", "1e6", "--trace",
+                               fifo, "--trace-capacity", "64"}),
                     "notify_stall");
     ASSERT_GT(p.pid(), 0);
     std::vector<Notification> got;
@@ -273,7 +277,8 @@ TEST_F(SystemdNotify, WatchdogStopsWhileTheLoopStallsAndResumesWithIt) {
     // Resumed: read again until two more keep-alives came (at most 10 s).
     const std::size_t before_resume = count_prefix(got, "WATCHDOG=1");
     const auto resume_deadline = Clock::now() + milliseconds(10000);
-    while (count_prefix(got, "WATCHDOG=1") < before_resume + 2 && Clock::now() < resume_deadline) pump(milliseconds(20), true);
+    while (count_prefix(got, "WATCHDOG=1") < before_resume + 2 && Clock::now() < resume_deadline)
+        pump(milliseconds(20), true);
     EXPECT_GE(count_prefix(got, "WATCHDOG=1", pause_end), 2U) << "no keep-alive after the loop resumed";
 
     // SIGTERM: keep reading so that the loop can reach the tick that sees it.

@@ -8,7 +8,7 @@
 namespace hapticopt::accuracy {
 
 struct Case {
-  double d, gamma, delta, alpha, beta;
+    double d, gamma, delta, alpha, beta;
 };
 
 inline constexpr Case kCases[] = {

@@ -13,21 +13,22 @@
 #include "accuracy_cases.hpp"
 
 int main() {
-  using LD = long double;
-  std::printf("# Reference values for tests/benchmarks/accuracy_benchmarks.cpp, long double, made by\n"
-              "# tests/data/make_accuracy_reference.cpp (see there). overshoot = C_OV (relative to x_inf).\n"
-              "d,gamma,delta,alpha,beta,ce0,ce1,ce2,overshoot\n");
-  for (const auto& c : hapticopt::accuracy::kCases) {
-    const hapticopt::NormalizedPlant plant{c.gamma, c.delta, c.d};
-    const hapticopt::SampledPlant<LD> sampled(plant);
-    if (!hapticopt::loop_is_stable(sampled, LD(c.alpha), LD(c.beta))) return 1;
-    const auto e = hapticopt::energy_costs<LD>(sampled, LD(c.alpha), LD(c.beta));
-    hapticopt::OvershootOptions opt;
-    opt.tolerance = 1e-300;
-    const auto ov = hapticopt::overshoot<LD>(sampled, LD(c.alpha), LD(c.beta), opt);
-    if (!ov.converged) return 1;
-    std::printf("%.17g,%.17g,%.17g,%.17g,%.17g,%.21Lg,%.21Lg,%.21Lg,%.21Lg\n", c.d, c.gamma, c.delta, c.alpha, c.beta,
-                e.ce0, e.ce1, e.ce2, ov.value);
-  }
-  return 0;
+    using LD = long double;
+    std::printf(
+        "# Reference values for tests/benchmarks/accuracy_benchmarks.cpp, long double, made by\n"
+        "# tests/data/make_accuracy_reference.cpp (see there). overshoot = C_OV (relative to x_inf).\n"
+        "d,gamma,delta,alpha,beta,ce0,ce1,ce2,overshoot\n");
+    for (const auto& c : hapticopt::accuracy::kCases) {
+        const hapticopt::NormalizedPlant plant{c.gamma, c.delta, c.d};
+        const hapticopt::SampledPlant<LD> sampled(plant);
+        if (!hapticopt::loop_is_stable(sampled, LD(c.alpha), LD(c.beta))) return 1;
+        const auto e = hapticopt::energy_costs<LD>(sampled, LD(c.alpha), LD(c.beta));
+        hapticopt::OvershootOptions opt;
+        opt.tolerance = 1e-300;
+        const auto ov = hapticopt::overshoot<LD>(sampled, LD(c.alpha), LD(c.beta), opt);
+        if (!ov.converged) return 1;
+        std::printf("%.17g,%.17g,%.17g,%.17g,%.17g,%.21Lg,%.21Lg,%.21Lg,%.21Lg\n", c.d, c.gamma, c.delta, c.alpha,
+                    c.beta, e.ce0, e.ce1, e.ce2, ov.value);
+    }
+    return 0;
 }

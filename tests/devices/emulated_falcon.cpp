@@ -114,7 +114,8 @@ void EmulatedFalcon::loader_write(std::span<const std::uint8_t> data, std::chron
         log_.handshake_answered = now;
     }
     if (loader && slow_.burn_per_chunk.count() > 0 && falcon_.uploaded > 0 && model.rx.size() > before) {
-        HeldEcho h{now + slow_.burn_per_chunk, std::vector<std::uint8_t>(model.rx.begin() + static_cast<std::ptrdiff_t>(before), model.rx.end())};
+        HeldEcho h{now + slow_.burn_per_chunk,
+                   std::vector<std::uint8_t>(model.rx.begin() + static_cast<std::ptrdiff_t>(before), model.rx.end())};
         model.rx.erase(model.rx.begin() + static_cast<std::ptrdiff_t>(before), model.rx.end());
         held_.push_back(std::move(h));
         ++log_.chunks_held;
@@ -147,7 +148,8 @@ bool EmulatedFalcon::complete_in(Flying& f, std::chrono::steady_clock::time_poin
     if (rx.empty()) {  // this packet carries the status bytes alone
         if (!held_.empty()) {
             ++log_.status_only_while_burning;
-        } else if (dtr_high_ != std::chrono::steady_clock::time_point{} && !loader_answered_ && !falcon_.firmware_running) {
+        } else if (dtr_high_ != std::chrono::steady_clock::time_point{} && !loader_answered_ &&
+                   !falcon_.firmware_running) {
             ++log_.status_only_while_waking;
         }
     }
@@ -222,17 +224,21 @@ bool EmulatedFalcon::on_ioctl(UMockdevIoctlClient* client) {
                     if (req == ftdi::kRequestLatency) falcon_.latency_ms = value;
                     if (req == ftdi::kRequestModemCtrl && value == ftdi::modem_dtr(true)) {  // the loader restarts
                         dtr_high_ = f.submitted;
-                        if (log_.first_dtr_high == std::chrono::steady_clock::time_point{}) log_.first_dtr_high = dtr_high_;
+                        if (log_.first_dtr_high == std::chrono::steady_clock::time_point{})
+                            log_.first_dtr_high = dtr_high_;
                         loader_answered_ = false;
                         held_.clear();
                     }
-                    if (req == ftdi::kRequestReset && (value == ftdi::kPurgeRx || value == ftdi::kResetSio)) model.rx.clear();
+                    if (req == ftdi::kRequestReset && (value == ftdi::kPurgeRx || value == ftdi::kResetSio))
+                        model.rx.clear();
                 }
                 urb->actual_length = 0;
                 urb->status = 0;
                 f.done = true;
             } else if ((urb->endpoint & 0x80) == 0) {
-                if (!silent_) loader_write(std::span<const std::uint8_t>(buffer, static_cast<std::size_t>(urb->buffer_length)), f.submitted);
+                if (!silent_)
+                    loader_write(std::span<const std::uint8_t>(buffer, static_cast<std::size_t>(urb->buffer_length)),
+                                 f.submitted);
                 urb->actual_length = urb->buffer_length;
                 urb->status = 0;
                 f.done = true;
@@ -286,7 +292,8 @@ bool EmulatedFalcon::on_ioctl(UMockdevIoctlClient* client) {
         }
         case USBDEVFS_DISCARDURB: {
             const unsigned long addr = *reinterpret_cast<unsigned long*>(arg->data);
-            const auto it = std::find_if(flying_.begin(), flying_.end(), [addr](const Flying& f) { return f.client_addr == addr; });
+            const auto it =
+                std::find_if(flying_.begin(), flying_.end(), [addr](const Flying& f) { return f.client_addr == addr; });
             if (it == flying_.end()) {
                 umockdev_ioctl_client_complete(client, -1, EINVAL);
             } else {

@@ -35,7 +35,7 @@ struct _UMockdevIoctlData;
 namespace hapticd::test {
 
 class EmulatedFalcon {
-public:
+  public:
     EmulatedFalcon();
     ~EmulatedFalcon();
     EmulatedFalcon(const EmulatedFalcon&) = delete;
@@ -50,9 +50,18 @@ public:
     // Unplug: the URBs in flight complete with -ESHUTDOWN and new ones are refused with ENODEV, as usbfs
     // does after a disconnect. (usbfs also reports POLLERR on the node; umockdev's pty cannot.)
     void unplug();
-    void set_stalled(bool v) { auto l = lock(); stalled_ = v; }
-    void set_silent(bool v) { auto l = lock(); silent_ = v; }
-    [[nodiscard]] std::uint64_t in_urbs_completed() { auto l = lock(); return in_completed_; }
+    void set_stalled(bool v) {
+        auto l = lock();
+        stalled_ = v;
+    }
+    void set_silent(bool v) {
+        auto l = lock();
+        silent_ = v;
+    }
+    [[nodiscard]] std::uint64_t in_urbs_completed() {
+        auto l = lock();
+        return in_completed_;
+    }
     // umockdev's testbed directory (UMOCKDEV_DIR); the usbfs node is <root>/dev/bus/usb/001/002.
     [[nodiscard]] std::string root_dir() const;
     static constexpr const char* kNode = "/dev/bus/usb/001/002";
@@ -61,21 +70,27 @@ public:
         std::chrono::milliseconds wake_up{0};         // from DTR high until the loader listens
         std::chrono::milliseconds burn_per_chunk{0};  // each firmware chunk's echo is held this long
     };
-    void set_slow_loader(SlowLoader s) { auto l = lock(); slow_ = s; }
+    void set_slow_loader(SlowLoader s) {
+        auto l = lock();
+        slow_ = s;
+    }
     struct LoaderLog {
-        int ignored_while_waking = 0;            // writes the loader did not hear (handshake tries lost)
-        int status_only_while_waking = 0;        // status-only IN packets between DTR high and the handshake answer
-        int status_only_while_burning = 0;       // status-only IN packets while a chunk's echo was held
+        int ignored_while_waking = 0;       // writes the loader did not hear (handshake tries lost)
+        int status_only_while_waking = 0;   // status-only IN packets between DTR high and the handshake answer
+        int status_only_while_burning = 0;  // status-only IN packets while a chunk's echo was held
         int chunks_held = 0;
         std::chrono::steady_clock::time_point first_dtr_high{};  // the first load attempt's start
         std::chrono::steady_clock::time_point handshake_answered{};
         std::chrono::steady_clock::time_point last_echo_released{};
     };
-    [[nodiscard]] LoaderLog loader_log() { auto l = lock(); return log_; }
+    [[nodiscard]] LoaderLog loader_log() {
+        auto l = lock();
+        return log_;
+    }
 
     bool on_ioctl(_UMockdevIoctlClient* client);
 
-private:
+  private:
     struct Flying {
         _UMockdevIoctlData* urb = nullptr;     // referenced
         _UMockdevIoctlData* buffer = nullptr;  // the URB's data buffer, resolved (synced back at reap)
@@ -97,7 +112,7 @@ private:
     std::string error_;
     std::mutex mutex_;
     FakeFalcon falcon_;
-    OpenedTransport model_;          // the ScriptedTransport the FakeFalcon answers into
+    OpenedTransport model_;  // the ScriptedTransport the FakeFalcon answers into
     std::deque<Flying> flying_;
     std::deque<Flying> discarded_;
     bool unplugged_ = false;

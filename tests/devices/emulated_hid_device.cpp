@@ -33,21 +33,23 @@ constexpr std::uint8_t kBlockLoadId = 0x12;
 
 EmulatedHidDevice::EmulatedHidDevice() : descriptor_(openffboard_like_descriptor()) {
     if (!umockdev_in_mock_environment() && std::getenv("UMOCKDEV_DIR") == nullptr &&
-        std::string(std::getenv("LD_PRELOAD") != nullptr ? std::getenv("LD_PRELOAD") : "").find("umockdev") == std::string::npos) {
+        std::string(std::getenv("LD_PRELOAD") != nullptr ? std::getenv("LD_PRELOAD") : "").find("umockdev") ==
+            std::string::npos) {
         error_ = "not running under libumockdev-preload";
         return;
     }
     testbed_ = umockdev_testbed_new();
     gchar* usb = umockdev_testbed_add_device(testbed_, "usb", "usb1", nullptr, "idVendor", "1209", "idProduct", "ffb0",
-                                             "manufacturer", "Open FFBoard", "product", "FFBoard (emulated)", "serial", "EMU1",
-                                             "bcdDevice", "0100", "busnum", "1", "devnum", "2", nullptr, "DEVTYPE", "usb_device",
-                                             "PRODUCT", "1209/ffb0/100", nullptr);
-    gchar* iface = umockdev_testbed_add_device(testbed_, "usb", "1-1:1.0", usb, "bInterfaceNumber", "00", "bInterfaceClass",
-                                               "03", nullptr, "DEVTYPE", "usb_interface", nullptr);
+                                             "manufacturer", "Open FFBoard", "product", "FFBoard (emulated)", "serial",
+                                             "EMU1", "bcdDevice", "0100", "busnum", "1", "devnum", "2", nullptr,
+                                             "DEVTYPE", "usb_device", "PRODUCT", "1209/ffb0/100", nullptr);
+    gchar* iface = umockdev_testbed_add_device(testbed_, "usb", "1-1:1.0", usb, "bInterfaceNumber", "00",
+                                               "bInterfaceClass", "03", nullptr, "DEVTYPE", "usb_interface", nullptr);
     gchar* hid = umockdev_testbed_add_device(testbed_, "hid", "0003:1209:FFB0.0001", iface, nullptr, "HID_ID",
                                              "0003:00001209:0000FFB0", "HID_NAME", "Open FFBoard FFBoard", "HID_PHYS",
                                              "usb-emulated-1/input0", "HID_UNIQ", "EMU1", nullptr);
-    umockdev_testbed_set_attribute_binary(testbed_, hid, "report_descriptor", descriptor_.data(), static_cast<int>(descriptor_.size()));
+    umockdev_testbed_set_attribute_binary(testbed_, hid, "report_descriptor", descriptor_.data(),
+                                          static_cast<int>(descriptor_.size()));
     g_free(usb);
     g_free(iface);
     handler_ = umockdev_ioctl_base_new();
@@ -63,7 +65,8 @@ EmulatedHidDevice::EmulatedHidDevice() : descriptor_(openffboard_like_descriptor
         g_free(hid);
         return;
     }
-    const std::string node = std::string("P: ") + (hid + 4) + "/hidraw/hidraw0\nN: hidraw0\nE: SUBSYSTEM=hidraw\n"
+    const std::string node = std::string("P: ") + (hid + 4) +
+                             "/hidraw/hidraw0\nN: hidraw0\nE: SUBSYSTEM=hidraw\n"
                              "E: DEVNAME=/dev/hidraw0\nA: dev=243:0\n";  // hid + 4: without the leading "/sys"
     g_free(hid);
     if (!umockdev_testbed_add_from_string(testbed_, node.c_str(), &err)) {
@@ -196,7 +199,8 @@ bool EmulatedHidDevice::on_read(UMockdevIoctlClient* client) {
         return true;
     }
     const auto now = std::chrono::steady_clock::now();
-    const bool due = !silent_ && (!sent_any_ || x_ != last_sent_x_ || now - last_sent_ >= std::chrono::milliseconds(100));
+    const bool due =
+        !silent_ && (!sent_any_ || x_ != last_sent_x_ || now - last_sent_ >= std::chrono::milliseconds(100));
     if (!due) {
         umockdev_ioctl_client_complete(client, -1, EAGAIN);
         return true;

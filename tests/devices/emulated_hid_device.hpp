@@ -26,7 +26,7 @@ struct _UMockdevIoctlClient;
 namespace hapticd::test {
 
 class EmulatedHidDevice {
-public:
+  public:
     EmulatedHidDevice();  // builds the testbed; check ok() / error()
     ~EmulatedHidDevice();
     EmulatedHidDevice(const EmulatedHidDevice&) = delete;
@@ -37,7 +37,7 @@ public:
 
     // Device behaviour (any thread).
     void set_position(std::int16_t x);
-    void set_silent(bool silent);      // no input report at all (a device that stopped answering)
+    void set_silent(bool silent);        // no input report at all (a device that stopped answering)
     void set_unplugged(bool unplugged);  // every read/write/ioctl fails with ENODEV
 
     // Observations.
@@ -53,7 +53,7 @@ public:
     bool on_read(_UMockdevIoctlClient* client);
     bool on_write(_UMockdevIoctlClient* client);
 
-private:
+  private:
     std::vector<std::uint8_t> input_report_locked() const;
 
     _UMockdevTestbed* testbed_ = nullptr;

@@ -21,16 +21,16 @@ namespace hapticd::test {
 struct FakeFalcon {
     // Loader behaviour
     bool firmware_running = false;
-    std::size_t firmware_size = 0;     // bytes the loader expects before it starts the firmware
+    std::size_t firmware_size = 0;  // bytes the loader expects before it starts the firmware
     bool answer_handshake = true;
-    bool leading_zero = false;          // the "Apple" variant of the handshake answer
-    int corrupt_echo_attempts = 0;      // the first N upload attempts get one corrupted echo byte
+    bool leading_zero = false;      // the "Apple" variant of the handshake answer
+    int corrupt_echo_attempts = 0;  // the first N upload attempts get one corrupted echo byte
     // A slow loader: every echo chunk is held back for this many reads, which return nothing (the FTDI
     // chip's status-only packets every 16 ms while the loader works).
     int empty_reads_before_echo = 0;
     // Firmware behaviour
-    falcon::Status status;              // what the firmware reports
-    int packets_until_homed = 0;        // homing-mode packets before the homed flags are set (-1: never)
+    falcon::Status status;        // what the firmware reports
+    int packets_until_homed = 0;  // homing-mode packets before the homed flags are set (-1: never)
     // After homing the user pulls the grip out (libnifalcon FalconCubeTest.cpp waits for z > 0.170 m):
     // this many packets after the homed flags, the encoders jump to the pose `pulled_out` (-1: never).
     int packets_until_pulled_out = 2;
@@ -40,8 +40,8 @@ struct FakeFalcon {
     // Observations
     std::vector<falcon::Command> commands;  // decoded commands received in normal mode
     int upload_attempts = 0;
-    int opens = 0;                      // open() calls (the firmware upload reopens between attempts)
-    int latency_ms = 16;                // FTDI latency timer (set by the emulated FTDI control requests)
+    int opens = 0;        // open() calls (the firmware upload reopens between attempts)
+    int latency_ms = 16;  // FTDI latency timer (set by the emulated FTDI control requests)
     int empty_reads_served = 0;
     ScriptedTransport* transport = nullptr;
 
@@ -99,7 +99,8 @@ struct FakeFalcon {
             c.leds = static_cast<std::uint8_t>((data[13] - falcon::kNibbleBase) & 0x0E);
             for (std::size_t a = 0; a < 3; ++a) {
                 std::uint16_t bits = 0;
-                for (int n = 0; n < 4; ++n) bits = static_cast<std::uint16_t>(bits | ((data[1 + 4 * a + n] - 0x41) & 0xF) << (4 * n));
+                for (int n = 0; n < 4; ++n)
+                    bits = static_cast<std::uint16_t>(bits | ((data[1 + 4 * a + n] - 0x41) & 0xF) << (4 * n));
                 c.torque[a] = static_cast<std::int16_t>(bits);
             }
             commands.push_back(c);

@@ -24,7 +24,7 @@
 namespace hapticd::test {
 
 class NodeAccess {
-public:
+  public:
     NodeAccess(const std::string& testbed_root, const std::string& device_path);
     ~NodeAccess();
     NodeAccess(const NodeAccess&) = delete;
@@ -38,7 +38,7 @@ public:
     [[nodiscard]] const Credentials* child_credentials() const { return drop_ ? &as_ : nullptr; }
     [[nodiscard]] const std::string& node() const { return node_; }
 
-private:
+  private:
     bool set_mode(mode_t mode);
 
     std::string node_;

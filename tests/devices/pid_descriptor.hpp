@@ -15,7 +15,7 @@
 namespace hapticd::test {
 
 class DescriptorBuilder {
-public:
+  public:
     // Short item with the smallest size that holds `value` (signed for the logical limits).
     DescriptorBuilder& item(std::uint8_t tag_type, long value, bool is_signed = false) {
         int bytes = 0;
@@ -23,7 +23,8 @@ public:
         if (is_signed ? (value < -128 || value > 127) : (value > 0xFF)) bytes = 2;
         if (is_signed ? (value < -32768 || value > 32767) : (value > 0xFFFF)) bytes = 4;
         data.push_back(static_cast<std::uint8_t>(tag_type | (bytes == 4 ? 3 : bytes)));
-        for (int i = 0; i < bytes; ++i) data.push_back(static_cast<std::uint8_t>((static_cast<unsigned long>(value) >> (8 * i)) & 0xFF));
+        for (int i = 0; i < bytes; ++i)
+            data.push_back(static_cast<std::uint8_t>((static_cast<unsigned long>(value) >> (8 * i)) & 0xFF));
         return *this;
     }
     DescriptorBuilder& page(long v) { return item(0x04, v); }
@@ -64,22 +65,22 @@ inline std::vector<std::uint8_t> openffboard_like_descriptor(bool axes_32_bit = 
     b.page(0x0F);  // PID
     // Set Effect report (output 1).
     b.use(0x21).collection(0x02).id(1);
-    b.use(0x22).lmin(1).lmax(40).size(8).count(1).output(kVar);                 // effect block index
-    b.use(0x25).collection(0x02);                                               // effect type
+    b.use(0x22).lmin(1).lmax(40).size(8).count(1).output(kVar);  // effect block index
+    b.use(0x25).collection(0x02);                                // effect type
     b.use(0x26).use(0x27).use(0x30).use(0x31).use(0x40).lmin(1).lmax(5).size(8).count(1).output(kArray);
     b.end();
     b.use(0x50).use(0x54).use(0x51).use(0xA7).lmin(0).lmax(32767).size(16).count(4).output(kVar);
-    b.use(0x52).lmin(0).lmax(255).size(8).count(1).output(kVar);                // gain
-    b.use(0x53).lmin(1).lmax(8).size(8).count(1).output(kVar);                  // trigger button
-    b.use(0x55).collection(0x02);                                               // axes enable
+    b.use(0x52).lmin(0).lmax(255).size(8).count(1).output(kVar);  // gain
+    b.use(0x53).lmin(1).lmax(8).size(8).count(1).output(kVar);    // trigger button
+    b.use(0x55).collection(0x02);                                 // axes enable
     b.page(0x01).use(0x30).use(0x31).lmin(0).lmax(1).size(1).count(2).output(kVar);
     b.end();
-    b.page(0x0F).use(0x56).count(1).output(kVar);                               // direction enable
-    b.count(5).output(kConst);                                                  // padding
-    b.use(0x57).collection(0x02);                                               // direction
+    b.page(0x0F).use(0x56).count(1).output(kVar);  // direction enable
+    b.count(5).output(kConst);                     // padding
+    b.use(0x57).collection(0x02);                  // direction
     b.page(0x0A).use(1).use(2).lmin(0).lmax(35999).size(16).count(2).output(kVar);
     b.end();
-    b.page(0x0F).use(0x58).collection(0x02);                                    // type specific block offset
+    b.page(0x0F).use(0x58).collection(0x02);  // type specific block offset
     b.page(0x0A).use(1).use(2).lmin(0).lmax(32767).size(16).count(2).output(kVar);
     b.end();
     b.page(0x0F).end();

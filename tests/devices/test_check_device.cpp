@@ -59,7 +59,8 @@ TEST(CheckDevice, FlippedDeviceIsReportedAsSignMinusOne) {
     EXPECT_EQ(r.axes[1].sign, -1);
     EXPECT_LT(r.axes[1].displacement, -r.axes[1].threshold);
     // The profile fix (force_sign = [1, -1]) applied on top gives +1 again.
-    ForceSignDevice fixed(std::make_unique<ForceSignDevice>(sim(2, 0.3, 1.0), AxisVector{1.0, -1.0, 1.0}), AxisVector{1.0, -1.0, 1.0});
+    ForceSignDevice fixed(std::make_unique<ForceSignDevice>(sim(2, 0.3, 1.0), AxisVector{1.0, -1.0, 1.0}),
+                          AxisVector{1.0, -1.0, 1.0});
     const ForceSignResult again = run_sign_check(fixed);
     ASSERT_TRUE(again.ok);
     EXPECT_EQ(again.axes[1].sign, 1);

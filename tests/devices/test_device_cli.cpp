@@ -2,7 +2,6 @@
 // hapticd's command line for real devices: --list-devices, a missing device, profile keys.
 #include <gtest/gtest.h>
 
-
 #include "common/process.hpp"
 
 namespace hapticd::test {
@@ -38,8 +37,9 @@ TEST(DeviceCli, MissingHidDeviceIsADeviceError) {
 }
 
 TEST(DeviceCli, FalconFirmwareOptionIsAccepted) {
-    const Result r = run({"--config", "", "--device", "falcon", "--falcon-firmware", "/nonexistent/fw.bin", "--dry-run", "--quiet"},
-                         "falcon_fw_option");
+    const Result r =
+        run({"--config", "", "--device", "falcon", "--falcon-firmware", "/nonexistent/fw.bin", "--dry-run", "--quiet"},
+            "falcon_fw_option");
     EXPECT_EQ(r.code, 0) << r.err;
 }
 
@@ -51,8 +51,8 @@ TEST(DeviceCli, HidProfileWithoutIdsIsABadConfig) {
 }
 
 TEST(DeviceCli, OutOfRangeProfileKeyIsAnInvalidParameter) {
-    const std::string path = write_file("falcon_bad_origin.toml",
-                                        "driver = \"falcon\"\nmass = 0.3\nmax_force = 9.0\naxes = 3\norigin = [0.0, 0.0]\n");
+    const std::string path = write_file(
+        "falcon_bad_origin.toml", "driver = \"falcon\"\nmass = 0.3\nmax_force = 9.0\naxes = 3\norigin = [0.0, 0.0]\n");
     const Result r = run({"--config", "", "--device", path, "--dry-run"}, "falcon_bad_origin");
     EXPECT_EQ(r.code, 4) << r.err;
     EXPECT_NE(r.err.find("origin"), std::string::npos) << r.err;

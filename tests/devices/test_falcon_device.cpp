@@ -21,7 +21,7 @@ namespace {
 using test::FakeFalcon;
 
 class FalconDeviceTest : public ::testing::Test {
-protected:
+  protected:
     FalconDeviceConfig config() {
         FalconDeviceConfig c;
         c.capabilities.axes = 3;
@@ -54,13 +54,15 @@ TEST_F(FalconDeviceTest, RunningFirmwareIsDetectedAndHomingGatesForce) {
     // Every homing packet had the homing bit and the red LED; afterwards the LED is green.
     for (const auto& c : fake.commands) EXPECT_TRUE(c.homing_mode);
     // Red while homing (after the firmware probe's LED-less packets), green once homed.
-    const auto first_lit = std::find_if(fake.commands.begin(), fake.commands.end(), [](const auto& c) { return c.leds != 0; });
+    const auto first_lit =
+        std::find_if(fake.commands.begin(), fake.commands.end(), [](const auto& c) { return c.leds != 0; });
     ASSERT_NE(first_lit, fake.commands.end());
     EXPECT_EQ(first_lit->leds, falcon::kLedRed);
     EXPECT_EQ(fake.commands.back().leds, falcon::kLedGreen);
     // Then the grip had to be pulled out before forces (libnifalcon FalconCubeTest.cpp: z > 0.170 m).
     bool asked_to_pull_out = false;
-    for (const auto& n : notices) asked_to_pull_out = asked_to_pull_out || n.find("pull the grip out towards you") != std::string::npos;
+    for (const auto& n : notices)
+        asked_to_pull_out = asked_to_pull_out || n.find("pull the grip out towards you") != std::string::npos;
     EXPECT_TRUE(asked_to_pull_out);
     for (const auto& c : fake.commands) EXPECT_EQ(c.torque, (std::array<std::int16_t, 3>{0, 0, 0}));
     EXPECT_EQ(dev.write_force({0.0, 0.0, 0.0}), DeviceStatus::Ok);
@@ -168,7 +170,7 @@ TEST_F(FalconDeviceTest, HomingCanBeInterrupted) {
 }
 
 class HomedFalcon : public FalconDeviceTest {
-protected:
+  protected:
     void SetUp() override {
         fake.firmware_running = true;
         dev = std::make_unique<FalconDevice>(config());

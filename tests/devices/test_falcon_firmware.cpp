@@ -43,12 +43,12 @@ TEST(FalconFirmware, UploadsInChunksWithEchoCheckThenSwitchesToNormalMode) {
     // The control requests of libnifalcon's setFirmwareMode()/setNormalMode(), in order.
     using C = ScriptedTransport::Control;
     const std::vector<std::pair<int, int>> expected{
-        {0, 0},      {0, 1},      {0, 2},       // reset, purge RX, purge TX
-        {9, 16},     {3, 0x4138}, {4, 8},        // latency 16 ms, 9600 baud, 8N1
-        {2, 0},      {1, 0x0200}, {1, 0x0100},   // no flow control, RTS low, DTR low
-        {1, 0x0101}, {0, 1},                     // DTR high, purge RX
-        {1, 0x0100}, {3, 0x15},                  // sync: DTR low, ~140 kbaud
-        {9, 1},      {3, 0x2},    {0, 1}, {0, 2} // normal: latency 1 ms, 1.5 Mbaud, purge
+        {0, 0},      {0, 1},      {0, 2},              // reset, purge RX, purge TX
+        {9, 16},     {3, 0x4138}, {4, 8},              // latency 16 ms, 9600 baud, 8N1
+        {2, 0},      {1, 0x0200}, {1, 0x0100},         // no flow control, RTS low, DTR low
+        {1, 0x0101}, {0, 1},                           // DTR high, purge RX
+        {1, 0x0100}, {3, 0x15},                        // sync: DTR low, ~140 kbaud
+        {9, 1},      {3, 0x2},    {0, 1},      {0, 2}  // normal: latency 1 ms, 1.5 Mbaud, purge
     };
     ASSERT_EQ(f.t.controls.size(), expected.size());
     for (std::size_t i = 0; i < expected.size(); ++i) {

@@ -120,7 +120,7 @@ TEST(FalconProtocol, CommandBytesAreAlwaysPrintableFrameBytes) {
 }
 
 class FrameParserTest : public ::testing::Test {
-protected:
+  protected:
     Status make(std::int16_t e0) {
         Status s;
         s.encoder = {e0, static_cast<std::int16_t>(-e0), 7};

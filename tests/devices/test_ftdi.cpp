@@ -11,8 +11,8 @@ namespace hapticd::ftdi {
 namespace {
 
 TEST(Ftdi, BaudValues) {
-    EXPECT_EQ(baud_value(9600), 0x4138);    // 312.5 -> 312 | code(1/2) = 1 << 14
-    EXPECT_EQ(baud_value(115200), 0x001A);  // 26.04 -> 26 (nearest eighth: 26 + 0/8)
+    EXPECT_EQ(baud_value(9600), 0x4138);     // 312.5 -> 312 | code(1/2) = 1 << 14
+    EXPECT_EQ(baud_value(115200), 0x001A);   // 26.04 -> 26 (nearest eighth: 26 + 0/8)
     EXPECT_EQ(baud_value(1500000), 0x0002);  // the Falcon's normal mode (libnifalcon divisor 0x2)
     EXPECT_EQ(baud_value(3000000), 0x0000);
     EXPECT_EQ(kBaud9600, baud_value(9600));

@@ -31,7 +31,8 @@ std::vector<ListedDevice> devices_of(const std::string& driver, std::string& why
     }
     if (found.empty() && why_skip.empty()) {
         why_skip = "no " + driver + " device present (" +
-                   (driver == "falcon" ? std::string("USB 0403:cb48") : std::string("HID profiles in config/devices")) + ")";
+                   (driver == "falcon" ? std::string("USB 0403:cb48") : std::string("HID profiles in config/devices")) +
+                   ")";
     }
     return found;
 }

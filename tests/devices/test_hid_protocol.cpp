@@ -35,17 +35,19 @@ Layout scaling() {
     return l;
 }
 
-std::vector<std::uint8_t> bytes(const Report& r) { return {r.bytes.begin(), r.bytes.begin() + static_cast<long>(r.size)}; }
+std::vector<std::uint8_t> bytes(const Report& r) {
+    return {r.bytes.begin(), r.bytes.begin() + static_cast<long>(r.size)};
+}
 
 TEST(HidDescriptor, ReportSizesAndTheXAxisComeFromTheDescriptor) {
     Pid p;
     ASSERT_TRUE(p.ok) << p.error;
     EXPECT_TRUE(p.layout.ids);
     EXPECT_EQ(p.layout.input_id, 1);
-    EXPECT_EQ(p.layout.input_bytes, 13U);             // 1 + 64 bits + 2 x 16 bits
-    EXPECT_EQ(p.layout.position->bit_offset, 64U);    // after the 64 button bits: byte 9 with the id byte
+    EXPECT_EQ(p.layout.input_bytes, 13U);           // 1 + 64 bits + 2 x 16 bits
+    EXPECT_EQ(p.layout.position->bit_offset, 64U);  // after the 64 button bits: byte 9 with the id byte
     EXPECT_EQ(p.layout.position->bit_size, 16U);
-    EXPECT_EQ(p.layout.set_effect_bytes, 22U);        // not 16: the default 2-axis descriptor
+    EXPECT_EQ(p.layout.set_effect_bytes, 22U);  // not 16: the default 2-axis descriptor
     EXPECT_EQ(p.layout.constant_bytes, 4U);
     EXPECT_EQ(p.layout.cf_magnitude->logical_min, -32767);
     EXPECT_EQ(p.layout.cf_magnitude->logical_max, 32767);
@@ -113,11 +115,14 @@ TEST(HidReports, ControlGainOperationAndBlockLoad) {
     // Device Control array: Enable 0x97 -> 1, Disable 2, Stop All 3, Reset 0x9A -> 4.
     EXPECT_EQ(bytes(encode_device_control(DeviceControl::Reset, p.layout)), (std::vector<std::uint8_t>{0x0C, 4}));
     EXPECT_EQ(bytes(encode_device_control(DeviceControl::StopAll, p.layout)), (std::vector<std::uint8_t>{0x0C, 3}));
-    EXPECT_EQ(bytes(encode_device_control(DeviceControl::EnableActuators, p.layout)), (std::vector<std::uint8_t>{0x0C, 1}));
+    EXPECT_EQ(bytes(encode_device_control(DeviceControl::EnableActuators, p.layout)),
+              (std::vector<std::uint8_t>{0x0C, 1}));
     EXPECT_EQ(bytes(encode_device_gain(1.0, p.layout)), (std::vector<std::uint8_t>{0x0D, 0xFF}));
     // Effect Operation: block, Start = 1 / Stop = 3, loop count 1.
-    EXPECT_EQ(bytes(encode_effect_operation(7, EffectOperation::Start, p.layout)), (std::vector<std::uint8_t>{0x0A, 7, 1, 1}));
-    EXPECT_EQ(bytes(encode_effect_operation(7, EffectOperation::Stop, p.layout)), (std::vector<std::uint8_t>{0x0A, 7, 3, 1}));
+    EXPECT_EQ(bytes(encode_effect_operation(7, EffectOperation::Start, p.layout)),
+              (std::vector<std::uint8_t>{0x0A, 7, 1, 1}));
+    EXPECT_EQ(bytes(encode_effect_operation(7, EffectOperation::Stop, p.layout)),
+              (std::vector<std::uint8_t>{0x0A, 7, 3, 1}));
     EXPECT_EQ(bytes(encode_block_free(7, p.layout)), (std::vector<std::uint8_t>{0x0B, 7}));
     EXPECT_EQ(bytes(encode_create_effect(p.layout)), (std::vector<std::uint8_t>{0x11, 1, 0, 0}));
     std::uint8_t block = 0;
@@ -162,8 +167,9 @@ TEST(HidDescriptor, MalformedDescriptorsAreRefusedWithTheOffset) {
 // Logical Maximum 9471. The layout is refused, naming the field and the accepted range, instead of
 // clamping forces into an empty range.
 TEST(HidDescriptor, MagnitudeWithoutNegativeAndPositiveValuesIsRefused) {
-    std::ifstream in(std::string(HAPTICOPT_TEST_DATA_DIR) + "/../fuzz/corpus/hid_reports/regression-magnitude-range-inverted",
-                     std::ios::binary);
+    std::ifstream in(
+        std::string(HAPTICOPT_TEST_DATA_DIR) + "/../fuzz/corpus/hid_reports/regression-magnitude-range-inverted",
+        std::ios::binary);
     ASSERT_TRUE(in) << "corpus file missing";
     const std::vector<std::uint8_t> input{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
     ASSERT_GE(input.size(), 2U);
@@ -187,9 +193,10 @@ TEST(HidDescriptor, FieldsRoundTripAtAnyBitOffset) {
         put_field(r.data(), r.size(), f, true, v);
         for (int bit = 0; bit < 32; ++bit) {
             const bool inside = bit >= 13 && bit < 26;  // 8 (id byte) + 5 .. + 13
-            const bool expected = inside ? ((static_cast<std::uint64_t>(v) >> (bit - 13)) & 1U) != 0
-                                         : ((0xAAU >> (bit % 8)) & 1U) != 0;
-            EXPECT_EQ(((r[static_cast<std::size_t>(bit / 8)] >> (bit % 8)) & 1U) != 0, expected) << "v " << v << " bit " << bit;
+            const bool expected =
+                inside ? ((static_cast<std::uint64_t>(v) >> (bit - 13)) & 1U) != 0 : ((0xAAU >> (bit % 8)) & 1U) != 0;
+            EXPECT_EQ(((r[static_cast<std::size_t>(bit / 8)] >> (bit % 8)) & 1U) != 0, expected)
+                << "v " << v << " bit " << bit;
         }
         std::int64_t back = 0;
         ASSERT_TRUE(get_field(r.data(), r.size(), f, true, back));

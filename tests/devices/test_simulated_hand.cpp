@@ -103,8 +103,10 @@ TEST(SimulatedHand, TheFreeDeviceChecksStayConservativeForTheDefaultHand) {
                 lost_undamped += hapticopt::is_stable({1e-3, 0.0, d}, g) ? 0 : 1;
             }
         }
-        std::printf("[ hand vs free checks ] d = %g: %d stable points; unstable with the default hand %d, eq. 2's bounds %d, "
-                    "k_H without b_H %d\n", d, stable, lost_default, lost_limits, lost_undamped);
+        std::printf(
+            "[ hand vs free checks ] d = %g: %d stable points; unstable with the default hand %d, eq. 2's bounds %d, "
+            "k_H without b_H %d\n",
+            d, stable, lost_default, lost_limits, lost_undamped);
         EXPECT_GT(stable, 10000);
         EXPECT_EQ(lost_default, 0);
         EXPECT_EQ(lost_limits, 0);

@@ -38,7 +38,8 @@ constexpr auto kChildLimit = 20s;
 // without root"): the rule file to install and the group to join.
 void expect_udev_hint(const std::string& out) {
     std::string lower = out;
-    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     EXPECT_NE(lower.find("permission denied"), std::string::npos) << out;
     EXPECT_NE(out.find("config/udev/70-hapticd.rules"), std::string::npos) << out;
     EXPECT_NE(out.find("/etc/udev/rules.d/"), std::string::npos) << out;
@@ -51,13 +52,16 @@ std::string line_with(const std::string& out, const std::string& what) {
     if (at == std::string::npos) return {};
     const auto begin = out.rfind('\n', at);
     const auto end = out.find('\n', at);
-    return out.substr(begin == std::string::npos ? 0 : begin + 1, end == std::string::npos ? std::string::npos : end - begin - 1);
+    return out.substr(begin == std::string::npos ? 0 : begin + 1,
+                      end == std::string::npos ? std::string::npos : end - begin - 1);
 }
 
 class StateDir {
-public:
+  public:
     // One directory per process: ctest -j runs the tests of this binary side by side.
-    StateDir() : path_(std::filesystem::temp_directory_path() / ("hapticd_test_usb_access_state_" + std::to_string(::getpid()))) {
+    StateDir()
+        : path_(std::filesystem::temp_directory_path() /
+                ("hapticd_test_usb_access_state_" + std::to_string(::getpid()))) {
         std::filesystem::create_directories(path_);
         setenv("HAPTICD_STATE_DIR", path_.c_str(), 1);  // a first run, whoever the child runs as
     }
@@ -67,12 +71,13 @@ public:
         std::filesystem::remove_all(path_, ec);
     }
 
-private:
+  private:
     std::filesystem::path path_;
 };
 
 std::string who(const test::Credentials* as) {
-    return as != nullptr ? "uid " + std::to_string(as->uid) : "the test's own uid (not root: mode 000 refuses the owner)";
+    return as != nullptr ? "uid " + std::to_string(as->uid)
+                         : "the test's own uid (not root: mode 000 refuses the owner)";
 }
 
 TEST(UsbAccess, ListDevicesGivesTheUdevHintForAFalconNodeThatRefusesTheUser) {
@@ -112,8 +117,8 @@ TEST(UsbAccess, OpeningARefusedFalconExits6WithTheUdevHint) {
     ASSERT_TRUE(access.refuse()) << access.error();
     StateDir state;
     const test::ChildResult r = test::run_child(
-        {HAPTICD_BINARY, "--device", "falcon", "--wall", "axis=2 position=0.0 direction=+1", "--duration", "0.5"}, kChildLimit,
-        access.child_credentials());
+        {HAPTICD_BINARY, "--device", "falcon", "--wall", "axis=2 position=0.0 direction=+1", "--duration", "0.5"},
+        kChildLimit, access.child_credentials());
     EXPECT_FALSE(r.timed_out);
     EXPECT_EQ(r.exit_code, 6) << r.output;  // device error (docs/devices.md: "permission denied ... (exit code 6)")
     EXPECT_NE(r.output.find("open failed"), std::string::npos) << r.output;
@@ -161,7 +166,8 @@ TEST(UsbAccess, OpeningARefusedHidDeviceExits6WithTheUdevHint) {
     EXPECT_FALSE(r.timed_out);
     EXPECT_EQ(r.exit_code, 6) << r.output;
     EXPECT_NE(r.output.find("open failed"), std::string::npos) << r.output;
-    EXPECT_NE(r.output.find("Permission denied"), std::string::npos) << r.output;  // strerror(EACCES) of the real open()
+    EXPECT_NE(r.output.find("Permission denied"), std::string::npos)
+        << r.output;  // strerror(EACCES) of the real open()
     expect_udev_hint(r.output);
     EXPECT_TRUE(emulated.output_reports().empty());  // nothing reached the device
 }

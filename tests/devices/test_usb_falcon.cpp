@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // The Falcon driver through the REAL libusb-1.0 on a Falcon emulated under umockdev (emulated_falcon.hpp):
 // enumeration by VID:PID, the FTDI control requests, homing (the firmware upload through bulk transfers
-// with status-only packets is test_usb_falcon_loader.cpp), then the asynchronous streaming of the 1 kHz loop, which must not block;
-// unplug (ENODEV) and a stalled endpoint end the stream with a device error, and nothing hangs. Label usb
-// (the binary re-executes itself under libumockdev-preload, test_usb_hid.cpp).
+// with status-only packets is test_usb_falcon_loader.cpp), then the asynchronous streaming of the 1 kHz loop, which
+// must not block; unplug (ENODEV) and a stalled endpoint end the stream with a device error, and nothing hangs. Label
+// usb (the binary re-executes itself under libumockdev-preload, test_usb_hid.cpp).
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
@@ -38,7 +38,7 @@ FalconDeviceConfig falcon_usb_config() {
 }
 
 class UsbFalcon : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         if (!emulated.ok()) GTEST_SKIP() << "umockdev emulation unavailable: " << emulated.error();
         auto l = emulated.lock();
@@ -55,7 +55,8 @@ struct TickSwitches {
     std::vector<long> voluntary;
     std::vector<bool> preempted;
 };
-std::vector<std::int64_t> run_ticks(FalconDevice& dev, int ticks, DeviceStatus& status, TickSwitches* switches = nullptr) {
+std::vector<std::int64_t> run_ticks(FalconDevice& dev, int ticks, DeviceStatus& status,
+                                    TickSwitches* switches = nullptr) {
     std::vector<std::int64_t> took;
     took.reserve(static_cast<std::size_t>(ticks));
     const auto start = Clock::now();
@@ -102,18 +103,20 @@ TEST_F(UsbFalcon, HomesThenTheLoopNeverWaitsForTheDevice) {
         voluntary += switches.voluntary[i];
         if (!switches.preempted[i]) took.push_back(all[i]);
     }
-    EXPECT_LE(voluntary, static_cast<long>(all.size() / 100)) << "the device calls slept (waited) " << voluntary << " times";
+    EXPECT_LE(voluntary, static_cast<long>(all.size() / 100))
+        << "the device calls slept (waited) " << voluntary << " times";
     ASSERT_GT(took.size(), all.size() / 2) << "preempted in most ticks: the machine is too loaded to time the calls";
     std::sort(took.begin(), took.end());
     const double p90_us = static_cast<double>(took[took.size() * 90 / 100]) * 1e-3;
     const double p99_us = static_cast<double>(took[took.size() * 99 / 100]) * 1e-3;
-    std::printf("MEASURED emulated Falcon tick (read_position + write_force), %zu of %zu ticks not preempted: p50 %.1f us, "
-                "p90 %.1f us, p99 %.1f us, max %.1f us; voluntary switches %ld; status packets %llu, stale ticks %llu, late commands %llu\n",
-                took.size(), all.size(), static_cast<double>(took[took.size() / 2]) * 1e-3, p90_us, p99_us,
-                static_cast<double>(took.back()) * 1e-3, voluntary,
-                static_cast<unsigned long long>(dev.counters().packets_ok),
-                static_cast<unsigned long long>(dev.counters().stale_reads),
-                static_cast<unsigned long long>(dev.late_commands()));
+    std::printf(
+        "MEASURED emulated Falcon tick (read_position + write_force), %zu of %zu ticks not preempted: p50 %.1f us, "
+        "p90 %.1f us, p99 %.1f us, max %.1f us; voluntary switches %ld; status packets %llu, stale ticks %llu, late "
+        "commands %llu\n",
+        took.size(), all.size(), static_cast<double>(took[took.size() / 2]) * 1e-3, p90_us, p99_us,
+        static_cast<double>(took.back()) * 1e-3, voluntary, static_cast<unsigned long long>(dev.counters().packets_ok),
+        static_cast<unsigned long long>(dev.counters().stale_reads),
+        static_cast<unsigned long long>(dev.late_commands()));
     // And in time: a synchronous driver waits for the device's next packet in every tick, on average half
     // the period (500 us) and up to the read timeout (1 ms), so its p90 is ~900 us. Criterion: p90 below
     // 10 % of the period over the ticks that were not preempted. The 90th, not the 99th, percentile: the
@@ -211,7 +214,8 @@ TEST_F(UsbFalcon, HapticdRendersAWallOnTheEmulatedFalconAndExits6OnUnplug) {
         auto l = emulated.lock();
         bool torque = false;
         for (const auto& c : emulated.falcon().commands) torque = torque || c.torque[0] != 0;
-        EXPECT_TRUE(torque) << "the wall (entered in +z at 0; the pulled-out grip at z = +50 mm is inside it) rendered no force";
+        EXPECT_TRUE(torque)
+            << "the wall (entered in +z at 0; the pulled-out grip at z = +50 mm is inside it) rendered no force";
     }
     // Unplug 1.5 s into a 5 s run (start-up, tuning and homing take part of that): device error, exit 6,
     // well before the 5 s.

@@ -35,12 +35,12 @@ using namespace std::chrono_literals;
 
 constexpr auto kLatency = 16ms;  // the FTDI latency timer the driver sets for the loader (ftdi::kLatencyFirmware)
 constexpr std::size_t kImageBytes = 300;
-constexpr int kChunks = 5;       // ceil(300 / 62)
+constexpr int kChunks = 5;  // ceil(300 / 62)
 
 double ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
 class UsbFalconLoader : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         if (!emulated.ok()) GTEST_SKIP() << "umockdev emulation unavailable: " << emulated.error();
         std::ofstream out(image, std::ios::binary);
@@ -66,8 +66,8 @@ protected:
 
     test::EmulatedFalcon emulated;
     // One file per process: ctest -j runs the tests of this binary side by side.
-    std::filesystem::path image =
-        std::filesystem::temp_directory_path() / ("hapticd_test_usb_falcon_loader_" + std::to_string(::getpid()) + ".bin");
+    std::filesystem::path image = std::filesystem::temp_directory_path() /
+                                  ("hapticd_test_usb_falcon_loader_" + std::to_string(::getpid()) + ".bin");
 };
 
 TEST_F(UsbFalconLoader, ALoaderThatTakesItsTimeIsWaitedFor) {
@@ -109,11 +109,12 @@ TEST_F(UsbFalconLoader, ALoaderThatTakesItsTimeIsWaitedFor) {
     const auto minimum = slow.wake_up + kChunks * slow.burn_per_chunk;
     EXPECT_GE(load, minimum);
     EXPECT_LT(load, minimum + 500ms) << ms(load) << " ms";
-    std::printf("MEASURED slow loader through libusb: load %.0f ms (loader's own %.0f ms), handshake answered after "
-                "%.0f ms, %d tries lost (%d status-only packets), %d status-only packets while %d chunks burned; "
-                "open() %.0f ms\n",
-                ms(load), ms(minimum), ms(answered_after), log.ignored_while_waking, log.status_only_while_waking,
-                log.status_only_while_burning, log.chunks_held, ms(open_took));
+    std::printf(
+        "MEASURED slow loader through libusb: load %.0f ms (loader's own %.0f ms), handshake answered after "
+        "%.0f ms, %d tries lost (%d status-only packets), %d status-only packets while %d chunks burned; "
+        "open() %.0f ms\n",
+        ms(load), ms(minimum), ms(answered_after), log.ignored_while_waking, log.status_only_while_waking,
+        log.status_only_while_burning, log.chunks_held, ms(open_took));
     dev.close();
 }
 
@@ -131,12 +132,13 @@ TEST_F(UsbFalconLoader, ALoaderSlowerThanTheHandshakeBudgetFailsWithTheCountsInB
     EXPECT_EQ(dev.open(), DeviceStatus::HardwareFault);
     const auto took = Clock::now() - t0;
     const std::string message = dev.last_error();
-    EXPECT_NE(message.find("firmware upload failed after 1 attempt(s), stage 'handshake'"), std::string::npos) << message;
+    EXPECT_NE(message.find("firmware upload failed after 1 attempt(s), stage 'handshake'"), std::string::npos)
+        << message;
     EXPECT_NE(message.find("100 of 100 tries"), std::string::npos) << message;
     EXPECT_NE(message.find("100 read(s) with no answer, 0 with a wrong one"), std::string::npos) << message;
     EXPECT_NE(message.find(image.string()), std::string::npos) << message;  // names the firmware file
     const test::EmulatedFalcon::LoaderLog log = emulated.loader_log();
-    EXPECT_EQ(log.ignored_while_waking, 100);  // every try was sent, and lost
+    EXPECT_EQ(log.ignored_while_waking, 100);      // every try was sent, and lost
     EXPECT_EQ(log.status_only_while_waking, 100);  // each try's read: one status-only packet
     // Bounded: at least 100 latency periods (each try's read waits for one, exact by construction), and
     // nothing hanging: below 5 s, which is 1.6 s + the firmware probe + the loaded VM's scheduling, and

@@ -32,7 +32,8 @@ struct UmockdevPreload {
         if (preload != nullptr && *preload != '\0') value += std::string(":") + preload;
         setenv("LD_PRELOAD", value.c_str(), 1);
         std::string asan = std::getenv("ASAN_OPTIONS") != nullptr ? std::getenv("ASAN_OPTIONS") : "";
-        setenv("ASAN_OPTIONS", (asan + (asan.empty() ? "" : ":") + "verify_asan_link_order=0:detect_leaks=0").c_str(), 1);  // glib/umockdev keep allocations for the process lifetime
+        setenv("ASAN_OPTIONS", (asan + (asan.empty() ? "" : ":") + "verify_asan_link_order=0:detect_leaks=0").c_str(),
+               1);                                     // glib/umockdev keep allocations for the process lifetime
         setenv("HAPTICD_NO_UMOCKDEV_REEXEC", "1", 1);  // never loop
         std::vector<char> cmdline(65536);
         FILE* f = std::fopen("/proc/self/cmdline", "rb");
@@ -63,7 +64,7 @@ HidDeviceConfig hid_usb_config() {
 }
 
 class UsbHid : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         if (!emulated.ok()) GTEST_SKIP() << "umockdev emulation unavailable: " << emulated.error();
     }
@@ -89,8 +90,8 @@ TEST_F(UsbHid, StartUpReportsAreWhatThePidFirmwareNeeds) {
     EXPECT_EQ(out[4][2], 1);
     EXPECT_EQ(out[4][13], 0x05);
     EXPECT_EQ(out[4][14] | (out[4][15] << 8), 9000);
-    EXPECT_EQ(out[5], (std::vector<std::uint8_t>{0x05, 1, 0, 0}));       // magnitude 0
-    EXPECT_EQ(out[6], (std::vector<std::uint8_t>{0x0A, 1, 1, 1}));       // Start, loop count 1
+    EXPECT_EQ(out[5], (std::vector<std::uint8_t>{0x05, 1, 0, 0}));  // magnitude 0
+    EXPECT_EQ(out[6], (std::vector<std::uint8_t>{0x0A, 1, 1, 1}));  // Start, loop count 1
     const auto features = emulated.feature_reports();
     ASSERT_EQ(features.size(), 1U);
     EXPECT_EQ(features[0], (std::vector<std::uint8_t>{0x11, 1, 0, 0}));  // Create New Effect: constant force
@@ -119,7 +120,7 @@ TEST_F(UsbHid, PositionFromReportsSentOnChangeOrEvery100ms) {
         EXPECT_DOUBLE_EQ(p[0], -1.234);
     }
     const int resting = emulated.input_reports_sent() - before;
-    EXPECT_GE(resting, 2);   // ~3 keep-alive reports in 350 ms (timing on a loaded machine: at least 2)
+    EXPECT_GE(resting, 2);  // ~3 keep-alive reports in 350 ms (timing on a loaded machine: at least 2)
     EXPECT_LE(resting, 5);
     EXPECT_GT(dev.counters().stale_reads, 300U);
     emulated.set_position(500);  // a change is reported at once

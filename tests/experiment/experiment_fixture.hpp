@@ -43,7 +43,7 @@ inline std::unique_ptr<SimDevice> make_sim(const Plant& p, std::int64_t fail_at_
 
 // Forwards to a device and remembers every force command (the last one must be zero after any abort).
 class RecordingDevice final : public Device {
-public:
+  public:
     explicit RecordingDevice(Device& inner) : inner_(inner) {}
     DeviceStatus open() override { return inner_.open(); }
     DeviceStatus home() override { return inner_.home(); }
@@ -60,7 +60,7 @@ public:
     AxisVector last_force{};
     std::size_t writes = 0;
 
-private:
+  private:
     Device& inner_;
 };
 
@@ -103,7 +103,9 @@ inline BoundarySettings k_sweep(const Theory& theory, std::vector<double> b_valu
 // device starts: what every experiment test on the simulated device begins with.
 struct SimBench {
     SimBench(const Plant& plant, std::size_t trial_ticks)
-        : theory(plant.theory()), sim(make_sim(plant)), runner(*sim, 1'000'000, true),
+        : theory(plant.theory()),
+          sim(make_sim(plant)),
+          runner(*sim, 1'000'000, true),
           setup(make_setup(plant, theory, trial_ticks)) {
         setup.settle.home = runner.read_position(0);
     }

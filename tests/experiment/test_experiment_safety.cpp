@@ -76,8 +76,8 @@ std::string out_dir(const std::string& tag) { return (hapticd::test::scratch_dir
 
 TEST(ExperimentProcess, BoundaryOnTheSimulatedDeviceEndToEnd) {
     const std::string dir = out_dir("boundary_e2e");
-    const auto r = hapticd::test::run({"experiment", "boundary", "--device", "sim", "--b-values", "150", "350", "--k-step",
-                                       "20000", "--k-resolution", "2000", "--out-dir", dir},
+    const auto r = hapticd::test::run({"experiment", "boundary", "--device", "sim", "--b-values", "150", "350",
+                                       "--k-step", "20000", "--k-resolution", "2000", "--out-dir", dir},
                                       "boundary_e2e");
     ASSERT_EQ(r.code, kExitOk) << r.err;
     for (const char* f : {"boundary.csv", "boundary_trials.csv", "boundary.svg"}) {
@@ -94,9 +94,9 @@ TEST(ExperimentProcess, BoundaryOnTheSimulatedDeviceEndToEnd) {
 
 TEST(ExperimentProcess, OptimalOnTheSimulatedDeviceEndToEnd) {
     const std::string dir = out_dir("optimal_e2e");
-    const auto r = hapticd::test::run({"experiment", "optimal", "--k-range", "40000:120000:2", "--b-points", "5",
-                                       "--out-dir", dir, "--quiet"},
-                                      "optimal_e2e");
+    const auto r = hapticd::test::run(
+        {"experiment", "optimal", "--k-range", "40000:120000:2", "--b-points", "5", "--out-dir", dir, "--quiet"},
+        "optimal_e2e");
     ASSERT_EQ(r.code, kExitOk) << r.err;
     EXPECT_TRUE(r.err.empty()) << r.err;  // --quiet: no progress
     for (const char* f : {"optimal.csv", "optimal_trials.csv", "optimal.svg"}) {
@@ -107,10 +107,11 @@ TEST(ExperimentProcess, OptimalOnTheSimulatedDeviceEndToEnd) {
 // A device error during the run is exit 6, as for the daemon's run (exit_codes.hpp).
 TEST(ExperimentProcess, DeviceFaultMidRunExitsSixAndWritesThePartialResults) {
     const std::string profile = hapticd::test::write_file(
-        "failing_sim.toml", "name = \"failing\"\ndriver = \"sim\"\nmass = 0.3\nmax_force = 10.0\nfail_at_tick = 5000\n");
+        "failing_sim.toml",
+        "name = \"failing\"\ndriver = \"sim\"\nmass = 0.3\nmax_force = 10.0\nfail_at_tick = 5000\n");
     const std::string dir = out_dir("fault");
-    const auto r = hapticd::test::run({"experiment", "boundary", "--device", profile, "--b-values", "200", "--out-dir", dir, "--quiet"},
-                                      "fault");
+    const auto r = hapticd::test::run(
+        {"experiment", "boundary", "--device", profile, "--b-values", "200", "--out-dir", dir, "--quiet"}, "fault");
     EXPECT_EQ(r.code, kExitDeviceError) << r.err;
     EXPECT_NE(r.err.find("device error"), std::string::npos) << r.err;
     EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(dir) / "boundary_trials.csv"));
@@ -127,9 +128,13 @@ TEST(ExperimentProcess, BadInputsGiveTheirExitCodesAndNameTheParameter) {
         {{"experiment", "boundary", "--no-such-option"}, kExitUsage, "no-such-option"},
         {{"experiment", "boundary", "--b-range", "1:2"}, kExitUsage, "--b-range"},
         {{"experiment", "boundary", "--b-range", "1:2:3", "--b-values", "4"}, kExitUsage, "exclusive"},
-        {{"experiment", "boundary", "--growth", "0.5"}, kExitInvalidParameter, "--growth = 0.5 is invalid; accepted range: 1 < growth <= 100"},
+        {{"experiment", "boundary", "--growth", "0.5"},
+         kExitInvalidParameter,
+         "--growth = 0.5 is invalid; accepted range: 1 < growth <= 100"},
         {{"experiment", "boundary", "--b-values", "-5"}, kExitInvalidParameter, "0 <= B"},
-        {{"experiment", "boundary", "--k-step", "1000", "--k-resolution", "2000"}, kExitInvalidParameter, "--k-resolution"},
+        {{"experiment", "boundary", "--k-step", "1000", "--k-resolution", "2000"},
+         kExitInvalidParameter,
+         "--k-resolution"},
         {{"experiment", "boundary", "--force-cap", "50"}, kExitInvalidParameter, "max_force = 10 N"},
         {{"experiment", "boundary", "--step-force", "3"}, kExitInvalidParameter, "--step-force"},
         {{"experiment", "boundary", "--rate", "nan"}, kExitInvalidParameter, "--rate"},

@@ -46,8 +46,10 @@ TEST_P(BoundaryOnSim, MeasuredBoundaryMatchesAnalysisWithinResolutionAndDetectio
     for (const auto& p : r.points) {
         ASSERT_TRUE(std::isfinite(p.K_boundary)) << "B = " << p.B;
         const double k_detect = stiffness_at_radius(theory, p.B, rho_detect);
-        std::printf("B = %.6g: K measured %.8g, analysis %.8g, detection bound %.8g, resolution %.6g; (measured - analysis) / analysis = %.3e\n",
-                    p.B, p.K_boundary, p.K_theory, k_detect, s.k_resolution, (p.K_boundary - p.K_theory) / p.K_theory);
+        std::printf(
+            "B = %.6g: K measured %.8g, analysis %.8g, detection bound %.8g, resolution %.6g; (measured - analysis) / "
+            "analysis = %.3e\n",
+            p.B, p.K_boundary, p.K_theory, k_detect, s.k_resolution, (p.K_boundary - p.K_theory) / p.K_theory);
         EXPECT_GE(p.K_boundary, p.K_theory - s.k_resolution) << "B = " << p.B;
         EXPECT_LE(p.K_boundary, k_detect + s.k_resolution) << "B = " << p.B;
     }
@@ -69,8 +71,10 @@ TEST_P(OptimalOnSim, MeasuredOptimalDampingMatchesTheOptimalCurveWithinTheGridSt
     ASSERT_EQ(r.abort.outcome, TrialOutcome::Stable) << r.abort.detail;
     ASSERT_EQ(r.points.size(), 9U);
     for (const auto& p : r.points) {
-        std::printf("K = %.6g CE%d: B grid %.6g, refined %.6g, analysis %.6g, step %.4g, |refined - analysis| / step = %.3f\n",
-                    p.K, p.criterion, p.B_grid, p.B_refined, p.B_theory, p.b_step, std::abs(p.B_refined - p.B_theory) / p.b_step);
+        std::printf(
+            "K = %.6g CE%d: B grid %.6g, refined %.6g, analysis %.6g, step %.4g, |refined - analysis| / step = %.3f\n",
+            p.K, p.criterion, p.B_grid, p.B_refined, p.B_theory, p.b_step,
+            std::abs(p.B_refined - p.B_theory) / p.b_step);
         EXPECT_FALSE(p.on_edge);
         EXPECT_LE(std::abs(p.B_grid - p.B_theory), p.b_step);
         EXPECT_LE(std::abs(p.B_refined - p.B_theory), p.b_step);
@@ -103,8 +107,8 @@ TEST_P(CostsOnSim, MeasuredCostsMatchTheClosedForms) {
         ASSERT_EQ(rec.outcome, TrialOutcome::Stable);
         const MeasuredCosts m = measure_costs(rec, t, setup.model);
         const TheoryCosts c = theory.costs(K, B);
-        std::printf("K = %.6g, B = %.6g: CE0 %.12g / %.12g, CE1 %.12g / %.12g, CE2 %.12g / %.12g, COV %.6e / %.6e\n", K, B,
-                    m.ce0, c.ce0, m.ce1, c.ce1, m.ce2, c.ce2, m.overshoot, c.overshoot);
+        std::printf("K = %.6g, B = %.6g: CE0 %.12g / %.12g, CE1 %.12g / %.12g, CE2 %.12g / %.12g, COV %.6e / %.6e\n", K,
+                    B, m.ce0, c.ce0, m.ce1, c.ce1, m.ce2, c.ce2, m.overshoot, c.overshoot);
         EXPECT_NEAR(m.ce0, c.ce0, 1e-9 * c.ce0);
         EXPECT_NEAR(m.ce1, c.ce1, 1e-9 * c.ce1);
         EXPECT_NEAR(m.ce2, c.ce2, 1e-9 * c.ce2);

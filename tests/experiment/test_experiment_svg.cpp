@@ -122,7 +122,8 @@ TEST(ExperimentSvg, MarkersAtTheCsvValuesAndTheTheoryPathOnTheLibraryBoundary) {
         if (K < 0.02 * theory.max_stiffness()) continue;
         const double dk = 2 * x.per_pixel(), db = 2 * y.per_pixel();
         int stable = 0;
-        for (const auto& [sk, sb] : {std::pair{-dk, 0.0}, {dk, 0.0}, {0.0, -db}, {0.0, db}}) stable += theory.is_stable(K + sk, B + sb);
+        for (const auto& [sk, sb] : {std::pair{-dk, 0.0}, {dk, 0.0}, {0.0, -db}, {0.0, db}})
+            stable += theory.is_stable(K + sk, B + sb);
         EXPECT_TRUE(stable > 0 && stable < 4) << "K = " << K << ", B = " << B;
         ++checked;
     }

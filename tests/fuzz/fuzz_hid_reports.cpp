@@ -28,7 +28,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     hid::Layout layout;
     double position = 0.0;
-    if (!report.empty() && hid::decode_position(report.data(), report.size(), pid, layout, position) && !std::isfinite(position)) {
+    if (!report.empty() && hid::decode_position(report.data(), report.size(), pid, layout, position) &&
+        !std::isfinite(position)) {
         std::abort();
     }
     bool saturated = false;
@@ -40,7 +41,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (m.bit_size < 2 || m.bit_size >= 32) continue;
         const bool is_signed = m.logical_min < 0;
         const std::int64_t lo_bits = is_signed ? -(std::int64_t{1} << (m.bit_size - 1)) : 0;
-        const std::int64_t hi_bits = is_signed ? (std::int64_t{1} << (m.bit_size - 1)) - 1 : (std::int64_t{1} << m.bit_size) - 1;
+        const std::int64_t hi_bits =
+            is_signed ? (std::int64_t{1} << (m.bit_size - 1)) - 1 : (std::int64_t{1} << m.bit_size) - 1;
         std::int64_t magnitude = 0;
         if (m.logical_min >= lo_bits && m.logical_max <= hi_bits &&
             hid::get_field(r.bytes.data(), r.size, m, true, magnitude) &&
@@ -48,8 +50,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             std::abort();
         }
     }
-    for (const hid::Report& r : {hid::encode_set_effect(1, pid), hid::encode_device_gain(1.0, pid), hid::encode_create_effect(pid),
-                                 hid::encode_device_control(hid::DeviceControl::Reset, pid)}) {
+    for (const hid::Report& r :
+         {hid::encode_set_effect(1, pid), hid::encode_device_gain(1.0, pid), hid::encode_create_effect(pid),
+          hid::encode_device_control(hid::DeviceControl::Reset, pid)}) {
         if (r.size > hid::kMaxReportBytes) std::abort();
     }
     return 0;

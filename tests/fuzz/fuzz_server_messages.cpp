@@ -4,8 +4,8 @@
 // and no exception (decode_message is noexcept: anything escaping aborts); an error carries one of the
 // protocol's codes and a message naming the function; a decoded hello speaks protocol 1 with a lease of 0 or
 // 0.01 .. 60 s; a decoded request after the handshake has an id <= 2^53; a commit has 1 .. 64 operations,
-// adds and modifies carry an object, modifies and removes an id >= 1; a subscribe_contacts filter has 1 .. 64 ids >= 1; every decoded object re-encodes
-// (object_to_json) and decodes again to the same kind. Then the server's range checks
+// adds and modifies carry an object, modifies and removes an id >= 1; a subscribe_contacts filter has 1 .. 64 ids >= 1;
+// every decoded object re-encodes (object_to_json) and decodes again to the same kind. Then the server's range checks
 // (src/server/object_limits.*, on the 3-axis test profile's +-0.06 m workspace: an accepted plane meets
 // it, an accepted point lies in it, accepted explicit gains are within the plausibility bounds) and the
 // reply path (src/server/reply_text.*): the error reply for a decode error or a refusal, and an ok reply
@@ -80,7 +80,10 @@ void check_limits(const hapticd::client::ObjectDescription& object, std::uint64_
     }
     if (refusal) {
         check(refusal->code == cl::ErrorCode::BeyondDeviceLimits || refusal->code == cl::ErrorCode::BadMessage);
-        check_reply(nlohmann::json{{"type", "error"}, {"id", id}, {"code", cl::to_string(refusal->code)}, {"message", "commit: ops[0]: " + refusal->message},
+        check_reply(nlohmann::json{{"type", "error"},
+                                   {"id", id},
+                                   {"code", cl::to_string(refusal->code)},
+                                   {"message", "commit: ops[0]: " + refusal->message},
                                    {"op_index", 0}});
     }
 }
@@ -88,10 +91,13 @@ void check_limits(const hapticd::client::ObjectDescription& object, std::uint64_
 void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
     using namespace hapticd::server;
     using hapticd::client::ErrorCode;
-    static const std::set<ErrorCode> codes{ErrorCode::BadJson, ErrorCode::BadMessage, ErrorCode::BadHello, ErrorCode::ProtocolVersion,
-                                           ErrorCode::Oversized};
+    static const std::set<ErrorCode> codes{ErrorCode::BadJson, ErrorCode::BadMessage, ErrorCode::BadHello,
+                                           ErrorCode::ProtocolVersion, ErrorCode::Oversized};
     if (const auto* e = std::get_if<DecodeError>(&r)) {
-        nlohmann::json reply{{"type", "error"}, {"code", hapticd::client::to_string(e->code)}, {"message", e->message}, {"op_index", e->op_index}};
+        nlohmann::json reply{{"type", "error"},
+                             {"code", hapticd::client::to_string(e->code)},
+                             {"message", e->message},
+                             {"op_index", e->op_index}};
         reply["id"] = e->id ? nlohmann::json(*e->id) : nlohmann::json(nullptr);
         check_reply(reply);
         check(codes.count(e->code) == 1);
@@ -121,14 +127,18 @@ void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
         for (const auto& op : c->ops) {
             const bool needs_object = op.kind == CommitOperation::Kind::Add || op.kind == CommitOperation::Kind::Modify;
             check(op.object.has_value() == needs_object);
-            if (op.kind == CommitOperation::Kind::Modify || op.kind == CommitOperation::Kind::Remove) check(op.object_id >= 1);
+            if (op.kind == CommitOperation::Kind::Modify || op.kind == CommitOperation::Kind::Remove)
+                check(op.object_id >= 1);
             if (op.object) {
                 std::string why;
                 const auto again = hapticd::client::object_from_json(hapticd::client::object_to_json(*op.object), why);
                 check(again.has_value() && again->index() == op.object->index());
                 check_limits(*op.object, *req.id);
                 // A list reply quotes the object back (criterion names are client text).
-                check_reply(nlohmann::json{{"type", "ok"}, {"id", *req.id}, {"objects", nlohmann::json::array({hapticd::client::object_to_json(*op.object)})}});
+                check_reply(
+                    nlohmann::json{{"type", "ok"},
+                                   {"id", *req.id},
+                                   {"objects", nlohmann::json::array({hapticd::client::object_to_json(*op.object)})}});
             }
         }
     }

@@ -26,4 +26,5 @@ inline void toml_assert_failed(const char* expression, const char* file, int lin
 
 }  // namespace hapticd_fuzz
 
-#define TOML_ASSERT(expr) ((expr) ? static_cast<void>(0) : ::hapticd_fuzz::toml_assert_failed(#expr, __FILE__, __LINE__))
+#define TOML_ASSERT(expr) \
+    ((expr) ? static_cast<void>(0) : ::hapticd_fuzz::toml_assert_failed(#expr, __FILE__, __LINE__))

@@ -169,7 +169,8 @@ TEST(Identification, NoisyQuantisedSimulatedDeviceMeetsTheIssueTolerances) {
             // nearest integer, since d_hat may fall a hair below it) is the true one.
             const bool integer_truth = std::abs(t.delay_periods - std::round(t.delay_periods)) < 1e-9;
             const double whole = integer_truth ? std::round(r.delay_periods) : static_cast<double>(r.delay_whole);
-            EXPECT_EQ(whole, std::floor(t.delay_periods + 1e-9)) << t.name << " seed " << seed << " d_hat " << r.delay_periods;
+            EXPECT_EQ(whole, std::floor(t.delay_periods + 1e-9))
+                << t.name << " seed " << seed << " d_hat " << r.delay_periods;
             if (!integer_truth) {
                 EXPECT_NEAR(r.delay_fraction, t.delay_periods - std::floor(t.delay_periods), 0.1);
             }
@@ -185,9 +186,10 @@ TEST(Identification, NoisyQuantisedSimulatedDeviceMeetsTheIssueTolerances) {
             worst_d = std::max(worst_d, ed);
             worst_k = std::max(worst_k, std::abs(r.stiffness - t.stiffness));
         }
-        std::printf("[measured] %s: worst of 5 seeds: mass %.2e rel, damping %.2e rel, stiffness %.3g abs, delay %.2e periods, "
-                    "max |z| %.2f\n",
-                    t.name, worst_m, worst_b, worst_k, worst_d, worst_z);
+        std::printf(
+            "[measured] %s: worst of 5 seeds: mass %.2e rel, damping %.2e rel, stiffness %.3g abs, delay %.2e periods, "
+            "max |z| %.2f\n",
+            t.name, worst_m, worst_b, worst_k, worst_d, worst_z);
     }
 }
 
@@ -199,20 +201,21 @@ TEST(Identification, TunedGainsEqualTheTrueOptimumWithinPropagatedUncertainty) {
         ASSERT_TRUE(r.ok) << r.message;
         for (const char* criterion : {"CE2", "CE1"}) {
             const IdentifiedTuning id = tune_identified(criterion, r, 1e-3, 0.0);
-            const TuningResult truth = tune_wall(criterion, TuningPlant{t.mass, t.damping, t.stiffness, 1e-3, t.delay_periods * 1e-3});
+            const TuningResult truth =
+                tune_wall(criterion, TuningPlant{t.mass, t.damping, t.stiffness, 1e-3, t.delay_periods * 1e-3});
             EXPECT_GT(id.K_stderr, 0.0);
             EXPECT_GT(id.B_stderr, 0.0);
             EXPECT_NEAR(id.tuning.K, truth.K, 3.0 * id.K_stderr + 1e-9 * truth.K) << t.name << " " << criterion;
             EXPECT_NEAR(id.tuning.B, truth.B, 3.0 * id.B_stderr + 1e-9 * truth.B) << t.name << " " << criterion;
-            std::printf("[measured] %s %s: K %.6g (true %.6g, +- %.2g), B %.6g (true %.6g, +- %.2g)\n", t.name, criterion,
-                        id.tuning.K, truth.K, id.K_stderr, id.tuning.B, truth.B, id.B_stderr);
+            std::printf("[measured] %s %s: K %.6g (true %.6g, +- %.2g), B %.6g (true %.6g, +- %.2g)\n", t.name,
+                        criterion, id.tuning.K, truth.K, id.K_stderr, id.tuning.B, truth.B, id.B_stderr);
         }
     }
 }
 
 // Records every force written, and checks the true position after each read.
 class WatchingDevice final : public Device {
-public:
+  public:
     explicit WatchingDevice(const SimDeviceConfig& c) : sim_(c) {}
     DeviceStatus open() override { return sim_.open(); }
     DeviceStatus home() override { return sim_.home(); }
@@ -232,7 +235,7 @@ public:
     std::vector<double> writes;
     std::vector<double> true_positions;
 
-private:
+  private:
     SimDevice sim_;
 };
 
@@ -245,10 +248,10 @@ TEST(Excitation, NeverExceedsItsForceAndPositionLimits) {
     std::string worst_case;
     for (int i = 0; i < kCases; ++i) {
         const double T = 1e-3;
-        const double design = 0.02 * std::pow(50.0, U(rng));           // 0.02 .. 1 kg
-        const double mass = design * (0.5 + 1.5 * U(rng));             // design/2 .. 2 design
-        const double damping = 0.02 * mass / T * U(rng);                // delta < 0.02
-        const double stiffness = 1e-3 * mass / (T * T) * U(rng);        // gamma < 0.001
+        const double design = 0.02 * std::pow(50.0, U(rng));      // 0.02 .. 1 kg
+        const double mass = design * (0.5 + 1.5 * U(rng));        // design/2 .. 2 design
+        const double damping = 0.02 * mass / T * U(rng);          // delta < 0.02
+        const double stiffness = 1e-3 * mass / (T * T) * U(rng);  // gamma < 0.001
         const double delay = U(rng) < 0.3 ? std::floor(8 * U(rng)) : 8 * U(rng);
         const double max_force = 1.0 + 20.0 * U(rng);
         TruePlant t{"", mass, damping, stiffness, delay, 2e-6 * U(rng), 2e-6 * U(rng), max_force, false};
@@ -265,9 +268,10 @@ TEST(Excitation, NeverExceedsItsForceAndPositionLimits) {
         s.seed = rng();
         s.paced = false;
         const ExcitationRecord rec = run_excitation(dev, s);
-        ASSERT_TRUE(rec.completed) << "case " << i << ": " << rec.abort_reason << "; mass " << mass << " (design " << design
-                                   << "), damping " << damping << ", stiffness " << stiffness << ", delay " << delay
-                                   << ", force limit " << s.force_limit << ", position limit " << s.position_limit;
+        ASSERT_TRUE(rec.completed) << "case " << i << ": " << rec.abort_reason << "; mass " << mass << " (design "
+                                   << design << "), damping " << damping << ", stiffness " << stiffness << ", delay "
+                                   << delay << ", force limit " << s.force_limit << ", position limit "
+                                   << s.position_limit;
         ASSERT_FALSE(dev.writes.empty());
         for (double f : dev.writes) {
             ASSERT_LE(std::abs(f), s.force_limit) << "case " << i;
@@ -279,15 +283,16 @@ TEST(Excitation, NeverExceedsItsForceAndPositionLimits) {
             ASSERT_LE(std::abs(x - start), s.position_limit) << "case " << i;
             if (std::abs(x - start) / s.position_limit > worst_position_ratio) {
                 worst_position_ratio = std::abs(x - start) / s.position_limit;
-                worst_case = "mass/design " + std::to_string(mass / design) + ", gamma " + std::to_string(stiffness * T * T / mass) +
-                             ", delta " + std::to_string(damping * T / mass) + ", delay " + std::to_string(delay) +
+                worst_case = "mass/design " + std::to_string(mass / design) + ", gamma " +
+                             std::to_string(stiffness * T * T / mass) + ", delta " +
+                             std::to_string(damping * T / mass) + ", delay " + std::to_string(delay) +
                              ", force limit " + std::to_string(s.force_limit);
             }
         }
         ++cases;
     }
-    std::printf("[measured] excitation property test: %d cases, max |u|/limit %.3f, max |x - x0|/limit %.3f (%s)\n", cases,
-                worst_force_ratio, worst_position_ratio, worst_case.c_str());
+    std::printf("[measured] excitation property test: %d cases, max |u|/limit %.3f, max |x - x0|/limit %.3f (%s)\n",
+                cases, worst_force_ratio, worst_position_ratio, worst_case.c_str());
 }
 
 TEST(Excitation, GuardAbortsWithZeroForceOnALightDevice) {
@@ -335,7 +340,8 @@ TEST(IdentificationFile, RoundTripAndComparison) {
     const IdentificationResult r = identify_plant(rec.data);
     ASSERT_TRUE(r.ok);
     std::string device;
-    const IdentificationResult back = identification_from_json(nlohmann::json::parse(identification_to_json(r, "dev").dump()), device);
+    const IdentificationResult back =
+        identification_from_json(nlohmann::json::parse(identification_to_json(r, "dev").dump()), device);
     EXPECT_EQ(device, "dev");
     EXPECT_EQ(back.mass, r.mass);
     EXPECT_EQ(back.delay_periods, r.delay_periods);
@@ -352,8 +358,9 @@ TEST(IdentificationFile, RoundTripAndComparison) {
     EXPECT_NE(changes[0].find("mass changed"), std::string::npos);
     EXPECT_NE(changes[1].find("delay changed"), std::string::npos);
     EXPECT_THROW(identification_from_json(nlohmann::json{{"format", "x"}}, device), std::runtime_error);
-    EXPECT_THROW(identification_from_json(nlohmann::json{{"format", "hapticd-identification"}, {"period", 1e-3}}, device),
-                 std::runtime_error);
+    EXPECT_THROW(
+        identification_from_json(nlohmann::json{{"format", "hapticd-identification"}, {"period", 1e-3}}, device),
+        std::runtime_error);
 }
 
 // hapticd in-process: --identify writes the file and the summary; a restart reuses it; a changed device warns.
@@ -382,7 +389,8 @@ void write_profile(const std::string& path, double mass) {
     std::ofstream f(path);
     f << "name = \"idtest\"\ndriver = \"sim\"\nmass = " << mass
       << "\ndamping = 2.0\nstiffness = 50.0\ninherent_delay = 0.0031\nmax_force = 10.0\naxes = 1\n"
-         "workspace_min = [-0.06]\nworkspace_max = [0.06]\nposition_noise = 2e-6\nposition_resolution = 2e-6\nnoise_seed = 3\n";
+         "workspace_min = [-0.06]\nworkspace_max = [0.06]\nposition_noise = 2e-6\nposition_resolution = "
+         "2e-6\nnoise_seed = 3\n";
 }
 
 nlohmann::json read_json(const std::string& path) {
@@ -398,8 +406,9 @@ TEST(HapticdIdentify, WritesReusesAndWarnsOnChange) {
     const std::string file = (dir / "ident.json").string();
     const std::string summary = (dir / "summary.json").string();
     write_profile(profile, 0.30);
-    const std::vector<std::string> common{"--config", "", "--device", profile, "--lockstep", "--identification-file", file,
-                                          "--summary-json", summary, "--bilateral"};
+    const std::vector<std::string> common{
+        "--config",       "",      "--device",   profile, "--lockstep", "--identification-file", file,
+        "--summary-json", summary, "--bilateral"};
 
     auto args = common;
     args.insert(args.end(), {"--identify", "--duration", "0.2"});
@@ -447,7 +456,8 @@ TEST(HapticdIdentify, WritesReusesAndWarnsOnChange) {
         const double d = f["delay_periods"].get<double>() * 1e-3;
         EXPECT_LT(s["robust"]["delay"][0].get<double>(), d);
         EXPECT_GT(s["robust"]["delay"][1].get<double>(), d);
-        EXPECT_LE(s["robust"]["worst_case"].get<double>(), s["robust"]["nominal_worst_case"].get<double>() * (1 + 1e-12));
+        EXPECT_LE(s["robust"]["worst_case"].get<double>(),
+                  s["robust"]["nominal_worst_case"].get<double>() * (1 + 1e-12));
     }
 
     // The device got 10 % heavier: --identify warns and rewrites the file.
@@ -461,7 +471,10 @@ TEST(HapticdIdentify, WritesReusesAndWarnsOnChange) {
     EXPECT_NEAR(read_json(file)["mass"].get<double>(), 0.33, 0.0033);
 
     // A broken file is a config error (exit 3).
-    { std::ofstream f(file); f << "{ not json"; }
+    {
+        std::ofstream f(file);
+        f << "{ not json";
+    }
     args = common;
     args.insert(args.end(), {"--dry-run"});
     c = run_hapticd(args);

@@ -106,7 +106,8 @@ TEST(SpscRing, FullRingRefuses) {
 }
 
 std::string temp_path(const std::string& name) {
-    return (std::filesystem::temp_directory_path() / ("hapticd_test_" + std::to_string(::getpid()) + "_" + name)).string();
+    return (std::filesystem::temp_directory_path() / ("hapticd_test_" + std::to_string(::getpid()) + "_" + name))
+        .string();
 }
 
 TEST(TraceWriter, BlockingModeIsCompleteAndExact) {

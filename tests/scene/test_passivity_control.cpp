@@ -28,7 +28,7 @@ constexpr double kMass = 0.3, kT = 1e-3, kMaxForce = 1e4;
 
 // Records what the controller sees each tick, wrapping the simulated device (the daemon writes the final force).
 class RecordingDevice final : public Device {
-public:
+  public:
     RecordingDevice(SimDevice& sim, PassivityController* pc) : sim_(sim), pc_(pc) {}
     DeviceStatus open() override { return sim_.open(); }
     DeviceStatus home() override { return sim_.home(); }
@@ -59,18 +59,18 @@ public:
     std::vector<double> positions, forces, port_energy, bound, observed_energy;
     std::vector<bool> unconstrained;
 
-private:
+  private:
     std::uint64_t shorts_ = 0;
     SimDevice& sim_;
     PassivityController* pc_;
 };
 
 struct StepRun {
-    double max_abs_x = 0;       // over the whole run
-    double late_abs_x = 0;      // max |x| over the last 20 % of the run
+    double max_abs_x = 0;   // over the whole run
+    double late_abs_x = 0;  // max |x| over the last 20 % of the run
     bool finite = true;
     PassivityControlStats stats;
-    double worst_bound_violation = 0;  // max over ticks of (bound - W), > 0 violates
+    double worst_bound_violation = 0;   // max over ticks of (bound - W), > 0 violates
     double worst_observed_deficit = 0;  // max over unconstrained ticks of (-P - allowance), > 0 violates
     std::size_t unconstrained_ticks = 0;
 };
@@ -150,51 +150,52 @@ Gains beyond(double factor, std::size_t d, double device_damping) {
 // tick; the controlled one settles near x_inf, see docs/passivity.md for the traces.)
 TEST(PassivityControl, WallBeyondAlphaMaxDivergesWithoutAndStaysBoundedWith) {
     for (double b : {0.0, 6.0})
-    for (std::size_t d : {0U, 1U, 3U}) {
-        const Gains g = beyond(1.5, d, b);
-        const double x_inf = 1.0 / g.K;
-        const StepRun off = step_run(g.K, g.B, d, false, b);
-        const StepRun on = step_run(g.K, g.B, d, true, b);
-        EXPECT_TRUE(!off.finite || off.max_abs_x > 1000 * x_inf) << "d=" << d << " max|x| " << off.max_abs_x;
-        EXPECT_TRUE(on.finite) << "d=" << d;
-        // Known limitation (docs/passivity.md): with device damping and no delay buffer the controller does not
-        // hold 1.5 alpha_max. Update the docs and this line together if the controller improves.
-        const bool expected_to_hold = !(b > 0 && d == 0);
-        EXPECT_EQ(on.late_abs_x < 10 * x_inf, expected_to_hold) << "b=" << b << " d=" << d << " late max|x| "
-                                                                << on.late_abs_x << " x_inf " << x_inf;
-        EXPECT_GT(on.stats.damper_ticks, 0U) << "d=" << d;
-        EXPECT_EQ(on.stats.nonfinite_events, 0U);
-        // The stated bound at every tick (with the rounding allowance of step_run).
-        EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d;
-        EXPECT_LE(on.worst_observed_deficit, 0.0) << "b=" << b << " d=" << d;
-        EXPECT_GT(on.unconstrained_ticks, 0U);
-        std::printf("b=%g d=%zu 1.5 alpha_max: off max|x| %.3g, on late max|x| %.3g (x_inf %.3g); damper %llu ticks, "
-                    "capped %llu; port energy min %.3g J; bound terms: shortfall %.3g J, prediction error %.3g J\n",
-                    b, d, off.max_abs_x, on.late_abs_x, x_inf, static_cast<unsigned long long>(on.stats.damper_ticks),
-                    static_cast<unsigned long long>(on.stats.capped_ticks), on.stats.min_port_energy,
-                    on.stats.shortfall, on.stats.prediction_error);
-    }
+        for (std::size_t d : {0U, 1U, 3U}) {
+            const Gains g = beyond(1.5, d, b);
+            const double x_inf = 1.0 / g.K;
+            const StepRun off = step_run(g.K, g.B, d, false, b);
+            const StepRun on = step_run(g.K, g.B, d, true, b);
+            EXPECT_TRUE(!off.finite || off.max_abs_x > 1000 * x_inf) << "d=" << d << " max|x| " << off.max_abs_x;
+            EXPECT_TRUE(on.finite) << "d=" << d;
+            // Known limitation (docs/passivity.md): with device damping and no delay buffer the controller does not
+            // hold 1.5 alpha_max. Update the docs and this line together if the controller improves.
+            const bool expected_to_hold = !(b > 0 && d == 0);
+            EXPECT_EQ(on.late_abs_x < 10 * x_inf, expected_to_hold)
+                << "b=" << b << " d=" << d << " late max|x| " << on.late_abs_x << " x_inf " << x_inf;
+            EXPECT_GT(on.stats.damper_ticks, 0U) << "d=" << d;
+            EXPECT_EQ(on.stats.nonfinite_events, 0U);
+            // The stated bound at every tick (with the rounding allowance of step_run).
+            EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d;
+            EXPECT_LE(on.worst_observed_deficit, 0.0) << "b=" << b << " d=" << d;
+            EXPECT_GT(on.unconstrained_ticks, 0U);
+            std::printf(
+                "b=%g d=%zu 1.5 alpha_max: off max|x| %.3g, on late max|x| %.3g (x_inf %.3g); damper %llu ticks, "
+                "capped %llu; port energy min %.3g J; bound terms: shortfall %.3g J, prediction error %.3g J\n",
+                b, d, off.max_abs_x, on.late_abs_x, x_inf, static_cast<unsigned long long>(on.stats.damper_ticks),
+                static_cast<unsigned long long>(on.stats.capped_ticks), on.stats.min_port_energy, on.stats.shortfall,
+                on.stats.prediction_error);
+        }
 }
 
 // The largest factor of alpha_max the controller holds (bounded as above), on the grid 1.25 .. 32, per d.
 TEST(PassivityControl, LargestFactorItHolds) {
     for (double b : {0.0, 6.0})
-    for (std::size_t d : {0U, 1U, 3U}) {
-        double held = 0;
-        for (double factor : {1.25, 1.5, 1.75, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0}) {
-            const Gains g = beyond(factor, d, b);
-            const StepRun on = step_run(g.K, g.B, d, true, b);
-            if (!(on.finite && on.late_abs_x < 10 / g.K)) break;
-            EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d << " factor " << factor;
-            held = factor;
+        for (std::size_t d : {0U, 1U, 3U}) {
+            double held = 0;
+            for (double factor : {1.25, 1.5, 1.75, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0}) {
+                const Gains g = beyond(factor, d, b);
+                const StepRun on = step_run(g.K, g.B, d, true, b);
+                if (!(on.finite && on.late_abs_x < 10 / g.K)) break;
+                EXPECT_LE(on.worst_bound_violation, 0.0) << "d=" << d << " factor " << factor;
+                held = factor;
+            }
+            if (b > 0 && d == 0) {
+                EXPECT_EQ(held, 0.0) << "the known limitation of the test above";
+            } else {
+                EXPECT_GE(held, 1.5) << "b=" << b << " d=" << d;
+            }
+            std::printf("b=%g d=%zu: largest factor of alpha_max held (grid 1.25 .. 32): %.2f\n", b, d, held);
         }
-        if (b > 0 && d == 0) {
-            EXPECT_EQ(held, 0.0) << "the known limitation of the test above";
-        } else {
-            EXPECT_GE(held, 1.5) << "b=" << b << " d=" << d;
-        }
-        std::printf("b=%g d=%zu: largest factor of alpha_max held (grid 1.25 .. 32): %.2f\n", b, d, held);
-    }
 }
 
 // v = 0: a wall at rest with the device at rest gives zero velocity every tick; the guard keeps the damper
@@ -239,8 +240,9 @@ TEST(PassivityControl, ZeroVelocityAndNonFiniteInput) {
 TEST(PassivityControl, HapticdOption) {
     const Gains g = beyond(1.5, 1, 0.0);
     const std::string K = std::to_string(g.K), B = std::to_string(g.B);
-    const std::vector<std::string> common{"--device", "sim", "--lockstep", "--bilateral", "--stiffness", K, "--damping",
-                                          B, "--delay-buffer", "1", "--duration", "2", "--rt-priority", "0"};
+    const std::vector<std::string> common{"--device",      "sim", "--lockstep",     "--bilateral", "--stiffness", K,
+                                          "--damping",     B,     "--delay-buffer", "1",           "--duration",  "2",
+                                          "--rt-priority", "0"};
     const test::Result refused = test::run(common, "pc_refused");
     EXPECT_EQ(refused.code, 5) << refused.err;
     const std::string summary = (test::scratch_dir() / "pc_summary.json").string();

@@ -23,7 +23,8 @@ struct MotionRig {
     CommitRing ring{8};
     SceneObjects objects;
     std::uint64_t seq = 0;
-    MotionRig(double ramp, double hold_max, double activation_speed) : objects(config(ramp, hold_max, activation_speed), ring) {}
+    MotionRig(double ramp, double hold_max, double activation_speed)
+        : objects(config(ramp, hold_max, activation_speed), ring) {}
     static SceneObjectsConfig config(double ramp, double hold_max, double activation_speed) {
         SceneObjectsConfig c;
         c.period = kMotionT;
@@ -95,44 +96,44 @@ TEST(SceneMotion, MovesAreAFirstOrderHoldOverTheMeasuredInterval) {
 // velocity times B as well (the commanded poses' rate, d / (5 T)). p0 = 0.1 mm: a plane near its surface
 // (evaluated one by one); 2 mm: pressed deep (the summed law).
 TEST(SceneMotion, DampingIsRelativeToTheSurfacesMotion) {
-  for (const double p0 : {1e-4, 2e-3}) {
-    const double K = 1000.0, B = 20.0, d = 10e-6;
-    MotionRig rig(0.0, 0.05, 0.0);
-    rig.commit(SlotUpdate::Action::Set, motion_plane(0.001, K, B, false));
-    double commanded = 0.001;
-    double rendered = 0.001;
-    AxisVector x{-rendered + p0, 0, 0};
-    rig.tick(x);
-    for (int j = 1; j < 5; ++j) rig.tick(x);
-    for (int pose = 1; pose <= 4; ++pose) {
-        const double previous = commanded;
-        commanded += d;
-        rig.commit(SlotUpdate::Action::Move, motion_plane(commanded, K, B, false));
-        for (int k = 1; k <= 5; ++k) {
-            rendered = previous + k / 5.0 * (commanded - previous);
-            x[0] = -rendered + p0;  // the handle moves with the surface
-            const double f = rig.tick(x);
-            if (pose >= 2) {  // the first has no velocity history
-                EXPECT_NEAR(f, K * p0, 1e-9) << "pose " << pose << " tick " << k;
+    for (const double p0 : {1e-4, 2e-3}) {
+        const double K = 1000.0, B = 20.0, d = 10e-6;
+        MotionRig rig(0.0, 0.05, 0.0);
+        rig.commit(SlotUpdate::Action::Set, motion_plane(0.001, K, B, false));
+        double commanded = 0.001;
+        double rendered = 0.001;
+        AxisVector x{-rendered + p0, 0, 0};
+        rig.tick(x);
+        for (int j = 1; j < 5; ++j) rig.tick(x);
+        for (int pose = 1; pose <= 4; ++pose) {
+            const double previous = commanded;
+            commanded += d;
+            rig.commit(SlotUpdate::Action::Move, motion_plane(commanded, K, B, false));
+            for (int k = 1; k <= 5; ++k) {
+                rendered = previous + k / 5.0 * (commanded - previous);
+                x[0] = -rendered + p0;  // the handle moves with the surface
+                const double f = rig.tick(x);
+                if (pose >= 2) {  // the first has no velocity history
+                    EXPECT_NEAR(f, K * p0, 1e-9) << "pose " << pose << " tick " << k;
+                }
+            }
+        }
+        // The same motion with the handle held still: K p + B rate (rate = d / (5 T)); p = rendered + x.
+        MotionRig still(0.0, 0.05, 0.0);
+        still.commit(SlotUpdate::Action::Set, motion_plane(0.001, K, B, false));
+        commanded = 0.001;
+        const AxisVector at{-0.001 + p0, 0, 0};
+        for (int j = 0; j < 5; ++j) still.tick(at);
+        for (int pose = 1; pose <= 3; ++pose) {
+            const double previous = commanded;
+            commanded += d;
+            still.commit(SlotUpdate::Action::Move, motion_plane(commanded, K, B, false));
+            for (int k = 1; k <= 5; ++k) {
+                rendered = previous + k / 5.0 * (commanded - previous);
+                EXPECT_NEAR(still.tick(at), K * (rendered + at[0]) + B * d / (5 * kMotionT), 1e-9) << pose << " " << k;
             }
         }
     }
-    // The same motion with the handle held still: K p + B rate (rate = d / (5 T)); p = rendered + x.
-    MotionRig still(0.0, 0.05, 0.0);
-    still.commit(SlotUpdate::Action::Set, motion_plane(0.001, K, B, false));
-    commanded = 0.001;
-    const AxisVector at{-0.001 + p0, 0, 0};
-    for (int j = 0; j < 5; ++j) still.tick(at);
-    for (int pose = 1; pose <= 3; ++pose) {
-        const double previous = commanded;
-        commanded += d;
-        still.commit(SlotUpdate::Action::Move, motion_plane(commanded, K, B, false));
-        for (int k = 1; k <= 5; ++k) {
-            rendered = previous + k / 5.0 * (commanded - previous);
-            EXPECT_NEAR(still.tick(at), K * (rendered + at[0]) + B * d / (5 * kMotionT), 1e-9) << pose << " " << k;
-        }
-    }
-  }
 }
 
 // The same for the affine law (a bilateral plane) and a spring's point: the handle moving with the object by
@@ -165,7 +166,8 @@ TEST(SceneMotion, DampingIsRelativeForBilateralPlanesAndSprings) {
                 const double rendered = previous + k / 5.0 * (commanded - previous);
                 const double f = rig.tick(place(rendered));
                 if (pose >= 2) {
-                    EXPECT_NEAR(spring ? -f : f, K * off, 1e-9) << (spring ? "spring" : "plane") << " pose " << pose << " tick " << k;
+                    EXPECT_NEAR(spring ? -f : f, K * off, 1e-9)
+                        << (spring ? "spring" : "plane") << " pose " << pose << " tick " << k;
                 }
             }
         }
@@ -221,8 +223,8 @@ TEST(SceneMotion, APlaneAppearingAroundTheHandleStartsAtItAndMovesOutAtTheActiva
     // After the ramp: per tick the stiffness term grows by at most K v T and the damping term falls by at most
     // B v T / tau (the tail's speed change), plus 1 nm of K at the arrival; the step B v of an abrupt stop
     // (2.2 N here) does not occur.
-    std::printf("[ activation ] largest force change per tick after the ramp %.4f N (abrupt stop: B v = %.4f N)\n", largest_change,
-                B * v);
+    std::printf("[ activation ] largest force change per tick after the ramp %.4f N (abrupt stop: B v = %.4f N)\n",
+                largest_change, B * v);
     EXPECT_LE(largest_change, K * v * kMotionT + B * v * kMotionT / tau + K * kActivationArrival + 1e-9);
 }
 

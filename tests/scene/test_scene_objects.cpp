@@ -412,7 +412,8 @@ TEST(GainChecker, TheDampingRangeIsTheStableIntervalOfTheSpectralRadius) {
                 const double B = 1.25 * hi * i / 4000.0;
                 if (std::abs(B - lo) < 1e-6 * hi || std::abs(B - hi) < 1e-6 * hi) continue;
                 const hapticopt::StabilityReport r = hapticopt::stability(np, {K * kT * kT / 0.3, B * kT / 0.3});
-                EXPECT_EQ(r.spectral_radius < 1.0, lo < B && B < hi) << "d " << d << " K " << K << " B " << B << " rho " << r.spectral_radius;
+                EXPECT_EQ(r.spectral_radius < 1.0, lo < B && B < hi)
+                    << "d " << d << " K " << K << " B " << B << " rho " << r.spectral_radius;
                 stable_points += r.spectral_radius < 1.0 ? 1 : 0;
             }
             EXPECT_GT(stable_points, 0);
@@ -455,9 +456,12 @@ TEST(GainChecker, SummedGainsOfParallelPlanesAreCheckedAsTheirSum) {
     const hapticopt::NormalizedPlant np{0.0, 0.0, 0.0};
     for (const double factor : {1.0, 1.5, 2.0, 3.0}) {
         const bool expected = hapticopt::is_stable(np, {factor * ce2->K * kT * kT / 0.3, factor * ce2->B * kT / 0.3});
-        EXPECT_EQ(checker.sum_is_stable(outer(n, factor * ce2->K), outer(n, factor * ce2->B), why), expected) << factor << why;
+        EXPECT_EQ(checker.sum_is_stable(outer(n, factor * ce2->K), outer(n, factor * ce2->B), why), expected)
+            << factor << why;
     }
-    EXPECT_TRUE(checker.sum_is_stable(plus(outer(n, ce2->K), outer(e, ce2->K)), plus(outer(n, ce2->B), outer(e, ce2->B)), why)) << why;
+    EXPECT_TRUE(
+        checker.sum_is_stable(plus(outer(n, ce2->K), outer(e, ce2->K)), plus(outer(n, ce2->B), outer(e, ce2->B)), why))
+        << why;
     EXPECT_FALSE(checker.sum_is_stable(outer(n, 3.0 * ce2->K), outer(n, ce2->B), why));
     EXPECT_NE(why.find("largest stable K"), std::string::npos) << why;
 }
@@ -538,7 +542,9 @@ TEST(GainChecker, RampsAreCheckedAtEveryTickAndStiffnessFollowsDamping) {
     EXPECT_FALSE(checker.ramp_is_stable(zero, zero, K2, B2, K1, B1, 1.0 / 30.0, why));
     EXPECT_NE(why.find("during the ramp"), std::string::npos) << why;
     const double s = 26.0 / 30.0;
-    EXPECT_FALSE(library_verdict(plus(scaled(K2, s * s), scaled(K1, (1 - s) * (1 - s))), plus(scaled(B2, s), scaled(B1, 1 - s))).stable);
+    EXPECT_FALSE(
+        library_verdict(plus(scaled(K2, s * s), scaled(K1, (1 - s) * (1 - s))), plus(scaled(B2, s), scaled(B1, 1 - s)))
+            .stable);
     // Without a ramp (step 1) the scene jumps from before to after: both stable, accepted.
     EXPECT_TRUE(checker.ramp_is_stable(zero, zero, K2, B2, K1, B1, 1.0, why)) << why;
 }
@@ -600,7 +606,8 @@ TEST(AnisotropicMass, AnObjectIsCheckedWithItsOwnMass) {
     double K = 0.0;
     for (double alpha = 0.01; alpha < 1.0; alpha += 0.001) {
         const double k = alpha * m_n / (kT * kT);
-        if (!hapticopt::is_stable(np, {alpha, B * kT / m_n}) && hapticopt::is_stable(np, {k * kT * kT / mean, B * kT / mean})) {
+        if (!hapticopt::is_stable(np, {alpha, B * kT / m_n}) &&
+            hapticopt::is_stable(np, {k * kT * kT / mean, B * kT / mean})) {
             K = k;
             break;
         }
@@ -622,7 +629,8 @@ TEST(AnisotropicMass, CriterionGainsAreTheOptimumForTheObjectsMass) {
     for (const double m : {checker.mass_along({0.0, 0.6, 0.8}), checker.mass_along({1.0, 0.0, 0.0}), 0.45}) {
         const auto g = checker.criterion_gains("CE1", m);
         ASSERT_TRUE(g);
-        const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE1, hapticopt::PhysicalPlant{m, 0.0, 0.0, kT, kT});
+        const hapticopt::WallTuning t =
+            hapticopt::optimal_wall(hapticopt::Criterion::CE1, hapticopt::PhysicalPlant{m, 0.0, 0.0, kT, kT});
         EXPECT_NEAR(g->K, t.K, 1e-12 * t.K) << m;
         EXPECT_NEAR(g->B, t.B, 1e-12 * t.B) << m;
     }
@@ -631,7 +639,8 @@ TEST(AnisotropicMass, CriterionGainsAreTheOptimumForTheObjectsMass) {
 // The loop state (x_j, v_j, x_{j-1} .. x_{j-d-1}) in physical units with M x'' = -u, u_j = K x_{j-d} +
 // B (x_{j-d} - x_{j-d-1}) / T held over the period; one period from Eigen's exponential of the 9 x 9
 // augmented matrix [[0, I, 0], [0, 0, -M^-1], [0, 0, 0]] T — no change of coordinates, no polynomial.
-double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B, int d) {
+double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B,
+                                      int d) {
     Eigen::Matrix<double, 9, 9> c = Eigen::Matrix<double, 9, 9>::Zero();
     c.block<3, 3>(0, 3) = Eigen::Matrix3d::Identity();
     c.block<3, 3>(3, 6) = -M.inverse();
@@ -690,8 +699,9 @@ TEST(AnisotropicMass, SummedGainsAgreeWithThePhysicalStateMatrix) {
             ++unstable;
         }
     }
-    std::printf("[ anisotropic sums ] %d stable, %d unstable, %d non-commuting; max |radius - physical state matrix| = %.3g\n",
-                stable, unstable, non_commuting, largest_difference);
+    std::printf(
+        "[ anisotropic sums ] %d stable, %d unstable, %d non-commuting; max |radius - physical state matrix| = %.3g\n",
+        stable, unstable, non_commuting, largest_difference);
     EXPECT_GT(stable, 15);
     EXPECT_GT(unstable, 15);
     EXPECT_GT(non_commuting, 100);
@@ -708,7 +718,8 @@ TEST(AnisotropicMass, OnePlaneAloneIsTheScalarVerdictForItsMass) {
             const double K = alpha * m_n / (kT * kT), B = beta * m_n / kT;
             std::string why;
             const bool expected = hapticopt::is_stable(np, {alpha, beta});
-            EXPECT_EQ(checker.sum_is_stable(outer({0.0, 0.6, 0.8}, K), outer({0.0, 0.6, 0.8}, B), why), expected) << alpha << " " << beta;
+            EXPECT_EQ(checker.sum_is_stable(outer({0.0, 0.6, 0.8}, K), outer({0.0, 0.6, 0.8}, B), why), expected)
+                << alpha << " " << beta;
             both += expected ? 1 : 0;
         }
     }
@@ -754,8 +765,9 @@ TEST(AnisotropicMass, TheSimulatedDeviceRendersTheMassMatrixExactly) {
             state = (e * aug).head<6>();
         }
         ASSERT_GT(scale, 1e-3);
-        std::printf("[ anisotropic sim ] b = %g, k = %g: max |x_sim - x_exact| = %.3g m over 200 ticks (motion up to %.3g m)\n", b,
-                    k, worst, scale);
+        std::printf(
+            "[ anisotropic sim ] b = %g, k = %g: max |x_sim - x_exact| = %.3g m over 200 ticks (motion up to %.3g m)\n",
+            b, k, worst, scale);
         EXPECT_LE(worst, 1e-12 * scale);
     }
 }
@@ -773,14 +785,16 @@ TEST(AnisotropicMass, ProfileKeysAreValidatedByName) {
     const std::string common = "driver = \"sim\"\nmax_force = 10.0\naxes = 3\n";
     const ProfileCase cases[] = {
         {"", kExitBadConfig, "missing key 'mass'"},
-        {"mass = 0.3\nmass_matrix = [0.3, 0, 0, 0, 0.3, 0, 0, 0, 0.3]\n", kExitBadConfig, "mass and mass_matrix are both given"},
+        {"mass = 0.3\nmass_matrix = [0.3, 0, 0, 0, 0.3, 0, 0, 0, 0.3]\n", kExitBadConfig,
+         "mass and mass_matrix are both given"},
         {"mass = [0.3, 0.4]\n", kExitInvalidParameter, "one value (every axis) or one per axis (3)"},
         {"mass = [0.3, -0.4, 0.4]\n", kExitInvalidParameter, "finite, > 0"},
         {"mass_matrix = [0.3, 0, 0, 0, 0.3, 0]\n", kExitInvalidParameter, "3 x 3 = 9 values"},
         {"mass_matrix = [0.3, 0.1, 0, 0, 0.3, 0, 0, 0, 0.3]\n", kExitInvalidParameter, "a symmetric matrix"},
         {"mass_matrix = [0.3, 0.4, 0, 0.4, 0.3, 0, 0, 0, 0.3]\n", kExitInvalidParameter, "positive definite"},
         {"mass = [0.3, 0.3, 0.45]\ndamping = 1.0\n", kExitInvalidParameter, "accepted: damping = 0 and stiffness = 0"},
-        {"mass = 0.3\nmax_stiffness = -5\n", kExitInvalidParameter, "max_stiffness = -5 is invalid; accepted range: finite, > 0"},
+        {"mass = 0.3\nmax_stiffness = -5\n", kExitInvalidParameter,
+         "max_stiffness = -5 is invalid; accepted range: finite, > 0"},
     };
     int i = 0;
     for (const ProfileCase& c : cases) {

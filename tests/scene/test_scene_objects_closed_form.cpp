@@ -30,7 +30,8 @@ struct Reference {
 };
 
 // sK, sB, sF: the ramp's weights of the stiffness, damping and constant-force terms (r^2, r, r).
-Reference reference_force(const ObjectParams& p, const AxisVector& x, const AxisVector& v, double sK, double sB, double sF) {
+Reference reference_force(const ObjectParams& p, const AxisVector& x, const AxisVector& v, double sK, double sB,
+                          double sF) {
     Reference r;
     switch (p.kind) {
         case ObjectKind::Plane: {
@@ -60,7 +61,8 @@ Reference reference_force(const ObjectParams& p, const AxisVector& x, const Axis
                     va = v[a] - vn * p.direction[a];
                 }
                 r.f[a] = -sK * p.K * ra - sB * p.B * va;
-                r.magnitude += std::fabs(p.K) * (std::fabs(x[a]) + std::fabs(p.point[a])) + std::fabs(p.B) * std::fabs(v[a]);
+                r.magnitude +=
+                    std::fabs(p.K) * (std::fabs(x[a]) + std::fabs(p.point[a])) + std::fabs(p.B) * std::fabs(v[a]);
             }
             r.contact = true;
             return r;
@@ -73,7 +75,8 @@ Reference reference_force(const ObjectParams& p, const AxisVector& x, const Axis
             for (std::size_t a = 0; a < 3; ++a) {
                 r.f[a] = sF * p.force[a] + sK * dot3(p.jacobian[a], d) - sB * p.B * v[a];
                 r.magnitude += std::fabs(p.force[a]) + std::fabs(p.B * v[a]);
-                for (std::size_t c = 0; c < 3; ++c) r.magnitude += std::fabs(p.jacobian[a][c]) * (std::fabs(x[c]) + std::fabs(p.point[c]));
+                for (std::size_t c = 0; c < 3; ++c)
+                    r.magnitude += std::fabs(p.jacobian[a][c]) * (std::fabs(x[c]) + std::fabs(p.point[c]));
             }
             return r;
         }
@@ -98,11 +101,31 @@ ObjectParams random_object(std::mt19937_64& rng, std::uint32_t id) {
     o.K = gain(rng);
     o.B = damping(rng);
     switch (kind(rng)) {
-        case 0: o.kind = ObjectKind::Plane; o.offset = pos(rng); o.bilateral = false; break;
-        case 1: o.kind = ObjectKind::Plane; o.offset = pos(rng); o.bilateral = true; break;
-        case 2: o.kind = ObjectKind::Spring; o.constraint = SpringConstraint::Point; o.point = {pos(rng), pos(rng), pos(rng)}; break;
-        case 3: o.kind = ObjectKind::Spring; o.constraint = SpringConstraint::Line; o.point = {pos(rng), pos(rng), pos(rng)}; break;
-        case 4: o.kind = ObjectKind::Spring; o.constraint = SpringConstraint::Plane; o.point = {pos(rng), pos(rng), pos(rng)}; break;
+        case 0:
+            o.kind = ObjectKind::Plane;
+            o.offset = pos(rng);
+            o.bilateral = false;
+            break;
+        case 1:
+            o.kind = ObjectKind::Plane;
+            o.offset = pos(rng);
+            o.bilateral = true;
+            break;
+        case 2:
+            o.kind = ObjectKind::Spring;
+            o.constraint = SpringConstraint::Point;
+            o.point = {pos(rng), pos(rng), pos(rng)};
+            break;
+        case 3:
+            o.kind = ObjectKind::Spring;
+            o.constraint = SpringConstraint::Line;
+            o.point = {pos(rng), pos(rng), pos(rng)};
+            break;
+        case 4:
+            o.kind = ObjectKind::Spring;
+            o.constraint = SpringConstraint::Plane;
+            o.point = {pos(rng), pos(rng), pos(rng)};
+            break;
         default:
             o.kind = ObjectKind::Field;
             o.point = {pos(rng), pos(rng), pos(rng)};
@@ -124,7 +147,7 @@ struct Rig {
         SceneObjectsConfig c;
         c.period = kT;
         c.ramp_time = ramp;
-        c.max_force = 1e12;       // neither saturation nor the rate limit: the laws alone are compared
+        c.max_force = 1e12;  // neither saturation nor the rate limit: the laws alone are compared
         c.max_force_rate = 1e18;
         c.axes = 3;
         return c;
@@ -162,8 +185,8 @@ struct LawCheck {
 // ways of summing, and the contact flags identical. Bound: each way sums at most ~4n + 10 products, so
 // each differs from the exact sum by at most (4n + 10) eps times the sum of the magnitudes of the terms
 // (the standard bound for recursive summation, Higham, Accuracy and Stability, 2002, eq. 4.4); the test
-// allows twice that (plus the ramp factor's own rounding, see below). Samples with a surface within 1e-12 m of the handle are not compared for the flag
-// (there the direct evaluation's own rounding decides it).
+// allows twice that (plus the ramp factor's own rounding, see below). Samples with a surface within 1e-12 m of the
+// handle are not compared for the flag (there the direct evaluation's own rounding decides it).
 void compare_on_random_scenes(double ramp_time, bool with_moves, std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -178,7 +201,8 @@ void compare_on_random_scenes(double ramp_time, bool with_moves, std::uint64_t s
         commit.seq = 1;
         for (std::size_t i = 0; i < n; ++i) {
             objs.push_back(random_object(rng, static_cast<std::uint32_t>(i + 1)));
-            commit.updates[commit.count++] = SlotUpdate{static_cast<std::uint8_t>(i), SlotUpdate::Action::Set, objs.back()};
+            commit.updates[commit.count++] =
+                SlotUpdate{static_cast<std::uint8_t>(i), SlotUpdate::Action::Set, objs.back()};
         }
         ASSERT_TRUE(rig.ring.try_push(commit));
         // A random walk with small steps (mostly inside the safe radius) and jumps (across surfaces).
@@ -219,7 +243,8 @@ void compare_on_random_scenes(double ramp_time, bool with_moves, std::uint64_t s
                 magnitude += r.magnitude;
                 if (r.contact) mask |= std::uint64_t{1} << i;
                 const ObjectParams& p = objs[i];
-                if (p.kind == ObjectKind::Plane && std::fabs(p.offset - dot3(p.direction, x)) < 1e-12) flag_decidable = false;
+                if (p.kind == ObjectKind::Plane && std::fabs(p.offset - dot3(p.direction, x)) < 1e-12)
+                    flag_decidable = false;
                 if (p.kind == ObjectKind::Field) {
                     AxisVector d{};
                     for (std::size_t a = 0; a < 3; ++a) d[a] = x[a] - p.point[a];
@@ -259,13 +284,9 @@ TEST(SceneObjectsClosedForm, TheSummedLawAndTheSafeRadiusGiveThePerObjectSumAndF
 
 // Moves (a Move commit: the place only) are applied without a re-classification (the constant terms
 // re-summed, the safe radius shrunk by how far the surfaces moved): the same comparison.
-TEST(SceneObjectsClosedForm, TheSameWhileClientsMoveTheirObjects) {
-    compare_on_random_scenes(0.0, true, 99);
-}
+TEST(SceneObjectsClosedForm, TheSameWhileClientsMoveTheirObjects) { compare_on_random_scenes(0.0, true, 99); }
 
-TEST(SceneObjectsClosedForm, TheSameDuringRampsIn) {
-    compare_on_random_scenes(0.03, false, 7);
-}
+TEST(SceneObjectsClosedForm, TheSameDuringRampsIn) { compare_on_random_scenes(0.03, false, 7); }
 
 // A unilateral plane pressed 5 mm deep (K = 1000 N/m, B = 10 N s/m: b / k = 10 ms). Held still or moved
 // slowly, its clamp cannot act and the summed law renders it; pulled out at 1 m/s while still 4 mm in, the
@@ -411,7 +432,9 @@ TEST(SceneObjectsClosedForm, AMovedSurfaceBoundsTheSafeRadiusByItsNewDistance) {
         Rig& rig = check.rig;
         ObjectParams& o = check.object;
         AxisVector x{};
-        auto tick = [&](const AxisVector& to, int k) { check.tick(to, "case " + std::to_string(c) + " tick " + std::to_string(k)); };
+        auto tick = [&](const AxisVector& to, int k) {
+            check.tick(to, "case " + std::to_string(c) + " tick " + std::to_string(k));
+        };
         tick(x, 0);
         tick(x, 1);
         const std::uint64_t classified = rig.objects.classifications();

@@ -54,7 +54,8 @@ TEST(SceneObjectsDepartures, ADepartureStartsItsRampOutAtOnceAheadOfHeldAndQueue
     DepartureRig rig;
     using A = SlotUpdate::Action;
     ASSERT_TRUE(rig.ring.try_push(DepartureRig::batch(1, {{0, A::Set, force_field(1, {1, 0, 0})}})));
-    ASSERT_TRUE(rig.ring.try_push(DepartureRig::batch(2, {{2, A::Set, force_field(2, {0, 0, 1})}})));  // the client that leaves
+    ASSERT_TRUE(
+        rig.ring.try_push(DepartureRig::batch(2, {{2, A::Set, force_field(2, {0, 0, 1})}})));  // the client that leaves
     for (int k = 0; k < 25; ++k) rig.tick();
     ASSERT_EQ(rig.objects.stats().last_commit_seq, 2U);
     ASSERT_EQ(rig.objects.slot_ramp(2), 1.0);
@@ -104,7 +105,8 @@ TEST(SceneObjectsDepartures, ADepartureStartsItsRampOutAtOnceAheadOfHeldAndQueue
 TEST(SceneObjectsDepartures, ASecondDepartureEndsTheFirstsRampAndStartsItsOwn) {
     DepartureRig rig;
     using A = SlotUpdate::Action;
-    ASSERT_TRUE(rig.ring.try_push(DepartureRig::batch(1, {{0, A::Set, force_field(1, {1, 0, 0})}, {1, A::Set, force_field(2, {0, 1, 0})}})));
+    ASSERT_TRUE(rig.ring.try_push(
+        DepartureRig::batch(1, {{0, A::Set, force_field(1, {1, 0, 0})}, {1, A::Set, force_field(2, {0, 1, 0})}})));
     for (int k = 0; k < 15; ++k) rig.tick();
     ASSERT_TRUE(rig.departures.try_push(DepartureRig::batch(2, {{0, A::Remove, force_field(1, {1, 0, 0})}})));
     AxisVector f = rig.tick();

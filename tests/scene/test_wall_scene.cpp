@@ -33,9 +33,9 @@ TEST(Wall, FirstSampleHasNoVelocityEstimate) {
 
 TEST(Wall, UnilateralOnlyPushesOutAndOnlyInContact) {
     VirtualWall wall({0, 0.0, 1.0, WallMode::Unilateral}, 1000.0, 10.0, kT);
-    EXPECT_EQ(wall.normal_force(-0.001), 0.0);             // outside
+    EXPECT_EQ(wall.normal_force(-0.001), 0.0);                              // outside
     EXPECT_DOUBLE_EQ(wall.normal_force(0.0005), 0.5 + 10.0 * 0.0015 / kT);  // entering: the law
-    EXPECT_EQ(wall.normal_force(0.0001), 0.0);             // leaving fast: law < 0 -> 0 (no pulling)
+    EXPECT_EQ(wall.normal_force(0.0001), 0.0);                              // leaving fast: law < 0 -> 0 (no pulling)
     EXPECT_EQ(wall.normal_force(-0.002), 0.0);
 }
 
@@ -57,8 +57,8 @@ TEST(Wall, RejectsInvalidGains) {
 // (penetration > 0), whatever its mode and whether its law pushes; zero after a fault.
 TEST(Scene, ContactFlagsAreThePenetrationSignsOfTheWalls) {
     std::vector<VirtualWall> walls;
-    walls.emplace_back(WallGeometry{0, 0.01, 1.0, WallMode::Unilateral}, 1000.0, 10.0, kT);   // solid for x0 > 0.01
-    walls.emplace_back(WallGeometry{1, 0.0, -1.0, WallMode::Bilateral}, 1000.0, 10.0, kT);    // solid for x1 < 0
+    walls.emplace_back(WallGeometry{0, 0.01, 1.0, WallMode::Unilateral}, 1000.0, 10.0, kT);  // solid for x0 > 0.01
+    walls.emplace_back(WallGeometry{1, 0.0, -1.0, WallMode::Bilateral}, 1000.0, 10.0, kT);   // solid for x1 < 0
     Scene scene(std::move(walls), 2, 100.0);
     AxisVector f{};
     ASSERT_EQ(scene.evaluate({0.0, 0.001, 0.0}, f), SceneFault::None);
@@ -69,7 +69,8 @@ TEST(Scene, ContactFlagsAreThePenetrationSignsOfTheWalls) {
     EXPECT_EQ(scene.contact_mask(), 3U);
     ASSERT_EQ(scene.evaluate({0.0, -0.001, 0.0}, f), SceneFault::None);
     EXPECT_EQ(scene.contact_mask(), 2U);
-    ASSERT_EQ(scene.evaluate({std::numeric_limits<double>::quiet_NaN(), -0.001, 0.0}, f), SceneFault::NonFinitePosition);
+    ASSERT_EQ(scene.evaluate({std::numeric_limits<double>::quiet_NaN(), -0.001, 0.0}, f),
+              SceneFault::NonFinitePosition);
     EXPECT_EQ(scene.contact_mask(), 0U);
 }
 
@@ -109,11 +110,13 @@ TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
     std::mt19937_64 rng(12345);
     std::uniform_real_distribution<double> small(-0.05, 0.05);
     std::uniform_real_distribution<double> exponent(-300.0, 300.0);
-    const double specials[] = {0.0, -0.0, 1e308, -1e308, std::numeric_limits<double>::max(),
-                               std::numeric_limits<double>::denorm_min(), 1e-320};
+    const double specials[] = {
+        0.0,   -0.0, 1e308, -1e308, std::numeric_limits<double>::max(), std::numeric_limits<double>::denorm_min(),
+        1e-320};
     for (int trial = 0; trial < 200; ++trial) {
         std::vector<VirtualWall> walls;
-        walls.emplace_back(WallGeometry{0, 0.0, 1.0, trial % 2 ? WallMode::Bilateral : WallMode::Unilateral}, 3e4, 30.0, kT);
+        walls.emplace_back(WallGeometry{0, 0.0, 1.0, trial % 2 ? WallMode::Bilateral : WallMode::Unilateral}, 3e4, 30.0,
+                           kT);
         walls.emplace_back(WallGeometry{0, 0.01, -1.0, WallMode::Unilateral}, 1e5, 100.0, kT);
         walls.emplace_back(WallGeometry{2, 0.0, 1.0, WallMode::Bilateral}, 1e9, 1e6, kT);
         Scene scene(std::move(walls), 3, fmax);
@@ -121,10 +124,18 @@ TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
             AxisVector p{};
             for (auto& v : p) {
                 switch (rng() % 4) {
-                    case 0: v = small(rng); break;
-                    case 1: v = std::copysign(std::pow(10.0, exponent(rng)), small(rng)); break;
-                    case 2: v = specials[rng() % std::size(specials)]; break;
-                    default: v = (j % 2 ? 1.0 : -1.0) * 0.02; break;  // adversarial alternation
+                    case 0:
+                        v = small(rng);
+                        break;
+                    case 1:
+                        v = std::copysign(std::pow(10.0, exponent(rng)), small(rng));
+                        break;
+                    case 2:
+                        v = specials[rng() % std::size(specials)];
+                        break;
+                    default:
+                        v = (j % 2 ? 1.0 : -1.0) * 0.02;
+                        break;  // adversarial alternation
                 }
             }
             AxisVector f{1.0, 1.0, 1.0};
@@ -141,7 +152,8 @@ TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
 }
 
 TEST(SceneProperty, NonFinitePositionZeroForceAndLatchedFault) {
-    for (double bad : {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}) {
+    for (double bad :
+         {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}) {
         std::vector<VirtualWall> walls;
         walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1000.0, 1.0, kT);
         Scene scene(std::move(walls), 2, 10.0);

@@ -60,9 +60,7 @@ cl::Batch batch_from_json(const json& ops) {
     return b;
 }
 
-void print(const json& j) {
-    std::cout << j.dump() << std::endl;
-}
+void print(const json& j) { std::cout << j.dump() << std::endl; }
 
 }  // namespace
 
@@ -83,7 +81,8 @@ int main(int argc, char** argv) {
                 if (a == "--lease") lease = std::atof(argv[i + 1]);
                 if (a == "--then") then = argv[i + 1];
             }
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "test-client", .lease_s = lease, .timeout_s = kReplyTimeout});
+            cl::Client c = cl::Client::connect(
+                {.socket_path = socket, .client_name = "test-client", .lease_s = lease, .timeout_s = kReplyTimeout});
             json out;
             try {
                 // busy (the hand-over queue is full) is retryable by the protocol: up to 1000 tries, 1 ms apart.
@@ -98,9 +97,15 @@ int main(int argc, char** argv) {
                         std::this_thread::sleep_for(std::chrono::milliseconds(1));
                     }
                 }
-                out = {{"ok", true}, {"object_ids", r.object_ids}, {"commit_seq", r.commit_seq}, {"session", c.welcome().session}};
+                out = {{"ok", true},
+                       {"object_ids", r.object_ids},
+                       {"commit_seq", r.commit_seq},
+                       {"session", c.welcome().session}};
             } catch (const cl::Error& e) {
-                out = {{"ok", false}, {"code", cl::to_string(e.code())}, {"message", e.what()}, {"op_index", e.op_index()}};
+                out = {{"ok", false},
+                       {"code", cl::to_string(e.code())},
+                       {"message", e.what()},
+                       {"op_index", e.op_index()}};
                 if (e.largest_stable_K()) out["largest_stable_K"] = *e.largest_stable_K();
             }
             print(out);
@@ -119,8 +124,11 @@ int main(int argc, char** argv) {
         }
         if (mode == "flood") {
             const long n = argc > 3 ? std::atol(argv[3]) : 1000;
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "flooder", .timeout_s = kReplyTimeout});
-            cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
+            cl::Client c =
+                cl::Client::connect({.socket_path = socket, .client_name = "flooder", .timeout_s = kReplyTimeout});
+            cl::Plane p{.normal = {0.0, 0.0, -1.0},
+                        .offset = -0.05,
+                        .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, busy = 0;
@@ -130,7 +138,8 @@ int main(int argc, char** argv) {
                     c.commit(cl::Batch().modify(id, p));
                     ++ok;
                 } catch (const cl::Error& e) {
-                    if (e.code() != cl::ErrorCode::Busy && e.code() != cl::ErrorCode::SessionLimit) throw;  // both: retry
+                    if (e.code() != cl::ErrorCode::Busy && e.code() != cl::ErrorCode::SessionLimit)
+                        throw;  // both: retry
                     ++busy;
                 }
             }
@@ -142,12 +151,17 @@ int main(int argc, char** argv) {
             stop.sa_handler = [](int) { g_stop_flooding = 1; };
             sigemptyset(&stop.sa_mask);
             sigaction(SIGUSR1, &stop, nullptr);
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = kReplyTimeout});
-            cl::Plane p{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
+            cl::Client c =
+                cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = kReplyTimeout});
+            cl::Plane p{.normal = {0.0, 0.0, -1.0},
+                        .offset = -0.05,
+                        .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, refused = 0;
-            const auto seconds_now = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+            const auto seconds_now = [] {
+                return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+            };
             const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(120);
             for (long i = 0; g_stop_flooding == 0 && std::chrono::steady_clock::now() < give_up; ++i) {
                 p.gains = i % 2 == 0 ? cl::Gains::explicit_gains(150.0, 1.5) : cl::Gains::explicit_gains(100.0, 1.0);
@@ -168,8 +182,11 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (mode == "noread") {
-            cl::Client c = cl::Client::connect({.socket_path = socket, .client_name = "noread", .timeout_s = kReplyTimeout});
-            c.commit(cl::Batch().add(cl::Plane{.normal = {0.0, 0.0, -1.0}, .offset = -0.05, .bilateral = false,
+            cl::Client c =
+                cl::Client::connect({.socket_path = socket, .client_name = "noread", .timeout_s = kReplyTimeout});
+            c.commit(cl::Batch().add(cl::Plane{.normal = {0.0, 0.0, -1.0},
+                                               .offset = -0.05,
+                                               .bilateral = false,
                                                .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
             c.subscribe(1000.0);
             print({{"ok", true}});

@@ -43,7 +43,7 @@ inline std::string read_text(const std::string& path) { return hapticd::test::re
 
 // A child process (tests/common/process.hpp) with its output in this suite's scratch directory.
 class Child : public hapticd::test::Process {
-public:
+  public:
     Child(const std::string& binary, const std::vector<std::string>& args, const std::string& tag)
         : Process(binary, args, tag, "", scratch()) {}
     // The first stdout line as JSON, waiting up to timeout_s for it.
@@ -73,9 +73,21 @@ inline Names names(const std::string& tag) {
 // sets --hand-stiffness.
 inline std::vector<std::string> daemon_args(const Names& n, const std::vector<std::string>& extra,
                                             const std::string& profile = "sim3.toml") {
-    std::vector<std::string> a{"--config", "", "--device", std::string(HAPTICD_SERVER_TEST_DIR "/") + profile, "--serve",
-                               "--serve-socket", n.socket, "--serve-shm", n.shm, "--rt-priority", "0", "--mlock", "false",
-                               "--wall", "axis=0 position=0.05 direction=+1"};
+    std::vector<std::string> a{"--config",
+                               "",
+                               "--device",
+                               std::string(HAPTICD_SERVER_TEST_DIR "/") + profile,
+                               "--serve",
+                               "--serve-socket",
+                               n.socket,
+                               "--serve-shm",
+                               n.shm,
+                               "--rt-priority",
+                               "0",
+                               "--mlock",
+                               "false",
+                               "--wall",
+                               "axis=0 position=0.05 direction=+1"};
     if (std::find(extra.begin(), extra.end(), "--hand-stiffness") == extra.end()) {
         a.insert(a.end(), {"--hand-damping", "0", "--hand-stiffness", "0"});
     }
@@ -91,7 +103,7 @@ inline std::vector<std::string> client_args(const Names& n, const json& ops, con
 
 // A raw SEQPACKET connection for malformed messages.
 class RawConnection {
-public:
+  public:
     explicit RawConnection(const std::string& path) {
         fd_ = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
         sockaddr_un addr{};
@@ -126,7 +138,7 @@ public:
         EXPECT_EQ(w.value("type", ""), "welcome") << w.dump();
     }
 
-private:
+  private:
     int fd_ = -1;
     bool connected_ = false;
 };
@@ -147,10 +159,11 @@ std::optional<cl::StateSample> wait_state(const cl::StateReader& r, Pred pred, d
 // code 0 on SIGTERM. Tag names its socket, shared memory and log files.
 template <const char* Tag>
 class SharedDaemonTest : public ::testing::Test {
-protected:
+  protected:
     static void SetUpTestSuite() {
         n_ = new Names(names(Tag));
-        daemon_ = new Child(HAPTICD_BINARY, daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}), std::string(Tag) + "_daemon");
+        daemon_ = new Child(HAPTICD_BINARY, daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}),
+                            std::string(Tag) + "_daemon");
         ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
     }
     static void TearDownTestSuite() {
@@ -164,7 +177,11 @@ protected:
 };
 
 inline json plane(const std::array<double, 3>& n, double offset, const json& gains, bool bilateral = false) {
-    return json{{"kind", "plane"}, {"normal", n}, {"offset", offset}, {"mode", bilateral ? "bilateral" : "unilateral"}, {"gains", gains}};
+    return json{{"kind", "plane"},
+                {"normal", n},
+                {"offset", offset},
+                {"mode", bilateral ? "bilateral" : "unilateral"},
+                {"gains", gains}};
 }
 
 }  // namespace hapticd::server_test

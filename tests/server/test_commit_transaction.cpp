@@ -40,16 +40,20 @@ ServerConfig device_config(std::size_t config_walls) {
     c.ramp_time = 0.03;
     c.workspace_min = {-0.06, -0.06, -0.06};
     c.workspace_max = {0.06, 0.06, 0.06};
-    for (std::size_t i = 0; i < config_walls; ++i) c.config_walls.push_back(ConfigWallInfo{2, 0.05, 1.0, false, 100.0, 1.0});
+    for (std::size_t i = 0; i < config_walls; ++i)
+        c.config_walls.push_back(ConfigWallInfo{2, 0.05, 1.0, false, 100.0, 1.0});
     return c;
 }
 
 cl::Plane plane_z(double offset, double K, double B) {
-    return cl::Plane{.normal = {0, 0, -1}, .offset = offset, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)};
+    return cl::Plane{
+        .normal = {0, 0, -1}, .offset = offset, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)};
 }
 
 CommitOperation add_op(const cl::ObjectDescription& d) { return CommitOperation{CommitOperation::Kind::Add, 0, d}; }
-CommitOperation modify_op(std::uint32_t id, const cl::ObjectDescription& d) { return CommitOperation{CommitOperation::Kind::Modify, id, d}; }
+CommitOperation modify_op(std::uint32_t id, const cl::ObjectDescription& d) {
+    return CommitOperation{CommitOperation::Kind::Modify, id, d};
+}
 CommitOperation remove_op(std::uint32_t id) { return CommitOperation{CommitOperation::Kind::Remove, id, std::nullopt}; }
 CommitOperation clear_op() { return CommitOperation{CommitOperation::Kind::Clear, 0, std::nullopt}; }
 
@@ -59,7 +63,8 @@ struct Rig {
         : config(device_config(config_walls)), checker(device_plant(max_stiffness)), resolver(config, checker) {}
 
     CommitOutcome commit(std::uint64_t session, std::vector<CommitOperation> ops) {
-        return plan_commit(CommitContext{config, checker, resolver}, slots, session, next_id, CommitRequest{std::move(ops)});
+        return plan_commit(CommitContext{config, checker, resolver}, slots, session, next_id,
+                           CommitRequest{std::move(ops)});
     }
     // Commits and adopts the plan (as the server does once the batch is in the ring); fails the test if refused.
     CommitPlan adopt(std::uint64_t session, std::vector<CommitOperation> ops) {
@@ -134,7 +139,8 @@ TEST(CommitTransaction, ConfigWallsAndOtherSessionsObjectsAreNotOwned) {
     ASSERT_TRUE(other);
     EXPECT_EQ(other->refusal.code, ErrorCode::NotOwner);
     EXPECT_EQ(other->op_index, 0);
-    EXPECT_NE(other->refusal.message.find("belongs to session 7, not to this one (8)"), std::string::npos) << other->refusal.message;
+    EXPECT_NE(other->refusal.message.find("belongs to session 7, not to this one (8)"), std::string::npos)
+        << other->refusal.message;
     EXPECT_FALSE(refusal_of(7, remove_op(id)));
 }
 
@@ -159,7 +165,8 @@ TEST(CommitTransaction, RemoveAndClearDrainOnlyTheSessionsObjects) {
     const auto theirs = rig.adopt(8, {add_op(plane_z(-0.03, 100, 1))}).new_ids;
     const CommitPlan cleared = rig.adopt(7, {clear_op()});
     ASSERT_EQ(cleared.batch.count, 2U);
-    for (std::uint32_t i = 0; i < cleared.batch.count; ++i) EXPECT_EQ(cleared.batch.updates[i].action, SlotUpdate::Action::Remove);
+    for (std::uint32_t i = 0; i < cleared.batch.count; ++i)
+        EXPECT_EQ(cleared.batch.updates[i].action, SlotUpdate::Action::Remove);
     std::size_t draining = 0, used = 0;
     for (const ServerSlot& s : cleared.slots) {
         if (s.state == ServerSlot::State::Draining) {
@@ -230,7 +237,9 @@ TEST(CommitTransaction, TheSummedStiffnessLimitRefusesTheSceneNotAnObject) {
     ASSERT_NE(r, nullptr) << "each plane is within the limit, their sum 1200 N/m is not";
     EXPECT_EQ(r->refusal.code, ErrorCode::BeyondDeviceLimits);
     EXPECT_EQ(r->op_index, -1);
-    EXPECT_EQ(r->refusal.message.rfind("commit: the summed stiffness of the scene along its stiffest direction, 1200 N/m", 0), 0U)
+    EXPECT_EQ(
+        r->refusal.message.rfind("commit: the summed stiffness of the scene along its stiffest direction, 1200 N/m", 0),
+        0U)
         << r->refusal.message;
     EXPECT_TRUE(std::holds_alternative<CommitPlan>(rig.commit(7, {add_op(plane_z(-0.01, 600, 5))})));
 }

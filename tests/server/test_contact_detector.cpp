@@ -59,7 +59,8 @@ struct DetectorRig {
             if (((config_mask >> i) & 1U) != 0U) now.insert(i + 1);
         }
         for (std::size_t s = 0; s < kSceneObjectCapacity; ++s) {
-            if ((((objects.contact_mask() & objects.occupied_mask()) >> s) & 1U) != 0U) now.insert(objects.slot_object_id(s));
+            if ((((objects.contact_mask() & objects.occupied_mask()) >> s) & 1U) != 0U)
+                now.insert(objects.slot_object_id(s));
         }
         if (check) {
             std::set<std::uint32_t> begins, ends;
@@ -71,12 +72,15 @@ struct DetectorRig {
                     EXPECT_EQ(r.position[a], st.position[a]);
                     EXPECT_EQ(r.force[a], st.force[a]);
                 }
-                EXPECT_TRUE((r.begin ? begins : ends).insert(r.object_id).second) << "a duplicate record of " << r.object_id;
+                EXPECT_TRUE((r.begin ? begins : ends).insert(r.object_id).second)
+                    << "a duplicate record of " << r.object_id;
                 records.push_back(r);
             }
             std::set<std::uint32_t> want_begins, want_ends;
-            std::set_difference(now.begin(), now.end(), last.begin(), last.end(), std::inserter(want_begins, want_begins.end()));
-            std::set_difference(last.begin(), last.end(), now.begin(), now.end(), std::inserter(want_ends, want_ends.end()));
+            std::set_difference(now.begin(), now.end(), last.begin(), last.end(),
+                                std::inserter(want_begins, want_begins.end()));
+            std::set_difference(last.begin(), last.end(), now.begin(), now.end(),
+                                std::inserter(want_ends, want_ends.end()));
             EXPECT_EQ(begins, want_begins) << "tick " << tick;
             EXPECT_EQ(ends, want_ends) << "tick " << tick;
         }
@@ -141,7 +145,8 @@ TEST(ContactDetector, ASlotGivenToAnotherObjectEndsTheOldIdBeforeItBeginsTheNew)
     rig.commit({{5, SlotUpdate::Action::Set, zero_field(10, 0.05)}}, 1);
     for (int i = 0; i < 10; ++i) rig.step(x, 0);
     rig.records.clear();
-    rig.commit({{5, SlotUpdate::Action::Cut, zero_field(10, 0.05)}, {5, SlotUpdate::Action::Set, zero_field(11, 0.05)}}, 2);
+    rig.commit({{5, SlotUpdate::Action::Cut, zero_field(10, 0.05)}, {5, SlotUpdate::Action::Set, zero_field(11, 0.05)}},
+               2);
     rig.step(x, 0b101);  // walls 1 and 3 begin in the same tick
     for (int i = 0; i < 10; ++i) rig.step(x, 0b101);
     ASSERT_GE(rig.records.size(), 4U);
@@ -158,8 +163,10 @@ TEST(ContactDetector, ASlotGivenToAnotherObjectEndsTheOldIdBeforeItBeginsTheNew)
 // tick's records are the reference's (the rig checks each tick); begins and ends alternate per id.
 TEST(ContactDetector, EveryTickOfACrossingHandleGivesTheReferencesTransitions) {
     DetectorRig rig;
-    rig.commit({{0, SlotUpdate::Action::Set, unilateral_plane_x(20, 0.0)}, {9, SlotUpdate::Action::Set, zero_field(21, 0.004)}}, 1);
-    for (int i = 0; i < 1000; ++i) {  // 8 periods of 126 ticks: 16 crossings of x = 0
+    rig.commit({{0, SlotUpdate::Action::Set, unilateral_plane_x(20, 0.0)},
+                {9, SlotUpdate::Action::Set, zero_field(21, 0.004)}},
+               1);
+    for (int i = 0; i < 1000; ++i) {                   // 8 periods of 126 ticks: 16 crossings of x = 0
         const double xi = 0.005 * std::sin(0.05 * i);  // the plane's surface at x = 0, the field's edge at |x| = 4 mm
         rig.step({xi, 0.0, 0.0}, static_cast<std::uint64_t>((i / 7) % 8));
     }

@@ -50,7 +50,9 @@ struct Device {
     Resolved last;
 };
 
-cl::Plane plane(cl::Vec3 n, double offset, cl::Gains gains) { return cl::Plane{.normal = n, .offset = offset, .bilateral = false, .gains = gains}; }
+cl::Plane plane(cl::Vec3 n, double offset, cl::Gains gains) {
+    return cl::Plane{.normal = n, .offset = offset, .bilateral = false, .gains = gains};
+}
 
 void expect_refusal(const std::optional<Refusal>& r, ErrorCode code, const std::string& start) {
     ASSERT_TRUE(r) << "expected " << cl::to_string(code);
@@ -60,8 +62,10 @@ void expect_refusal(const std::optional<Refusal>& r, ErrorCode code, const std::
 
 TEST(ObjectResolution, APlanesVectorsAreCheckedAgainstTheDevice) {
     Device three(3);
-    expect_refusal(three.resolve(plane({0, 0, 2}, 0.0, cl::Gains::explicit_gains(100, 1))), ErrorCode::BadMessage, "plane.normal: length 2");
-    expect_refusal(three.resolve(plane({0, 0, -1}, 0.5, cl::Gains::explicit_gains(100, 1))), ErrorCode::BeyondDeviceLimits, "plane.offset = 0.5");
+    expect_refusal(three.resolve(plane({0, 0, 2}, 0.0, cl::Gains::explicit_gains(100, 1))), ErrorCode::BadMessage,
+                   "plane.normal: length 2");
+    expect_refusal(three.resolve(plane({0, 0, -1}, 0.5, cl::Gains::explicit_gains(100, 1))),
+                   ErrorCode::BeyondDeviceLimits, "plane.offset = 0.5");
     Device one(1);
     expect_refusal(one.resolve(plane({0, 1, 0}, 0.0, cl::Gains::explicit_gains(100, 1))), ErrorCode::BadMessage,
                    "plane.normal[1] = 1 is invalid: the device has 1 axes");
@@ -94,7 +98,8 @@ TEST(ObjectResolution, CriteriaAreTheCheckersOptimaAndUnknownOnesNameTheAccepted
     EXPECT_EQ(d.last.params.K, ce2->K);
     EXPECT_EQ(d.last.params.B, ce2->B);
     const auto r = d.resolve(plane({0, 0, -1}, 0.0, cl::Gains::by_criterion("CE9")));
-    expect_refusal(r, ErrorCode::UnknownCriterion, "plane.gains.criterion = \"CE9\" is invalid; accepted: amax, OV, CE0");
+    expect_refusal(r, ErrorCode::UnknownCriterion,
+                   "plane.gains.criterion = \"CE9\" is invalid; accepted: amax, OV, CE0");
     EXPECT_NE(r->message.find("CE2+OV"), std::string::npos) << r->message;
 }
 
@@ -113,13 +118,16 @@ TEST(ObjectResolution, UnstableGainsCarryALargestStableKThatIsStable) {
 
 TEST(ObjectResolution, TheDevicesStiffnessLimitComesBeforeStability) {
     Device d(3, 1000.0);
-    expect_refusal(d.resolve(plane({0, 0, -1}, 0.0, cl::Gains::explicit_gains(2000, 1))), ErrorCode::BeyondDeviceLimits,
-                   "plane: K = 2000 N/m exceeds the device's stiffness limit (device profile key max_stiffness = 1000 N/m)");
+    expect_refusal(
+        d.resolve(plane({0, 0, -1}, 0.0, cl::Gains::explicit_gains(2000, 1))), ErrorCode::BeyondDeviceLimits,
+        "plane: K = 2000 N/m exceeds the device's stiffness limit (device profile key max_stiffness = 1000 N/m)");
 }
 
 TEST(ObjectResolution, ALineSpringActsAcrossItsLine) {
     Device d(3);
-    const cl::Spring line{.constraint = cl::Constraint::Line, .point = {0, 0, 0}, .direction = {1, 0, 0},
+    const cl::Spring line{.constraint = cl::Constraint::Line,
+                          .point = {0, 0, 0},
+                          .direction = {1, 0, 0},
                           .gains = cl::Gains::explicit_gains(100, 1)};
     ASSERT_FALSE(d.resolve(line));
     const Matrix3 expected{{{0, 0, 0}, {0, 100, 0}, {0, 0, 100}}};
@@ -136,13 +144,19 @@ TEST(ObjectResolution, ALineSpringActsAcrossItsLine) {
 
 TEST(ObjectResolution, AFieldNeedsANonNegativeStiffnessAndAForceWithinTheDevices) {
     Device d(3);
-    cl::Field pushing{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 0},
-                      .jacobian = {cl::Vec3{50, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}, .damping = 1.0};
-    expect_refusal(d.resolve(pushing), ErrorCode::UnstableGains, "field.jacobian: its symmetric part has the eigenvalue 50 N/m > 0");
+    cl::Field pushing{.center = {0, 0, 0},
+                      .radius = 0.01,
+                      .force = {0, 0, 0},
+                      .jacobian = {cl::Vec3{50, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}},
+                      .damping = 1.0};
+    expect_refusal(d.resolve(pushing), ErrorCode::UnstableGains,
+                   "field.jacobian: its symmetric part has the eigenvalue 50 N/m > 0");
     cl::Field strong = pushing;
-    strong.jacobian = {cl::Vec3{-100, 0, 0}, cl::Vec3{0, -100, 0}, cl::Vec3{0, 0, -100}};  // B alone (K = 0) is unstable with a delay
-    strong.force = {0, 0, 9.5};  // |F0| + ||J|| radius = 9.5 + 1 > 10 N
-    expect_refusal(d.resolve(strong), ErrorCode::BeyondDeviceLimits, "field: the largest force |F0| + ||J|| radius = 10.5 N");
+    strong.jacobian = {cl::Vec3{-100, 0, 0}, cl::Vec3{0, -100, 0},
+                       cl::Vec3{0, 0, -100}};  // B alone (K = 0) is unstable with a delay
+    strong.force = {0, 0, 9.5};                // |F0| + ||J|| radius = 9.5 + 1 > 10 N
+    expect_refusal(d.resolve(strong), ErrorCode::BeyondDeviceLimits,
+                   "field: the largest force |F0| + ||J|| radius = 10.5 N");
     strong.force = {0, 0, 5};
     const auto accepted = d.resolve(strong);
     ASSERT_FALSE(accepted) << accepted->message;

@@ -67,7 +67,7 @@ namespace cl = hapticd::client;
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 constexpr int kActions = 60;
 constexpr std::size_t kMinimumScenes = 2000;  // 2558 measured at this size in a release build
-constexpr std::size_t kMinimumEach = 1;  // departures, lost leases and departure patterns, each at least
+constexpr std::size_t kMinimumEach = 1;       // departures, lost leases and departure patterns, each at least
 #else
 constexpr int kActions = 240;
 constexpr std::size_t kMinimumScenes = 10000;  // 12555 measured
@@ -105,12 +105,14 @@ double reference_radius(const ZeroOrderHold& zoh, int d, const Eigen::Matrix3d& 
     stacked << K, B;
     const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 3>> svd(stacked);
     int free_directions = 0;
-    for (int i = 0; i < 3; ++i) free_directions += svd.singularValues()(i) <= 64 * 2.220446049250313e-16 * svd.singularValues()(0) ? 1 : 0;
+    for (int i = 0; i < 3; ++i)
+        free_directions += svd.singularValues()(i) <= 64 * 2.220446049250313e-16 * svd.singularValues()(0) ? 1 : 0;
     const Eigen::EigenSolver<Eigen::MatrixXd> es(S, false);
     std::vector<std::complex<double>> roots(es.eigenvalues().data(), es.eigenvalues().data() + n);
     std::sort(roots.begin(), roots.end(), [](auto a, auto b) { return std::abs(a - 1.0) < std::abs(b - 1.0); });
     double radius = 0.0;
-    for (std::size_t i = static_cast<std::size_t>(2 * free_directions); i < roots.size(); ++i) radius = std::max(radius, std::abs(roots[i]));
+    for (std::size_t i = static_cast<std::size_t>(2 * free_directions); i < roots.size(); ++i)
+        radius = std::max(radius, std::abs(roots[i]));
     return radius;
 }
 
@@ -132,14 +134,16 @@ struct Session {
 };
 
 struct Tally {
-    std::size_t scenes = 0, ticks = 0, accepted = 0, refused = 0, departures = 0, expiries = 0, curl_fields = 0, patterns = 0, floods = 0;
+    std::size_t scenes = 0, ticks = 0, accepted = 0, refused = 0, departures = 0, expiries = 0, curl_fields = 0,
+                patterns = 0, floods = 0;
     std::uint64_t jumped = 0;  // batches the loop brought to their final state ahead of a departure
-    std::size_t partial = 0;   // rendered scenes of a proper, non-empty subset of the client objects (some conditional one out)
+    std::size_t partial =
+        0;  // rendered scenes of a proper, non-empty subset of the client objects (some conditional one out)
     double worst = 0.0;
 };
 
 class Driver {
-public:
+  public:
     Driver(const Eigen::Matrix3d& M, bool isotropic, int d, std::uint32_t seed, const std::string& tag)
         : zoh_(zero_order_hold(M)), d_(d), rng_(seed) {
         GainCheckPlant plant;
@@ -162,7 +166,9 @@ public:
         const std::string shm = "/hapticd-property-" + std::to_string(::getpid()) + "-" + tag;
         state_ = std::make_unique<StatePublisher>(shm, 3, kT, -1);
         ServerConfig sc;
-        socket_ = (std::filesystem::temp_directory_path() / ("hapticd_property_" + std::to_string(::getpid()) + "_" + tag + ".sock")).string();
+        socket_ = (std::filesystem::temp_directory_path() /
+                   ("hapticd_property_" + std::to_string(::getpid()) + "_" + tag + ".sock"))
+                      .string();
         sc.socket_path = socket_;
         sc.axes = 3;
         sc.period = kT;
@@ -200,7 +206,7 @@ public:
         return tally_;
     }
 
-private:
+  private:
     double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng_); }
     cl::Vec3 unit_vector() {
         Eigen::Vector3d v(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
@@ -219,7 +225,9 @@ private:
             target_ = Eigen::Vector3d(uniform(-0.06, 0.06), uniform(-0.06, 0.06), uniform(-0.06, 0.06));
         } else {
             const Eigen::Vector3d& p = places_[std::uniform_int_distribution<std::size_t>(0, places_.size() - 1)(rng_)];
-            target_ = (p + Eigen::Vector3d(uniform(-0.003, 0.003), uniform(-0.003, 0.003), uniform(-0.003, 0.003))).cwiseMax(-0.06).cwiseMin(0.06);
+            target_ = (p + Eigen::Vector3d(uniform(-0.003, 0.003), uniform(-0.003, 0.003), uniform(-0.003, 0.003)))
+                          .cwiseMax(-0.06)
+                          .cwiseMin(0.06);
         }
         speed_ = uniform(0.01, 0.3);
     }
@@ -228,12 +236,15 @@ private:
         const double step = speed_ * kT;
         if (to.norm() <= step) next_target();
         const Eigen::Vector3d jitter(uniform(-2e-5, 2e-5), uniform(-2e-5, 2e-5), uniform(-2e-5, 2e-5));
-        handle_ = (handle_ + (to.norm() <= step ? to : Eigen::Vector3d(to.normalized() * step)) + jitter).cwiseMax(-0.06).cwiseMin(0.06);
+        handle_ = (handle_ + (to.norm() <= step ? to : Eigen::Vector3d(to.normalized() * step)) + jitter)
+                      .cwiseMax(-0.06)
+                      .cwiseMin(0.06);
         return handle_;
     }
     const cl::ObjectDescription& remembered(const cl::ObjectDescription& o) {
         if (const auto* plane = std::get_if<cl::Plane>(&o)) {
-            places_.emplace_back(plane->normal[0] * plane->offset, plane->normal[1] * plane->offset, plane->normal[2] * plane->offset);
+            places_.emplace_back(plane->normal[0] * plane->offset, plane->normal[1] * plane->offset,
+                                 plane->normal[2] * plane->offset);
         } else if (const auto* spring = std::get_if<cl::Spring>(&o)) {
             places_.emplace_back(spring->point[0], spring->point[1], spring->point[2]);
         } else if (const auto* field = std::get_if<cl::Field>(&o)) {
@@ -254,16 +265,21 @@ private:
         const double scale = 1.0 / (1.0 + d_);  // the region shrinks with the delay
         if (kind <= 2) {
             const cl::Vec3 n = unit_vector();
-            cl::Gains g = std::uniform_int_distribution<int>(0, 2)(rng_) == 0
-                              ? cl::Gains::by_criterion(std::uniform_int_distribution<int>(0, 1)(rng_) == 0 ? "CE2" : "CE0")
-                              : normalised(n, uniform(0.005, 0.4) * scale, uniform(0.05, 1.0));
+            cl::Gains g =
+                std::uniform_int_distribution<int>(0, 2)(rng_) == 0
+                    ? cl::Gains::by_criterion(std::uniform_int_distribution<int>(0, 1)(rng_) == 0 ? "CE2" : "CE0")
+                    : normalised(n, uniform(0.005, 0.4) * scale, uniform(0.05, 1.0));
             return cl::Plane{.normal = n, .offset = uniform(-0.01, 0.01), .bilateral = kind == 0, .gains = g};
         }
         if (kind <= 4) {
             const int c = std::uniform_int_distribution<int>(0, 2)(rng_);
             const cl::Vec3 n = unit_vector();
-            return cl::Spring{.constraint = c == 0 ? cl::Constraint::Point : c == 1 ? cl::Constraint::Line : cl::Constraint::Plane,
-                              .point = point(), .direction = n, .gains = normalised(n, uniform(0.002, 0.2) * scale, uniform(0.05, 0.8))};
+            return cl::Spring{.constraint = c == 0   ? cl::Constraint::Point
+                                            : c == 1 ? cl::Constraint::Line
+                                                     : cl::Constraint::Plane,
+                              .point = point(),
+                              .direction = n,
+                              .gains = normalised(n, uniform(0.002, 0.2) * scale, uniform(0.05, 0.8))};
         }
         if (kind <= 7) {  // a field with a curl: -J = S + W, S symmetric positive semi-definite, W antisymmetric
             ++tally_.curl_fields;
@@ -278,7 +294,8 @@ private:
             const Eigen::Matrix3d J = -(S + W) * scale;
             cl::Field f{.center = point(), .radius = 0.002, .force = {uniform(-0.5, 0.5), 0, 0}};
             for (int i = 0; i < 3; ++i) {
-                for (int j = 0; j < 3; ++j) f.jacobian[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = J(i, j);
+                for (int j = 0; j < 3; ++j)
+                    f.jacobian[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)] = J(i, j);
             }
             f.damping = uniform(1.0, 25.0);
             return f;
@@ -288,7 +305,10 @@ private:
         // are below 1e-6 of the largest (the old threshold for a free direction).
         const cl::Vec3 n = unit_vector();
         const double alpha = std::pow(10.0, uniform(-12, -10));
-        return cl::Plane{.normal = n, .offset = 0.0, .bilateral = true, .gains = normalised(n, alpha, alpha * std::pow(10.0, uniform(1.3, 2.0)))};
+        return cl::Plane{.normal = n,
+                         .offset = 0.0,
+                         .bilateral = true,
+                         .gains = normalised(n, alpha, alpha * std::pow(10.0, uniform(1.3, 2.0)))};
     }
 
     Session* live_session() {
@@ -331,7 +351,8 @@ private:
         double alpha_p = 0.0, beta_p = 0.0, alpha_c = 0.0, beta_c = 0.0;
         for (double beta2 = 0.1; beta2 < 1.0 && alpha_p == 0.0; beta2 += 0.05) {
             double lo = 0.0, hi = 1.0;  // the boundary alpha at beta2 (alpha_max < 0.69 for every d)
-            for (int i = 0; i < 50; ++i) (hapticopt::is_stable(plant, {0.5 * (lo + hi), beta2}) ? lo : hi) = 0.5 * (lo + hi);
+            for (int i = 0; i < 50; ++i)
+                (hapticopt::is_stable(plant, {0.5 * (lo + hi), beta2}) ? lo : hi) = 0.5 * (lo + hi);
             const double a = 0.51 * hi, b = 0.5 * beta2, ac = 0.05 * a, bc = 0.5 * beta2;
             if (lo > 0.0 && hapticopt::is_stable(plant, {a, b}) && !hapticopt::is_stable(plant, {2 * a, 2 * b}) &&
                 hapticopt::is_stable(plant, {2 * a + ac, 2 * b + bc}) && hapticopt::is_stable(plant, {ac, bc})) {
@@ -341,14 +362,19 @@ private:
         if (alpha_p == 0.0) return;
         Session c;
         try {
-            c.client = std::make_unique<cl::Client>(cl::Client::connect({.socket_path = socket_, .client_name = "pattern"}));
+            c.client =
+                std::make_unique<cl::Client>(cl::Client::connect({.socket_path = socket_, .client_name = "pattern"}));
         } catch (const cl::Error&) {
             return;
         }
         const double angle = uniform(0.0, 6.283185307179586);
         const cl::Vec3 n{0.0, std::cos(angle), std::sin(angle)};
-        commit(c, cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Plane, .point = point(), .direction = n,
-                                             .gains = normalised(n, alpha_c, beta_c)}), true);
+        commit(c,
+               cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Plane,
+                                          .point = point(),
+                                          .direction = n,
+                                          .gains = normalised(n, alpha_c, beta_c)}),
+               true);
         ticks(35);
         const cl::Plane p{.normal = n, .offset = 1e-4, .bilateral = true, .gains = normalised(n, alpha_p, beta_p)};
         commit(s, cl::Batch().add(p).add(p), true);
@@ -374,13 +400,15 @@ private:
             if (live >= 3) break;
             Session n;
             try {
-                n.client = std::make_unique<cl::Client>(cl::Client::connect({.socket_path = socket_, .client_name = "flooder"}));
+                n.client = std::make_unique<cl::Client>(
+                    cl::Client::connect({.socket_path = socket_, .client_name = "flooder"}));
             } catch (const cl::Error&) {
                 break;
             }
             sessions_.push_back(std::move(n));
         }
-        Session& leaving = *std::find_if(sessions_.begin(), sessions_.end(), [&](const Session& s) { return s.client.get() == leaving_client; });
+        Session& leaving = *std::find_if(sessions_.begin(), sessions_.end(),
+                                         [&](const Session& s) { return s.client.get() == leaving_client; });
         const int burst = std::uniform_int_distribution<int>(2, 6)(rng_);
         const double scale = 1.0 / (1.0 + d_);
         for (int round = 0; round < 2; ++round) {
@@ -390,8 +418,12 @@ private:
                     if (s.gentle_id == 0) {  // a soft bilateral plane: its gain changes are mostly accepted
                         s.gentle_normal = unit_vector();
                         try {
-                            s.gentle_id = s.client->commit(cl::Batch().add(cl::Plane{.normal = s.gentle_normal, .offset = 0.0, .bilateral = true,
-                                                                                     .gains = normalised(s.gentle_normal, 0.004 * scale, 0.3)}))
+                            s.gentle_id = s.client
+                                              ->commit(cl::Batch().add(
+                                                  cl::Plane{.normal = s.gentle_normal,
+                                                            .offset = 0.0,
+                                                            .bilateral = true,
+                                                            .gains = normalised(s.gentle_normal, 0.004 * scale, 0.3)}))
                                               .object_ids.at(0);
                             ++tally_.accepted;
                             s.ids.push_back(s.gentle_id);
@@ -401,8 +433,12 @@ private:
                         continue;
                     }
                     const double alpha = uniform(0.002, 0.02) * scale;
-                    commit(s, cl::Batch().modify(s.gentle_id, cl::Plane{.normal = s.gentle_normal, .offset = 0.0, .bilateral = true,
-                                                                       .gains = normalised(s.gentle_normal, alpha, uniform(0.2, 0.6))}),
+                    commit(s,
+                           cl::Batch().modify(
+                               s.gentle_id, cl::Plane{.normal = s.gentle_normal,
+                                                      .offset = 0.0,
+                                                      .bilateral = true,
+                                                      .gains = normalised(s.gentle_normal, alpha, uniform(0.2, 0.6))}),
                            false);
                 }
             }
@@ -413,7 +449,8 @@ private:
     }
 
     void act() {
-        sessions_.erase(std::remove_if(sessions_.begin(), sessions_.end(), [](const Session& s) { return !s.client; }), sessions_.end());
+        sessions_.erase(std::remove_if(sessions_.begin(), sessions_.end(), [](const Session& s) { return !s.client; }),
+                        sessions_.end());
         heartbeat_all();
         const int what = std::uniform_int_distribution<int>(0, 19)(rng_);
         Session* s = live_session();
@@ -421,7 +458,8 @@ private:
             Session n;
             n.lease = std::uniform_int_distribution<int>(0, 2)(rng_) == 0 ? 0.05 : 0.0;
             try {
-                n.client = std::make_unique<cl::Client>(cl::Client::connect({.socket_path = socket_, .client_name = "property", .lease_s = n.lease}));
+                n.client = std::make_unique<cl::Client>(
+                    cl::Client::connect({.socket_path = socket_, .client_name = "property", .lease_s = n.lease}));
             } catch (const cl::Error&) {
                 return;
             }
@@ -434,7 +472,8 @@ private:
             departure_pattern(*s);
         } else if (what <= 12 && !s->ids.empty()) {
             const std::uint32_t id = s->ids[std::uniform_int_distribution<std::size_t>(0, s->ids.size() - 1)(rng_)];
-            commit(*s, cl::Batch().modify(id, remembered(random_object())), false);  // unknown_object when it is gone: refused
+            commit(*s, cl::Batch().modify(id, remembered(random_object())),
+                   false);  // unknown_object when it is gone: refused
         } else if (what <= 14 && !s->ids.empty()) {
             const std::size_t i = std::uniform_int_distribution<std::size_t>(0, s->ids.size() - 1)(rng_);
             commit(*s, cl::Batch().remove(s->ids[i]), false);
@@ -488,11 +527,14 @@ private:
                 std::array<AxisVector, 3> K_all{}, B_all{};
                 objects_->rendered_gains(K_all, B_all);  // every object in contact: the scene the old check saw
                 // A subset scene: some conditional object out of contact, and something rendered.
-                if ((K != K_all || B != B_all) && !(to_eigen(K).isZero(0.0) && to_eigen(B).isZero(0.0))) ++tally_.partial;
+                if ((K != K_all || B != B_all) && !(to_eigen(K).isZero(0.0) && to_eigen(B).isZero(0.0)))
+                    ++tally_.partial;
                 const double r = radius_of(Ke, Be);
                 tally_.worst = std::max(tally_.worst, r);
-                EXPECT_LT(r, 1.0 - kReferenceMargin) << "tick " << tick_ << ", handle at " << x.transpose() << ": rendered K =\n" << Ke
-                                                     << "\nB =\n" << Be;
+                EXPECT_LT(r, 1.0 - kReferenceMargin)
+                    << "tick " << tick_ << ", handle at " << x.transpose() << ": rendered K =\n"
+                    << Ke << "\nB =\n"
+                    << Be;
             }
             AxisVector f{};
             (void)objects_->add_forces(xa, f);
@@ -521,7 +563,8 @@ private:
     std::string socket_;
     std::vector<Session> sessions_;
     Eigen::Matrix3d wall_K_, wall_B_, last_K_, last_B_;
-    Eigen::Vector3d handle_ = Eigen::Vector3d::Zero(), previous_ = Eigen::Vector3d::Zero(), target_ = Eigen::Vector3d::Zero();
+    Eigen::Vector3d handle_ = Eigen::Vector3d::Zero(), previous_ = Eigen::Vector3d::Zero(),
+                    target_ = Eigen::Vector3d::Zero();
     double speed_ = 0.0;
     std::vector<Eigen::Vector3d> places_;  // where the objects added were (next_target)
     std::map<std::array<double, 18>, double> radius_cache_;
@@ -539,11 +582,14 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
             Driver driver(M, isotropic != 0, d, 20261202U + static_cast<std::uint32_t>(10 * d + isotropic),
                           std::to_string(isotropic) + "_" + std::to_string(d));
             const Tally t = driver.run(kActions);
-            std::printf("[ property ] %s mass, d = %d: %zu scenes in %zu ticks, %zu commits accepted, %zu refused, %zu disconnects, "
-                        "%zu lost leases, %zu curl fields, %zu departure patterns, %zu floods at a departure (%llu batches jumped), "
-                        "%zu partial scenes; largest radius %.9f\n",
-                        isotropic ? "one" : "matrix", d, t.scenes, t.ticks, t.accepted, t.refused, t.departures, t.expiries,
-                        t.curl_fields, t.patterns, t.floods, static_cast<unsigned long long>(t.jumped), t.partial, t.worst);
+            std::printf(
+                "[ property ] %s mass, d = %d: %zu scenes in %zu ticks, %zu commits accepted, %zu refused, %zu "
+                "disconnects, "
+                "%zu lost leases, %zu curl fields, %zu departure patterns, %zu floods at a departure (%llu batches "
+                "jumped), "
+                "%zu partial scenes; largest radius %.9f\n",
+                isotropic ? "one" : "matrix", d, t.scenes, t.ticks, t.accepted, t.refused, t.departures, t.expiries,
+                t.curl_fields, t.patterns, t.floods, static_cast<unsigned long long>(t.jumped), t.partial, t.worst);
             total.scenes += t.scenes;
             total.accepted += t.accepted;
             total.departures += t.departures;
@@ -555,8 +601,9 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
             total.worst = std::max(total.worst, t.worst);
         }
     }
-    std::printf("[ property ] %zu rendered scenes, %zu partial; must be below 1 - %.0e by the reference; largest %.9f\n", total.scenes,
-                total.partial, kReferenceMargin, total.worst);
+    std::printf(
+        "[ property ] %zu rendered scenes, %zu partial; must be below 1 - %.0e by the reference; largest %.9f\n",
+        total.scenes, total.partial, kReferenceMargin, total.worst);
     EXPECT_GE(total.scenes, kMinimumScenes);
     EXPECT_GE(total.partial, total.scenes / 10);
     // The driver exercised the server, not only its refusals: about one action in five is an accepted commit

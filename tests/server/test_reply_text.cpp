@@ -17,8 +17,8 @@ namespace {
 using nlohmann::json;
 
 TEST(TextLimits, ACutLandsOnACharacterBoundary) {
-    const std::string e_acute = "\xc3\xa9";       // 2 bytes
-    const std::string euro = "\xe2\x82\xac";      // 3 bytes
+    const std::string e_acute = "\xc3\xa9";        // 2 bytes
+    const std::string euro = "\xe2\x82\xac";       // 3 bytes
     const std::string smile = "\xf0\x9f\x98\x80";  // 4 bytes
     EXPECT_EQ(client::truncate_utf8(std::string(39, 'a') + e_acute, 40), std::string(39, 'a') + "...");
     EXPECT_EQ(client::truncate_utf8(std::string(38, 'a') + e_acute, 40), std::string(38, 'a') + e_acute);
@@ -43,7 +43,7 @@ TEST(ReplyText, InvalidUtf8IsReplacedAndLongMessagesAreCut) {
     const std::string text = server::reply_text(reply);
     const json back = json::parse(text);
     EXPECT_EQ(back["message"], "bad \xef\xbf\xbd byte");  // U+FFFD
-    reply["message"] = std::string(100000, '"');         // escaped: 200 KB
+    reply["message"] = std::string(100000, '"');          // escaped: 200 KB
     const std::string cut = server::reply_text(reply);
     EXPECT_LE(cut.size(), client::kMaxMessageBytes);
     EXPECT_EQ(json::parse(cut)["message"].get<std::string>().size(), server::kMaxErrorMessageBytes + 3);

@@ -24,8 +24,13 @@ namespace hapticd::server_test {
 namespace {
 
 std::vector<std::string> contact_daemon_args(const Names& n, const std::vector<std::string>& walls) {
-    std::vector<std::string> a{"--config", "", "--device", std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/sim.toml"),
-                               "--serve", "--serve-socket", n.socket, "--serve-shm", n.shm, "--rt-priority", "0", "--mlock", "false"};
+    std::vector<std::string> a{"--config", "",
+                               "--device", std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/sim.toml"),
+                               "--serve",  "--serve-socket",
+                               n.socket,   "--serve-shm",
+                               n.shm,      "--rt-priority",
+                               "0",        "--mlock",
+                               "false"};
     a.insert(a.end(), walls.begin(), walls.end());
     return a;
 }
@@ -71,7 +76,8 @@ std::size_t count_events(const Received& r, std::uint32_t id, cl::ContactEvent::
 
 // The checks shared by both tests: alternation, the state samples against the events, nothing dropped.
 // Returns how many samples saw each object in contact (the comparison is not vacuous when > 0).
-std::map<std::uint32_t, std::size_t> check_against_states(const Received& r, const std::vector<std::uint32_t>& initial) {
+std::map<std::uint32_t, std::size_t> check_against_states(const Received& r,
+                                                          const std::vector<std::uint32_t>& initial) {
     std::map<std::uint32_t, std::vector<const cl::ContactEvent*>> by_object;
     std::uint64_t last_tick = 0;
     for (const auto& e : r.contacts) {
@@ -83,7 +89,8 @@ std::map<std::uint32_t, std::size_t> check_against_states(const Received& r, con
     for (const auto& [id, events] : by_object) {
         bool in = std::find(initial.begin(), initial.end(), id) != initial.end();
         for (const auto* e : events) {
-            EXPECT_EQ(e->kind == cl::ContactEvent::Kind::Begin, !in) << "object " << id << " tick " << e->tick << ": begin and end must alternate";
+            EXPECT_EQ(e->kind == cl::ContactEvent::Kind::Begin, !in)
+                << "object " << id << " tick " << e->tick << ": begin and end must alternate";
             in = !in;
         }
     }
@@ -112,10 +119,16 @@ std::map<std::uint32_t, std::size_t> check_against_states(const Received& r, con
         }
     }
     if (std::getenv("CONTACTS_DUMP") != nullptr) {  // diagnosis: every event and sample on stdout
-        for (const auto& e : r.contacts) std::printf("event %u %s tick %llu t %.6f x %.6g f %.6g\n", e.object_id, e.kind == cl::ContactEvent::Kind::Begin ? "begin" : "end", (unsigned long long)e.tick, e.time_s, e.position[0], e.force[0]);
-        for (const auto& s : r.states) std::printf("state tick %llu t %.6f x %.6g n %zu\n", (unsigned long long)s.tick, s.time_s, s.position[0], s.contacts().size());
+        for (const auto& e : r.contacts)
+            std::printf("event %u %s tick %llu t %.6f x %.6g f %.6g\n", e.object_id,
+                        e.kind == cl::ContactEvent::Kind::Begin ? "begin" : "end", (unsigned long long)e.tick, e.time_s,
+                        e.position[0], e.force[0]);
+        for (const auto& s : r.states)
+            std::printf("state tick %llu t %.6f x %.6g n %zu\n", (unsigned long long)s.tick, s.time_s, s.position[0],
+                        s.contacts().size());
     }
-    std::printf("[ contacts ] %zu events, %zu state samples, %zu samples of an event's tick\n", r.contacts.size(), r.states.size(), same_tick);
+    std::printf("[ contacts ] %zu events, %zu state samples, %zu samples of an event's tick\n", r.contacts.size(),
+                r.states.size(), same_tick);
     return seen_in;
 }
 
@@ -132,11 +145,14 @@ TEST(ContactEvents, APlaneTheHandRestsOnBeginsAndEndsAsTheStateStreamSays) {
     const cl::Plane away{.normal = {-1, 0, 0}, .offset = -0.01, .gains = cl::Gains::by_criterion("CE2")};
     const std::uint32_t id = c.commit(cl::Batch().add(near)).object_ids.at(0);
     using K = cl::ContactEvent::Kind;
-    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); })) << "never in contact";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); }))
+        << "never in contact";
     c.commit(cl::Batch().modify(id, away));
-    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id); })) << "still in contact after moving away";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id); }))
+        << "still in contact after moving away";
     c.commit(cl::Batch().modify(id, near));
-    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); })) << "no contact after moving back";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, id); }))
+        << "no contact after moving back";
     c.commit(cl::Batch().remove(id));
     ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, id) && s.objects == 0; }))
         << "the plane is not gone";
@@ -155,7 +171,8 @@ TEST(ContactEvents, APlaneTheHandRestsOnBeginsAndEndsAsTheStateStreamSays) {
 
 TEST(ContactEvents, AConfigWallTheHandleIsPushedIntoBeginsAndEnds) {
     const Names n = names("contacts_wall");
-    Child daemon(HAPTICD_BINARY, contact_daemon_args(n, {"--wall", "axis=0 position=0.002 direction=+1"}), "contacts_wall_daemon");
+    Child daemon(HAPTICD_BINARY, contact_daemon_args(n, {"--wall", "axis=0 position=0.002 direction=+1"}),
+                 "contacts_wall_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "contacts", .timeout_s = 30.0});
     const std::vector<std::uint32_t> initial = c.subscribe_contacts();
@@ -166,8 +183,9 @@ TEST(ContactEvents, AConfigWallTheHandleIsPushedIntoBeginsAndEnds) {
     const std::uint32_t field = c.commit(cl::Batch().add(push)).object_ids.at(0);
     EXPECT_GT(field, 1U);  // client ids follow the config walls'
     using K = cl::ContactEvent::Kind;
-    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return state_in_contact(s, 1) && state_in_contact(s, field); }))
-        << "the handle never on wall 1";
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) {
+        return state_in_contact(s, 1) && state_in_contact(s, field);
+    })) << "the handle never on wall 1";
     c.commit(cl::Batch().remove(field));
     ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) { return !state_in_contact(s, 1) && s.objects == 0; }))
         << "the handle does not leave wall 1";
@@ -222,8 +240,8 @@ TEST(ContactEvents, TwentyFieldsAddedAndRemovedGiveTwentyBeginEndPairsInOrder) {
     }
     EXPECT_FALSE(c.poll_contact().has_value());
     std::sort(delays.begin(), delays.end());
-    std::printf("[ contacts ] tick to arrival: median %.3f ms, max %.3f ms over %zu events\n", 1e3 * delays[delays.size() / 2],
-                1e3 * delays.back(), delays.size());
+    std::printf("[ contacts ] tick to arrival: median %.3f ms, max %.3f ms over %zu events\n",
+                1e3 * delays[delays.size() / 2], 1e3 * delays.back(), delays.size());
     c.bye();
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
@@ -267,7 +285,9 @@ TEST(ContactEvents, ANonReadingSubscriberLosesItsOwnEventsCountedAndStallsNobody
     for (int i = 0; i < kMoves; ++i) {
         const std::uint64_t seq = reader.commit(cl::Batch().modify(storm, i % 2 == 0 ? out : in)).commit_seq;
         // Applied before the next (the session's in-flight limit): every move is rendered for at least a tick.
-        ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; }, 30.0)) << "move " << i;
+        ASSERT_TRUE(wait_state(
+            state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; }, 30.0))
+            << "move " << i;
     }
     reader.commit(cl::Batch().remove(storm));
     ASSERT_TRUE(take_until(storm, K::End));
@@ -290,7 +310,8 @@ TEST(ContactEvents, ANonReadingSubscriberLosesItsOwnEventsCountedAndStallsNobody
     }
     std::size_t k = 0;  // the non-reader's events are a subsequence of the reader's, in order
     for (const auto& e : slept) {
-        while (k < got.size() && !(got[k].tick == e.tick && got[k].object_id == e.object_id && got[k].kind == e.kind)) ++k;
+        while (k < got.size() && !(got[k].tick == e.tick && got[k].object_id == e.object_id && got[k].kind == e.kind))
+            ++k;
         ASSERT_LT(k, got.size()) << "an event the reader did not get, tick " << e.tick;
         ++k;
     }

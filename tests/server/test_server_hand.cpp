@@ -41,10 +41,18 @@ std::vector<HandTraceRow> read_hand_trace(const std::string& path) {
 std::vector<HandTraceRow> readme_run(const std::string& tag, const std::vector<std::string>& extra) {
     const Names n = names(tag);
     const std::string trace = (scratch() / (tag + ".csv")).string();
-    std::vector<std::string> args{"--config", "", "--device", std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/sim.toml"),
-                                  "--serve", "--no-walls", "--serve-socket", n.socket, "--serve-shm", n.shm, "--rt-priority", "0",
-                                  "--mlock", "false", "--lockstep", "--serve-wait-commit", "--duration", "2", "--trace", trace,
-                                  "--trace-axis", "0"};
+    std::vector<std::string> args{
+        "--config",       "",
+        "--device",       std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/sim.toml"),
+        "--serve",        "--no-walls",
+        "--serve-socket", n.socket,
+        "--serve-shm",    n.shm,
+        "--rt-priority",  "0",
+        "--mlock",        "false",
+        "--lockstep",     "--serve-wait-commit",
+        "--duration",     "2",
+        "--trace",        trace,
+        "--trace-axis",   "0"};
     args.insert(args.end(), extra.begin(), extra.end());
     Child daemon(HAPTICD_BINARY, args, tag + "_daemon");
     EXPECT_TRUE(wait_for_socket(n.socket)) << daemon.err();
@@ -73,7 +81,8 @@ TEST(ServerHand, TheReadmeWallAppearsWithoutAKickAndTheHandleRestsOnIt) {
     // The defaults (config/options.hpp): --activation-speed 0.01 m/s; k_H = 2/3 1000 s^-2 m, b_H = 2/3 20 s^-1 m.
     const double v = 0.01;
     const double kH = 1000.0 * 2.0 / 3.0 * kMass, bH = 20.0 * 2.0 / 3.0 * kMass;
-    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
+    const hapticopt::WallTuning t =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
     const std::vector<HandTraceRow> rows = readme_run("readme_hand", {});
     ASSERT_GE(rows.size(), 2000U);
     const auto first = static_cast<std::size_t>(
@@ -86,9 +95,10 @@ TEST(ServerHand, TheReadmeWallAppearsWithoutAKickAndTheHandleRestsOnIt) {
     const double peak_bound = v * (std::sqrt(t.K * kMass) + t.B) + kH * v * 0.1 + bH * v;
     const double p = kH * kOffset / (t.K + kH);
     const HandTraceRow& last = rows[rows.size() - 2];  // the last tick, SIGTERM's zero-force tick excepted
-    std::printf("[ readme hand ] first force %.4g N (bound %.4g), peak over 100 ms %.4g N (bound %.4g); at rest x = %.6f mm "
-                "(expected %.6f), f = %.6f N (expected %.6f)\n",
-                rows[first].f, first_bound, peak, peak_bound, 1e3 * last.x, 1e3 * (p - kOffset), last.f, t.K * p);
+    std::printf(
+        "[ readme hand ] first force %.4g N (bound %.4g), peak over 100 ms %.4g N (bound %.4g); at rest x = %.6f mm "
+        "(expected %.6f), f = %.6f N (expected %.6f)\n",
+        rows[first].f, first_bound, peak, peak_bound, 1e3 * last.x, 1e3 * (p - kOffset), last.f, t.K * p);
     EXPECT_LE(rows[first].f, first_bound * (1 + 1e-9));
     EXPECT_LE(peak, peak_bound);
     EXPECT_NEAR(last.x, p - kOffset, 1e-6 * kOffset);
@@ -111,9 +121,28 @@ TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
     const std::string falcon = std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/falcon.toml");
     const Names n = names("falcon_rest");
     const std::string rest_trace = (scratch() / "falcon_rest.csv").string();
-    Child serving(HAPTICD_BINARY,
-                  {"--config", "", "--device", falcon, "--simulate", "--serve", "--no-walls", "--serve-socket", n.socket, "--serve-shm",
-                   n.shm, "--rt-priority", "0", "--mlock", "false", "--lockstep", "--duration", "2", "--trace", rest_trace, "--trace-axis", "0"},
+    Child serving(HAPTICD_BINARY, {"--config",
+                                   "",
+                                   "--device",
+                                   falcon,
+                                   "--simulate",
+                                   "--serve",
+                                   "--no-walls",
+                                   "--serve-socket",
+                                   n.socket,
+                                   "--serve-shm",
+                                   n.shm,
+                                   "--rt-priority",
+                                   "0",
+                                   "--mlock",
+                                   "false",
+                                   "--lockstep",
+                                   "--duration",
+                                   "2",
+                                   "--trace",
+                                   rest_trace,
+                                   "--trace-axis",
+                                   "0"},
                   "falcon_rest_daemon");
     ASSERT_EQ(serving.wait(), 0) << serving.err();
     const std::vector<HandTraceRow> rest = read_hand_trace(rest_trace);
@@ -122,8 +151,8 @@ TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
 
     const std::string step_trace = (scratch() / "falcon_step.csv").string();
     Child stepping(HAPTICD_BINARY,
-                   {"--config", "", "--device", falcon, "--simulate", "--rt-priority", "0", "--mlock", "false", "--lockstep", "--duration", "5",
-                    "--trace", step_trace, "--trace-axis", "0", "--quiet"},
+                   {"--config", "", "--device", falcon, "--simulate", "--rt-priority", "0", "--mlock", "false",
+                    "--lockstep", "--duration", "5", "--trace", step_trace, "--trace-axis", "0", "--quiet"},
                    "falcon_step_daemon");
     ASSERT_EQ(stepping.wait(), 0) << stepping.err();
     const std::vector<HandTraceRow> step = read_hand_trace(step_trace);

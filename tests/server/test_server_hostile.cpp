@@ -11,7 +11,7 @@ namespace {
 
 constexpr char kHostileTag[] = "hostile";
 class HostileClient : public SharedDaemonTest<kHostileTag> {
-protected:
+  protected:
     // The daemon runs, the loop ticks without a fault, and `c` is still served.
     static void expect_alive(const RawConnection& c, std::uint64_t id) {
         ASSERT_TRUE(daemon_->running()) << daemon_->err();
@@ -21,7 +21,8 @@ protected:
         EXPECT_EQ(r.value("fault", ""), "none") << r.dump();
     }
     static json commit_one(const RawConnection& c, std::uint64_t id, const json& object) {
-        c.send(json{{"type", "commit"}, {"id", id}, {"ops", json::array({json{{"op", "add"}, {"object", object}}})}}.dump());
+        c.send(json{{"type", "commit"}, {"id", id}, {"ops", json::array({json{{"op", "add"}, {"object", object}}})}}
+                   .dump());
         return c.receive_json();
     }
 };
@@ -83,8 +84,12 @@ TEST_F(HostileClient, APlaneOutsideTheWorkspaceIsRefusedNamingOffsetAndTheRange)
     r = commit_one(c, 4, plane({0, 0, 1}, -0.05, json{{"K", 1e300}, {"B", 1e300}}));
     EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
     EXPECT_NE(r.value("message", "").find("K <= 1e+12"), std::string::npos) << r.dump();
-    json f{{"kind", "field"}, {"center", {0, 0, 0}}, {"radius", 0.01}, {"force", {0, 0, 0}},
-           {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}, {"damping", 1e300}};
+    json f{{"kind", "field"},
+           {"center", {0, 0, 0}},
+           {"radius", 0.01},
+           {"force", {0, 0, 0}},
+           {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}},
+           {"damping", 1e300}};
     r = commit_one(c, 7, f);
     EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
     EXPECT_NE(r.value("message", "").find("field.damping"), std::string::npos) << r.dump();
@@ -127,7 +132,8 @@ TEST_F(HostileClient, ProtocolEdgesAreAnsweredAndTheSessionStays) {
     EXPECT_NE(r.value("message", "").find("criterion"), std::string::npos) << r.dump();
     EXPECT_NE(r.value("message", "").find("CE2"), std::string::npos) << r.dump();
     // A number beyond a double: the field is named.
-    c.send(R"({"type":"commit","id":3,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":1e400,"gains":{"K":10,"B":1}}}]})");
+    c.send(
+        R"({"type":"commit","id":3,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":1e400,"gains":{"K":10,"B":1}}}]})");
     r = c.receive_json();
     EXPECT_EQ(r.value("code", ""), "bad_json") << r.dump();
     EXPECT_NE(r.value("message", "").find("\"offset\""), std::string::npos) << r.dump();

@@ -21,7 +21,8 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 
 // Waits until the state has ticked and is not stale.
 std::optional<cl::StateSample> wait_live(const cl::StateReader& r) {
-    return wait_state(r, [](const cl::StateSample& s) { return s.tick > 10 && !s.stale; }, 20.0);
+    return wait_state(
+        r, [](const cl::StateSample& s) { return s.tick > 10 && !s.stale; }, 20.0);
 }
 
 class FatalSignal : public ::testing::TestWithParam<int> {};
@@ -29,7 +30,8 @@ class FatalSignal : public ::testing::TestWithParam<int> {};
 TEST_P(FatalSignal, TheStateSaysTheDaemonDiedAndTheSimulatedDeviceWasZeroed) {
     const int sig = GetParam();
     const Names n = names("fatal" + std::to_string(sig));
-    Child daemon(HAPTICD_BINARY, daemon_args(n, with({"--scenario", "step", "--step-force", "0"}, kNoWatchdog)), "fatal_daemon" + std::to_string(sig));
+    Child daemon(HAPTICD_BINARY, daemon_args(n, with({"--scenario", "step", "--step-force", "0"}, kNoWatchdog)),
+                 "fatal_daemon" + std::to_string(sig));
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::StateReader state = cl::StateReader::open(n.shm);
     ASSERT_TRUE(wait_live(state).has_value()) << daemon.err();
@@ -54,12 +56,15 @@ INSTANTIATE_TEST_SUITE_P(Signals, FatalSignal, ::testing::Values(SIGSEGV, SIGBUS
 TEST(StateLiveness, AStoppedDaemonReadsStaleAQuietOneDoesNot) {
     const Names n = names("liveness");
     // --serve-wait-commit: the loop has not started (no client yet), the daemon is alive and quiet.
-    Child daemon(HAPTICD_BINARY, daemon_args(n, with({"--scenario", "step", "--step-force", "0", "--serve-wait-commit"}, kNoWatchdog)), "liveness_daemon");
+    Child daemon(HAPTICD_BINARY,
+                 daemon_args(n, with({"--scenario", "step", "--step-force", "0", "--serve-wait-commit"}, kNoWatchdog)),
+                 "liveness_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::StateReader state = cl::StateReader::open(n.shm);
     EXPECT_EQ(state.writer_pid(), daemon.pid());
     EXPECT_DOUBLE_EQ(state.stale_after_s(), 0.05);  // 10 periods of 1 ms is less than the 50 ms floor
-    const auto quiet = wait_state(state, [](const cl::StateSample& s) { return !s.stale; }, 5.0);
+    const auto quiet = wait_state(
+        state, [](const cl::StateSample& s) { return !s.stale; }, 5.0);
     ASSERT_TRUE(quiet.has_value()) << "a daemon waiting for its first commit reads stale";
     EXPECT_EQ(quiet->tick, 0U);
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -73,7 +78,9 @@ TEST(StateLiveness, AStoppedDaemonReadsStaleAQuietOneDoesNot) {
     EXPECT_TRUE(s.stale) << "age " << s.heartbeat_age_s;
     EXPECT_EQ(s.fault, 0U);
     daemon.signal(SIGCONT);
-    EXPECT_TRUE(wait_state(state, [](const cl::StateSample& x) { return !x.stale; }, 5.0).has_value());
+    EXPECT_TRUE(wait_state(
+                    state, [](const cl::StateSample& x) { return !x.stale; }, 5.0)
+                    .has_value());
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }
@@ -100,7 +107,7 @@ TEST(ServeSocketPath, OnlyAStaleHapticdSocketIsReplaced) {
     EXPECT_NE(second.err().find("in use"), std::string::npos) << second.err();
     EXPECT_TRUE(first.running());
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "after"});  // the socket still works
-    const cl::StateReader again = cl::StateReader::open(c.welcome().state_shm);              // and the state is the first's
+    const cl::StateReader again = cl::StateReader::open(c.welcome().state_shm);  // and the state is the first's
     EXPECT_EQ(again.writer_pid(), first.pid());
     first.signal(SIGTERM);
     EXPECT_EQ(first.wait(), 0) << first.err();
@@ -119,7 +126,10 @@ TEST(ServeSocketPath, OnlyAStaleHapticdSocketIsReplaced) {
 }
 
 cl::Plane far_plane(double offset) {
-    return cl::Plane{.normal = {0.0, 0.0, -1.0}, .offset = offset, .bilateral = false, .gains = cl::Gains::explicit_gains(100.0, 1.0)};
+    return cl::Plane{.normal = {0.0, 0.0, -1.0},
+                     .offset = offset,
+                     .bilateral = false,
+                     .gains = cl::Gains::explicit_gains(100.0, 1.0)};
 }
 
 TEST(SessionLimits, OneSessionCannotTakeEverySlotNorFillTheHandOver) {
@@ -127,8 +137,8 @@ TEST(SessionLimits, OneSessionCannotTakeEverySlotNorFillTheHandOver) {
     const std::string summary_path = (scratch() / "limits_summary.json").string();
     // Ramps of 1 s: a batch waits in the loop's queue until the earlier batches' ramps have ended.
     Child daemon(HAPTICD_BINARY,
-                 daemon_args(n, {"--scenario", "step", "--step-force", "0", "--session-max-objects", "3", "--session-max-in-flight", "2",
-                                 "--ramp-time", "1", "--summary-json", summary_path}),
+                 daemon_args(n, {"--scenario", "step", "--step-force", "0", "--session-max-objects", "3",
+                                 "--session-max-in-flight", "2", "--ramp-time", "1", "--summary-json", summary_path}),
                  "limits_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client greedy = cl::Client::connect({.socket_path = n.socket, .client_name = "greedy"});

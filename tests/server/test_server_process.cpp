@@ -41,7 +41,8 @@ double worst_step_deviation(const std::vector<double>& y, double along, double m
                                                     hapticopt::NormalizedGains{t.alpha, t.beta}, y.size());
     const double x_inf = 1.0 / t.K;
     double worst = 0.0;
-    for (std::size_t j = 0; j < y.size(); ++j) worst = std::max(worst, std::abs(-y[j] / along - x[j] * kT * kT / m) / x_inf);
+    for (std::size_t j = 0; j < y.size(); ++j)
+        worst = std::max(worst, std::abs(-y[j] / along - x[j] * kT * kT / m) / x_inf);
     return worst;
 }
 
@@ -58,12 +59,16 @@ TEST(ServerProcess, ObliquePlaneGivesTheAnalysedStepResponse) {
     const json ops = json::array({
         {{"op", "add"}, {"object", plane(normal, 0.0, {{"criterion", "CE2"}}, true)}},
         {{"op", "add"},
-         {"object", {{"kind", "field"}, {"center", {0, 0, 0}}, {"radius", 1.0}, {"force", {0.0, -0.6, -0.8}},
-                     {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}}}},
+         {"object",
+          {{"kind", "field"},
+           {"center", {0, 0, 0}},
+           {"radius", 1.0},
+           {"force", {0.0, -0.6, -0.8}},
+           {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}}}},
     });
     Child daemon(HAPTICD_BINARY,
-                 daemon_args(n, {"--lockstep", "--serve-wait-commit", "--scenario", "step", "--step-force", "0", "--ramp-time", "0",
-                                 "--duration", "0.3", "--trace", trace, "--trace-axis", "1"}),
+                 daemon_args(n, {"--lockstep", "--serve-wait-commit", "--scenario", "step", "--step-force", "0",
+                                 "--ramp-time", "0", "--duration", "0.3", "--trace", trace, "--trace-axis", "1"}),
                  "step_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     Child client(HAPTICD_TEST_CLIENT, client_args(n, ops, {"--then", "hold-silent"}), "step_client");
@@ -71,14 +76,14 @@ TEST(ServerProcess, ObliquePlaneGivesTheAnalysedStepResponse) {
     ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << client.out() << client.err();
     ASSERT_EQ(daemon.wait(), 0) << daemon.err();
 
-    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE2,
-                                                            hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
+    const hapticopt::WallTuning t =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
     const std::vector<double> y = trace_positions(trace);
     ASSERT_EQ(y.size(), 300U);
     const double x_inf = 1.0 / t.K;
     const double worst = worst_step_deviation(y, 0.6, kMass, t);
-    std::printf("[ oblique step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", t.K, t.B, worst,
-                y.size());
+    std::printf("[ oblique step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", t.K, t.B,
+                worst, y.size());
     EXPECT_LE(worst, 1e-9);
     EXPECT_GT(-y[100] / 0.6, 0.5 * x_inf);  // it did move into the wall (the comparison is not against zeros)
 }
@@ -105,12 +110,17 @@ TEST(ServerProcess, ObliquePlaneOnAnAnisotropicMassGivesTheStepResponseForItsMas
     const json ops = json::array({
         {{"op", "add"}, {"object", plane({0.0, -0.6, -0.8}, 0.0, {{"criterion", "CE2"}}, true)}},
         {{"op", "add"},
-         {"object", {{"kind", "field"}, {"center", {0, 0, 0}}, {"radius", 1.0}, {"force", {0.0, 0.6, 0.8}},
-                     {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}}}},
+         {"object",
+          {{"kind", "field"},
+           {"center", {0, 0, 0}},
+           {"radius", 1.0},
+           {"force", {0.0, 0.6, 0.8}},
+           {"jacobian", {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}}}}},
     });
     Child daemon(HAPTICD_BINARY,
-                 daemon_args(n, {"--lockstep", "--serve-wait-commit", "--scenario", "step", "--step-force", "0", "--ramp-time", "0",
-                                 "--duration", "0.3", "--trace", trace, "--trace-axis", "1"},
+                 daemon_args(n,
+                             {"--lockstep", "--serve-wait-commit", "--scenario", "step", "--step-force", "0",
+                              "--ramp-time", "0", "--duration", "0.3", "--trace", trace, "--trace-axis", "1"},
                              "sim3_aniso.toml"),
                  "aniso_step_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
@@ -123,18 +133,21 @@ TEST(ServerProcess, ObliquePlaneOnAnAnisotropicMassGivesTheStepResponseForItsMas
     const Eigen::Matrix3d Minv = anisotropic_mass().inverse();
     const double m_n = 1.0 / normal.dot(Minv * normal);
     const double along_y = (Minv * normal)(1) * m_n;  // y = -along_y p
-    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{m_n, 0.0, 0.0, kT, 0.0});
+    const hapticopt::WallTuning t =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{m_n, 0.0, 0.0, kT, 0.0});
     const std::vector<double> y = trace_positions(trace);
     ASSERT_EQ(y.size(), 300U);
     const double x_inf = 1.0 / t.K;
     const double worst = worst_step_deviation(y, along_y, m_n, t);
-    std::printf("[ anisotropic step ] m_n %.6g kg, K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", m_n, t.K,
-                t.B, worst, y.size());
+    std::printf(
+        "[ anisotropic step ] m_n %.6g kg, K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n",
+        m_n, t.K, t.B, worst, y.size());
     EXPECT_LE(worst, 1e-9);
     EXPECT_GT(-y[100] / along_y, 0.5 * x_inf);  // it did move into the wall
     // The response for n^T M n (the kinetic-energy mass along n) is a different curve: the test can tell.
     const double wrong_mass = normal.dot(anisotropic_mass() * normal);
-    const hapticopt::WallTuning tw = hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{wrong_mass, 0.0, 0.0, kT, 0.0});
+    const hapticopt::WallTuning tw =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{wrong_mass, 0.0, 0.0, kT, 0.0});
     EXPECT_GT(std::abs(tw.K - t.K), 1e-3 * t.K);
 }
 
@@ -143,7 +156,8 @@ TEST(ServerProcess, ObliquePlaneOnAnAnisotropicMassGivesTheStepResponseForItsMas
 // (+-1e-6 relative, far outside the bisection's 2^-60); nothing reaches the loop.
 TEST(ServerProcess, APairStableForTheMeanMassButNotForTheNormalsMassIsRefused) {
     const Names n = names("aniso_refuse");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"), "aniso_refuse_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"),
+                 "aniso_refuse_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
     const Eigen::Vector3d normal(0.0, 0.6, 0.8);
@@ -157,7 +171,8 @@ TEST(ServerProcess, APairStableForTheMeanMassButNotForTheNormalsMassIsRefused) {
     for (double beta = 0.05; beta < 1.0 && K == 0.0; beta += 0.05) {
         for (double alpha = 0.01; alpha < 1.0; alpha += 0.001) {
             if (!hapticopt::is_stable(np, {alpha, beta})) {
-                if (hapticopt::is_stable(np, {alpha * m_n / mean, beta * m_n / mean}) && alpha * m_n / (kT * kT) < 0.9e5) {
+                if (hapticopt::is_stable(np, {alpha * m_n / mean, beta * m_n / mean}) &&
+                    alpha * m_n / (kT * kT) < 0.9e5) {
                     K = alpha * m_n / (kT * kT);
                     B = beta * m_n / kT;
                 }
@@ -170,8 +185,8 @@ TEST(ServerProcess, APairStableForTheMeanMassButNotForTheNormalsMassIsRefused) {
     cl::StateSample before;
     ASSERT_TRUE(state.read(before));
     try {
-        c.commit(cl::Batch().add(cl::Plane{.normal = {0.0, 0.6, 0.8}, .offset = -0.05, .bilateral = false,
-                                           .gains = cl::Gains::explicit_gains(K, B)}));
+        c.commit(cl::Batch().add(cl::Plane{
+            .normal = {0.0, 0.6, 0.8}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)}));
         ADD_FAILURE() << "a pair unstable for m_n was accepted";
     } catch (const cl::Error& e) {
         EXPECT_EQ(e.code(), cl::ErrorCode::UnstableGains) << e.what();
@@ -211,15 +226,22 @@ TEST(ServerProcess, EveryHapticoptCriterionIsAProtocolCriterion) {
     int id = 10;
     for (const hapticopt::Criterion criterion : hapticopt::kAllCriteria) {
         const std::string name(hapticopt::to_string(criterion));
-        raw.send(json{{"type", "commit"}, {"id", ++id},
-                      {"ops", json::array({{{"op", "add"}, {"object", {{"kind", "plane"}, {"normal", {0, 0, -1}}, {"offset", -0.05},
-                                                                        {"gains", {{"criterion", name}}}}}}})}}
+        raw.send(json{{"type", "commit"},
+                      {"id", ++id},
+                      {"ops", json::array({{{"op", "add"},
+                                            {"object",
+                                             {{"kind", "plane"},
+                                              {"normal", {0, 0, -1}},
+                                              {"offset", -0.05},
+                                              {"gains", {{"criterion", name}}}}}}})}}
                      .dump());
         const json r = raw.receive_json();
         ASSERT_EQ(r.value("type", ""), "ok") << name << ": " << r.dump();
         const std::uint32_t object = r["object_ids"][0].get<std::uint32_t>();
-        hapticopt::WallTuning t = hapticopt::optimal_wall(criterion, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, delay});
-        if (criterion == hapticopt::Criterion::AlphaMax) t.K *= 1.0 - 1e-3;  // the documented back-off (docs/protocol.md, gains)
+        hapticopt::WallTuning t =
+            hapticopt::optimal_wall(criterion, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, delay});
+        if (criterion == hapticopt::Criterion::AlphaMax)
+            t.K *= 1.0 - 1e-3;  // the documented back-off (docs/protocol.md, gains)
         bool found = false;
         for (const auto& o : c.list()) {
             if (o.id != object) continue;
@@ -228,18 +250,26 @@ TEST(ServerProcess, EveryHapticoptCriterionIsAProtocolCriterion) {
             EXPECT_NEAR(o.B, t.B, 1e-12 * t.B) << name;
         }
         EXPECT_TRUE(found) << name;
-        raw.send(json{{"type", "commit"}, {"id", ++id}, {"ops", json::array({{{"op", "remove"}, {"object_id", object}}})}}.dump());
+        raw.send(
+            json{{"type", "commit"}, {"id", ++id}, {"ops", json::array({{{"op", "remove"}, {"object_id", object}}})}}
+                .dump());
         const json removed = raw.receive_json();
         ASSERT_EQ(removed.value("type", ""), "ok") << removed.dump();
         // The next plane is added alone: wait for this one's ramp-out to free its slot.
-        ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) {
-            return s.last_commit_seq >= removed.value("commit_seq", std::uint64_t{0}) && s.objects == 0;
-        }, 5.0)) << name;
+        ASSERT_TRUE(wait_state(
+            state,
+            [&](const cl::StateSample& s) {
+                return s.last_commit_seq >= removed.value("commit_seq", std::uint64_t{0}) && s.objects == 0;
+            },
+            5.0))
+            << name;
     }
-    raw.send(R"({"type":"commit","id":99,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
+    raw.send(
+        R"({"type":"commit","id":99,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
     const json unknown = raw.receive_json();
     EXPECT_EQ(unknown.value("code", ""), "unknown_criterion") << unknown.dump();
-    EXPECT_NE(unknown.value("message", "").find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"), std::string::npos)
+    EXPECT_NE(unknown.value("message", "").find("accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV"),
+              std::string::npos)
         << unknown.dump();
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
@@ -255,23 +285,31 @@ TEST(ServerProcess, EveryHapticoptCriterionIsAProtocolCriterion) {
 // exact ends: B_min (1 + 1e-4) gave 0.9999994953 for K = 40 000), far above both.
 TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
     const Names n = names("damping");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}), "damping_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}),
+                 "damping_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
     auto plane = [](double K, double B) {
-        return cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)});
+        return cl::Batch().add(cl::Plane{
+            .normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(K, B)});
     };
     for (const auto& [K, B] : {std::pair{2000.0, 0.0}, std::pair{40000.0, 1.0}}) {
         std::optional<std::pair<double, double>> needed;
         RawConnection raw(n.socket);
         raw.hello();
-        raw.send(json{{"type", "commit"}, {"id", 1},
-                      {"ops", json::array({{{"op", "add"}, {"object", {{"kind", "plane"}, {"normal", {0, 0, -1}}, {"offset", -0.05},
-                                                                        {"gains", {{"K", K}, {"B", B}}}}}}})}}
+        raw.send(json{{"type", "commit"},
+                      {"id", 1},
+                      {"ops", json::array({{{"op", "add"},
+                                            {"object",
+                                             {{"kind", "plane"},
+                                              {"normal", {0, 0, -1}},
+                                              {"offset", -0.05},
+                                              {"gains", {{"K", K}, {"B", B}}}}}}})}}
                      .dump());
         const json r = raw.receive_json();
         ASSERT_EQ(r.value("code", ""), "unstable_gains") << r.dump();
-        ASSERT_TRUE(r.contains("damping_needed") && r["damping_needed"].is_array() && r["damping_needed"].size() == 2) << r.dump();
+        ASSERT_TRUE(r.contains("damping_needed") && r["damping_needed"].is_array() && r["damping_needed"].size() == 2)
+            << r.dump();
         const double lo = r["damping_needed"][0].get<double>(), hi = r["damping_needed"][1].get<double>();
         EXPECT_NE(r.value("message", "").find(" is stable for "), std::string::npos) << r.dump();
         EXPECT_NE(r.value("message", "").find(" (damping_needed;"), std::string::npos) << r.dump();
@@ -291,7 +329,8 @@ TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
             ASSERT_EQ(ok.object_ids.size(), 1U) << "K " << K << " B " << inside;
             c.commit(cl::Batch().remove(ok.object_ids[0]));
             const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
-            ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; }, 5.0));
+            ASSERT_TRUE(wait_state(
+                state, [](const cl::StateSample& s) { return s.objects == 0; }, 5.0));
         }
         for (const double outside : {lo * (1 - 1e-4), hi * (1 + 1e-4)}) {
             try {
@@ -299,7 +338,8 @@ TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
                 ADD_FAILURE() << "K " << K << " B " << outside << " was accepted";
             } catch (const cl::Error& e) {
                 // Inside the stability region, within the margin: the summed check's refusal.
-                EXPECT_TRUE(e.code() == cl::ErrorCode::UnstableGains || e.code() == cl::ErrorCode::UnstableSum) << e.what();
+                EXPECT_TRUE(e.code() == cl::ErrorCode::UnstableGains || e.code() == cl::ErrorCode::UnstableSum)
+                    << e.what();
             }
         }
     }
@@ -320,20 +360,24 @@ TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
 // every batch sent before it at once, docs/protocol.md, section 5).
 TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
     const Names n = names("busy");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "1",
-                                                 "--session-max-in-flight", "64"}), "busy_daemon");
+    Child daemon(HAPTICD_BINARY,
+                 daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "1",
+                                 "--session-max-in-flight", "64"}),
+                 "busy_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::BusyRetry no_retry{.tries = 1};
     auto plane = [](double offset, double K) {
         // Bilateral: a unilateral plane is checked in each engagement pattern, and with 1000-tick ramps four
         // of them on one axis exceed the pattern-scene limit (capacity) depending on which ramp is running.
-        return cl::Plane{.normal = {0, 0, -1}, .offset = offset, .bilateral = true, .gains = cl::Gains::explicit_gains(K, 50.0)};
+        return cl::Plane{
+            .normal = {0, 0, -1}, .offset = offset, .bilateral = true, .gains = cl::Gains::explicit_gains(K, 50.0)};
     };
     std::vector<std::unique_ptr<cl::Client>> fillers;
     std::vector<std::uint32_t> ids;
     int busy_seen = 0;
     for (int f = 0; f < 3; ++f) {
-        fillers.push_back(std::make_unique<cl::Client>(cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry})));
+        fillers.push_back(
+            std::make_unique<cl::Client>(cl::Client::connect({.socket_path = n.socket, .busy_retry = no_retry})));
         cl::Client& c = *fillers.back();
         const double offset = -0.05 - 0.001 * f;
         std::uint32_t id = 0;
@@ -361,7 +405,8 @@ TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
     const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
     cl::StateSample s0;
     ASSERT_TRUE(state.read(s0));
-    ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq != s0.last_commit_seq; }, 10.0));
+    ASSERT_TRUE(wait_state(
+        state, [&](const cl::StateSample& s) { return s.last_commit_seq != s0.last_commit_seq; }, 10.0));
     // Refill the drained place: the session whose batch was applied has room in flight again.
     for (std::size_t f = 0; f < ids.size(); ++f) {
         try {
@@ -413,15 +458,16 @@ TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
 // checked independently with hapticopt::is_stable just below and just above it; nothing changes in the loop.
 TEST(ServerProcess, CriterionGainsAndUnstableRefusal) {
     const Names n = names("crit");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}), "crit_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}),
+                 "crit_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "gtest"});
     EXPECT_DOUBLE_EQ(c.welcome().device.delay_s, kT);
-    const auto r = c.commit(cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false,
-                                                      .gains = cl::Gains::by_criterion("CE1")}));
+    const auto r = c.commit(cl::Batch().add(
+        cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::by_criterion("CE1")}));
     ASSERT_EQ(r.object_ids.size(), 1U);
-    const hapticopt::WallTuning t = hapticopt::optimal_wall(hapticopt::Criterion::CE1,
-                                                            hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, kT});
+    const hapticopt::WallTuning t =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE1, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, kT});
     bool found = false;
     for (const auto& o : c.list()) {
         if (o.id != r.object_ids[0]) continue;
@@ -433,13 +479,14 @@ TEST(ServerProcess, CriterionGainsAndUnstableRefusal) {
     EXPECT_TRUE(found);
 
     const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
-    ASSERT_TRUE(wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= r.commit_seq; }, 5.0));
+    ASSERT_TRUE(wait_state(
+        state, [&](const cl::StateSample& s) { return s.last_commit_seq >= r.commit_seq; }, 5.0));
     cl::StateSample before;
     ASSERT_TRUE(state.read(before));
     const double K_bad = 5.0 * t.K, B = t.B;
     try {
-        c.commit(cl::Batch().add(cl::Plane{.normal = {0, -1, 0}, .offset = -0.05, .bilateral = false,
-                                           .gains = cl::Gains::explicit_gains(K_bad, B)}));
+        c.commit(cl::Batch().add(cl::Plane{
+            .normal = {0, -1, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(K_bad, B)}));
         ADD_FAILURE() << "an unstable pair was accepted";
     } catch (const cl::Error& e) {
         EXPECT_EQ(e.code(), cl::ErrorCode::UnstableGains) << e.what();
@@ -474,8 +521,8 @@ struct PressScene {
     explicit PressScene(const std::string& tag, double ramp_s, const std::vector<std::string>& more_args = {})
         : n(names(tag)),
           daemon(HAPTICD_BINARY,
-                 concat(daemon_args(n, {"--scenario", "hold", "--hold-force", "-2", "--hold-distance", "0.001", "--ramp-time",
-                                        std::to_string(ramp_s), "--serve-wait-commit"}),
+                 concat(daemon_args(n, {"--scenario", "hold", "--hold-force", "-2", "--hold-distance", "0.001",
+                                        "--ramp-time", std::to_string(ramp_s), "--serve-wait-commit"}),
                         more_args),
                  tag + "_daemon") {}
     // a with b's "--option value" pairs: an option a has takes b's value, the others are appended.
@@ -494,7 +541,8 @@ struct PressScene {
     // Explicit gains softer than the optimum: with the config wall's CE2 gains along the same axis the sum
     // (74226 + 20000 N/m, 223 + 100 N s/m) stays stable; the CE2 optimum twice is refused (unstable_sum).
     static json press_ops() {
-        return json::array({{{"op", "add"}, {"object", plane({1.0, 0.0, 0.0}, 0.048, {{"K", 20000.0}, {"B", 100.0}})}}});
+        return json::array(
+            {{{"op", "add"}, {"object", plane({1.0, 0.0, 0.0}, 0.048, {{"K", 20000.0}, {"B", 100.0}})}}});
     }
     // Starts the pressing client (heartbeating) and waits until the hand presses at rest on its plane: the
     // wall holds the hand's 2 N (not saturated at the device's 10 N).
@@ -504,8 +552,12 @@ struct PressScene {
         const auto reply = presser->first_line();
         ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << presser->out();
         const cl::StateReader state = cl::StateReader::open(n.shm);
-        ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
-            return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0; }, 10.0))
+        ASSERT_TRUE(wait_state(
+            state,
+            [](const cl::StateSample& s) {
+                return std::abs(s.force[0] - 2.0) < 0.01 && std::abs(s.velocity[0]) < 1e-4 && s.contact_mask != 0;
+            },
+            10.0))
             << "the hand never pressed on the plane";
     }
 };
@@ -526,12 +578,13 @@ constexpr double kInstrumentationSlowdown = 1.0;
 #endif
 
 void expect_ramp_out(const cl::StateReader& state, double t_start, double ramp_s, double earliest_s, const char* what) {
-    const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
-                                 earliest_s + ramp_s + kDetectionAllowance + 2.0);
+    const auto zero = wait_state(
+        state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
+        earliest_s + ramp_s + kDetectionAllowance + 2.0);
     ASSERT_TRUE(zero.has_value()) << what << ": the force never reached zero";
     const double took = zero->time_s - t_start;
-    std::printf("[ %s ] force zero %.1f ms after the event (ramp %.0f ms, lease/earliest %.0f ms)\n", what, took * 1e3, ramp_s * 1e3,
-                earliest_s * 1e3);
+    std::printf("[ %s ] force zero %.1f ms after the event (ramp %.0f ms, lease/earliest %.0f ms)\n", what, took * 1e3,
+                ramp_s * 1e3, earliest_s * 1e3);
     EXPECT_LE(took, earliest_s + ramp_s + kDetectionAllowance) << what;
     EXPECT_GE(took, earliest_s + 0.5 * ramp_s) << what << ": no ramp (a step to zero)";
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -568,7 +621,8 @@ std::vector<FloodRequest> flood_requests(const Child& flooder) {
     std::istringstream lines(flooder.out());
     for (std::string line; std::getline(lines, line);) {
         const json j = json::parse(line, nullptr, false);
-        if (j.is_array() && j.size() == 3) out.push_back({j[0].get<double>(), j[1].get<double>(), j[2].get<std::uint64_t>()});
+        if (j.is_array() && j.size() == 3)
+            out.push_back({j[0].get<double>(), j[1].get<double>(), j[2].get<std::uint64_t>()});
     }
     return out;
 }
@@ -576,12 +630,12 @@ std::vector<FloodRequest> flood_requests(const Child& flooder) {
 // Isolation (docs/protocol.md, section 5, "A client that leaves"): three other clients change the gains of
 // their own planes as fast as the server accepts, each change a 500 ms cross-fade, so the loop applies two a
 // second (fewer than the server accepts, ~2.5 a second under TSan on a loaded machine; a longer ramp's
-// 6 engagement patterns x its ramp scenes exceed the check's capacity) and the batches accepted and not yet applied pile up (up to 4 per client: --session-max-in-flight).
-// Once at least kQueued of them wait (counted from the flooders' replies against the state's
-// last_commit_seq), the pressing client is SIGKILLed; the flooders go on until the force is zero (then
-// SIGUSR1 stops them). The killed client's ramp-out must not wait behind that queue, nor behind more than the
-// one request the server thread was handling at the kill (it looks for departed peers after every request):
-// the force is zero within
+// 6 engagement patterns x its ramp scenes exceed the check's capacity) and the batches accepted and not yet applied
+// pile up (up to 4 per client: --session-max-in-flight). Once at least kQueued of them wait (counted from the flooders'
+// replies against the state's last_commit_seq), the pressing client is SIGKILLed; the flooders go on until the force is
+// zero (then SIGUSR1 stops them). The killed client's ramp-out must not wait behind that queue, nor behind more than
+// the one request the server thread was handling at the kill (it looks for departed peers after every request): the
+// force is zero within
 //   ramp_s + one period + kDetectionAllowance x kInstrumentationSlowdown + (the first reply any flooder
 //   received after the kill - the kill)
 // The server thread handles one request at a time and looks for departures right after each, so the
@@ -601,20 +655,25 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
     const cl::StateReader state = cl::StateReader::open(scene.n.shm);
     std::vector<std::unique_ptr<Child>> flooders;
     for (int i = 0; i < 3; ++i) {
-        flooders.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, std::vector<std::string>{scene.n.socket, "gainflood"},
+        flooders.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT,
+                                                   std::vector<std::string>{scene.n.socket, "gainflood"},
                                                    "isolation_flood" + std::to_string(i)));
     }
     // Batches accepted (by the replies seen so far) and not applied by `s`.
     const auto queued_by = [&](const cl::StateSample& s, double before_t) {
         long queued = 0;
         for (auto& f : flooders) {
-            for (const FloodRequest& r : flood_requests(*f)) queued += r.seq > s.last_commit_seq && r.replied < before_t ? 1 : 0;
+            for (const FloodRequest& r : flood_requests(*f))
+                queued += r.seq > s.last_commit_seq && r.replied < before_t ? 1 : 0;
         }
         return queued;
     };
     // A read fails while the loop is inside its write; the instrumented loop's writes are slow enough for a
     // reader's attempts to miss, so each read here retries (up to 1 s).
-    const auto read_now = [&]() { return wait_state(state, [](const cl::StateSample&) { return true; }, 1.0); };
+    const auto read_now = [&]() {
+        return wait_state(
+            state, [](const cl::StateSample&) { return true; }, 1.0);
+    };
     long waiting = 0;
     for (const double give_up = monotonic_s() + 60.0; waiting < kQueued && monotonic_s() < give_up;) {
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -622,14 +681,16 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
         ASSERT_TRUE(now.has_value());
         waiting = queued_by(*now, monotonic_s());
     }
-    ASSERT_GE(waiting, kQueued) << "the flooders never had " << kQueued << " batches waiting\ndaemon:\n" << scene.daemon.err();
+    ASSERT_GE(waiting, kQueued) << "the flooders never had " << kQueued << " batches waiting\ndaemon:\n"
+                                << scene.daemon.err();
     const auto read_before = read_now();
     ASSERT_TRUE(read_before.has_value());
     const cl::StateSample before = *read_before;
     const double t_kill = monotonic_s();
     presser->signal(SIGKILL);
-    const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
-                                 10.0);
+    const auto zero = wait_state(
+        state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.force[1] == 0.0 && s.force[2] == 0.0; },
+        10.0);
     ASSERT_TRUE(zero.has_value()) << "the force never reached zero";
     const double took = zero->time_s - t_kill;
     for (auto& f : flooders) f->signal(SIGUSR1);
@@ -646,11 +707,13 @@ TEST(ServerProcess, AKilledClientsRampOutIsNotQueuedBehindOtherClientsGainChange
     const double in_progress_at_kill = first_reply - t_kill;
     const long queued_at_kill = queued_by(before, t_kill);
     const double bound = ramp + 1e-3 + kDetectionAllowance * kInstrumentationSlowdown + in_progress_at_kill;
-    std::printf("[ isolation ] force zero %.1f ms after the SIGKILL (ramp %.0f ms; bound %.0f ms, of which %.1f ms to the first "
-                "reply after the kill) while 3 clients changed gains (%ld changes accepted; %ld accepted and not "
-                "applied at the kill, %.1f s of ramps)\n",
-                took * 1e3, ramp * 1e3, bound * 1e3, in_progress_at_kill * 1e3, accepted, queued_at_kill,
-                static_cast<double>(queued_at_kill) * ramp);
+    std::printf(
+        "[ isolation ] force zero %.1f ms after the SIGKILL (ramp %.0f ms; bound %.0f ms, of which %.1f ms to the "
+        "first "
+        "reply after the kill) while 3 clients changed gains (%ld changes accepted; %ld accepted and not "
+        "applied at the kill, %.1f s of ramps)\n",
+        took * 1e3, ramp * 1e3, bound * 1e3, in_progress_at_kill * 1e3, accepted, queued_at_kill,
+        static_cast<double>(queued_at_kill) * ramp);
     EXPECT_LE(took, bound);
     EXPECT_GE(took, 0.5 * ramp) << "no ramp (a step to zero)";
     EXPECT_GE(static_cast<double>(queued_at_kill) * ramp, bound) << "the queue was not long enough at the kill";
@@ -664,26 +727,32 @@ TEST(ServerProcess, AClientThatStopsHeartbeatingLosesItsObjects) {
     const double ramp = 0.03, lease = 0.2;
     PressScene scene("lease", ramp);
     ASSERT_TRUE(wait_for_socket(scene.n.socket)) << scene.daemon.err();
-    Child silent(HAPTICD_TEST_CLIENT, client_args(scene.n, PressScene::press_ops(), {"--lease", "0.2", "--then", "hold-silent"}),
+    Child silent(HAPTICD_TEST_CLIENT,
+                 client_args(scene.n, PressScene::press_ops(), {"--lease", "0.2", "--then", "hold-silent"}),
                  "lease_client");
     const auto reply = silent.first_line();
     ASSERT_TRUE(reply && (*reply)["ok"].get<bool>()) << silent.out();
     const double t_commit = monotonic_s();
     // A second client, heartbeating, whose object must stay (far away: n = -z at z = 0.05).
-    Child keeper(HAPTICD_TEST_CLIENT,
-                 client_args(scene.n, json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.05, {{"K", 100.0}, {"B", 1.0}})}}}),
-                             {"--lease", "0.2", "--then", "hold"}),
-                 "lease_keeper");
+    Child keeper(
+        HAPTICD_TEST_CLIENT,
+        client_args(scene.n,
+                    json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.05, {{"K", 100.0}, {"B", 1.0}})}}}),
+                    {"--lease", "0.2", "--then", "hold"}),
+        "lease_keeper");
     ASSERT_TRUE(keeper.first_line());
     const cl::StateReader state = cl::StateReader::open(scene.n.shm);
-    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.force[0] > 1.0 && s.contact_mask != 0; }, lease))
+    ASSERT_TRUE(wait_state(
+        state, [](const cl::StateSample& s) { return s.force[0] > 1.0 && s.contact_mask != 0; }, lease))
         << "the hand did not press on the plane before the lease ran out";
     // The lease runs from the commit (the client's last message); the force must be zero by lease + ramp.
-    const auto zero = wait_state(state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.objects == 1; },
-                                 lease + ramp + kDetectionAllowance + 2.0);
+    const auto zero = wait_state(
+        state, [](const cl::StateSample& s) { return s.force[0] == 0.0 && s.objects == 1; },
+        lease + ramp + kDetectionAllowance + 2.0);
     ASSERT_TRUE(zero.has_value());
     const double took = zero->time_s - t_commit;
-    std::printf("[ lease ] force zero %.1f ms after the last message (lease %.0f ms + ramp %.0f ms)\n", took * 1e3, lease * 1e3, ramp * 1e3);
+    std::printf("[ lease ] force zero %.1f ms after the last message (lease %.0f ms + ramp %.0f ms)\n", took * 1e3,
+                lease * 1e3, ramp * 1e3);
     EXPECT_LE(took, lease + ramp + kDetectionAllowance);
     EXPECT_GE(took, lease);
     EXPECT_TRUE(keeper.running());  // the heartbeating client keeps its session and its object
@@ -705,7 +774,8 @@ TEST(ServerProcess, AClientThatStopsHeartbeatingLosesItsObjects) {
 // but the ramp does not.
 TEST(ServerProcess, OverlappingBatchesRampOneAtATime) {
     const Names n = names("serial");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "0.03"}), "serial_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "0.03"}),
+                 "serial_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "serial"});
     const cl::StateReader state = cl::StateReader::open(n.shm);
@@ -740,7 +810,8 @@ TEST(ServerProcess, OverlappingBatchesRampOneAtATime) {
     ASSERT_TRUE(start_a.has_value()) << "no sample during the first ramp (" << samples << " samples)";
     ASSERT_TRUE(start_b.has_value()) << "no sample during the second ramp (" << samples << " samples)";
     std::printf("[ serial ] %zu samples; ramps started at ticks %lld and %lld (gap %lld ticks)\n", samples,
-                static_cast<long long>(*start_a), static_cast<long long>(*start_b), static_cast<long long>(*start_b - *start_a));
+                static_cast<long long>(*start_a), static_cast<long long>(*start_b),
+                static_cast<long long>(*start_b - *start_a));
     EXPECT_EQ(both_ramping, 0U);
     EXPECT_EQ(b_before_a_done, 0U);
     EXPECT_EQ(seq_b_while_a_ramps, 0U);  // last_commit_seq: "every batch up to it applied"
@@ -774,7 +845,8 @@ TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
     Child flooder(HAPTICD_TEST_CLIENT, {n.socket, "flood", "2000"}, "many_flood");
     std::vector<std::unique_ptr<Child>> clients;
     for (int i = 0; i < 32; ++i) {
-        const json ops = json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.051 - 1e-4 * i, {{"K", 50.0}, {"B", 0.5}})}}});
+        const json ops =
+            json::array({{{"op", "add"}, {"object", plane({0, 0, -1}, -0.051 - 1e-4 * i, {{"K", 50.0}, {"B", 0.5}})}}});
         clients.push_back(std::make_unique<Child>(HAPTICD_TEST_CLIENT, client_args(n, ops, {"--then", "hold-silent"}),
                                                   "many_client" + std::to_string(i)));
     }
@@ -787,7 +859,8 @@ TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
     }
     ASSERT_EQ(flooder.wait(std::chrono::seconds(120)), 0) << flooder.out() << flooder.err();
     const json flood = json::parse(flooder.out());
-    std::printf("[ many ] flooder: %lld accepted, %lld busy\n", flood["ok"].get<long long>(), flood["busy"].get<long long>());
+    std::printf("[ many ] flooder: %lld accepted, %lld busy\n", flood["ok"].get<long long>(),
+                flood["busy"].get<long long>());
     EXPECT_EQ(flood["ok"].get<long long>() + flood["busy"].get<long long>(), 2000);
     cl::StateSample later;
     ASSERT_TRUE(state.read(later));
@@ -804,7 +877,8 @@ TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
     EXPECT_EQ(listed, 1U + 32U + 1U);
     for (auto& ch : clients) ch->signal(SIGKILL);
     noread.signal(SIGKILL);
-    EXPECT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; }, 10.0));
+    EXPECT_TRUE(wait_state(
+        state, [](const cl::StateSample& s) { return s.objects == 0; }, 10.0));
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }

@@ -56,14 +56,17 @@ TEST_F(ServerProtocol, MalformedAndTruncatedMessagesGetAnErrorAndTheConnectionSt
     r = c.receive_json();
     EXPECT_EQ(r.value("code", ""), "bad_message");
     EXPECT_EQ(r.value("id", 0), 4);
-    c.send(R"({"type":"commit","id":5,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,2],"offset":0,"gains":{"K":10,"B":1}}}]})");
+    c.send(
+        R"({"type":"commit","id":5,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,2],"offset":0,"gains":{"K":10,"B":1}}}]})");
     r = c.receive_json();
     EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
     EXPECT_EQ(r.value("op_index", -2), 0);
     EXPECT_NE(r.value("message", "").find("normal"), std::string::npos) << r.dump();
-    c.send(R"({"type":"commit","id":6,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"K":-1,"B":1}}}]})");
+    c.send(
+        R"({"type":"commit","id":6,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"K":-1,"B":1}}}]})");
     EXPECT_EQ(c.receive_json().value("code", ""), "bad_message");
-    c.send(R"({"type":"commit","id":7,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
+    c.send(
+        R"({"type":"commit","id":7,"ops":[{"op":"add","object":{"kind":"plane","normal":[0,0,1],"offset":0,"gains":{"criterion":"CE9"}}}]})");
     EXPECT_EQ(c.receive_json().value("code", ""), "unknown_criterion");
     c.send(R"({"type":"heartbeat","id":8})");  // still open and served
     r = c.receive_json();
@@ -73,8 +76,8 @@ TEST_F(ServerProtocol, MalformedAndTruncatedMessagesGetAnErrorAndTheConnectionSt
 
 TEST_F(ServerProtocol, AnOversizedMessageIsRefusedAndClosedOthersUndisturbed) {
     cl::Client keeper = cl::Client::connect({.socket_path = n_->socket, .client_name = "keeper"});
-    const auto kept = keeper.commit(cl::Batch().add(cl::Plane{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false,
-                                                              .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
+    const auto kept = keeper.commit(cl::Batch().add(cl::Plane{
+        .normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
     const cl::StateReader state = cl::StateReader::open(keeper.welcome().state_shm);
     cl::StateSample before;
     ASSERT_TRUE(state.read(before));
@@ -98,7 +101,8 @@ TEST_F(ServerProtocol, AnOversizedMessageIsRefusedAndClosedOthersUndisturbed) {
 TEST_F(ServerProtocol, AClientCannotTouchAnotherClientsOrTheDaemonsObjects) {
     cl::Client a = cl::Client::connect({.socket_path = n_->socket, .client_name = "a"});
     cl::Client b = cl::Client::connect({.socket_path = n_->socket, .client_name = "b"});
-    const cl::Plane p{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(100.0, 1.0)};
+    const cl::Plane p{
+        .normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(100.0, 1.0)};
     const std::uint32_t id = a.commit(cl::Batch().add(p)).object_ids.at(0);
     auto expect_code = [&](const cl::Batch& batch, cl::ErrorCode code) {
         try {
@@ -136,19 +140,27 @@ TEST_F(ServerProtocol, ForcesAndPositionsBeyondTheDeviceAndNegativeStiffnessAreR
         }
     };
     cl::Field strong{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 12.0}, .jacobian = {}};
-    expect_code(strong, cl::ErrorCode::BeyondDeviceLimits);                      // |F0| = 12 N > 10 N
-    cl::Field steep{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 5.0},
+    expect_code(strong, cl::ErrorCode::BeyondDeviceLimits);  // |F0| = 12 N > 10 N
+    cl::Field steep{.center = {0, 0, 0},
+                    .radius = 0.01,
+                    .force = {0, 0, 5.0},
                     .jacobian = {cl::Vec3{-600, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}};
-    expect_code(steep, cl::ErrorCode::BeyondDeviceLimits);                       // 5 N + 600 N/m * 0.01 m = 11 N
-    cl::Field repulsive{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 0},
+    expect_code(steep, cl::ErrorCode::BeyondDeviceLimits);  // 5 N + 600 N/m * 0.01 m = 11 N
+    cl::Field repulsive{.center = {0, 0, 0},
+                        .radius = 0.01,
+                        .force = {0, 0, 0},
                         .jacobian = {cl::Vec3{100, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}};
-    expect_code(repulsive, cl::ErrorCode::UnstableGains);                        // sym(J) has +100 N/m
-    expect_code(cl::Spring{.constraint = cl::Constraint::Point, .point = {0.1, 0, 0}, .direction = {1, 0, 0},
+    expect_code(repulsive, cl::ErrorCode::UnstableGains);  // sym(J) has +100 N/m
+    expect_code(cl::Spring{.constraint = cl::Constraint::Point,
+                           .point = {0.1, 0, 0},
+                           .direction = {1, 0, 0},
                            .gains = cl::Gains::explicit_gains(100, 1)},
-                cl::ErrorCode::BeyondDeviceLimits);                              // outside +-0.06 m
+                cl::ErrorCode::BeyondDeviceLimits);  // outside +-0.06 m
     // An attracting field without damping is a spring with B = 0: the sampled loop is then not
     // asymptotically stable (the largest stable K at B = 0 is 0), so it is refused; with damping it passes.
-    cl::Field attracting{.center = {0, 0, 0}, .radius = 0.01, .force = {0, 0, 1.0},
+    cl::Field attracting{.center = {0, 0, 0},
+                         .radius = 0.01,
+                         .force = {0, 0, 1.0},
                          .jacobian = {cl::Vec3{-100, 0, 0}, cl::Vec3{0, -100, 0}, cl::Vec3{0, 0, -100}}};
     expect_code(attracting, cl::ErrorCode::UnstableGains);
     attracting.damping = 1.0;
@@ -164,7 +176,8 @@ TEST_F(ServerProtocol, ForcesAndPositionsBeyondTheDeviceAndNegativeStiffnessAreR
 // below it passes. The limit also appears in the welcome.
 TEST(ServerStiffnessLimit, StiffnessBeyondMaxStiffnessIsRefusedNamingTheKey) {
     const Names n = names("stiff");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"), "stiff_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"),
+                 "stiff_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "stiff"});
     ASSERT_TRUE(c.welcome().device.max_stiffness.has_value());
@@ -183,22 +196,31 @@ TEST(ServerStiffnessLimit, StiffnessBeyondMaxStiffnessIsRefusedNamingTheKey) {
     };
     // Along x the mass is 0.359 kg: K = 120000 N/m (alpha = 0.334) with B = 100 N s/m is inside the
     // stability region, so only the limit refuses it.
-    const cl::Plane stiff{.normal = {-1, 0, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(120000.0, 100.0)};
+    const cl::Plane stiff{
+        .normal = {-1, 0, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(120000.0, 100.0)};
     expect_limit(cl::Batch().add(stiff), 0, "K = 120000 N/m");
-    expect_limit(cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Point, .point = {0, 0, 0}, .direction = {1, 0, 0},
+    expect_limit(cl::Batch().add(cl::Spring{.constraint = cl::Constraint::Point,
+                                            .point = {0, 0, 0},
+                                            .direction = {1, 0, 0},
                                             .gains = cl::Gains::explicit_gains(150000.0, 100.0)}),
                  0, "K = 150000 N/m");
-    cl::Field steep{.center = {0, 0, 0}, .radius = 5e-5, .force = {0, 0, 0},
-                    .jacobian = {cl::Vec3{-120000, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}}, .damping = 100.0};
+    cl::Field steep{.center = {0, 0, 0},
+                    .radius = 5e-5,
+                    .force = {0, 0, 0},
+                    .jacobian = {cl::Vec3{-120000, 0, 0}, cl::Vec3{0, 0, 0}, cl::Vec3{0, 0, 0}},
+                    .damping = 100.0};
     expect_limit(cl::Batch().add(steep), 0, "-sym(J)) = 120000 N/m");
     // Two planes along z of 60000 N/m each: each within the limit, their sum (120000) not.
-    const cl::Plane half{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(60000.0, 100.0)};
+    const cl::Plane half{
+        .normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(60000.0, 100.0)};
     expect_limit(cl::Batch().add(half).add(half), -1, "120000 N/m");
     // The config wall on axis 0 (CE2 for 0.359 kg, 88 840 N/m) plus a plane of 20000 N/m along x: over.
-    const cl::Plane small{.normal = {-1, 0, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(20000.0, 50.0)};
+    const cl::Plane small{
+        .normal = {-1, 0, 0}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(20000.0, 50.0)};
     expect_limit(cl::Batch().add(small), -1, "summed stiffness");
     // Within the limit: accepted (a plane along z, which the config wall does not share).
-    const cl::Plane fine{.normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(50000.0, 100.0)};
+    const cl::Plane fine{
+        .normal = {0, 0, -1}, .offset = -0.05, .bilateral = false, .gains = cl::Gains::explicit_gains(50000.0, 100.0)};
     EXPECT_EQ(c.commit(cl::Batch().add(fine)).object_ids.size(), 1U);
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
@@ -207,8 +229,9 @@ TEST(ServerStiffnessLimit, StiffnessBeyondMaxStiffnessIsRefusedNamingTheKey) {
 // A config wall above the profile's max_stiffness is refused at start-up (exit code 4), naming K, the
 // limit and the key; without the limit (sim3.toml) the same wall starts.
 TEST(ServerStiffnessLimit, AConfigWallAboveMaxStiffnessIsRefusedAtStartUp) {
-    const std::vector<std::string> args{"--config", "", "--dry-run", "--wall", "axis=0 position=0.05 direction=+1",
-                                        "--stiffness", "150000", "--damping", "150"};
+    const std::vector<std::string> args{
+        "--config",    "",       "--dry-run", "--wall", "axis=0 position=0.05 direction=+1",
+        "--stiffness", "150000", "--damping", "150"};
     std::vector<std::string> limited = args, unlimited = args;
     limited.insert(limited.end(), {"--device", HAPTICD_SERVER_TEST_DIR "/sim3_aniso.toml"});
     unlimited.insert(unlimited.end(), {"--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml"});
@@ -228,7 +251,8 @@ TEST(ServerStiffnessLimit, AConfigWallAboveMaxStiffnessIsRefusedAtStartUp) {
 // (sim3.toml, 0.30 kg) mass_matrix is 0.30 I.
 TEST(ServerWelcome, DeviceInfoGivesTheMassMatrixAndTheMassAlongEachAxis) {
     const double M[3][3] = {{0.45, 0.10, 0.12}, {0.10, 0.30, 0.00}, {0.12, 0.00, 0.25}};
-    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                       M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
                        M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
     const double cofactor[3] = {M[1][1] * M[2][2] - M[1][2] * M[2][1], M[0][0] * M[2][2] - M[0][2] * M[2][0],
                                 M[0][0] * M[1][1] - M[0][1] * M[1][0]};
@@ -236,10 +260,14 @@ TEST(ServerWelcome, DeviceInfoGivesTheMassMatrixAndTheMassAlongEachAxis) {
         SCOPED_TRACE(profile);
         const bool aniso = profile == "sim3_aniso.toml";
         const Names n = names(aniso ? "welcome_aniso" : "welcome_iso");
-        Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--stiffness", "2000", "--damping", "5"}, profile),
-                     aniso ? "welcome_aniso_daemon" : "welcome_iso_daemon");
+        Child daemon(
+            HAPTICD_BINARY,
+            daemon_args(n, {"--scenario", "step", "--step-force", "0", "--stiffness", "2000", "--damping", "5"},
+                        profile),
+            aniso ? "welcome_aniso_daemon" : "welcome_iso_daemon");
         ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
-        const cl::DeviceInfo d = cl::Client::connect({.socket_path = n.socket, .client_name = "welcome"}).welcome().device;
+        const cl::DeviceInfo d =
+            cl::Client::connect({.socket_path = n.socket, .client_name = "welcome"}).welcome().device;
         ASSERT_EQ(d.axes, 3U);
         for (std::size_t i = 0; i < 3; ++i) {
             for (std::size_t j = 0; j < 3; ++j) {
@@ -259,12 +287,20 @@ TEST(ServerWelcome, DeviceInfoGivesTheMassMatrixAndTheMassAlongEachAxis) {
 // such a welcome); the well-formed one it also sends is read, so the fake is a working server.
 TEST(ServerWelcome, AMassMatrixThatIsNotAxesByAxesNumbersIsAnError) {
     const std::string path = (scratch() / "fake_welcome.sock").string();
-    const json good_device = {{"name", "fake"}, {"axes", 2}, {"period_s", 0.001}, {"mass", {0.3, 0.4, 0.3}},
-                              {"mass_matrix", {{0.3, 0.01}, {0.01, 0.4}}}, {"delay_s", 0.0}, {"max_force", 10.0},
+    const json good_device = {{"name", "fake"},
+                              {"axes", 2},
+                              {"period_s", 0.001},
+                              {"mass", {0.3, 0.4, 0.3}},
+                              {"mass_matrix", {{0.3, 0.01}, {0.01, 0.4}}},
+                              {"delay_s", 0.0},
+                              {"max_force", 10.0},
                               {"max_stiffness", nullptr}};
     const std::vector<json> matrices{{{0.3, 0.01}, {0.01, 0.4}},  // well-formed: accepted
-                                     {{0.3, 0.0, 0.0}, {0.0, 0.4, 0.0}}, json::array({{0.3}, {0.4}}), {{0.3, "0"}, {0.0, 0.4}},
-                                     nullptr, json::array({0.3, 0.4})};
+                                     {{0.3, 0.0, 0.0}, {0.0, 0.4, 0.0}},
+                                     json::array({{0.3}, {0.4}}),
+                                     {{0.3, "0"}, {0.0, 0.4}},
+                                     nullptr,
+                                     json::array({0.3, 0.4})};
     for (std::size_t k = 0; k < matrices.size(); ++k) {
         SCOPED_TRACE(matrices[k].dump());
         ::unlink(path.c_str());
@@ -281,15 +317,17 @@ TEST(ServerWelcome, AMassMatrixThatIsNotAxesByAxesNumbersIsAnError) {
         } else {
             device["mass_matrix"] = matrices[k];
         }
-        const std::string welcome = json{{"type", "welcome"}, {"protocol", 1}, {"session", 1}, {"lease_s", 0.0},
-                                         {"max_message_bytes", 65536}, {"capacity", 64}, {"state_shm", "/fake"},
-                                         {"ramp_s", 0.03}, {"max_force_rate", 10000}, {"device", device}}
-                                        .dump();
+        const std::string welcome =
+            json{{"type", "welcome"},          {"protocol", 1},   {"session", 1},         {"lease_s", 0.0},
+                 {"max_message_bytes", 65536}, {"capacity", 64},  {"state_shm", "/fake"}, {"ramp_s", 0.03},
+                 {"max_force_rate", 10000},    {"device", device}}
+                .dump();
         std::thread server([&] {
             const int fd = ::accept(listener, nullptr, nullptr);
             if (fd < 0) return;
             std::vector<char> hello(70000);
-            if (::recv(fd, hello.data(), hello.size(), 0) > 0) (void)::send(fd, welcome.data(), welcome.size(), MSG_NOSIGNAL);
+            if (::recv(fd, hello.data(), hello.size(), 0) > 0)
+                (void)::send(fd, welcome.data(), welcome.size(), MSG_NOSIGNAL);
             ::close(fd);
         });
         try {
@@ -345,7 +383,8 @@ TEST_F(ServerProtocol, SocketModeAndOwnerAndASecondUserIsRefused) {
 TEST(ServerSocketMode, AWiderModeLetsTheSecondUserIn) {
     if (!running_as_root()) GTEST_SKIP() << "needs root (setuid to nobody)";
     const Names n = names("mode");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--serve-mode", "0666", "--scenario", "step", "--step-force", "0"}), "mode_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--serve-mode", "0666", "--scenario", "step", "--step-force", "0"}),
+                 "mode_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     struct stat st {};
     ASSERT_EQ(::stat(n.socket.c_str(), &st), 0);

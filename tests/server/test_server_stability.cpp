@@ -18,7 +18,8 @@ namespace {
 // without the curl is accepted (so the refusal is the curl's).
 TEST(ServerStability, AFieldWithAnUnstableCurlIsRefusedNamingTheFieldAndTheCurl) {
     const Names n = names("curl");
-    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"),
+    Child daemon(HAPTICD_BINARY,
+                 daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0"}, "sim3_aniso.toml"),
                  "curl_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "curl"});
@@ -63,9 +64,9 @@ struct DepartureScene {
     static json planes() { return plane({0.0, -0.6, -0.8}, 1e-4, json{{"K", 12739.29}, {"B", 25.4786}}, true); }
     explicit DepartureScene(const std::string& tag_) : tag(tag_), n(names(tag_)) {
         // No config wall (daemon_args adds one along axis 0, with which A + B + C is not stable).
-        std::vector<std::string> args = daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--ramp-time",
-                                                        "0.03", "--no-walls"},
-                                                    "sim3_aniso.toml");
+        std::vector<std::string> args = daemon_args(
+            n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--ramp-time", "0.03", "--no-walls"},
+            "sim3_aniso.toml");
         const auto wall = std::find(args.begin(), args.end(), "--wall");
         if (wall != args.end()) args.erase(wall, wall + 2);
         daemon = std::make_unique<Child>(HAPTICD_BINARY, args, tag + "_daemon");
@@ -73,10 +74,14 @@ struct DepartureScene {
     // Starts client 1 (C); false when the daemon or the client failed (the reason in their output).
     bool start_first(bool lease) {
         if (!wait_for_socket(n.socket)) return false;
-        const json spring{{"kind", "spring"}, {"constraint", "point"}, {"point", {0.049, 0.0, 0.0}}, {"gains", {{"K", 1000.0}, {"B", 30.0}}}};
+        const json spring{{"kind", "spring"},
+                          {"constraint", "point"},
+                          {"point", {0.049, 0.0, 0.0}},
+                          {"gains", {{"K", 1000.0}, {"B", 30.0}}}};
         std::vector<std::string> extra{"--then", lease ? "hold-silent" : "hold"};
         if (lease) extra.insert(extra.begin(), {"--lease", "0.3"});
-        first = std::make_unique<Child>(HAPTICD_TEST_CLIENT, client_args(n, json::array({{{"op", "add"}, {"object", spring}}}), extra),
+        first = std::make_unique<Child>(HAPTICD_TEST_CLIENT,
+                                        client_args(n, json::array({{{"op", "add"}, {"object", spring}}}), extra),
                                         tag + "_first");
         const auto reply = first->first_line();
         t_first = monotonic_s();
@@ -90,7 +95,8 @@ struct DepartureScene {
 
 void expect_safe_departure(const std::string& tag, bool lease) {
     DepartureScene scene(tag);
-    ASSERT_TRUE(scene.start_first(lease)) << scene.daemon->err() << (scene.first ? scene.first->out() + scene.first->err() : "");
+    ASSERT_TRUE(scene.start_first(lease))
+        << scene.daemon->err() << (scene.first ? scene.first->out() + scene.first->err() : "");
     const Names& n = scene.n;
     Child& first = *scene.first;
     const double t_first = scene.t_first;
@@ -99,7 +105,9 @@ void expect_safe_departure(const std::string& tag, bool lease) {
     ASSERT_TRUE(second.connected());
     second.hello();
     const json planes = DepartureScene::planes();
-    second.send(json{{"type", "commit"}, {"id", 1}, {"ops", json::array({{{"op", "add"}, {"object", planes}}, {{"op", "add"}, {"object", planes}}})}}
+    second.send(json{{"type", "commit"},
+                     {"id", 1},
+                     {"ops", json::array({{{"op", "add"}, {"object", planes}}, {{"op", "add"}, {"object", planes}}})}}
                     .dump());
     const json ok = second.receive_json();
     ASSERT_EQ(ok.value("type", ""), "ok") << ok.dump();
@@ -109,8 +117,12 @@ void expect_safe_departure(const std::string& tag, bool lease) {
     const cl::StateReader state = cl::StateReader::open(n.shm);
     if (!lease) {
         // A and B ramped in and the hand at rest in the stable A + B + C (so what follows is the departure's).
-        ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) {
-            return s.objects == 3 && std::abs(s.force[0]) + std::abs(s.force[1]) + std::abs(s.force[2]) < 0.01; }, 5.0));
+        ASSERT_TRUE(wait_state(
+            state,
+            [](const cl::StateSample& s) {
+                return s.objects == 3 && std::abs(s.force[0]) + std::abs(s.force[1]) + std::abs(s.force[2]) < 0.01;
+            },
+            5.0));
         first.signal(SIGKILL);
     }
     // The event arrives when the server closes client 1's session (at once, or after the lease).
@@ -141,8 +153,10 @@ void expect_safe_departure(const std::string& tag, bool lease) {
         std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
     ASSERT_TRUE(state.read(s));
-    std::printf("[ %s ] %zu samples over 3 s after the departure: largest |force| %.4g N, in the last second %.3g N, %u objects left\n",
-                tag.c_str(), samples, largest, last_second, s.objects);
+    std::printf(
+        "[ %s ] %zu samples over 3 s after the departure: largest |force| %.4g N, in the last second %.3g N, %u "
+        "objects left\n",
+        tag.c_str(), samples, largest, last_second, s.objects);
     EXPECT_GT(samples, 1000U);
     // Unstable, the force grows by 0.4 % a tick to the 10 N clamp within ~2 s; stable, the ramp-out's
     // transient (the spring's 1 N and a plane's 1e-4 m offset let go) decays in well under a second.
@@ -167,14 +181,18 @@ TEST(ServerStability, ALostLeaseTakesTheFewestFurtherObjectsThatKeepTheSceneStab
 void expect_event_delivered(const std::string& tag, std::size_t capacity) {
     DepartureScene scene(tag);
     ASSERT_TRUE(scene.start_first(false)) << scene.daemon->err();
-    cl::Client second = cl::Client::connect({.socket_path = scene.n.socket, .client_name = "events", .event_queue_capacity = capacity});
-    const cl::Plane planes{.normal = {0.0, -0.6, -0.8}, .offset = 1e-4, .bilateral = true,
+    cl::Client second =
+        cl::Client::connect({.socket_path = scene.n.socket, .client_name = "events", .event_queue_capacity = capacity});
+    const cl::Plane planes{.normal = {0.0, -0.6, -0.8},
+                           .offset = 1e-4,
+                           .bilateral = true,
                            .gains = cl::Gains::explicit_gains(12739.29, 25.4786)};  // DepartureScene::planes()
     const cl::CommitResult r = second.commit(cl::Batch().add(planes).add(planes));
     ASSERT_EQ(r.object_ids.size(), 2U);
     EXPECT_FALSE(second.poll_event().has_value());  // nothing happened yet
     const cl::StateReader state = cl::StateReader::open(scene.n.shm);
-    ASSERT_TRUE(wait_state(state, [](const cl::StateSample& s) { return s.objects == 3; }, 5.0));
+    ASSERT_TRUE(wait_state(
+        state, [](const cl::StateSample& s) { return s.objects == 3; }, 5.0));
     scene.first->signal(SIGKILL);
     // The server sends the event when it closes client 1's session; 300 ms is ample on a loaded machine.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -201,7 +219,9 @@ void expect_event_delivered(const std::string& tag, std::size_t capacity) {
     EXPECT_EQ(objects.size(), 1U);
 }
 
-TEST(ServerStability, TheClientLibraryQueuesAnEventThatArrivesWhileARequestWaits) { expect_event_delivered("events", cl::kDefaultEventQueueCapacity); }
+TEST(ServerStability, TheClientLibraryQueuesAnEventThatArrivesWhileARequestWaits) {
+    expect_event_delivered("events", cl::kDefaultEventQueueCapacity);
+}
 
 TEST(ServerStability, AnEventBeyondTheQueuesCapacityIsCountedAsDropped) { expect_event_delivered("events_full", 0); }
 
@@ -213,8 +233,8 @@ TEST(ServerStability, AnEventBeyondTheQueuesCapacityIsCountedAsDropped) { expect
 // A + B + C: accepted. (Before the pattern check, all three were accepted.)
 TEST(ServerStability, ASceneStableOnlyWhileAConditionalObjectIsEngagedIsRefused) {
     const Names n = names("patterns");
-    std::vector<std::string> args = daemon_args(n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--no-walls"},
-                                                "sim3_aniso.toml");
+    std::vector<std::string> args = daemon_args(
+        n, {"--delay-buffer", "1", "--scenario", "step", "--step-force", "0", "--no-walls"}, "sim3_aniso.toml");
     const auto wall = std::find(args.begin(), args.end(), "--wall");
     ASSERT_NE(wall, args.end());
     args.erase(wall, wall + 2);
@@ -222,12 +242,15 @@ TEST(ServerStability, ASceneStableOnlyWhileAConditionalObjectIsEngagedIsRefused)
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "patterns"});
     const cl::Vec3 normal{0.0, -0.6, -0.8};
-    const cl::Plane a{.normal = normal, .offset = 1e-4, .bilateral = true, .gains = cl::Gains::explicit_gains(12739.29, 25.4786)};
-    cl::Plane unilateral_c{.normal = normal, .offset = 1e-4, .bilateral = false, .gains = cl::Gains::explicit_gains(1000.0, 30.0)};
+    const cl::Plane a{
+        .normal = normal, .offset = 1e-4, .bilateral = true, .gains = cl::Gains::explicit_gains(12739.29, 25.4786)};
+    cl::Plane unilateral_c{
+        .normal = normal, .offset = 1e-4, .bilateral = false, .gains = cl::Gains::explicit_gains(1000.0, 30.0)};
     cl::Field field_c{.center = {0.0, 0.0, 0.0}, .radius = 0.005, .force = {0.0, 0.0, 0.0}};
     field_c.jacobian = {{{-1000, 0, 0}, {0, -1000, 0}, {0, 0, -1000}}};
     field_c.damping = 30.0;
-    for (const cl::ObjectDescription& conditional : {cl::ObjectDescription(unilateral_c), cl::ObjectDescription(field_c)}) {
+    for (const cl::ObjectDescription& conditional :
+         {cl::ObjectDescription(unilateral_c), cl::ObjectDescription(field_c)}) {
         try {
             c.commit(cl::Batch().add(a).add(a).add(conditional));
             ADD_FAILURE() << "a scene unstable while the conditional object is not engaged was accepted";

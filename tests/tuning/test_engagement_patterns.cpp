@@ -74,10 +74,15 @@ bool every_pattern_stable(const GainChecker& checker, const std::vector<SceneTer
             Matrix3 K{}, B{};
             for (std::size_t i = 0; i < terms.size(); ++i) {
                 bool engaged = !terms[i].conditional;
-                for (std::size_t c = 0; c < conditional.size(); ++c) engaged = engaged || (conditional[c] == i && ((mask >> c) & 1U));
+                for (std::size_t c = 0; c < conditional.size(); ++c)
+                    engaged = engaged || (conditional[c] == i && ((mask >> c) & 1U));
                 if (!engaged) continue;
-                const double wk = terms[i].role == SceneTerm::Role::Base ? 1.0 : terms[i].role == SceneTerm::Role::In ? s * s : (1 - s) * (1 - s);
-                const double wb = terms[i].role == SceneTerm::Role::Base ? 1.0 : terms[i].role == SceneTerm::Role::In ? s : 1 - s;
+                const double wk = terms[i].role == SceneTerm::Role::Base ? 1.0
+                                  : terms[i].role == SceneTerm::Role::In ? s * s
+                                                                         : (1 - s) * (1 - s);
+                const double wb = terms[i].role == SceneTerm::Role::Base ? 1.0
+                                  : terms[i].role == SceneTerm::Role::In ? s
+                                                                         : 1 - s;
                 for (std::size_t r = 0; r < 3; ++r) {
                     for (std::size_t c = 0; c < 3; ++c) {
                         K[r][c] += wk * terms[i].K[r][c];
@@ -116,18 +121,22 @@ TEST(EngagementPatterns, GroupsGiveTheVerdictOfEveryPatternOfTheWholeScene) {
                 }
                 const double m = checker.mass_along(n);
                 const double alpha = 0.01 + 0.1 * u(rng), beta = 0.05 + 0.4 * u(rng);
-                const SceneTerm::Role role = u(rng) < 0.2 ? SceneTerm::Role::In : u(rng) < 0.1 ? SceneTerm::Role::Out : SceneTerm::Role::Base;
+                const SceneTerm::Role role = u(rng) < 0.2   ? SceneTerm::Role::In
+                                             : u(rng) < 0.1 ? SceneTerm::Role::Out
+                                                            : SceneTerm::Role::Base;
                 terms.push_back(plane(n, alpha * m / (kPeriod * kPeriod), beta * m / kPeriod, u(rng) < 0.6,
-                                           static_cast<std::uint32_t>(i + 1), role));
+                                      static_cast<std::uint32_t>(i + 1), role));
             }
             const EngagementCheck grouped = check_engagement_patterns(checker, terms, 0.25);
             ASSERT_FALSE(grouped.over_limit);
-            EXPECT_EQ(grouped.stable, every_pattern_stable(checker, terms, 0.25)) << "scene " << scene << ": " << grouped.why;
+            EXPECT_EQ(grouped.stable, every_pattern_stable(checker, terms, 0.25))
+                << "scene " << scene << ": " << grouped.why;
             (grouped.stable ? stable : unstable) += 1;
             split += grouped.groups > 1 ? 1 : 0;
         }
     }
-    std::printf("[ patterns ] 80 scenes: %d stable, %d unstable, %d with more than one group\n", stable, unstable, split);
+    std::printf("[ patterns ] 80 scenes: %d stable, %d unstable, %d with more than one group\n", stable, unstable,
+                split);
     EXPECT_GT(stable, 10);
     EXPECT_GT(unstable, 10);
     EXPECT_GT(split, 10);
@@ -148,9 +157,12 @@ TEST(EngagementPatterns, FacingConfigWallsAreNeverEngagedTogether) {
         EXPECT_EQ(pairs[2 * a], pairs[2 * a + 1]);
     }
     EXPECT_NE(pairs[0], pairs[2]);
-    EXPECT_EQ(exclusive_wall_pairs({AxisWall{0, -0.01, 1.0, false}, AxisWall{0, 0.01, -1.0, false}}), (std::vector<int>{-1, -1}));  // overlap
-    EXPECT_EQ(exclusive_wall_pairs({AxisWall{0, 0.05, 1.0, false}, AxisWall{0, 0.06, 1.0, false}}), (std::vector<int>{-1, -1}));
-    EXPECT_EQ(exclusive_wall_pairs({AxisWall{0, 0.05, 1.0, true}, AxisWall{0, -0.05, -1.0, false}}), (std::vector<int>{-1, -1}));
+    EXPECT_EQ(exclusive_wall_pairs({AxisWall{0, -0.01, 1.0, false}, AxisWall{0, 0.01, -1.0, false}}),
+              (std::vector<int>{-1, -1}));  // overlap
+    EXPECT_EQ(exclusive_wall_pairs({AxisWall{0, 0.05, 1.0, false}, AxisWall{0, 0.06, 1.0, false}}),
+              (std::vector<int>{-1, -1}));
+    EXPECT_EQ(exclusive_wall_pairs({AxisWall{0, 0.05, 1.0, true}, AxisWall{0, -0.05, -1.0, false}}),
+              (std::vector<int>{-1, -1}));
     for (int anisotropic = 0; anisotropic <= 1; ++anisotropic) {
         const GainChecker checker(pattern_plant(kPeriod, anisotropic != 0));
         std::vector<SceneTerm> terms;
@@ -158,7 +170,8 @@ TEST(EngagementPatterns, FacingConfigWallsAreNeverEngagedTogether) {
             std::array<double, 3> e{};
             e[box[i].axis] = 1.0;
             const double m = checker.mass().of_axis(box[i].axis);
-            terms.push_back(plane(e, 0.05 * m / (kPeriod * kPeriod), 0.3 * m / kPeriod, true, static_cast<std::uint32_t>(i + 1)));
+            terms.push_back(
+                plane(e, 0.05 * m / (kPeriod * kPeriod), 0.3 * m / kPeriod, true, static_cast<std::uint32_t>(i + 1)));
             terms.back().exclusive_pair = pairs[i];
         }
         const EngagementCheck c = check_engagement_patterns(checker, terms, 1.0);
@@ -183,15 +196,16 @@ TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
     std::vector<SceneTerm> terms;
     for (std::uint32_t i = 0; i < 8; ++i) {
         const double a = 0.3 * i;
-        terms.push_back(plane({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.1 * 0.3 / kPeriod, true, i + 1,
-                                   i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
+        terms.push_back(plane({std::cos(a), std::sin(a), 0.0}, 0.01 * 0.3 / (kPeriod * kPeriod), 0.1 * 0.3 / kPeriod,
+                              true, i + 1, i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
     }
     const EngagementCheck over = check_engagement_patterns(checker, terms, ramp);
     EXPECT_FALSE(over.stable);
     EXPECT_TRUE(over.over_limit);
     EXPECT_EQ(over.checks, 0U);
     EXPECT_NE(over.why.find("give 7680 pattern-scenes"), std::string::npos) << over.why;
-    EXPECT_NE(over.why.find("accepted: at most 3840 (128 patterns at the default 30 ms ramp"), std::string::npos) << over.why;
+    EXPECT_NE(over.why.find("accepted: at most 3840 (128 patterns at the default 30 ms ramp"), std::string::npos)
+        << over.why;
     // A departure (no limit) checks them all.
     EXPECT_FALSE(check_engagement_patterns(checker, terms, ramp, PatternLimit::None).over_limit);
     terms.pop_back();
@@ -202,8 +216,9 @@ TEST(EngagementPatterns, BeyondTheLimitTheCheckRefusesNamingIt) {
 
     std::vector<SceneTerm> parallel;
     for (std::uint32_t i = 0; i < 10; ++i) {
-        parallel.push_back(plane({0.0, 0.6, 0.8}, (0.001 + 0.0002 * i) * 0.3 / (kPeriod * kPeriod), 0.015 * 0.3 / kPeriod, true, i + 1,
-                                      i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
+        parallel.push_back(plane({0.0, 0.6, 0.8}, (0.001 + 0.0002 * i) * 0.3 / (kPeriod * kPeriod),
+                                 0.015 * 0.3 / kPeriod, true, i + 1,
+                                 i == 0 ? SceneTerm::Role::In : SceneTerm::Role::Base));
     }
     const EngagementCheck over_parallel = check_engagement_patterns(checker, parallel, ramp);
     EXPECT_TRUE(over_parallel.over_limit);
@@ -226,7 +241,8 @@ TEST(EngagementPatterns, IdenticalObjectsCountOncePerNumberEngaged) {
     EXPECT_EQ(all.largest_group_patterns, 33U);
     EXPECT_EQ(all.checks, 33U);
     // Stiff enough that several together are unstable (alpha = 0.1, beta = 0.3 each at d = 1): refused.
-    std::vector<SceneTerm> stiff(6, plane({0.0, 0.0, -1.0}, 0.1 * 0.3 / (kPeriod * kPeriod), 0.3 * 0.3 / kPeriod, true, 1));
+    std::vector<SceneTerm> stiff(
+        6, plane({0.0, 0.0, -1.0}, 0.1 * 0.3 / (kPeriod * kPeriod), 0.3 * 0.3 / kPeriod, true, 1));
     std::string why;
     ASSERT_TRUE(checker.sum_is_stable(stiff[0].K, stiff[0].B, why)) << why;
     EXPECT_EQ(check_engagement_patterns(checker, stiff, 1.0).stable, every_pattern_stable(checker, stiff, 1.0));

@@ -8,7 +8,8 @@
 int main() {
     namespace cl = hapticd::client;
     cl::Batch batch;
-    batch.add(cl::Plane{.normal = {0, 0, 1}, .offset = 0.0, .bilateral = false, .gains = cl::Gains::by_criterion("CE2")})
+    batch
+        .add(cl::Plane{.normal = {0, 0, 1}, .offset = 0.0, .bilateral = false, .gains = cl::Gains::by_criterion("CE2")})
         .remove(7)
         .clear();
     int failures = batch.operations().size() == 3 ? 0 : 1;

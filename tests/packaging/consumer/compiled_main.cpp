@@ -5,8 +5,8 @@
 #include <cstdio>
 
 int main() {
-  const hapticopt::PhysicalPlant plant{0.30, 0.0, 0.0, 0.001, 0.001};
-  const hapticopt::WallTuning wall = hapticopt::optimal_wall(hapticopt::Criterion::CE2, plant);
-  std::printf("K = %.1f N/m, B = %.2f N s/m\n", wall.K, wall.B);
-  return wall.K > 0 ? 0 : 1;
+    const hapticopt::PhysicalPlant plant{0.30, 0.0, 0.0, 0.001, 0.001};
+    const hapticopt::WallTuning wall = hapticopt::optimal_wall(hapticopt::Criterion::CE2, plant);
+    std::printf("K = %.1f N/m, B = %.2f N s/m\n", wall.K, wall.B);
+    return wall.K > 0 ? 0 : 1;
 }

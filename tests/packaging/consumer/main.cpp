@@ -6,6 +6,6 @@
 #include <cstdio>
 
 int main() {
-  std::printf("hapticopt %s\n", HAPTICOPT_VERSION_STRING);
-  return 0;
+    std::printf("hapticopt %s\n", HAPTICOPT_VERSION_STRING);
+    return 0;
 }
