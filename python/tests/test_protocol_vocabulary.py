@@ -15,7 +15,7 @@ from conftest import REPOSITORY
 def cpp_error_codes():
     """(enumerator, wire string) of error_code.cpp's table, in its order."""
     text = (REPOSITORY / "src" / "client" / "error_code.cpp").read_text()
-    return re.findall(r'\{ErrorCode::(\w+), "([a-z_]+)"\}', text)
+    return re.findall(r'\{\s*ErrorCode::(\w+),\s*"([a-z_]+)"\}', text)
 
 
 def cpp_enumerators(header: str, enum: str):
@@ -43,17 +43,17 @@ def test_state_faults_are_the_cpp_enum():
     snake = {re.sub(r"(?<!^)([A-Z])", r"_\1", name).upper(): value for name, value in values.items()}
     assert {f.name: f.value for f in hc.StateFault} == snake
     text = (REPOSITORY / header).read_text()
-    names = dict(re.findall(r'case StateFault::(\w+): return "([a-z_-]+)";', text))
+    names = dict(re.findall(r'case StateFault::(\w+):\s*return "([a-z_-]+)";', text))
     assert {values[name]: wire for name, wire in names.items()} == {int(k): v for k, v in hc.FAULT_NAMES.items()}
     assert hc.FAULT_FATAL_SIGNAL == values["FatalSignal"] and hc.FAULT_TERMINATE == values["Terminate"]
 
 
 def test_criterion_names_are_the_cpp_ones():
     text = (REPOSITORY / "include" / "hapticopt" / "criterion.hpp").read_text()
-    step = dict(re.findall(r'case Criterion::(\w+): return "([^"]+)";', text))
+    step = dict(re.findall(r'case Criterion::(\w+):\s*return "([^"]+)";', text))
     order = re.search(r"kAllCriteria = \{(.*?)\};", text, re.S).group(1)
     assert ho.STEP_CRITERIA == tuple(step[c] for c in re.findall(r"Criterion::(\w+)", order))
-    collision = dict(re.findall(r'case ImpulseCriterion::(\w+): return "([^"]+)";', text))
+    collision = dict(re.findall(r'case ImpulseCriterion::(\w+):\s*return "([^"]+)";', text))
     order = re.search(r"kAllImpulseCriteria = \{(.*?)\};", text, re.S).group(1)
     assert ho.COLLISION_CRITERIA == tuple(collision[c] for c in re.findall(r"ImpulseCriterion::(\w+)", order))
     assert ho.CRITERIA_WITH_SURFACE == ("CE0", "CE1", "CE2", "OV", "CI0", "CI1", "CI2")
