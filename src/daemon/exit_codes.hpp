@@ -17,8 +17,8 @@ enum ExitCode : int {
     kExitRunFault = 7,          // fault during the run: watchdog or non-finite value
     kExitServerError = 8,       // --serve: the control socket or the state's shared memory could not be created
     kExitSocketPathInUse = 9,   // --serve: the socket path holds a file that is not a stale hapticd socket (left alone)
-    kExitBadRecording =
-        10,  // --replay: the recording is unreadable, truncated, corrupt, incomplete or cannot be rebuilt
+    // --replay: the recording is unreadable, truncated, corrupt, incomplete or cannot be rebuilt
+    kExitBadRecording = 10,
     kExitReplayMismatch = 11,  // --replay: a replayed force differs from the recorded one (or the batches or ticks do)
 };
 
