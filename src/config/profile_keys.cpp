@@ -3,12 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include "common/number_text.hpp"
 #include "config/options.hpp"
 
 namespace hapticd {
@@ -76,31 +76,6 @@ void validate_real_device_keys(const KeyLocations& where, const std::string& dri
 
 // ---- the plant's mass keys ---------------------------------------------------------------------------
 
-namespace {
-
-std::string number(double v) {
-    std::ostringstream s;
-    s.precision(6);
-    s << v;
-    return s.str();
-}
-
-std::string list(const std::vector<double>& v) {
-    std::string out = "[";
-    for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + number(v[i]);
-    return out + "]";
-}
-
-Eigen::Matrix3d to_eigen(const MassMatrix& m, std::size_t axes) {
-    Eigen::Matrix3d e = Eigen::Matrix3d::Zero();
-    for (std::size_t i = 0; i < axes; ++i) {
-        for (std::size_t j = 0; j < axes; ++j) e(static_cast<int>(i), static_cast<int>(j)) = m[i][j];
-    }
-    return e;
-}
-
-}  // namespace
-
 void add_mass_keys(CLI::App& app, MassKeys& k) {
     app.add_option("--mass", k.mass);
     app.add_option("--mass_matrix", k.mass_matrix);
@@ -129,11 +104,11 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
     ProfileMass out;
     if (k.mass_given) {
         if (k.mass.size() != 1 && k.mass.size() != axes) {
-            invalid_key(where, "mass", list(k.mass), "one value (every axis) or one per axis (" + n_axes + ")");
+            invalid_key(where, "mass", number_list(k.mass), "one value (every axis) or one per axis (" + n_axes + ")");
         }
         for (double v : k.mass) {
             if (!std::isfinite(v) || v <= 0.0 || v > 1e6) {
-                invalid_key(where, "mass", k.mass.size() == 1 ? number(v) : list(k.mass),
+                invalid_key(where, "mass", k.mass.size() == 1 ? short_number(v) : number_list(k.mass),
                             "finite, > 0 and <= 1e6 kg (kg m^2 for rotary devices)" +
                                 std::string(k.mass.size() == 1 ? "" : " per value"));
             }
@@ -149,7 +124,7 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         double largest_entry = 0.0;
         for (double v : k.mass_matrix) {
             if (!std::isfinite(v) || std::abs(v) > 1e6)
-                invalid_key(where, "mass_matrix", list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
+                invalid_key(where, "mass_matrix", number_list(k.mass_matrix), "finite entries, |M_ij| <= 1e6 kg");
             largest_entry = std::max(largest_entry, std::abs(v));
         }
         MassMatrix M{};
@@ -162,21 +137,23 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
                 // tolerance only forgives a last-digit difference, never a real asymmetry.
                 if (std::abs(M[i][j] - M[j][i]) > 1e-9 * largest_entry) {
                     invalid_key(where, "mass_matrix",
-                                "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + number(M[i][j]) +
-                                    " but M[" + std::to_string(j) + "][" + std::to_string(i) + "] = " + number(M[j][i]),
+                                "M[" + std::to_string(i) + "][" + std::to_string(j) + "] = " + short_number(M[i][j]) +
+                                    " but M[" + std::to_string(j) + "][" + std::to_string(i) +
+                                    "] = " + short_number(M[j][i]),
                                 "a symmetric matrix (|M_ij - M_ji| <= 1e-9 max |M_kl|)");
                 }
             }
         }
         const auto n = static_cast<Eigen::Index>(axes);
-        const Eigen::MatrixXd m = to_eigen(M, axes).topLeftCorner(n, n);
+        const Eigen::MatrixXd m = mass_matrix_eigen(M, axes).topLeftCorner(n, n);
         const Eigen::LLT<Eigen::MatrixXd> cholesky(0.5 * (m + m.transpose()));
         const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
         const double lo = es.eigenvalues().minCoeff(), hi = es.eigenvalues().maxCoeff();
         if (cholesky.info() != Eigen::Success || !(lo > 0.0) || lo < 1e-9 * hi || hi > 1e6) {
-            invalid_key(where, "mass_matrix",
-                        list(k.mass_matrix) + " (eigenvalues " + number(lo) + " .. " + number(hi) + " kg)",
-                        "positive definite (Cholesky), eigenvalues in (0, 1e6] kg, smallest / largest >= 1e-9");
+            invalid_key(
+                where, "mass_matrix",
+                number_list(k.mass_matrix) + " (eigenvalues " + short_number(lo) + " .. " + short_number(hi) + " kg)",
+                "positive definite (Cholesky), eigenvalues in (0, 1e6] kg, smallest / largest >= 1e-9");
         }
         out.mass = DeviceMass::from_matrix(M, axes);
     }
@@ -184,14 +161,14 @@ ProfileMass validate_mass_keys(const KeyLocations& where, std::size_t axes, cons
         throw StartupError(
             ErrorKind::InvalidParameter,
             where.prefix(k.mass_given ? "mass" : "mass_matrix") + "an anisotropic mass (" + out.mass.describe() +
-                ") with damping = " + number(damping) + " N s/m, stiffness = " + number(stiffness) +
+                ") with damping = " + short_number(damping) + " N s/m, stiffness = " + short_number(stiffness) +
                 " N/m is not supported: the plant along a direction is then not one scalar loop, and the "
                 "stability checks would use a wrong model; accepted: damping = 0 and stiffness = 0 with a mass "
                 "per axis or mass_matrix, or one mass for every axis (docs/devices.md)");
     }
     if (k.max_stiffness_given) {
         if (!std::isfinite(k.max_stiffness) || k.max_stiffness <= 0.0 || k.max_stiffness > 1e12) {
-            invalid_key(where, "max_stiffness", number(k.max_stiffness),
+            invalid_key(where, "max_stiffness", short_number(k.max_stiffness),
                         "finite, > 0 and <= 1e12 N/m (N m/rad); omit it for no limit");
         }
         out.max_stiffness = k.max_stiffness;

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "tuning/device_mass.hpp"
 
+#include "common/number_text.hpp"
+
 #include <cmath>
-#include <sstream>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -11,27 +12,6 @@
 namespace hapticd {
 
 namespace {
-
-std::string number(double v) {
-    std::ostringstream s;
-    s.precision(6);
-    s << v;
-    return s.str();
-}
-
-std::string list(const std::vector<double>& v) {
-    std::string out = "[";
-    for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + number(v[i]);
-    return out + "]";
-}
-
-Eigen::Matrix3d to_eigen(const MassMatrix& m, std::size_t axes) {
-    Eigen::Matrix3d e = Eigen::Matrix3d::Zero();
-    for (std::size_t i = 0; i < axes; ++i) {
-        for (std::size_t j = 0; j < axes; ++j) e(static_cast<int>(i), static_cast<int>(j)) = m[i][j];
-    }
-    return e;
-}
 
 MassMatrix from_eigen(const Eigen::MatrixXd& e) {
     MassMatrix m{};
@@ -43,6 +23,14 @@ MassMatrix from_eigen(const Eigen::MatrixXd& e) {
 }
 
 }  // namespace
+
+Eigen::Matrix3d mass_matrix_eigen(const MassMatrix& m, std::size_t axes) {
+    Eigen::Matrix3d e = Eigen::Matrix3d::Zero();
+    for (std::size_t i = 0; i < axes; ++i) {
+        for (std::size_t j = 0; j < axes; ++j) e(static_cast<int>(i), static_cast<int>(j)) = m[i][j];
+    }
+    return e;
+}
 
 DeviceMass DeviceMass::isotropic_mass(double mass, std::size_t axes) {
     DeviceMass d;
@@ -58,7 +46,7 @@ DeviceMass DeviceMass::isotropic_mass(double mass, std::size_t axes) {
 
 DeviceMass DeviceMass::from_matrix(const MassMatrix& M, std::size_t axes) {
     const auto n = static_cast<Eigen::Index>(axes);
-    const Eigen::Matrix3d full = to_eigen(M, axes);
+    const Eigen::Matrix3d full = mass_matrix_eigen(M, axes);
     const Eigen::MatrixXd m = 0.5 * (full.topLeftCorner(n, n) + full.topLeftCorner(n, n).transpose());
     bool diagonal = true, isotropic = true;
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -105,16 +93,16 @@ double DeviceMass::along(const AxisVector& n) const noexcept {
 }
 
 std::string DeviceMass::describe() const {
-    if (isotropic) return number(matrix[0][0]) + " kg";
+    if (isotropic) return short_number(matrix[0][0]) + " kg";
     if (diagonal) {
         std::vector<double> v;
         for (std::size_t a = 0; a < axes; ++a) v.push_back(matrix[a][a]);
-        return list(v) + " kg per axis";
+        return number_list(v) + " kg per axis";
     }
     std::string out = "matrix [";
     for (std::size_t i = 0; i < axes; ++i) {
         std::vector<double> row(matrix[i].begin(), matrix[i].begin() + static_cast<std::ptrdiff_t>(axes));
-        out += (i ? ", " : "") + list(row);
+        out += (i ? ", " : "") + number_list(row);
     }
     return out + "] kg";
 }

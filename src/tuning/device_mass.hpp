@@ -7,6 +7,8 @@
 #include <cstddef>
 #include <string>
 
+#include <Eigen/Core>
+
 #include "common/axis_vector.hpp"
 
 namespace hapticd {
@@ -49,5 +51,8 @@ struct DeviceMass {
   private:
     double smallest_ = 0.0, largest_ = 0.0;
 };
+
+// The first `axes` rows and columns of M as a 3 x 3 Eigen matrix, zero elsewhere.
+Eigen::Matrix3d mass_matrix_eigen(const MassMatrix& m, std::size_t axes);
 
 }  // namespace hapticd
