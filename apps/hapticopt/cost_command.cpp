@@ -20,6 +20,23 @@
 
 namespace hapticopt::cli {
 
+namespace {
+
+// The fields every `cost --json` answer starts with: stability, the energy costs and the overshoot.
+nlohmann::json step_response_json(const StabilityReport& report, const EnergyCosts& costs, const OvershootResult& ov) {
+    nlohmann::json out;
+    out["stable"] = report.stable;
+    out["CE0"] = number_or_null(costs.ce0);
+    out["CE1"] = number_or_null(costs.ce1);
+    out["CE2"] = number_or_null(costs.ce2);
+    out["OV"] = number_or_null(ov.value);
+    out["no_overshoot"] = report.stable ? nlohmann::json(ov.within_tolerance) : nlohmann::json(nullptr);
+    out["spectral_radius"] = report.spectral_radius;
+    return out;
+}
+
+}  // namespace
+
 CommandRunner add_cost_command(CLI::App& app) {
     struct Args {
         double alpha = 0, beta = 0, tolerance = 1e-12;
@@ -65,14 +82,7 @@ CommandRunner add_cost_command(CLI::App& app) {
             const OvershootResult ov = overshoot(plant, gains, estimator, options);
             const char* note = "the collision criteria and passivity are modelled for the backward difference only";
             if (args->json) {
-                nlohmann::json out;
-                out["stable"] = report.stable;
-                out["CE0"] = number_or_null(costs.ce0);
-                out["CE1"] = number_or_null(costs.ce1);
-                out["CE2"] = number_or_null(costs.ce2);
-                out["OV"] = number_or_null(ov.value);
-                out["no_overshoot"] = report.stable ? nlohmann::json(ov.within_tolerance) : nlohmann::json(nullptr);
-                out["spectral_radius"] = report.spectral_radius;
+                nlohmann::json out = step_response_json(report, costs, ov);
                 for (const char* k : {"CI0", "CI1", "CI2", "penetration", "passive", "passivity_margin"})
                     out[k] = nullptr;
                 out["note"] = note;
@@ -103,14 +113,7 @@ CommandRunner add_cost_command(CLI::App& app) {
         options.tolerance = args->tolerance;
         const OvershootResult ov = overshoot(plant, gains, options);
         if (args->json) {
-            nlohmann::json out;
-            out["stable"] = report.stable;
-            out["CE0"] = number_or_null(costs.ce0);
-            out["CE1"] = number_or_null(costs.ce1);
-            out["CE2"] = number_or_null(costs.ce2);
-            out["OV"] = number_or_null(ov.value);
-            out["no_overshoot"] = report.stable ? nlohmann::json(ov.within_tolerance) : nlohmann::json(nullptr);
-            out["spectral_radius"] = report.spectral_radius;
+            nlohmann::json out = step_response_json(report, costs, ov);
             // Collision criteria and passivity (impulse_costs.hpp, passivity.hpp).
             const ImpulseCosts ic = impulse_costs(plant, gains);
             out["CI0"] = number_or_null(ic.ci0);
