@@ -397,7 +397,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--workspace_max", p.workspace_max);
     app.add_option("--rotary", p.rotary);
     app.add_option("--position_noise", p.position_noise);
-    app.add_option("--position_resolution", p.position_resolution);
+    std::vector<double> position_resolution;
+    app.add_option("--position_resolution", position_resolution);
     app.add_option("--noise_seed", p.noise_seed);
     app.add_option("--fail_at_tick", p.fail_at_tick);
     app.add_option("--mass_range", p.mass_range);
@@ -449,7 +450,16 @@ DeviceProfile load_device_profile(const Options& o) {
         }
     }
     check_range(where, "position_noise", p.position_noise, 0.0, 1.0, false, "0 .. 1 m");
-    check_range(where, "position_resolution", p.position_resolution, 0.0, 1.0, false, "0 .. 1 m");
+    if (position_resolution.size() > 1 && position_resolution.size() != axes) {
+        invalid(where, "position_resolution", std::to_string(position_resolution.size()) + " values",
+                "one value, or one per axis (" + std::to_string(axes) + ")");
+    }
+    for (std::size_t a = 0; a < axes; ++a) {
+        if (position_resolution.empty()) break;
+        const double q = position_resolution[position_resolution.size() == 1 ? 0 : a];
+        check_range(where, "position_resolution", q, 0.0, 1.0, false, "0 .. 1 m (rad) per axis");
+        p.position_resolution[a] = q;
+    }
     validate_real_device_keys(where, p.driver, p.real);
     struct RangeKey {
         const char* key;

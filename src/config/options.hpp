@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "common/axis_vector.hpp"
 #include "common/startup_error.hpp"
 #include "config/key_locations.hpp"
 #include "config/profile_keys.hpp"
@@ -113,7 +114,9 @@ struct DeviceProfile {
     std::vector<double> workspace_max;
     bool rotary = false;
     double position_noise = 0.0;
-    double position_resolution = 0.0;
+    // The encoder step q of each axis, m (rad): `position_resolution`, one value for every axis or one per axis;
+    // 0: none. The simulated device rounds its position to it; the tuning predicts the force noise it causes.
+    AxisVector position_resolution{};
     long long noise_seed = 1;
     long long fail_at_tick = -1;
     RealDeviceKeys real;  // keys of the falcon / hid drivers (config/profile_keys.hpp)

@@ -107,6 +107,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             }
             w.tuning = it->second;
         }
+        predict_force_noise(w.tuning, wall_plant, p.position_resolution[spec->axis]);
         if (p.max_stiffness && w.tuning.K > *p.max_stiffness) {
             std::ostringstream m;
             m << origin << " '" << text << "': K = " << w.tuning.K << " N/m"

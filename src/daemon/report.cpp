@@ -37,6 +37,13 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                       r.nominal_worst_case, r.mass_certified ? "proven" : "checked on a grid");
         line += buf;
     }
+    if (t.force_noise_std) {
+        std::snprintf(buf, sizeof buf,
+                      "; predicted force noise from the encoder step %.6g %s: sigma_F = %.4g %s (white-noise "
+                      "model, backward difference; holds while the handle moves over many steps)",
+                      t.position_resolution, rotary ? "rad" : "m", *t.force_noise_std, rotary ? "N m" : "N");
+        line += buf;
+    }
     return line;
 }
 
@@ -91,6 +98,8 @@ nlohmann::json tuning_json(const TuningResult& t) {
     j["predicted_cost"] = t.cost ? nlohmann::json(*t.cost) : nlohmann::json(nullptr);
     j["alpha_max"] = t.alpha_max;
     j["stability_margin"] = t.stability_margin();
+    j["position_resolution"] = t.position_resolution;
+    j["force_noise_std"] = t.force_noise_std ? nlohmann::json(*t.force_noise_std) : nlohmann::json(nullptr);
     if (t.robust) {
         const RobustSummary& r = *t.robust;
         auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
@@ -121,9 +130,11 @@ nlohmann::json summary_json(const RunReport& r) {
     if (r.walls.empty()) {
         j["criterion"] = o.criterion;
         j["explicit_gains"] = false;
-        for (const char* key : {"K", "B", "alpha", "beta", "predicted_cost", "alpha_max", "stability_margin"}) {
+        for (const char* key :
+             {"K", "B", "alpha", "beta", "predicted_cost", "alpha_max", "stability_margin", "force_noise_std"}) {
             j[key] = nullptr;
         }
+        j["position_resolution"] = nullptr;
     } else {
         j.update(tuning_json(r.walls.front().tuning));
     }

@@ -278,8 +278,8 @@ DeviceStatus SimDevice::read_position(AxisVector& position) noexcept {
         if (config_.position_noise > 0.0) {
             p += config_.position_noise * noise();
         }
-        if (config_.position_resolution > 0.0) {
-            p = std::round(p / config_.position_resolution) * config_.position_resolution;
+        if (config_.position_resolution[a] > 0.0) {
+            p = std::round(p / config_.position_resolution[a]) * config_.position_resolution[a];
         }
         position[a] = p;
     }

@@ -67,7 +67,7 @@ struct SimDeviceConfig {
     std::optional<std::array<AxisVector, kMaxAxes>> mass_matrix;
     double period = 1e-3;              // s
     double position_noise = 0.0;       // standard deviation of additive Gaussian noise, m (0: off)
-    double position_resolution = 0.0;  // quantisation step of the reported position, m (0: off)
+    AxisVector position_resolution{};  // per axis, quantisation step of the reported position, m (0: off)
     std::uint64_t noise_seed = 1;
     std::int64_t fail_at_tick = -1;  // fault injection for tests: Disconnected from this tick on (-1: never)
     SimScenario scenario;

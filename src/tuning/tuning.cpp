@@ -89,6 +89,19 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
     }
 }
 
+void predict_force_noise(TuningResult& t, const TuningPlant& plant, double position_resolution) {
+    t.position_resolution = position_resolution;
+    t.force_noise_std.reset();
+    if (!(position_resolution > 0.0)) return;
+    try {
+        const double sigma = hapticopt::force_noise_std(to_hapticopt(plant), hapticopt::WallGains{t.K, t.B},
+                                                        position_resolution, hapticopt::VelocityEstimator{});
+        if (std::isfinite(sigma)) t.force_noise_std = sigma;
+    } catch (const hapticopt::InvalidParameter& e) {
+        throw StartupError(ErrorKind::InvalidParameter, std::string("tuning: ") + e.what());
+    }
+}
+
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
     const hapticopt::Criterion c = parse(criterion);
     if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {

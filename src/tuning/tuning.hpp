@@ -50,6 +50,11 @@ struct TuningResult {
     std::optional<double> cost;           // predicted cost of `criterion` at (alpha, beta)
     double alpha_max = 0.0;               // largest stable alpha of the plant
     std::optional<RobustSummary> robust;  // --robust: alpha, beta, alpha_max of the box centre; cost = worst case
+    // The profile's encoder step q (position_resolution, m or rad; 0: not given) and the steady-state standard
+    // deviation of the commanded force that its rounding causes through the loop's backward difference,
+    // sigma_F = (m q / T^2) g_F (hapticopt::force_noise_std), N (N m); empty when q = 0 or unstable.
+    double position_resolution = 0.0;
+    std::optional<double> force_noise_std;
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
@@ -71,6 +76,12 @@ inline constexpr double kAlphaMaxBackOff = 1e-3;
 // (ErrorKind::InvalidParameter) when hapticopt rejects a parameter, (ErrorKind::UnstableGains) when the gains are not
 // strictly inside the stability region (hapticopt::is_stable).
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
+
+// Sets t.position_resolution and t.force_noise_std for the plant the gains act on: the white-noise model of
+// rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick), which holds while
+// the handle moves over many steps; at rest in contact the measured position sits on one or two levels and the
+// force steps between them (docs/velocity-estimation.md). q = 0: nothing predicted.
+void predict_force_noise(TuningResult& t, const TuningPlant& plant, double position_resolution);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
 // box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for

@@ -44,6 +44,8 @@ std::filesystem::path dir() {
     return d;
 }
 
+RunOutput run_hapticd(const std::vector<std::string>& args, const std::string& trace, const std::string& summary);
+
 RunOutput run_daemon(const Case& c) {
     const double T = 1e-3;
     const auto profile = dir() / (std::string(c.name) + "_device.toml");
@@ -80,6 +82,11 @@ RunOutput run_daemon(const Case& c) {
                                   "--summary-json",
                                   summary};
     args.insert(args.end(), c.gains.begin(), c.gains.end());
+    return run_hapticd(args, trace, summary);
+}
+
+// hapticd_main with `args` (which name `trace` and `summary`); the trace's rows in tick order and the summary.
+RunOutput run_hapticd(const std::vector<std::string>& args, const std::string& trace, const std::string& summary) {
     std::vector<const char*> argv;
     for (const auto& a : args) argv.push_back(a.c_str());
     const int code = hapticd_main(static_cast<int>(argv.size()), argv.data());
@@ -277,6 +284,92 @@ TEST(DaemonMatchesAnalysis, PaperCE0PointCost) {
     const auto costs = energy_costs_from_trace(c, out, 8);
     EXPECT_NEAR(costs[0], 2.583, 0.0005);
     EXPECT_NEAR(out.summary["predicted_cost"].get<double>(), 2.583, 0.0005);
+}
+
+// The force noise that the encoder's rounding causes, predicted (hapticopt::force_noise_std, the white-noise model
+// of docs/velocity-estimation.md) against the daemon in lockstep on the simulated device with real rounding. The
+// simulated position carries Gaussian noise of standard deviation q before it is rounded to the step q: by Widrow's
+// quantisation theorem the rounding error is then uniform over one step and independent from tick to tick up to
+// terms of order exp(-2 pi^2 sigma^2 / q^2) = 3e-9 (Widrow & Kollar, Quantization Noise, 2008, ch. 4 and 8),
+// whatever the handle does; here it rests in a bilateral wall under a 1 N step. The loop is linear (bilateral
+// wall, no saturation), and the run without rounding draws the same Gaussian noise (same seed), so the force of
+// the run with rounding less that of the run without it is exactly the loop's response to the rounding error.
+// Its standard deviation over ticks 2000..41999 against sigma_F: tolerance 4 standard errors of the batch
+// estimate (20 batches of 2000 ticks, each far longer than the loop's correlation time of tens of ticks).
+TEST(DaemonMatchesAnalysis, ForceNoiseFromTheEncoderStepMatchesTheWhiteNoiseModel) {
+    const double T = 1e-3, mass = 0.3, q = 1e-6;
+    auto run_with = [&](double resolution, const std::string& name) {
+        const auto profile = dir() / (name + "_device.toml");
+        {
+            std::ofstream p(profile);
+            p.precision(17);
+            p << "mass = " << mass << "\ndamping = 0\nstiffness = 0\ninherent_delay = 0\nmax_force = 1000.0\n"
+              << "position_noise = " << q << "\nnoise_seed = 11\nposition_resolution = " << resolution << "\n";
+        }
+        const std::string trace = (dir() / (name + ".csv")).string();
+        const std::string summary = (dir() / (name + ".json")).string();
+        return run_hapticd({"hapticd",
+                            "--config",
+                            "",
+                            "--device",
+                            profile.string(),
+                            "--lockstep",
+                            "--quiet",
+                            "--scenario",
+                            "step",
+                            "--hand-damping",
+                            "0",
+                            "--hand-stiffness",
+                            "0",
+                            "--bilateral",
+                            "--rate",
+                            "1000",
+                            "--delay-buffer",
+                            "1",
+                            "--criterion",
+                            "CE2",
+                            "--duration",
+                            "42",
+                            "--trace",
+                            trace,
+                            "--summary-json",
+                            summary},
+                           trace, summary);
+    };
+    const RunOutput exact = run_with(0.0, "noise_exact");
+    const RunOutput rounded = run_with(q, "noise_rounded");
+    ASSERT_EQ(exact.rows.size(), rounded.rows.size());
+    const std::size_t first = 2000, batches = 20, batch = 2000;
+    ASSERT_GE(rounded.rows.size(), first + batches * batch);
+    std::vector<double> batch_std;
+    double max_force = 0.0;
+    for (std::size_t k = 0; k < batches; ++k) {
+        double sum = 0.0, sum_sq = 0.0;
+        for (std::size_t j = first + k * batch; j < first + (k + 1) * batch; ++j) {
+            const double e = rounded.rows[j].wall - exact.rows[j].wall;
+            sum += e;
+            sum_sq += e * e;
+            max_force = std::max(max_force, std::abs(rounded.rows[j].wall));
+        }
+        const double n = static_cast<double>(batch);
+        batch_std.push_back(std::sqrt(std::max(0.0, sum_sq / n - (sum / n) * (sum / n))));
+    }
+    double mean = 0.0, spread = 0.0;
+    for (double v : batch_std) mean += v / static_cast<double>(batches);
+    for (double v : batch_std) spread += (v - mean) * (v - mean) / static_cast<double>(batches - 1);
+    const double standard_error = std::sqrt(spread / static_cast<double>(batches));
+    const hapticopt::WallGains gains{rounded.summary["K"].get<double>(), rounded.summary["B"].get<double>()};
+    const double predicted = hapticopt::force_noise_std(hapticopt::PhysicalPlant{mass, 0.0, 0.0, T, T}, gains, q);
+    std::printf(
+        "K %.6g N/m, B %.6g N s/m, q %.3g m: force noise measured %.6g +- %.2g N, predicted %.6g N "
+        "(peak force %.3g N)\n",
+        gains.stiffness, gains.damping, q, mean, standard_error, predicted, max_force);
+    EXPECT_LT(max_force, 10.0);
+    EXPECT_NEAR(mean, predicted, 4.0 * standard_error);
+    // What the start-up line and the summary give is that prediction.
+    EXPECT_DOUBLE_EQ(rounded.summary["force_noise_std"].get<double>(), predicted);
+    EXPECT_EQ(rounded.summary["position_resolution"].get<double>(), q);
+    EXPECT_TRUE(exact.summary["force_noise_std"].is_null());
 }
 
 // Removes this process's scratch files at the end.

@@ -95,7 +95,7 @@ TEST(SimDevice, PushStartsOutsideMovingIn) {
 TEST(SimDevice, NoiseIsDeterministicAndQuantised) {
     auto c = base(0.3, 0.0, 0.0);
     c.position_noise = 1e-5;
-    c.position_resolution = 1e-6;
+    c.position_resolution = {1e-6, 1e-6, 1e-6};
     c.noise_seed = 42;
     SimDevice a(c);
     SimDevice b(c);

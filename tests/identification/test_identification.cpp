@@ -66,7 +66,7 @@ SimDeviceConfig sim_config(const TruePlant& t, std::uint64_t seed, double period
     c.plant = {t.mass, t.damping, t.stiffness};
     c.period = period;
     c.position_noise = t.noise;
-    c.position_resolution = t.resolution;
+    c.position_resolution = {t.resolution, t.resolution, t.resolution};
     c.noise_seed = seed;
     c.scenario.kind = Scenario::Hold;  // at rest, no external force
     c.scenario.hold_force = 0.0;
