@@ -19,7 +19,13 @@
 //      K <= max(2 b / T, 2 f_c / q),
 //    two decoupled modes: above 2 b / T the sampled spring can grow energy (instability); above 2 f_c / q the
 //    quantised spring can release more energy per count than friction dissipates (active "buzz"). The paper
-//    states no condition for B != 0 or d > 0; abbott_okamura_passivity() takes neither.
+//    states no condition for B != 0 or d > 0; abbott_okamura_passivity() takes neither. The formula is
+//    given as the paper's main result is commonly quoted; only its abstract (the model and the two modes) was
+//    checked against the source here. Measured in this model (tests/beyond/test_limit_cycles.cpp): slow
+//    starts (up to a quarter count per period) never grow and end within one count wherever the bound holds;
+//    but with b = 0 and K <= 2 f_c / q a fast start (2.5 counts per period) grows without bound. The held
+//    force gains about K (dx)^2 / 2 per period in which x moves by dx, Coulomb friction takes f_c |dx|: the
+//    Coulomb bound protects motions of about one count per period, faster ones need the viscous bound.
 //
 // 3. Rest of the quantised wall (this header; follows from the model above). With k = 0 a sticking rest at a
 //    level y = n q holds the push iff |F - K n q| <= f_c (the damper term is zero at rest). Write F / (K q) = n0
@@ -60,8 +66,9 @@
 //    The DF is an approximation; its accuracy against a time-stepping simulation with stick-slip friction
 //    and real rounding is measured in tests/beyond/test_limit_cycles.cpp and tabulated in
 //    docs/limit-cycles.md, with where it holds and where it does not.
-//    Cost: about 240 amplitudes x (64 (d + 2) + ~50 per crossover) plant exponentials when f_c > 0 (one
-//    when f_c = 0), a few ms to tens of ms.
+//    Cost: 241 grid amplitudes plus ~40 bisection steps per cycle, each a bias bisection over the crossed
+//    thresholds and, when f_c > 0, 64 (d + 2) + ~45 per crossover plant exponentials (one in all when
+//    f_c = 0): 30 to 110 ms for d = 0..6 (tests/benchmarks/core_benchmarks.cpp, BM_PredictLimitCycle).
 #pragma once
 
 #include <algorithm>
@@ -132,11 +139,11 @@ inline bool quantised_rest_exists(double external_force, double stiffness, doubl
 
 /// The loop of predict_limit_cycle (header comment, item 4), physical units.
 struct LimitCycleLoop {
-    PhysicalPlant plant;              ///< m, b (viscous), k, T, t_d (any t_d >= 0, at most 1000 T)
-    WallGains gains{0, 0};            ///< K > 0, B [N/m, N s/m]
-    double coulomb_friction = 0;      ///< f_c [N], >= 0
-    double position_step = 0;         ///< q [m], > 0
-    double external_force = 0;        ///< F [N], the constant push that sets the mean position
+    PhysicalPlant plant;          ///< m, b (viscous), k, T, t_d (any t_d >= 0, at most 1000 T)
+    WallGains gains{0, 0};        ///< K > 0, B [N/m, N s/m]
+    double coulomb_friction = 0;  ///< f_c [N], >= 0
+    double position_step = 0;     ///< q [m], > 0
+    double external_force = 0;    ///< F [N], the constant push that sets the mean position
 };
 
 /// One solution of the harmonic balance.
@@ -151,8 +158,8 @@ struct PredictedLimitCycle {
 };
 
 struct LimitCyclePrediction {
-    bool predicted = false;                  ///< some cycle found (stable or not)
-    PredictedLimitCycle cycle;               ///< the largest stable cycle, else the largest one
+    bool predicted = false;                   ///< some cycle found (stable or not)
+    PredictedLimitCycle cycle;                ///< the largest stable cycle, else the largest one
     std::vector<PredictedLimitCycle> cycles;  ///< all, by increasing amplitude
     /// A sticking rest holds the push (quantised_rest_exists). Then the DF's cycle, which assumes sliding
     /// throughout, may coexist with the rest or not exist at all (docs/limit-cycles.md, measured).
@@ -191,8 +198,9 @@ inline double limit_cycle_bias(double k, double stiffness, double force, double 
     double lo = centre - reach, hi = centre + reach;
     while (g(lo) > 0) lo -= reach;  // g is non-decreasing; these loops end within a step or two
     while (g(hi) < 0) hi += reach;
-    const auto left = bisect([&](double x) { return g(x) >= 0; }, lo, hi, 0.0, 200);   // first x with g >= 0
-    const auto right = bisect([&](double x) { return g(x) > 0; }, lo, hi, 0.0, 200);   // first x with g > 0
+    const double tol = 1e-14 * reach;
+    const auto left = bisect([&](double x) { return g(x) >= 0; }, lo, hi, tol, 200);  // first x with g >= 0
+    const auto right = bisect([&](double x) { return g(x) > 0; }, lo, hi, tol, 200);  // first x with g > 0
     return (left.second + right.second) / 2;
 }
 
@@ -281,8 +289,8 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
         return best;
     };
     auto balance = [&](double amplitude, Crossover* where = nullptr) {  // h(A) = 1 - N |G|
-        const double x0 = detail::limit_cycle_bias(base.gamma, gains.alpha, loop.external_force * T * T / m,
-                                                   amplitude, q);
+        const double x0 =
+            detail::limit_cycle_bias(base.gamma, gains.alpha, loop.external_force * T * T / m, amplitude, q);
         const double n = detail::quantiser_dual_input(x0, amplitude, q).second;
         if (n == 0) return 1.0;
         const Crossover c = crossover(amplitude);
@@ -290,8 +298,8 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
         return 1 - n * c.gain;
     };
     auto equivalent_stable = [&](double amplitude, double theta) {
-        const double x0 = detail::limit_cycle_bias(base.gamma, gains.alpha, loop.external_force * T * T / m,
-                                                   amplitude, q);
+        const double x0 =
+            detail::limit_cycle_bias(base.gamma, gains.alpha, loop.external_force * T * T / m, amplitude, q);
         const double n = detail::quantiser_dual_input(x0, amplitude, q).second;
         const auto p = linear.polynomial(delta_at(amplitude, theta));
         return schur_cohn<double>(p.at(n * gains.alpha, n * gains.beta)).stable;
@@ -318,14 +326,13 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
                 cycle.amplitude = root;
                 cycle.theta = c.theta;
                 cycle.frequency = c.theta / (2 * pi * T);
-                const double x0 = detail::limit_cycle_bias(base.gamma, gains.alpha,
-                                                           loop.external_force * T * T / m, root, q);
+                const double x0 =
+                    detail::limit_cycle_bias(base.gamma, gains.alpha, loop.external_force * T * T / m, root, q);
                 cycle.mean_position = x0;
                 cycle.describing_gain = detail::quantiser_dual_input(x0, root, q).second;
-                cycle.equivalent_damping =
-                    friction > 0 ? 4 * loop.coulomb_friction * T / (pi * root * c.theta) : 0.0;
-                cycle.stable = !equivalent_stable(root * (1 - 1e-3), c.theta) &&
-                               equivalent_stable(root * (1 + 1e-3), c.theta);
+                cycle.equivalent_damping = friction > 0 ? 4 * loop.coulomb_friction * T / (pi * root * c.theta) : 0.0;
+                cycle.stable =
+                    !equivalent_stable(root * (1 - 1e-3), c.theta) && equivalent_stable(root * (1 + 1e-3), c.theta);
                 out.cycles.push_back(cycle);
             }
         }
@@ -335,8 +342,7 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
     {
         Crossover c;
         const double h = balance(grid(points - 1), &c);
-        out.grows_at_large_amplitude =
-            h < 0 || !equivalent_stable(grid(points - 1), c.gain > 0 ? c.theta : pi / 2);
+        out.grows_at_large_amplitude = h < 0 || !equivalent_stable(grid(points - 1), c.gain > 0 ? c.theta : pi / 2);
     }
     out.rest_exists = quantised_rest_exists(loop.external_force, loop.gains.stiffness, loop.coulomb_friction, q,
                                             loop.plant.stiffness);

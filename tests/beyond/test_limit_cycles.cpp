@@ -24,12 +24,12 @@ struct Device {
 };
 
 struct Motion {
-    double amplitude = 0;    ///< half the peak-to-peak of x(t) over the observed window [m]
-    double fundamental = 0;  ///< amplitude of x's Fourier component at `frequency` over the window [m]
-    double frequency = 0;    ///< upward crossings of the window mean per second [Hz]
-    double mean = 0;         ///< mean of x over the window [m]
+    double amplitude = 0;        ///< half the peak-to-peak of x(t) over the observed window [m]
+    double fundamental = 0;      ///< amplitude of x's Fourier component at `frequency` over the window [m]
+    double frequency = 0;        ///< upward crossings of the window mean per second [Hz]
+    double mean = 0;             ///< mean of x over the window [m]
     double start_amplitude = 0;  ///< half the peak-to-peak over the first `window` periods after the kick [m]
-    bool at_rest = false;    ///< no motion at all over the window
+    bool at_rest = false;        ///< no motion at all over the window
 };
 
 /// Exact motion under constant acceleration a and viscous rate c = b/m for time t.
@@ -188,8 +188,9 @@ inline Device tuned(int d, double friction, double fraction) {
 // harmonic 9 times more than the fundamental, about 4 % of distortion; the rest of the 20 % is for the
 // sampling of the quantiser's input (the duty cycle is realised in whole periods), which the DF does not model.
 TEST(LimitCycles, PredictionAgainstSimulation) {
-    std::printf("| d | f_c [N] | r | rest exists | DF: A [um] | DF: f [Hz] | DF stable | sim: A_peak [um] | "
-                "sim: A_fund [um] | sim: f [Hz] | sim at rest |\n");
+    std::printf(
+        "| d | f_c [N] | r | rest exists | DF: A [um] | DF: f [Hz] | DF stable | sim: A_peak [um] | "
+        "sim: A_fund [um] | sim: f [Hz] | sim at rest |\n");
     int checked = 0;
     for (int d : {0, 1, 6}) {
         for (double fc : {0.0, 0.1, 0.3, 1.0, 3.0}) {
@@ -339,7 +340,6 @@ TEST(LimitCycles, ConditionValues) {
     EXPECT_TRUE(quantised_rest_exists(10.8, 50000, 0.0, 20e-6, 10000));
     EXPECT_FALSE(quantised_rest_exists(10.5, 50000, 0.19, 20e-6, 10000));
     EXPECT_TRUE(quantised_rest_exists(10.5, 50000, 0.21, 20e-6, 10000));
-
 }
 
 TEST(LimitCycles, InvalidParametersAreNamed) {
