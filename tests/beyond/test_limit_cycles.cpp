@@ -10,7 +10,9 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
+#include <sys/wait.h>
 #include <hapticopt/hapticopt.hpp>
 #include <limits>
 #include <vector>
@@ -367,5 +369,49 @@ TEST(LimitCycles, InvalidParametersAreNamed) {
     expect_named([] { abbott_okamura_passivity(1, 0, 0, -1, 1e-3); }, "position_step");
     expect_named([] { quantised_rest_exists(1, 1, -0.1, 1e-6); }, "coulomb_friction");
 }
+
+#ifdef HAPTICOPT_CLI
+inline std::string run_cli(const std::string& arguments, int* status) {
+    const std::string command = std::string(HAPTICOPT_CLI) + " limit-cycle " + arguments + " 2>&1";
+    FILE* pipe = popen(command.c_str(), "r");
+    std::string out;
+    char buffer[4096];
+    while (pipe && std::fgets(buffer, sizeof buffer, pipe)) out += buffer;
+    const int raw = pipe ? pclose(pipe) : -1;
+    *status = raw >= 0 && WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    return out;
+}
+
+inline double json_number(const std::string& text, const std::string& key) {
+    const auto at = text.find("\"" + key + "\":");
+    return at == std::string::npos ? NAN : std::strtod(text.c_str() + at + key.size() + 3, nullptr);
+}
+
+// The subcommand prints the library's prediction (the JSON's numbers with 17 digits: equal to the last bit)
+// and refuses invalid values with exit code 3 and a message naming the option and its range.
+TEST(LimitCycles, CommandLine) {
+    const Device s = tuned(0, 0.1, 0.5);
+    const auto p = predict_limit_cycle(loop_of(s));
+    int status = 0;
+    char push[64];
+    std::snprintf(push, sizeof push, "%.17g", s.push);
+    const std::string out = run_cli(std::string("--alpha 0.2474 --beta 0.7445 --mass 0.3 --period 1e-3 "
+                                                "--position-resolution 20e-6 --coulomb-friction 0.1 --json --push ") +
+                                        push,
+                                    &status);
+    ASSERT_EQ(status, 0) << out;
+    EXPECT_EQ(json_number(out, "amplitude"), p.cycle.amplitude) << out;
+    EXPECT_EQ(json_number(out, "frequency"), p.cycle.frequency) << out;
+    EXPECT_NE(out.find("\"rest_exists\":false"), std::string::npos) << out;
+    const std::string bad = run_cli("--alpha 0.2 --beta 0.7 --mass 0.3 --period 1e-3 --position-resolution 0", &status);
+    EXPECT_EQ(status, 3) << bad;
+    EXPECT_NE(bad.find("--position-resolution = 0 is invalid; accepted range: finite and > 0"), std::string::npos)
+        << bad;
+    const std::string negative = run_cli(
+        "--alpha 0.2 --beta 0.7 --mass 0.3 --period 1e-3 --position-resolution 2e-5 --coulomb-friction -1", &status);
+    EXPECT_EQ(status, 3) << negative;
+    EXPECT_NE(negative.find("--coulomb-friction = -1 is invalid"), std::string::npos) << negative;
+}
+#endif
 
 }  // namespace hapticopt::limit_cycle_test
