@@ -65,9 +65,8 @@ CommandRunner add_limit_cycle_command(CLI::App& app) {
         loop.position_step = args->resolution;
         loop.external_force = args->push;
         const LimitCyclePrediction p = predict_limit_cycle(loop);  // validates every parameter
-        const AbbottOkamuraPassivity ao = abbott_okamura_passivity(loop.gains.stiffness, loop.plant.damping,
-                                                                   loop.coulomb_friction, loop.position_step,
-                                                                   loop.plant.period);
+        const AbbottOkamuraPassivity ao = abbott_okamura_passivity(
+            loop.gains.stiffness, loop.plant.damping, loop.coulomb_friction, loop.position_step, loop.plant.period);
         const bool ao_covered = args->beta == 0 && np.delay == 0;
         const bool cs_covered = passivity_is_covered(np);
         const bool cs_passive = cs_covered && is_passive(np, NormalizedGains{args->alpha, args->beta});
@@ -103,9 +102,10 @@ CommandRunner add_limit_cycle_command(CLI::App& app) {
         if (!p.predicted) {
             std::printf("limit cycle      none predicted (describing function)\n");
         } else {
-            std::printf("limit cycle      amplitude %.4g m, frequency %.4g Hz, %s (describing function; "
-                        "docs/limit-cycles.md for its accuracy)\n",
-                        p.cycle.amplitude, p.cycle.frequency, p.cycle.stable ? "stable" : "unstable");
+            std::printf(
+                "limit cycle      amplitude %.4g m, frequency %.4g Hz, %s (describing function; "
+                "docs/limit-cycles.md for its accuracy)\n",
+                p.cycle.amplitude, p.cycle.frequency, p.cycle.stable ? "stable" : "unstable");
             if (p.cycles.size() > 1) std::printf("                 %zu cycles in all\n", p.cycles.size());
         }
         if (p.grows_at_large_amplitude) std::printf("large motions    grow (outside the linear stable region)\n");

@@ -36,9 +36,9 @@
 //
 // 4. Describing-function (DF) prediction, in the manner of N. Diolaiti, G. Niemeyer, F. Barbagli and
 //    J. K. Salisbury, "Stability of haptic rendering: discretization, quantization, time delay, and Coulomb
-//    effects", IEEE Trans. Robotics 22(2), 256-268, 2006 (their Sect. on the describing-function analysis of
-//    quantisation and Coulomb friction). predict_limit_cycle(). Assumed: the position is x(t) = x0 + A sin wt;
-//    every other harmonic is filtered out by the mass (the DF hypothesis). Then
+//    effects", IEEE Trans. Robotics 22(2), 256-268, 2006, which analyses quantisation and Coulomb friction by
+//    describing functions (the construction below is this library's). predict_limit_cycle(). Assumed: the position is
+//    x(t) = x0 + A sin wt; every other harmonic is filtered out by the mass (the DF hypothesis). Then
 //    - the quantiser is replaced by its dual-input DF: the mean of its output, M(x0, A), and the gain of its
 //      fundamental, N(x0, A) = (2 q / (pi A)) sum_i sqrt(1 - u_i^2), u_i = (c_i - x0) / A over the thresholds
 //      c_i = (i + 1/2) q with |u_i| < 1 (each threshold adds a pulse of height q whose fundamental is in phase
@@ -231,7 +231,7 @@ struct LimitCycleLinearPart {
 
 /// The describing-function prediction of header comment item 4. Throws InvalidParameter naming the parameter
 /// for an invalid plant (mass, period > 0; damping, stiffness, time_delay >= 0; time_delay <= 1000 period),
-/// stiffness K <= 0 (the wall gain), a non-finite damping B, coulomb_friction < 0, position_step <= 0 or a
+/// gains.stiffness K <= 0, a non-finite gains.damping B, coulomb_friction < 0, position_step <= 0 or a
 /// non-finite external_force.
 HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& loop)
 #if HAPTICOPT_DEFINITIONS
@@ -240,8 +240,8 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
     validate(loop.plant, f);
     detail::require_in_range(f, "time_delay", loop.plant.time_delay, 0.0, false, 1000 * loop.plant.period,
                              "0 <= time_delay <= 1000 period");
-    detail::require_positive(f, "stiffness", loop.gains.stiffness);
-    detail::require_finite(f, "damping", loop.gains.damping);
+    detail::require_positive(f, "gains.stiffness", loop.gains.stiffness);
+    detail::require_finite(f, "gains.damping", loop.gains.damping);
     detail::require_non_negative(f, "coulomb_friction", loop.coulomb_friction);
     detail::require_positive(f, "position_step", loop.position_step);
     detail::require_finite(f, "external_force", loop.external_force);

@@ -362,7 +362,8 @@ TEST(LimitCycles, InvalidParametersAreNamed) {
     };
     expect_named(with([](LimitCycleLoop& l) { l.position_step = 0; }), "position_step");
     expect_named(with([](LimitCycleLoop& l) { l.coulomb_friction = -1; }), "coulomb_friction");
-    expect_named(with([](LimitCycleLoop& l) { l.gains.stiffness = 0; }), "stiffness");
+    expect_named(with([](LimitCycleLoop& l) { l.gains.stiffness = 0; }), "gains.stiffness");
+    expect_named(with([](LimitCycleLoop& l) { l.plant.stiffness = -1; }), "stiffness");
     expect_named(with([](LimitCycleLoop& l) { l.external_force = NAN; }), "external_force");
     expect_named(with([](LimitCycleLoop& l) { l.plant.mass = 0; }), "mass");
     expect_named(with([](LimitCycleLoop& l) { l.plant.time_delay = 2; }), "time_delay");
