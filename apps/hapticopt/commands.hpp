@@ -14,7 +14,8 @@ CommandRunner add_cost_command(CLI::App& app);
 CommandRunner add_optimum_command(CLI::App& app);
 CommandRunner add_boundary_command(CLI::App& app);
 CommandRunner add_table_command(CLI::App& app);
-CommandRunner add_plot_command(CLI::App& app);  // plot_command.cpp: SVG figures
+CommandRunner add_limit_cycle_command(CLI::App& app);  // limit_cycle_command.cpp
+CommandRunner add_plot_command(CLI::App& app);         // plot_command.cpp: SVG figures
 
 // The plot subcommands (plot_region.cpp, plot_costs.cpp, plot_step.cpp, plot_overshoot.cpp,
 // plot_collision.cpp), grouped under `hapticopt plot` by plot_command.cpp.

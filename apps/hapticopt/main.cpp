@@ -18,8 +18,8 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     app.set_version_flag("--version", HAPTICOPT_VERSION_STRING);
     std::vector<std::pair<CLI::App*, CommandRunner>> commands;
-    for (auto add :
-         {add_cost_command, add_optimum_command, add_boundary_command, add_table_command, add_plot_command}) {
+    for (auto add : {add_cost_command, add_optimum_command, add_boundary_command, add_table_command,
+                     add_limit_cycle_command, add_plot_command}) {
         const std::size_t before = app.get_subcommands({}).size();
         CommandRunner run = add(app);
         commands.emplace_back(app.get_subcommands({})[before], std::move(run));

@@ -11,6 +11,7 @@
 #include "exponential_integrals.hpp"
 #include "impulse_costs.hpp"
 #include "impulse_optimum.hpp"
+#include "limit_cycles.hpp"
 #include "loop_schur_form.hpp"
 #include "matrix_gain_stability.hpp"
 #include "noise_budget.hpp"

@@ -159,6 +159,30 @@ void BM_NoiseBudgetOptimum(benchmark::State& state) {
 }
 BENCHMARK(BM_NoiseBudgetOptimum)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMillisecond);
 
+// The describing-function limit cycle (limit_cycles.hpp) of the C_E2 optimum at d = 0, 1, 6 on m = 0.3 kg,
+// T = 1 ms, q = 20 um, push half-way between two levels; range(1): Coulomb friction 0 or 0.3 N (with friction
+// the plant is re-discretised at every amplitude and frequency). Baseline in the same run: BM_StabilityTest.
+void BM_PredictLimitCycle(benchmark::State& state) {
+    const double alpha[] = {0.2474, 0.0582, 0.00466432}, beta[] = {0.7445, 0.3796, 0.112281};
+    const int delay[] = {0, 1, 6};
+    const auto i = static_cast<std::size_t>(state.range(0));
+    LimitCycleLoop loop;
+    loop.plant = PhysicalPlant{0.3, 0, 0, 1e-3, delay[i] * 1e-3};
+    loop.gains = to_physical(NormalizedGains{alpha[i], beta[i]}, 0.3, 1e-3);
+    loop.coulomb_friction = state.range(1) == 0 ? 0.0 : 0.3;
+    loop.position_step = 20e-6;
+    loop.external_force = loop.gains.stiffness * loop.position_step * 100.5;
+    for (auto _ : state) benchmark::DoNotOptimize(predict_limit_cycle(loop));
+}
+BENCHMARK(BM_PredictLimitCycle)
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Args({2, 0})
+    ->Args({2, 1})
+    ->Unit(benchmark::kMillisecond);
+
 void BM_AllTableRows(benchmark::State& state) {
     for (auto _ : state) {
         for (double d : {0.0, 1.0}) {
