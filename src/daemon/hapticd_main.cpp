@@ -107,7 +107,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             }
             w.tuning = it->second;
         }
-        predict_force_noise(w.tuning, wall_plant, p.position_resolution[spec->axis]);
+        predict_encoder_effects(w.tuning, wall_plant, p.position_resolution[spec->axis]);
         if (p.max_stiffness && w.tuning.K > *p.max_stiffness) {
             std::ostringstream m;
             m << origin << " '" << text << "': K = " << w.tuning.K << " N/m"
@@ -316,6 +316,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         }
         for (const auto& r : report.walls) {
             out << "hapticd: wall " << r.spec << ": " << tuning_line(r.tuning, profile.rotary) << "\n";
+            const std::string encoder = encoder_line(r.tuning, profile.rotary);
+            if (!encoder.empty()) out << "hapticd: wall " << r.spec << ": " << encoder << "\n";
         }
         if (o.gains_set) {
             for (const auto& w : walls) {

@@ -37,12 +37,32 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                       r.nominal_worst_case, r.mass_certified ? "proven" : "checked on a grid");
         line += buf;
     }
-    if (t.force_noise_std) {
+    return line;
+}
+
+std::string encoder_line(const TuningResult& t, bool rotary) {
+    if (!t.force_noise_std) return {};
+    char buf[512];
+    const char* fu = rotary ? "N m" : "N";
+    std::snprintf(buf, sizeof buf,
+                  "encoder step %.6g %s: force noise sigma_F = %.4g %s while the handle moves over many steps "
+                  "(white-noise model, backward difference)",
+                  t.position_resolution, rotary ? "rad" : "m", *t.force_noise_std, fu);
+    std::string line = buf;
+    if (t.chatter) {
+        const EncoderChatter& c = *t.chatter;
         std::snprintf(buf, sizeof buf,
-                      "; predicted force noise from the encoder step %.6g %s: sigma_F = %.4g %s (white-noise "
-                      "model, backward difference; holds while the handle moves over many steps)",
-                      t.position_resolution, rotary ? "rad" : "m", *t.force_noise_std, rotary ? "N m" : "N");
+                      "; at rest in contact each count steps the force by B q / T = %.3g %s for one period, and a "
+                      "rest holds every push only with Coulomb friction >= K q / 2 = %.3g %s",
+                      c.count_kick, fu, c.friction_for_rest, fu);
         line += buf;
+        if (c.cycle_predicted) {
+            std::snprintf(buf, sizeof buf,
+                          "; without it the handle moves between counts (describing function, push half-way between "
+                          "two counts: %.3g %s at %.3g Hz)",
+                          c.cycle_amplitude * (rotary ? 1.0 : 1e6), rotary ? "rad" : "um", c.cycle_frequency);
+            line += buf;
+        }
     }
     return line;
 }
@@ -100,6 +120,16 @@ nlohmann::json tuning_json(const TuningResult& t) {
     j["stability_margin"] = t.stability_margin();
     j["position_resolution"] = t.position_resolution;
     j["force_noise_std"] = t.force_noise_std ? nlohmann::json(*t.force_noise_std) : nlohmann::json(nullptr);
+    if (t.chatter) {
+        const EncoderChatter& c = *t.chatter;
+        j["encoder_chatter"] = {
+            {"count_kick", c.count_kick},
+            {"friction_for_rest", c.friction_for_rest},
+            {"cycle_amplitude", c.cycle_predicted ? nlohmann::json(c.cycle_amplitude) : nlohmann::json(nullptr)},
+            {"cycle_frequency", c.cycle_predicted ? nlohmann::json(c.cycle_frequency) : nlohmann::json(nullptr)}};
+    } else {
+        j["encoder_chatter"] = nullptr;
+    }
     if (t.robust) {
         const RobustSummary& r = *t.robust;
         auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
@@ -130,8 +160,8 @@ nlohmann::json summary_json(const RunReport& r) {
     if (r.walls.empty()) {
         j["criterion"] = o.criterion;
         j["explicit_gains"] = false;
-        for (const char* key :
-             {"K", "B", "alpha", "beta", "predicted_cost", "alpha_max", "stability_margin", "force_noise_std"}) {
+        for (const char* key : {"K", "B", "alpha", "beta", "predicted_cost", "alpha_max", "stability_margin",
+                                "force_noise_std", "encoder_chatter"}) {
             j[key] = nullptr;
         }
         j["position_resolution"] = nullptr;

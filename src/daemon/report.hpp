@@ -43,6 +43,9 @@ struct RunReport {
 
 // "K = ... N/m, B = ... N s/m, alpha = ..., beta = ..., predicted CE2 = ..., alpha/alpha_max = ..."
 std::string tuning_line(const TuningResult& t, bool rotary);
+// "encoder step q m: force noise sigma_F = ...; at rest in contact ..." (TuningResult::force_noise_std, ::chatter);
+// empty without an encoder step.
+std::string encoder_line(const TuningResult& t, bool rotary);
 std::string statistics_text(const RunReport& r);
 nlohmann::json summary_json(const RunReport& r);
 

@@ -89,14 +89,32 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
     }
 }
 
-void predict_force_noise(TuningResult& t, const TuningPlant& plant, double position_resolution) {
+void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution) {
     t.position_resolution = position_resolution;
     t.force_noise_std.reset();
+    t.chatter.reset();
     if (!(position_resolution > 0.0)) return;
     try {
-        const double sigma = hapticopt::force_noise_std(to_hapticopt(plant), hapticopt::WallGains{t.K, t.B},
-                                                        position_resolution, hapticopt::VelocityEstimator{});
-        if (std::isfinite(sigma)) t.force_noise_std = sigma;
+        const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
+        const hapticopt::WallGains gains{t.K, t.B};
+        const double q = position_resolution;
+        const double sigma = hapticopt::force_noise_std(physical, gains, q, hapticopt::VelocityEstimator{});
+        if (!std::isfinite(sigma)) return;  // unstable gains (--passivity-control): no steady state
+        t.force_noise_std = sigma;
+        EncoderChatter c;
+        c.count_kick = std::abs(t.B) * q / plant.period;
+        c.friction_for_rest = t.K * q / 2.0;
+        if (t.K > 0.0) {
+            // A push 20.5 counts deep: half-way between two levels whatever the plant's spring does to the mean.
+            const hapticopt::LimitCyclePrediction p = hapticopt::predict_limit_cycle(
+                hapticopt::LimitCycleLoop{physical, gains, 0.0, q, (t.K + plant.stiffness) * q * 20.5});
+            if (p.predicted && p.cycle.stable) {
+                c.cycle_predicted = true;
+                c.cycle_amplitude = p.cycle.amplitude;
+                c.cycle_frequency = p.cycle.frequency;
+            }
+        }
+        t.chatter = c;
     } catch (const hapticopt::InvalidParameter& e) {
         throw StartupError(ErrorKind::InvalidParameter, std::string("tuning: ") + e.what());
     }

@@ -40,6 +40,19 @@ struct RobustSummary {
     bool mass_certified = false;      // stability over the mass range proven (not only sampled)
 };
 
+// What the encoder step does at rest in contact (docs/limit-cycles.md), for the profile's plant without Coulomb
+// friction: each count the measured position crosses steps the backward difference's force by B q / T for one
+// period; a sticking rest holds every push only with Coulomb friction f_c >= K q / 2 (Abbott & Okamura's bound
+// 2 f_c / q on K, exact for the rest: hapticopt::quantised_rest_exists), so below it the handle keeps moving between
+// counts; the describing function's cycle for a push half-way between two counts (the largest: the relay case).
+struct EncoderChatter {
+    double count_kick = 0.0;         // B q / T, N (N m)
+    double friction_for_rest = 0.0;  // K q / 2, N (N m)
+    bool cycle_predicted = false;    // a stable describing-function cycle
+    double cycle_amplitude = 0.0;    // m (rad), of the position's fundamental
+    double cycle_frequency = 0.0;    // Hz
+};
+
 struct TuningResult {
     std::string criterion;                // "CE2", ...
     bool explicit_gains = false;          // K, B given by the user (then `criterion` only names the reported cost)
@@ -55,6 +68,7 @@ struct TuningResult {
     // sigma_F = (m q / T^2) g_F (hapticopt::force_noise_std), N (N m); empty when q = 0 or unstable.
     double position_resolution = 0.0;
     std::optional<double> force_noise_std;
+    std::optional<EncoderChatter> chatter;  // with q > 0 and stable gains
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
@@ -77,11 +91,12 @@ inline constexpr double kAlphaMaxBackOff = 1e-3;
 // strictly inside the stability region (hapticopt::is_stable).
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
-// Sets t.position_resolution and t.force_noise_std for the plant the gains act on: the white-noise model of
-// rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick), which holds while
-// the handle moves over many steps; at rest in contact the measured position sits on one or two levels and the
-// force steps between them (docs/velocity-estimation.md). q = 0: nothing predicted.
-void predict_force_noise(TuningResult& t, const TuningPlant& plant, double position_resolution);
+// Sets t.position_resolution, t.force_noise_std and t.chatter for the plant the gains act on. sigma_F: the
+// white-noise model of rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick),
+// which holds while the handle moves over many steps (docs/velocity-estimation.md). At rest in contact it does not:
+// the measured position sits on one or two levels and the force steps between them (t.chatter). q = 0: nothing
+// predicted. Cost: one Stein equation and one describing-function search (up to about 0.1 s at d = 6).
+void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
 // box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
