@@ -49,8 +49,7 @@ struct CompactLoopDerivative {
 };
 
 template <typename Scalar, int MaxN>
-CompactLoopDerivative<Scalar, MaxN> compact_loop_derivative(const SampledPlant<Scalar>& plant, Scalar da,
-                                                            Scalar db) {
+CompactLoopDerivative<Scalar, MaxN> compact_loop_derivative(const SampledPlant<Scalar>& plant, Scalar da, Scalar db) {
     const int n = plant.state_dimension();
     CompactLoopDerivative<Scalar, MaxN> out;
     using Rows = Eigen::Matrix<Scalar, 2, Eigen::Dynamic, 0, 2, MaxN>;
@@ -84,7 +83,7 @@ EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<S
     using Matrix3N = Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, MaxN>;
     const int n = loop.state_dimension;
     const int p = index;
-    const std::array<Scalar, 3> binomial_p = p == 0 ? std::array<Scalar, 3>{1, 0, 0}
+    const std::array<Scalar, 3> binomial_p = p == 0   ? std::array<Scalar, 3>{1, 0, 0}
                                              : p == 1 ? std::array<Scalar, 3>{1, 1, 0}
                                                       : std::array<Scalar, 3>{1, 2, 1};  // C(p, q)
     // Dense M (rows >= 2: the shift rows).
@@ -110,7 +109,8 @@ EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<S
         weights[static_cast<std::size_t>(s)] = segment_weights(plant.segment(s), loop.total_stiffness);
         for (int q = 0; q <= p; ++q) {
             const auto qi = static_cast<std::size_t>(q);
-            const Matrix3<Scalar> w = binomial_p[qi] * weights[static_cast<std::size_t>(s)][static_cast<std::size_t>(p - q)];
+            const Matrix3<Scalar> w =
+                binomial_p[qi] * weights[static_cast<std::size_t>(s)][static_cast<std::size_t>(p - q)];
             h[qi].noalias() += r.transpose() * (w * r);
         }
     }

@@ -47,9 +47,7 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
         const auto r = fg(u * sx, v * sy);
         return Point{u, v, r.value, r.dx * sx, r.dy * sy};
     };
-    auto finite = [](const Point& p) {
-        return std::isfinite(p.f) && std::isfinite(p.gu) && std::isfinite(p.gv);
-    };
+    auto finite = [](const Point& p) { return std::isfinite(p.f) && std::isfinite(p.gu) && std::isfinite(p.gv); };
     Point p = eval(x / sx, y / sy);
     if (!finite(p)) return {x, y, p.f, evaluations};
     const double h = 1e-6;

@@ -6,9 +6,9 @@
 // largest alpha for which some beta gives C_OV <= tol; CEx+OV point = largest alpha on the C_Ex
 // optimal curve with C_OV <= tol, its cost C_Ex there.
 //
-// Global search. The cost surfaces are not convex everywhere, so every search starts coarse over
-// the whole exact stable region (stability_region.hpp gives the stable beta interval at each alpha)
-// and refines locally:
+// Global search (OptimumMethod::brent for the energy optima; the fast path below). The cost surfaces
+// are not convex everywhere, so every search starts coarse over the whole exact stable region
+// (stability_region.hpp gives the stable beta interval at each alpha) and refines locally:
 //  - beta_opt(alpha): `beta_grid` points spanning the stable beta interval, Brent's method on the
 //    best point's neighbours, then Newton steps on central differences (h = 1e-5 beta) that take
 //    beta from Brent's sqrt(eps) flatness limit to ~1e-10;
@@ -23,15 +23,17 @@
 //
 // Fast path (OptimumMethod::newton, the default) for the energy criteria, with the analytic gradient of
 // energy_gradient.hpp (adjoint Stein equation):
-//  - CEx point: a coarse start grid (8 alphas x 6 betas across the stable region), then damped Newton
-//    (newton_search.hpp: Levenberg-Marquardt on the analytic gradient, Hessian from its forward differences)
-//    from the best grid point, in coordinates scaled by the region's alpha range and the stable beta
-//    interval's width there, to a step below 1e-12 of those;
-//  - beta_opt(alpha) of C_Ex (also inside the CEx+OV bisection): 6 betas across the stable interval, then
-//    the one-dimensional damped Newton on dC/dbeta.
+//  - CEx point: a start grid of alpha_grid / 3 alphas x 3 beta_grid / 8 betas (at least 4 each; 8 x 6 by
+//    default) across the stable region, then damped Newton (newton_search.hpp: Levenberg-Marquardt on the
+//    analytic gradient, Hessian from its forward differences) from the best grid point, in coordinates scaled
+//    by the region's alpha range and the stable beta interval's width there, to a step below 1e-12 of those
+//    (16 to 60 gradient evaluations at d = 0, 1, 6);
+//  - beta_opt(alpha) of C_Ex (also inside the CEx+OV bisection): 3 beta_grid / 8 betas (6 by default) across
+//    the stable interval, then the one-dimensional damped Newton on dC/dbeta.
 // It stops where the gradient vanishes to rounding, so its point is at least as accurate as the nested
 // Brent search's (OptimumMethod::brent, kept as the independent slower method); the tests require both to
 // give the same point and cost on every table row and at d = 0, 1, 6 (tests/core/test_fast_optimum.cpp).
+// The OV point (overshoot only) does not use it. Measured times of both: docs/benchmarks.md.
 #pragma once
 
 #include <algorithm>
@@ -54,14 +56,14 @@ enum class OptimumMethod {
 };
 
 struct OptimumOptions {
-    double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
-    int alpha_grid = 24;                 ///< coarse alphas across the stable region, >= 4
-    int beta_grid = 16;                  ///< coarse betas across the stable interval, >= 4
-    double alpha_tolerance = 1e-10;      ///< bisection tolerance of the OV and CEx+OV points, and Brent's
-                                         ///< tolerance over alpha for the CEx points (time against
-                                         ///< error: docs/accuracy.md)
-    OptimumMethod method = OptimumMethod::newton;  ///< search of the energy optima (header comment); the
-                                                   ///< grids and alpha_tolerance above are the brent method's
+    double overshoot_tolerance = 1e-12;            ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    int alpha_grid = 24;                           ///< coarse alphas across the stable region, >= 4
+    int beta_grid = 16;                            ///< coarse betas across the stable interval, >= 4
+    double alpha_tolerance = 1e-10;                ///< bisection tolerance of the OV and CEx+OV points, and Brent's
+                                                   ///< tolerance over alpha for the CEx points (time against
+                                                   ///< error: docs/accuracy.md)
+    OptimumMethod method = OptimumMethod::newton;  ///< search of the energy optima (header comment); newton
+                                                   ///< thins the grids for its start and has no alpha_tolerance
 };
 
 struct Optimum {
@@ -253,7 +255,7 @@ class WallOptimizer {
     /// The CEx point by the fast path (header comment).
     HAPTICOPT_DEFERRED
     detail::NewtonMinimum2 newton_energy_minimum(int index) const {
-        constexpr int kAlphas = 8, kBetas = 6;
+        const int kAlphas = std::max(4, options_.alpha_grid / 3), kBetas = std::max(4, options_.beta_grid * 3 / 8);
         const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
         double best_a = a0 + 0.5 * (a1 - a0), best_b = 0, best_width = 1, best_value = HUGE_VAL;
         for (int i = 0; i < kAlphas; ++i) {
@@ -281,7 +283,7 @@ class WallOptimizer {
     /// beta_opt(alpha) of C_E<index> by the fast path (header comment). Returns (beta, value).
     HAPTICOPT_DEFERRED
     detail::ScalarMinimum newton_curve_point(int index, double alpha) const {
-        constexpr int kBetas = 6;
+        const int kBetas = std::max(4, options_.beta_grid * 3 / 8);
         const auto [lo, hi] = region_.beta_range(alpha);
         double best_b = (lo + hi) / 2, best_value = HUGE_VAL;
         for (int j = 0; j < kBetas; ++j) {

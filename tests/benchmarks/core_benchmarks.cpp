@@ -60,12 +60,7 @@ void BM_EnergyCostGradient(benchmark::State& state) {
     const NormalizedGains g = gains_for(d);
     for (auto _ : state) benchmark::DoNotOptimize(energy_cost_gradient(plant, g.alpha, g.beta, k));
 }
-BENCHMARK(BM_EnergyCostGradient)
-    ->Args({1, 0})
-    ->Args({1, 2})
-    ->Args({6, 0})
-    ->Args({6, 2})
-    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EnergyCostGradient)->Args({1, 0})->Args({1, 2})->Args({6, 0})->Args({6, 2})->Unit(benchmark::kMicrosecond);
 
 void BM_EnergyCostsIncludingPlantSetup(benchmark::State& state) {
     const double d = static_cast<double>(state.range(0));
@@ -108,10 +103,7 @@ void BM_OptimumMethod(benchmark::State& state) {
     o.method = state.range(1) == 0 ? OptimumMethod::newton : OptimumMethod::brent;
     for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, o));
 }
-BENCHMARK(BM_OptimumMethod)
-    ->ArgNames({"d", "brent"})
-    ->ArgsProduct({{0, 1, 6}, {0, 1}})
-    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_OptimumMethod)->ArgNames({"d", "brent"})->ArgsProduct({{0, 1, 6}, {0, 1}})->Unit(benchmark::kMicrosecond);
 
 // What the optimum's set-up costs: the exact stable region (StabilityRegion) and the sampled plant.
 void BM_OptimizerSetup(benchmark::State& state) {

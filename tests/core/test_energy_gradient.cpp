@@ -20,8 +20,9 @@ struct GradientCase {
 // Points at and away from the optima (gradient ~0 and large), whole and fractional delays (one and two
 // segments per period), with and without the plant's own stiffness and damping.
 const GradientCase kCases[] = {
-    {{0, 0, 0}, {0.2474, 0.7445}},         {{0, 0, 0}, {0.1, 0.5}},           {{0.001, 0.02, 1}, {0.0582, 0.3796}},
-    {{0, 0, 1}, {0.03, 0.5}},              {{0.0005, 0.01, 1.5}, {0.03, 0.25}}, {{0, 0, 6}, {0.006, 0.09}},
+    {{0, 0, 0}, {0.2474, 0.7445}},        {{0, 0, 0}, {0.1, 0.5}},
+    {{0.001, 0.02, 1}, {0.0582, 0.3796}}, {{0, 0, 1}, {0.03, 0.5}},
+    {{0.0005, 0.01, 1.5}, {0.03, 0.25}},  {{0, 0, 6}, {0.006, 0.09}},
     {{0.001, 0.02, 2.5}, {0.02, 0.3}},
 };
 
@@ -46,7 +47,8 @@ TEST(EnergyCostGradient, MatchesCentralDifferencesInLongDouble) {
             const LD fd_alpha = (energy_cost(fine, a + ha, b, p) - energy_cost(fine, a - ha, b, p)) / (2 * ha);
             const LD fd_beta = (energy_cost(fine, a, b + hb, p) - energy_cost(fine, a, b - hb, p)) / (2 * hb);
             const std::string where = "p=" + std::to_string(p) + " d=" + std::to_string(c.plant.delay) +
-                                      " alpha=" + std::to_string(c.gains.alpha) + " beta=" + std::to_string(c.gains.beta);
+                                      " alpha=" + std::to_string(c.gains.alpha) +
+                                      " beta=" + std::to_string(c.gains.beta);
             EXPECT_NEAR(g.d_alpha, static_cast<double>(fd_alpha), 1e-8 * cost / c.gains.alpha) << where;
             EXPECT_NEAR(g.d_beta, static_cast<double>(fd_beta), 1e-8 * cost / c.gains.beta) << where;
             // The same algorithm in long double: the double gradient's rounding.
@@ -78,8 +80,8 @@ TEST(EnergyCostGradient, AdjointSteinSolveHasASmallResidual) {
     // L = M^T L M + H for a general symmetric H (the gradient's adjoint), against the dense M, and the duality
     // <H, X(C)> = <L, C> that makes it the adjoint. Residual bound: eps times the Stein operator's condition
     // ~ 1 / (1 - rho^2), as for ShiftSteinSolver::solve (tests/core/test_energy_costs.cpp).
-    for (const NormalizedPlant p : {NormalizedPlant{0, 0, 0}, NormalizedPlant{0.001, 0.02, 1.5},
-                                    NormalizedPlant{0, 0, 6}}) {
+    for (const NormalizedPlant p :
+         {NormalizedPlant{0, 0, 0}, NormalizedPlant{0.001, 0.02, 1.5}, NormalizedPlant{0, 0, 6}}) {
         const StabilityRegion region(p);
         const double a = 0.5 * region.alpha_max();
         const auto [lo, hi] = region.beta_range(a);
@@ -93,7 +95,7 @@ TEST(EnergyCostGradient, AdjointSteinSolveHasASmallResidual) {
         for (Eigen::Index i = 0; i < n; ++i) {
             for (Eigen::Index j = 0; j < n; ++j) {
                 h(i, j) = 1.0 / (1.0 + static_cast<double>(i + j));  // Hilbert-like, symmetric
-                c(i, j) = std::cos(static_cast<double>(i * j));        // symmetric
+                c(i, j) = std::cos(static_cast<double>(i * j));      // symmetric
             }
         }
         const DynamicMatrix<double> l = solver.adjoint_solve(h);

@@ -60,7 +60,8 @@ TEST(FastOptimum, EqualsTheBrentSearchOnEveryEnergyRowOfTheTables) {
     text << in.rdbuf();
     const auto rows = cli::parse_paper_table(text.str());
     ASSERT_EQ(rows.size(), 64u);
-    std::map<std::tuple<double, double, double>, std::pair<std::unique_ptr<WallOptimizer>, std::unique_ptr<WallOptimizer>>>
+    std::map<std::tuple<double, double, double>,
+             std::pair<std::unique_ptr<WallOptimizer>, std::unique_ptr<WallOptimizer>>>
         optimizers;
     int compared = 0;
     for (const auto& r : rows) {
@@ -84,8 +85,8 @@ TEST(FastOptimum, EqualsTheBrentSearchAtDelaysZeroOneSixAndFractional) {
     for (const NormalizedPlant p : {NormalizedPlant{0, 0, 0}, NormalizedPlant{0, 0, 1}, NormalizedPlant{0, 0, 6},
                                     NormalizedPlant{0.001, 0.02, 6}, NormalizedPlant{0.0005, 0.01, 2.5}}) {
         for (const Criterion c : {Criterion::CE0, Criterion::CE1, Criterion::CE2, Criterion::CE2_OV}) {
-            const std::string where = std::string(to_string(c)) + " d=" + std::to_string(p.delay) + " gamma=" +
-                                      std::to_string(p.gamma);
+            const std::string where =
+                std::string(to_string(c)) + " d=" + std::to_string(p.delay) + " gamma=" + std::to_string(p.gamma);
             expect_same_optimum(optimal_point(c, p, with_method(OptimumMethod::newton)),
                                 optimal_point(c, p, with_method(OptimumMethod::brent)), where);
         }
