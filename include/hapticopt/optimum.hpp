@@ -6,9 +6,9 @@
 // largest alpha for which some beta gives C_OV <= tol; CEx+OV point = largest alpha on the C_Ex
 // optimal curve with C_OV <= tol, its cost C_Ex there.
 //
-// Global search. The cost surfaces are not convex everywhere, so every search starts coarse over
-// the whole exact stable region (stability_region.hpp gives the stable beta interval at each alpha)
-// and refines locally:
+// Global search (OptimumMethod::brent for the energy optima; the fast path below). The cost surfaces
+// are not convex everywhere, so every search starts coarse over the whole exact stable region
+// (stability_region.hpp gives the stable beta interval at each alpha) and refines locally:
 //  - beta_opt(alpha): `beta_grid` points spanning the stable beta interval, Brent's method on the
 //    best point's neighbours, then Newton steps on central differences (h = 1e-5 beta) that take
 //    beta from Brent's sqrt(eps) flatness limit to ~1e-10;
@@ -19,7 +19,21 @@
 //    overshoot, then bisection to `alpha_tolerance` between it and the previous scan point.
 // The tests check each optimum against a 120 x 120 grid of the stable region (no grid point is
 // better) and the optimal curves against the sign change of dC/dbeta evaluated in long double.
-// Cost: a few thousand cost evaluations for a CEx point; measured times in the README (benchmarks).
+// Cost: a few thousand cost evaluations for a CEx point; measured times in docs/benchmarks.md.
+//
+// Fast path (OptimumMethod::newton, the default) for the energy criteria, with the analytic gradient of
+// energy_gradient.hpp (adjoint Stein equation):
+//  - CEx point: a start grid of alpha_grid / 3 alphas x 3 beta_grid / 8 betas (at least 4 each; 8 x 6 by
+//    default) across the stable region, then damped Newton (newton_search.hpp: Levenberg-Marquardt on the
+//    analytic gradient, Hessian from its forward differences) from the best grid point, in coordinates scaled
+//    by the region's alpha range and the stable beta interval's width there, to a step below 1e-12 of those
+//    (16 to 60 gradient evaluations at d = 0, 1, 6);
+//  - beta_opt(alpha) of C_Ex (also inside the CEx+OV bisection): 3 beta_grid / 8 betas (6 by default) across
+//    the stable interval, then the one-dimensional damped Newton on dC/dbeta.
+// It stops where the gradient vanishes to rounding, so its point is at least as accurate as the nested
+// Brent search's (OptimumMethod::brent, kept as the independent slower method); the tests require both to
+// give the same point and cost on every table row and at d = 0, 1, 6 (tests/core/test_fast_optimum.cpp).
+// The OV point (overshoot only) does not use it. Measured times of both: docs/benchmarks.md.
 #pragma once
 
 #include <algorithm>
@@ -28,18 +42,28 @@
 #include "config.hpp"
 #include "criterion.hpp"
 #include "energy_costs.hpp"
+#include "energy_gradient.hpp"
+#include "newton_search.hpp"
 #include "overshoot.hpp"
 #include "stability_region.hpp"
 
 namespace hapticopt {
 
+/// How the energy optima (CEx points and the C_Ex optimal curves) are searched (header comment).
+enum class OptimumMethod {
+    newton,  ///< start grid, then damped Newton on the analytic gradient (fast; the default)
+    brent,   ///< coarse grid, then nested Brent (derivative-free; the slower independent method)
+};
+
 struct OptimumOptions {
-    double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
-    int alpha_grid = 24;                 ///< coarse alphas across the stable region, >= 4
-    int beta_grid = 16;                  ///< coarse betas across the stable interval, >= 4
-    double alpha_tolerance = 1e-10;      ///< bisection tolerance of the OV and CEx+OV points, and Brent's
-                                         ///< tolerance over alpha for the CEx points (time against
-                                         ///< error: docs/accuracy.md)
+    double overshoot_tolerance = 1e-12;            ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    int alpha_grid = 24;                           ///< coarse alphas across the stable region, >= 4
+    int beta_grid = 16;                            ///< coarse betas across the stable interval, >= 4
+    double alpha_tolerance = 1e-10;                ///< bisection tolerance of the OV and CEx+OV points, and Brent's
+                                                   ///< tolerance over alpha for the CEx points (time against
+                                                   ///< error: docs/accuracy.md)
+    OptimumMethod method = OptimumMethod::newton;  ///< search of the energy optima (header comment); newton
+                                                   ///< thins the grids for its start and has no alpha_tolerance
 };
 
 struct Optimum {
@@ -85,7 +109,16 @@ class WallOptimizer {
     /// beta_opt(alpha) of C_E<index> (0..2), or of C_OV for index 3 (where a whole beta interval has
     /// no overshoot the minimiser is not unique and one point of the interval is returned).
     HAPTICOPT_DEFERRED
-    double optimal_beta(int index, double alpha) const { return curve_point(index, alpha, /*polish=*/index < 3).x; }
+    double optimal_beta(int index, double alpha) const {
+        if (index < 3 && options_.method == OptimumMethod::newton) return newton_curve_point(index, alpha).x;
+        return curve_point(index, alpha, /*polish=*/index < 3).x;
+    }
+
+    /// C_E<index>(alpha, beta) and its gradient (energy_gradient.hpp); value +inf when unstable.
+    HAPTICOPT_DEFERRED
+    EnergyCostGradient energy_cost_gradient(int index, double alpha, double beta) const {
+        return hapticopt::energy_cost_gradient(sampled_, alpha, beta, index);
+    }
 
     HAPTICOPT_DEFERRED
     Optimum optimum(Criterion criterion) const {
@@ -111,6 +144,13 @@ class WallOptimizer {
             case Criterion::CE1:
             case Criterion::CE2: {
                 const int k = *energy_index(criterion);
+                if (options_.method == OptimumMethod::newton) {
+                    const detail::NewtonMinimum2 m = newton_energy_minimum(k);
+                    out.alpha = m.x;
+                    out.beta = m.y;
+                    out.cost = energy_cost(k, out.alpha, out.beta);
+                    return out;
+                }
                 const auto best = global_energy_minimum(k);
                 out.alpha = best.first;
                 out.beta = optimal_beta(k, best.first);
@@ -209,6 +249,56 @@ class WallOptimizer {
         auto c = [&](double a) { return curve_point(index, a, false).value; };
         const auto m = detail::minimize_scalar(c, std::max(a0 + 1e-12, center - step), std::min(a1, center + step),
                                                options_.alpha_tolerance);
+        return {m.x, m.value};
+    }
+
+    /// The CEx point by the fast path (header comment).
+    HAPTICOPT_DEFERRED
+    detail::NewtonMinimum2 newton_energy_minimum(int index) const {
+        const int kAlphas = std::max(4, options_.alpha_grid / 3), kBetas = std::max(4, options_.beta_grid * 3 / 8);
+        const double a0 = region_.alpha_min(), a1 = region_.alpha_max();
+        double best_a = a0 + 0.5 * (a1 - a0), best_b = 0, best_width = 1, best_value = HUGE_VAL;
+        for (int i = 0; i < kAlphas; ++i) {
+            const double a = a0 + (i + 0.5) * (a1 - a0) / kAlphas;
+            const auto [lo, hi] = region_.beta_range(a);
+            for (int j = 0; j < kBetas; ++j) {
+                const double b = lo + (j + 0.5) * (hi - lo) / kBetas;
+                const double v = energy_cost(index, a, b);
+                if (v < best_value) {
+                    best_value = v;
+                    best_a = a;
+                    best_b = b;
+                    best_width = hi - lo;
+                }
+            }
+        }
+        auto fg = [&](double a, double b) {
+            if (!(a > a0 && a < a1)) return detail::ValueAndGradient2{HUGE_VAL, 0, 0};
+            const EnergyCostGradient g = energy_cost_gradient(index, a, b);
+            return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
+        };
+        return detail::minimize_newton_2d(fg, best_a, best_b, a1 - a0, best_width);
+    }
+
+    /// beta_opt(alpha) of C_E<index> by the fast path (header comment). Returns (beta, value).
+    HAPTICOPT_DEFERRED
+    detail::ScalarMinimum newton_curve_point(int index, double alpha) const {
+        const int kBetas = std::max(4, options_.beta_grid * 3 / 8);
+        const auto [lo, hi] = region_.beta_range(alpha);
+        double best_b = (lo + hi) / 2, best_value = HUGE_VAL;
+        for (int j = 0; j < kBetas; ++j) {
+            const double b = lo + (j + 0.5) * (hi - lo) / kBetas;
+            const double v = energy_cost(index, alpha, b);
+            if (v < best_value) {
+                best_value = v;
+                best_b = b;
+            }
+        }
+        auto fd = [&](double b) {
+            const EnergyCostGradient g = energy_cost_gradient(index, alpha, b);
+            return detail::ValueAndDerivative{g.value, g.d_beta};
+        };
+        const detail::NewtonMinimum2 m = detail::minimize_newton_1d(fd, best_b, lo, hi);
         return {m.x, m.value};
     }
 

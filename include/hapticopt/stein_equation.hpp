@@ -180,15 +180,20 @@ class ShiftSteinSolver {
         return x;
     }
 
-    /// P = sum_k (M^T)^k M^k, the solution of P = M^T P M + I (only valid when ok()). Since
-    /// tr X(C) = <P, C> for the solution X(C) of X = M X M^T + C, P is the gradient of that linear
+    /// P = sum_k (M^T)^k M^k, the solution of P = M^T P M + I (only valid when ok()): adjoint_solve(I).
+    Square observability_gramian() const { return adjoint_solve(Square::Identity(n_, n_)); }
+
+    /// L with L = M^T L M + h (h symmetric; only valid when ok()), the adjoint Stein equation. Since
+    /// <h, X(C)> = <L, C> for the solution X(C) of X = M X M^T + C, L is the gradient of that linear
     /// function of C: one solve with the transposed LU, then the reverse of solve()'s substitutions.
     /// Cost O(N^2) after the factorisation.
-    Square observability_gramian() const {
+    Square adjoint_solve(const Square& h) const {
         const int n = n_;
         const int u = 2 * n - 1;
-        Vector lambda = Vector::Zero(u);  // K^-T (d tr X / d unknowns)
-        for (int k = 0; k < n; ++k) lambda(ref_(k, k)) += Scalar(1);
+        Vector lambda = Vector::Zero(u);  // K^-T (d <h, X> / d unknowns)
+        for (int l = 0; l < n; ++l) {
+            for (int k = 0; k < n; ++k) lambda(ref_(k, l)) += h(k, l);
+        }
         for (int i = 0; i < u; ++i) {  // U^T y = w
             Scalar v = 0;
             for (int m = 0; m < i; ++m) v += lu_(m, i) * lambda(m);
@@ -202,8 +207,8 @@ class ShiftSteinSolver {
         for (int j = u - 1; j >= 0; --j) {
             if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
         }
-        // d tr X / d offset: the diagonal, plus lambda_eq times the offsets' weights in equation eq.
-        Square phi = Square::Identity(n, n);
+        // d <h, X> / d offset: h, plus lambda_eq times the offsets' weights in equation eq.
+        Square phi = h;
         for (int b = 0; b < n; ++b) {
             for (int a = 0; a <= std::min(1, b); ++a) {
                 const Scalar l = lambda(basic(a, b));

@@ -139,7 +139,8 @@ void BM_OvershootExact(benchmark::State& state) {
 }
 BENCHMARK(BM_OvershootExact)->ArgName("d")->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
-// Optimum search: OptimumOptions::alpha_tolerance (Brent over alpha for CE2, bisection for CE2+OV)
+// Optimum search: OptimumOptions::alpha_tolerance (Brent over alpha for CE2 with OptimumMethod::brent,
+// bisection for CE2+OV)
 // against time, for the paper's first plant rows (gamma = delta = 0) at d = 0, 1, 6. Error: relative
 // error of alpha and of the cost C_E2 against the same search run with alpha_tolerance 1e-13 and a 4x
 // denser coarse grid (96 x 64). That reference's own accuracy is what the optimum tests check (no
@@ -155,6 +156,7 @@ const hapticopt::Optimum& optimum_reference(int d, hapticopt::Criterion criterio
         fine.alpha_tolerance = 1e-13;
         fine.alpha_grid = 96;
         fine.beta_grid = 64;
+        fine.method = hapticopt::OptimumMethod::brent;
         cache[i][k] = hapticopt::WallOptimizer({0.0, 0.0, static_cast<double>(d)}, fine).optimum(criterion);
         done[i][k] = true;
     }
@@ -166,6 +168,7 @@ void BM_OptimumSearch(benchmark::State& state) {
     const auto criterion = state.range(1) == 0 ? hapticopt::Criterion::CE2 : hapticopt::Criterion::CE2_OV;
     hapticopt::OptimumOptions options;
     options.alpha_tolerance = std::pow(10.0, -static_cast<double>(state.range(2)));
+    options.method = hapticopt::OptimumMethod::brent;  // the method with a tolerance over alpha
     const hapticopt::Optimum& ref = optimum_reference(d, criterion);
     hapticopt::Optimum got;
     for (auto _ : state) {

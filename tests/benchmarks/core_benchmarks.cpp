@@ -52,6 +52,16 @@ void BM_EnergyCostsComplexSchur(benchmark::State& state) {
 }
 BENCHMARK(BM_EnergyCostsComplexSchur)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
+// C_E<k> with its gradient (energy_gradient.hpp, adjoint Stein equation); compare BM_EnergyCostSingleIndex.
+void BM_EnergyCostGradient(benchmark::State& state) {
+    const double d = static_cast<double>(state.range(0));
+    const int k = static_cast<int>(state.range(1));
+    const SampledPlant<double> plant(NormalizedPlant{0.001, 0.02, d});
+    const NormalizedGains g = gains_for(d);
+    for (auto _ : state) benchmark::DoNotOptimize(energy_cost_gradient(plant, g.alpha, g.beta, k));
+}
+BENCHMARK(BM_EnergyCostGradient)->Args({1, 0})->Args({1, 2})->Args({6, 0})->Args({6, 2})->Unit(benchmark::kMicrosecond);
+
 void BM_EnergyCostsIncludingPlantSetup(benchmark::State& state) {
     const double d = static_cast<double>(state.range(0));
     const NormalizedGains g = gains_for(d);
@@ -84,6 +94,23 @@ BENCHMARK(BM_Optimum)
     ->Args({static_cast<int>(Criterion::CE2_OV), 1})
     ->Args({static_cast<int>(Criterion::Overshoot), 1})
     ->Unit(benchmark::kMillisecond);
+
+// The CE2 optimum (optimal_point, plant gamma = delta = 0) by both methods in the same run: method 0 the
+// fast path (OptimumMethod::newton, the default), 1 the nested Brent search (OptimumMethod::brent).
+void BM_OptimumMethod(benchmark::State& state) {
+    const double d = static_cast<double>(state.range(0));
+    OptimumOptions o;
+    o.method = state.range(1) == 0 ? OptimumMethod::newton : OptimumMethod::brent;
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, o));
+}
+BENCHMARK(BM_OptimumMethod)->ArgNames({"d", "brent"})->ArgsProduct({{0, 1, 6}, {0, 1}})->Unit(benchmark::kMicrosecond);
+
+// What the optimum's set-up costs: the exact stable region (StabilityRegion) and the sampled plant.
+void BM_OptimizerSetup(benchmark::State& state) {
+    const double d = static_cast<double>(state.range(0));
+    for (auto _ : state) benchmark::DoNotOptimize(WallOptimizer(NormalizedPlant{0, 0, d}));
+}
+BENCHMARK(BM_OptimizerSetup)->Arg(0)->Arg(1)->Arg(6)->Unit(benchmark::kMicrosecond);
 
 // Velocity estimators (velocity_estimator.hpp). Kind 0: the backward difference through the estimator's
 // dense loop (complex Schur; compare BM_EnergyCosts, the shift-structured backward path, in the same run);
@@ -183,19 +210,31 @@ BENCHMARK(BM_PredictLimitCycle)
     ->Args({2, 1})
     ->Unit(benchmark::kMillisecond);
 
+// All 64 rows of Tables III and IV (8 criteria x 8 plants, one WallOptimizer per plant); arg: the energy
+// optima's method (0 newton, the default; 1 brent). Criterion filter: arg 2 = -1 for all eight, else one
+// criterion (its 8 rows), to show where the time goes.
 void BM_AllTableRows(benchmark::State& state) {
+    OptimumOptions o;
+    o.method = state.range(0) == 0 ? OptimumMethod::newton : OptimumMethod::brent;
+    const auto only = state.range(1);
     for (auto _ : state) {
         for (double d : {0.0, 1.0}) {
             for (double gamma : {0.0, 0.001}) {
                 for (double delta : {0.0, 0.02}) {
-                    const WallOptimizer opt(NormalizedPlant{gamma, delta, d});
-                    for (const Criterion c : kAllCriteria) benchmark::DoNotOptimize(opt.optimum(c));
+                    const WallOptimizer opt(NormalizedPlant{gamma, delta, d}, o);
+                    for (const Criterion c : kAllCriteria) {
+                        if (only < 0 || static_cast<int>(c) == only) benchmark::DoNotOptimize(opt.optimum(c));
+                    }
                 }
             }
         }
     }
 }
-BENCHMARK(BM_AllTableRows)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_AllTableRows)
+    ->ArgNames({"brent", "criterion"})
+    ->ArgsProduct({{0, 1}, {-1, 0, 1, 2, 3, 4, 5, 6, 7}})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 }  // namespace
 

@@ -158,8 +158,10 @@ def optimal_curve(criterion: str, alpha: npt.ArrayLike, plant: Optional[Plant] =
 def optimal_point(criterion: str, plant: Optional[Plant] = None, *, overshoot_tolerance: float = 1e-12,
                   alpha_grid: int = 24, beta_grid: int = 16, alpha_tolerance: float = 1e-10,
                   estimator: EstimatorLike = None) -> Optimum:
-    """The optimum of one of STEP_CRITERIA or COLLISION_CRITERIA (only that one is computed; a few
-    ms at d = 1). The grids and alpha_tolerance are the C++ OptimumOptions (docs/accuracy.md).
+    """The optimum of one of STEP_CRITERIA or COLLISION_CRITERIA (only that one is computed; CE2 at d = 1
+    in about 0.15 ms, the OV point in tens of ms). The grids and alpha_tolerance are the C++ OptimumOptions
+    with its default method (newton: the energy optima start from a thinned grid, then Newton steps on the
+    analytic gradient; alpha_tolerance is the bisections' of OV and CEx+OV; docs/benchmarks.md).
 
     With a velocity estimator other than backward ("lowpass:0.02", "window:15" or a VelocityEstimator;
     `hapticopt optimum --velocity`): amax, CE0..2 and CE0+OV..CE2+OV over the estimator loop's main stable

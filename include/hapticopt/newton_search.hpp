@@ -1,0 +1,165 @@
+// SPDX-License-Identifier: Apache-2.0
+// Local minimisation with an analytic gradient, used by the fast optimum (optimum.hpp):
+//  - minimize_newton_2d: Levenberg-Marquardt-damped Newton steps (a trust-region method: the damping mu
+//    shrinks the step where the quadratic model fails) on f(x, y) given f and its gradient; the Hessian
+//    comes from forward differences of the analytic gradient (step 1e-6 in the scaled coordinates x / sx,
+//    y / sy). A step is accepted when f decreases, or when f stays within rounding (8 eps |f|) and the
+//    gradient's norm decreases (at a minimum the values differ by rounding only, the gradient still
+//    resolves the point); a rejected step (also one leaving the domain, where f is not finite) raises mu.
+//    Stops when the accepted step is below `step_tolerance` in the scaled coordinates, when no step is
+//    accepted, or after `max_iterations`. Converges quadratically near a minimum with a positive definite
+//    Hessian (the forward-difference Hessian's relative error ~1e-6 only slows the last step's contraction to
+//    ~1e-6 per step); J. Nocedal, S. J. Wright, "Numerical Optimization", 2nd ed., 2006, ch. 4 and 10.
+//  - minimize_newton_1d: the same for a function of one variable, kept inside (lo, hi).
+// Both converge to a local minimum; callers start them in the global minimum's basin (a coarse grid).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace hapticopt::detail {
+
+struct ValueAndGradient2 {
+    double value;  ///< f, +inf (or NaN) outside the domain
+    double dx;
+    double dy;
+};
+
+struct NewtonMinimum2 {
+    double x;
+    double y;
+    double value;
+    int evaluations;  ///< calls of the function
+};
+
+/// See the header comment. `fg(x, y)` returns ValueAndGradient2 (or anything with value, dx, dy members).
+template <typename F>
+NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double sy, double step_tolerance = 1e-12,
+                                  int max_iterations = 60) {
+    const double eps = std::numeric_limits<double>::epsilon();
+    int evaluations = 0;
+    struct Point {
+        double u, v, f, gu, gv;
+    };
+    auto eval = [&](double u, double v) {
+        ++evaluations;
+        const auto r = fg(u * sx, v * sy);
+        return Point{u, v, r.value, r.dx * sx, r.dy * sy};
+    };
+    auto finite = [](const Point& p) { return std::isfinite(p.f) && std::isfinite(p.gu) && std::isfinite(p.gv); };
+    Point p = eval(x / sx, y / sy);
+    if (!finite(p)) return {x, y, p.f, evaluations};
+    const double h = 1e-6;
+    double mu = 0;
+    for (int it = 0; it < max_iterations; ++it) {
+        // Hessian by forward differences of the gradient (backward where the forward point is outside).
+        Point pu = eval(p.u + h, p.v);
+        double hu = h;
+        if (!finite(pu)) {
+            pu = eval(p.u - h, p.v);
+            hu = -h;
+        }
+        Point pv = eval(p.u, p.v + h);
+        double hv = h;
+        if (!finite(pv)) {
+            pv = eval(p.u, p.v - h);
+            hv = -h;
+        }
+        if (!finite(pu) || !finite(pv)) break;
+        const double huu = (pu.gu - p.gu) / hu, hvv = (pv.gv - p.gv) / hv;
+        const double huv = ((pu.gv - p.gv) / hu + (pv.gu - p.gu) / hv) / 2;
+        const double floor_mu = 1e-3 * (std::abs(huu) + std::abs(hvv)) + 1e-300;
+        const double gnorm = std::hypot(p.gu, p.gv);
+        bool accepted = false;
+        double step = 0;
+        for (int tries = 0; tries < 40 && !accepted; ++tries) {
+            const double a = huu + mu, c = hvv + mu, det = a * c - huv * huv;
+            if (!(a > 0 && det > 0)) {
+                mu = std::max(4 * mu, floor_mu);
+                continue;
+            }
+            const double su = -(c * p.gu - huv * p.gv) / det, sv = -(a * p.gv - huv * p.gu) / det;
+            const Point q = eval(p.u + su, p.v + sv);
+            const bool lower = q.f < p.f;
+            const bool level = q.f <= p.f + 8 * eps * std::abs(p.f) && std::hypot(q.gu, q.gv) < gnorm;
+            if (finite(q) && (lower || level)) {
+                p = q;
+                step = std::hypot(su, sv);
+                accepted = true;
+                mu = mu / 4 < 1e-6 * floor_mu ? 0 : mu / 4;
+            } else {
+                mu = std::max(4 * mu, floor_mu);
+            }
+        }
+        if (!accepted || step <= step_tolerance) break;
+    }
+    return {p.u * sx, p.v * sy, p.f, evaluations};
+}
+
+struct ValueAndDerivative {
+    double value;  ///< f, +inf (or NaN) outside the domain
+    double dx;
+};
+
+/// Damped Newton on f(x) given f and f' (`fd(x)` returns ValueAndDerivative), from x, kept inside (lo, hi);
+/// the second derivative from a forward difference of f' (step 1e-6 (hi - lo)). Same acceptance and stops as
+/// minimize_newton_2d with the step tolerance relative to (hi - lo).
+template <typename F>
+NewtonMinimum2 minimize_newton_1d(F&& fd, double x, double lo, double hi, double step_tolerance = 1e-12,
+                                  int max_iterations = 60) {
+    const double eps = std::numeric_limits<double>::epsilon();
+    const double width = hi - lo;
+    int evaluations = 0;
+    auto eval = [&](double t) {
+        ++evaluations;
+        return fd(t);
+    };
+    auto finite = [](const ValueAndDerivative& v) { return std::isfinite(v.value) && std::isfinite(v.dx); };
+    ValueAndDerivative p = eval(x);
+    if (!finite(p)) return {x, 0, p.value, evaluations};
+    const double h = 1e-6 * width;
+    double mu = 0;
+    for (int it = 0; it < max_iterations; ++it) {
+        double dh = x + h < hi ? h : -h;
+        ValueAndDerivative ph = eval(x + dh);
+        if (!finite(ph)) {
+            dh = -dh;
+            ph = eval(x + dh);
+        }
+        if (!finite(ph)) break;
+        const double curvature = (ph.dx - p.dx) / dh;
+        const double floor_mu = 1e-3 * std::abs(curvature) + 1e-300;
+        bool accepted = false;
+        double step = 0;
+        for (int tries = 0; tries < 40 && !accepted; ++tries) {
+            const double a = curvature + mu;
+            if (!(a > 0)) {
+                mu = std::max(4 * mu, floor_mu);
+                continue;
+            }
+            const double s = -p.dx / a;
+            const double t = x + s;
+            if (!(t > lo && t < hi)) {
+                mu = std::max(4 * mu, floor_mu);
+                continue;
+            }
+            const ValueAndDerivative q = eval(t);
+            const bool lower = q.value < p.value;
+            const bool level = q.value <= p.value + 8 * eps * std::abs(p.value) && std::abs(q.dx) < std::abs(p.dx);
+            if (finite(q) && (lower || level)) {
+                x = t;
+                p = q;
+                step = std::abs(s);
+                accepted = true;
+                mu = mu / 4 < 1e-6 * floor_mu ? 0 : mu / 4;
+            } else {
+                mu = std::max(4 * mu, floor_mu);
+            }
+        }
+        if (!accepted || step <= step_tolerance * width) break;
+    }
+    return {x, 0, p.value, evaluations};
+}
+
+}  // namespace hapticopt::detail
