@@ -150,9 +150,12 @@ MeasuredCosts measure_costs(const TrialRecord& r, const TrialSettings& trial, co
         }
         const double e_end = last / static_cast<double>(kWindow);  // mean energy of the last window
         const double L = static_cast<double>(m) * T;
-        // Decaying: tau from the two windows; not decaying (rounding-level energies, or a slow mode):
-        // tau = the record length, a pessimistic bound.
-        const double tau = last < before ? static_cast<double>(kWindow) * T / std::log(before / last) : L;
+        // Decaying: tau from the two windows; not decaying (a slow mode), or energies at rounding level (below
+        // 1e-24 of E_0: positions within 1e-12 of x_inf, where the windows' ratio is rounding noise and can give
+        // any tau): tau = the record length, a pessimistic bound.
+        const bool rounding_level = e_end <= 1e-24 * e0;
+        const double tau =
+            !rounding_level && last < before ? static_cast<double>(kWindow) * T / std::log(before / last) : L;
         const double tail0 = e_end * tau, tail1 = e_end * (L * tau + tau * tau),
                      tail2 = e_end * (L * L * tau + 2 * L * tau * tau + 2 * tau * tau * tau);
         c.tail_estimate = last == 0.0 ? 0.0 : std::max({tail0 / i0, tail1 / i1, tail2 / i2});
