@@ -18,6 +18,13 @@ class SpscRing {
 
     [[nodiscard]] std::size_t capacity() const noexcept { return buffer_.size(); }
 
+    // Producer only: true when try_push would fail now (the consumer may free a place right after).
+    [[nodiscard]] bool full() noexcept {
+        const std::size_t head = head_.load(std::memory_order_relaxed);
+        if (head - tail_cache_ == buffer_.size()) tail_cache_ = tail_.load(std::memory_order_acquire);
+        return head - tail_cache_ == buffer_.size();
+    }
+
     bool try_push(const T& value) noexcept {
         const std::size_t head = head_.load(std::memory_order_relaxed);
         if (head - tail_cache_ == buffer_.size()) {

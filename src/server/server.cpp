@@ -291,9 +291,15 @@ struct Server::Impl {
     }
 
     // The batch planned (all-or-nothing), handed to the loop behind the waiting departures, and adopted once
-    // it is in the ring; busy when the ring has no room (nothing changes).
+    // it is in the ring; busy when the ring has no room (nothing changes). A ring already full, or departures
+    // still waiting for it, answer busy before the batch is planned: a busy server does not spend the checks.
     void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req) {
         if (refuse_over_in_flight_limit(s, id)) return;
+        push_pending();
+        if (!pending.empty() || (!req.ops.empty() && ring.full())) {
+            send_error(s, id, cl::ErrorCode::Busy, "commit: the hand-over queue to the loop is full; retry", -1);
+            return;
+        }
         server::CommitOutcome outcome =
             server::plan_commit(server::CommitContext{config, checker, resolver}, slots, s.id, next_object_id, req);
         if (const auto* r = std::get_if<server::CommitRefusal>(&outcome)) {

@@ -97,12 +97,18 @@ TEST(SpscRing, FrontStaysValidUntilPopAcrossThreads) {
 
 TEST(SpscRing, FullRingRefuses) {
     SpscRing<int> ring(4);
-    for (int i = 0; i < 4; ++i) EXPECT_TRUE(ring.try_push(i));
+    for (int i = 0; i < 4; ++i) {
+        EXPECT_FALSE(ring.full());
+        EXPECT_TRUE(ring.try_push(i));
+    }
+    EXPECT_TRUE(ring.full());
     EXPECT_FALSE(ring.try_push(99));
     int v = 0;
     EXPECT_TRUE(ring.try_pop(v));
     EXPECT_EQ(v, 0);
+    EXPECT_FALSE(ring.full());  // the consumer's pop is seen
     EXPECT_TRUE(ring.try_push(4));
+    EXPECT_TRUE(ring.full());
 }
 
 std::string temp_path(const std::string& name) {

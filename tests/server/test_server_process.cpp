@@ -447,6 +447,7 @@ TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
         const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (applied_seq() != seq_before) continue;  // a batch drained meanwhile: not judged
         judged = true;
+        std::printf("[ busy ] judged round %d (%.3f s of back-off)\n", round + 1, took);
         ASSERT_TRUE(at_once.has_value()) << "the queue was not full (busy seen " << busy_seen << " times)";
         EXPECT_NE(at_once->find("busy after 1 tries"), std::string::npos) << *at_once;
         ASSERT_TRUE(backed_off.has_value()) << "accepted within the default back-off while nothing drained";
