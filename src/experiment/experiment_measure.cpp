@@ -150,9 +150,10 @@ MeasuredCosts measure_costs(const TrialRecord& r, const TrialSettings& trial, co
         }
         const double e_end = last / static_cast<double>(kWindow);  // mean energy of the last window
         const double L = static_cast<double>(m) * T;
-        // Decaying: tau from the two windows; not decaying (a slow mode), or energies at rounding level (below
-        // 1e-24 of E_0: positions within 1e-12 of x_inf, where the windows' ratio is rounding noise and can give
-        // any tau): tau = the record length, a pessimistic bound.
+        // Decaying: tau from the two windows; not decaying (a slow mode): tau = the record length, a pessimistic
+        // bound. Energies at or below 1e-24 of E_0 (positions within 1e-12 of x_inf) take tau = L as well: there
+        // the windows' ratio approaches the rounding noise (1e-32 of E_0) and can be 1 + 1e-16, i.e. any tau,
+        // while with tau = L the tail is below 5 (L/T)^3 1e-24 of the costs' scale.
         const bool rounding_level = e_end <= 1e-24 * e0;
         const double tau =
             !rounding_level && last < before ? static_cast<double>(kWindow) * T / std::log(before / last) : L;
