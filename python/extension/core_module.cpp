@@ -554,6 +554,40 @@ py::dict noise_budget_optimum_of(const std::string& criterion, double gamma, dou
     return d;
 }
 
+py::dict limit_cycle_dict(const PredictedLimitCycle& c) {
+    py::dict d;
+    d["amplitude"] = c.amplitude;
+    d["frequency"] = c.frequency;
+    d["theta"] = c.theta;
+    d["mean_position"] = c.mean_position;
+    d["describing_gain"] = c.describing_gain;
+    d["equivalent_damping"] = c.equivalent_damping;
+    d["stable"] = c.stable;
+    return d;
+}
+
+/// The describing-function prediction of limit_cycles.hpp (physical units), as `hapticopt limit-cycle`.
+py::dict limit_cycle_of(double mass, double period, double damping, double stiffness, double time_delay, double K,
+                        double B, double coulomb_friction, double position_step, double external_force) {
+    LimitCycleLoop loop;
+    loop.plant = PhysicalPlant{mass, damping, stiffness, period, time_delay};
+    loop.gains = WallGains{K, B};
+    loop.coulomb_friction = coulomb_friction;
+    loop.position_step = position_step;
+    loop.external_force = external_force;
+    LimitCyclePrediction p;
+    without_gil([&] { p = predict_limit_cycle(loop); });
+    py::dict d;
+    d["predicted"] = p.predicted;
+    d["cycle"] = p.predicted ? py::object(limit_cycle_dict(p.cycle)) : py::object(py::none());
+    py::list all;
+    for (const auto& c : p.cycles) all.append(limit_cycle_dict(c));
+    d["cycles"] = all;
+    d["rest_exists"] = p.rest_exists;
+    d["grows_at_large_amplitude"] = p.grows_at_large_amplitude;
+    return d;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -617,4 +651,10 @@ PYBIND11_MODULE(_core, m) {
     m.def("force_noise_gain", &force_noise_gain_of);
     m.def("estimator_optimal_point", &estimator_optimal_point_of);
     m.def("noise_budget_optimum", &noise_budget_optimum_of);
+    m.def("limit_cycle", &limit_cycle_of);
+    m.def("abbott_okamura_passivity", [](double K, double b, double f_c, double q, double T) {
+        const AbbottOkamuraPassivity a = abbott_okamura_passivity(K, b, f_c, q, T);
+        return py::make_tuple(a.viscous_bound, a.coulomb_bound, a.stiffness_bound, a.passive);
+    });
+    m.def("quantised_rest_exists", &quantised_rest_exists);
 }

@@ -12,6 +12,8 @@ from .costs import (CRITERIA_WITH_SURFACE, Costs, Overshoot, Penetration, Stabil
                     force_noise_gain, force_noise_std, is_passive, is_stable, overshoot, passivity_margin,
                     penetration, stability)
 from .estimator import VelocityEstimator, velocity_estimator
+from .limit_cycles import (AbbottOkamuraPassivity, LimitCycle, LimitCyclePrediction, abbott_okamura_passivity,
+                           predict_limit_cycle, quantised_rest_exists)
 from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, OptimalCurve, Optimum, PassiveOptimum, RobustOptimum,
                      WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum,
                      NoiseBudgetOptimum, noise_pareto_front, optimal_point_under_noise_budget)
@@ -31,4 +33,6 @@ __all__ = [
     "STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
     "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
     "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front",
+    "AbbottOkamuraPassivity", "LimitCycle", "LimitCyclePrediction", "abbott_okamura_passivity", "predict_limit_cycle",
+    "quantised_rest_exists",
 ]
