@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,7 @@ struct Case {
     int buffer;                       // --delay-buffer
     std::vector<std::string> gains;   // e.g. {"--criterion", "CE2"} or {"--stiffness", .., "--damping", ..}
     double duration_s;
+    std::string profile_lines{};  // more device-profile keys, "key = value\n" each
 };
 
 struct RunOutput {
@@ -53,7 +55,8 @@ RunOutput run_daemon(const Case& c) {
         std::ofstream p(profile);
         p.precision(17);
         p << "mass = " << c.mass << "\ndamping = " << c.damping << "\nstiffness = " << c.stiffness
-          << "\ninherent_delay = " << c.inherent_delay_periods * T << "\nmax_force = 1000.0\n";
+          << "\ninherent_delay = " << c.inherent_delay_periods * T << "\nmax_force = 1000.0\n"
+          << c.profile_lines;
     }
     const std::string trace = (dir() / (std::string(c.name) + ".csv")).string();
     const std::string summary = (dir() / (std::string(c.name) + ".json")).string();
@@ -298,43 +301,11 @@ TEST(DaemonMatchesAnalysis, PaperCE0PointCost) {
 // estimate (20 batches of 2000 ticks, each far longer than the loop's correlation time of tens of ticks).
 TEST(DaemonMatchesAnalysis, ForceNoiseFromTheEncoderStepMatchesTheWhiteNoiseModel) {
     const double T = 1e-3, mass = 0.3, q = 1e-6;
-    auto run_with = [&](double resolution, const std::string& name) {
-        const auto profile = dir() / (name + "_device.toml");
-        {
-            std::ofstream p(profile);
-            p.precision(17);
-            p << "mass = " << mass << "\ndamping = 0\nstiffness = 0\ninherent_delay = 0\nmax_force = 1000.0\n"
-              << "position_noise = " << q << "\nnoise_seed = 11\nposition_resolution = " << resolution << "\n";
-        }
-        const std::string trace = (dir() / (name + ".csv")).string();
-        const std::string summary = (dir() / (name + ".json")).string();
-        return run_hapticd({"hapticd",
-                            "--config",
-                            "",
-                            "--device",
-                            profile.string(),
-                            "--lockstep",
-                            "--quiet",
-                            "--scenario",
-                            "step",
-                            "--hand-damping",
-                            "0",
-                            "--hand-stiffness",
-                            "0",
-                            "--bilateral",
-                            "--rate",
-                            "1000",
-                            "--delay-buffer",
-                            "1",
-                            "--criterion",
-                            "CE2",
-                            "--duration",
-                            "42",
-                            "--trace",
-                            trace,
-                            "--summary-json",
-                            summary},
-                           trace, summary);
+    auto run_with = [&](double resolution, const char* name) {
+        std::ostringstream lines;
+        lines.precision(17);
+        lines << "position_noise = " << q << "\nnoise_seed = 11\nposition_resolution = " << resolution << "\n";
+        return run_daemon(Case{name, mass, 0.0, 0.0, 0.0, 1, {"--criterion", "CE2"}, 42.0, lines.str()});
     };
     const RunOutput exact = run_with(0.0, "noise_exact");
     const RunOutput rounded = run_with(q, "noise_rounded");
