@@ -399,6 +399,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--position_noise", p.position_noise);
     std::vector<double> position_resolution;
     app.add_option("--position_resolution", position_resolution);
+    std::string velocity_estimator = "backward";
+    app.add_option("--velocity_estimator", velocity_estimator);
     app.add_option("--noise_seed", p.noise_seed);
     app.add_option("--fail_at_tick", p.fail_at_tick);
     app.add_option("--mass_range", p.mass_range);
@@ -459,6 +461,17 @@ DeviceProfile load_device_profile(const Options& o) {
         const double q = position_resolution[position_resolution.size() == 1 ? 0 : a];
         check_range(where, "position_resolution", q, 0.0, 1.0, false, "0 .. 1 m (rad) per axis");
         p.position_resolution[a] = q;
+    }
+    {
+        std::string error;
+        const auto estimator = parse_velocity_estimator(velocity_estimator, error);
+        if (!estimator) throw StartupError(ErrorKind::InvalidParameter, where.prefix("velocity_estimator") + error);
+        const double nyquist = o.rate / 2.0;
+        if (estimator->kind == LoopVelocityKind::LowPass && estimator->cutoff_hz > nyquist) {
+            invalid(where, "velocity_estimator", velocity_estimator,
+                    "lowpass:<F>Hz with F <= " + std::to_string(nyquist) + " Hz (the Nyquist frequency of --rate)");
+        }
+        p.velocity_estimator = *estimator;
     }
     validate_real_device_keys(where, p.driver, p.real);
     struct RangeKey {

@@ -12,6 +12,7 @@
 
 #include "common/axis_vector.hpp"
 #include "common/startup_error.hpp"
+#include "common/velocity_estimator_spec.hpp"
 #include "config/key_locations.hpp"
 #include "config/profile_keys.hpp"
 
@@ -117,6 +118,9 @@ struct DeviceProfile {
     // The encoder step q of each axis, m (rad): `position_resolution`, one value for every axis or one per axis;
     // 0: none. The simulated device rounds its position to it; the tuning predicts the force noise it causes.
     AxisVector position_resolution{};
+    // How the loop estimates the velocity its dampers act on (`velocity_estimator`: backward, lowpass:<F>Hz,
+    // window:<N>); the tuning checks every wall and client scene with the same estimator.
+    VelocityEstimatorSpec velocity_estimator{};
     long long noise_seed = 1;
     long long fail_at_tick = -1;
     RealDeviceKeys real;  // keys of the falcon / hid drivers (config/profile_keys.hpp)

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "common/velocity_estimator_spec.hpp"
+
 namespace hapticopt {
 struct PhysicalPlant;
 }
@@ -14,11 +16,12 @@ struct PhysicalPlant;
 namespace hapticd {
 
 struct TuningPlant {
-    double mass = 0.0;        // kg (kg m^2)
-    double damping = 0.0;     // N s/m
-    double stiffness = 0.0;   // N/m
-    double period = 1e-3;     // s
-    double time_delay = 0.0;  // s, total: device's inherent delay + delay buffer
+    double mass = 0.0;                 // kg (kg m^2)
+    double damping = 0.0;              // N s/m
+    double stiffness = 0.0;            // N/m
+    double period = 1e-3;              // s
+    double time_delay = 0.0;           // s, total: device's inherent delay + delay buffer
+    VelocityEstimatorSpec velocity{};  // the loop's velocity estimator (the analysis's: the same difference equation)
 };
 
 // A box of uncertain plant parameters for --robust, physical units (min == max: the value is exact).
