@@ -120,6 +120,9 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
         "Largest damping the passivity controller adds, N s/m (default 0: 2 m / ((N + 1) T), N the delay buffer)");
     app.add_option("--passivity-velocity-guard", o.passivity_velocity_guard,
                    "Speed below which the passivity controller adds no damping, m/s (default 1e-4)");
+    app.add_option("--velocity-estimator", o.velocity_estimator,
+                   "Velocity estimate the dampers act on, overriding the profile's velocity_estimator: backward, "
+                   "lowpass:<F>Hz or window:<N> (docs/velocity-estimation.md); the tuning and every check use it");
     app.add_flag("--robust", o.robust,
                  "Tune CE0/CE1/CE2 for the worst case over the profile's mass_range, damping_range, stiffness_range "
                  "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
@@ -463,15 +466,34 @@ DeviceProfile load_device_profile(const Options& o) {
         p.position_resolution[a] = q;
     }
     {
+        // --velocity-estimator overrides the profile's key (its error then names the option).
+        const bool from_option = !o.velocity_estimator.empty();
+        if (from_option) velocity_estimator = o.velocity_estimator;
         std::string error;
         const auto estimator = parse_velocity_estimator(velocity_estimator, error);
-        if (!estimator) throw StartupError(ErrorKind::InvalidParameter, where.prefix("velocity_estimator") + error);
+        if (!estimator) {
+            throw StartupError(ErrorKind::InvalidParameter, from_option ? "--velocity-estimator: " + error
+                                                                        : where.prefix("velocity_estimator") + error);
+        }
         const double nyquist = o.rate / 2.0;
         if (estimator->kind == LoopVelocityKind::LowPass && estimator->cutoff_hz > nyquist) {
             invalid(where, "velocity_estimator", velocity_estimator,
                     "lowpass:<F>Hz with F <= " + std::to_string(nyquist) + " Hz (the Nyquist frequency of --rate)");
         }
         p.velocity_estimator = *estimator;
+        // These analyse the backward difference only (robust_optimum.hpp, the passivity controller's observer).
+        for (auto [set, option] :
+             {std::pair{o.robust, "--robust"}, std::pair{o.passivity_control, "--passivity-control"}}) {
+            if (set && !estimator->is_backward()) {
+                throw StartupError(ErrorKind::Usage, where.prefix("velocity_estimator") + std::string(option) +
+                                                         " models the backward difference only; this profile's "
+                                                         "velocity_estimator is " +
+                                                         velocity_estimator +
+                                                         "; accepted: velocity_estimator = "
+                                                         "\"backward\" with " +
+                                                         option);
+            }
+        }
     }
     validate_real_device_keys(where, p.driver, p.real);
     struct RangeKey {

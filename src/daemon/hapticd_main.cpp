@@ -173,6 +173,7 @@ void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profi
     held.stiffness = profile.stiffness + hand.stiffness;
     held.period = period;
     held.time_delay = delay;
+    held.velocity = profile.velocity_estimator;
     const GainChecker checker(held);
     for (const auto& r : report.walls) {
         if (!checker.pair_is_stable(r.tuning.K, r.tuning.B, held.mass)) {
@@ -249,23 +250,27 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
 
     const double period = 1.0 / o.rate;
     const double delay = profile.inherent_delay + static_cast<double>(o.delay_buffer) / o.rate;
-    const TuningPlant configured_plant{profile.mass, profile.damping, profile.stiffness, period, delay};
+    const TuningPlant configured_plant{profile.mass, profile.damping, profile.stiffness,
+                                       period,       delay,           profile.velocity_estimator};
     // --identify / --identification-file: tune from the identified plant (identification_run.hpp).
     const std::optional<IdentificationStage> ident = run_identification_stage(o, profile, period, std::cout, std::cerr);
     std::optional<TuningResult> configured_tuning;
     std::optional<IdentifiedTuning> ident_tuning;
     if (ident && !o.gains_set) {
         configured_tuning = tune_wall(o.criterion, configured_plant);
-        ident_tuning =
-            tune_identified(o.criterion, ident->result, period, static_cast<double>(o.delay_buffer) / o.rate);
+        ident_tuning = tune_identified(o.criterion, ident->result, period, static_cast<double>(o.delay_buffer) / o.rate,
+                                       profile.velocity_estimator);
     }
     const TuningPlant plant =
         !ident ? configured_plant
         : ident_tuning
             ? ident_tuning->plant
-            : TuningPlant{ident->result.mass, std::max(0.0, ident->result.damping),
-                          std::max(0.0, ident->result.stiffness), period,
-                          ident->result.delay_periods * period + static_cast<double>(o.delay_buffer) / o.rate};
+            : TuningPlant{ident->result.mass,
+                          std::max(0.0, ident->result.damping),
+                          std::max(0.0, ident->result.stiffness),
+                          period,
+                          ident->result.delay_periods * period + static_cast<double>(o.delay_buffer) / o.rate,
+                          profile.velocity_estimator};
     const std::optional<TuningBox> box =
         o.robust && !o.gains_set ? std::optional<TuningBox>(robust_box(o, profile, ident, period)) : std::nullopt;
     const std::vector<ResolvedWall> walls = resolve_walls(o, profile, plant, box);
@@ -301,6 +306,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         out << ", damping " << profile.damping << ", stiffness " << profile.stiffness << "; rate " << o.rate
             << " Hz (T = " << period * 1e3 << " ms), delay " << delay * 1e3 << " ms = " << delay / period
             << " periods (device " << profile.inherent_delay * 1e3 << " ms + buffer " << o.delay_buffer << ")\n";
+        out << "hapticd: velocity estimate " << to_string(profile.velocity_estimator)
+            << ": every damper acts on it, and the tuning and every check analyse the loop with it\n";
         if (std::abs(static_cast<double>(period_ns) - 1e9 / o.rate) > 1e-6) {
             out << "hapticd: note: the scheduler period is " << period_ns << " ns (1e9/rate rounded to whole ns); "
                 << "the wall and the tuning use T = 1/rate exactly\n";
@@ -387,7 +394,8 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
             throw StartupError(ErrorKind::InvalidParameter, e.what());
         }
     }
-    Scene scene(std::move(scene_walls), static_cast<std::size_t>(profile.axes), profile.max_force);
+    Scene scene(std::move(scene_walls), static_cast<std::size_t>(profile.axes), profile.max_force,
+                profile.velocity_estimator, period);
 
     install_stop_signal_handlers();
     std::unique_ptr<TraceWriter> trace;

@@ -191,6 +191,7 @@ nlohmann::json summary_json(const RunReport& r) {
     j["rate"] = o.rate;
     j["delay"] = r.delay;
     j["inherent_delay"] = p.inherent_delay;
+    j["velocity_estimator"] = to_string(p.velocity_estimator);
     j["delay_buffer"] = o.delay_buffer;
     j["device"] = p.name;
     j["device_profile"] = p.path;

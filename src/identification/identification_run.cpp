@@ -236,9 +236,10 @@ ExcitationRecord run_excitation(Device& device, const ExcitationSettings& s) {
 }
 
 IdentifiedTuning tune_identified(const std::string& criterion, const IdentificationResult& r, double period,
-                                 double extra_delay) {
+                                 double extra_delay, const VelocityEstimatorSpec& velocity) {
     auto plant_of = [&](double m, double b, double k, double d) {
-        return TuningPlant{m, std::max(0.0, b), std::max(0.0, k), period, std::max(0.0, d) * period + extra_delay};
+        return TuningPlant{m,       std::max(0.0, b), std::max(0.0, k), period, std::max(0.0, d) * period + extra_delay,
+                           velocity};
     };
     IdentifiedTuning out;
     out.plant = plant_of(r.mass, r.damping, r.stiffness, r.delay_periods);

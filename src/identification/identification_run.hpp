@@ -86,8 +86,9 @@ struct IdentifiedTuning {
     double K_stderr = 0.0;
     double B_stderr = 0.0;
 };
+// `velocity`: the loop's velocity estimator, which the tuning analyses with (TuningPlant::velocity).
 IdentifiedTuning tune_identified(const std::string& criterion, const IdentificationResult& result, double period,
-                                 double extra_delay);
+                                 double extra_delay, const VelocityEstimatorSpec& velocity = {});
 
 // The identification file (JSON).
 nlohmann::json identification_to_json(const IdentificationResult& result, const std::string& device);

@@ -105,8 +105,10 @@ std::string to_string(const WallSpec& spec) {
     return out.str();
 }
 
-Scene::Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force)
+Scene::Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force, const VelocityEstimatorSpec& velocity,
+             double period)
     : walls_(std::move(walls)), axes_(axes), max_force_(max_force) {
+    if (!velocity.is_backward()) velocity_.emplace(velocity, period);
     if (axes_ == 0 || axes_ > kMaxAxes) {
         throw std::invalid_argument("scene: axes = " + std::to_string(axes_) + " is invalid; accepted range: 1 .. 3");
     }
@@ -137,9 +139,12 @@ SceneFault Scene::evaluate(const AxisVector& position, AxisVector& force) noexce
     }
     std::uint64_t mask = 0;
     std::size_t i = 0;
+    const AxisVector* v = velocity_ ? &velocity_->update(position) : nullptr;
     for (auto& wall : walls_) {
+        const WallGeometry& g = wall.geometry();
         const double x = wall.penetration(position);
-        force[wall.geometry().axis] -= wall.geometry().direction * wall.normal_force(x);
+        const double f = v ? wall.normal_force(x, g.direction * (*v)[g.axis]) : wall.normal_force(x);
+        force[g.axis] -= g.direction * f;
         if (i < 64) mask |= static_cast<std::uint64_t>(x > 0.0) << i;
         ++i;
     }
@@ -163,6 +168,7 @@ void Scene::reset() noexcept {
     for (auto& w : walls_) {
         w.reset();
     }
+    if (velocity_) velocity_->reset();
     fault_ = SceneFault::None;
     stats_ = SceneStats{};
 }

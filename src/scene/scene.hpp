@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // The scene: the walls of the configuration and what one tick of wall rendering does with them.
-// Each tick: check the sampled position, let every wall add its force on its axis (a unilateral wall
-// out of contact costs one subtraction and a comparison), saturate per axis to the device maximum and
-// check the result is finite. A non-finite position or force latches the fault state: zero force from
-// that tick on, until reset().
+// Each tick: check the sampled position, estimate the velocity (unless backward), let every wall add its force on its
+// axis (a unilateral wall out of contact costs one subtraction and a comparison), saturate per axis to the device
+// maximum and check the result is finite. A non-finite position or force latches the fault state: zero force from that
+// tick on, until reset().
 #pragma once
 
 #include <cstdint>
@@ -12,6 +12,8 @@
 #include <vector>
 
 #include "common/axis_vector.hpp"
+#include "common/velocity_estimator_spec.hpp"
+#include "scene/velocity_filter.hpp"
 #include "scene/wall.hpp"
 
 namespace hapticd {
@@ -41,7 +43,11 @@ struct SceneStats {
 
 class Scene {
   public:
-    Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force);
+    // `velocity`: the estimate the walls' dampers act on (backward: each wall's own difference of its penetration,
+    // the analysed law; otherwise one VelocityFilter of every axis, each wall taking its axis's estimate times its
+    // direction). Throws std::invalid_argument naming the parameter.
+    Scene(std::vector<VirtualWall> walls, std::size_t axes, double max_force,
+          const VelocityEstimatorSpec& velocity = {}, double period = 1e-3);
 
     // Force on the device for the sampled position. Real-time safe (no allocation, no exceptions).
     SceneFault evaluate(const AxisVector& position, AxisVector& force) noexcept;
@@ -60,6 +66,7 @@ class Scene {
     std::vector<VirtualWall> walls_;
     std::size_t axes_;
     double max_force_;
+    std::optional<VelocityFilter> velocity_;  // none: backward difference per wall
     SceneFault fault_ = SceneFault::None;
     SceneStats stats_;
     std::uint64_t contact_mask_ = 0;

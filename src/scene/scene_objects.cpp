@@ -43,6 +43,7 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
         throw std::invalid_argument("SceneObjects: period = " + std::to_string(config_.period) +
                                     " is invalid; accepted range: finite, > 0");
     }
+    velocity_filter_.emplace(config_.velocity, config_.period);
     if (!(config_.ramp_time >= 0.0) || !std::isfinite(config_.ramp_time)) {
         throw std::invalid_argument("SceneObjects: ramp_time = " + std::to_string(config_.ramp_time) +
                                     " is invalid; accepted range: finite, >= 0 s");
@@ -719,15 +720,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     const double x1 = config_.axes > 1 ? position[1] : 0.0;
     const double x2 = config_.axes > 2 ? position[2] : 0.0;
     const AxisVector x{x0, x1, x2};
-    double v0 = 0.0, v1 = 0.0, v2 = 0.0;
-    if (primed_) {
-        v0 = (x0 - previous_position_[0]) * inverse_period_;
-        v1 = (x1 - previous_position_[1]) * inverse_period_;
-        v2 = (x2 - previous_position_[2]) * inverse_period_;
-    }
-    primed_ = true;
-    velocity_ = {v0, v1, v2};
-    previous_position_ = x;
+    velocity_ = velocity_filter_->update(x);
+    const double v0 = velocity_[0], v1 = velocity_[1], v2 = velocity_[2];
 
     if ((activation_mask_ | gliding_mask_) != 0) [[unlikely]]
         glide_tick(x);

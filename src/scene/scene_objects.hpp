@@ -4,8 +4,9 @@
 // gains, the ramp-out on removal). Commits arrive from the server thread through a lock-free SPSC ring and
 // are applied whole at the start of a tick (all of a batch in the same tick).
 //
-// Force laws, per tick, with x_j the sampled position and v_j = (x_j - x_{j-1}) / T (backward difference;
-// the first tick takes v = 0):
+// Force laws, per tick, with x_j the sampled position and v_j the loop's velocity estimate of it
+// (scene/velocity_filter.hpp: the backward difference (x_j - x_{j-1}) / T unless SceneObjectsConfig::velocity names
+// another; the first tick takes v = 0):
 //   plane   p = offset - n.x_j:                   f = n (K p - B (n.v_j - offset_rate))  (unilateral: only p > 0, f.n
 //   >= 0)
 //           — for a fixed plane exactly the analysed wall law f_j = K x_j + B (x_j - x_{j-1}) / T along n;
@@ -84,8 +85,12 @@
 #include <cstdint>
 #include <vector>
 
+#include <optional>
+
 #include "common/axis_vector.hpp"
+#include "common/velocity_estimator_spec.hpp"
 #include "loop/spsc_ring.hpp"
+#include "scene/velocity_filter.hpp"
 
 namespace hapticd {
 
@@ -203,6 +208,7 @@ struct SceneObjectsConfig {
     std::size_t commits_per_tick = 8;  // bound on the commits applied in one tick
     double move_interval_max = 0.0;    // s: longest first-order hold of a move (0: moves are applied at once)
     double activation_speed = 0.0;     // m/s: a plane appearing around the handle moves out at this speed (0: at once)
+    VelocityEstimatorSpec velocity{};  // the velocity estimate the dampers act on (the server checks with the same)
 };
 
 struct SceneObjectsStats {
@@ -266,9 +272,10 @@ class SceneObjects {
     // (current and fading) of r^2 K_i and r B_i (add_linear), in the law f = c - K x - B v. An observation for the
     // tests (tests/server/test_rendered_scene_property.cpp); O(64), never called by the loop.
     void rendered_gains(std::array<AxisVector, 3>& K, std::array<AxisVector, 3>& B) const noexcept;
-    // The same for the handle at x with the velocity estimate v (the tick's add_forces(x) computes v =
-    // (x - x_prev) / T): only the entries whose law acts there — bilateral planes and springs, unilateral
-    // planes with p > 0 whose law r^2 K p - r B n.v pushes out (a clamped plane renders nothing), fields with
+    // The same for the handle at x with the velocity estimate v (the tick's add_forces(x) computes v with the
+    // configured estimator, velocity()): only the entries whose law acts there — bilateral planes and springs,
+    // unilateral planes with p > 0 whose law r^2 K p - r B n.v pushes out (a clamped plane renders nothing), fields
+    // with
     // ||x - x0|| <= radius: the engagement pattern the loop renders at that tick. `engaged`: the slots of
     // the conditional entries among them (engages_conditionally; each has its flag in contact_mask() after
     // that tick). O(64), never called by the loop.
@@ -391,9 +398,8 @@ class SceneObjects {
     std::uint64_t applied_seq_ = 0;  // the largest seq applied
     double ramp_step_ = 1.0;
     double inverse_period_ = 1e3;
-    AxisVector previous_position_{};
+    std::optional<VelocityFilter> velocity_filter_;  // built by the constructor (its ring is allocated there)
     AxisVector velocity_{};
-    bool primed_ = false;
     AxisVector previous_total_{};
     std::uint64_t contact_mask_ = 0;
     SceneObjectsStats stats_;

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // One virtual wall: exactly the analysed discrete spring-damper (backward difference),
 //     f_j = K x_j + B (x_j - x_{j-1}) / T,
+// or, with another velocity estimator (the scene's VelocityFilter), f_j = K x_j + B v_j with v_j its estimate along
+// the normal,
 // with x the penetration along the wall normal (x > 0 inside the wall) and f > 0 pushing out.
 // Bilateral (the paper's analysis): the law everywhere. Unilateral (default): the law only while
 // penetrating (x_j > 0), and only pushing out (f >= 0); outside, no force and no arithmetic beyond
@@ -47,6 +49,22 @@ class VirtualWall {
             return f > 0.0 ? f : 0.0;
         }
         return stiffness_ * x + damping_ * (x - prev) / period_;
+    }
+
+    // The same law with the velocity along the normal given (rate: the loop's velocity estimate of the handle
+    // projected on the normal, scene/velocity_filter.hpp) instead of the backward difference; x_j is remembered as
+    // above.
+    double normal_force(double x, double rate) noexcept {
+        primed_ = true;
+        x_prev_ = x;
+        if (geometry_.mode == WallMode::Unilateral) {
+            if (!(x > 0.0)) {
+                return 0.0;
+            }
+            const double f = stiffness_ * x + damping_ * rate;
+            return f > 0.0 ? f : 0.0;
+        }
+        return stiffness_ * x + damping_ * rate;
     }
 
     // Force on the device along its axis (device frame).

@@ -58,10 +58,15 @@ json device_json(const ServerConfig& config, const GainChecker& checker) {
         matrix.push_back(row);
     }
     const std::optional<double> limit = checker.max_stiffness();
-    return json{{"name", config.device_name},    {"axes", config.axes},
-                {"period_s", config.period},     {"mass", mass},
-                {"mass_matrix", matrix},         {"delay_s", config.delay},
-                {"max_force", config.max_force}, {"max_stiffness", limit ? json(*limit) : json(nullptr)}};
+    return json{{"name", config.device_name},
+                {"axes", config.axes},
+                {"period_s", config.period},
+                {"mass", mass},
+                {"mass_matrix", matrix},
+                {"delay_s", config.delay},
+                {"max_force", config.max_force},
+                {"max_stiffness", limit ? json(*limit) : json(nullptr)},
+                {"velocity_estimator", to_string(checker.plant().velocity)}};
 }
 
 json welcome_reply(const ServerConfig& config, const GainChecker& checker, std::uint64_t session, double lease_s,

@@ -38,6 +38,7 @@ SceneObjectsConfig scene_objects_config(const Options& o, const DeviceProfile& p
     oc.axes = static_cast<std::size_t>(profile.axes);
     oc.move_interval_max = o.move_interval_max;
     oc.activation_speed = o.activation_speed;
+    oc.velocity = profile.velocity_estimator;
     return oc;
 }
 
@@ -74,6 +75,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.stiffness = profile.stiffness;
     plant.period = period;
     plant.time_delay = delay;
+    plant.velocity = profile.velocity_estimator;  // the loop's (scene_objects_config)
     plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (config/profile_keys.hpp)
     plant.max_stiffness = profile.max_stiffness;  // none: no limit
     try {
