@@ -26,8 +26,7 @@ class VelocityFilter {
   public:
     // Throws std::invalid_argument for a period that is not finite and > 0, a cutoff that is not finite and > 0, or
     // a window outside 1 .. kMaxLoopVelocityWindow.
-    VelocityFilter(const VelocityEstimatorSpec& spec, double period)
-        : spec_(spec), inverse_period_(1.0 / period) {
+    VelocityFilter(const VelocityEstimatorSpec& spec, double period) : spec_(spec), inverse_period_(1.0 / period) {
         if (!std::isfinite(period) || !(period > 0.0)) {
             throw std::invalid_argument("VelocityFilter: period = " + std::to_string(period) +
                                         " is invalid; accepted range: finite, > 0 s");
@@ -40,8 +39,8 @@ class VelocityFilter {
             throw std::invalid_argument("VelocityFilter: window = " + std::to_string(spec.window) +
                                         " is invalid; accepted range: 1 .. " + std::to_string(kMaxLoopVelocityWindow));
         }
-        lambda_ = spec.kind == LoopVelocityKind::LowPass ? std::exp(-2.0 * std::numbers::pi * spec.cutoff_hz * period)
-                                                          : 0.0;
+        lambda_ =
+            spec.kind == LoopVelocityKind::LowPass ? std::exp(-2.0 * std::numbers::pi * spec.cutoff_hz * period) : 0.0;
         const std::size_t n = spec.kind == LoopVelocityKind::Window ? static_cast<std::size_t>(spec.window) : 1;
         history_.assign(n, AxisVector{});
         window_scale_ = inverse_period_ / static_cast<double>(n);

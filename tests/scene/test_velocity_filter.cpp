@@ -36,9 +36,9 @@ TEST(VelocityEstimatorSpec, ParsesTheThreeFormsAndReadsItsOwnText) {
 }
 
 TEST(VelocityEstimatorSpec, RefusesOtherTextNamingTheKeyAndTheForms) {
-    for (const char* text : {"", "Backward", "lowpass", "lowpass:", "lowpass:50", "lowpass:0Hz", "lowpass:-3Hz",
-                             "lowpass:nanHz", "lowpass:infHz", "lowpass:5Hzz", "window:0", "window:51", "window:1.5",
-                             "window:", "window:-2", "median:3"}) {
+    for (const char* text :
+         {"", "Backward", "lowpass", "lowpass:", "lowpass:50", "lowpass:0Hz", "lowpass:-3Hz", "lowpass:nanHz",
+          "lowpass:infHz", "lowpass:5Hzz", "window:0", "window:51", "window:1.5", "window:", "window:-2", "median:3"}) {
         std::string error;
         EXPECT_FALSE(parse_velocity_estimator(text, error).has_value()) << text;
         EXPECT_NE(error.find("velocity_estimator"), std::string::npos) << error;

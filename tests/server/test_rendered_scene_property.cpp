@@ -22,15 +22,17 @@
 // x_{j-d-1}) (3 (d + 3) numbers), the plant M x'' = u (the profile's mass, one or a full matrix, b = k = 0
 // as in tests/server/sim3*.toml) discretised exactly with a zero-order hold through the matrix exponential
 // of the augmented 9 x 9 system, the force u_j = -K x_{j-d} - B (x_{j-d} - x_{j-d-1}) / T (backward
-// difference, d periods of delay). Directions where no gain acts (null space of [K; B], below 64 eps of
+// difference, d periods of delay; with a velocity estimator its own difference equation, stated in the test:
+// reference_radius). Directions where no gain acts (null space of [K; B], below 64 eps of
 // its largest singular value) keep the free plant's double root at z = 1; those 2 per free direction are
 // removed (the roots nearest 1), the rest must have modulus < 1 - kReferenceMargin.
 // kReferenceMargin = 1e-7: the server accepts only a computed radius below 1 - 1e-6, and its radius
 // agrees with an independent state matrix to 1e-8 (tests/beyond/test_matrix_gain_stability.cpp); a scene
 // between 1 - 1e-6 and 1 - 1e-7 is therefore a disagreement beyond rounding, not a borderline case.
 //
-// Size: 8 plants (one mass, a mass matrix; d = 0 .. 3), kActions random actions each, >= 10 000 distinct
-// rendered scenes in all, and >= 10 % of them partial (some conditional client object out of contact and
+// Size: 8 plants (one mass, a mass matrix; d = 0 .. 3) with the backward difference and 2 with a filtered velocity
+// (one mass, d = 1, a 50 Hz low-pass; the mass matrix, d = 2, a 4-period window), kActions random actions each, >= 10
+// 000 distinct rendered scenes in all, and >= 10 % of them partial (some conditional client object out of contact and
 // something rendered: scenes the all-in-contact check never saw) (asserted). Under ASan/TSan a quarter of the
 // actions (and >= 2 000 scenes: fewer distinct scenes per action than with every object counted in contact,
 // since an object ramping while out of contact changes nothing rendered). The reference's verdicts are
@@ -90,17 +92,67 @@ ZeroOrderHold zero_order_hold(const Eigen::Matrix3d& M) {
     return ZeroOrderHold{e.topLeftCorner<6, 6>(), e.topRightCorner<6, 3>()};
 }
 
-// The largest |root| of the rendered loop, the free plant's roots at 1 removed (see the header).
-double reference_radius(const ZeroOrderHold& zoh, int d, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B) {
+// The test's own statement of the loop's velocity estimator (the difference equations of
+// common/velocity_estimator_spec.hpp, written out here): backward (window 1), a window of N, or the low-pass with
+// pole lambda = exp(-2 pi F T).
+struct ReferenceEstimator {
+    bool lowpass = false;
+    int window = 1;
+    double lambda = 0.0;
+};
+
+ReferenceEstimator reference_estimator(const VelocityEstimatorSpec& spec) {
+    ReferenceEstimator e;
+    if (spec.kind == LoopVelocityKind::Window) e.window = spec.window;
+    if (spec.kind == LoopVelocityKind::LowPass) {
+        e.lowpass = true;
+        e.lambda = std::exp(-2.0 * 3.141592653589793 * spec.cutoff_hz * kT);
+    }
+    return e;
+}
+
+// The largest |root| of the rendered loop, the free plant's roots at 1 removed (see the header). With the
+// estimator the state grows: positions back to x_{j-d-N} for a window of N, and for the low-pass its estimates
+// w_{j-1} .. w_{j-max(1, d)}, with w_j = lambda w_{j-1} + (1 - lambda)(x_j - x_{j-1}) / T and the force
+// u_j = -K x_{j-d} - B w_{j-d}. The extra states add roots at 0 and lambda only where no gain acts.
+double reference_radius(const ZeroOrderHold& zoh, int d, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B,
+                        const ReferenceEstimator& e) {
     const Eigen::Matrix<double, 6, 6>& phi = zoh.phi;
     const Eigen::Matrix<double, 6, 3>& gamma = zoh.gamma;
-    const int n = 3 * (d + 3);
+    const int hx = e.lowpass ? std::max(1, d) : d + e.window;  // x_{j-1} .. x_{j-hx}
+    const int hw = e.lowpass ? std::max(1, d) : 0;             // w_{j-1} .. w_{j-hw}
+    const int n = 6 + 3 * hx + 3 * hw;
     auto x_at = [](int age) { return age == 0 ? 0 : 3 * (age + 1); };  // x_{j-age}; v_j at 3
+    auto w_at = [hx](int age) { return 6 + 3 * hx + 3 * (age - 1); };  // w_{j-age}, age >= 1
+    const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+    // w_j as a row block over the state: lambda w_{j-1} + (1 - lambda)(x_j - x_{j-1}) / T.
+    Eigen::MatrixXd w_now = Eigen::MatrixXd::Zero(3, n);
+    if (e.lowpass) {
+        w_now.block(0, w_at(1), 3, 3) = e.lambda * I;
+        w_now.block(0, x_at(0), 3, 3) += (1.0 - e.lambda) / kT * I;
+        w_now.block(0, x_at(1), 3, 3) -= (1.0 - e.lambda) / kT * I;
+    }
+    // The force u_j = F s_j.
+    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(3, n);
+    F.block(0, x_at(d), 3, 3) = -K;
+    if (e.lowpass) {
+        if (d == 0) {
+            F -= B * w_now;
+        } else {
+            F.block(0, w_at(d), 3, 3) -= B;
+        }
+    } else {
+        F.block(0, x_at(d), 3, 3) -= B / (e.window * kT);
+        F.block(0, x_at(d + e.window), 3, 3) += B / (e.window * kT);
+    }
     Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, n);
     S.topLeftCorner<6, 6>() = phi;
-    S.block(0, x_at(d), 6, 3) += gamma * (-(K + B / kT));
-    S.block(0, x_at(d + 1), 6, 3) += gamma * (B / kT);
-    for (int age = 1; age <= d + 1; ++age) S.block(x_at(age), x_at(age - 1), 3, 3) += Eigen::Matrix3d::Identity();
+    S.topRows(6) += gamma * F;
+    for (int age = 1; age <= hx; ++age) S.block(x_at(age), x_at(age - 1), 3, 3) += I;
+    if (e.lowpass) {
+        S.block(w_at(1), 0, 3, n) = w_now;
+        for (int age = 2; age <= hw; ++age) S.block(w_at(age), w_at(age - 1), 3, 3) += I;
+    }
     Eigen::Matrix<double, 6, 3> stacked;
     stacked << K, B;
     const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 3>> svd(stacked);
@@ -144,12 +196,14 @@ struct Tally {
 
 class Driver {
   public:
-    Driver(const Eigen::Matrix3d& M, bool isotropic, int d, std::uint32_t seed, const std::string& tag)
-        : zoh_(zero_order_hold(M)), d_(d), rng_(seed) {
+    Driver(const Eigen::Matrix3d& M, bool isotropic, int d, std::uint32_t seed, const std::string& tag,
+           const VelocityEstimatorSpec& velocity = {})
+        : zoh_(zero_order_hold(M)), d_(d), estimator_(reference_estimator(velocity)), rng_(seed) {
         GainCheckPlant plant;
         plant.mass = M(0, 0);
         plant.period = kT;
         plant.time_delay = d * kT;
+        plant.velocity = velocity;
         MassMatrix mm{};
         for (std::size_t i = 0; i < 3; ++i) {
             for (std::size_t j = 0; j < 3; ++j) mm[i][j] = M(static_cast<int>(i), static_cast<int>(j));
@@ -162,6 +216,7 @@ class Driver {
         oc.period = kT;
         oc.ramp_time = 0.03;
         oc.axes = 3;
+        oc.velocity = velocity;
         objects_ = std::make_unique<SceneObjects>(oc, *ring_, departure_ring_.get());
         const std::string shm = "/hapticd-property-" + std::to_string(::getpid()) + "-" + tag;
         state_ = std::make_unique<StatePublisher>(shm, 3, kT, -1);
@@ -494,6 +549,22 @@ class Driver {
         }
     }
 
+    // The test's estimate of the velocity from the positions it drives (ReferenceEstimator's equations; the history
+    // starts at the origin, as the handle does).
+    Eigen::Vector3d estimate(const Eigen::Vector3d& x) {
+        if (history_.empty()) history_.assign(static_cast<std::size_t>(estimator_.window), Eigen::Vector3d::Zero());
+        Eigen::Vector3d v;
+        if (estimator_.lowpass) {
+            lowpass_ = estimator_.lambda * lowpass_ + (1.0 - estimator_.lambda) * (x - history_.back()) / kT;
+            v = lowpass_;
+        } else {
+            v = (x - history_.front()) / (estimator_.window * kT);
+        }
+        history_.erase(history_.begin());
+        history_.push_back(x);
+        return v;
+    }
+
     // The reference's radius of a rendered scene, cached (the driver revisits the same engagement patterns).
     double radius_of(const Eigen::Matrix3d& K, const Eigen::Matrix3d& B) {
         std::array<double, 18> key{};
@@ -501,7 +572,7 @@ class Driver {
         std::copy(B.data(), B.data() + 9, key.begin() + 9);
         if (const auto it = radius_cache_.find(key); it != radius_cache_.end()) return it->second;
         if (radius_cache_.size() > 20000) radius_cache_.clear();
-        return radius_cache_[key] = reference_radius(zoh_, d_, K, B);
+        return radius_cache_[key] = reference_radius(zoh_, d_, K, B, estimator_);
     }
 
     void ticks(int n) {
@@ -509,15 +580,15 @@ class Driver {
             objects_->apply_commits();
             const Eigen::Vector3d x = next_position();
             const AxisVector xa{x(0), x(1), x(2)};
-            const AxisVector va{(x(0) - previous_(0)) / kT, (x(1) - previous_(1)) / kT, (x(2) - previous_(2)) / kT};
+            const Eigen::Vector3d v = estimate(x);
+            const AxisVector va{v(0), v(1), v(2)};
             std::array<AxisVector, 3> K{}, B{};
             std::uint64_t engaged = 0;
             objects_->rendered_gains(xa, va, K, B, engaged);
             // The config wall (axis 0, position 0.05, direction +1, unilateral), the daemon's wall law:
-            // f = K p + B (p_j - p_{j-1}) / T while p = x0 - 0.05 > 0 and f > 0.
-            const double p = x(0) - 0.05, p_previous = previous_(0) - 0.05;
-            const bool wall = p > 0.0 && wall_K_(0, 0) * p + wall_B_(0, 0) * (p - p_previous) / kT > 0.0;
-            previous_ = x;
+            // f = K p + B v_0 while p = x0 - 0.05 > 0 and f > 0 (v: the estimate, the backward difference by default).
+            const double p = x(0) - 0.05;
+            const bool wall = p > 0.0 && wall_K_(0, 0) * p + wall_B_(0, 0) * v(0) > 0.0;
             const Eigen::Matrix3d Ke = to_eigen(K) + (wall ? wall_K_ : Eigen::Matrix3d::Zero()).eval();
             const Eigen::Matrix3d Be = to_eigen(B) + (wall ? wall_B_ : Eigen::Matrix3d::Zero()).eval();
             if (tally_.scenes == 0 || Ke != last_K_ || Be != last_B_) {
@@ -553,6 +624,7 @@ class Driver {
 
     ZeroOrderHold zoh_;
     int d_;
+    ReferenceEstimator estimator_;
     std::mt19937 rng_;
     std::unique_ptr<GainChecker> checker_;
     std::unique_ptr<CommitRing> ring_;
@@ -563,8 +635,9 @@ class Driver {
     std::string socket_;
     std::vector<Session> sessions_;
     Eigen::Matrix3d wall_K_, wall_B_, last_K_, last_B_;
-    Eigen::Vector3d handle_ = Eigen::Vector3d::Zero(), previous_ = Eigen::Vector3d::Zero(),
-                    target_ = Eigen::Vector3d::Zero();
+    std::vector<Eigen::Vector3d> history_;  // x_{j-N} .. x_{j-1} (one entry for the low-pass and backward)
+    Eigen::Vector3d lowpass_ = Eigen::Vector3d::Zero();
+    Eigen::Vector3d handle_ = Eigen::Vector3d::Zero(), target_ = Eigen::Vector3d::Zero();
     double speed_ = 0.0;
     std::vector<Eigen::Vector3d> places_;  // where the objects added were (next_target)
     std::map<std::array<double, 18>, double> radius_cache_;
@@ -600,6 +673,29 @@ TEST(RenderedSceneProperty, EveryRenderedSceneIsStableByAnIndependentStateMatrix
             total.partial += t.partial;
             total.worst = std::max(total.worst, t.worst);
         }
+    }
+    // The loop with a filtered velocity: the server checks with the same estimator (GainChecker with
+    // GainCheckPlant::velocity), the reference states it on its own.
+    const struct {
+        bool isotropic;
+        int d;
+        const char* estimator;
+    } filtered[] = {{true, 1, "lowpass:50Hz"}, {false, 2, "window:4"}};
+    for (const auto& f : filtered) {
+        const Eigen::Matrix3d M = f.isotropic ? Eigen::Matrix3d(0.3 * Eigen::Matrix3d::Identity()) : aniso;
+        std::string error;
+        const VelocityEstimatorSpec velocity = parse_velocity_estimator(f.estimator, error).value();
+        Driver driver(M, f.isotropic, f.d, 20261203U + static_cast<std::uint32_t>(f.d), std::string("f") + f.estimator,
+                      velocity);
+        const Tally t = driver.run(kActions);
+        std::printf(
+            "[ property ] %s mass, d = %d, velocity %s: %zu scenes in %zu ticks, %zu commits accepted, %zu refused, "
+            "%zu partial scenes; largest radius %.9f\n",
+            f.isotropic ? "one" : "matrix", f.d, f.estimator, t.scenes, t.ticks, t.accepted, t.refused, t.partial,
+            t.worst);
+        EXPECT_GE(t.scenes, kMinimumScenes / 10) << f.estimator;
+        EXPECT_GE(t.accepted, static_cast<std::size_t>(kActions / 10)) << f.estimator;
+        total.worst = std::max(total.worst, t.worst);
     }
     std::printf(
         "[ property ] %zu rendered scenes, %zu partial; must be below 1 - %.0e by the reference; largest %.9f\n",
