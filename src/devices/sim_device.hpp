@@ -27,6 +27,8 @@
 // matrix: coulomb_friction > 0 with a non-diagonal mass_matrix is refused (std::invalid_argument), since friction
 // acts along the axes and would couple the modes that the exact per-mode ZOH keeps apart. An interval with more
 // than 64 stops (none in practice: each slide lasts at least until the velocity's next zero) ends at rest.
+// Cost: a located stop is ~60 series exponentials, ~30 us; the tick's compute time of the simulated Falcon
+// chattering with f_c = 0.02 N is 2.1 us mean, 31 us p99, against 0.08 us without friction (docs/limit-cycles.md).
 #pragma once
 
 #include <array>
