@@ -402,6 +402,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--position_noise", p.position_noise);
     std::vector<double> position_resolution;
     app.add_option("--position_resolution", position_resolution);
+    std::vector<double> coulomb_friction;
+    app.add_option("--coulomb_friction", coulomb_friction);
     std::string velocity_estimator = "backward";
     app.add_option("--velocity_estimator", velocity_estimator);
     app.add_option("--noise_seed", p.noise_seed);
@@ -464,6 +466,16 @@ DeviceProfile load_device_profile(const Options& o) {
         const double q = position_resolution[position_resolution.size() == 1 ? 0 : a];
         check_range(where, "position_resolution", q, 0.0, 1.0, false, "0 .. 1 m (rad) per axis");
         p.position_resolution[a] = q;
+    }
+    if (coulomb_friction.size() > 1 && coulomb_friction.size() != axes) {
+        invalid(where, "coulomb_friction", std::to_string(coulomb_friction.size()) + " values",
+                "one value, or one per axis (" + std::to_string(axes) + ")");
+    }
+    for (std::size_t a = 0; a < axes; ++a) {
+        if (coulomb_friction.empty()) break;
+        const double f = coulomb_friction[coulomb_friction.size() == 1 ? 0 : a];
+        check_range(where, "coulomb_friction", f, 0.0, 1e6, false, "finite, 0 .. 1e6 N (N m) per axis");
+        p.coulomb_friction[a] = f;
     }
     {
         // --velocity-estimator overrides the profile's key (its error then names the option).

@@ -120,6 +120,10 @@ struct DeviceProfile {
     // The encoder step q of each axis, m (rad): `position_resolution`, one value for every axis or one per axis;
     // 0: none. The simulated device rounds its position to it; the tuning predicts the force noise it causes.
     AxisVector position_resolution{};
+    // The Coulomb (dry) friction f_c of each axis, N (N m): `coulomb_friction`, one value for every axis or one per
+    // axis; 0: none. The simulated device renders it (devices/sim_device.hpp); the tuning predicts with it whether
+    // the wall comes to rest between encoder counts (tuning/tuning.hpp, EncoderChatter).
+    AxisVector coulomb_friction{};
     // How the loop estimates the velocity its dampers act on (`velocity_estimator`: backward, lowpass:<F>Hz,
     // window:<N>); the tuning checks every wall and client scene with the same estimator.
     VelocityEstimatorSpec velocity_estimator{};

@@ -107,7 +107,8 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             }
             w.tuning = it->second;
         }
-        predict_encoder_effects(w.tuning, wall_plant, p.position_resolution[spec->axis]);
+        predict_encoder_effects(w.tuning, wall_plant, p.position_resolution[spec->axis],
+                                p.coulomb_friction[spec->axis]);
         if (p.max_stiffness && w.tuning.K > *p.max_stiffness) {
             std::ostringstream m;
             m << origin << " '" << text << "': K = " << w.tuning.K << " N/m"

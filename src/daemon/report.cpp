@@ -42,7 +42,7 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
 
 std::string encoder_line(const TuningResult& t, bool rotary) {
     if (!t.force_noise_std) return {};
-    char buf[512];
+    char buf[1024];
     const char* fu = rotary ? "N m" : "N";
     std::snprintf(buf, sizeof buf,
                   "encoder step %.6g %s: force noise sigma_F = %.4g %s while the handle moves over many steps "
@@ -53,14 +53,19 @@ std::string encoder_line(const TuningResult& t, bool rotary) {
         const EncoderChatter& c = *t.chatter;
         std::snprintf(buf, sizeof buf,
                       "; at rest in contact each count steps the force by B q / T = %.3g %s for one period, and a "
-                      "rest holds every push only with Coulomb friction >= K q / 2 = %.3g %s",
-                      c.count_kick, fu, c.friction_for_rest, fu);
+                      "rest holds every push only with Coulomb friction >= K q / 2 = %.3g %s; the profile's "
+                      "coulomb_friction %.3g %s: %s; Abbott-Okamura bound K <= %.4g (B = 0, no delay): %s",
+                      c.count_kick, fu, c.friction_for_rest, fu, c.coulomb_friction, fu,
+                      c.rest_for_every_push ? "a rest holds every push" : "no rest for some pushes",
+                      c.abbott_okamura_bound, c.abbott_okamura_passive ? "met" : "not met");
         line += buf;
         if (c.cycle_predicted) {
-            std::snprintf(buf, sizeof buf,
-                          "; without it the handle moves between counts (describing function, push half-way between "
-                          "two counts: %.3g %s at %.3g Hz)",
-                          c.cycle_amplitude * (rotary ? 1.0 : 1e6), rotary ? "rad" : "um", c.cycle_frequency);
+            std::snprintf(
+                buf, sizeof buf,
+                "; %s (describing function with that friction, push half-way between two counts: %.3g %s "
+                "at %.3g Hz)",
+                c.rest_for_every_push ? "a cycle may coexist with the rest" : "the handle keeps moving between counts",
+                c.cycle_amplitude * (rotary ? 1.0 : 1e6), rotary ? "rad" : "um", c.cycle_frequency);
             line += buf;
         }
     }
@@ -125,6 +130,10 @@ nlohmann::json tuning_json(const TuningResult& t) {
         j["encoder_chatter"] = {
             {"count_kick", c.count_kick},
             {"friction_for_rest", c.friction_for_rest},
+            {"coulomb_friction", c.coulomb_friction},
+            {"rest_for_every_push", c.rest_for_every_push},
+            {"abbott_okamura_passive", c.abbott_okamura_passive},
+            {"abbott_okamura_bound", c.abbott_okamura_bound},
             {"cycle_amplitude", c.cycle_predicted ? nlohmann::json(c.cycle_amplitude) : nlohmann::json(nullptr)},
             {"cycle_frequency", c.cycle_predicted ? nlohmann::json(c.cycle_frequency) : nlohmann::json(nullptr)}};
     } else {

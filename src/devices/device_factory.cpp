@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <stdexcept>
 
 #include "devices/falcon_device.hpp"
 #include "devices/first_run.hpp"
@@ -135,10 +136,15 @@ std::unique_ptr<Device> make_device(const DeviceProfile& p, const Options& o, co
     cfg.period = period;
     cfg.position_noise = p.position_noise;
     cfg.position_resolution = p.position_resolution;
+    cfg.coulomb_friction = p.coulomb_friction;
     cfg.noise_seed = static_cast<std::uint64_t>(p.noise_seed);
     cfg.fail_at_tick = p.fail_at_tick;
     cfg.scenario = scenario;
-    return std::make_unique<SimDevice>(cfg);
+    try {
+        return std::make_unique<SimDevice>(cfg);
+    } catch (const std::invalid_argument& e) {  // e.g. coulomb_friction with a coupled mass_matrix
+        throw StartupError(ErrorKind::InvalidParameter, "device profile '" + p.path + "': " + e.what());
+    }
 }
 
 }  // namespace hapticd

@@ -101,8 +101,29 @@ SimDevice::SimDevice(const SimDeviceConfig& config) : config_(config) {
             }
         }
     }
+    for (std::size_t a = 0; a < axes; ++a) {
+        const double fc = config_.coulomb_friction[a];
+        if (!(fc >= 0.0) || !std::isfinite(fc)) {
+            throw std::invalid_argument("SimDevice: coulomb_friction[" + std::to_string(a) + "] = " +
+                                        std::to_string(fc) + " is invalid; accepted range: finite, >= 0 N (N m)");
+        }
+        if (fc > 0.0 && !diagonal) {
+            throw std::invalid_argument("SimDevice: coulomb_friction[" + std::to_string(a) +
+                                        "] = " + std::to_string(fc) +
+                                        " is invalid with a non-diagonal mass_matrix (friction along the axes "
+                                        "couples the modes); accepted: coulomb_friction = 0, or a diagonal mass");
+        }
+    }
+    for (std::size_t a = axes; a < kMaxAxes; ++a) config_.coulomb_friction[a] = 0.0;
+    h_first_ = phi * T;
+    h_second_ = (1.0 - phi) * T;
     for (std::size_t a = 0; a < kMaxAxes; ++a) {
         const PlantParameters mode{modal_mass[a], total_.damping, total_.stiffness};
+        mode_plant_[a] = mode;
+        // The velocity's zeros while sliding are pi / omega_d apart when underdamped (model above); half of that.
+        const double sigma = mode.damping / (2.0 * mode.mass);
+        const double w2 = mode.stiffness / mode.mass - sigma * sigma;
+        slide_piece_[a] = w2 > 0.0 ? 0.5 * std::numbers::pi / std::sqrt(w2) : HUGE_VAL;
         full_[a] = discretize(mode, T);
         if (fractional_) {
             first_[a] = discretize(mode, phi * T);
@@ -213,25 +234,82 @@ const AxisVector& SimDevice::written(std::int64_t tick) const noexcept {
     return history_[static_cast<std::size_t>(tick) % history_.size()];
 }
 
-void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, const AxisVector& written_force,
+void SimDevice::apply(const std::array<ZohStep, kMaxAxes>& steps, double h, const AxisVector& written_force,
                       const AxisVector& hand) noexcept {
     const std::size_t axes = std::min(config_.capabilities.axes, kMaxAxes);
     AxisVector u{};
     for (std::size_t m = 0; m < axes; ++m) {  // Q^T (F_H + u)
         for (std::size_t a = 0; a < axes; ++a) u[m] += modes_[a][m] * (hand[a] + written_force[a]);
     }
-    for (std::size_t m = 0; m < axes; ++m) steps[m].apply(x_[m], v_[m], u[m]);
+    for (std::size_t m = 0; m < axes; ++m) {
+        if (config_.coulomb_friction[m] > 0.0) {  // only with a diagonal M: mode m is axis m
+            apply_with_friction(m, steps[m], h, u[m]);
+        } else {
+            steps[m].apply(x_[m], v_[m], u[m]);
+        }
+    }
+}
+
+void SimDevice::apply_with_friction(std::size_t a, const ZohStep& whole, double h, double u) noexcept {
+    const PlantParameters& p = mode_plant_[a];
+    const double fc = config_.coulomb_friction[a];
+    double& x = x_[a];
+    double& v = v_[a];
+    double left = h;  // time still to integrate
+    for (int stops = 0; stops <= 64 && left > 0.0; ++stops) {
+        double s = 0.0;  // the sliding direction
+        if (v == 0.0) {
+            const double net = u - p.stiffness * x;
+            if (std::abs(net) <= fc) return;  // sticks: nothing changes for the rest of the interval
+            s = net > 0.0 ? 1.0 : -1.0;
+        } else {
+            s = v > 0.0 ? 1.0 : -1.0;
+        }
+        const double force = u - s * fc;
+        bool stopped = false;
+        while (left > 0.0 && !stopped) {
+            const double piece = std::min(left, slide_piece_[a]);
+            const ZohStep step = piece == h ? whole : discretize_series(p, piece);
+            double xe = x, ve = v;
+            step.apply(xe, ve, force);
+            if (s * ve > 0.0) {  // still sliding at the piece's end: no zero inside (at most one per piece)
+                x = xe;
+                v = ve;
+                left -= piece;
+                continue;
+            }
+            // The velocity's one zero in (0, piece]: bisection on the exact solution from the piece's start.
+            double lo = 0.0, hi = piece, x_hi = xe;
+            for (int i = 0; i < 60 && hi - lo > 0.0; ++i) {
+                const double mid = 0.5 * (lo + hi);
+                if (mid <= lo || mid >= hi) break;
+                double xm = x, vm = v;
+                discretize_series(p, mid).apply(xm, vm, force);
+                if (s * vm > 0.0) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                    x_hi = xm;
+                }
+            }
+            x = x_hi;
+            v = 0.0;
+            left -= hi;
+            stopped = true;
+        }
+    }
+    if (left > 0.0) v = 0.0;  // more than 64 stops in one interval: ends at rest (model above)
 }
 
 void SimDevice::advance_period(std::int64_t tick) noexcept {
     const AxisVector hand = hand_force(tick);
     const AxisVector& late = written(tick - delay_periods_);
     if (!fractional_) {
-        apply(full_, late, hand);
+        apply(full_, config_.period, late, hand);
         return;
     }
-    apply(first_, written(tick - delay_periods_ - 1), hand);
-    apply(second_, late, hand);
+    apply(first_, h_first_, written(tick - delay_periods_ - 1), hand);
+    apply(second_, h_second_, late, hand);
 }
 
 double SimDevice::noise() noexcept {

@@ -32,4 +32,10 @@ struct ZohStep {
 // stiffness >= 0, h >= 0, all finite.
 ZohStep discretize(const PlantParameters& plant, double h);
 
+// The same step without allocation, for the real-time path (the simulated device's Coulomb friction needs the
+// motion over arbitrary sub-intervals): expm of the 3x3 matrix above by scaling and squaring, the scaled matrix's
+// infinity norm <= 1/2 and its Taylor series to the 20th power (remainder below 0.5^21 / 21! ~ 1e-26 relative
+// before squaring). Agrees with discretize() to rounding (tests/devices/test_sim_device.cpp). Same preconditions.
+ZohStep discretize_series(const PlantParameters& plant, double h) noexcept;
+
 }  // namespace hapticd

@@ -89,7 +89,8 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
     }
 }
 
-void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution) {
+void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution,
+                             double coulomb_friction) {
     t.position_resolution = position_resolution;
     t.force_noise_std.reset();
     t.chatter.reset();
@@ -104,10 +105,18 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
         EncoderChatter c;
         c.count_kick = std::abs(t.B) * q / plant.period;
         c.friction_for_rest = t.K * q / 2.0;
+        c.coulomb_friction = coulomb_friction;
+        const hapticopt::AbbottOkamuraPassivity ao =
+            hapticopt::abbott_okamura_passivity(std::max(t.K, 0.0), plant.damping, coulomb_friction, q, plant.period);
+        c.abbott_okamura_passive = t.K >= 0.0 && ao.passive;
+        c.abbott_okamura_bound = ao.stiffness_bound;
         if (t.K > 0.0) {
-            // A push 20.5 counts deep: half-way between two levels whatever the plant's spring does to the mean.
-            const hapticopt::LimitCyclePrediction p = hapticopt::predict_limit_cycle(
-                hapticopt::LimitCycleLoop{physical, gains, 0.0, q, (t.K + plant.stiffness) * q * 20.5});
+            // A push 20.5 counts deep: half-way between two levels whatever the plant's spring does to the mean,
+            // the push farthest from every rest (quantised_rest_exists holds there iff it holds for every push).
+            const double push = (t.K + plant.stiffness) * q * 20.5;
+            c.rest_for_every_push = hapticopt::quantised_rest_exists(push, t.K, coulomb_friction, q, plant.stiffness);
+            const hapticopt::LimitCyclePrediction p =
+                hapticopt::predict_limit_cycle(hapticopt::LimitCycleLoop{physical, gains, coulomb_friction, q, push});
             if (p.predicted && p.cycle.stable) {
                 c.cycle_predicted = true;
                 c.cycle_amplitude = p.cycle.amplitude;

@@ -43,17 +43,26 @@ struct RobustSummary {
     bool mass_certified = false;      // stability over the mass range proven (not only sampled)
 };
 
-// What the encoder step does at rest in contact (docs/limit-cycles.md), for the profile's plant without Coulomb
-// friction: each count the measured position crosses steps the backward difference's force by B q / T for one
-// period; a sticking rest holds every push only with Coulomb friction f_c >= K q / 2 (Abbott & Okamura's bound
-// 2 f_c / q on K, exact for the rest: hapticopt::quantised_rest_exists), so below it the handle keeps moving between
-// counts; the describing function's cycle for a push half-way between two counts (the largest: the relay case).
+// What the encoder step does at rest in contact (docs/limit-cycles.md), for the profile's plant with the profile's
+// Coulomb friction f_c on the wall's axis: each count the measured position crosses steps the backward difference's
+// force by B q / T for one period; a sticking rest holds every push only with f_c >= K q / 2 (Abbott & Okamura's
+// bound 2 f_c / q on K, exact for the rest: hapticopt::quantised_rest_exists, asked for a push half-way between two
+// counts, the worst one), so below it the handle keeps moving between counts; the describing function's cycle for
+// that push (the largest: the relay case) with the friction as its equivalent damping. Where a rest exists the
+// cycle is at most a possibility that depends on the initial state (docs/limit-cycles.md, "Where it does not").
 struct EncoderChatter {
-    double count_kick = 0.0;         // B q / T, N (N m)
-    double friction_for_rest = 0.0;  // K q / 2, N (N m)
-    bool cycle_predicted = false;    // a stable describing-function cycle
-    double cycle_amplitude = 0.0;    // m (rad), of the position's fundamental
-    double cycle_frequency = 0.0;    // Hz
+    double count_kick = 0.0;           // B q / T, N (N m)
+    double friction_for_rest = 0.0;    // K q / 2, N (N m)
+    double coulomb_friction = 0.0;     // the profile's f_c on the wall's axis, N (N m)
+    bool rest_for_every_push = false;  // f_c >= K q / 2: a sticking rest holds every push
+    // hapticopt::abbott_okamura_passivity(K, b, f_c, q, T): K <= max(2 b / T, 2 f_c / q). Their condition is for a
+    // spring wall (B = 0) without delay (d = 0); the wall here has a damper and the device's delay, so it is
+    // reported as the paper's bound, not as a proof of passivity.
+    bool abbott_okamura_passive = false;
+    double abbott_okamura_bound = 0.0;  // max(2 b / T, 2 f_c / q), N/m (N m/rad)
+    bool cycle_predicted = false;       // a stable describing-function cycle
+    double cycle_amplitude = 0.0;       // m (rad), of the position's fundamental
+    double cycle_frequency = 0.0;       // Hz
 };
 
 struct TuningResult {
@@ -98,8 +107,10 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 // white-noise model of rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick),
 // which holds while the handle moves over many steps (docs/velocity-estimation.md). At rest in contact it does not:
 // the measured position sits on one or two levels and the force steps between them (t.chatter). q = 0: nothing
-// predicted. Cost: one Stein equation and one describing-function search (up to about 0.1 s at d = 6).
-void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution);
+// predicted. coulomb_friction: the profile's f_c on the wall's axis (>= 0; t.chatter with it). Cost: one Stein
+// equation and one describing-function search (up to about 0.1 s at d = 6, docs/limit-cycles.md, "Cost").
+void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution,
+                             double coulomb_friction = 0.0);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
 // box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for

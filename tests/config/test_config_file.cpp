@@ -487,6 +487,26 @@ TEST_F(ConfigFileTest, ProfileErrorsNameLineAndColumn) {
     }
 }
 
+// coulomb_friction: one value for every axis or one per axis (as position_resolution), 0 when absent; a wrong
+// count or a negative value names the key's place.
+TEST_F(ConfigFileTest, ProfileCoulombFrictionIsOneValueOrOnePerAxis) {
+    const auto none = load_profile(kMinimalProfile + "axes = 3\n");
+    ASSERT_EQ(none.code, -1) << none.message;
+    EXPECT_EQ(none.profile.coulomb_friction, (AxisVector{0.0, 0.0, 0.0}));
+    const auto one = load_profile(kMinimalProfile + "axes = 3\ncoulomb_friction = 0.05\n");
+    ASSERT_EQ(one.code, -1) << one.message;
+    EXPECT_EQ(one.profile.coulomb_friction, (AxisVector{0.05, 0.05, 0.05}));
+    const auto each = load_profile(kMinimalProfile + "axes = 3\ncoulomb_friction = [0.01, 0.02, 0.03]\n");
+    ASSERT_EQ(each.code, -1) << each.message;
+    EXPECT_EQ(each.profile.coulomb_friction, (AxisVector{0.01, 0.02, 0.03}));
+    const auto count = load_profile(kMinimalProfile + "axes = 3\ncoulomb_friction = [0.01, 0.02]\n");
+    EXPECT_EQ(count.code, kExitInvalidParameter);
+    EXPECT_CONTAINS(count.message, "line 4, column 1: coulomb_friction = 2 values is invalid");
+    const auto negative = load_profile(kMinimalProfile + "axes = 3\ncoulomb_friction = -0.1\n");
+    EXPECT_EQ(negative.code, kExitInvalidParameter);
+    EXPECT_CONTAINS(negative.message, "line 4, column 1: coulomb_friction = ");
+}
+
 // Every key the shipped profiles use, given a value of another type: an error naming line, column and key.
 // The wrong value is chosen from the type of the shipped value (read by the reader under test, whose typing
 // ReadsScalarsWithTheirTypesAndTextsInFileOrder checks separately).

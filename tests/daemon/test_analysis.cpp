@@ -3,6 +3,7 @@
 // bilateral wall, must reproduce hapticopt's step response and energy costs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -451,6 +452,106 @@ TEST(DaemonMatchesAnalysis, TheSimulatedFalconChattersAtTheDescribingFunctionsFr
         hapticopt::PhysicalPlant{0.30, 0.0, 0.0, T, 0.006}, gains, 0.0, q, gains.stiffness * q * 20.5});
     EXPECT_DOUBLE_EQ(chatter["cycle_frequency"].get<double>(), profile.cycle.frequency);
     EXPECT_DOUBLE_EQ(chatter["cycle_amplitude"].get<double>(), profile.cycle.amplitude);
+}
+
+// Coulomb friction on the simulated Falcon (the shipped profile plus `coulomb_friction`; the setup of the test
+// above): the step intent pushes with F = (K + k_H) q (12 + 1/2), so the balance F / (K + k_H) lies half-way between
+// the encoder levels 12 q and 13 q, the push farthest from every rest. A sticking rest then exists iff f_c >= K q / 2
+// = 0.034 N (hapticopt::quantised_rest_exists with the hand's spring; docs/limit-cycles.md, item 3). Below it
+// (f_c = 0.02 N) no rest exists and the loop must keep moving: the measured position takes two levels and the wall
+// force keeps changing over ticks 2000..5998. Above it (f_c = 0.05 N) the handle comes to rest, which a rest's
+// existence alone does not guarantee (measured, docs/limit-cycles.md, "Coulomb friction in the simulated
+// device"): one level and one constant force over those ticks, the force of the rest's level, -K n q. The
+// summary's encoder_chatter carries the profile's friction, the rest verdict for every push (f_c >= K q / 2), the
+// Abbott-Okamura bound for the profile's plant (b = 0: 2 f_c / q) and the describing function's cycle with that
+// friction, each compared with the library's function on the same numbers (the same computation: exact equality).
+TEST(DaemonMatchesAnalysis, TheSimulatedFalconComesToRestWithCoulombFrictionAboveHalfACountsForce) {
+    const double T = 1e-3, q = 4.85e-5, k_hand = 200.0;
+    const hapticopt::WallTuning tuning =
+        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{0.30, 0.0, 0.0, T, 0.006});
+    const hapticopt::WallGains gains{tuning.K, tuning.B};
+    const double push = (gains.stiffness + k_hand) * q * 12.5;
+    for (const double friction : {0.02, 0.05}) {
+        const std::string tag = "falcon_friction_" + std::to_string(static_cast<int>(friction * 1000));
+        const auto profile = dir() / (tag + ".toml");
+        {
+            std::ifstream in(HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml");
+            std::ofstream out(profile);
+            out << in.rdbuf() << "\ncoulomb_friction = " << friction << "\n";
+        }
+        const std::string trace = (dir() / (tag + ".csv")).string();
+        const std::string summary = (dir() / (tag + ".json")).string();
+        std::ostringstream force;
+        force.precision(17);
+        force << push;
+        const RunOutput out = run_hapticd({"hapticd",
+                                           "--config",
+                                           "",
+                                           "--device",
+                                           profile.string(),
+                                           "--simulate",
+                                           "--lockstep",
+                                           "--quiet",
+                                           "--hand-damping",
+                                           "4",
+                                           "--hand-stiffness",
+                                           std::to_string(k_hand),
+                                           "--step-force",
+                                           force.str(),
+                                           "--duration",
+                                           "6",
+                                           "--trace",
+                                           trace,
+                                           "--summary-json",
+                                           summary},
+                                          trace, summary);
+        ASSERT_GE(out.rows.size(), 6000U);
+        const bool rest = hapticopt::quantised_rest_exists(push, gains.stiffness, friction, q, k_hand);
+        EXPECT_EQ(rest, friction >= gains.stiffness * q / 2) << friction;
+        double lo = HUGE_VAL, hi = -HUGE_VAL;
+        int changes = 0;
+        std::vector<double> levels;
+        for (std::size_t j = 2000; j < 5999; ++j) {
+            lo = std::min(lo, out.rows[j].wall);
+            hi = std::max(hi, out.rows[j].wall);
+            changes += out.rows[j].wall != out.rows[j - 1].wall ? 1 : 0;
+            if (std::find(levels.begin(), levels.end(), out.rows[j].x) == levels.end()) levels.push_back(out.rows[j].x);
+        }
+        std::printf(
+            "coulomb_friction %.3g N (K q / 2 = %.4g N), push %.6g N: rest exists %d; ticks 2000..5998: %zu "
+            "levels, %d force changes, force %.6g .. %.6g N\n",
+            friction, gains.stiffness * q / 2, push, rest ? 1 : 0, levels.size(), changes, lo, hi);
+        if (rest) {
+            EXPECT_EQ(levels.size(), 1U) << friction;
+            EXPECT_EQ(changes, 0) << friction;
+            const double n = std::round(levels.front() / q);
+            EXPECT_NEAR(lo, -gains.stiffness * n * q, 1e-9) << friction;
+        } else {
+            EXPECT_EQ(levels.size(), 2U) << friction;
+            EXPECT_GT(changes, 100) << friction;
+        }
+        const auto& chatter = out.summary["encoder_chatter"];
+        ASSERT_TRUE(chatter.is_object()) << out.summary.dump();
+        EXPECT_EQ(chatter["coulomb_friction"].get<double>(), friction);
+        EXPECT_EQ(chatter["rest_for_every_push"].get<bool>(), friction >= gains.stiffness * q / 2);
+        const hapticopt::AbbottOkamuraPassivity ao =
+            hapticopt::abbott_okamura_passivity(out.summary["K"].get<double>(), 0.0, friction, q, T);
+        EXPECT_EQ(chatter["abbott_okamura_passive"].get<bool>(), ao.passive);
+        EXPECT_DOUBLE_EQ(chatter["abbott_okamura_bound"].get<double>(), 2 * friction / q);
+        const double K = out.summary["K"].get<double>();
+        const hapticopt::LimitCyclePrediction predicted =
+            hapticopt::predict_limit_cycle(hapticopt::LimitCycleLoop{hapticopt::PhysicalPlant{0.30, 0.0, 0.0, T, 0.006},
+                                                                     {K, out.summary["B"].get<double>()},
+                                                                     friction,
+                                                                     q,
+                                                                     K * q * 20.5});
+        if (predicted.predicted && predicted.cycle.stable) {
+            EXPECT_DOUBLE_EQ(chatter["cycle_amplitude"].get<double>(), predicted.cycle.amplitude);
+            EXPECT_DOUBLE_EQ(chatter["cycle_frequency"].get<double>(), predicted.cycle.frequency);
+        } else {
+            EXPECT_TRUE(chatter["cycle_amplitude"].is_null());
+        }
+    }
 }
 
 // Removes this process's scratch files at the end.
