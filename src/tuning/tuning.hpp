@@ -11,7 +11,8 @@
 
 namespace hapticopt {
 struct PhysicalPlant;
-}
+struct VelocityEstimator;
+}  // namespace hapticopt
 
 namespace hapticd {
 
@@ -31,6 +32,9 @@ struct TuningBox {
     double stiffness_min = 0.0, stiffness_max = 0.0;  // N/m
     double delay_min = 0.0, delay_max = 0.0;          // s, total loop delay (device + buffer)
     double period = 1e-3;                             // s
+    // The loop's velocity estimator: the robust optimum models the backward difference only, so
+    // tune_wall_robust refuses any other (the caller sets it from the profile's velocity_estimator).
+    VelocityEstimatorSpec velocity{};
 };
 
 // What --robust adds to a tuning: the box, the worst case of the gains over it and where it occurs, and
@@ -85,31 +89,44 @@ const std::vector<std::string>& accepted_criteria();
 // The plant in hapticopt's terms (the same five numbers).
 hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
 
+// The loop's velocity estimator in hapticopt's terms, the one every stability decision of src/tuning/ uses:
+// backward -> the backward difference, lowpass:F Hz -> low_pass(nu = F T), window:N -> moving_window(N).
+// Throws StartupError(ErrorKind::InvalidParameter) when hapticopt refuses it (nu not finite and > 0).
+hapticopt::VelocityEstimator to_hapticopt_estimator(const VelocityEstimatorSpec& velocity, double period);
+
 // amax as rendered: alpha = alpha_max (1 - kAlphaMaxBackOff) at the tip's beta (the tip itself is on the
 // stability boundary). 1e-3: K 0.1 % below the largest stable stiffness.
 inline constexpr double kAlphaMaxBackOff = 1e-3;
 
-// Optimal gains for the criterion (computes only that criterion; amax as above). Throws StartupError
-// (ErrorKind::InvalidParameter) when hapticopt rejects a parameter, (ErrorKind::UnstableGains) when the gains are not
-// strictly inside the stability region (hapticopt::is_stable).
+// Optimal gains for the criterion (computes only that criterion; amax as above) for the loop with the plant's
+// velocity estimator: the backward difference by hapticopt::optimal_wall, any other by hapticopt::optimal_point with
+// the estimator (its main stable region's alpha_max; OV has no estimator optimum). Throws StartupError
+// (ErrorKind::InvalidParameter) when hapticopt rejects a parameter or the criterion with the estimator,
+// (ErrorKind::UnstableGains) when the gains are not strictly inside the stability region of the loop with the
+// estimator (hapticopt::is_stable, or the estimator's Schur-Cohn verdict).
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
 // Sets t.position_resolution, t.force_noise_std and t.chatter for the plant the gains act on. sigma_F: the
 // white-noise model of rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick),
 // which holds while the handle moves over many steps (docs/velocity-estimation.md). At rest in contact it does not:
 // the measured position sits on one or two levels and the force steps between them (t.chatter). q = 0: nothing
-// predicted. Cost: one Stein equation and one describing-function search (up to about 0.1 s at d = 6).
+// predicted. Cost: one Stein equation and one describing-function search (up to about 0.1 s at d = 6). sigma_F is the
+// loop's with the plant's velocity estimator; the describing function models the backward difference only, so
+// t.chatter is left empty for any other estimator.
 void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
 // box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
-// another criterion, ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box.
+// another criterion or a velocity estimator other than backward (the robust optimum models the backward
+// difference), ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box.
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box);
 
-// Explicit gains: accepted when inside the stability region (cost of `criterion` predicted when it is an
-// energy or overshoot criterion); refused with StartupError(ErrorKind::UnstableGains) naming K, B, alpha, beta
-// and alpha_max otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall
-// bounded): unstable gains are accepted without a predicted cost.
+// Explicit gains: accepted when inside the stability region of the loop with the plant's velocity estimator (cost
+// of `criterion` predicted with it when it is an energy or overshoot criterion); refused with
+// StartupError(ErrorKind::UnstableGains) naming K, B, alpha, beta and alpha_max (the estimator's main region's)
+// otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall bounded): unstable
+// gains are accepted without a predicted cost; it models the backward difference, so with another estimator
+// `allow_unstable` is refused with StartupError(ErrorKind::Usage).
 TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,
                                   bool allow_unstable = false);
 
