@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "config/options.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -401,6 +402,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--position_resolution", position_resolution);
     std::string velocity_estimator = "backward";
     app.add_option("--velocity_estimator", velocity_estimator);
+    double force_noise_budget = 0.0;
+    auto* noise_budget = app.add_option("--force_noise_budget", force_noise_budget);
     app.add_option("--noise_seed", p.noise_seed);
     app.add_option("--fail_at_tick", p.fail_at_tick);
     app.add_option("--mass_range", p.mass_range);
@@ -461,6 +464,16 @@ DeviceProfile load_device_profile(const Options& o) {
         const double q = position_resolution[position_resolution.size() == 1 ? 0 : a];
         check_range(where, "position_resolution", q, 0.0, 1.0, false, "0 .. 1 m (rad) per axis");
         p.position_resolution[a] = q;
+    }
+    if (noise_budget->count() > 0) {
+        check_range(where, "force_noise_budget", force_noise_budget, 0.0, 1e6, true, "finite, > 0 N (N m)");
+        if (std::none_of(p.position_resolution.begin(),
+                         p.position_resolution.begin() + static_cast<std::ptrdiff_t>(axes),
+                         [](double q) { return q > 0.0; })) {
+            invalid(where, "force_noise_budget", shortest_text(force_noise_budget),
+                    "a budget with position_resolution > 0 (the encoder step whose rounding causes the noise)");
+        }
+        p.force_noise_budget = force_noise_budget;
     }
     {
         std::string error;

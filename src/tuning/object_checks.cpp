@@ -235,6 +235,8 @@ std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& cr
     if (it == cache_.end()) {
         TuningPlant p = plant_;  // with the loop's velocity estimator: tune_wall's optimum is the estimator's
         if (!free_mass_plant_) p.mass = m;
+        p.force_noise_budget.reset();  // the budget is the config walls' (one axis's encoder step), not the objects'
+        p.position_resolution = 0.0;
         const TuningResult r = tune_wall(criterion, p);
         // Free mass: store the normalised optimum (alpha*, beta*) in the K, B fields.
         it = cache_.emplace(key, free_mass_plant_ ? CriterionGains{r.alpha, r.beta} : CriterionGains{r.K, r.B}).first;

@@ -93,7 +93,33 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
         TuningResult r;
         r.criterion = criterion;
-        if (is_backward(estimator)) {
+        if (plant.force_noise_budget) {
+            // sigma_F = (m q / T^2) g_F: the budget in normalised units is g_max = budget T^2 / (m q).
+            const double budget = *plant.force_noise_budget, q = plant.position_resolution;
+            if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
+                throw StartupError(ErrorKind::InvalidParameter,
+                                   "tuning: criterion = " + criterion +
+                                       " is invalid with force_noise_budget = " + g(budget) +
+                                       " N; accepted: CE0, CE1, CE2 (the budgeted optimum minimises an "
+                                       "energy criterion), or no force_noise_budget");
+            }
+            if (!(q > 0.0)) {
+                throw StartupError(ErrorKind::InvalidParameter,
+                                   "tuning: force_noise_budget = " + g(budget) +
+                                       " N needs the encoder step of the wall's axis (position_resolution > 0); "
+                                       "accepted: a profile with position_resolution > 0 on that axis, or no "
+                                       "force_noise_budget");
+            }
+            const double g_max = budget * plant.period * plant.period / (plant.mass * q);
+            const hapticopt::NoiseBudgetOptimum t =
+                hapticopt::optimal_point_under_noise_budget(c, normalized, estimator, g_max);
+            r.alpha = t.alpha;
+            r.beta = t.beta;
+            r.cost = t.cost;
+            r.alpha_max = t.alpha_max;
+            r.K = r.alpha * plant.mass / (plant.period * plant.period);
+            r.B = r.beta * plant.mass / plant.period;
+        } else if (is_backward(estimator)) {
             const hapticopt::WallTuning t = hapticopt::optimal_wall(c, physical);
             r.K = t.K;
             r.B = t.B;

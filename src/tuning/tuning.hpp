@@ -23,6 +23,10 @@ struct TuningPlant {
     double period = 1e-3;              // s
     double time_delay = 0.0;           // s, total: device's inherent delay + delay buffer
     VelocityEstimatorSpec velocity{};  // the loop's velocity estimator (the analysis's: the same difference equation)
+    // The profile's force_noise_budget (N, N m; none: no budget) and the encoder step q of the wall's axis (m, rad;
+    // 0: none): tune_wall minimises the energy criterion subject to sigma_F <= budget (needs q > 0).
+    std::optional<double> force_noise_budget{};
+    double position_resolution = 0.0;
 };
 
 // A box of uncertain plant parameters for --robust, physical units (min == max: the value is exact).
@@ -104,6 +108,10 @@ inline constexpr double kAlphaMaxBackOff = 1e-3;
 // (ErrorKind::InvalidParameter) when hapticopt rejects a parameter or the criterion with the estimator,
 // (ErrorKind::UnstableGains) when the gains are not strictly inside the stability region of the loop with the
 // estimator (hapticopt::is_stable, or the estimator's Schur-Cohn verdict).
+// With plant.force_noise_budget: the optimum of CE0, CE1 or CE2 subject to sigma_F <= budget
+// (hapticopt::optimal_point_under_noise_budget with the estimator and g_max = budget T^2 / (m q), q =
+// plant.position_resolution; the unconstrained optimum when it meets the budget); StartupError
+// (ErrorKind::InvalidParameter) for another criterion, for q = 0, and when no stable gains meet the budget.
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
 // Sets t.position_resolution, t.force_noise_std and t.chatter for the plant the gains act on. sigma_F: the

@@ -253,3 +253,75 @@ TEST(EstimatorChecks, TheBackwardPathIsOptimalWall) {
 
 }  // namespace estimator_checks_test
 }  // namespace hapticd
+
+namespace hapticd {
+namespace estimator_checks_test {
+
+// force_noise_budget: the auto-tuned wall minimises CE2 subject to sigma_F <= budget. With half the unconstrained
+// optimum's sigma_F the budget is active: the wall is hapticopt::optimal_point_under_noise_budget's (g_max = budget
+// T^2 / (m q)) scaled to the mass, its sigma_F (predict_encoder_effects, an independent Stein solve at the returned
+// gains) is within the budget to the curve search's tolerance (1e-6 relative: Brent in log alpha to 1e-10 and the
+// beta grid's refinement leave g_F = g_max to far better than that), and its cost is above the unconstrained one;
+// with twice the unconstrained sigma_F the budget is slack and the wall is the unconstrained optimum.
+TEST(EstimatorChecks, ForceNoiseBudgetBoundsTheTunedWall) {
+    const double q = 1e-5;
+    for (const VelocityEstimatorSpec& spec : {VelocityEstimatorSpec{}, low_pass_hz(50.0), window_of(3)}) {
+        TuningPlant p = plant_with(1.0, spec);
+        p.position_resolution = q;
+        TuningResult free = tune_wall("CE2", p);
+        predict_encoder_effects(free, p, q);
+        ASSERT_TRUE(free.force_noise_std.has_value());
+        p.force_noise_budget = 0.5 * *free.force_noise_std;
+        TuningResult tight = tune_wall("CE2", p);
+        const double g_max = *p.force_noise_budget * kPeriod * kPeriod / (kMass * q);
+        const hapticopt::NoiseBudgetOptimum o = hapticopt::optimal_point_under_noise_budget(
+            hapticopt::Criterion::CE2, normalized(1.0), to_hapticopt_estimator(spec, kPeriod), g_max);
+        EXPECT_TRUE(o.budget_active);
+        EXPECT_DOUBLE_EQ(tight.alpha, o.alpha);
+        EXPECT_DOUBLE_EQ(tight.beta, o.beta);
+        EXPECT_DOUBLE_EQ(tight.K, o.alpha * kMass / (kPeriod * kPeriod));
+        ASSERT_TRUE(tight.cost.has_value());
+        EXPECT_GT(*tight.cost, *free.cost);
+        predict_encoder_effects(tight, p, q);
+        ASSERT_TRUE(tight.force_noise_std.has_value());
+        EXPECT_LE(*tight.force_noise_std, *p.force_noise_budget * (1 + 1e-6)) << to_string(spec);
+        EXPECT_GT(*tight.force_noise_std, *p.force_noise_budget * 0.99) << to_string(spec);  // the budget binds
+        p.force_noise_budget = 2.0 * *free.force_noise_std;
+        const TuningResult slack = tune_wall("CE2", p);
+        EXPECT_NEAR(slack.K, free.K, 1e-9 * free.K) << to_string(spec);
+        EXPECT_NEAR(slack.B, free.B, 1e-9 * free.B) << to_string(spec);
+    }
+}
+
+TEST(EstimatorChecks, ForceNoiseBudgetNeedsAnEnergyCriterionAndAnEncoderStep) {
+    TuningPlant p = plant_with(1.0, {});
+    p.force_noise_budget = 0.1;
+    p.position_resolution = 1e-5;
+    for (const char* criterion : {"amax", "OV", "CE2+OV"}) {
+        try {
+            (void)tune_wall(criterion, p);
+            ADD_FAILURE() << criterion << " accepted with a budget";
+        } catch (const StartupError& e) {
+            EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
+            EXPECT_NE(std::string(e.what()).find("force_noise_budget"), std::string::npos) << e.what();
+        }
+    }
+    p.position_resolution = 0.0;
+    try {
+        (void)tune_wall("CE1", p);
+        ADD_FAILURE() << "a budget without an encoder step accepted";
+    } catch (const StartupError& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
+        EXPECT_NE(std::string(e.what()).find("position_resolution"), std::string::npos) << e.what();
+    }
+    // The scene objects' criterion gains are not budgeted: the checker's optimum is the plain one.
+    GainCheckPlant gp = plant_with(1.0, {});
+    gp.force_noise_budget = 1e-9;  // would be unmeetable
+    GainChecker checker(gp);
+    const auto gains = checker.criterion_gains("CE2", kMass);
+    ASSERT_TRUE(gains.has_value());
+    EXPECT_EQ(gains->K, tune_wall("CE2", plant_with(1.0, {})).K);
+}
+
+}  // namespace estimator_checks_test
+}  // namespace hapticd
