@@ -6,6 +6,7 @@
 // tests/beyond/test_matrix_gain_estimator.cpp compares with an independently built state matrix, and against the
 // reference figure of the paper's CE2 optimum with a 20 Hz low-pass at 1 kHz: spectral radius 1.0652 at d = 0.
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <string>
 
@@ -83,6 +84,8 @@ TEST(EstimatorChecks, ALowPassCheckerRefusesTheBackwardOptimum) {
             hapticopt::stability(normalized(d), hapticopt::NormalizedGains{ce2.alpha, ce2.beta}, filtered.estimator())
                 .spectral_radius;
         EXPECT_GT(rho, 1.0);
+        std::printf("[ low-pass ] d = %g: the backward CE2 optimum (alpha %.6f, beta %.6f) has radius %.6f\n", d,
+                    ce2.alpha, ce2.beta, rho);
         if (d == 0.0) {
             EXPECT_NEAR(rho, 1.0652, 1e-4);
         }
