@@ -75,11 +75,11 @@ struct TuningResult {
     double alpha_max = 0.0;               // largest stable alpha of the plant
     std::optional<RobustSummary> robust;  // --robust: alpha, beta, alpha_max of the box centre; cost = worst case
     // The profile's encoder step q (position_resolution, m or rad; 0: not given) and the steady-state standard
-    // deviation of the commanded force that its rounding causes through the loop's backward difference,
+    // deviation of the commanded force that its rounding causes through the loop's velocity estimator,
     // sigma_F = (m q / T^2) g_F (hapticopt::force_noise_std), N (N m); empty when q = 0 or unstable.
     double position_resolution = 0.0;
     std::optional<double> force_noise_std;
-    std::optional<EncoderChatter> chatter;  // with q > 0 and stable gains
+    std::optional<EncoderChatter> chatter;  // with q > 0, stable gains and the backward difference
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
