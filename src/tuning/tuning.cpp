@@ -111,8 +111,15 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
                                        "force_noise_budget");
             }
             const double g_max = budget * plant.period * plant.period / (plant.mass * q);
-            const hapticopt::NoiseBudgetOptimum t =
-                hapticopt::optimal_point_under_noise_budget(c, normalized, estimator, g_max);
+            hapticopt::NoiseBudgetOptimum t;
+            try {
+                t = hapticopt::optimal_point_under_noise_budget(c, normalized, estimator, g_max);
+            } catch (const hapticopt::InvalidParameter& e) {
+                throw StartupError(ErrorKind::InvalidParameter,
+                                   "tuning: force_noise_budget = " + g(budget) + " N with position_resolution = " +
+                                       g(q) + " (normalised g_max = " + g(g_max) + "): " + e.what() +
+                                       "; accepted: a larger force_noise_budget or a finer position_resolution");
+            }
             r.alpha = t.alpha;
             r.beta = t.beta;
             r.cost = t.cost;

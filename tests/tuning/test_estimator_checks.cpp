@@ -317,6 +317,16 @@ TEST(EstimatorChecks, ForceNoiseBudgetNeedsAnEnergyCriterionAndAnEncoderStep) {
         EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
         EXPECT_NE(std::string(e.what()).find("position_resolution"), std::string::npos) << e.what();
     }
+    // A budget no stable gains meet: an error naming the key and what is accepted.
+    p.position_resolution = 1e-5;
+    p.force_noise_budget = 1e-9;
+    try {
+        (void)tune_wall("CE2", p);
+        ADD_FAILURE() << "an unmeetable budget accepted";
+    } catch (const StartupError& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
+        EXPECT_NE(std::string(e.what()).find("a larger force_noise_budget"), std::string::npos) << e.what();
+    }
     // The scene objects' criterion gains are not budgeted: the checker's optimum is the plain one.
     GainCheckPlant gp = plant_with(1.0, {});
     gp.force_noise_budget = 1e-9;  // would be unmeetable
