@@ -57,7 +57,8 @@
 // The backward difference (the default) takes the paths above unchanged (p_est = z p: the same roots and a
 // root at 0). Free directions: P(z) u = P_0(z) At(z) u, the free plant's roots and the estimator's own
 // poles (At's roots: lambda for the low-pass, 0 for a window), inside the unit circle, so restricting to
-// the acting part is unchanged.
+// the acting part is unchanged. Checked against an independently built state matrix with the estimator's
+// difference equation and a time-stepping simulation (tests/beyond/test_matrix_gain_estimator.cpp).
 //
 // Gains as rendered (general_matrix_gain_stability): a force field f = J (x - x0) - B v renders the
 // stiffness matrix -J, whose antisymmetric part (a curl) stores no energy but, with sampling, damping and
