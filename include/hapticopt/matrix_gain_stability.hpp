@@ -45,6 +45,21 @@
 // spectral radius with the eigenvalues of the loop's state-transition matrix built independently from the
 // matrix exponential of the 3-axis plant (tests/beyond/test_matrix_gain_stability.cpp).
 //
+// The velocity estimator (velocity_estimator.hpp): with f_j = A x_j + B v_j and v_j from the estimator's
+// difference equation A(1/z) v = B(1/z) x, the steps of estimator_characteristic_polynomial multiply the
+// scalar polynomials by At(z) = z^L A(1/z) and Bt(z) = z^L B(1/z) only, so the matrix polynomial is
+//
+//   P(z) = P_0(z) At(z) I + P_alpha(z) At(z) A + P_alpha(z) Bt(z) B,    leading coefficient I,
+//
+// exactly that function's affine form, and the block companion matrix (size r (n + 3 + L)) gives its
+// roots; when A and B commute the per-direction verdict is the scalar one with the estimator
+// (stability(plant, gains, estimator): Schur-Cohn on p_est and the radius of the estimator's loop matrix).
+// The backward difference (the default) takes the paths above unchanged (p_est = z p: the same roots and a
+// root at 0). Free directions: P(z) u = P_0(z) At(z) u, the free plant's roots and the estimator's own
+// poles (At's roots: lambda for the low-pass, 0 for a window), inside the unit circle, so restricting to
+// the acting part is unchanged. Checked against an independently built state matrix with the estimator's
+// difference equation and a time-stepping simulation (tests/beyond/test_matrix_gain_estimator.cpp).
+//
 // Gains as rendered (general_matrix_gain_stability): a force field f = J (x - x0) - B v renders the
 // stiffness matrix -J, whose antisymmetric part (a curl) stores no energy but, with sampling, damping and
 // delay, can destabilise the loop (follower-force flutter). The matrix polynomial above is derived with
@@ -65,6 +80,7 @@
 #include "config.hpp"
 #include "characteristic_polynomial.hpp"
 #include "stability.hpp"
+#include "velocity_estimator.hpp"
 
 namespace hapticopt {
 
@@ -138,14 +154,18 @@ HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolyno
 }  // namespace detail
 
 /// Stability of the loop with symmetric normalised gain matrices `A` (stiffness) and `B` (damping), same
-/// plant on every axis. Throws InvalidParameter for a non-square, non-symmetric (beyond 1e-9 relative) or
-/// non-finite matrix, matrices of different size, and the plant's own invalid parameters.
+/// plant on every axis, velocity from `estimator` (default: the backward difference). Throws InvalidParameter
+/// for a non-square, non-symmetric (beyond 1e-9 relative) or non-finite matrix, matrices of different size,
+/// the plant's own invalid parameters and an invalid estimator (validate(VelocityEstimator)).
 HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
-                                                         const Eigen::MatrixXd& B)
+                                                         const Eigen::MatrixXd& B,
+                                                         const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
     const char* fn = "hapticopt::matrix_gain_stability";
     detail::validate_gain_matrices(plant, A, B, fn);
+    validate(estimator, fn);
+    const bool backward = estimator.kind == VelocityEstimatorKind::backward;
     const double scale = 1.0 + A.norm() + B.norm();
     if ((A - A.transpose()).norm() > 1e-9 * scale || (B - B.transpose()).norm() > 1e-9 * scale) {
         throw InvalidParameter(fn, "gain matrix asymmetry",
@@ -174,7 +194,8 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
         result.stable = true;
         for (Eigen::Index c = 0; c < r; ++c) {
             const Eigen::VectorXd u = common.eigenvectors().col(c);
-            const StabilityReport s = stability(plant, NormalizedGains{u.dot(Ar * u), u.dot(Br * u)});
+            const NormalizedGains gains{u.dot(Ar * u), u.dot(Br * u)};
+            const StabilityReport s = backward ? stability(plant, gains) : stability(plant, gains, estimator);
             result.stable = result.stable && s.stable;
             result.spectral_radius = std::max(result.spectral_radius, s.spectral_radius);
         }
@@ -182,8 +203,9 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
         return result;
     }
 
+    const AffineCharacteristicPolynomial<double> p = characteristic_polynomial(SampledPlant<double>(plant));
     result.spectral_radius =
-        detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
+        detail::companion_spectral_radius(backward ? p : estimator_characteristic_polynomial(p, estimator), Ar, Br);
     result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
     return result;
 }
@@ -195,26 +217,32 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
 /// with a curl) and `B` (damping), same plant on every axis: the gains as the loop renders them. Symmetric
 /// A and B (asymmetry at most kMatrixGainRoundingLevel relative) go to matrix_gain_stability; otherwise the
 /// restricted block companion matrix decides, stable only for a spectral radius below 1 -
-/// kMatrixGainRadiusMargin (commuting = false). Throws InvalidParameter for non-square, differently sized
-/// or non-finite matrices and the plant's own invalid parameters. Cost: one SVD of a 2r x r matrix and one
-/// non-symmetric eigenproblem of size r (n + 3) (~18 x 18 for r = 3, d = 3).
+/// kMatrixGainRadiusMargin (commuting = false). Velocity from `estimator` (default: the backward
+/// difference), as in matrix_gain_stability. Throws InvalidParameter for non-square, differently sized
+/// or non-finite matrices, the plant's own invalid parameters and an invalid estimator. Cost: one SVD of a
+/// 2r x r matrix and one non-symmetric eigenproblem of size r (n + 3) (~18 x 18 for r = 3, d = 3; r L more
+/// with an estimator: L = 1 for the low-pass, N for a window of N).
 HAPTICOPT_FUNC MatrixGainStability general_matrix_gain_stability(const NormalizedPlant& plant, const Eigen::MatrixXd& A,
-                                                                 const Eigen::MatrixXd& B)
+                                                                 const Eigen::MatrixXd& B,
+                                                                 const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
     const char* fn = "hapticopt::general_matrix_gain_stability";
     detail::validate_gain_matrices(plant, A, B, fn);
+    validate(estimator, fn);
     const double scale = A.norm() + B.norm();
     if ((A - A.transpose()).norm() <= kMatrixGainRoundingLevel * scale &&
         (B - B.transpose()).norm() <= kMatrixGainRoundingLevel * scale) {
-        return matrix_gain_stability(plant, (A + A.transpose()) / 2, (B + B.transpose()) / 2);
+        return matrix_gain_stability(plant, (A + A.transpose()) / 2, (B + B.transpose()) / 2, estimator);
     }
     MatrixGainStability result;
     const Eigen::MatrixXd Q = detail::acting_basis(A, B);
     result.active_directions = static_cast<int>(Q.cols());
     const Eigen::MatrixXd Ar = Q.transpose() * A * Q, Br = Q.transpose() * B * Q;
-    result.spectral_radius =
-        detail::companion_spectral_radius(characteristic_polynomial(SampledPlant<double>(plant)), Ar, Br);
+    const AffineCharacteristicPolynomial<double> p = characteristic_polynomial(SampledPlant<double>(plant));
+    result.spectral_radius = detail::companion_spectral_radius(
+        estimator.kind == VelocityEstimatorKind::backward ? p : estimator_characteristic_polynomial(p, estimator), Ar,
+        Br);
     result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
     return result;
 }

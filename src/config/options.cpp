@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "config/options.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -406,6 +407,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--coulomb_friction", coulomb_friction);
     std::string velocity_estimator = "backward";
     app.add_option("--velocity_estimator", velocity_estimator);
+    double force_noise_budget = 0.0;
+    auto* noise_budget = app.add_option("--force_noise_budget", force_noise_budget);
     app.add_option("--noise_seed", p.noise_seed);
     app.add_option("--fail_at_tick", p.fail_at_tick);
     app.add_option("--mass_range", p.mass_range);
@@ -476,6 +479,16 @@ DeviceProfile load_device_profile(const Options& o) {
         const double f = coulomb_friction[coulomb_friction.size() == 1 ? 0 : a];
         check_range(where, "coulomb_friction", f, 0.0, 1e6, false, "finite, 0 .. 1e6 N (N m) per axis");
         p.coulomb_friction[a] = f;
+    }
+    if (noise_budget->count() > 0) {
+        check_range(where, "force_noise_budget", force_noise_budget, 0.0, 1e6, true, "finite, > 0 N (N m)");
+        if (std::none_of(p.position_resolution.begin(),
+                         p.position_resolution.begin() + static_cast<std::ptrdiff_t>(axes),
+                         [](double q) { return q > 0.0; })) {
+            invalid(where, "force_noise_budget", shortest_text(force_noise_budget),
+                    "a budget with position_resolution > 0 (the encoder step whose rounding causes the noise)");
+        }
+        p.force_noise_budget = force_noise_budget;
     }
     {
         // --velocity-estimator overrides the profile's key (its error then names the option).

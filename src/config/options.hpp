@@ -127,6 +127,10 @@ struct DeviceProfile {
     // How the loop estimates the velocity its dampers act on (`velocity_estimator`: backward, lowpass:<F>Hz,
     // window:<N>); the tuning checks every wall and client scene with the same estimator.
     VelocityEstimatorSpec velocity_estimator{};
+    // `force_noise_budget`, N (N m): the auto-tuned walls minimise their energy criterion subject to the force noise
+    // the encoder step causes, sigma_F <= this (TuningPlant::force_noise_budget); needs position_resolution > 0 on
+    // the wall's axis. None: no budget.
+    std::optional<double> force_noise_budget;
     long long noise_seed = 1;
     long long fail_at_tick = -1;
     RealDeviceKeys real;  // keys of the falcon / hid drivers (config/profile_keys.hpp)

@@ -88,6 +88,10 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             wall_plant.mass = p.mass_model.of_axis(spec->axis);
             axis_key = "@axis" + std::to_string(spec->axis);
         }
+        // The noise budget bounds the force noise of the wall's axis's encoder step.
+        wall_plant.position_resolution = p.position_resolution[spec->axis];
+        wall_plant.force_noise_budget = p.force_noise_budget;
+        if (p.force_noise_budget) axis_key = "@axis" + std::to_string(spec->axis);
         if (o.gains_set) {
             auto it = tuned.find("explicit" + axis_key);
             if (it == tuned.end()) {
@@ -130,6 +134,7 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
     const double buffer = static_cast<double>(o.delay_buffer) / o.rate;
     TuningBox b;
     b.period = period;
+    b.velocity = p.velocity_estimator;  // tune_wall_robust refuses any but the backward difference
     if (ident) {
         const IdentificationResult& r = ident->result;
         constexpr double k = 3.0;  // +- 3 standard errors

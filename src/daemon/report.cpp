@@ -46,19 +46,23 @@ std::string encoder_line(const TuningResult& t, bool rotary) {
     const char* fu = rotary ? "N m" : "N";
     std::snprintf(buf, sizeof buf,
                   "encoder step %.6g %s: force noise sigma_F = %.4g %s while the handle moves over many steps "
-                  "(white-noise model, backward difference)",
+                  "(white-noise model, the loop's velocity estimate)",
                   t.position_resolution, rotary ? "rad" : "m", *t.force_noise_std, fu);
     std::string line = buf;
     if (t.chatter) {
         const EncoderChatter& c = *t.chatter;
         std::snprintf(buf, sizeof buf,
-                      "; at rest in contact each count steps the force by B q / T = %.3g %s for one period, and a "
-                      "rest holds every push only with Coulomb friction >= K q / 2 = %.3g %s; the profile's "
-                      "coulomb_friction %.3g %s: %s; Abbott-Okamura bound K <= %.4g (B = 0, no delay): %s",
+                      "; at rest in contact each count steps the force by %.3g %s on its first tick (B q / T times "
+                      "the estimator's newest weight), and a rest holds every push only with Coulomb friction >= K q "
+                      "/ 2 = %.3g %s; the profile's coulomb_friction %.3g %s: %s",
                       c.count_kick, fu, c.friction_for_rest, fu, c.coulomb_friction, fu,
-                      c.rest_for_every_push ? "a rest holds every push" : "no rest for some pushes",
-                      c.abbott_okamura_bound, c.abbott_okamura_passive ? "met" : "not met");
+                      c.rest_for_every_push ? "a rest holds every push" : "no rest for some pushes");
         line += buf;
+        if (c.backward_difference) {
+            std::snprintf(buf, sizeof buf, "; Abbott-Okamura bound K <= %.4g (B = 0, no delay): %s",
+                          c.abbott_okamura_bound, c.abbott_okamura_passive ? "met" : "not met");
+            line += buf;
+        }
         if (c.cycle_predicted) {
             std::snprintf(
                 buf, sizeof buf,
@@ -132,8 +136,10 @@ nlohmann::json tuning_json(const TuningResult& t) {
             {"friction_for_rest", c.friction_for_rest},
             {"coulomb_friction", c.coulomb_friction},
             {"rest_for_every_push", c.rest_for_every_push},
-            {"abbott_okamura_passive", c.abbott_okamura_passive},
-            {"abbott_okamura_bound", c.abbott_okamura_bound},
+            {"abbott_okamura_passive",
+             c.backward_difference ? nlohmann::json(c.abbott_okamura_passive) : nlohmann::json(nullptr)},
+            {"abbott_okamura_bound",
+             c.backward_difference ? nlohmann::json(c.abbott_okamura_bound) : nlohmann::json(nullptr)},
             {"cycle_amplitude", c.cycle_predicted ? nlohmann::json(c.cycle_amplitude) : nlohmann::json(nullptr)},
             {"cycle_frequency", c.cycle_predicted ? nlohmann::json(c.cycle_frequency) : nlohmann::json(nullptr)}};
     } else {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -28,9 +29,12 @@ std::string number_text(double v, int precision = 6) {
     return s.str();
 }
 
+bool is_backward(const hapticopt::VelocityEstimator& e) { return e.kind == hapticopt::VelocityEstimatorKind::backward; }
+
 }  // namespace
 
-GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
+GainChecker::GainChecker(const GainCheckPlant& plant)
+    : plant_(plant), estimator_(to_hapticopt_estimator(plant.velocity, plant.period)) {
     mass_ = plant_.mass_matrix ? *plant_.mass_matrix : DeviceMass::isotropic_mass(plant_.mass, 3);
     free_mass_plant_ = plant_.damping == 0.0 && plant_.stiffness == 0.0;
     if (!mass_.isotropic && !free_mass_plant_) {
@@ -47,7 +51,24 @@ GainChecker::GainChecker(const GainCheckPlant& plant) : plant_(plant) {
             mass_sqrt_[i][j] =
                 0.5 * (Ms(static_cast<int>(i), static_cast<int>(j)) + Ms(static_cast<int>(j), static_cast<int>(i)));
     }
-    alpha_max_ = hapticopt::StabilityRegion(normalized_for(plant_.mass)).alpha_max();
+    if (is_backward(estimator_)) {
+        alpha_max_ = hapticopt::StabilityRegion(normalized_for(plant_.mass)).alpha_max();
+    } else {
+        region_ = std::make_shared<const hapticopt::EstimatorStabilityRegion>(normalized_for(plant_.mass), estimator_);
+        alpha_max_ = region_->alpha_max();
+    }
+}
+
+bool GainChecker::stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const {
+    const hapticopt::NormalizedGains gains{alpha, beta};
+    if (is_backward(estimator_)) return hapticopt::is_stable(np, gains);
+    hapticopt::validate(gains, "hapticopt::is_stable");
+    return hapticopt::EstimatorStabilityTest(np, estimator_).stable(alpha, beta);
+}
+
+std::shared_ptr<const hapticopt::EstimatorStabilityRegion> GainChecker::estimator_region_for(double m) const {
+    if (free_mass_plant_ || m == plant_.mass) return region_;
+    return std::make_shared<const hapticopt::EstimatorStabilityRegion>(normalized_for(m), estimator_);
 }
 
 hapticopt::NormalizedPlant GainChecker::normalized_for(double m) const {
@@ -58,12 +79,13 @@ hapticopt::NormalizedPlant GainChecker::normalized_for(double m) const {
 
 double GainChecker::alpha_max_for(double m) const {
     if (free_mass_plant_ || m == plant_.mass) return alpha_max_;
+    if (!is_backward(estimator_)) return estimator_region_for(m)->alpha_max();
     return hapticopt::StabilityRegion(normalized_for(m)).alpha_max();
 }
 
 bool GainChecker::pair_is_stable(double K, double B, double m) const {
     const double T = plant_.period;
-    return hapticopt::is_stable(normalized_for(m), hapticopt::NormalizedGains{K * T * T / m, B * T / m});
+    return stable(normalized_for(m), K * T * T / m, B * T / m);
 }
 
 PairVerdict GainChecker::check_pair(double K, double B, double m) const {
@@ -75,20 +97,28 @@ PairVerdict GainChecker::check_pair(double K, double B, double m) const {
     v.alpha = K * T * T / m;
     v.beta = B * T / m;
     v.alpha_max = alpha_max;
-    v.stable = hapticopt::is_stable(np, hapticopt::NormalizedGains{v.alpha, v.beta});
-    // Largest stable alpha at this beta: bisection on is_stable over (0, alpha_max].
+    // The verdict of the loop with the checker's estimator (its Schur-Cohn test precomputed once for the bisection).
+    std::optional<hapticopt::EstimatorStabilityTest> test;
+    if (!is_backward(estimator_)) test.emplace(np, estimator_);
+    auto is_stable = [&](double alpha, double beta) {
+        hapticopt::validate(hapticopt::NormalizedGains{alpha, beta}, "hapticopt::is_stable");
+        return test ? test->stable(alpha, beta) : hapticopt::is_stable(np, hapticopt::NormalizedGains{alpha, beta});
+    };
+    v.stable = is_stable(v.alpha, v.beta);
+    // Largest stable alpha at this beta: bisection on the verdict over (0, alpha_max] (alpha_max of the main
+    // region: with an estimator, stable islands beyond it are not searched).
     double lo = v.stable && v.alpha > 0.0 ? v.alpha : alpha_max * 1e-9;
-    if (!hapticopt::is_stable(np, hapticopt::NormalizedGains{lo, v.beta})) {
+    if (!is_stable(lo, v.beta)) {
         v.largest_stable_K = 0.0;
         return v;
     }
     double hi = alpha_max * (1.0 + 1e-9);
-    if (hapticopt::is_stable(np, hapticopt::NormalizedGains{hi, v.beta})) {
+    if (is_stable(hi, v.beta)) {
         lo = hi;  // cannot happen (alpha_max is the tip of the region); kept as a safe answer
     } else {
         for (int i = 0; i < 60; ++i) {
             const double mid = 0.5 * (lo + hi);
-            if (hapticopt::is_stable(np, hapticopt::NormalizedGains{mid, v.beta})) {
+            if (is_stable(mid, v.beta)) {
                 lo = mid;
             } else {
                 hi = mid;
@@ -106,16 +136,27 @@ std::optional<std::pair<double, double>> GainChecker::damping_range(double K, co
     double lo = -HUGE_VAL, hi = HUGE_VAL;
     for (const double m : masses) {
         const hapticopt::NormalizedPlant np = normalized_for(m);
-        const hapticopt::StabilityRegion region(np);
         const double alpha = K * T * T / m;
-        if (!(alpha > region.alpha_min() && alpha <= region.alpha_max())) return std::nullopt;
-        auto [beta_lo, beta_hi] = region.beta_range(alpha);
+        double beta_lo = 0.0, beta_hi = 0.0;
+        if (is_backward(estimator_)) {
+            const hapticopt::StabilityRegion region(np);
+            if (!(alpha > region.alpha_min() && alpha <= region.alpha_max())) return std::nullopt;
+            std::tie(beta_lo, beta_hi) = region.beta_range(alpha);
+        } else {
+            // The estimator's main region: from a stable beta of its scan at this alpha, each end by bisection on
+            // the estimator's Schur-Cohn verdict to ~1e-14 (EstimatorStabilityRegion::beta_interval); (0, 0)
+            // outside (0, alpha_max).
+            std::tie(beta_lo, beta_hi) = estimator_region_for(m)->beta_interval(alpha);
+            if (!(beta_lo < beta_hi)) return std::nullopt;
+        }
         if (accepted) {
             // rho(beta) = 1 at both ends; the ends of rho < 1 - margin, by bisection between each end and the
             // middle of the interval (none when the middle does not reach below 1 - margin).
             const double target = 1.0 - hapticopt::kMatrixGainRadiusMargin;
             auto rho = [&](double beta) {
-                return hapticopt::stability(np, hapticopt::NormalizedGains{alpha, beta}).spectral_radius;
+                const hapticopt::NormalizedGains gains{alpha, beta};
+                return is_backward(estimator_) ? hapticopt::stability(np, gains).spectral_radius
+                                               : hapticopt::stability(np, gains, estimator_).spectral_radius;
             };
             const double mid = 0.5 * (beta_lo + beta_hi);
             if (!(rho(mid) < target)) return std::nullopt;
@@ -192,8 +233,10 @@ std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& cr
     const std::pair<std::string, double> key{criterion, free_mass_plant_ ? 0.0 : m};
     auto it = cache_.find(key);
     if (it == cache_.end()) {
-        TuningPlant p = plant_;
+        TuningPlant p = plant_;  // with the loop's velocity estimator: tune_wall's optimum is the estimator's
         if (!free_mass_plant_) p.mass = m;
+        p.force_noise_budget.reset();  // the budget is the config walls' (one axis's encoder step), not the objects'
+        p.position_resolution = 0.0;
         const TuningResult r = tune_wall(criterion, p);
         // Free mass: store the normalised optimum (alpha*, beta*) in the K, B fields.
         it = cache_.emplace(key, free_mass_plant_ ? CriterionGains{r.alpha, r.beta} : CriterionGains{r.K, r.B}).first;
@@ -226,7 +269,7 @@ hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const 
     const Eigen::Matrix3d A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
     const Eigen::Matrix3d Bn = T * (Mis * as_eigen(B_sum) * Mis);
     return hapticopt::general_matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A),
-                                                    Eigen::MatrixXd(Bn));
+                                                    Eigen::MatrixXd(Bn), estimator_);
 }
 
 Matrix3 GainChecker::field_stiffness_matrix(const Matrix3& J) {
@@ -303,7 +346,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
             const double alpha = u.dot(A * u), beta = u.dot(Bn * u);
             if (alpha <= 1e-12 * (1.0 + A.norm()) && beta <= 1e-12 * (1.0 + Bn.norm()))
                 continue;  // nothing acts along u
-            if (hapticopt::is_stable(np, hapticopt::NormalizedGains{alpha, beta})) continue;
+            if (stable(np, alpha, beta)) continue;
             const Eigen::Vector3d n = (Ms * u).normalized();
             const double m_n = mass_.along({n(0), n(1), n(2)});
             const PairVerdict v = check_pair(alpha * m_n / (T * T), beta * m_n / T, m_n);

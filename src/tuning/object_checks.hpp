@@ -37,6 +37,15 @@
 //    Cost: 3x3 eigen-decompositions and at most 3 Schur-Cohn tests, or one ~3(d+3)-square eigenproblem.
 //  * A field alone: the same coupled verdict of (-J, B I); with one mass and a symmetric J the stiffest
 //    eigenvalue of -J with B gets the scalar verdict first (for the largest stable K in the refusal).
+//  * The velocity estimator: every verdict above is for the loop that runs, with the profile's
+//    velocity_estimator (GainCheckPlant::velocity, to_hapticopt_estimator): the backward difference takes the
+//    paths as written; a low-pass or window replaces is_stable by the estimator's Schur-Cohn verdict
+//    (hapticopt::EstimatorStabilityTest), alpha_max by its main stable region's
+//    (hapticopt::EstimatorStabilityRegion, scanned once for the profile's mass in the constructor), the stable
+//    beta interval of damping_range by that region's beta_interval (bisection on the verdict), the spectral radius
+//    by the estimator loop's (hapticopt::stability with the estimator), the optimum by tune_wall with the
+//    estimator, and the coupled check by general_matrix_gain_stability with the estimator. The cache needs no
+//    estimator in its key: it is fixed per checker.
 //  * Device limits: the profile's max_stiffness (N/m) bounds each object's stiffness along every direction
 //    and the summed K_sum's largest eigenvalue of sym(K_sum) (fields: the largest eigenvalue of -sym(J);
 //    the curl stores no energy and is bounded by the force limit instead).
@@ -44,6 +53,7 @@
 
 #include <array>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -101,7 +111,8 @@ struct CriterionGains {
 
 class GainChecker {
   public:
-    // Throws std::invalid_argument naming the parameter for an anisotropic mass with b or k != 0.
+    // Throws std::invalid_argument naming the parameter for an anisotropic mass with b or k != 0, and
+    // StartupError(ErrorKind::InvalidParameter) for a velocity estimator hapticopt refuses.
     explicit GainChecker(const GainCheckPlant& plant);
 
     [[nodiscard]] const GainCheckPlant& plant() const noexcept { return plant_; }
@@ -127,13 +138,15 @@ class GainChecker {
     // over the masses of the open interval (beta_lo, beta_hi) m / T, where (beta_lo, beta_hi) is the stable
     // beta at alpha = K T^2 / m, the two crossings of the region's boundary with that alpha
     // (hapticopt::StabilityRegion::beta_range: D-decomposition, p(e^{i theta}) = 0 solved for (alpha,
-    // beta), bisection in theta to ~1e-15). std::nullopt when some alpha lies outside (alpha_min,
+    // beta), bisection in theta to ~1e-15; with a low-pass or window estimator: the main region's interval,
+    // EstimatorStabilityRegion::beta_interval, each end by bisection on the estimator's verdict to ~1e-14
+    // from a stable beta of the region's scan). std::nullopt when some alpha lies outside (alpha_min,
     // alpha_max] (no B makes K stable with that mass) or the intervals do not overlap.
     // accepted: the B whose loop has a spectral radius below 1 - hapticopt::kMatrixGainRadiusMargin (the
     // margin of the summed check, which every object passes as part of the scene) instead: each end found by
     // 60 bisection steps on the loop's spectral radius (hapticopt::stability, eigenvalues of the transition
-    // matrix) between the region's end and the interval's middle; std::nullopt also when the middle does not
-    // reach below that radius.
+    // matrix, with the estimator's loop) between the region's end and the interval's middle; std::nullopt also when
+    // the middle does not reach below that radius.
     [[nodiscard]] std::optional<std::pair<double, double>> damping_range(double K, const std::vector<double>& masses,
                                                                          bool accepted = false) const;
 
@@ -173,11 +186,20 @@ class GainChecker {
                                       const Matrix3& B_in, const Matrix3& K_out, const Matrix3& B_out, double step,
                                       std::string& why) const;
 
+    // The loop's velocity estimator every decision above uses (to_hapticopt_estimator of plant().velocity).
+    [[nodiscard]] const hapticopt::VelocityEstimator& estimator() const noexcept { return estimator_; }
+
   private:
     [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m) const;
     [[nodiscard]] double alpha_max_for(double m) const;
+    // The scalar verdict with the estimator (hapticopt::is_stable for the backward difference).
+    [[nodiscard]] bool stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const;
+    // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
+    [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 
     GainCheckPlant plant_;
+    hapticopt::VelocityEstimator estimator_;
+    std::shared_ptr<const hapticopt::EstimatorStabilityRegion> region_;  // non-backward: for the profile's mass
     DeviceMass mass_;
     MassMatrix mass_sqrt_{};        // M^1/2
     bool free_mass_plant_ = false;  // b = k = 0: the normalised plant does not depend on the mass

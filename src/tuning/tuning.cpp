@@ -21,6 +21,23 @@ hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& p) {
     return plant;
 }
 
+hapticopt::VelocityEstimator to_hapticopt_estimator(const VelocityEstimatorSpec& velocity, double period) {
+    try {
+        switch (velocity.kind) {
+            case LoopVelocityKind::LowPass:
+                return hapticopt::VelocityEstimator::low_pass(velocity.cutoff_hz * period);
+            case LoopVelocityKind::Window:
+                return hapticopt::VelocityEstimator::moving_window(velocity.window);
+            case LoopVelocityKind::Backward:
+                break;
+        }
+    } catch (const hapticopt::InvalidParameter& e) {
+        throw StartupError(ErrorKind::InvalidParameter,
+                           "velocity_estimator = " + to_string(velocity) + ": " + std::string(e.what()));
+    }
+    return hapticopt::VelocityEstimator::backward_difference();
+}
+
 namespace {
 
 hapticopt::Criterion parse(const std::string& name) {
@@ -36,6 +53,22 @@ std::string g(double v) {
     s.precision(6);
     s << v;
     return s.str();
+}
+
+bool is_backward(const hapticopt::VelocityEstimator& e) { return e.kind == hapticopt::VelocityEstimatorKind::backward; }
+
+// The decisions with the loop's estimator: the backward difference by the library's paper paths (unchanged), any
+// other by the estimator's Schur-Cohn verdict and its main stable region.
+bool stable_with(const hapticopt::NormalizedPlant& plant, const hapticopt::NormalizedGains& gains,
+                 const hapticopt::VelocityEstimator& e) {
+    if (is_backward(e)) return hapticopt::is_stable(plant, gains);
+    hapticopt::validate(gains, "hapticopt::is_stable");
+    return hapticopt::EstimatorStabilityTest(plant, e).stable(gains.alpha, gains.beta);
+}
+
+double alpha_max_with(const hapticopt::NormalizedPlant& plant, const hapticopt::VelocityEstimator& e) {
+    if (is_backward(e)) return hapticopt::StabilityRegion(plant).alpha_max();
+    return hapticopt::EstimatorStabilityRegion(plant, e).alpha_max();
 }
 
 }  // namespace
@@ -54,34 +87,87 @@ const std::string& accepted_criteria_text() {
 
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
     const hapticopt::Criterion c = parse(criterion);
+    const hapticopt::VelocityEstimator estimator = to_hapticopt_estimator(plant.velocity, plant.period);
     try {
         const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
-        const hapticopt::WallTuning t = hapticopt::optimal_wall(c, physical);
+        const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
         TuningResult r;
         r.criterion = criterion;
-        r.K = t.K;
-        r.B = t.B;
-        r.alpha = t.alpha;
-        r.beta = t.beta;
-        r.cost = t.cost;
-        r.alpha_max = t.alpha_max;
+        if (plant.force_noise_budget) {
+            // sigma_F = (m q / T^2) g_F: the budget in normalised units is g_max = budget T^2 / (m q).
+            const double budget = *plant.force_noise_budget, q = plant.position_resolution;
+            if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
+                throw StartupError(ErrorKind::InvalidParameter,
+                                   "tuning: criterion = " + criterion +
+                                       " is invalid with force_noise_budget = " + g(budget) +
+                                       " N; accepted: CE0, CE1, CE2 (the budgeted optimum minimises an "
+                                       "energy criterion), or no force_noise_budget");
+            }
+            if (!(q > 0.0)) {
+                throw StartupError(ErrorKind::InvalidParameter,
+                                   "tuning: force_noise_budget = " + g(budget) +
+                                       " N needs the encoder step of the wall's axis (position_resolution > 0); "
+                                       "accepted: a profile with position_resolution > 0 on that axis, or no "
+                                       "force_noise_budget");
+            }
+            const double g_max = budget * plant.period * plant.period / (plant.mass * q);
+            hapticopt::NoiseBudgetOptimum t;
+            try {
+                t = hapticopt::optimal_point_under_noise_budget(c, normalized, estimator, g_max);
+            } catch (const hapticopt::InvalidParameter& e) {
+                throw StartupError(ErrorKind::InvalidParameter,
+                                   "tuning: force_noise_budget = " + g(budget) + " N with position_resolution = " +
+                                       g(q) + " (normalised g_max = " + g(g_max) + "): " + e.what() +
+                                       "; accepted: a larger force_noise_budget or a finer position_resolution");
+            }
+            r.alpha = t.alpha;
+            r.beta = t.beta;
+            r.cost = t.cost;
+            r.alpha_max = t.alpha_max;
+            r.K = r.alpha * plant.mass / (plant.period * plant.period);
+            r.B = r.beta * plant.mass / plant.period;
+        } else if (is_backward(estimator)) {
+            const hapticopt::WallTuning t = hapticopt::optimal_wall(c, physical);
+            r.K = t.K;
+            r.B = t.B;
+            r.alpha = t.alpha;
+            r.beta = t.beta;
+            r.cost = t.cost;
+            r.alpha_max = t.alpha_max;
+        } else {
+            // The optimum of the loop with the estimator over its main stable region (hapticopt::optimal_point).
+            if (c == hapticopt::Criterion::Overshoot) {
+                throw StartupError(
+                    ErrorKind::InvalidParameter,
+                    "tuning: criterion = OV has no optimum with velocity_estimator = " + to_string(plant.velocity) +
+                        "; accepted: amax, CE0..2, CE0+OV..CE2+OV, or velocity_estimator = backward");
+            }
+            const hapticopt::EstimatorOptimum t = hapticopt::optimal_point(c, normalized, estimator);
+            r.alpha = t.alpha;
+            r.beta = t.beta;
+            r.cost = t.cost;
+            r.alpha_max = t.alpha_max;
+            r.K = r.alpha * plant.mass / (plant.period * plant.period);
+            r.B = r.beta * plant.mass / plant.period;
+        }
         if (c == hapticopt::Criterion::AlphaMax) {
             // amax is the region's tip (alpha_max, the beta there), on its boundary: marginally stable. What is
             // rendered is the tip moved inwards along alpha, alpha_max (1 - kAlphaMaxBackOff) at the tip's beta:
             // the stable beta interval at that alpha has a half-width of order sqrt(kAlphaMaxBackOff) around a
             // centre within O(kAlphaMaxBackOff) of the tip's beta, so the point is strictly inside (checked below).
-            r.alpha = t.alpha_max * (1.0 - kAlphaMaxBackOff);
+            r.alpha = r.alpha_max * (1.0 - kAlphaMaxBackOff);
             r.K = r.alpha * plant.mass / (plant.period * plant.period);
             r.cost = r.alpha;
         }
         // Every tuned wall is checked as explicit gains are: an optimum on or outside the boundary is refused.
         const hapticopt::NormalizedGains gains{r.alpha, r.beta};
-        if (!hapticopt::is_stable(hapticopt::normalize(physical), gains)) {
-            throw StartupError(ErrorKind::UnstableGains,
-                               "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
-                                   " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
-                                   ") is not strictly inside the stability region; accepted: a criterion "
-                                   "whose optimum is, or explicit --stiffness/--damping");
+        if (!stable_with(normalized, gains, estimator)) {
+            throw StartupError(
+                ErrorKind::UnstableGains,
+                "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
+                    " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
+                    ") is not strictly inside the stability region (velocity_estimator = " + to_string(plant.velocity) +
+                    "); accepted: a criterion whose optimum is, or explicit --stiffness/--damping");
         }
         return r;
     } catch (const hapticopt::InvalidParameter& e) {
@@ -95,17 +181,28 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
     t.force_noise_std.reset();
     t.chatter.reset();
     if (!(position_resolution > 0.0)) return;
+    const hapticopt::VelocityEstimator estimator = to_hapticopt_estimator(plant.velocity, plant.period);
     try {
         const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
         const hapticopt::WallGains gains{t.K, t.B};
         const double q = position_resolution;
-        const double sigma = hapticopt::force_noise_std(physical, gains, q, hapticopt::VelocityEstimator{});
+        const double sigma = hapticopt::force_noise_std(physical, gains, q, estimator);
         if (!std::isfinite(sigma)) return;  // unstable gains (--passivity-control): no steady state
         t.force_noise_std = sigma;
+        // The rest condition is the same for every estimator (at rest the estimate is 0); the Abbott-Okamura bound and
+        // the describing function (hapticopt::predict_limit_cycle) model the backward difference only.
         EncoderChatter c;
-        c.count_kick = std::abs(t.B) * q / plant.period;
+        c.backward_difference = is_backward(estimator);
+        c.count_kick = std::abs(t.B) * hapticopt::estimator_coefficients<double>(estimator).b.front() * q / plant.period;
         c.friction_for_rest = t.K * q / 2.0;
         c.coulomb_friction = coulomb_friction;
+        if (!c.backward_difference) {
+            c.rest_for_every_push =
+                t.K > 0.0 && hapticopt::quantised_rest_exists((t.K + plant.stiffness) * q * 20.5, t.K, coulomb_friction,
+                                                              q, plant.stiffness);
+            t.chatter = c;
+            return;
+        }
         const hapticopt::AbbottOkamuraPassivity ao =
             hapticopt::abbott_okamura_passivity(std::max(t.K, 0.0), plant.damping, coulomb_friction, q, plant.period);
         c.abbott_okamura_passive = t.K >= 0.0 && ao.passive;
@@ -131,6 +228,11 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
 
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
     const hapticopt::Criterion c = parse(criterion);
+    if (!box.velocity.is_backward()) {
+        throw StartupError(ErrorKind::Usage, "--robust with velocity_estimator = " + to_string(box.velocity) +
+                                                 " is invalid: the robust optimum models the backward difference; "
+                                                 "accepted: velocity_estimator = backward with --robust");
+    }
     if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
         throw StartupError(ErrorKind::Usage, "criterion = " + criterion +
                                                  " is invalid with --robust; accepted: CE0, CE1, CE2 "
@@ -186,6 +288,14 @@ TuningResult check_explicit_gains(double K, double B, const std::string& criteri
     r.explicit_gains = true;
     r.K = K;
     r.B = B;
+    const hapticopt::VelocityEstimator estimator = to_hapticopt_estimator(plant.velocity, plant.period);
+    if (allow_unstable && !is_backward(estimator)) {
+        throw StartupError(ErrorKind::Usage,
+                           "--passivity-control with velocity_estimator = " + to_string(plant.velocity) +
+                               " is invalid: the passivity controller and its acceptance of "
+                               "unstable gains model the backward difference; accepted: "
+                               "velocity_estimator = backward with --passivity-control");
+    }
     try {
         const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
         const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
@@ -193,33 +303,34 @@ TuningResult check_explicit_gains(double K, double B, const std::string& criteri
             hapticopt::normalize(hapticopt::WallGains{K, B}, plant.mass, plant.period);
         r.alpha = gains.alpha;
         r.beta = gains.beta;
-        r.alpha_max = hapticopt::StabilityRegion(normalized).alpha_max();
-        if (!hapticopt::is_stable(normalized, gains)) {
+        r.alpha_max = alpha_max_with(normalized, estimator);
+        if (!stable_with(normalized, gains, estimator)) {
             if (allow_unstable) return r;  // no predicted cost: the loop without the controller diverges
             throw StartupError(ErrorKind::UnstableGains,
                                "explicit gains stiffness K = " + g(K) + " N/m, damping B = " + g(B) +
                                    " N s/m (alpha = " + g(gains.alpha) + ", beta = " + g(gains.beta) +
                                    ") are outside the stability region for mass = " + g(plant.mass) +
                                    ", period = " + g(plant.period) + " s, delay = " + g(plant.time_delay) +
-                                   " s; accepted: a stable (K, B), which needs alpha < alpha_max = " + g(r.alpha_max) +
+                                   " s, velocity_estimator = " + to_string(plant.velocity) +
+                                   "; accepted: a stable (K, B), which needs alpha < alpha_max = " + g(r.alpha_max) +
                                    " (K < " + g(r.alpha_max * plant.mass / (plant.period * plant.period)) +
                                    " N/m) and a matching B; omit --stiffness/--damping to use the optimal gains");
         }
         switch (c) {
             case hapticopt::Criterion::CE0:
             case hapticopt::Criterion::CE0_OV:
-                r.cost = hapticopt::energy_costs(normalized, gains).ce0;
+                r.cost = hapticopt::energy_costs(normalized, gains, estimator).ce0;
                 break;
             case hapticopt::Criterion::CE1:
             case hapticopt::Criterion::CE1_OV:
-                r.cost = hapticopt::energy_costs(normalized, gains).ce1;
+                r.cost = hapticopt::energy_costs(normalized, gains, estimator).ce1;
                 break;
             case hapticopt::Criterion::CE2:
             case hapticopt::Criterion::CE2_OV:
-                r.cost = hapticopt::energy_costs(normalized, gains).ce2;
+                r.cost = hapticopt::energy_costs(normalized, gains, estimator).ce2;
                 break;
             case hapticopt::Criterion::Overshoot:
-                r.cost = hapticopt::overshoot(normalized, gains).value;
+                r.cost = hapticopt::overshoot(normalized, gains, estimator).value;
                 break;
             default:
                 break;

@@ -11,7 +11,8 @@
 
 namespace hapticopt {
 struct PhysicalPlant;
-}
+struct VelocityEstimator;
+}  // namespace hapticopt
 
 namespace hapticd {
 
@@ -22,6 +23,10 @@ struct TuningPlant {
     double period = 1e-3;              // s
     double time_delay = 0.0;           // s, total: device's inherent delay + delay buffer
     VelocityEstimatorSpec velocity{};  // the loop's velocity estimator (the analysis's: the same difference equation)
+    // The profile's force_noise_budget (N, N m; none: no budget) and the encoder step q of the wall's axis (m, rad;
+    // 0: none): tune_wall minimises the energy criterion subject to sigma_F <= budget (needs q > 0).
+    std::optional<double> force_noise_budget{};
+    double position_resolution = 0.0;
 };
 
 // A box of uncertain plant parameters for --robust, physical units (min == max: the value is exact).
@@ -31,6 +36,9 @@ struct TuningBox {
     double stiffness_min = 0.0, stiffness_max = 0.0;  // N/m
     double delay_min = 0.0, delay_max = 0.0;          // s, total loop delay (device + buffer)
     double period = 1e-3;                             // s
+    // The loop's velocity estimator: the robust optimum models the backward difference only, so
+    // tune_wall_robust refuses any other (the caller sets it from the profile's velocity_estimator).
+    VelocityEstimatorSpec velocity{};
 };
 
 // What --robust adds to a tuning: the box, the worst case of the gains over it and where it occurs, and
@@ -51,7 +59,12 @@ struct RobustSummary {
 // that push (the largest: the relay case) with the friction as its equivalent damping. Where a rest exists the
 // cycle is at most a possibility that depends on the initial state (docs/limit-cycles.md, "Where it does not").
 struct EncoderChatter {
-    double count_kick = 0.0;           // B q / T, N (N m)
+    // The force step of one count on the first tick, B b_0 q / T, b_0 the estimator's weight on the newest sample
+    // (backward 1, low-pass 1 - lambda, window 1 / N), N (N m). The rest condition below holds for every estimator
+    // (at rest every estimate is 0); the Abbott-Okamura bound and the describing function model the backward
+    // difference and are given only with it (backward_difference).
+    double count_kick = 0.0;
+    bool backward_difference = true;
     double friction_for_rest = 0.0;    // K q / 2, N (N m)
     double coulomb_friction = 0.0;     // the profile's f_c on the wall's axis, N (N m)
     bool rest_for_every_push = false;  // f_c >= K q / 2: a sticking rest holds every push
@@ -76,11 +89,11 @@ struct TuningResult {
     double alpha_max = 0.0;               // largest stable alpha of the plant
     std::optional<RobustSummary> robust;  // --robust: alpha, beta, alpha_max of the box centre; cost = worst case
     // The profile's encoder step q (position_resolution, m or rad; 0: not given) and the steady-state standard
-    // deviation of the commanded force that its rounding causes through the loop's backward difference,
+    // deviation of the commanded force that its rounding causes through the loop's velocity estimator,
     // sigma_F = (m q / T^2) g_F (hapticopt::force_noise_std), N (N m); empty when q = 0 or unstable.
     double position_resolution = 0.0;
     std::optional<double> force_noise_std;
-    std::optional<EncoderChatter> chatter;  // with q > 0 and stable gains
+    std::optional<EncoderChatter> chatter;  // with q > 0, stable gains and the backward difference
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
@@ -94,33 +107,50 @@ const std::vector<std::string>& accepted_criteria();
 // The plant in hapticopt's terms (the same five numbers).
 hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
 
+// The loop's velocity estimator in hapticopt's terms, the one every stability decision of src/tuning/ uses:
+// backward -> the backward difference, lowpass:F Hz -> low_pass(nu = F T), window:N -> moving_window(N).
+// Throws StartupError(ErrorKind::InvalidParameter) when hapticopt refuses it (nu not finite and > 0).
+hapticopt::VelocityEstimator to_hapticopt_estimator(const VelocityEstimatorSpec& velocity, double period);
+
 // amax as rendered: alpha = alpha_max (1 - kAlphaMaxBackOff) at the tip's beta (the tip itself is on the
 // stability boundary). 1e-3: K 0.1 % below the largest stable stiffness.
 inline constexpr double kAlphaMaxBackOff = 1e-3;
 
-// Optimal gains for the criterion (computes only that criterion; amax as above). Throws StartupError
-// (ErrorKind::InvalidParameter) when hapticopt rejects a parameter, (ErrorKind::UnstableGains) when the gains are not
-// strictly inside the stability region (hapticopt::is_stable).
+// Optimal gains for the criterion (computes only that criterion; amax as above) for the loop with the plant's
+// velocity estimator: the backward difference by hapticopt::optimal_wall, any other by hapticopt::optimal_point with
+// the estimator (its main stable region's alpha_max; OV has no estimator optimum). Throws StartupError
+// (ErrorKind::InvalidParameter) when hapticopt rejects a parameter or the criterion with the estimator,
+// (ErrorKind::UnstableGains) when the gains are not strictly inside the stability region of the loop with the
+// estimator (hapticopt::is_stable, or the estimator's Schur-Cohn verdict).
+// With plant.force_noise_budget: the optimum of CE0, CE1 or CE2 subject to sigma_F <= budget
+// (hapticopt::optimal_point_under_noise_budget with the estimator and g_max = budget T^2 / (m q), q =
+// plant.position_resolution; the unconstrained optimum when it meets the budget); StartupError
+// (ErrorKind::InvalidParameter) for another criterion, for q = 0, and when no stable gains meet the budget.
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
 // Sets t.position_resolution, t.force_noise_std and t.chatter for the plant the gains act on. sigma_F: the
 // white-noise model of rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick),
 // which holds while the handle moves over many steps (docs/velocity-estimation.md). At rest in contact it does not:
 // the measured position sits on one or two levels and the force steps between them (t.chatter). q = 0: nothing
-// predicted. coulomb_friction: the profile's f_c on the wall's axis (>= 0; t.chatter with it). Cost: one Stein
-// equation and one describing-function search (up to about 0.1 s at d = 6, docs/limit-cycles.md, "Cost").
+// predicted. coulomb_friction: the profile's f_c on the wall's axis (>= 0; t.chatter with it). sigma_F is the loop's
+// with the plant's velocity estimator; the describing function models the backward difference only, so t.chatter is
+// left empty for any other estimator. Cost: one Stein equation and one describing-function search (up to about 0.1 s
+// at d = 6, docs/limit-cycles.md, "Cost").
 void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution,
                              double coulomb_friction = 0.0);
 
 // Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
 // box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
-// another criterion, ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box.
+// another criterion or a velocity estimator other than backward (the robust optimum models the backward
+// difference), ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box.
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box);
 
-// Explicit gains: accepted when inside the stability region (cost of `criterion` predicted when it is an
-// energy or overshoot criterion); refused with StartupError(ErrorKind::UnstableGains) naming K, B, alpha, beta
-// and alpha_max otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall
-// bounded): unstable gains are accepted without a predicted cost.
+// Explicit gains: accepted when inside the stability region of the loop with the plant's velocity estimator (cost
+// of `criterion` predicted with it when it is an energy or overshoot criterion); refused with
+// StartupError(ErrorKind::UnstableGains) naming K, B, alpha, beta and alpha_max (the estimator's main region's)
+// otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall bounded): unstable
+// gains are accepted without a predicted cost; it models the backward difference, so with another estimator
+// `allow_unstable` is refused with StartupError(ErrorKind::Usage).
 TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,
                                   bool allow_unstable = false);
 

@@ -507,6 +507,28 @@ TEST_F(ConfigFileTest, ProfileCoulombFrictionIsOneValueOrOnePerAxis) {
     EXPECT_CONTAINS(negative.message, "line 4, column 1: coulomb_friction = ");
 }
 
+// force_noise_budget (N): optional, finite and > 0, and only with an encoder step (position_resolution > 0 on some
+// axis; tune_wall checks the wall's own axis). The error names the line, the key and what is accepted.
+TEST_F(ConfigFileTest, ForceNoiseBudgetIsPositiveAndNeedsAnEncoderStep) {
+    const auto none = load_profile(kMinimalProfile);
+    EXPECT_EQ(none.code, -1) << none.message;
+    EXPECT_FALSE(none.profile.force_noise_budget.has_value());
+    const auto given = load_profile(kMinimalProfile + "position_resolution = 1e-5\nforce_noise_budget = 0.05\n");
+    EXPECT_EQ(given.code, -1) << given.message;
+    ASSERT_TRUE(given.profile.force_noise_budget.has_value());
+    EXPECT_EQ(*given.profile.force_noise_budget, 0.05);
+    for (const char* bad : {"0.0", "-0.1", "inf"}) {
+        const auto r = load_profile(kMinimalProfile + "position_resolution = 1e-5\nforce_noise_budget = " + bad + "\n");
+        EXPECT_EQ(r.code, kExitInvalidParameter) << bad;
+        EXPECT_CONTAINS(r.message, "line 4, column 1: force_noise_budget = ");
+        EXPECT_CONTAINS(r.message, "accepted range: finite, > 0 N");
+    }
+    const auto no_step = load_profile(kMinimalProfile + "force_noise_budget = 0.05\n");
+    EXPECT_EQ(no_step.code, kExitInvalidParameter);
+    EXPECT_CONTAINS(no_step.message, "line 3, column 1: force_noise_budget = 0.05 is invalid");
+    EXPECT_CONTAINS(no_step.message, "position_resolution > 0");
+}
+
 // Every key the shipped profiles use, given a value of another type: an error naming line, column and key.
 // The wrong value is chosen from the type of the shipped value (read by the reader under test, whose typing
 // ReadsScalarsWithTheirTypesAndTextsInFileOrder checks separately).

@@ -1,0 +1,340 @@
+// SPDX-License-Identifier: Apache-2.0
+// The tuning's stability decisions with the loop's velocity estimator (tuning/tuning.hpp, tuning/object_checks.hpp):
+// every verdict, alpha_max, optimum, predicted cost and noise figure is the one of the loop with the profile's
+// velocity_estimator. Checked against hapticopt's estimator functions called directly (the same analysis: the
+// adapter must not drop the estimator anywhere), against the coupled (matrix) check, whose radius
+// tests/beyond/test_matrix_gain_estimator.cpp compares with an independently built state matrix, and against the
+// reference figure of the paper's CE2 optimum with a 20 Hz low-pass at 1 kHz: spectral radius 1.0652 at d = 0.
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <hapticopt/hapticopt.hpp>
+
+#include "common/startup_error.hpp"
+#include "tuning/object_checks.hpp"
+#include "tuning/tuning.hpp"
+
+namespace hapticd {
+namespace estimator_checks_test {
+
+constexpr double kPeriod = 1e-3;
+constexpr double kMass = 0.3;
+
+VelocityEstimatorSpec low_pass_hz(double hz) {
+    VelocityEstimatorSpec s;
+    s.kind = LoopVelocityKind::LowPass;
+    s.cutoff_hz = hz;
+    return s;
+}
+
+VelocityEstimatorSpec window_of(int n) {
+    VelocityEstimatorSpec s;
+    s.kind = LoopVelocityKind::Window;
+    s.window = n;
+    return s;
+}
+
+GainCheckPlant plant_with(double delay_periods, const VelocityEstimatorSpec& velocity) {
+    GainCheckPlant p;
+    p.mass = kMass;
+    p.period = kPeriod;
+    p.time_delay = delay_periods * kPeriod;
+    p.velocity = velocity;
+    return p;
+}
+
+hapticopt::NormalizedPlant normalized(double delay_periods) { return {0.0, 0.0, delay_periods}; }
+
+ErrorKind kind_of(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const StartupError& e) {
+        return e.kind();
+    }
+    ADD_FAILURE() << "no StartupError";
+    return ErrorKind::Usage;
+}
+
+TEST(EstimatorChecks, TheConversionIsNuEqualsCutoffTimesPeriod) {
+    const hapticopt::VelocityEstimator lp = to_hapticopt_estimator(low_pass_hz(20.0), kPeriod);
+    EXPECT_EQ(lp.kind, hapticopt::VelocityEstimatorKind::lowpass);
+    EXPECT_DOUBLE_EQ(lp.cutoff, 0.02);
+    const hapticopt::VelocityEstimator w = to_hapticopt_estimator(window_of(7), kPeriod);
+    EXPECT_EQ(w.kind, hapticopt::VelocityEstimatorKind::window);
+    EXPECT_EQ(w.window, 7);
+    EXPECT_EQ(to_hapticopt_estimator(VelocityEstimatorSpec{}, kPeriod).kind,
+              hapticopt::VelocityEstimatorKind::backward);
+    EXPECT_EQ(kind_of([] { (void)to_hapticopt_estimator(low_pass_hz(-1.0), kPeriod); }), ErrorKind::InvalidParameter);
+}
+
+// The paper's CE2 optimum (backward difference) at d = 0 and d = 1 is stable for the backward checker and
+// unstable with a 20 Hz low-pass (nu = 0.02): spectral radius 1.0652 at d = 0 (the reference figure, four
+// digits) and above 1 at d = 1; the coupled check of the same pair on all three axes says the same.
+TEST(EstimatorChecks, ALowPassCheckerRefusesTheBackwardOptimum) {
+    for (double d : {0.0, 1.0}) {
+        const GainChecker backward(plant_with(d, {}));
+        const GainChecker filtered(plant_with(d, low_pass_hz(20.0)));
+        const TuningResult ce2 = tune_wall("CE2", backward.plant());
+        EXPECT_TRUE(backward.pair_is_stable(ce2.K, ce2.B, kMass));
+        EXPECT_FALSE(filtered.pair_is_stable(ce2.K, ce2.B, kMass)) << "d " << d;
+        const double rho =
+            hapticopt::stability(normalized(d), hapticopt::NormalizedGains{ce2.alpha, ce2.beta}, filtered.estimator())
+                .spectral_radius;
+        EXPECT_GT(rho, 1.0);
+        std::printf("[ low-pass ] d = %g: the backward CE2 optimum (alpha %.6f, beta %.6f) has radius %.6f\n", d,
+                    ce2.alpha, ce2.beta, rho);
+        if (d == 0.0) {
+            EXPECT_NEAR(rho, 1.0652, 1e-4);
+        }
+        Matrix3 K{}, B{};
+        for (std::size_t i = 0; i < 3; ++i) {
+            K[i][i] = ce2.K;
+            B[i][i] = ce2.B;
+        }
+        const hapticopt::MatrixGainStability coupled = filtered.coupled(K, B);
+        EXPECT_FALSE(coupled.stable);
+        EXPECT_NEAR(coupled.spectral_radius, rho, 1e-8);  // the same scalar loop per axis (commuting path)
+        EXPECT_TRUE(backward.coupled(K, B).stable);
+        std::string why;
+        EXPECT_FALSE(filtered.sum_is_stable(K, B, why));
+        EXPECT_NE(why.find("outside the stability region"), std::string::npos) << why;
+        EXPECT_TRUE(backward.sum_is_stable(K, B, why)) << why;
+        // A ramp over that scene (it as the base, nothing in or out) is refused with the low-pass only.
+        const Matrix3 zero{};
+        EXPECT_FALSE(filtered.ramp_is_stable(K, B, zero, zero, zero, zero, 0.5, why));
+        EXPECT_TRUE(backward.ramp_is_stable(K, B, zero, zero, zero, zero, 0.5, why)) << why;
+        // check_pair: the refusal's alpha_max is the low-pass main region's, and the largest stable K at that B
+        // is on the estimator's boundary (stable 1e-9 below, unstable 1e-6 above: the bisection's 2^-60
+        // relative resolution is far inside both).
+        const PairVerdict v = filtered.check_pair(ce2.K, ce2.B, kMass);
+        EXPECT_FALSE(v.stable);
+        const hapticopt::EstimatorStabilityRegion region(normalized(d), filtered.estimator());
+        EXPECT_DOUBLE_EQ(v.alpha_max, region.alpha_max());
+        EXPECT_LT(v.alpha_max, ce2.alpha);
+        ASSERT_GT(v.largest_stable_K, 0.0);
+        const hapticopt::EstimatorStabilityTest test(normalized(d), filtered.estimator());
+        const double a = v.largest_stable_K * kPeriod * kPeriod / kMass;
+        EXPECT_TRUE(test.stable(a * (1 - 1e-9), ce2.beta));
+        EXPECT_FALSE(test.stable(a * (1 + 1e-6), ce2.beta));
+    }
+}
+
+// The estimator's own optimum is accepted, and it is hapticopt::optimal_point's with the estimator, scaled to the
+// mass: tune_wall, the checker's criterion gains and check_explicit_gains (predicted cost) agree with it.
+TEST(EstimatorChecks, TheEstimatorsOwnOptimumIsAcceptedAndIsTheLibrarys) {
+    for (const VelocityEstimatorSpec& spec : {low_pass_hz(20.0), window_of(3)}) {
+        for (double d : {0.0, 1.0}) {
+            GainChecker checker(plant_with(d, spec));
+            const hapticopt::EstimatorOptimum o =
+                hapticopt::optimal_point(hapticopt::Criterion::CE2, normalized(d), checker.estimator());
+            const TuningResult t = tune_wall("CE2", checker.plant());
+            EXPECT_DOUBLE_EQ(t.alpha, o.alpha);
+            EXPECT_DOUBLE_EQ(t.beta, o.beta);
+            EXPECT_DOUBLE_EQ(t.K, o.alpha * kMass / (kPeriod * kPeriod));
+            EXPECT_DOUBLE_EQ(t.B, o.beta * kMass / kPeriod);
+            ASSERT_TRUE(t.cost.has_value());
+            EXPECT_DOUBLE_EQ(*t.cost, *o.cost);
+            EXPECT_DOUBLE_EQ(t.alpha_max, o.alpha_max);
+            const auto gains = checker.criterion_gains("CE2", kMass);
+            ASSERT_TRUE(gains.has_value());
+            EXPECT_NEAR(gains->K, t.K, 1e-9 * t.K);
+            EXPECT_NEAR(gains->B, t.B, 1e-9 * t.B);
+            EXPECT_TRUE(checker.pair_is_stable(t.K, t.B, kMass));
+            EXPECT_TRUE(checker.check_object(t.K, t.B, {kMass}).stable);
+            const TuningResult e = check_explicit_gains(t.K, t.B, "CE2", checker.plant());
+            ASSERT_TRUE(e.cost.has_value());
+            // The explicit gains are the optimum's up to the K/B round trip (1 ulp): the cost agrees to 1e-9.
+            EXPECT_NEAR(*e.cost, *o.cost, 1e-9 * *o.cost);
+            EXPECT_DOUBLE_EQ(e.alpha_max, o.alpha_max);
+            // amax: the main region's tip backed off by kAlphaMaxBackOff, stable with the estimator.
+            const TuningResult amax = tune_wall("amax", checker.plant());
+            EXPECT_DOUBLE_EQ(amax.alpha, o.alpha_max * (1.0 - kAlphaMaxBackOff));
+            EXPECT_TRUE(checker.pair_is_stable(amax.K, amax.B, kMass));
+        }
+    }
+}
+
+TEST(EstimatorChecks, ExplicitGainsAreJudgedWithTheEstimator) {
+    const TuningPlant backward = plant_with(1.0, {});
+    const TuningPlant filtered = plant_with(1.0, low_pass_hz(20.0));
+    const TuningResult ce2 = tune_wall("CE2", backward);
+    EXPECT_NO_THROW((void)check_explicit_gains(ce2.K, ce2.B, "CE2", backward));
+    try {
+        (void)check_explicit_gains(ce2.K, ce2.B, "CE2", filtered);
+        FAIL() << "the backward optimum accepted with the low-pass";
+    } catch (const StartupError& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::UnstableGains);
+        EXPECT_NE(std::string(e.what()).find("velocity_estimator = lowpass:20Hz"), std::string::npos) << e.what();
+    }
+    // --passivity-control models the backward difference: refused with another estimator.
+    EXPECT_EQ(kind_of([&] { (void)check_explicit_gains(ce2.K, ce2.B, "CE2", filtered, true); }), ErrorKind::Usage);
+    EXPECT_NO_THROW((void)check_explicit_gains(ce2.K, ce2.B, "CE2", backward, true));
+    // OV has no estimator optimum: a clear error, not a wrong wall.
+    EXPECT_EQ(kind_of([&] { (void)tune_wall("OV", filtered); }), ErrorKind::InvalidParameter);
+}
+
+TEST(EstimatorChecks, TheRobustTuningRefusesAnotherEstimator) {
+    TuningBox box;
+    box.mass_min = 0.25;
+    box.mass_max = 0.35;
+    box.delay_min = box.delay_max = kPeriod;
+    box.period = kPeriod;
+    box.velocity = window_of(2);
+    try {
+        (void)tune_wall_robust("CE2", box);
+        FAIL() << "robust tuning with a window accepted";
+    } catch (const StartupError& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::Usage);
+        EXPECT_NE(std::string(e.what()).find("velocity_estimator"), std::string::npos) << e.what();
+    }
+}
+
+// damping_range with the estimator: at a K inside the low-pass's main region, the stable B interval's ends are
+// on the estimator's boundary (stable 1e-9 inside, unstable 1e-6 outside, relative), the accepted interval lies
+// inside it with its ends at spectral radius 1 - 1e-6 (the bisection's 2^-60 of the interval is far below the
+// 1e-7 allowed here on the radius, whose slope in beta is O(1)).
+TEST(EstimatorChecks, DampingRangeIsTheEstimatorsInterval) {
+    const GainChecker checker(plant_with(1.0, low_pass_hz(20.0)));
+    const hapticopt::EstimatorStabilityRegion region(normalized(1.0), checker.estimator());
+    const double alpha = 0.5 * region.alpha_max();
+    const double K = alpha * kMass / (kPeriod * kPeriod);
+    const auto range = checker.damping_range(K, {kMass});
+    const auto accepted = checker.damping_range(K, {kMass}, true);
+    ASSERT_TRUE(range.has_value());
+    ASSERT_TRUE(accepted.has_value());
+    const hapticopt::EstimatorStabilityTest test(normalized(1.0), checker.estimator());
+    const double lo = range->first * kPeriod / kMass, hi = range->second * kPeriod / kMass;
+    EXPECT_TRUE(test.stable(alpha, lo + 1e-9 * std::abs(lo)));
+    EXPECT_FALSE(test.stable(alpha, lo - 1e-6 * std::abs(lo)));
+    EXPECT_TRUE(test.stable(alpha, hi - 1e-9 * hi));
+    EXPECT_FALSE(test.stable(alpha, hi + 1e-6 * hi));
+    EXPECT_GT(accepted->first, range->first);
+    EXPECT_LT(accepted->second, range->second);
+    for (const double b : {accepted->first, accepted->second}) {
+        const double rho = hapticopt::stability(normalized(1.0), hapticopt::NormalizedGains{alpha, b * kPeriod / kMass},
+                                                checker.estimator())
+                               .spectral_radius;
+        EXPECT_NEAR(rho, 1.0 - hapticopt::kMatrixGainRadiusMargin, 1e-7);
+    }
+    // Beyond the main region's tip no B makes K stable.
+    EXPECT_FALSE(checker.damping_range(1.01 * region.alpha_max() * kMass / (kPeriod * kPeriod), {kMass}).has_value());
+}
+
+// The noise figure is the estimator loop's (hapticopt::force_noise_std with the estimator), the chatter prediction
+// (backward difference only) is left out with another estimator and kept with the backward difference.
+TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
+    const double q = 1e-5;
+    const TuningPlant filtered = plant_with(1.0, window_of(3));
+    TuningResult t = tune_wall("CE2", filtered);
+    predict_encoder_effects(t, filtered, q);
+    ASSERT_TRUE(t.force_noise_std.has_value());
+    const double expected = hapticopt::force_noise_std(to_hapticopt(filtered), hapticopt::WallGains{t.K, t.B}, q,
+                                                       hapticopt::VelocityEstimator::moving_window(3));
+    EXPECT_DOUBLE_EQ(*t.force_noise_std, expected);
+    EXPECT_NE(*t.force_noise_std,
+              hapticopt::force_noise_std(to_hapticopt(filtered), hapticopt::WallGains{t.K, t.B}, q));
+    EXPECT_FALSE(t.chatter.has_value());
+    const TuningPlant backward = plant_with(1.0, {});
+    TuningResult b = tune_wall("CE2", backward);
+    predict_encoder_effects(b, backward, q);
+    EXPECT_TRUE(b.chatter.has_value());
+}
+
+// The backward path is the paper's, unchanged: tune_wall equals hapticopt::optimal_wall bit for bit.
+TEST(EstimatorChecks, TheBackwardPathIsOptimalWall) {
+    const TuningPlant p = plant_with(1.0, {});
+    const hapticopt::WallTuning w = hapticopt::optimal_wall(hapticopt::Criterion::CE2, to_hapticopt(p));
+    const TuningResult t = tune_wall("CE2", p);
+    EXPECT_EQ(t.K, w.K);
+    EXPECT_EQ(t.B, w.B);
+    EXPECT_EQ(t.alpha_max, w.alpha_max);
+    EXPECT_EQ(*t.cost, *w.cost);
+}
+
+}  // namespace estimator_checks_test
+}  // namespace hapticd
+
+namespace hapticd {
+namespace estimator_checks_test {
+
+// force_noise_budget: the auto-tuned wall minimises CE2 subject to sigma_F <= budget. With half the unconstrained
+// optimum's sigma_F the budget is active: the wall is hapticopt::optimal_point_under_noise_budget's (g_max = budget
+// T^2 / (m q)) scaled to the mass, its sigma_F (predict_encoder_effects, an independent Stein solve at the returned
+// gains) is within the budget to the curve search's tolerance (1e-6 relative: Brent in log alpha to 1e-10 and the
+// beta grid's refinement leave g_F = g_max to far better than that), and its cost is above the unconstrained one;
+// with twice the unconstrained sigma_F the budget is slack and the wall is the unconstrained optimum.
+TEST(EstimatorChecks, ForceNoiseBudgetBoundsTheTunedWall) {
+    const double q = 1e-5;
+    for (const VelocityEstimatorSpec& spec : {VelocityEstimatorSpec{}, low_pass_hz(50.0), window_of(3)}) {
+        TuningPlant p = plant_with(1.0, spec);
+        p.position_resolution = q;
+        TuningResult free = tune_wall("CE2", p);
+        predict_encoder_effects(free, p, q);
+        ASSERT_TRUE(free.force_noise_std.has_value());
+        p.force_noise_budget = 0.5 * *free.force_noise_std;
+        TuningResult tight = tune_wall("CE2", p);
+        const double g_max = *p.force_noise_budget * kPeriod * kPeriod / (kMass * q);
+        const hapticopt::NoiseBudgetOptimum o = hapticopt::optimal_point_under_noise_budget(
+            hapticopt::Criterion::CE2, normalized(1.0), to_hapticopt_estimator(spec, kPeriod), g_max);
+        EXPECT_TRUE(o.budget_active);
+        EXPECT_DOUBLE_EQ(tight.alpha, o.alpha);
+        EXPECT_DOUBLE_EQ(tight.beta, o.beta);
+        EXPECT_DOUBLE_EQ(tight.K, o.alpha * kMass / (kPeriod * kPeriod));
+        ASSERT_TRUE(tight.cost.has_value());
+        EXPECT_GT(*tight.cost, *free.cost);
+        predict_encoder_effects(tight, p, q);
+        ASSERT_TRUE(tight.force_noise_std.has_value());
+        EXPECT_LE(*tight.force_noise_std, *p.force_noise_budget * (1 + 1e-6)) << to_string(spec);
+        EXPECT_GT(*tight.force_noise_std, *p.force_noise_budget * 0.99) << to_string(spec);  // the budget binds
+        p.force_noise_budget = 2.0 * *free.force_noise_std;
+        const TuningResult slack = tune_wall("CE2", p);
+        EXPECT_NEAR(slack.K, free.K, 1e-9 * free.K) << to_string(spec);
+        EXPECT_NEAR(slack.B, free.B, 1e-9 * free.B) << to_string(spec);
+    }
+}
+
+TEST(EstimatorChecks, ForceNoiseBudgetNeedsAnEnergyCriterionAndAnEncoderStep) {
+    TuningPlant p = plant_with(1.0, {});
+    p.force_noise_budget = 0.1;
+    p.position_resolution = 1e-5;
+    for (const char* criterion : {"amax", "OV", "CE2+OV"}) {
+        try {
+            (void)tune_wall(criterion, p);
+            ADD_FAILURE() << criterion << " accepted with a budget";
+        } catch (const StartupError& e) {
+            EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
+            EXPECT_NE(std::string(e.what()).find("force_noise_budget"), std::string::npos) << e.what();
+        }
+    }
+    p.position_resolution = 0.0;
+    try {
+        (void)tune_wall("CE1", p);
+        ADD_FAILURE() << "a budget without an encoder step accepted";
+    } catch (const StartupError& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
+        EXPECT_NE(std::string(e.what()).find("position_resolution"), std::string::npos) << e.what();
+    }
+    // A budget no stable gains meet: an error naming the key and what is accepted.
+    p.position_resolution = 1e-5;
+    p.force_noise_budget = 1e-9;
+    try {
+        (void)tune_wall("CE2", p);
+        ADD_FAILURE() << "an unmeetable budget accepted";
+    } catch (const StartupError& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
+        EXPECT_NE(std::string(e.what()).find("a larger force_noise_budget"), std::string::npos) << e.what();
+    }
+    // The scene objects' criterion gains are not budgeted: the checker's optimum is the plain one.
+    GainCheckPlant gp = plant_with(1.0, {});
+    gp.force_noise_budget = 1e-9;  // would be unmeetable
+    GainChecker checker(gp);
+    const auto gains = checker.criterion_gains("CE2", kMass);
+    ASSERT_TRUE(gains.has_value());
+    EXPECT_EQ(gains->K, tune_wall("CE2", plant_with(1.0, {})).K);
+}
+
+}  // namespace estimator_checks_test
+}  // namespace hapticd
