@@ -95,8 +95,8 @@ CommandRunner add_plot_noise_pareto(CLI::App& plot) {
         std::string x_label = "log\u2081\u2080 g_F (force noise per encoder step, normalised)";
         if (sigma) {
             const double scale = o.mass * args->resolution / (o.period * o.period);
-            x_label = "log\u2081\u2080 g_F; \u03c3_F = " + short_number(scale) + " g_F [N] (q = " +
-                      short_number(args->resolution) + " m)";
+            x_label = "log\u2081\u2080 g_F; \u03c3_F = " + short_number(scale) +
+                      " g_F [N] (q = " + short_number(args->resolution) + " m)";
         }
         svg::Document doc(o.width, o.height, name + " optimum under a force-noise budget, " + o.caption(plant));
         svg::Axes& ax = main_axes(doc, o, {x0 - pad_x, x1 + pad_x}, {y0 - pad_y, y1 + pad_y}, x_label,
@@ -116,8 +116,8 @@ CommandRunner add_plot_noise_pareto(CLI::App& plot) {
                           "pareto-point", label, 2.5);
             const NoiseBudgetOptimum& free = c.front.front();
             ax.marker(std::log10(free.unconstrained_force_noise_gain), std::log10(free.unconstrained_cost),
-                      svg::MarkerShape::Plus, svg::Style{svg::color(index), 2.5, "", "none", 1}, "unconstrained",
-                      label, 8);
+                      svg::MarkerShape::Plus, svg::Style{svg::color(index), 2.5, "", "none", 1}, "unconstrained", label,
+                      8);
             ax.legend_line(label, style);
             ++index;
         }

@@ -27,6 +27,7 @@
 #include <hapticopt/overshoot.hpp>
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/step_response.hpp>
+#include <hapticopt/velocity_estimator.hpp>
 
 #include "svg/svg_contour.hpp"
 #include "svg_reader.hpp"
@@ -158,6 +159,47 @@ TEST(PlotRegion, BoundaryPointsLieOnTheExactBoundary) {
         }
     }
     EXPECT_NE(f.main.find("\u03b1 = K T\u00b2/m"), std::string::npos);
+}
+
+// --velocity: window 1 is the backward difference's loop, so its drawn main-region boundary lies on the exact
+// boundary (the polygon of StabilityRegion, 20000 points, except the gamma > 0 corners' strip alpha < 0, which
+// the estimator's main region, alpha > 0, leaves out); window 5: the tips are the estimator regions' alpha_max.
+TEST(PlotRegion, VelocityEstimatorBoundaries) {
+    const Figure f = figure("plot region --delay 1 --velocity window:1 --delta 0 --points 200", "region_w1.svg");
+    const auto curves = elements(f.main, "polyline", "boundary");
+    ASSERT_EQ(curves.size(), 2u);
+    for (const double gamma : {0.0, 0.001}) {
+        char label[128];
+        std::snprintf(label, sizeof label, "\u03b3 = %g, \u03b4 = 0", gamma);
+        const Element* curve = with_label(curves, label);
+        ASSERT_NE(curve, nullptr) << label;
+        const hapticopt::StabilityRegion region(NormalizedPlant{gamma, 0, 1.0});
+        std::vector<std::pair<double, double>> exact;
+        for (const auto& p : region.polygon(20000)) exact.emplace_back(f.x.pixel(p.alpha), f.y.pixel(p.beta));
+        exact.push_back(exact.front());
+        const auto drawn = points(curve->attr("points"));
+        ASSERT_GE(drawn.size(), 390u) << label;
+        double worst = 0;
+        for (std::size_t i = 0; i + 1 < drawn.size(); ++i) worst = std::max(worst, distance_to(drawn[i], exact));
+        EXPECT_LT(worst, kPixelTolerance) << label;
+        EXPECT_EQ(drawn.front(), drawn.back()) << "closed";
+        expect_marker_at(f, "alpha-max", std::string("alpha_max ") + label, region.alpha_max(),
+                         region.beta_at_alpha_max());
+    }
+    const Figure w = figure("plot region --delay 1 --velocity window:5", "region_w5.svg");
+    EXPECT_EQ(elements(w.main, "polyline", "boundary").size(), 4u);
+    for (const double gamma : {0.0, 0.001}) {
+        for (const double delta : {0.0, 0.02}) {
+            char label[128];
+            std::snprintf(label, sizeof label, "\u03b3 = %g, \u03b4 = %g", gamma, delta);
+            const hapticopt::EstimatorStabilityRegion region(NormalizedPlant{gamma, delta, 1.0},
+                                                             hapticopt::VelocityEstimator::moving_window(5));
+            expect_marker_at(w, "alpha-max", std::string("alpha_max ") + label, region.alpha_max(),
+                             region.beta_at_alpha_max());
+        }
+    }
+    EXPECT_EQ(run_cli("plot region --velocity window:5 --passivity --out x.svg"), 3);
+    EXPECT_NE(read_text(cli_log()).find("velocity"), std::string::npos);
 }
 
 TEST(PlotRegion, PhysicalAxesAndPassivityRegion) {
