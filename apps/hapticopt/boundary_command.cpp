@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt boundary: the exact stability boundary in the (alpha, beta) plane; with --passivity the
-// boundary of the passive set (delay-aware Colgate-Schenkel condition, passivity.hpp) instead.
+// boundary of the passive set (delay-aware Colgate-Schenkel condition, passivity.hpp) instead. With a
+// --velocity estimator other than backward: the main stable region of the estimator's loop
+// (EstimatorStabilityRegion; its boundary pointwise by estimator_region_boundary), its alpha_max, and the stable
+// islands not connected to it, reported separately (alpha_max is the main region's).
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
+#include <hapticopt/velocity_estimator.hpp>
 
 #include "cli_output.hpp"
 #include "commands.hpp"
@@ -48,25 +53,77 @@ int print_passive_polygon(const NormalizedPlant& plant, int points, bool json, b
     return int{kOk};
 }
 
+/// The main stable region with the estimator: alpha_max, boundary points (closed), islands.
+int print_estimator_boundary(const NormalizedPlant& plant, const VelocityEstimator& estimator, int points, bool json,
+                             bool csv) {
+    const EstimatorStabilityRegion region(plant, estimator);
+    const auto polygon = estimator_region_boundary(region, points);
+    if (json) {
+        nlohmann::json out;
+        out["velocity_estimator"] = velocity_json(estimator);
+        out["alpha_max"] = region.alpha_max();
+        out["beta_at_alpha_max"] = region.beta_at_alpha_max();
+        nlohmann::json pts = nlohmann::json::array();
+        for (const auto& [a, b] : polygon) pts.push_back({{"alpha", a}, {"beta", b}});
+        out["points"] = std::move(pts);
+        nlohmann::json islands = nlohmann::json::array();
+        for (const StableIsland& i : region.islands()) {
+            islands.push_back({{"alpha_min", i.alpha_min},
+                               {"alpha_max", i.alpha_max},
+                               {"beta_min", i.beta_min},
+                               {"beta_max", i.beta_max}});
+        }
+        out["stable_islands"] = std::move(islands);
+        std::cout << out.dump() << '\n';
+        return int{kOk};
+    }
+    if (csv) {
+        std::printf("alpha,beta\n");
+        for (const auto& [a, b] : polygon) std::printf("%.17g,%.17g\n", a, b);
+        return int{kOk};
+    }
+    std::printf("velocity         %s\nalpha_max        %.12f at beta %.12f (main region)\n",
+                velocity_text(estimator).c_str(), region.alpha_max(), region.beta_at_alpha_max());
+    for (const StableIsland& i : region.islands()) {
+        std::printf("stable island    alpha [%.6g, %.6g], beta [%.6g, %.6g] (not connected to the main region)\n",
+                    i.alpha_min, i.alpha_max, i.beta_min, i.beta_max);
+    }
+    std::printf("%14s %14s\n", "alpha", "beta");
+    for (const auto& [a, b] : polygon) std::printf("%14.10f %14.10f\n", a, b);
+    return int{kOk};
+}
+
 }  // namespace
 
 CommandRunner add_boundary_command(CLI::App& app) {
     struct Args {
         PlantOptions plant;
+        VelocityOption velocity;
         int points = 256;
         bool json = false, csv = false, passivity = false;
     };
     auto args = std::make_shared<Args>();
     CLI::App* sub = app.add_subcommand("boundary", "stability boundary points (closed polygon) and alpha_max");
     args->plant.add_to(*sub);
-    sub->add_option("--points", args->points, "points on the complex-root branch (>= 8)")->capture_default_str();
+    args->velocity.add_to(*sub);
+    sub->add_option("--points", args->points,
+                    "points on the complex-root branch (>= 8); with --velocity: alphas per edge of the main region")
+        ->capture_default_str();
     CLI::Option* json = sub->add_flag("--json", args->json, "print one JSON object");
-    CLI::Option* csv = sub->add_flag("--csv", args->csv, "print CSV: theta,alpha,beta");
+    CLI::Option* csv = sub->add_flag("--csv", args->csv, "print CSV: theta,alpha,beta (with --velocity: alpha,beta)");
     json->excludes(csv);
     sub->add_flag("--passivity", args->passivity,
                   "print the passive set's boundary instead (closed polygon, --points alphas per side; integer delays "
                   "only); CSV: alpha,beta");
     return [args]() {
+        const VelocityEstimator estimator = args->velocity.parse(0.0);
+        if (estimator.kind != VelocityEstimatorKind::backward) {
+            if (args->passivity) {
+                throw InvalidParameter("hapticopt boundary", "velocity", std::nan(""),
+                                       "backward with --passivity (the passive set is the backward difference's)");
+            }
+            return print_estimator_boundary(args->plant.normalized(), estimator, args->points, args->json, args->csv);
+        }
         if (args->passivity)
             return print_passive_polygon(args->plant.normalized(), args->points, args->json, args->csv);
         const StabilityRegion region(args->plant.normalized());

@@ -18,11 +18,12 @@ CommandRunner add_limit_cycle_command(CLI::App& app);  // limit_cycle_command.cp
 CommandRunner add_plot_command(CLI::App& app);         // plot_command.cpp: SVG figures
 
 // The plot subcommands (plot_region.cpp, plot_costs.cpp, plot_step.cpp, plot_overshoot.cpp,
-// plot_collision.cpp), grouped under `hapticopt plot` by plot_command.cpp.
+// plot_collision.cpp, plot_noise_pareto.cpp), grouped under `hapticopt plot` by plot_command.cpp.
 CommandRunner add_plot_region(CLI::App& plot);
 CommandRunner add_plot_costs(CLI::App& plot);
 CommandRunner add_plot_step(CLI::App& plot);
 CommandRunner add_plot_overshoot(CLI::App& plot);
 CommandRunner add_plot_collision(CLI::App& plot);
+CommandRunner add_plot_noise_pareto(CLI::App& plot);
 
 }  // namespace hapticopt::cli

@@ -2,6 +2,9 @@
 // hapticopt plot region: the stability boundaries in the (alpha, beta) plane for the corners of a
 // (gamma, delta) box (Fig. 3 of the paper), with each region's tip (alpha_max) marked, and optionally
 // the passive set of the Colgate-Schenkel condition with the loop delay (passivity.hpp) for comparison.
+// With --velocity other than backward: the main stable region of the estimator's loop per corner
+// (estimator_region_boundary, velocity_estimator.hpp; alpha_max is the main region's tip) and the bounding boxes
+// of the stable islands not connected to it, drawn separately (class "island").
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -10,6 +13,9 @@
 
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
+#include <hapticopt/velocity_estimator.hpp>
+
+#include "cli_output.hpp"
 
 #include "commands.hpp"
 #include "svg/svg_figure.hpp"
@@ -21,6 +27,7 @@ CommandRunner add_plot_region(CLI::App& plot) {
         FigureOptions fig;
         int points = 400;
         bool passivity = false;
+        VelocityOption velocity;
     };
     auto args = std::make_shared<Args>();
     CLI::App* sub =
@@ -32,32 +39,52 @@ CommandRunner add_plot_region(CLI::App& plot) {
     sub->add_flag("--passivity", args->passivity,
                   "also draw the passive set delta > max_theta R(theta) (Colgate & Schenkel 1997 with the delay "
                   "z^-d; integer delays) of the largest delta");
+    args->velocity.add_to(*sub);
     return [args]() {
         const auto start = std::chrono::steady_clock::now();
         const FigureOptions& o = args->fig;
         const double sx = o.k_scale(), sy = o.b_scale();
+        const VelocityEstimator estimator = args->velocity.parse(o.physical() ? o.period : 0.0);
+        const bool backward = estimator.kind == VelocityEstimatorKind::backward;
+        if (!backward && args->passivity) {
+            throw InvalidParameter("hapticopt plot region", "velocity", std::nan(""),
+                                   "backward with --passivity (the passive set is the backward difference's)");
+        }
         struct Curve {
             NormalizedPlant plant;
-            StabilityRegion region;
+            double alpha_max, beta_at_alpha_max;
             svg::Polyline points;
+            std::vector<StableIsland> islands;
         };
         std::vector<Curve> curves;
         double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
         for (const NormalizedPlant& p : o.plants()) {
-            StabilityRegion region(p);
-            svg::Polyline pts = boundary_curve(region, args->points);
-            for (const auto& [a, b] : pts) {
+            Curve c{p, 0, 0, {}, {}};
+            if (backward) {
+                const StabilityRegion region(p);
+                c.points = boundary_curve(region, args->points);
+                c.alpha_max = region.alpha_max();
+                c.beta_at_alpha_max = region.beta_at_alpha_max();
+            } else {
+                const EstimatorStabilityRegion region(p, estimator);
+                c.points = estimator_region_boundary(region, std::min(args->points, 100000));
+                c.alpha_max = region.alpha_max();
+                c.beta_at_alpha_max = region.beta_at_alpha_max();
+                c.islands = region.islands();
+            }
+            for (const auto& [a, b] : c.points) {
                 x0 = std::min(x0, a);
                 x1 = std::max(x1, a);
                 y0 = std::min(y0, b);
                 y1 = std::max(y1, b);
             }
-            curves.push_back({p, std::move(region), std::move(pts)});
+            curves.push_back(std::move(c));
         }
-        svg::Document doc(o.width, o.height, "Stability boundaries, " + o.caption(curves.front().plant));
+        const std::string velocity = backward ? "" : ", velocity " + velocity_text(estimator);
+        svg::Document doc(o.width, o.height, "Stability boundaries, " + o.caption(curves.front().plant) + velocity);
         svg::Axes& ax =
             main_axes(doc, o, {x0 * sx, x1 * 1.05 * sx}, {y0 * sy, y1 * 1.05 * sy}, o.alpha_label(), o.beta_label(),
-                      "Stability boundaries (stable inside), " + o.caption(curves.front().plant));
+                      "Stability boundaries (stable inside), " + o.caption(curves.front().plant) + velocity);
         if (args->passivity) {
             NormalizedPlant widest = curves.front().plant;
             for (const auto& c : curves)
@@ -76,15 +103,29 @@ CommandRunner add_plot_region(CLI::App& plot) {
                 ax.legend_line("passive: none (\u03b4 = 0)", style);
             }
         }
-        int index = 0;
+        int index = 0, islands = 0;
         for (const auto& c : curves) {
             svg::Style style{svg::color(index), 1.5, index % 2 ? "6 3" : "", "none", 1};
             const std::string label = o.corner_label(c.plant);
             ax.polyline(scaled(c.points, sx, sy), style, "boundary", label);
-            ax.marker(c.region.alpha_max() * sx, c.region.beta_at_alpha_max() * sy, svg::MarkerShape::Circle,
+            ax.marker(c.alpha_max * sx, c.beta_at_alpha_max * sy, svg::MarkerShape::Circle,
                       svg::Style{svg::color(index), 1.2, "", "none", 1}, "alpha-max", "alpha_max " + label, 4);
             ax.legend_line(label, style);
+            for (const StableIsland& i : c.islands) {
+                ++islands;
+                // Clipped to the main regions' frame (an island elsewhere is listed by `boundary --velocity`).
+                const double a0 = std::max(i.alpha_min, x0), a1 = std::min(i.alpha_max, x1 * 1.05);
+                const double b0 = std::max(i.beta_min, y0), b1 = std::min(i.beta_max, y1 * 1.05);
+                if (!(a0 < a1 && b0 < b1)) continue;
+                const svg::Polyline box{{a0, b0}, {a1, b0}, {a1, b1}, {a0, b1}};
+                ax.polygon(scaled(box, sx, sy), svg::Style{svg::color(index), 1, "2 2", svg::color(index), 0.15},
+                           "island", "stable island " + label);
+            }
             ++index;
+        }
+        if (islands > 0) {
+            ax.legend_line(std::to_string(islands) + " stable island(s), not connected (bounding boxes)",
+                           svg::Style{"#000000", 1, "2 2", "#000000", 0.15});
         }
         ax.legend_marker("\u03b1_max (tip)", svg::MarkerShape::Circle, svg::Style{"#000000", 1.2, "", "none", 1});
         return save_figure(doc, o, start);

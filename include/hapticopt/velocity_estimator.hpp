@@ -759,6 +759,41 @@ class EstimatorStabilityRegion {
     double alpha_max_ = 0, beta_at_alpha_max_ = 0;
 };
 
+/// The boundary of the main stable region with the estimator, as a closed polyline of (alpha, beta) in normalised
+/// units: at alphas alpha_max sin(pi s / 2), s = 1e-6 and k / points (k = 1 .. points - 1), the ends of the
+/// main region's stable beta interval (EstimatorStabilityRegion::beta_interval: the Schur-Cohn verdict of
+/// EstimatorStabilityTest marched from a main-region cell and bisected to ~1e-14, i.e. the D-decomposition's
+/// curves found pointwise instead of parametrically); the lower ends in increasing alpha, the tip
+/// (alpha_max, beta_at_alpha_max), the upper ends in decreasing alpha, the first point repeated. The sine
+/// spacing puts the points densely near the tip, where the two ends meet. Assumes one stable beta interval of the
+/// main region per alpha (the region between a lower and an upper edge, as the backward difference's; where a
+/// cross-section has several, the one through the scan's main cell is drawn). Stable islands are not part of it
+/// (EstimatorStabilityRegion::islands). For window 1 (the backward difference) the points lie on
+/// StabilityRegion's exact boundary (tests/core/test_velocity_cli.cpp). Empty when the region is empty
+/// (alpha_max 0). Cost: about 2 (points + 1) x (8 beta_grid + 50) verdicts, O(degree^2) each. Throws
+/// InvalidParameter naming `points` unless 8 <= points <= 10^5.
+HAPTICOPT_DEFERRED
+std::vector<std::pair<double, double>> estimator_region_boundary(const EstimatorStabilityRegion& region,
+                                                                 int points = 256) {
+    detail::require_in_range("hapticopt::estimator_region_boundary", "points", points, 8, false, 1e5,
+                             "8 <= points <= 10^5");
+    std::vector<std::pair<double, double>> lower, upper;
+    if (!(region.alpha_max() > 0)) return lower;
+    const double pi = 3.14159265358979323846;
+    for (int k = 0; k < points; ++k) {
+        const double s = k == 0 ? 1e-6 : static_cast<double>(k) / points;
+        const double a = region.alpha_max() * std::sin(pi * s / 2);
+        const std::pair<double, double> interval = region.beta_interval(a);
+        if (!(interval.second > interval.first)) continue;
+        lower.emplace_back(a, interval.first);
+        upper.emplace_back(a, interval.second);
+    }
+    lower.emplace_back(region.alpha_max(), region.beta_at_alpha_max());
+    lower.insert(lower.end(), upper.rbegin(), upper.rend());
+    lower.push_back(lower.front());
+    return lower;
+}
+
 /// An optimum with the estimator: the criterion's point, its cost (none for amax) and the main region's tip.
 struct EstimatorOptimum {
     Criterion criterion = Criterion::CE2;

@@ -91,3 +91,33 @@ def test_new_axes_when_none():
     ax = plot.region(None, PLANT, points=32)
     assert ax.figure is not None
     plt.close(ax.figure)
+
+
+def test_noise_pareto(ax):
+    """Each line's vertices are noise_pareto_front() at the documented budgets; checked independently: every
+    point's g_F recomputed by force_noise_gain() meets its budget (1e-12 relative: two evaluations of g_F at the
+    same gains), the cost does not fall as the budget tightens (1e-9 relative: the search's stated accuracy),
+    and the unconstrained marker is optimal_point() with the estimator (cost to 1e-9 relative: C is flat at its
+    minimum, so the two searches' gain tolerances move it far less)."""
+    estimators = ("backward", "lowpass:0.05")
+    assert ho.plot_noise_pareto is plot.noise_pareto
+    assert plot.noise_pareto(ax, "CE2", PLANT, estimators=estimators, points=4, decades=1.5) is ax
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    for name in estimators:
+        free = ho.optimal_point("CE2", PLANT, estimator=name)
+        g0 = ho.force_noise_gain(free.alpha, free.beta, PLANT, estimator=name)
+        marker = line(ax, f"unconstrained {name}").get_xydata()
+        np.testing.assert_allclose(marker[0, 1], free.cost, rtol=1e-9)
+        budgets = marker[0, 0] * np.logspace(0.0, -1.5, 4)
+        front = ho.noise_pareto_front("CE2", budgets, PLANT, estimator=name)
+        drawn = line(ax, name).get_xydata()
+        np.testing.assert_array_equal(drawn, [[o.force_noise_gain, o.cost] for o in front])
+        assert len(front) == 4
+        np.testing.assert_allclose(marker[0, 0], g0, rtol=1e-6)
+        for budget, o in zip(budgets, front):
+            assert ho.force_noise_gain(o.alpha, o.beta, PLANT, estimator=name) <= budget * (1 + 1e-12)
+        costs = drawn[:, 1]
+        assert np.all(costs[1:] >= costs[:-1] * (1 - 1e-9))
+        assert costs[-1] > 10 * costs[0]  # 1.5 decades less noise cost more than a decade of CE2 (CLI figure)
+    with pytest.raises(ValueError, match="points"):
+        plot.noise_pareto(ax, points=1)

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <hapticopt/stability_region.hpp>
+
 #include "cli_output.hpp"
 #include "commands.hpp"
 
@@ -109,6 +111,72 @@ TEST(VelocityCli, OptimumWithEstimator) {
         add_optimum_command, {"optimum", "--criterion", "CE2+OV", "--velocity", "lowpass:0.1", "--json"});
     ASSERT_EQ(code3, 0);
     EXPECT_LT(ov["alpha"].get<double>(), ov["alpha_max"].get<double>());
+}
+
+// `boundary --velocity`: the main region's boundary by estimator_region_boundary. Window 1 is the backward
+// difference's loop, so its points lie on StabilityRegion's exact (D-decomposition) boundary: each point's beta is
+// an end of StabilityRegion::beta_range at its alpha, to the bisections' 1e-13 relative plus the exact boundary's
+// root solve (1e-12 checked, 1e-9 allowed); alpha_max agrees with the exact 12 - 8 sqrt(2) (d = 0) to the tip
+// search's 1e-12. Other estimators: alpha_max is the region's, and every point is on the edge: stable 1e-7
+// (relative) inside it and unstable 1e-7 outside it, in beta.
+TEST(VelocityCli, BoundaryWithAnEstimatorIsTheMainRegionsEdge) {
+    for (const double d : {0.0, 1.0}) {
+        const auto [code, out] = run_velocity_command(
+            add_boundary_command,
+            {"boundary", "--velocity", "window:1", "--delay", d == 0 ? "0" : "1", "--points", "64", "--json"});
+        ASSERT_EQ(code, 0);
+        const NormalizedPlant plant{0, 0, d};
+        const StabilityRegion exact(plant);
+        EXPECT_NEAR(out["alpha_max"].get<double>(), exact.alpha_max(), 1e-12 * exact.alpha_max());
+        if (d == 0) {
+            EXPECT_NEAR(out["alpha_max"].get<double>(), 12 - 8 * std::sqrt(2.0), 1e-12);
+        }
+        EXPECT_TRUE(out["stable_islands"].empty());
+        const auto& pts = out["points"];
+        ASSERT_GE(pts.size(), 120u);
+        EXPECT_EQ(pts.front(), pts.back());
+        int checked = 0;
+        for (const auto& p : pts) {
+            const double a = p["alpha"], b = p["beta"];
+            if (a >= exact.alpha_max() * (1 - 1e-9)) continue;  // the tip: checked through alpha_max
+            const auto [lo, hi] = exact.beta_range(a);
+            EXPECT_LT(std::min(std::abs(b - lo), std::abs(b - hi)), 1e-9 * std::max(1.0, hi - lo))
+                << "d " << d << " alpha " << a << " beta " << b << " exact [" << lo << ", " << hi << "]";
+            ++checked;
+        }
+        EXPECT_GE(checked, 120);
+    }
+    for (const std::string v : {"lowpass:0.02", "window:5"}) {
+        const auto [code, out] =
+            run_velocity_command(add_boundary_command, {"boundary", "--velocity", v, "--delay", "1", "--json"});
+        ASSERT_EQ(code, 0);
+        VelocityOption option;
+        option.text = v;
+        const VelocityEstimator e = option.parse(0);
+        const NormalizedPlant plant{0, 0, 1};
+        const EstimatorStabilityRegion region(plant, e);
+        EXPECT_EQ(out["alpha_max"].get<double>(), region.alpha_max());
+        const EstimatorStabilityTest test(plant, e);
+        const auto& pts = out["points"];
+        ASSERT_GE(pts.size(), 500u) << v;
+        const std::size_t n = pts.size();
+        for (std::size_t i = 1; i + 1 < n; ++i) {
+            const double a = pts[i]["alpha"], b = pts[i]["beta"];
+            if (a >= region.alpha_max() * (1 - 1e-6)) continue;  // the tip (alpha_max checked above)
+            const double inward = i < n / 2 ? 1 : -1;            // lower edge first, then the upper edge
+            const double step = 1e-7 * std::max(1e-3, std::abs(b));
+            EXPECT_TRUE(test.stable(a, b + inward * step)) << v << " alpha " << a << " beta " << b;
+            EXPECT_FALSE(test.stable(a, b - inward * step)) << v << " alpha " << a << " beta " << b;
+        }
+        double widest = 0;
+        for (const auto& p : pts) widest = std::max(widest, p["alpha"].get<double>());
+        EXPECT_EQ(widest, region.alpha_max()) << v;
+    }
+    EXPECT_THROW(
+        run_velocity_command(add_boundary_command, {"boundary", "--velocity", "window:3", "--points", "4", "--json"}),
+        InvalidParameter);
+    EXPECT_THROW(run_velocity_command(add_boundary_command, {"boundary", "--velocity", "lowpass:0.1", "--passivity"}),
+                 InvalidParameter);
 }
 
 }  // namespace

@@ -21,11 +21,13 @@
 
 #include <hapticopt/energy_costs.hpp>
 #include <hapticopt/impulse_optimum.hpp>
+#include <hapticopt/noise_budget.hpp>
 #include <hapticopt/optimum.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/overshoot.hpp>
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/step_response.hpp>
+#include <hapticopt/velocity_estimator.hpp>
 
 #include "svg/svg_contour.hpp"
 #include "svg_reader.hpp"
@@ -157,6 +159,47 @@ TEST(PlotRegion, BoundaryPointsLieOnTheExactBoundary) {
         }
     }
     EXPECT_NE(f.main.find("\u03b1 = K T\u00b2/m"), std::string::npos);
+}
+
+// --velocity: window 1 is the backward difference's loop, so its drawn main-region boundary lies on the exact
+// boundary (the polygon of StabilityRegion, 20000 points, except the gamma > 0 corners' strip alpha < 0, which
+// the estimator's main region, alpha > 0, leaves out); window 5: the tips are the estimator regions' alpha_max.
+TEST(PlotRegion, VelocityEstimatorBoundaries) {
+    const Figure f = figure("plot region --delay 1 --velocity window:1 --delta 0 --points 200", "region_w1.svg");
+    const auto curves = elements(f.main, "polyline", "boundary");
+    ASSERT_EQ(curves.size(), 2u);
+    for (const double gamma : {0.0, 0.001}) {
+        char label[128];
+        std::snprintf(label, sizeof label, "\u03b3 = %g, \u03b4 = 0", gamma);
+        const Element* curve = with_label(curves, label);
+        ASSERT_NE(curve, nullptr) << label;
+        const hapticopt::StabilityRegion region(NormalizedPlant{gamma, 0, 1.0});
+        std::vector<std::pair<double, double>> exact;
+        for (const auto& p : region.polygon(20000)) exact.emplace_back(f.x.pixel(p.alpha), f.y.pixel(p.beta));
+        exact.push_back(exact.front());
+        const auto drawn = points(curve->attr("points"));
+        ASSERT_GE(drawn.size(), 390u) << label;
+        double worst = 0;
+        for (std::size_t i = 0; i + 1 < drawn.size(); ++i) worst = std::max(worst, distance_to(drawn[i], exact));
+        EXPECT_LT(worst, kPixelTolerance) << label;
+        EXPECT_EQ(drawn.front(), drawn.back()) << "closed";
+        expect_marker_at(f, "alpha-max", std::string("alpha_max ") + label, region.alpha_max(),
+                         region.beta_at_alpha_max());
+    }
+    const Figure w = figure("plot region --delay 1 --velocity window:5", "region_w5.svg");
+    EXPECT_EQ(elements(w.main, "polyline", "boundary").size(), 4u);
+    for (const double gamma : {0.0, 0.001}) {
+        for (const double delta : {0.0, 0.02}) {
+            char label[128];
+            std::snprintf(label, sizeof label, "\u03b3 = %g, \u03b4 = %g", gamma, delta);
+            const hapticopt::EstimatorStabilityRegion region(NormalizedPlant{gamma, delta, 1.0},
+                                                             hapticopt::VelocityEstimator::moving_window(5));
+            expect_marker_at(w, "alpha-max", std::string("alpha_max ") + label, region.alpha_max(),
+                             region.beta_at_alpha_max());
+        }
+    }
+    EXPECT_EQ(run_cli("plot region --velocity window:5 --passivity --out x.svg"), 3);
+    EXPECT_NE(read_text(cli_log()).find("velocity"), std::string::npos);
 }
 
 TEST(PlotRegion, PhysicalAxesAndPassivityRegion) {
@@ -331,11 +374,109 @@ TEST(PlotCollision, StepAndCollisionOptimaAndCurvesMatchTheLibrary) {
     }
 }
 
+// The noise trade-off: per estimator one curve whose vertices are the library's noise_pareto_front at the
+// budgets the figure documents (g0 10^(-2 i/(n-1)), g0 the unconstrained optimum's g_F), checked
+// independently: every point's g_F recomputed by force_noise_gain() meets its budget, the cost does not fall
+// as the budget tightens, and no point of a brute-force grid over the main region that meets the budget has
+// a lower cost.
+TEST(PlotNoisePareto, CurvesAreTheConstrainedOptimaPerEstimator) {
+    const NormalizedPlant plant{0, 0, 1};
+    constexpr int kPoints = 5;
+    double seconds = 0;
+    const Figure f = figure(
+        "plot noise-pareto --delay 1 --points 5 --velocity backward --velocity lowpass:0.02 "
+        "--velocity window:5",
+        "noise_pareto_d1.svg", &seconds);
+    std::printf("plot noise-pareto --points 5 (d = 1, 3 estimators): %.2f s\n", seconds);
+    const auto curves = elements(f.main, "polyline", "pareto");
+    ASSERT_EQ(curves.size(), 3u);
+    const std::vector<std::pair<std::string, hapticopt::VelocityEstimator>> estimators{
+        {"backward", hapticopt::VelocityEstimator::backward_difference()},
+        {"lowpass nu = 0.02", hapticopt::VelocityEstimator::low_pass(0.02)},
+        {"window N = 5", hapticopt::VelocityEstimator::moving_window(5)}};
+    for (const auto& [label, e] : estimators) {
+        const Element* curve = with_label(curves, label);
+        ASSERT_NE(curve, nullptr) << label;
+        const auto drawn = points(curve->attr("points"));
+        ASSERT_EQ(drawn.size(), static_cast<std::size_t>(kPoints)) << label;
+        const auto free = hapticopt::optimal_point(Criterion::CE2, plant, e);
+        const double g0 = hapticopt::force_noise_gain(plant, {free.alpha, free.beta}, e);
+        expect_marker_at(f, "unconstrained", label, std::log10(g0), std::log10(*free.cost));
+        std::vector<double> budgets;
+        for (int i = 0; i < kPoints; ++i) budgets.push_back(g0 * std::pow(10.0, -2.0 * i / (kPoints - 1)));
+        const auto front = hapticopt::noise_pareto_front(Criterion::CE2, plant, e, budgets);
+        ASSERT_EQ(front.size(), budgets.size()) << label;
+        // Brute force, globally: costs and g_F on a grid, alpha log-spaced over [1e-4 alpha_max, alpha_max) (the
+        // budgets' optima lie above 1e-3 alpha_max here), beta across the main region's interval at each alpha.
+        // The tight budgets admit only a thin sliver around the g_F minimum that this grid can miss, so every
+        // point is also checked against a fine grid of +-3 % around it.
+        const hapticopt::EstimatorStabilityRegion region(plant, e);
+        auto evaluate = [&](double a, double b) {
+            const hapticopt::NormalizedGains g{a, b};
+            return std::pair<double, double>{hapticopt::force_noise_gain(plant, g, e),
+                                             hapticopt::energy_costs(plant, g, e).ce2};
+        };
+        std::vector<std::pair<double, double>> grid;  // (g_F, C_E2)
+        for (int i = 0; i < 80; ++i) {
+            const double a = region.alpha_max() * std::pow(1e-4, 1 - (i + 0.5) / 80);
+            const auto [lo, hi] = region.beta_interval(a);
+            for (int j = 1; j < 120; ++j) grid.push_back(evaluate(a, lo + (hi - lo) * j / 120));
+        }
+        int globally_checked = 0;
+        for (int i = 0; i < kPoints; ++i) {
+            const auto& p = front[static_cast<std::size_t>(i)];
+            EXPECT_NEAR(drawn[static_cast<std::size_t>(i)].first, f.x.pixel(std::log10(p.force_noise_gain)),
+                        kPixelTolerance)
+                << label << " point " << i;
+            EXPECT_NEAR(drawn[static_cast<std::size_t>(i)].second, f.y.pixel(std::log10(p.cost)), kPixelTolerance)
+                << label << " point " << i;
+            // g_F recomputed at the point (the estimator loop's Lyapunov solve, not the search's bisection) meets
+            // the budget; 1e-12 relative is the rounding of two evaluations of g_F at the same gains.
+            const double g = hapticopt::force_noise_gain(plant, {p.alpha, p.beta}, e);
+            EXPECT_LE(g, budgets[static_cast<std::size_t>(i)] * (1 + 1e-12)) << label << " point " << i;
+            EXPECT_NEAR(hapticopt::energy_costs(plant, {p.alpha, p.beta}, e).ce2, p.cost, 1e-12 * p.cost);
+            EXPECT_EQ(p.budget_active, i > 0) << label << " point " << i;
+            // Tighter budget, no lower cost (1e-9 relative: the search's stated accuracy).
+            if (i > 0) {
+                EXPECT_GE(p.cost, front[static_cast<std::size_t>(i - 1)].cost * (1 - 1e-9)) << label;
+            }
+            // No grid point that meets the budget does better (1e-9 relative: the search's stated accuracy).
+            const double budget = budgets[static_cast<std::size_t>(i)];
+            double grid_best = HUGE_VAL;
+            for (const auto& [gf, c] : grid)
+                if (gf <= budget) grid_best = std::min(grid_best, c);
+            if (std::isfinite(grid_best)) ++globally_checked;
+            EXPECT_LE(p.cost, grid_best * (1 + 1e-9)) << label << " point " << i;
+            double local_best = HUGE_VAL;
+            int feasible = 0;
+            for (int u = -20; u <= 20; ++u) {
+                for (int v = -20; v <= 20; ++v) {
+                    const auto [gf, c] = evaluate(p.alpha * (1 + 0.0015 * u), p.beta * (1 + 0.0015 * v));
+                    if (gf <= budget) {
+                        ++feasible;
+                        local_best = std::min(local_best, c);
+                    }
+                }
+            }
+            EXPECT_GT(feasible, 20) << label << " point " << i;
+            EXPECT_LE(p.cost, local_best * (1 + 1e-9)) << label << " point " << i;
+        }
+        EXPECT_GE(globally_checked, 2) << label;
+    }
+}
+
 TEST(PlotCli, UsageErrors) {
     EXPECT_EQ(run_cli("plot"), 2);
     EXPECT_EQ(run_cli("plot costs --criterion CE9 --out x.svg"), 2);
     EXPECT_EQ(run_cli("plot region"), 2);                       // --out is required
     EXPECT_EQ(run_cli("plot step --mass 0.3 --out x.svg"), 2);  // --mass needs --period
+    EXPECT_EQ(run_cli("plot noise-pareto --criterion CE0+OV --out x.svg"), 2);
+    EXPECT_EQ(run_cli("plot noise-pareto --points 1 --out x.svg"), 2);
+    EXPECT_EQ(run_cli("plot noise-pareto --position-resolution 1e-5 --out x.svg"), 2);  // needs --mass
+    EXPECT_EQ(run_cli("plot noise-pareto --velocity window:0 --out x.svg"), 3);
+    EXPECT_NE(read_text(cli_log()).find("window"), std::string::npos);
+    EXPECT_EQ(run_cli("plot noise-pareto --mass 0.3 --period 0.001 --position-resolution -1 --out x.svg"), 3);
+    EXPECT_NE(read_text(cli_log()).find("position_resolution"), std::string::npos);
 }
 
 // Headless Chromium opens the region figure and renders it: a PNG of the window size, not blank

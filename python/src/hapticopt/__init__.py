@@ -4,7 +4,8 @@
 
 One implementation, two languages: every number comes from the C++ header library
 (include/hapticopt/) through the extension hapticopt._core. Normalised units throughout (m = T = 1;
-hapticopt.normalize / to_physical convert). Figures: hapticopt.plot (needs matplotlib, extra `plot`).
+hapticopt.normalize / to_physical convert). Figures: hapticopt.plot (needs matplotlib, extra `plot`);
+hapticopt.plot_noise_pareto is hapticopt.plot.noise_pareto.
 Documentation: docs/python.md of the repository.
 """
 from ._core import InvalidParameterError, __version__
@@ -17,6 +18,7 @@ from .limit_cycles import (AbbottOkamuraPassivity, LimitCycle, LimitCyclePredict
 from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, OptimalCurve, Optimum, PassiveOptimum, RobustOptimum,
                      WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum,
                      NoiseBudgetOptimum, noise_pareto_front, optimal_point_under_noise_budget)
+from .plot import noise_pareto as plot_noise_pareto
 from .parameters import (Gains, PhysicalPlant, Plant, WallGains, normalize, normalize_gains, to_physical,
                          to_physical_plant)
 from .region import Boundary, alpha_max, beta_range, boundary
@@ -32,7 +34,7 @@ __all__ = [
     "Boundary", "boundary", "alpha_max", "beta_range",
     "STEP_CRITERIA", "COLLISION_CRITERIA", "OptimalCurve", "Optimum", "WallTuning", "RobustOptimum",
     "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
-    "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front",
+    "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front", "plot_noise_pareto",
     "AbbottOkamuraPassivity", "LimitCycle", "LimitCyclePrediction", "abbott_okamura_passivity", "predict_limit_cycle",
     "quantised_rest_exists",
 ]

@@ -8,7 +8,9 @@ optimal_curve(), optimal_point(), step_response()), so the artists carry the com
 - region(ax, plant): Fig. 3, the exact stable region (polygon) with its tip alpha_max;
 - costs(ax, criterion, plant): Fig. 4, log10 contours of C(alpha, beta), the optimal curve and point;
 - step(ax, gains, plant): Fig. 5, continuous-time step responses, the samples, the overshoot maximum;
-- overshoot(ax, plant): Fig. 6, the no-overshoot region (C_OV <= tolerance) and the OV / CEx+OV points.
+- overshoot(ax, plant): Fig. 6, the no-overshoot region (C_OV <= tolerance) and the OV / CEx+OV points;
+- noise_pareto(ax, criterion, plant): beyond the paper, the optimum under a force-noise budget against g_F per
+  velocity estimator (noise_pareto_front()); also hapticopt.plot_noise_pareto.
 
 Labels (Artist.get_label()) name what each artist shows, e.g. "boundary d=1", "optimal curve CE2".
 """
@@ -19,12 +21,13 @@ from typing import Iterable, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .costs import cost_grid, overshoot as _overshoot
-from .optima import Optimum, optimal_curve, optimal_point
+from .estimator import EstimatorLike, velocity_estimator
+from .optima import Optimum, noise_pareto_front, optimal_curve, optimal_point, optimal_point_under_noise_budget
 from .parameters import Gains, Plant
 from .region import boundary
 from .response import sampled_step_response, step_response
 
-__all__ = ["region", "costs", "step", "overshoot"]
+__all__ = ["region", "costs", "step", "overshoot", "noise_pareto"]
 
 
 def _axes(ax):
@@ -169,4 +172,37 @@ def overshoot(ax=None, plant: Optional[Plant] = None, *, tolerance: float = 1e-1
     ax.set_xlabel("alpha = K T^2/m")
     ax.set_ylabel("beta = B T/m")
     ax.set_title(f"no overshoot (C_OV <= {tolerance:g}), {_delay_label(p)}")
+    return ax
+
+
+def noise_pareto(ax=None, criterion: str = "CE2", plant: Optional[Plant] = None, *,
+                 estimators: Sequence[EstimatorLike] = ("backward", "lowpass:0.02", "window:5"), points: int = 12,
+                 decades: float = 2.0):
+    """The trade-off of `criterion` (CE0, CE1 or CE2) against quantisation force noise: for each estimator the
+    optimum under a force-noise budget (noise_pareto_front()) at `points` budgets log-spaced from the
+    unconstrained optimum's g_F down to 10**-decades of it, cost against the g_F reached, both axes
+    logarithmic (a line labelled with the estimator's spelling, e.g. "lowpass:0.02", its vertices
+    (force_noise_gain, cost) of the front), and the unconstrained optimum ("unconstrained <spelling>").
+    sigma_F = (m q / T^2) g_F in newtons. The CLI's figure: `hapticopt plot noise-pareto`. About 5 s for the
+    default three estimators at d = 1."""
+    if points < 2:
+        raise ValueError(f"hapticopt.plot.noise_pareto: points = {points} is invalid; accepted: >= 2")
+    if not (np.isfinite(decades) and decades > 0):
+        raise ValueError(f"hapticopt.plot.noise_pareto: decades = {decades} is invalid; accepted: finite and > 0")
+    ax = _axes(ax)
+    p = _plant(plant)
+    for estimator in estimators:
+        e = velocity_estimator(estimator)
+        free = optimal_point_under_noise_budget(criterion, 1e300, p, estimator=e)  # the unconstrained optimum
+        budgets = free.unconstrained_force_noise_gain * np.logspace(0.0, -decades, points)
+        front = noise_pareto_front(criterion, budgets, p, estimator=e)
+        name = str(e)
+        (line,) = ax.plot([o.force_noise_gain for o in front], [o.cost for o in front], ".-", label=name)
+        ax.plot([free.unconstrained_force_noise_gain], [free.unconstrained_cost], "P", color=line.get_color(),
+                label=f"unconstrained {name}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("g_F (force noise per encoder step, normalised; sigma_F = m q / T^2 g_F)")
+    ax.set_ylabel(f"{criterion} under the budget")
+    ax.set_title(f"{criterion} against force noise, {_delay_label(p)}")
     return ax
