@@ -193,7 +193,8 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
         // the describing function (hapticopt::predict_limit_cycle) model the backward difference only.
         EncoderChatter c;
         c.backward_difference = is_backward(estimator);
-        c.count_kick = std::abs(t.B) * hapticopt::estimator_coefficients<double>(estimator).b.front() * q / plant.period;
+        c.count_kick =
+            std::abs(t.B) * hapticopt::estimator_coefficients<double>(estimator).b.front() * q / plant.period;
         c.friction_for_rest = t.K * q / 2.0;
         c.coulomb_friction = coulomb_friction;
         if (!c.backward_difference) {
