@@ -236,11 +236,21 @@ TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
     EXPECT_DOUBLE_EQ(*t.force_noise_std, expected);
     EXPECT_NE(*t.force_noise_std,
               hapticopt::force_noise_std(to_hapticopt(filtered), hapticopt::WallGains{t.K, t.B}, q));
-    EXPECT_FALSE(t.chatter.has_value());
+    // At rest every estimate is 0, so the rest condition is the backward difference's; a count steps the window's
+    // estimate by q / (3 T) on its first tick; the Abbott-Okamura bound and the describing function model the
+    // backward difference only and are not given.
+    ASSERT_TRUE(t.chatter.has_value());
+    EXPECT_FALSE(t.chatter->backward_difference);
+    EXPECT_DOUBLE_EQ(t.chatter->count_kick, t.B * q / (3.0 * filtered.period));
+    EXPECT_DOUBLE_EQ(t.chatter->friction_for_rest, t.K * q / 2.0);
+    EXPECT_FALSE(t.chatter->rest_for_every_push);  // no Coulomb friction
+    EXPECT_FALSE(t.chatter->cycle_predicted);
     const TuningPlant backward = plant_with(1.0, {});
     TuningResult b = tune_wall("CE2", backward);
     predict_encoder_effects(b, backward, q);
-    EXPECT_TRUE(b.chatter.has_value());
+    ASSERT_TRUE(b.chatter.has_value());
+    EXPECT_TRUE(b.chatter->backward_difference);
+    EXPECT_DOUBLE_EQ(b.chatter->count_kick, b.B * q / backward.period);
 }
 
 // The backward path is the paper's, unchanged: tune_wall equals hapticopt::optimal_wall bit for bit.
