@@ -412,20 +412,41 @@ TEST(DaemonMatchesAnalysis, ForceNoiseFromTheEncoderStepMatchesTheWhiteNoiseMode
     EXPECT_TRUE(exact.summary["force_noise_std"].is_null());
 }
 
-// The chatter at rest in contact on the simulated Falcon (`--device falcon --simulate`: 0.30 kg, 6 ms, the shipped
-// encoder step q = 48.5 um along x, the CE2 wall, the default hand b_H 4 N s/m, k_H 200 N/m pressing 1 N): the
-// rounded loop does not settle, the measured position keeps changing between neighbouring counts. Its rate against
-// the describing-function cycle of hapticopt::predict_limit_cycle for the simulated plant (mass with the hand's
-// spring and damper, no Coulomb friction, the 1 N push): the frequency of upward count changes over ticks
-// 1000..5999. Tolerance 10 %: the describing function neglects the harmonics and the sampling of the quantiser's
-// input; its frequency was within 6 % of the simulated one for the same kind of wall at d = 6 without friction
-// (docs/limit-cycles.md), and counting over 5 s resolves 0.2 Hz. The summary's encoder_chatter is the cycle for
-// the profile's plant (no hand), a push half-way between two counts, as printed at start-up.
+// The shipped Falcon profile with the paper's backward difference and no force-noise budget (its
+// velocity_estimator and force_noise_budget lines left out), plus `extra` lines: the loop the tests below analyse.
+std::string falcon_with_the_backward_difference(const std::string& tag, const std::string& extra = "") {
+    const auto profile = dir() / (tag + ".toml");
+    std::ifstream in(HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml");
+    std::ofstream out(profile);
+    std::string line;
+    int dropped = 0;
+    while (std::getline(in, line)) {
+        if (line.rfind("velocity_estimator", 0) == 0 || line.rfind("force_noise_budget", 0) == 0) {
+            ++dropped;
+            continue;
+        }
+        out << line << "\n";
+    }
+    out << extra;
+    EXPECT_EQ(dropped, 2) << "config/devices/falcon.toml: expected its velocity_estimator and force_noise_budget";
+    return profile.string();
+}
+
+// The chatter at rest in contact on the simulated Falcon with the backward difference (`--device falcon --simulate`,
+// falcon_with_the_backward_difference: 0.30 kg, 6 ms, the shipped encoder step q = 48.5 um along x, the CE2 wall, the
+// default hand b_H 4 N s/m, k_H 200 N/m pressing 1 N): the rounded loop does not settle, the measured position keeps
+// changing between neighbouring counts. Its rate against the describing-function cycle of
+// hapticopt::predict_limit_cycle for the simulated plant (mass with the hand's spring and damper, no Coulomb friction,
+// the 1 N push): the frequency of upward count changes over ticks 1000..5999. Tolerance 10 %: the describing function
+// neglects the harmonics and the sampling of the quantiser's input; its frequency was within 6 % of the simulated one
+// for the same kind of wall at d = 6 without friction (docs/limit-cycles.md), and counting over 5 s resolves 0.2 Hz.
+// The summary's encoder_chatter is the cycle for the profile's plant (no hand), a push half-way between two counts, as
+// printed at start-up.
 TEST(DaemonMatchesAnalysis, TheSimulatedFalconChattersAtTheDescribingFunctionsFrequency) {
     const std::string trace = (dir() / "falcon_chatter.csv").string();
     const std::string summary = (dir() / "falcon_chatter.json").string();
     const RunOutput out =
-        run_hapticd({"hapticd", "--config", "", "--device", HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml",
+        run_hapticd({"hapticd", "--config", "", "--device", falcon_with_the_backward_difference("falcon_backward"),
                      "--simulate", "--lockstep", "--quiet", "--hand-damping", "4", "--hand-stiffness", "200",
                      "--duration", "6", "--trace", trace, "--summary-json", summary},
                     trace, summary);
@@ -454,12 +475,12 @@ TEST(DaemonMatchesAnalysis, TheSimulatedFalconChattersAtTheDescribingFunctionsFr
     EXPECT_DOUBLE_EQ(chatter["cycle_amplitude"].get<double>(), profile.cycle.amplitude);
 }
 
-// Coulomb friction on the simulated Falcon (the shipped profile plus `coulomb_friction`; the setup of the test
-// above): the step intent pushes with F = (K + k_H) q (12 + 1/2), so the balance F / (K + k_H) lies half-way between
-// the encoder levels 12 q and 13 q, the push farthest from every rest. A sticking rest then exists iff f_c >= K q / 2
-// = 0.034 N (hapticopt::quantised_rest_exists with the hand's spring; docs/limit-cycles.md, item 3). Below it
-// (f_c = 0.02 N) no rest exists and the loop must keep moving: the measured position takes two levels and the wall
-// force keeps changing over ticks 2000..5998. Above it (f_c = 0.05 N) the handle comes to rest, which a rest's
+// Coulomb friction on the simulated Falcon (the backward-difference profile above plus `coulomb_friction`; the
+// setup of the test above): the step intent pushes with F = (K + k_H) q (12 + 1/2), so the balance F / (K + k_H) lies
+// half-way between the encoder levels 12 q and 13 q, the push farthest from every rest. A sticking rest then exists iff
+// f_c >= K q / 2 = 0.034 N (hapticopt::quantised_rest_exists with the hand's spring; docs/limit-cycles.md, item 3).
+// Below it (f_c = 0.02 N) no rest exists and the loop must keep moving: the measured position takes two levels and the
+// wall force keeps changing over ticks 2000..5998. Above it (f_c = 0.05 N) the handle comes to rest, which a rest's
 // existence alone does not guarantee (measured, docs/limit-cycles.md, "Coulomb friction in the simulated
 // device"): one level and one constant force over those ticks, the force of the rest's level, -K n q. The
 // summary's encoder_chatter carries the profile's friction, the rest verdict for every push (f_c >= K q / 2), the
@@ -473,12 +494,9 @@ TEST(DaemonMatchesAnalysis, TheSimulatedFalconComesToRestWithCoulombFrictionAbov
     const double push = (gains.stiffness + k_hand) * q * 12.5;
     for (const double friction : {0.02, 0.05}) {
         const std::string tag = "falcon_friction_" + std::to_string(static_cast<int>(friction * 1000));
-        const auto profile = dir() / (tag + ".toml");
-        {
-            std::ifstream in(HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml");
-            std::ofstream out(profile);
-            out << in.rdbuf() << "\ncoulomb_friction = " << friction << "\n";
-        }
+        std::ostringstream friction_line;
+        friction_line << "coulomb_friction = " << friction << "\n";
+        const std::string profile = falcon_with_the_backward_difference(tag, friction_line.str());
         const std::string trace = (dir() / (tag + ".csv")).string();
         const std::string summary = (dir() / (tag + ".json")).string();
         std::ostringstream force;
@@ -488,7 +506,7 @@ TEST(DaemonMatchesAnalysis, TheSimulatedFalconComesToRestWithCoulombFrictionAbov
                                            "--config",
                                            "",
                                            "--device",
-                                           profile.string(),
+                                           profile,
                                            "--simulate",
                                            "--lockstep",
                                            "--quiet",
@@ -552,6 +570,51 @@ TEST(DaemonMatchesAnalysis, TheSimulatedFalconComesToRestWithCoulombFrictionAbov
             EXPECT_TRUE(chatter["cycle_amplitude"].is_null());
         }
     }
+}
+
+// The shipped Falcon profile's 15-period window against the buzz (the setup of the chatter test above, the profile as
+// shipped: velocity_estimator = "window:15", its CE2 optimum). At rest on the two encoder levels next to the balance,
+// |x_j - x_{j-N}| <= q, so the force K y_{j-d} + B (y_{j-d} - y_{j-d-N}) / (N T) ranges over at most
+// K q + 2 B q / (N T) (0.118 N), where the backward difference's bound is K q + 2 B q / T (3.33 N; its measured
+// range is 2.52 N). Checked over ticks 1000..5998: the measured position takes at most two adjacent levels, and the
+// force's range is within that bound (plus 1e-12 N of rounding). The summary says what was rendered and predicted:
+// the window, its CE2 optimum (optimal_point with the estimator) and sigma_F with it.
+TEST(DaemonMatchesAnalysis, TheShippedFalconWindowBoundsTheBuzzToOneCountsForce) {
+    const double T = 1e-3, q = 4.85e-5, m = 0.30;
+    const int N = 15;
+    const std::string trace = (dir() / "falcon_window.csv").string();
+    const std::string summary = (dir() / "falcon_window.json").string();
+    const RunOutput out =
+        run_hapticd({"hapticd", "--config", "", "--device", HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml",
+                     "--simulate", "--lockstep", "--quiet", "--hand-damping", "4", "--hand-stiffness", "200",
+                     "--duration", "6", "--trace", trace, "--summary-json", summary},
+                    trace, summary);
+    ASSERT_GE(out.rows.size(), 6000U);
+    EXPECT_EQ(out.summary["velocity_estimator"], "window:15");
+    const hapticopt::EstimatorOptimum optimum =
+        hapticopt::optimal_point(hapticopt::Criterion::CE2, hapticopt::NormalizedPlant{0.0, 0.0, 6.0},
+                                 hapticopt::VelocityEstimator::moving_window(N));
+    const double K = out.summary["K"].get<double>(), B = out.summary["B"].get<double>();
+    EXPECT_DOUBLE_EQ(K, optimum.alpha * m / (T * T));
+    EXPECT_DOUBLE_EQ(B, optimum.beta * m / T);
+    EXPECT_DOUBLE_EQ(
+        out.summary["force_noise_std"].get<double>(),
+        hapticopt::force_noise_std(hapticopt::PhysicalPlant{m, 0.0, 0.0, T, 0.006}, hapticopt::WallGains{K, B}, q,
+                                   hapticopt::VelocityEstimator::moving_window(N)));
+    double x_lo = HUGE_VAL, x_hi = -HUGE_VAL, f_lo = HUGE_VAL, f_hi = -HUGE_VAL;
+    for (std::size_t j = 1000; j < 5999; ++j) {
+        x_lo = std::min(x_lo, out.rows[j].x);
+        x_hi = std::max(x_hi, out.rows[j].x);
+        f_lo = std::min(f_lo, out.rows[j].wall);
+        f_hi = std::max(f_hi, out.rows[j].wall);
+    }
+    const double bound = K * q + 2.0 * B * q / (N * T);
+    std::printf(
+        "simulated Falcon at rest, window 15: positions %.4g .. %.4g counts, force range %.4g N (bound %.4g N; "
+        "backward difference's bound %.4g N)\n",
+        x_lo / q, x_hi / q, f_hi - f_lo, bound, K * q + 2.0 * B * q / T);
+    EXPECT_LE(x_hi - x_lo, q * (1.0 + 1e-9));
+    EXPECT_LE(f_hi - f_lo, bound + 1e-12);
 }
 
 // Removes this process's scratch files at the end.
