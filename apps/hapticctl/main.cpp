@@ -100,7 +100,8 @@ int cmd_status(const Common& common, bool json) {
                                       {"mass_matrix", mass_matrix_json(w.device)},
                                       {"delay_s", w.device.delay_s},
                                       {"max_force", w.device.max_force},
-                                      {"max_stiffness", max_stiffness}}},
+                                      {"max_stiffness", max_stiffness},
+                                      {"velocity_estimator", w.device.velocity_estimator}}},
                                     {"capacity", w.capacity},
                                     {"state_shm", w.state_shm},
                                     {"ramp_s", w.ramp_s}}
@@ -115,7 +116,7 @@ int cmd_status(const Common& common, bool json) {
         } else {
             std::cout << "none (the stability region only)";
         }
-        std::cout << "\n"
+        std::cout << ", velocity estimate " << w.device.velocity_estimator << "\n"
                   << "tick " << s.tick << ", sessions " << s.sessions << ", objects " << s.objects << " of "
                   << w.capacity << ", overruns " << s.overruns << ", commits applied " << s.commits_applied
                   << ", fault " << s.fault << "\nstate stream " << w.state_shm << ", ramp " << w.ramp_s * 1e3

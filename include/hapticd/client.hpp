@@ -165,6 +165,9 @@ struct DeviceInfo {
     double delay_s = 0.0;  // total loop delay the gains are checked for
     double max_force = 0.0;
     std::optional<double> max_stiffness;  // N/m, the profile's limit; none: only the stability region bounds K
+    // The velocity estimate every damper acts on and every check analyses: "backward", "lowpass:<F>Hz" or
+    // "window:<N>" (docs/velocity-estimation.md).
+    std::string velocity_estimator = "backward";
 };
 
 struct Welcome {

@@ -74,6 +74,7 @@ def test_welcome_describes_the_device(daemon):
         assert c.device.name == "sim" and c.device.axes == 1
         assert c.device.mass_matrix == ((0.3,),)
         assert c.device.max_stiffness is None
+        assert w["device"]["velocity_estimator"] == "backward" == c.device.velocity_estimator
         c.bye()
 
 

@@ -198,6 +198,7 @@ Client Client::connect(const ConnectOptions& options) {
     we.device.max_force = d.value("max_force", 0.0);
     if (d.contains("max_stiffness") && d["max_stiffness"].is_number())
         we.device.max_stiffness = d["max_stiffness"].get<double>();
+    we.device.velocity_estimator = d.value("velocity_estimator", std::string("backward"));
     return c;
 }
 

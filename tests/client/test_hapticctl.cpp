@@ -105,6 +105,7 @@ TEST_F(Hapticctl, StatusShowsTheMassTheGainsAreCheckedFor) {
     }
     EXPECT_EQ(d["mass_matrix"], m_identity) << d.dump();
     EXPECT_TRUE(d["max_stiffness"].is_null()) << d.dump();
+    EXPECT_EQ(d["velocity_estimator"], "backward") << d.dump();
     const Result iso_text = ctl({"status"}, "status_mass");
     EXPECT_NE(iso_text.out.find("max stiffness none"), std::string::npos) << iso_text.out;
 

@@ -28,6 +28,8 @@ class DeviceInfo:
         delay_s: the total loop delay the gains are checked for (device + delay buffer), s.
         max_force: N.
         max_stiffness: N/m, the profile's stiffness limit; None: only the stability region bounds K.
+        velocity_estimator: the velocity estimate every damper acts on and every check analyses: "backward",
+            "lowpass:<F>Hz" or "window:<N>" ("backward" when the welcome does not name one).
     """
 
     name: str
@@ -38,6 +40,7 @@ class DeviceInfo:
     delay_s: float
     max_force: float
     max_stiffness: Optional[float]
+    velocity_estimator: str = "backward"
 
     @classmethod
     def from_welcome(cls, welcome: dict) -> "DeviceInfo":
@@ -72,6 +75,10 @@ class DeviceInfo:
         limit = device.get("max_stiffness")
         if limit is not None and not _is_number(limit):
             raise bad("max_stiffness", "a number (N/m) or null")
+        estimator = device.get("velocity_estimator", "backward")
+        if not isinstance(estimator, str):
+            raise bad("velocity_estimator", 'a string ("backward", "lowpass:<F>Hz" or "window:<N>")')
         return cls(name=name, axes=axes, period_s=number("period_s"), mass=tuple(float(v) for v in mass),
                    mass_matrix=tuple(tuple(float(v) for v in row) for row in matrix), delay_s=number("delay_s"),
-                   max_force=number("max_force"), max_stiffness=None if limit is None else float(limit))
+                   max_force=number("max_force"), max_stiffness=None if limit is None else float(limit),
+                   velocity_estimator=estimator)
