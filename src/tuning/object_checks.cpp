@@ -29,8 +29,6 @@ std::string number_text(double v, int precision = 6) {
     return s.str();
 }
 
-bool is_backward(const hapticopt::VelocityEstimator& e) { return e.kind == hapticopt::VelocityEstimatorKind::backward; }
-
 }  // namespace
 
 GainChecker::GainChecker(const GainCheckPlant& plant)

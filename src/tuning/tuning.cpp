@@ -38,6 +38,8 @@ hapticopt::VelocityEstimator to_hapticopt_estimator(const VelocityEstimatorSpec&
     return hapticopt::VelocityEstimator::backward_difference();
 }
 
+bool is_backward(const hapticopt::VelocityEstimator& e) { return e.kind == hapticopt::VelocityEstimatorKind::backward; }
+
 namespace {
 
 hapticopt::Criterion parse(const std::string& name) {
@@ -54,8 +56,6 @@ std::string g(double v) {
     s << v;
     return s.str();
 }
-
-bool is_backward(const hapticopt::VelocityEstimator& e) { return e.kind == hapticopt::VelocityEstimatorKind::backward; }
 
 // The decisions with the loop's estimator: the backward difference by the library's paper paths (unchanged), any
 // other by the estimator's Schur-Cohn verdict and its main stable region.

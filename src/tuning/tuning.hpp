@@ -111,6 +111,8 @@ hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
 // backward -> the backward difference, lowpass:F Hz -> low_pass(nu = F T), window:N -> moving_window(N).
 // Throws StartupError(ErrorKind::InvalidParameter) when hapticopt refuses it (nu not finite and > 0).
 hapticopt::VelocityEstimator to_hapticopt_estimator(const VelocityEstimatorSpec& velocity, double period);
+// Whether the estimator is the paper's backward difference (the analyses without an estimator then apply).
+[[nodiscard]] bool is_backward(const hapticopt::VelocityEstimator& e);
 
 // amax as rendered: alpha = alpha_max (1 - kAlphaMaxBackOff) at the tip's beta (the tip itself is on the
 // stability boundary). 1e-3: K 0.1 % below the largest stable stiffness.
