@@ -124,6 +124,9 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--velocity-estimator", o.velocity_estimator,
                    "Velocity estimate the dampers act on, overriding the profile's velocity_estimator: backward, "
                    "lowpass:<F>Hz or window:<N> (docs/velocity-estimation.md); the tuning and every check use it");
+    app.add_option("--force-noise-budget", o.force_noise_budget,
+                   "Encoder-step force noise the auto-tuned walls keep below, N, overriding the profile's "
+                   "force_noise_budget (0: none)");
     app.add_flag("--robust", o.robust,
                  "Tune CE0/CE1/CE2 for the worst case over the profile's mass_range, damping_range, stiffness_range "
                  "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
@@ -480,7 +483,19 @@ DeviceProfile load_device_profile(const Options& o) {
         check_range(where, "coulomb_friction", f, 0.0, 1e6, false, "finite, 0 .. 1e6 N (N m) per axis");
         p.coulomb_friction[a] = f;
     }
-    if (noise_budget->count() > 0) {
+    bool budget_given = noise_budget->count() > 0;
+    if (o.force_noise_budget) {
+        // --force-noise-budget overrides the key; 0 removes the budget.
+        const double budget = *o.force_noise_budget;
+        if (!std::isfinite(budget) || budget < 0.0 || budget > 1e6) {
+            throw StartupError(ErrorKind::InvalidParameter, "--force-noise-budget = " + shortest_text(budget) +
+                                                                " is invalid; accepted range: 0 (none) or finite, "
+                                                                "> 0 N (N m)");
+        }
+        budget_given = budget > 0.0;
+        force_noise_budget = budget;
+    }
+    if (budget_given) {
         check_range(where, "force_noise_budget", force_noise_budget, 0.0, 1e6, true, "finite, > 0 N (N m)");
         if (std::none_of(p.position_resolution.begin(),
                          p.position_resolution.begin() + static_cast<std::ptrdiff_t>(axes),
@@ -507,16 +522,22 @@ DeviceProfile load_device_profile(const Options& o) {
         }
         p.velocity_estimator = *estimator;
         // These analyse the backward difference only (robust_optimum.hpp, the passivity controller's observer).
+        // Nor do they bound the force noise.
         for (auto [set, option] :
              {std::pair{o.robust, "--robust"}, std::pair{o.passivity_control, "--passivity-control"}}) {
             if (set && !estimator->is_backward()) {
                 throw StartupError(ErrorKind::Usage, where.prefix("velocity_estimator") + std::string(option) +
-                                                         " models the backward difference only; this profile's "
+                                                         " models the backward difference only; the "
                                                          "velocity_estimator is " +
                                                          velocity_estimator +
-                                                         "; accepted: velocity_estimator = "
-                                                         "\"backward\" with " +
-                                                         option);
+                                                         "; accepted: --velocity-estimator backward with " + option);
+            }
+            if (set && p.force_noise_budget) {
+                throw StartupError(ErrorKind::Usage, where.prefix("force_noise_budget") + std::string(option) +
+                                                         " does not bound the force noise; the force_noise_budget "
+                                                         "is " +
+                                                         shortest_text(*p.force_noise_budget) +
+                                                         " N; accepted: --force-noise-budget 0 with " + option);
             }
         }
     }

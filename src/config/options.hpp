@@ -70,7 +70,8 @@ struct Options {
     double identify_duration = 2.0;   // s of excitation (plus 0.3 s of zero force)
     std::string
         velocity_estimator;  // --velocity-estimator: overrides the profile's velocity_estimator ("": the profile's)
-    bool robust = false;     // tune for the worst case over the profile's parameter ranges (tuning.hpp)
+    std::optional<double> force_noise_budget;  // --force-noise-budget: overrides the profile's (0: none)
+    bool robust = false;  // tune for the worst case over the profile's parameter ranges (tuning.hpp)
     bool passivity_control =
         false;  // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
     double passivity_damping_cap = 0.0;      // N s/m; 0: 2 m / ((N + 1) T), N the delay buffer (beta <= 2 / (N + 1))
