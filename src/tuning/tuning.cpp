@@ -93,6 +93,15 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
         TuningResult r;
         r.criterion = criterion;
+        // A normalised optimum (alpha, beta) and its cost, scaled back to K = alpha m / T^2, B = beta m / T.
+        auto take_normalised = [&](double alpha, double beta, std::optional<double> cost, double alpha_max) {
+            r.alpha = alpha;
+            r.beta = beta;
+            r.cost = cost;
+            r.alpha_max = alpha_max;
+            r.K = alpha * plant.mass / (plant.period * plant.period);
+            r.B = beta * plant.mass / plant.period;
+        };
         if (plant.force_noise_budget) {
             // sigma_F = (m q / T^2) g_F: the budget in normalised units is g_max = budget T^2 / (m q).
             const double budget = *plant.force_noise_budget, q = plant.position_resolution;
@@ -120,12 +129,7 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
                                        g(q) + " (normalised g_max = " + g(g_max) + "): " + e.what() +
                                        "; accepted: a larger force_noise_budget or a finer position_resolution");
             }
-            r.alpha = t.alpha;
-            r.beta = t.beta;
-            r.cost = t.cost;
-            r.alpha_max = t.alpha_max;
-            r.K = r.alpha * plant.mass / (plant.period * plant.period);
-            r.B = r.beta * plant.mass / plant.period;
+            take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
         } else if (is_backward(estimator)) {
             const hapticopt::WallTuning t = hapticopt::optimal_wall(c, physical);
             r.K = t.K;
@@ -143,12 +147,7 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
                         "; accepted: amax, CE0..2, CE0+OV..CE2+OV, or velocity_estimator = backward");
             }
             const hapticopt::EstimatorOptimum t = hapticopt::optimal_point(c, normalized, estimator);
-            r.alpha = t.alpha;
-            r.beta = t.beta;
-            r.cost = t.cost;
-            r.alpha_max = t.alpha_max;
-            r.K = r.alpha * plant.mass / (plant.period * plant.period);
-            r.B = r.beta * plant.mass / plant.period;
+            take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
         }
         if (c == hapticopt::Criterion::AlphaMax) {
             // amax is the region's tip (alpha_max, the beta there), on its boundary: marginally stable. What is
