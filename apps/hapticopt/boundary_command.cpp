@@ -66,14 +66,7 @@ int print_estimator_boundary(const NormalizedPlant& plant, const VelocityEstimat
         nlohmann::json pts = nlohmann::json::array();
         for (const auto& [a, b] : polygon) pts.push_back({{"alpha", a}, {"beta", b}});
         out["points"] = std::move(pts);
-        nlohmann::json islands = nlohmann::json::array();
-        for (const StableIsland& i : region.islands()) {
-            islands.push_back({{"alpha_min", i.alpha_min},
-                               {"alpha_max", i.alpha_max},
-                               {"beta_min", i.beta_min},
-                               {"beta_max", i.beta_max}});
-        }
-        out["stable_islands"] = std::move(islands);
+        out["stable_islands"] = islands_json(region);
         std::cout << out.dump() << '\n';
         return int{kOk};
     }

@@ -6,6 +6,17 @@
 
 namespace hapticopt::cli {
 
+nlohmann::json islands_json(const EstimatorStabilityRegion& region) {
+    nlohmann::json islands = nlohmann::json::array();
+    for (const StableIsland& i : region.islands()) {
+        islands.push_back({{"alpha_min", i.alpha_min},
+                           {"alpha_max", i.alpha_max},
+                           {"beta_min", i.beta_min},
+                           {"beta_max", i.beta_max}});
+    }
+    return islands;
+}
+
 nlohmann::json number_or_null(double value) {
     return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
 }

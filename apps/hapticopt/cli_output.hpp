@@ -23,6 +23,10 @@ enum ExitCode : int {
 /// A finite double as JSON, or null (NaN, +-inf: e.g. the costs of an unstable loop).
 nlohmann::json number_or_null(double value);
 
+/// The stable islands of an estimator's region (beyond its main region) as a JSON array of
+/// {alpha_min, alpha_max, beta_min, beta_max}.
+nlohmann::json islands_json(const EstimatorStabilityRegion& region);
+
 /// Normalised-plant options shared by the subcommands (--gamma, --delta, --delay).
 struct PlantOptions {
     double gamma = 0.0;

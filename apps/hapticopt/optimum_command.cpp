@@ -304,14 +304,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                 out["cost"] = o.cost ? nlohmann::json(*o.cost) : nlohmann::json(nullptr);
                 out["alpha_max"] = o.alpha_max;
                 out["beta_at_alpha_max"] = o.beta_at_alpha_max;
-                nlohmann::json islands = nlohmann::json::array();
-                for (const StableIsland& i : region.islands()) {
-                    islands.push_back({{"alpha_min", i.alpha_min},
-                                       {"alpha_max", i.alpha_max},
-                                       {"beta_min", i.beta_min},
-                                       {"beta_max", i.beta_max}});
-                }
-                out["stable_islands"] = islands;
+                out["stable_islands"] = islands_json(region);
                 out["passive"] = nullptr;
                 out["passivity_margin"] = nullptr;
                 out["passivity_note"] = note;
