@@ -16,7 +16,13 @@
 //    Brent over alpha (to `alpha_tolerance`) on the best grid alpha's neighbours with beta_opt(alpha)
 //    inside;
 //  - OV and CEx+OV: a scan down from alpha_max in `alpha_grid` steps to the first alpha without
-//    overshoot, then bisection to `alpha_tolerance` between it and the previous scan point.
+//    overshoot, then bisection to `alpha_tolerance` between it and the previous scan point. The overshoot
+//    evaluations stop early (OvershootOptions::stop_above): for CEx+OV above the tolerance (only the
+//    comparison with it is needed); for the OV point, inside the minimum over beta, the grid's evaluations
+//    above the lowest value found so far, and all of them above max(1 %, 100 tol) (far from the OV point,
+//    near alpha_max, the loop is barely damped and its overshoot would be followed for thousands of periods).
+//    Bisection, not a secant method: min over beta of C_OV, and C_OV along beta_opt(alpha), jump at the
+//    alpha where they reach the tolerance (a new peak crosses it), so a secant step gains nothing.
 // The tests check each optimum against a 120 x 120 grid of the stable region (no grid point is
 // better) and the optimal curves against the sign change of dC/dbeta evaluated in long double.
 // Cost: a few thousand cost evaluations for a CEx point; measured times in docs/benchmarks.md.
@@ -98,11 +104,13 @@ class WallOptimizer {
         return hapticopt::energy_cost(sampled_, alpha, beta, index);
     }
 
-    /// C_OV(alpha, beta) with the configured tolerance, +inf when unstable.
+    /// C_OV(alpha, beta) with the configured tolerance, +inf when unstable. With `stop_above` finite, a value
+    /// above it is only a lower bound (OvershootOptions::stop_above).
     HAPTICOPT_DEFERRED
-    double overshoot_cost(double alpha, double beta) const {
+    double overshoot_cost(double alpha, double beta, double stop_above = HUGE_VAL) const {
         OvershootOptions o;
         o.tolerance = options_.overshoot_tolerance;
+        o.stop_above = stop_above;
         return overshoot(sampled_, alpha, beta, o).value;
     }
 
@@ -132,8 +140,9 @@ class WallOptimizer {
                 out.beta = out.beta_at_alpha_max;
                 return out;
             case Criterion::Overshoot: {
+                const double ceiling = std::max(1e-2, 100 * options_.overshoot_tolerance);
                 auto no_overshoot = [&](double a) {
-                    return curve_point(3, a, false).value <= options_.overshoot_tolerance;
+                    return curve_point(3, a, false, ceiling).value <= options_.overshoot_tolerance;
                 };
                 const auto [lo, hi] = largest_alpha_where(no_overshoot);
                 out.alpha = lo;
@@ -161,9 +170,8 @@ class WallOptimizer {
             case Criterion::CE1_OV:
             case Criterion::CE2_OV: {
                 const int k = *energy_index(criterion);
-                auto no_overshoot = [&](double a) {
-                    return overshoot_cost(a, optimal_beta(k, a)) <= options_.overshoot_tolerance;
-                };
+                const double tol = options_.overshoot_tolerance;
+                auto no_overshoot = [&](double a) { return overshoot_cost(a, optimal_beta(k, a), tol) <= tol; };
                 out.alpha = largest_alpha_where(no_overshoot).first;
                 out.beta = optimal_beta(k, out.alpha);
                 out.cost = energy_cost(k, out.alpha, out.beta);
@@ -174,28 +182,35 @@ class WallOptimizer {
     }
 
   private:
-    HAPTICOPT_DEFERRED
-    double criterion_value(int index, double alpha, double beta) const {
-        return index < 3 ? energy_cost(index, alpha, beta) : overshoot_cost(alpha, beta);
-    }
-
     /// Coarse grid over the stable beta interval at alpha; Brent on the best point's neighbours;
-    /// optional Newton polish. Returns (beta, value).
+    /// optional Newton polish. Returns (beta, value). For C_OV (index 3) each grid evaluation stops above the
+    /// lowest value found so far: the grid's choice depends only on comparisons with it. Brent gets whole
+    /// values (its parabolas use them; C_OV over beta can have two minima in one grid cell). With a finite
+    /// `ceiling` (the OV point's search) every evaluation, Brent's too, also stops above it: values above the ceiling
+    /// are then only lower bounds above it.
     HAPTICOPT_DEFERRED
-    detail::ScalarMinimum curve_point(int index, double alpha, bool polish) const {
+    detail::ScalarMinimum curve_point(int index, double alpha, bool polish, double ceiling = HUGE_VAL) const {
         const auto [lo, hi] = region_.beta_range(alpha);
         const int n = options_.beta_grid;
         const double step = (hi - lo) / n;
+        bool on_grid = true;
+        double lowest = HUGE_VAL;
+        auto f = [&](double b) {
+            if (index < 3) return energy_cost(index, alpha, b);
+            const double v = overshoot_cost(alpha, b, std::min(on_grid ? lowest : HUGE_VAL, ceiling));
+            lowest = std::min(lowest, v);
+            return v;
+        };
         int best = 0;
         double best_value = HUGE_VAL;
         for (int i = 0; i < n; ++i) {
-            const double v = criterion_value(index, alpha, lo + (i + 0.5) * step);
+            const double v = f(lo + (i + 0.5) * step);
             if (v < best_value) {
                 best_value = v;
                 best = i;
             }
         }
-        auto f = [&](double b) { return criterion_value(index, alpha, b); };
+        on_grid = false;
         const double center = lo + (best + 0.5) * step;
         detail::ScalarMinimum m = detail::minimize_scalar(f, std::max(lo, center - step), std::min(hi, center + step),
                                                           1e-12 * std::max(1.0, std::abs(center)));

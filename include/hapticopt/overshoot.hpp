@@ -26,6 +26,7 @@
 // period loop allocates nothing).
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -37,6 +38,9 @@ namespace hapticopt {
 struct OvershootOptions {
     double tolerance = 1e-12;           ///< relative overshoot counted as "no overshoot"; (0, 1]
     long long max_periods = 100000000;  ///< safety cap; reaching it is reported, never silent
+    /// The scan stops as soon as the overshoot found exceeds this (relative, >= 0; +inf: never). The value
+    /// is then a lower bound above it (stopped_above), which is all a comparison with it needs.
+    double stop_above = std::numeric_limits<double>::infinity();
 };
 
 template <typename Scalar>
@@ -44,7 +48,9 @@ struct OvershootResultT {
     Scalar value = 0;               ///< C_OV >= 0 (exact when > tolerance); +inf when unstable
     Scalar time = 0;                ///< time of the maximum (normalised; NaN when value == 0)
     bool within_tolerance = false;  ///< value <= tolerance and no later excess above it
-    bool converged = false;         ///< the proven stop was reached (false: max_periods hit or unstable)
+    bool converged = false;         ///< the proven stop was reached (false: max_periods hit, unstable or
+                                    ///< stopped_above)
+    bool stopped_above = false;     ///< value > options.stop_above was found and the scan stopped there
     long long periods = 0;          ///< periods examined
 };
 using OvershootResult = OvershootResultT<double>;
@@ -137,34 +143,95 @@ Scalar deviation_gain(const Matrix3<Scalar>& a, const DynamicMatrix<Scalar>& r, 
     return sum * Scalar(2);  // not reached for pieces with ||A|| h <= 2
 }
 
+/// What piece_maximum_bound needs for pieces of length h: the rows giving x' = e1^T A xi and
+/// x'' = e1^T A^2 xi from the piece's start state xi (for this plant xi = (x, x', f)), and the remainder gain
+/// c with |x(tau) - (x + x' tau + x'' tau^2 / 2)| <= c ||xi||_2 on [0, h]: Taylor's remainder
+/// |x'''(s)| tau^3 / 6 with |x'''(s)| = |e1^T A^3 exp(A s) xi| <= ||e1^T A^3||_2 exp(||A||_F h) ||xi||_2.
+template <typename Scalar>
+struct PieceBound {
+    Eigen::Matrix<Scalar, 1, 3> velocity_row;
+    Eigen::Matrix<Scalar, 1, 3> acceleration_row;
+    Scalar remainder_gain = 0;
+};
+
+template <typename Scalar>
+PieceBound<Scalar> make_piece_bound(const Matrix3<Scalar>& a, Scalar h) {
+    using std::exp;
+    using std::sqrt;
+    PieceBound<Scalar> b;
+    b.velocity_row = a.row(0);
+    b.acceleration_row = b.velocity_row * a;
+    const Eigen::Matrix<Scalar, 1, 3> third = b.acceleration_row * a;
+    b.remainder_gain = sqrt(third.squaredNorm()) * exp(sqrt(a.squaredNorm()) * h) * h * h * h / Scalar(6);
+    return b;
+}
+
+/// Upper bound on max_{0 <= tau <= h} x(tau) from the quadratic Taylor part and its remainder (PieceBound),
+/// widened by 1e-12 of the terms' size for rounding.
+template <typename Scalar>
+Scalar piece_maximum_bound(const Eigen::Matrix<Scalar, 3, 1>& xi, Scalar h, const PieceBound<Scalar>& bound) {
+    using std::abs;
+    using std::sqrt;
+    const Scalar x0 = xi(0), v0 = bound.velocity_row.dot(xi), a0 = bound.acceleration_row.dot(xi);
+    auto q = [&](Scalar tau) { return x0 + tau * (v0 + tau * a0 / Scalar(2)); };
+    Scalar top = std::max(q(Scalar(0)), q(h));
+    if (a0 < 0) {
+        const Scalar vertex = -v0 / a0;
+        if (vertex > 0 && vertex < h) top = std::max(top, q(vertex));
+    }
+    const Scalar size = abs(x0) + abs(v0) * h + abs(a0) * h * h;
+    return top + bound.remainder_gain * sqrt(xi.squaredNorm()) + Scalar(1e-12) * size;
+}
+
 template <typename Scalar>
 struct ContinuousMaximum {
     Scalar value = 0;        ///< largest x(t) found (the start value when nothing exceeds it)
     Scalar time = 0;         ///< where, in periods (0 when nothing exceeds the start value)
     long long periods = 0;   ///< periods scanned
     bool converged = false;  ///< the Lyapunov bound proved no later x(t) can exceed the maximum
+    bool exceeded = false;   ///< value > ceiling was found and the scan stopped there
 };
 
 /// The exact maximum over t >= 0 of x(t) for the loop started from loop.initial_state: each ZOH
 /// piece is checked at its end and, where the velocity changes sign from + to -, at its interior
-/// maximum (interior_maximum). After period j the bound |x(t)| <= kappa sqrt(e_j^T P e_j) for all
+/// maximum (interior_maximum), unless piece_maximum_bound shows that the piece cannot exceed
+/// max(value, floor). After period j the bound |x(t)| <= kappa sqrt(e_j^T P e_j) for all
 /// later t (P = M^T P M + I, the observability Gramian; kappa = max_s deviation_gain, +1e-6 for
-/// rounding) stops the scan once it is <= max(value, floor). Allocates two N-vectors, then nothing.
+/// rounding) stops the scan once it is <= max(value, floor); a value above `ceiling` stops it too.
+/// Allocates two N-vectors, then nothing.
 template <typename Scalar>
 ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop,
                                              const DynamicMatrix<Scalar>& p, Scalar start_value, Scalar floor,
-                                             long long max_periods) {
+                                             long long max_periods,
+                                             Scalar ceiling = std::numeric_limits<Scalar>::infinity()) {
     const Matrix3<Scalar>& a = plant.augmented_matrix();
     Scalar kappa = 0;
     for (int s = 0; s < plant.segment_count(); ++s) {
         kappa =
             std::max(kappa, deviation_gain(a, loop.segment_map[static_cast<std::size_t>(s)], plant.segment(s).length));
     }
-    kappa *= Scalar(1) + Scalar(1e-6);  // rounding in P and in the series
+    kappa *= Scalar(1) + Scalar(1e-6);                // rounding in P and in the series
+    std::array<PieceBound<Scalar>, 2> piece_bound{};  // per segment (at most 2: sampled_plant.hpp)
+    for (int s = 0; s < plant.segment_count(); ++s) {
+        const auto& seg = plant.segment(s);
+        piece_bound[static_cast<std::size_t>(s)] = make_piece_bound(a, seg.length / Scalar(seg.pieces));
+    }
 
     ContinuousMaximum<Scalar> result;
     result.value = start_value;
     const Eigen::Index n = loop.transition.rows();
+    // Rows k >= 2 of closed_loop.hpp's M are unit rows (shift_source); another realisation's M (the
+    // collision loop of impulse_costs.hpp) is multiplied densely.
+    bool shift_rows = true;
+    for (Eigen::Index k = 2; shift_rows && k < n; ++k) {
+        for (Eigen::Index l = 0; l < n; ++l) {
+            const Scalar unit = l == shift_source(static_cast<int>(k)) ? Scalar(1) : Scalar(0);
+            if (loop.transition(k, l) != unit) {
+                shift_rows = false;
+                break;
+            }
+        }
+    }
     DynamicVector<Scalar> e = loop.initial_state;
     DynamicVector<Scalar> next(n);
     using Vec3 = Eigen::Matrix<Scalar, 3, 1>;
@@ -186,7 +253,9 @@ ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, 
                     result.value = end(0);
                     result.time = t0 + piece;
                 }
-                if (xi(1) > 0 && end(1) < 0) {
+                if (xi(1) > 0 && end(1) < 0 &&
+                    piece_maximum_bound(xi, piece, piece_bound[static_cast<std::size_t>(s)]) >
+                        std::max(result.value, floor)) {
                     const auto [tau, x] = interior_maximum(a, xi, piece);
                     if (x > result.value) {
                         result.value = x;
@@ -196,19 +265,25 @@ ContinuousMaximum<Scalar> continuous_maximum(const SampledPlant<Scalar>& plant, 
                 xi = end;
             }
         }
-        // e <- M e, written out (M dense here: the collision loop of impulse_costs.hpp uses this too).
-        next.setZero();
-        for (Eigen::Index l = 0; l < n; ++l) {
-            const Scalar el = e(l);
-            for (Eigen::Index i = 0; i < n; ++i) next(i) += loop.transition(i, l) * el;
+        // e <- M e, written out.
+        const Eigen::Index dense_rows = shift_rows ? std::min<Eigen::Index>(2, n) : n;
+        for (Eigen::Index i = 0; i < dense_rows; ++i) {
+            Scalar sum = 0;
+            for (Eigen::Index l = 0; l < n; ++l) sum += loop.transition(i, l) * e(l);
+            next(i) = sum;
         }
+        for (Eigen::Index k = dense_rows; k < n; ++k) next(k) = e(shift_source(static_cast<int>(k)));
         e.swap(next);
         result.periods = j + 1;
-        Scalar v = 0;  // e^T P e
+        if (result.value > ceiling) {
+            result.exceeded = true;
+            break;
+        }
+        Scalar v = 0;  // e^T P e, P symmetric
         for (Eigen::Index l = 0; l < n; ++l) {
             Scalar pl = 0;
-            for (Eigen::Index k = 0; k < n; ++k) pl += p(k, l) * e(k);
-            v += pl * e(l);
+            for (Eigen::Index k = 0; k < l; ++k) pl += p(k, l) * e(k);
+            v += (2 * pl + p(l, l) * e(l)) * e(l);
         }
         const Scalar bound = kappa * std::sqrt(std::max(v, Scalar(0)));
         if (bound <= std::max(result.value, floor)) {
@@ -227,6 +302,9 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
                                    const OvershootOptions& options = {}) {
     detail::require_in_range("hapticopt::overshoot", "tolerance", options.tolerance, 0.0, true, 1.0,
                              "0 < tolerance <= 1");
+    if (!(options.stop_above >= 0)) {
+        throw InvalidParameter("hapticopt::overshoot", "stop_above", options.stop_above, ">= 0 (+inf: never)");
+    }
     OvershootResultT<Scalar> result;
     result.time = std::numeric_limits<Scalar>::quiet_NaN();
     if (!loop_is_stable(plant, alpha, beta)) {
@@ -252,9 +330,11 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     const Scalar x_inf = loop.final_position;
     // x - x_inf starts at -x_inf (t = 0); the scan stops once the bound is below the tolerance floor.
     const detail::ContinuousMaximum<Scalar> scan =
-        detail::continuous_maximum(plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods);
+        detail::continuous_maximum(plant, loop, p, -x_inf, Scalar(options.tolerance) * x_inf, options.max_periods,
+                                   Scalar(options.stop_above) * x_inf);
     result.periods = scan.periods;
     result.converged = scan.converged;
+    result.stopped_above = scan.exceeded;
     const Scalar best = scan.value;
     const Scalar best_time = scan.time;
     result.value = best > 0 ? best / x_inf : Scalar(0);

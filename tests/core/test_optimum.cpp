@@ -62,6 +62,25 @@ TEST(Optimum, OptimalCurveIsAccurateTo1e8InBeta) {
     }
 }
 
+TEST(Optimum, OvershootPointAgreesWithBisectionOfTheNoOvershootPredicate) {
+    // The OV point (scan and bisection with evaluations stopped above 1 %) against plain bisection of
+    // "min over beta of C_OV <= tol" (WallOptimizer::optimal_beta(3, .) and overshoot_cost, whole values)
+    // started from alpha_ov (1 -+ 1e-3): both brackets are 1e-10 wide (alpha_tolerance) and hold the same sign
+    // change, so their ends agree to 2e-10.
+    for (const NormalizedPlant p : {NormalizedPlant{0, 0, 0}, NormalizedPlant{0, 0.02, 0}, NormalizedPlant{0, 0, 1},
+                                    NormalizedPlant{0.001, 0.02, 1}, NormalizedPlant{0.001, 0, 2.5}}) {
+        const WallOptimizer opt(p);
+        const Optimum o = opt.optimum(Criterion::Overshoot);
+        const double tol = OptimumOptions{}.overshoot_tolerance;
+        auto ok = [&](double a) { return opt.overshoot_cost(a, opt.optimal_beta(3, a)) <= tol; };
+        const double lo = o.alpha * (1 - 1e-3), hi = o.alpha * (1 + 1e-3);
+        ASSERT_TRUE(ok(lo)) << "d=" << p.delay;
+        ASSERT_FALSE(ok(hi)) << "d=" << p.delay;
+        const auto [b_ok, b_bad] = detail::bisect(ok, lo, hi, 1e-10);
+        EXPECT_NEAR(o.alpha, b_ok, 2e-10) << "gamma=" << p.gamma << " delta=" << p.delta << " d=" << p.delay;
+    }
+}
+
 TEST(Optimum, PhysicalGainsScaleWithMassAndSquaredRate) {
     const PhysicalPlant base{0.22, 0.0, 0.0, 0.001, 0.001};
     const WallTuning t = optimal_wall(Criterion::CE2, base);

@@ -3,7 +3,9 @@
 // time-stepping method, and the meaning of the tolerance; plus the step response.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <hapticopt/overshoot.hpp>
 #include <hapticopt/step_response.hpp>
@@ -83,6 +85,68 @@ TEST(Overshoot, BadToleranceAndUnstableGains) {
     const OvershootResult r = overshoot(NormalizedPlant{}, {0.9, 0.5});
     EXPECT_TRUE(std::isinf(r.value));
     EXPECT_FALSE(r.within_tolerance);
+}
+
+TEST(Overshoot, StopAboveGivesALowerBoundAboveItAndChangesNothingBelow) {
+    // stop_above below the overshoot: the scan stops early at a value in (stop_above, C_OV]; above it: the
+    // same scan, bit for bit.
+    const NormalizedPlant p{0.001, 0.02, 1};
+    for (const NormalizedGains g : {NormalizedGains{0.0702, 0.471}, NormalizedGains{0.14, 0.43}}) {
+        const OvershootResult whole = overshoot(p, g);
+        ASSERT_TRUE(whole.converged);
+        ASSERT_GT(whole.value, 1e-6);
+        OvershootOptions o;
+        o.stop_above = whole.value / 2;
+        const OvershootResult early = overshoot(p, g, o);
+        EXPECT_TRUE(early.stopped_above);
+        EXPECT_FALSE(early.converged);
+        EXPECT_GT(early.value, o.stop_above);
+        EXPECT_LE(early.value, whole.value);
+        EXPECT_LT(early.periods, whole.periods);
+        o.stop_above = whole.value * 2;
+        const OvershootResult same = overshoot(p, g, o);
+        EXPECT_FALSE(same.stopped_above);
+        EXPECT_EQ(same.value, whole.value);
+        EXPECT_EQ(same.periods, whole.periods);
+    }
+    OvershootOptions bad;
+    for (double s : {-1e-9, std::nan("")}) {
+        bad.stop_above = s;
+        EXPECT_THROW(overshoot(p, {0.05, 0.3}, bad), InvalidParameter);
+    }
+}
+
+TEST(Overshoot, PieceBoundIsAboveEveryPointOfThePiece) {
+    // piece_maximum_bound lets the scan skip a piece's interior maximum; it must bound x on the whole piece.
+    // Independent values: x(tau) = e1^T exp(A tau) xi by a 40-term Taylor series in long double on 2001
+    // points (||A|| h <= 2 here, so the truncation error is below 2^40 / 40! ~ 1e-36 of |xi|).
+    const NormalizedPlant p{0.001, 0.02, 1};
+    const Matrix3<double> a = plant_augmented_matrix<double>(p);
+    std::uint64_t seed = 12345;
+    auto uniform = [&] {
+        seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+        return static_cast<double>(seed >> 11) / 9007199254740992.0 * 2 - 1;
+    };
+    for (double h : {0.05, 0.25, 1.0}) {
+        const detail::PieceBound<double> piece = detail::make_piece_bound(a, h);
+        for (int trial = 0; trial < 100; ++trial) {
+            const Eigen::Vector3d xi(uniform(), uniform(), uniform());
+            long double top = -HUGE_VALL;
+            for (int k = 0; k <= 1000; ++k) {
+                const long double tau = static_cast<long double>(h) * k / 1000;
+                Eigen::Matrix<long double, 3, 1> term = xi.cast<long double>(), sum = term;
+                for (int n = 1; n < 40; ++n) {
+                    term = (a.cast<long double>() * term) * (tau / n);
+                    sum += term;
+                }
+                top = std::max(top, sum(0));
+            }
+            const double bound = detail::piece_maximum_bound(xi, h, piece);
+            EXPECT_GE(bound, static_cast<double>(top)) << "h " << h << " trial " << trial;
+            // Not vacuous: above the maximum by no more than twice the remainder term.
+            EXPECT_LE(bound - static_cast<double>(top), 2 * piece.remainder_gain * xi.norm() + 1e-12) << "h " << h;
+        }
+    }
 }
 
 TEST(StepResponse, SamplesAndContinuousValuesAgreeWithTheSimulation) {
