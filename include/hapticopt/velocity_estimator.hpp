@@ -44,6 +44,8 @@
 // Linear in q: in normalised units with q = 1, var(e) = 1/12 and g_F = sqrt(c^T P c); physically
 // (f = F T^2 / m, positions unscaled) sigma_F = (m q / T^2) g_F. For the backward difference without
 // feedback g_F would be sqrt(((alpha + beta)^2 + beta^2) / 12); the loop's response adds to it.
+// Gradient of C_E0..2 (estimator_energy_cost_gradient): the adjoint Stein equation of energy_gradient.hpp on this
+// loop (M and R_s are affine in alpha and beta); it drives the fast CEx optimum (optimal_point, OptimumMethod::newton).
 // Costs: N = 2 + Hy + Hv [+ 1] states; the window's energy costs one (2N - 1)-square LU, everything else
 // O(N^3) per evaluation (complex Schur form of the N-square loop matrix). Measured: docs/benchmarks.md.
 #pragma once
@@ -394,9 +396,7 @@ class SchurSteinSolver {
     SchurSteinSolver(const DynamicMatrix<Scalar>& m, const LoopSchurForm<Scalar>& schur)
         : m_(m), schur_(schur), flipped_(flip<Scalar>(ComplexMatrix<Scalar>(schur.t.adjoint()))) {}
 
-    Square solve(const Square& c) const {
-        return back(solve_triangular_stein<Scalar>(schur_.t, to_schur(c)));
-    }
+    Square solve(const Square& c) const { return back(solve_triangular_stein<Scalar>(schur_.t, to_schur(c))); }
     Square adjoint_solve(const Square& h) const {
         return back(flip<Scalar>(solve_triangular_stein<Scalar>(flipped_, flip<Scalar>(to_schur(h)))));
     }
@@ -980,11 +980,11 @@ struct EstimatorOptimum {
 
 /// Options of optimal_point with an estimator.
 struct EstimatorOptimumOptions {
-    RegionSearchOptions search;          ///< grids of the CEx search (region_minimum.hpp)
-    double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
-    double alpha_tolerance = 1e-10;      ///< bisection tolerance of the CEx+OV points, relative to alpha_max
-    OptimumMethod method = OptimumMethod::newton;  ///< search of the CEx points and the C_Ex optimal curves
-                                                   ///< (optimal_point below); brent is the slower independent one
+    RegionSearchOptions search;                    ///< grids of the CEx search (region_minimum.hpp)
+    double overshoot_tolerance = 1e-12;            ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    double alpha_tolerance = 1e-10;                ///< bisection tolerance of the CEx+OV points, relative to alpha_max
+    OptimumMethod method = OptimumMethod::newton;  ///< search of the CE0..2 points (optimal_point below); brent is
+                                                   ///< the slower independent one; CEx+OV always use brent's curve
 };
 
 /// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 40 x 40 cells.
@@ -995,9 +995,17 @@ struct EstimatorOptimumOptions {
 inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40};
 
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
-/// difference is optimal_point() (optimum.hpp). Others: alpha_max from EstimatorStabilityRegion; the CEx
-/// points by minimize_on_region (region_minimum.hpp: coarse grid over (0, alpha_max) x the main region's
-/// beta interval, then Brent over alpha with Brent over beta inside); the CEx+OV points as in optimum.hpp:
+/// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
+/// EstimatorStabilityRegion; the CEx points by options.method:
+///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 3)
+///    alphas across (0, alpha_max) x max(4, 3 beta_grid / 8) betas across the main region's beta interval
+///    (8 x 6 by default); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start point on
+///    the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by alpha_max and that point's
+///    interval width, to a step below 1e-12 of them. It stops where the gradient vanishes to rounding;
+///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
+///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
+/// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:
+/// docs/benchmarks.md. The CEx+OV points (either method) as in optimum.hpp:
 /// the optimal curve beta_opt(alpha) (grid + Brent over the main region's beta interval), a scan down from
 /// alpha_max in `search.alpha_grid` steps to the first alpha whose curve point has C_OV <= tolerance
 /// (estimator_overshoot), then bisection. Throws InvalidParameter for the OV criterion (its point is not
@@ -1034,8 +1042,7 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
     // The fast method serves the CEx points; the CEx+OV points keep the nested Brent curve (their time goes to the
     // overshoot scans, and their bisection needs beta_opt only to the overshoot's resolution).
     const bool newton = options.method == OptimumMethod::newton && !requires_no_overshoot(criterion);
-    const EstimatorStabilityRegion region(plant, estimator,
-                                          newton ? kFastOptimumRegionGrid : EstimatorRegionOptions{});
+    const EstimatorStabilityRegion region(plant, estimator, newton ? kFastOptimumRegionGrid : EstimatorRegionOptions{});
     out.alpha_max = region.alpha_max();
     out.beta_at_alpha_max = region.beta_at_alpha_max();
     if (criterion == Criterion::AlphaMax) {

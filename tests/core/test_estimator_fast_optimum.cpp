@@ -90,8 +90,9 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
     // lower end, as for the low-pass nu = 0.005 at d = 1), the fast cost is lower; then the slow method with finer
     // grids (72 x 64) must reach the fast point.
     const std::vector<VelocityEstimator> estimators = {
-        VelocityEstimator::backward_difference(), VelocityEstimator::low_pass(0.005), VelocityEstimator::low_pass(0.02),
-        VelocityEstimator::low_pass(0.2),         VelocityEstimator::moving_window(2), VelocityEstimator::moving_window(5),
+        VelocityEstimator::backward_difference(), VelocityEstimator::low_pass(0.005),
+        VelocityEstimator::low_pass(0.02),        VelocityEstimator::low_pass(0.2),
+        VelocityEstimator::moving_window(2),      VelocityEstimator::moving_window(5),
         VelocityEstimator::moving_window(15)};
     int refined = 0;
     for (const VelocityEstimator& e : estimators) {
