@@ -44,11 +44,14 @@
 // Linear in q: in normalised units with q = 1, var(e) = 1/12 and g_F = sqrt(c^T P c); physically
 // (f = F T^2 / m, positions unscaled) sigma_F = (m q / T^2) g_F. For the backward difference without
 // feedback g_F would be sqrt(((alpha + beta)^2 + beta^2) / 12); the loop's response adds to it.
+// Gradient of C_E0..2 (estimator_energy_cost_gradient): the adjoint Stein equation of energy_gradient.hpp on this
+// loop (M and R_s are affine in alpha and beta); it drives the fast CEx optimum (optimal_point, OptimumMethod::newton).
 // Costs: N = 2 + Hy + Hv [+ 1] states; the window's energy costs one (2N - 1)-square LU, everything else
 // O(N^3) per evaluation (complex Schur form of the N-square loop matrix). Measured: docs/benchmarks.md.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <limits>
@@ -58,6 +61,7 @@
 
 #include "config.hpp"
 #include "energy_costs.hpp"
+#include "energy_gradient.hpp"
 #include "optimum.hpp"
 #include "overshoot.hpp"
 #include "region_minimum.hpp"
@@ -151,10 +155,13 @@ struct EstimatorLoop {
     int noise_index = -1;         ///< index of e_j in s_j, -1 without the noise state
 };
 
-/// Builds the loop of the header comment. Cost O(N^2). Requires alpha + gamma != 0.
+/// Builds the loop of the header comment. Cost O(N^2). Requires alpha + gamma != 0 unless `derivative`.
+/// M and R_s are affine in (alpha, beta); with `derivative` = true the constant part is left out, so that
+/// (alpha, beta) = (da, db) gives their derivative along that direction (initial state, force and final position
+/// are then not meaningful).
 template <typename Scalar>
 EstimatorLoop<Scalar> make_estimator_loop(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
-                                          Scalar alpha, Scalar beta, bool with_noise) {
+                                          Scalar alpha, Scalar beta, bool with_noise, bool derivative = false) {
     const EstimatorCoefficients<Scalar> co = estimator_coefficients<Scalar>(estimator);
     const int nb = static_cast<int>(co.b.size());
     const int na = static_cast<int>(co.a.size());
@@ -200,8 +207,10 @@ EstimatorLoop<Scalar> make_estimator_loop(const SampledPlant<Scalar>& plant, con
     loop.total_stiffness = alpha + Scalar(plant.parameters().gamma);
     loop.final_position = Scalar(1) / loop.total_stiffness;
     DynamicMatrix<Scalar> rows = DynamicMatrix<Scalar>::Zero(2, n);
-    rows(0, 0) = 1;
-    rows(1, 1) = 1;
+    if (!derivative) {
+        rows(0, 0) = 1;
+        rows(1, 1) = 1;
+    }
     for (int s = 0; s < plant.segment_count(); ++s) {
         const auto& seg = plant.segment(s);
         DynamicMatrix<Scalar>& r = loop.segment_map[static_cast<std::size_t>(s)];
@@ -217,6 +226,7 @@ EstimatorLoop<Scalar> make_estimator_loop(const SampledPlant<Scalar>& plant, con
     DynamicMatrix<Scalar>& m = loop.transition;
     m = DynamicMatrix<Scalar>::Zero(n, n);
     m.topRows(2) = rows;
+    if (derivative) return out;
     m.row(2) = measured(0).transpose();             // y_j becomes y_{(j+1)-1}
     for (int i = 2; i <= hy; ++i) m(1 + i, i) = 1;  // y_{j-i+1} becomes y_{(j+1)-i}
     if (hv > 0) {
@@ -371,6 +381,169 @@ EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, c
         if (!(v > Scalar(0)) || !std::isfinite(static_cast<double>(v))) return {inf, inf, inf};
     }
     return c;
+}
+
+namespace detail {
+
+/// X = M X M^T + C and the adjoint L = M^T L M + H (real symmetric right-hand sides) for any Schur-stable loop
+/// matrix, on its complex Schur form M = U T U^H: U^H X U solves the triangular equation of stein_equation.hpp,
+/// and Y = U^H L U solves Y = T^H Y T + U^H H U, which the exchange J turns into that form:
+/// J Y J = (J T^H J)(J Y J)(J T^H J)^H + J U^H H U J with J T^H J upper triangular. O(N^3) per solve.
+template <typename Scalar>
+class SchurSteinSolver {
+  public:
+    using Square = DynamicMatrix<Scalar>;
+    SchurSteinSolver(const DynamicMatrix<Scalar>& m, const LoopSchurForm<Scalar>& schur)
+        : m_(m), schur_(schur), flipped_(flip<Scalar>(ComplexMatrix<Scalar>(schur.t.adjoint()))) {}
+
+    Square solve(const Square& c) const { return back(solve_triangular_stein<Scalar>(schur_.t, to_schur(c))); }
+    Square adjoint_solve(const Square& h) const {
+        return back(flip<Scalar>(solve_triangular_stein<Scalar>(flipped_, flip<Scalar>(to_schur(h)))));
+    }
+    Square propagate(const Square& x) const { return m_ * x * m_.transpose(); }
+
+  private:
+    ComplexMatrix<Scalar> to_schur(const Square& c) const {
+        return schur_.u.adjoint() * c.template cast<std::complex<Scalar>>() * schur_.u;
+    }
+    Square back(const ComplexMatrix<Scalar>& x) const {
+        const Square r = (schur_.u * x * schur_.u.adjoint()).real();
+        return (r + r.transpose()) / Scalar(2);
+    }
+    const DynamicMatrix<Scalar>& m_;
+    const LoopSchurForm<Scalar>& schur_;
+    ComplexMatrix<Scalar> flipped_;
+};
+
+/// C_E<p> and its gradient for the estimator's loop `loop` (any structure) given a Stein solver of its M
+/// (ShiftSteinSolver or SchurSteinSolver) and the loop's derivatives along alpha and beta (`dloop`: M and R_s
+/// only). The equations of estimator_energy_cost_gradient.
+template <typename Scalar, typename Solver>
+EnergyCostGradientT<Scalar> estimator_gradient_from_solver(const SampledPlant<Scalar>& plant,
+                                                           const ClosedLoop<Scalar>& loop, const Solver& stein,
+                                                           const std::array<ClosedLoop<Scalar>, 2>& dloop, int p) {
+    using Square = DynamicMatrix<Scalar>;
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN();
+    const Square& m = loop.transition;
+    const Eigen::Index n = m.rows();
+    const DynamicVector<Scalar>& e0 = loop.initial_state;
+    const std::array<Scalar, 3> binomial = p == 0   ? std::array<Scalar, 3>{1, 0, 0}
+                                           : p == 1 ? std::array<Scalar, 3>{1, 1, 0}
+                                                    : std::array<Scalar, 3>{1, 2, 1};  // C(p, q)
+    std::array<Square, 3> g, h, l;
+    for (int q = 0; q < 3; ++q) {
+        h[static_cast<std::size_t>(q)] = Square::Zero(n, n);
+        l[static_cast<std::size_t>(q)] = Square::Zero(n, n);
+    }
+    g[0] = stein.solve(Square(e0 * e0.transpose()));
+    if (p >= 1) {
+        const Square shifted = stein.propagate(g[0]);
+        g[1] = stein.solve(shifted);
+        if (p >= 2) g[2] = stein.solve(Square(Scalar(2) * g[1] - shifted));
+    }
+    const Scalar k = loop.total_stiffness;
+    std::array<std::array<Matrix3<Scalar>, 3>, 2> weights;
+    for (int s = 0; s < plant.segment_count(); ++s) {
+        const auto si = static_cast<std::size_t>(s);
+        weights[si] = segment_weights(plant.segment(s), k);
+        const Square& r = loop.segment_map[si];
+        for (int q = 0; q <= p; ++q) {
+            const auto qi = static_cast<std::size_t>(q);
+            h[qi].noalias() += r.transpose() * (binomial[qi] * weights[si][static_cast<std::size_t>(p - q)]) * r;
+        }
+    }
+    Scalar j = 0;
+    for (int q = 0; q <= p; ++q) j += h[static_cast<std::size_t>(q)].cwiseProduct(g[static_cast<std::size_t>(q)]).sum();
+    if (p >= 2) l[2] = stein.adjoint_solve(h[2]);
+    if (p >= 1) l[1] = stein.adjoint_solve(p >= 2 ? Square(h[1] + Scalar(2) * l[2]) : h[1]);
+    l[0] = stein.adjoint_solve(p >= 1 ? Square(h[0] + m.transpose() * (l[1] - l[2]) * m) : h[0]);
+    Square through = (l[0] + l[1] - l[2]) * (m * g[0]);
+    if (p >= 1) through.noalias() += l[1] * (m * g[1]);
+    if (p >= 2) through.noalias() += l[2] * (m * g[2]);
+    Scalar dj[2];
+    for (int dir = 0; dir < 2; ++dir) {
+        const ClosedLoop<Scalar>& dl = dloop[static_cast<std::size_t>(dir)];
+        Scalar v = Scalar(2) * through.cwiseProduct(dl.transition).sum();
+        if (dir == 0) v += Scalar(2) * e0.dot(l[0] * (-e0 / k));  // e_0 = -u / k: de_0 / dalpha = -e_0 / k
+        for (int s = 0; s < plant.segment_count(); ++s) {
+            const auto si = static_cast<std::size_t>(s);
+            const Square& r = loop.segment_map[si];
+            const Square& dr = dl.segment_map[si];
+            std::array<Matrix3<Scalar>, 3> dw;  // d w / dk: z_r = k Z_x,r + Z_v,r, so dz_r / dk = Z_x,r
+            if (dir == 0) {
+                const auto& seg = plant.segment(s);
+                const Scalar s0 = seg.start;
+                const auto& zx = seg.position_gramian;
+                dw = {zx[0], zx[1] + s0 * zx[0], zx[2] + Scalar(2) * s0 * zx[1] + s0 * s0 * zx[0]};
+            }
+            for (int q = 0; q <= p; ++q) {
+                const auto qi = static_cast<std::size_t>(q);
+                const auto wi = static_cast<std::size_t>(p - q);
+                const Square rg = r * g[qi];
+                Scalar t = Scalar(2) * (weights[si][wi] * rg).cwiseProduct(dr).sum();
+                if (dir == 0) t += dw[wi].cwiseProduct(Square(rg * r.transpose())).sum();
+                v += binomial[qi] * t;
+            }
+        }
+        dj[dir] = v;
+    }
+    const Scalar value = k * j;
+    if (!(value > Scalar(0)) || !std::isfinite(static_cast<double>(value))) return {inf, nan, nan};
+    return {value, j + k * dj[0], k * dj[1]};
+}
+
+}  // namespace detail
+
+/// C_E<index> (0, 1, 2) with the estimator and its gradient with respect to (alpha, beta), exact up to rounding,
+/// by the adjoint Stein equation of energy_gradient.hpp applied to the estimator's loop (header comment). With
+/// the loop matrix M, the segment maps R_s and e_0 = -x_inf (1, 0, 1, .., 1, 0, .., 0) of make_estimator_loop:
+///   C_Ep = k J_p,  J_p = sum_{q <= p} <H_q, G_q>,  H_q = C(p, q) sum_s R_s^T w_{p-q,s} R_s,
+///   G_0 = M G_0 M^T + e_0 e_0^T,  G_1 = M G_1 M^T + M G_0 M^T,  G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T,
+///   L_2 = S*(H_2),  L_1 = S*(H_1 + 2 L_2),  L_0 = S*(H_0 + M^T (L_1 - L_2) M)   (S*(H): L = M^T L M + H;
+///   L_q = 0 for q > p),
+///   dJ_p = 2 <(L_0 + L_1 - L_2) M G_0 + L_1 M G_1 + L_2 M G_2, dM> + 2 e_0^T L_0 de_0
+///          + sum_q C(p, q) sum_s (2 <w_{p-q,s} R_s G_q, dR_s> + <dw_{p-q,s}, R_s G_q R_s^T>),
+///   dC_Ep/dalpha = J_p + k dJ_p/dalpha,  dC_Ep/dbeta = k dJ_p/dbeta   (k = alpha + gamma).
+/// The gains enter only the force row alpha y + beta v of every segment, so M and R_s are affine in
+/// (alpha, beta) and dM, dR_s along alpha or beta are the same construction without its constant part
+/// (make_estimator_loop with `derivative`); de_0/dalpha = -e_0 / k; dw/dalpha = the position Gramians' part of w
+/// (dw/dbeta = 0). The Stein equations are solved as estimator_energy_costs solves them: the window by
+/// ShiftSteinSolver (its adjoint_solve gives S*), the low-pass (or `dense` = true, or a window within the
+/// Schur-Cohn margin 1e-4 of the boundary) on the complex Schur form (detail::SchurSteinSolver). A solution
+/// exists wherever the cost does (a Schur-stable loop); unstable gains give value +inf and NaN derivatives.
+/// Checked against central differences of estimator_energy_costs in long double
+/// (tests/core/test_velocity_estimator.cpp). Cost: about twice the costs' own evaluation (p + 1 adjoint solves
+/// and O(N^3) products). Throws InvalidParameter for an index outside 0..2.
+template <typename Scalar>
+EnergyCostGradientT<Scalar> estimator_energy_cost_gradient(const SampledPlant<Scalar>& plant,
+                                                           const VelocityEstimator& estimator, Scalar alpha,
+                                                           Scalar beta, int index, bool dense = false) {
+    detail::require_in_range("hapticopt::estimator_energy_cost_gradient", "index", index, 0, false, 2, "0, 1 or 2");
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN();
+    const EnergyCostGradientT<Scalar> unstable{inf, nan, nan};
+    if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return unstable;
+    const ClosedLoop<Scalar> loop = make_estimator_loop(plant, estimator, alpha, beta, false).loop;
+    const std::array<ClosedLoop<Scalar>, 2> dloop{
+        make_estimator_loop(plant, estimator, Scalar(1), Scalar(0), false, true).loop,
+        make_estimator_loop(plant, estimator, Scalar(0), Scalar(1), false, true).loop};
+    if (estimator.kind != VelocityEstimatorKind::lowpass && !dense) {
+        const SchurCohnResult<Scalar> sc = schur_cohn<Scalar>(
+            estimator_characteristic_polynomial(characteristic_polynomial(plant), estimator).at(alpha, beta));
+        using std::abs;
+        if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
+            if (!sc.stable) return unstable;
+            using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
+            const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
+            if (!stein.ok()) return unstable;
+            return detail::estimator_gradient_from_solver(plant, loop, stein, dloop, index);
+        }
+    }
+    const LoopSchurForm<Scalar> schur = loop_schur_form(loop.transition);
+    if (!(schur.spectral_radius < Scalar(1))) return unstable;
+    const detail::SchurSteinSolver<Scalar> stein(loop.transition, schur);
+    return detail::estimator_gradient_from_solver(plant, loop, stein, dloop, index);
 }
 
 /// g_F of the header comment: sigma_F = (m q / T^2) g_F; +inf when unstable.
@@ -606,9 +779,10 @@ class EstimatorStabilityRegion {
     bool stable(double alpha, double beta) const { return test_.stable(alpha, beta); }
     const EstimatorStabilityTest& test() const { return test_; }
 
-    /// The stable beta interval of the main region at alpha (0 < alpha < alpha_max), ends to ~1e-13;
+    /// The stable beta interval of the main region at alpha (0 < alpha < alpha_max), its ends bisected to
+    /// `tolerance` x max(1, |beta|) (default 1e-14: ends to ~1e-13; a start grid needs far less);
     /// (0, 0) when alpha is outside (0, alpha_max).
-    std::pair<double, double> beta_interval(double alpha) const {
+    std::pair<double, double> beta_interval(double alpha, double tolerance = 1e-14) const {
         if (!(alpha > 0 && alpha < alpha_max_)) return {0, 0};
         const double da = a1_ / na(), db = (b1_ - b0_) / nb();
         int i = std::clamp(static_cast<int>(alpha / da), 0, na() - 1);
@@ -631,7 +805,7 @@ class EstimatorStabilityRegion {
                 if (!test_.stable(alpha, outside)) break;
                 inside = outside;
             }
-            for (int k = 0; k < 80 && std::abs(outside - inside) > 1e-14 * std::max(1.0, std::abs(inside)); ++k) {
+            for (int k = 0; k < 80 && std::abs(outside - inside) > tolerance * std::max(1.0, std::abs(inside)); ++k) {
                 const double mid = (inside + outside) / 2;
                 (test_.stable(alpha, mid) ? inside : outside) = mid;
             }
@@ -806,15 +980,32 @@ struct EstimatorOptimum {
 
 /// Options of optimal_point with an estimator.
 struct EstimatorOptimumOptions {
-    RegionSearchOptions search;          ///< grids of the CEx search (region_minimum.hpp)
-    double overshoot_tolerance = 1e-12;  ///< "no overshoot" means C_OV <= this (relative), (0, 1]
-    double alpha_tolerance = 1e-10;      ///< bisection tolerance of the CEx+OV points, relative to alpha_max
+    RegionSearchOptions search;                    ///< grids of the CEx search (region_minimum.hpp)
+    double overshoot_tolerance = 1e-12;            ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    double alpha_tolerance = 1e-10;                ///< bisection tolerance of the CEx+OV points, relative to alpha_max
+    OptimumMethod method = OptimumMethod::newton;  ///< search of the CE0..2 points (optimal_point below); brent is
+                                                   ///< the slower independent one; CEx+OV always use brent's curve
 };
 
+/// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 40 x 40 cells.
+/// The optimum needs only the main region's tip and its stable beta intervals, which the region finds by
+/// marching and bisecting the Schur-Cohn verdict from a main-region cell to ~1e-13 whatever the grid, once the
+/// grid resolves the region (the scan re-fits its box until the region fills at least 60 % of it, so 40 cells
+/// give it about 24 cells in each direction); the tests require alpha_max of both grids to agree to 1e-10.
+inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40};
+
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
-/// difference is optimal_point() (optimum.hpp). Others: alpha_max from EstimatorStabilityRegion; the CEx
-/// points by minimize_on_region (region_minimum.hpp: coarse grid over (0, alpha_max) x the main region's
-/// beta interval, then Brent over alpha with Brent over beta inside); the CEx+OV points as in optimum.hpp:
+/// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
+/// EstimatorStabilityRegion; the CEx points by options.method:
+///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 3)
+///    alphas across (0, alpha_max) x max(4, 3 beta_grid / 8) betas across the main region's beta interval
+///    (8 x 6 by default); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start point on
+///    the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by alpha_max and that point's
+///    interval width, to a step below 1e-12 of them. It stops where the gradient vanishes to rounding;
+///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
+///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
+/// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:
+/// docs/benchmarks.md. The CEx+OV points (either method) as in optimum.hpp:
 /// the optimal curve beta_opt(alpha) (grid + Brent over the main region's beta interval), a scan down from
 /// alpha_max in `search.alpha_grid` steps to the first alpha whose curve point has C_OV <= tolerance
 /// (estimator_overshoot), then bisection. Throws InvalidParameter for the OV criterion (its point is not
@@ -835,6 +1026,7 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
     if (estimator.kind == VelocityEstimatorKind::backward) {
         OptimumOptions o;
         o.overshoot_tolerance = options.overshoot_tolerance;
+        o.method = options.method;
         const Optimum b = optimal_point(criterion, plant, o);
         out.alpha = b.alpha;
         out.beta = b.beta;
@@ -847,7 +1039,10 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
         throw InvalidParameter(fn, "criterion", static_cast<double>(criterion),
                                "amax, CE0..2 or CE0+OV..CE2+OV with a velocity estimator other than backward");
     }
-    const EstimatorStabilityRegion region(plant, estimator);
+    // The fast method serves the CEx points; the CEx+OV points keep the nested Brent curve (their time goes to the
+    // overshoot scans, and their bisection needs beta_opt only to the overshoot's resolution).
+    const bool newton = options.method == OptimumMethod::newton && !requires_no_overshoot(criterion);
+    const EstimatorStabilityRegion region(plant, estimator, newton ? kFastOptimumRegionGrid : EstimatorRegionOptions{});
     out.alpha_max = region.alpha_max();
     out.beta_at_alpha_max = region.beta_at_alpha_max();
     if (criterion == Criterion::AlphaMax) {
@@ -862,6 +1057,44 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
         return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
     };
     auto interval = [&](double a) { return region.beta_interval(a); };
+    auto gradient = [&](double a, double b) { return estimator_energy_cost_gradient(sampled, estimator, a, b, index); };
+    const int fast_alphas = std::max(4, options.search.alpha_grid / 3);
+    const int fast_betas = std::max(4, options.search.beta_grid * 3 / 8);
+    if (!requires_no_overshoot(criterion) && newton) {
+        // Start grid of fast_alphas x fast_betas cell centres over the main region, then damped Newton
+        // (newton_search.hpp) in coordinates scaled by alpha_max and the best start's beta interval width.
+        // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-6.
+        double best_a = out.alpha_max / 2, best_b = 0, best_width = 1, best_value = HUGE_VAL;
+        for (int i = 0; i < fast_alphas; ++i) {
+            const double a = (i + 0.5) * out.alpha_max / fast_alphas;
+            const auto [lo, hi] = region.beta_interval(a, 1e-6);
+            if (!(hi > lo)) continue;
+            for (int j = 0; j < fast_betas; ++j) {
+                const double b = lo + (j + 0.5) * (hi - lo) / fast_betas;
+                const double v = cost(a, b);
+                if (v < best_value) {
+                    best_value = v;
+                    best_a = a;
+                    best_b = b;
+                    best_width = hi - lo;
+                }
+            }
+        }
+        if (!std::isfinite(best_value)) {
+            out.cost = HUGE_VAL;
+            return out;
+        }
+        auto fg = [&](double a, double b) {
+            if (!(a > 0 && a < out.alpha_max)) return detail::ValueAndGradient2{HUGE_VAL, 0, 0};
+            const EnergyCostGradient g = gradient(a, b);
+            return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
+        };
+        const detail::NewtonMinimum2 m = detail::minimize_newton_2d(fg, best_a, best_b, out.alpha_max, best_width);
+        out.alpha = m.x;
+        out.beta = m.y;
+        out.cost = cost(m.x, m.y);
+        return out;
+    }
     if (!requires_no_overshoot(criterion)) {
         const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, options.search);
         out.alpha = m.alpha;

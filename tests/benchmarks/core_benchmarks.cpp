@@ -161,19 +161,34 @@ void BM_ForceNoiseGain(benchmark::State& state) {
 BENCHMARK(BM_ForceNoiseGain)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMicrosecond);
 
 // CE2 optimum with the estimator; kind 0 is the existing backward optimiser (optimal_point, optimum.hpp).
+// range(2): the CEx search, 0 = OptimumMethod::newton (the default: start grid, then Newton on the analytic
+// gradient), 1 = OptimumMethod::brent (the derivative-free nested search; the baseline of the same run).
 void BM_EstimatorOptimum(benchmark::State& state) {
     const double d = static_cast<double>(state.range(1));
     const VelocityEstimator e = estimator_for(state.range(0));
-    for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, e));
+    EstimatorOptimumOptions o;
+    o.method = state.range(2) == 0 ? OptimumMethod::newton : OptimumMethod::brent;
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point(Criterion::CE2, NormalizedPlant{0, 0, d}, e, o));
 }
-BENCHMARK(BM_EstimatorOptimum)
-    ->Args({0, 1})
-    ->Args({1, 1})
-    ->Args({2, 1})
-    ->Args({0, 6})
-    ->Args({1, 6})
-    ->Args({2, 6})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EstimatorOptimum)->ArgsProduct({{0, 1, 2}, {1, 6}, {0, 1}})->Unit(benchmark::kMillisecond);
+
+// The parts of the fast CE2 optimum with the estimator (d = range(1)): 0 = the main region on the fast
+// method's 40 x 40 scan (EstimatorStabilityRegion with kFastOptimumRegionGrid), 1 = one gradient
+// (estimator_energy_cost_gradient) at the optimum's neighbourhood, 2 = one cost (estimator_energy_costs) there.
+void BM_EstimatorOptimumParts(benchmark::State& state) {
+    const double d = static_cast<double>(state.range(1));
+    const NormalizedPlant np{0, 0, d};
+    const SampledPlant<double> plant(np);
+    const VelocityEstimator e = estimator_for(state.range(0));
+    const NormalizedGains g = estimator_gains_for(d);
+    const auto part = state.range(2);
+    for (auto _ : state) {
+        if (part == 0) benchmark::DoNotOptimize(EstimatorStabilityRegion(np, e, kFastOptimumRegionGrid).alpha_max());
+        if (part == 1) benchmark::DoNotOptimize(estimator_energy_cost_gradient(plant, e, g.alpha, g.beta, 2));
+        if (part == 2) benchmark::DoNotOptimize(estimator_energy_costs(plant, e, g.alpha, g.beta));
+    }
+}
+BENCHMARK(BM_EstimatorOptimumParts)->ArgsProduct({{1, 2}, {1, 6}, {0, 1, 2}})->Unit(benchmark::kMicrosecond);
 
 // CE2 under a force-noise budget (noise_budget.hpp), d = 1: half the g_F of the unconstrained optimum (the budget
 // binds); the unconstrained optimum is part of the call (compare BM_EstimatorOptimum in the same run).
