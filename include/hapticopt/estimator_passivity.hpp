@@ -302,4 +302,35 @@ HAPTICOPT_FUNC PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& pl
     ;
 #endif
 
+/// The passive set's boundary with the estimator as a closed polygon, as passive_polygon(plant, points) of
+/// passivity.hpp (`points` alphas per side, clustered at both ends; the first point not repeated). Empty when
+/// delta = 0. Throws InvalidParameter unless 3 <= points <= 10^6, and for a fractional delay.
+HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant,
+                                                         const VelocityEstimator& estimator, int points = 64)
+#if HAPTICOPT_DEFINITIONS
+{
+    detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
+    if (estimator.kind == VelocityEstimatorKind::backward) return passive_polygon(plant, points);
+    const PassiveAlphaLimit top = largest_passive_alpha(plant, estimator);
+    std::vector<PassivePoint> lower, upper;
+    if (!(top.alpha > 0)) return {};
+    for (int i = 0; i < points; ++i) {
+        const double a = top.alpha * (1 - std::cos(detail::kPassivityPi * i / (points - 1))) / 2;
+        if (i == points - 1) {
+            lower.push_back({top.alpha, top.beta});
+            break;
+        }
+        const auto [lo, hi] = passive_beta_interval(plant, a, estimator);
+        if (!(hi > lo)) continue;
+        lower.push_back({a, lo});
+        upper.push_back({a, hi});
+    }
+    std::vector<PassivePoint> out = lower;
+    for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
+    return out;
+}
+#else
+    ;
+#endif
+
 }  // namespace hapticopt
