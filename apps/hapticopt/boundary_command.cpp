@@ -1,14 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt boundary: the exact stability boundary in the (alpha, beta) plane; with --passivity the
-// boundary of the passive set (delay-aware Colgate-Schenkel condition, passivity.hpp) instead. With a
-// --velocity estimator other than backward: the main stable region of the estimator's loop
-// (EstimatorStabilityRegion; its boundary pointwise by estimator_region_boundary), its alpha_max, and the stable
-// islands not connected to it, reported separately (alpha_max is the main region's).
+// boundary of the passive set (delay-aware Colgate-Schenkel condition, passivity.hpp; with --velocity the
+// estimator's, estimator_passivity.hpp) instead. With a --velocity estimator other than backward: the main stable
+// region of the estimator's loop (EstimatorStabilityRegion; its boundary pointwise by estimator_region_boundary), its
+// alpha_max, and the stable islands not connected to it, reported separately (alpha_max is the main region's).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
+#include <hapticopt/estimator_passivity.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/velocity_estimator.hpp>
@@ -21,13 +22,18 @@ namespace hapticopt::cli {
 namespace {
 
 /// The passive set {alpha >= 0, delta > max_theta R} as a polygon, its largest alpha and alpha_max.
-int print_passive_polygon(const NormalizedPlant& plant, int points, bool json, bool csv) {
-    const auto polygon = passive_polygon(plant, points);  // throws InvalidParameter for a fractional delay
-    const PassiveAlphaLimit top = largest_passive_alpha(plant);
-    const double alpha_max = StabilityRegion(plant).alpha_max();
+int print_passive_polygon(const NormalizedPlant& plant, const VelocityEstimator& estimator, int points, bool json,
+                          bool csv) {
+    // Both throw InvalidParameter for a fractional delay.
+    const auto polygon = passive_polygon(plant, estimator, points);
+    const PassiveAlphaLimit top = largest_passive_alpha(plant, estimator);
+    const double alpha_max = estimator.kind == VelocityEstimatorKind::backward
+                                 ? StabilityRegion(plant).alpha_max()
+                                 : EstimatorStabilityRegion(plant, estimator).alpha_max();
     if (json) {
         nlohmann::json out;
         out["passive_set"] = true;
+        out["velocity_estimator"] = velocity_json(estimator);
         out["largest_passive_alpha"] = top.alpha;
         out["beta_at_largest_passive_alpha"] = top.beta;
         out["alpha_max"] = alpha_max;
@@ -46,6 +52,7 @@ int print_passive_polygon(const NormalizedPlant& plant, int points, bool json, b
         std::printf("passive set      empty (delta = %g)\n", plant.delta);
         return int{kOk};
     }
+    std::printf("velocity         %s\n", velocity_text(estimator).c_str());
     std::printf("largest passive alpha %.12f at beta %.12f (alpha_max %.12f, ratio %.4f)\n", top.alpha, top.beta,
                 alpha_max, top.alpha / alpha_max);
     std::printf("%14s %14s\n", "alpha", "beta");
@@ -110,15 +117,11 @@ CommandRunner add_boundary_command(CLI::App& app) {
                   "only); CSV: alpha,beta");
     return [args]() {
         const VelocityEstimator estimator = args->velocity.parse(0.0);
+        if (args->passivity)
+            return print_passive_polygon(args->plant.normalized(), estimator, args->points, args->json, args->csv);
         if (estimator.kind != VelocityEstimatorKind::backward) {
-            if (args->passivity) {
-                throw InvalidParameter("hapticopt boundary", "velocity", std::nan(""),
-                                       "backward with --passivity (the passive set is the backward difference's)");
-            }
             return print_estimator_boundary(args->plant.normalized(), estimator, args->points, args->json, args->csv);
         }
-        if (args->passivity)
-            return print_passive_polygon(args->plant.normalized(), args->points, args->json, args->csv);
         const StabilityRegion region(args->plant.normalized());
         const auto polygon = region.polygon(args->points);
         if (args->json) {

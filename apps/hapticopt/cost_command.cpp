@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt cost: stability and the criteria C_E0, C_E1, C_E2, C_OV at one gain pair; with --velocity the
-// estimator's loop (velocity_estimator.hpp: stability, C_E0..2 and C_OV; the collision criteria and passivity
-// are modelled for the backward difference only and are null then). Always the quantisation force-noise gain
+// estimator's loop (velocity_estimator.hpp: stability, C_E0..2 and C_OV; estimator_impulse.hpp: C_I0..2 and the
+// penetration; estimator_passivity.hpp: the passivity margin). Always the quantisation force-noise gain
 // g_F (sigma_F = (m q / T^2) g_F), and sigma_F in N with --mass, --period and --position-resolution.
 #include <cmath>
 #include <cstdio>
@@ -9,6 +9,8 @@
 #include <memory>
 
 #include <hapticopt/energy_costs.hpp>
+#include <hapticopt/estimator_impulse.hpp>
+#include <hapticopt/estimator_passivity.hpp>
 #include <hapticopt/impulse_costs.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/overshoot.hpp>
@@ -80,12 +82,27 @@ CommandRunner add_cost_command(CLI::App& app) {
             OvershootOptions options;
             options.tolerance = args->tolerance;
             const OvershootResult ov = overshoot(plant, gains, estimator, options);
-            const char* note = "the collision criteria and passivity are modelled for the backward difference only";
+            const ImpulseCosts ic = impulse_costs(plant, gains, estimator);
+            const double depth = report.stable ? estimator_penetration(SampledPlant<double>(plant), estimator,
+                                                                       gains.alpha, gains.beta, 1000000LL)
+                                                     .depth
+                                               : HUGE_VAL;
+            const bool covered = passivity_is_covered(plant);
+            const double margin = covered ? passivity_margin(plant, gains, estimator) : 0.0;
             if (args->json) {
                 nlohmann::json out = step_response_json(report, costs, ov);
-                for (const char* k : {"CI0", "CI1", "CI2", "penetration", "passive", "passivity_margin"})
-                    out[k] = nullptr;
-                out["note"] = note;
+                out["CI0"] = number_or_null(ic.ci0);
+                out["CI1"] = number_or_null(ic.ci1);
+                out["CI2"] = number_or_null(ic.ci2);
+                out["penetration"] = number_or_null(depth);
+                if (covered) {
+                    out["passive"] = margin > 0;
+                    out["passivity_margin"] = margin;
+                } else {
+                    out["passive"] = nullptr;
+                    out["passivity_margin"] = nullptr;
+                    out["passivity_note"] = kPassivityNotCovered;
+                }
                 out["velocity_estimator"] = velocity_json(estimator);
                 out["force_noise_gain"] = number_or_null(noise_gain);
                 if (physical_noise) out["force_noise_std"] = number_or_null(noise_std);
@@ -102,9 +119,16 @@ CommandRunner add_cost_command(CLI::App& app) {
                         costs.ce1, costs.ce2);
             std::printf("C_OV             %.6g%s\n", ov.value,
                         ov.within_tolerance ? "  (no overshoot within tolerance)" : "");
+            std::printf("C_I0             %.12g\nC_I1             %.12g\nC_I2             %.12g\n", ic.ci0, ic.ci1,
+                        ic.ci2);
+            std::printf("penetration      %.12g v0 T\n", depth);
+            if (covered) {
+                std::printf("passive          %s (margin %.6g)\n", margin > 0 ? "yes" : "no", margin);
+            } else {
+                std::printf("passive          not covered (%s)\n", kPassivityNotCovered);
+            }
             std::printf("noise gain g_F   %.12g (sigma_F = m q / T^2 g_F)\n", noise_gain);
             if (physical_noise) std::printf("sigma_F          %.6g N\n", noise_std);
-            std::printf("note             %s\n", note);
             return int{kOk};
         }
         const StabilityReport report = stability(plant, gains);

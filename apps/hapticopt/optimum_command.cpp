@@ -1,14 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt optimum: the optimal point of one criterion, normalised or physical; the collision
 // criteria CI0..2; the robust optimum over a box of physical parameters (--robust, ranges MIN:MAX);
-// every answer reports the delay-aware Colgate-Schenkel passivity margin (passivity.hpp; null for a
-// fractional delay, which it does not cover). --noise-budget G (normalised g_max) or --force-noise-budget N [N]
-// with --position-resolution q: the optimum of CE0..2 with g_F <= g_max (noise_budget.hpp; g_max = N T^2/(m q)).
+// every answer reports the delay-aware Colgate-Schenkel passivity margin (passivity.hpp, with --velocity
+// estimator_passivity.hpp; null for a fractional delay, which it does not cover). --noise-budget G (normalised g_max)
+// or --force-noise-budget N [N] with --position-resolution q: the optimum of CE0..2 with g_F <= g_max
+// (noise_budget.hpp; g_max = N T^2/(m q)).
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
 #include <hapticopt/criterion.hpp>
+#include <hapticopt/estimator_impulse.hpp>
+#include <hapticopt/estimator_passivity.hpp>
 #include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/noise_budget.hpp>
 #include <hapticopt/optimal_wall.hpp>
@@ -280,14 +283,59 @@ CommandRunner add_optimum_command(CLI::App& app) {
         }
         if (estimator.kind != VelocityEstimatorKind::backward) {
             const auto step = parse_criterion(args->criterion);
-            if (args->robust || args->passive || impulse || !step || *step == Criterion::Overshoot) {
+            if (args->robust || args->passive || (!impulse && (!step || *step == Criterion::Overshoot))) {
                 std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
-                          << " supports amax, CE0..2 and CE0+OV..CE2+OV without --robust and --passive (not "
+                          << " supports amax, CE0..2, CE0+OV..CE2+OV and CI0..2 without --robust and --passive (not "
                           << args->criterion << ")\n";
                 return int{kUsage};
             }
             const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
             const NormalizedPlant np = physical ? normalize(plant) : args->plant.normalized();
+            const bool covered = passivity_is_covered(np);
+            if (impulse) {
+                const ImpulseOptimum o = optimal_point(*impulse, np, estimator);
+                const NormalizedGains og{o.alpha, o.beta};
+                const double margin = covered ? passivity_margin(np, og, estimator) : 0.0;
+                WallGains g{0, 0};
+                if (physical) g = to_physical(og, plant.mass, plant.period);
+                if (args->json) {
+                    nlohmann::json out;
+                    out["criterion"] = args->criterion;
+                    out["alpha"] = o.alpha;
+                    out["beta"] = o.beta;
+                    out["cost"] = number_or_null(o.cost);
+                    out["alpha_max"] = o.alpha_max;
+                    out["penetration"] = number_or_null(o.penetration);
+                    out["penetration_converged"] = o.penetration_converged;
+                    out["on_region_edge"] = o.on_region_edge;
+                    out["velocity_estimator"] = velocity_json(estimator);
+                    out["force_noise_gain"] = number_or_null(force_noise_gain(np, og, estimator));
+                    if (covered)
+                        add_passivity(out, margin);
+                    else
+                        add_passivity_not_covered(out);
+                    if (physical) {
+                        out["K"] = g.stiffness;
+                        out["B"] = g.damping;
+                    }
+                    std::cout << out.dump() << '\n';
+                    return int{kOk};
+                }
+                std::printf("criterion  %s\nvelocity   %s\nalpha      %.10f\nbeta       %.10f\ncost       %.10g\n",
+                            args->criterion.c_str(), velocity_text(estimator).c_str(), o.alpha, o.beta, o.cost);
+                std::printf("penetration %.10g v0 T%s\n", o.penetration,
+                            o.penetration_converged ? "" : " (not proven final within the period cap)");
+                if (o.on_region_edge) std::printf("note       the infimum lies on the region's edge alpha -> 0\n");
+                std::printf("alpha/alpha_max  %.4f (alpha_max %.10f)\n", o.alpha / o.alpha_max, o.alpha_max);
+                if (covered) {
+                    std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
+                                margin);
+                } else {
+                    std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
+                }
+                if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
+                return int{kOk};
+            }
             EstimatorOptimumOptions eo;
             eo.overshoot_tolerance = args->tolerance;
             const EstimatorOptimum o = optimal_point(*step, np, estimator, eo);
@@ -295,7 +343,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             const double noise = force_noise_gain(np, NormalizedGains{o.alpha, o.beta}, estimator);
             WallGains g{0, 0};
             if (physical) g = to_physical(NormalizedGains{o.alpha, o.beta}, plant.mass, plant.period);
-            const char* note = "passivity is modelled for the backward difference only";
+            const double margin = covered ? passivity_margin(np, NormalizedGains{o.alpha, o.beta}, estimator) : 0.0;
             if (args->json) {
                 nlohmann::json out;
                 out["criterion"] = args->criterion;
@@ -305,9 +353,10 @@ CommandRunner add_optimum_command(CLI::App& app) {
                 out["alpha_max"] = o.alpha_max;
                 out["beta_at_alpha_max"] = o.beta_at_alpha_max;
                 out["stable_islands"] = islands_json(region);
-                out["passive"] = nullptr;
-                out["passivity_margin"] = nullptr;
-                out["passivity_note"] = note;
+                if (covered)
+                    add_passivity(out, margin);
+                else
+                    add_passivity_not_covered(out);
                 out["velocity_estimator"] = velocity_json(estimator);
                 out["force_noise_gain"] = number_or_null(noise);
                 if (physical) {
@@ -325,8 +374,13 @@ CommandRunner add_optimum_command(CLI::App& app) {
                 std::printf("island     alpha %.4g..%.4g, beta %.4g..%.4g (not connected to the main region)\n",
                             i.alpha_min, i.alpha_max, i.beta_min, i.beta_max);
             }
-            std::printf("alpha/alpha_max  %.4f\nnoise gain g_F   %.6g\npassive    not covered (%s)\n",
-                        o.alpha / o.alpha_max, noise, note);
+            std::printf("alpha/alpha_max  %.4f\nnoise gain g_F   %.6g\n", o.alpha / o.alpha_max, noise);
+            if (covered) {
+                std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
+                            margin);
+            } else {
+                std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
+            }
             if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
             return int{kOk};
         }

@@ -9,6 +9,8 @@
 #include "energy_costs.hpp"
 #include "energy_gradient.hpp"
 #include "errors.hpp"
+#include "estimator_impulse.hpp"
+#include "estimator_passivity.hpp"
 #include "exponential_integrals.hpp"
 #include "impulse_costs.hpp"
 #include "impulse_optimum.hpp"

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <hapticopt/estimator_impulse.hpp>
+#include <hapticopt/estimator_passivity.hpp>
 #include <hapticopt/stability_region.hpp>
 
 #include "cli_output.hpp"
@@ -81,7 +83,11 @@ TEST(VelocityCli, CostReportsEstimatorAndNoise) {
     EXPECT_NEAR(out["force_noise_gain"].get<double>(), g, 1e-9 * g);
     EXPECT_NEAR(out["force_noise_std"].get<double>(), 0.3 * 2e-5 / 1e-6 * g, 1e-9 * g);
     EXPECT_EQ(out["OV"].get<double>(), overshoot({0, 0, 1}, {0.0046, 0.107}, VelocityEstimator::low_pass(0.02)).value);
-    EXPECT_TRUE(out["CI0"].is_null());
+    const ImpulseCosts ic = impulse_costs({0, 0, 1}, {0.0046, 0.107}, VelocityEstimator::low_pass(0.02));
+    EXPECT_EQ(out["CI0"].get<double>(), ic.ci0);
+    EXPECT_EQ(out["CI2"].get<double>(), ic.ci2);
+    EXPECT_EQ(out["passivity_margin"].get<double>(),
+              passivity_margin({0, 0, 1}, {0.0046, 0.107}, VelocityEstimator::low_pass(0.02)));
     // The paper's C_E2 optimum at d = 0 with the 20 Hz low-pass: unstable, costs and noise null.
     const auto [code2, unstable] = run_velocity_command(
         add_cost_command, {"cost", "--alpha", "0.2474", "--beta", "0.7445", "--velocity", "lowpass:0.02", "--json"});
@@ -111,6 +117,18 @@ TEST(VelocityCli, OptimumWithEstimator) {
         add_optimum_command, {"optimum", "--criterion", "CE2+OV", "--velocity", "lowpass:0.1", "--json"});
     ASSERT_EQ(code3, 0);
     EXPECT_LT(ov["alpha"].get<double>(), ov["alpha_max"].get<double>());
+    EXPECT_FALSE(ov["passivity_margin"].is_null());
+    // The collision criteria with the estimator: the library's optimum, reported with its penetration and margin.
+    const auto [code4, ci] = run_velocity_command(
+        add_optimum_command,
+        {"optimum", "--criterion", "CI2", "--velocity", "window:15", "--delay", "1", "--delta", "0.02", "--json"});
+    ASSERT_EQ(code4, 0);
+    const ImpulseOptimum o = optimal_point(ImpulseCriterion::CI2, {0, 0.02, 1}, VelocityEstimator::moving_window(15));
+    EXPECT_EQ(ci["alpha"].get<double>(), o.alpha);
+    EXPECT_EQ(ci["cost"].get<double>(), o.cost);
+    EXPECT_EQ(ci["penetration"].get<double>(), o.penetration);
+    EXPECT_EQ(ci["passivity_margin"].get<double>(),
+              passivity_margin({0, 0.02, 1}, {o.alpha, o.beta}, VelocityEstimator::moving_window(15)));
 }
 
 // `boundary --velocity`: the main region's boundary by estimator_region_boundary. Window 1 is the backward
@@ -175,8 +193,14 @@ TEST(VelocityCli, BoundaryWithAnEstimatorIsTheMainRegionsEdge) {
     EXPECT_THROW(
         run_velocity_command(add_boundary_command, {"boundary", "--velocity", "window:3", "--points", "4", "--json"}),
         InvalidParameter);
-    EXPECT_THROW(run_velocity_command(add_boundary_command, {"boundary", "--velocity", "lowpass:0.1", "--passivity"}),
-                 InvalidParameter);
+    // The passive set with the estimator (estimator_passivity.hpp): its largest alpha.
+    const auto [pcode, passive] = run_velocity_command(
+        add_boundary_command,
+        {"boundary", "--velocity", "lowpass:0.1", "--passivity", "--delay", "1", "--delta", "0.02", "--json"});
+    ASSERT_EQ(pcode, 0);
+    EXPECT_EQ(passive["largest_passive_alpha"].get<double>(),
+              largest_passive_alpha({0, 0.02, 1}, VelocityEstimator::low_pass(0.1)).alpha);
+    EXPECT_FALSE(passive["points"].empty());
 }
 
 }  // namespace
