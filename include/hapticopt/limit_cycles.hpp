@@ -82,7 +82,8 @@
 //    crossed thresholds and, when f_c > 0, 64 (d + 2 + L) + ~45 per crossover plant exponentials (one in all when f_c =
 //    0): 30 to 110 ms for d = 0..6 with the backward difference (tests/benchmarks/core_benchmarks.cpp,
 //    BM_PredictLimitCycle); with an estimator each transfer evaluation also grows with its order (Horner on
-//    polynomials of degree d + 2 + L), so the window's cost grows like N^2.
+//    polynomials of degree d + 2 + L), up to N^2 for the window: at d = 6, 43 / 131 ms (low-pass, f_c = 0 /
+//    0.3 K q) and 102 / 395 ms (window 15), BM_PredictLimitCycleEstimator.
 #pragma once
 
 #include <algorithm>
