@@ -35,11 +35,10 @@
 //
 // 3. Rest of the quantised wall (this header; follows from the model above). With k = 0 a sticking rest at a
 //    level y = n q holds the push iff |F - K n q| <= f_c (the damper term is zero at rest, for every estimator:
-//    D(1) = 0). Write F / (K q) = n0
-//    + r, n0 integer, 0 <= r < 1: a rest exists iff K q min(r, 1 - r) <= f_c; for every F iff K q / 2 <= f_c,
-//    i.e. K <= 2 f_c / q, Abbott-Okamura's Coulomb bound. Where no rest exists the trajectory cannot settle:
-//    a bounded motion then never stops (a sustained oscillation, the chatter between two counts).
-//    quantised_rest_exists().
+//    D(1) = 0). Write F / (K q) = n0 + r, n0 integer, 0 <= r < 1: a rest exists iff K q min(r, 1 - r) <= f_c;
+//    for every F iff K q / 2 <= f_c, i.e. K <= 2 f_c / q, Abbott-Okamura's Coulomb bound. Where no rest exists
+//    the trajectory cannot settle: a bounded motion then never stops (a sustained oscillation, the chatter
+//    between two counts). quantised_rest_exists().
 //
 // 4. Describing-function (DF) prediction, in the manner of N. Diolaiti, G. Niemeyer, F. Barbagli and
 //    J. K. Salisbury, "Stability of haptic rendering: discretization, quantization, time delay, and Coulomb
@@ -72,18 +71,20 @@
 //    (Im G = 0, Re G < 0), and N |G| = 1. For each A on a logarithmic grid (1e-3 q .. 1e3 q, 40 points a decade)
 //    the crossover with the largest |G| (the smallest gain margin) is found by a scan of theta in (0, pi]
 //    (64 (d + 2 + L) points, L = 0 for the backward difference, 1 for the low-pass, N for the window: the
-//    window's numerator 1 - z^-N has N zeros on the circle, so its G turns N times more) and bisection of Im G; h(A) =
-//    1 - N |G| changes sign at a cycle, located by bisection in A. The cycle's stability is the amplitude form of
-//    Loeb's criterion: it attracts when the equivalent linear loop (gains N alpha, N beta; damping b + b_eq at the
-//    cycle's theta) is unstable (Schur-Cohn, schur_cohn.hpp) just below A and stable just above it (A (1 -+ 1e-3)). The
-//    DF is an approximation; its accuracy against a time-stepping simulation with stick-slip friction and real rounding
-//    is measured in tests/beyond/test_limit_cycles.cpp and tabulated in docs/limit-cycles.md, with where it holds and
-//    where it does not. Cost: 241 grid amplitudes plus ~40 bisection steps per cycle, each a bias bisection over the
-//    crossed thresholds and, when f_c > 0, 64 (d + 2 + L) + ~45 per crossover plant exponentials (one in all when f_c =
-//    0): 30 to 110 ms for d = 0..6 with the backward difference (tests/benchmarks/core_benchmarks.cpp,
-//    BM_PredictLimitCycle); with an estimator each transfer evaluation also grows with its order (Horner on
-//    polynomials of degree d + 2 + L), up to N^2 for the window: at d = 6, 43 / 131 ms (low-pass, f_c = 0 /
-//    0.3 K q) and 102 / 395 ms (window 15), BM_PredictLimitCycleEstimator.
+//    window's numerator 1 - z^-N has N zeros on the circle, so its G turns N times more) and bisection of Im G;
+//    h(A) = 1 - N |G| changes sign at a cycle, located by bisection in A. The cycle's stability is the amplitude
+//    form of Loeb's criterion: it attracts when the equivalent linear loop (gains N alpha, N beta; damping
+//    b + b_eq at the cycle's theta) is unstable (Schur-Cohn, schur_cohn.hpp) just below A and stable just above
+//    it (A (1 -+ 1e-3)).
+//    The DF is an approximation; its accuracy against a time-stepping simulation with stick-slip friction
+//    and real rounding is measured in tests/beyond/test_limit_cycles.cpp and tabulated in
+//    docs/limit-cycles.md, with where it holds and where it does not.
+//    Cost: 241 grid amplitudes plus ~40 bisection steps per cycle, each a bias bisection over the crossed
+//    thresholds and, when f_c > 0, 64 (d + 2 + L) + ~45 per crossover plant exponentials (one in all when
+//    f_c = 0): 30 to 110 ms for d = 0..6 with the backward difference (tests/benchmarks/core_benchmarks.cpp,
+//    BM_PredictLimitCycle). With an estimator each transfer evaluation also grows with its order (Horner on
+//    polynomials of degree d + 2 + L), up to N^2 for the window: at d = 6, 43 / 131 ms (low-pass nu = 0.02,
+//    f_c = 0 / 0.3 K q) and 102 / 395 ms (window 15), BM_PredictLimitCycleEstimator.
 #pragma once
 
 #include <algorithm>
@@ -161,8 +162,8 @@ struct LimitCycleLoop {
     double coulomb_friction = 0;  ///< f_c [N], >= 0
     double position_step = 0;     ///< q [m], > 0
     double external_force = 0;    ///< F [N], the constant push that sets the mean position
-    /// The wall's velocity estimate (header comment; the low-pass cutoff nu = f_c T is normalised, the window
-    /// N in periods). The describing function applies to all three; the Abbott-Okamura condition
+    /// The wall's velocity estimate (header comment; the low-pass cutoff nu = (cutoff frequency) T is
+    /// normalised, the window N in periods). The describing function applies to all three; the Abbott-Okamura condition
     /// (abbott_okamura_passivity) is for B = 0 and says nothing about this field.
     VelocityEstimator estimator = VelocityEstimator::backward_difference();
 };
