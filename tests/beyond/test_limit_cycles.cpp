@@ -659,6 +659,23 @@ TEST(LimitCycles, CommandLine) {
     EXPECT_EQ(json_number(out, "amplitude"), p.cycle.amplitude) << out;
     EXPECT_EQ(json_number(out, "frequency"), p.cycle.frequency) << out;
     EXPECT_NE(out.find("\"rest_exists\":false"), std::string::npos) << out;
+    {  // --velocity: the describing function with the estimator; no Colgate-Schenkel verdict
+        const EstimatorCase& c = kEstimatorCases[11];  // window:15, d = 6
+        const Device w = tuned_with(c, 0.1, 0.5);
+        const auto pw = predict_limit_cycle(loop_of(w));
+        char line[512];
+        std::snprintf(line, sizeof line,
+                      "--alpha %.17g --beta %.17g --delay 6 --mass 0.3 --period 1e-3 --position-resolution 20e-6 "
+                      "--coulomb-friction %.17g --push %.17g --velocity window:15 --json",
+                      c.alpha, c.beta, w.friction, w.push);
+        const std::string filtered = run_cli(line, &status);
+        ASSERT_EQ(status, 0) << filtered;
+        // the CLI rebuilds K and B from alpha and beta (m alpha / T^2): the same doubles as tuned_with
+        EXPECT_EQ(json_number(filtered, "amplitude"), pw.cycle.amplitude) << filtered;
+        EXPECT_EQ(json_number(filtered, "frequency"), pw.cycle.frequency) << filtered;
+        EXPECT_NE(filtered.find("\"colgate_schenkel_passive\":null"), std::string::npos) << filtered;
+        EXPECT_NE(filtered.find("\"kind\":\"window\""), std::string::npos) << filtered;
+    }
     const std::string bad = run_cli("--alpha 0.2 --beta 0.7 --mass 0.3 --period 1e-3 --position-resolution 0", &status);
     EXPECT_EQ(status, 3) << bad;
     EXPECT_NE(bad.find("--position-resolution = 0 is invalid; accepted range: finite and > 0"), std::string::npos)
