@@ -401,11 +401,12 @@ inline std::complex<double> loop_transfer(const Device& s, double damping, doubl
 }
 
 /// What the DF leaves out of the phase: the sampled quantiser switches at the first sample after its input
-/// crosses a threshold, anywhere within one period of the crossing, so the phase of its output's fundamental
-/// is uncertain by about +-theta/2 (theta = w T), depending on where the samples fall, which the continuous DF
-/// averages out. The band of theta where arg(-G) is within +-theta*/2 of the crossover theta* (b_eq held at
-/// the DF cycle's), and |G| over that band relative to |G(theta*)|: with one threshold crossed the relay's
-/// balance gives A = (2 q / pi) |G|, so the amplitude moves with |G|.
+/// crosses a threshold; as a sequence its edge lies half-way between that sample and the one before, up to
+/// half a period from the crossing either way, so the phase of its output's fundamental is uncertain by up to
+/// +-theta/2 (theta = w T), depending on where the samples fall, which the continuous DF averages out. The band of
+/// theta where arg(-G) is within +-theta*/2 of the crossover theta* (b_eq held at the DF cycle's), and |G| over that
+/// band relative to |G(theta*)|: with one threshold crossed the relay's balance gives A = (2 q / pi) |G|, so the
+/// amplitude moves with |G|.
 struct PhaseBand {
     double theta_lo = 0, theta_hi = 0, gain_lo = 1, gain_hi = 1, phase_at_crossover = 0;
 };
