@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt limit-cycle: Coulomb friction and encoder quantisation at one gain pair (limit_cycles.hpp): whether a
 // sticking rest holds the push, the Abbott-Okamura and Colgate-Schenkel passivity verdicts, and the
-// describing-function prediction of the chatter (amplitude, frequency, stability of the cycle).
+// describing-function prediction of the chatter (amplitude, frequency, stability of the cycle). With --velocity
+// other than backward the describing function takes the estimator; Colgate-Schenkel (the backward difference's
+// passivity) is then not reported, and Abbott-Okamura is covered only with beta = 0, where no estimator enters.
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -34,6 +36,7 @@ CommandRunner add_limit_cycle_command(CLI::App& app) {
         double alpha = 0, beta = 0;
         PlantOptions plant;
         double mass = 0, period = 0, resolution = 0, friction = 0, push = 0;
+        VelocityOption velocity;
         bool json = false;
     };
     auto args = std::make_shared<Args>();
@@ -47,6 +50,7 @@ CommandRunner add_limit_cycle_command(CLI::App& app) {
     sub->add_option("--position-resolution", args->resolution, "encoder step q [m]")->required();
     sub->add_option("--coulomb-friction", args->friction, "Coulomb friction f_c [N] (>= 0)")->capture_default_str();
     sub->add_option("--push", args->push, "constant push F [N] that sets the mean position")->capture_default_str();
+    args->velocity.add_to(*sub);
     sub->add_flag("--json", args->json, "print one JSON object");
     return [args]() {
         const char* self = "hapticopt limit-cycle";
@@ -64,11 +68,13 @@ CommandRunner add_limit_cycle_command(CLI::App& app) {
         loop.coulomb_friction = args->friction;
         loop.position_step = args->resolution;
         loop.external_force = args->push;
+        loop.estimator = args->velocity.parse(args->period);
+        const bool backward = loop.estimator.kind == VelocityEstimatorKind::backward;
         const LimitCyclePrediction p = predict_limit_cycle(loop);  // validates every parameter
         const AbbottOkamuraPassivity ao = abbott_okamura_passivity(
             loop.gains.stiffness, loop.plant.damping, loop.coulomb_friction, loop.position_step, loop.plant.period);
         const bool ao_covered = args->beta == 0 && np.delay == 0;
-        const bool cs_covered = passivity_is_covered(np);
+        const bool cs_covered = backward && passivity_is_covered(np);
         const bool cs_passive = cs_covered && is_passive(np, NormalizedGains{args->alpha, args->beta});
         if (args->json) {
             nlohmann::json out;
@@ -87,16 +93,20 @@ CommandRunner add_limit_cycle_command(CLI::App& app) {
             for (const auto& c : p.cycles) all.push_back(cycle_json(c));
             out["cycles"] = std::move(all);
             out["grows_at_large_amplitude"] = p.grows_at_large_amplitude;
+            out["velocity_estimator"] = velocity_json(loop.estimator);
             std::cout << out.dump() << '\n';
             return int{kOk};
         }
         std::printf("wall             K %.6g N/m, B %.6g N s/m\n", loop.gains.stiffness, loop.gains.damping);
+        std::printf("velocity         %s\n", velocity_text(loop.estimator).c_str());
         std::printf("rest exists      %s (a level n q with |F - K n q - k x| <= f_c)\n", p.rest_exists ? "yes" : "no");
         std::printf("Abbott-Okamura   K <= max(2b/T = %.6g, 2 f_c/q = %.6g) N/m: %s%s\n", ao.viscous_bound,
                     ao.coulomb_bound, ao.passive ? "passive" : "not passive",
                     ao_covered ? "" : " (the condition assumes B = 0 and d = 0)");
         if (cs_covered)
             std::printf("Colgate-Schenkel %s\n", cs_passive ? "passive" : "not passive");
+        else if (!backward)
+            std::printf("Colgate-Schenkel not reported (a condition on the backward difference)\n");
         else
             std::printf("Colgate-Schenkel %s\n", kPassivityNotCovered);
         if (!p.predicted) {

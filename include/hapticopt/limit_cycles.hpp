@@ -3,9 +3,15 @@
 // describing-function prediction of the limit cycles they cause.
 //
 // The loop (physical units): m x'' + b x' + f_c sgn(x') + k x = F - f(t), F a constant push; the encoder
-// reports y_j = q round(x(jT) / q) (a rounding quantiser, step q); the wall force f_j = K y_j + B (y_j - y_{j-1})
-// / T is held for one period and delayed by t_d = d T (sampled_plant.hpp: f_j acts during [jT + t_d,
-// (j + 1) T + t_d)). At rest in a sticking state the friction force is anything in [-f_c, f_c].
+// reports y_j = q round(x(jT) / q) (a rounding quantiser, step q); the wall force f_j = K y_j + B v_j, v_j the
+// velocity estimate of velocity_estimator.hpp in physical units (v = D(z) y: the backward difference
+// (y_j - y_{j-1}) / T, the default; the low-pass v_j = lambda v_{j-1} + (1 - lambda)(y_j - y_{j-1}) / T; the
+// window (y_j - y_{j-N}) / (N T)), is held for one period and delayed by t_d = d T (sampled_plant.hpp: f_j acts
+// during [jT + t_d, (j + 1) T + t_d)). At rest in a sticking state the friction force is anything in [-f_c, f_c].
+// Every estimator has D(1) = 0 (its coefficients on y sum to 0): a constant y gives v -> 0, so items 3 and
+// the mean equation of item 4 hold for all three. Items 1 and 2 are conditions on the backward difference
+// (item 1) or on B = 0 (item 2, where no estimator enters the force); neither says anything about a filtered
+// wall with B != 0, and this header states none for it.
 //
 // 1. Colgate-Schenkel passivity (J. E. Colgate and G. G. Schenkel, J. Robotic Systems 14(1), 1997), b > K T/2 +
 //    |B| for d = 0, with the delay z^-d: passivity.hpp (passivity_margin, is_passive). It sees neither q nor
@@ -28,11 +34,11 @@
 //    Coulomb bound protects motions of about one count per period, faster ones need the viscous bound.
 //
 // 3. Rest of the quantised wall (this header; follows from the model above). With k = 0 a sticking rest at a
-//    level y = n q holds the push iff |F - K n q| <= f_c (the damper term is zero at rest). Write F / (K q) = n0
-//    + r, n0 integer, 0 <= r < 1: a rest exists iff K q min(r, 1 - r) <= f_c; for every F iff K q / 2 <= f_c,
-//    i.e. K <= 2 f_c / q, Abbott-Okamura's Coulomb bound. Where no rest exists the trajectory cannot settle:
-//    a bounded motion then never stops (a sustained oscillation, the chatter between two counts).
-//    quantised_rest_exists().
+//    level y = n q holds the push iff |F - K n q| <= f_c (the damper term is zero at rest, for every estimator:
+//    D(1) = 0). Write F / (K q) = n0 + r, n0 integer, 0 <= r < 1: a rest exists iff K q min(r, 1 - r) <= f_c;
+//    for every F iff K q / 2 <= f_c, i.e. K <= 2 f_c / q, Abbott-Okamura's Coulomb bound. Where no rest exists
+//    the trajectory cannot settle: a bounded motion then never stops (a sustained oscillation, the chatter
+//    between two counts). quantised_rest_exists().
 //
 // 4. Describing-function (DF) prediction, in the manner of N. Diolaiti, G. Niemeyer, F. Barbagli and
 //    J. K. Salisbury, "Stability of haptic rendering: discretization, quantization, time delay, and Coulomb
@@ -49,26 +55,36 @@
 //      b_eq = 4 f_c / (pi A w), added to b (sliding all the time: a cycle with sticking phases is outside
 //      the DF hypothesis);
 //    - the mean x0 follows from the balance of the cycle's mean forces: k x0 + K M(x0, A) = F (the damper's
-//      and the friction's means vanish over a symmetric cycle; where an interval of x0 balances, its middle);
+//      and the friction's means vanish over a symmetric cycle, the damper's for every estimator because its
+//      DC gain D(1) is 0; where an interval of x0 balances, its middle);
 //    - the linear part is exact: the loop transfer of the sampled loop with plant damping b + b_eq(A, w),
 //      G(z) = (alpha P_alpha(z) + beta P_beta(z)) / P_0(z) from the characteristic polynomial p = P_0 +
 //      alpha P_alpha + beta P_beta (characteristic_polynomial.hpp), the ZOH, the delay (integer or fractional)
-//      and the backward difference included, evaluated at z = e^{j theta}, theta = w T. The sampling of the
+//      and the backward difference included, evaluated at z = e^{j theta}, theta = w T. With a low-pass or a
+//      window estimator the controller K + B D(z) replaces K + B (1 - z^-1) / T: G = (alpha P_alpha At +
+//      beta P_alpha Bt) / (P_0 At), the polynomial p_est of estimator_characteristic_polynomial
+//      (velocity_estimator.hpp; At, Bt the estimator's denominator and numerator in z). The backward
+//      difference keeps the polynomial p itself (p_est = z p, the same G). The sampling of the
 //      quantiser's input is not modelled: N is the continuous-time DF, an average over the phase of the samples
 //      relative to the thresholds (poor when a cycle lasts only a few periods).
 //    Harmonic balance 1 + N(x0(A), A) G(e^{j theta}; b + b_eq(A, theta)) = 0: theta is a phase crossover of G
 //    (Im G = 0, Re G < 0), and N |G| = 1. For each A on a logarithmic grid (1e-3 q .. 1e3 q, 40 points a decade)
 //    the crossover with the largest |G| (the smallest gain margin) is found by a scan of theta in (0, pi]
-//    (64 (d + 2) points) and bisection of Im G; h(A) = 1 - N |G| changes sign at a cycle, located by bisection
-//    in A. The cycle's stability is the amplitude form of Loeb's criterion: it attracts when the equivalent
-//    linear loop (gains N alpha, N beta; damping b + b_eq at the cycle's theta) is unstable (Schur-Cohn,
-//    schur_cohn.hpp) just below A and stable just above it (A (1 -+ 1e-3)).
+//    (64 (d + 2 + L) points, L = 0 for the backward difference, 1 for the low-pass, N for the window: the
+//    window's numerator 1 - z^-N has N zeros on the circle, so its G turns N times more) and bisection of Im G;
+//    h(A) = 1 - N |G| changes sign at a cycle, located by bisection in A. The cycle's stability is the amplitude
+//    form of Loeb's criterion: it attracts when the equivalent linear loop (gains N alpha, N beta; damping
+//    b + b_eq at the cycle's theta) is unstable (Schur-Cohn, schur_cohn.hpp) just below A and stable just above
+//    it (A (1 -+ 1e-3)).
 //    The DF is an approximation; its accuracy against a time-stepping simulation with stick-slip friction
 //    and real rounding is measured in tests/beyond/test_limit_cycles.cpp and tabulated in
 //    docs/limit-cycles.md, with where it holds and where it does not.
 //    Cost: 241 grid amplitudes plus ~40 bisection steps per cycle, each a bias bisection over the crossed
-//    thresholds and, when f_c > 0, 64 (d + 2) + ~45 per crossover plant exponentials (one in all when
-//    f_c = 0): 30 to 110 ms for d = 0..6 (tests/benchmarks/core_benchmarks.cpp, BM_PredictLimitCycle).
+//    thresholds and, when f_c > 0, 64 (d + 2 + L) + ~45 per crossover plant exponentials (one in all when
+//    f_c = 0): 30 to 110 ms for d = 0..6 with the backward difference (tests/benchmarks/core_benchmarks.cpp,
+//    BM_PredictLimitCycle). With an estimator each transfer evaluation also grows with its order (Horner on
+//    polynomials of degree d + 2 + L), up to N^2 for the window: at d = 6, 43 / 131 ms (low-pass nu = 0.02,
+//    f_c = 0 / 0.3 K q) and 102 / 395 ms (window 15), BM_PredictLimitCycleEstimator.
 #pragma once
 
 #include <algorithm>
@@ -84,11 +100,13 @@
 #include "sampled_plant.hpp"
 #include "scalar_search.hpp"
 #include "schur_cohn.hpp"
+#include "velocity_estimator.hpp"
 
 namespace hapticopt {
 
 /// Abbott-Okamura 2005 (header comment, item 2): a spring wall K behind a ZOH (B = 0, d = 0) on a mass with
 /// viscous damping b and Coulomb friction f_c, encoder step q, period T is passive iff K <= max(2b/T, 2f_c/q).
+/// B = 0: the velocity estimator does not enter; for a wall with B != 0 (any estimator) it states nothing.
 struct AbbottOkamuraPassivity {
     double viscous_bound = 0;    ///< 2 b / T [N/m]
     double coulomb_bound = 0;    ///< 2 f_c / q [N/m]
@@ -144,6 +162,10 @@ struct LimitCycleLoop {
     double coulomb_friction = 0;  ///< f_c [N], >= 0
     double position_step = 0;     ///< q [m], > 0
     double external_force = 0;    ///< F [N], the constant push that sets the mean position
+    /// The wall's velocity estimate (header comment; the low-pass cutoff nu = (cutoff frequency) T is
+    /// normalised, the window N in periods). The describing function applies to all three; the Abbott-Okamura condition
+    /// (abbott_okamura_passivity) is for B = 0 and says nothing about this field.
+    VelocityEstimator estimator = VelocityEstimator::backward_difference();
 };
 
 /// One solution of the harmonic balance.
@@ -204,15 +226,19 @@ inline double limit_cycle_bias(double k, double stiffness, double force, double 
     return (left.second + right.second) / 2;
 }
 
-/// Loop transfer G(e^{j theta}) = (alpha P_alpha + beta P_beta) / P_0 and the polynomial, for damping delta.
+/// Loop transfer G(e^{j theta}) = (alpha P_alpha + beta P_beta) / P_0 and the polynomial, for damping delta;
+/// with a low-pass or window estimator the polynomial is p_est (estimator_characteristic_polynomial).
 struct LimitCycleLinearPart {
     NormalizedPlant plant;
     double alpha, beta;
+    VelocityEstimator estimator;
 
     AffineCharacteristicPolynomial<double> polynomial(double delta) const {
         NormalizedPlant p = plant;
         p.delta = delta;
-        return characteristic_polynomial(plant_transitions<double>(p));
+        AffineCharacteristicPolynomial<double> backward = characteristic_polynomial(plant_transitions<double>(p));
+        if (estimator.kind == VelocityEstimatorKind::backward) return backward;
+        return estimator_characteristic_polynomial(backward, estimator);
     }
 
     static std::complex<double> horner(const Eigen::VectorXd& c, std::complex<double> z) {
@@ -231,8 +257,8 @@ struct LimitCycleLinearPart {
 
 /// The describing-function prediction of header comment item 4. Throws InvalidParameter naming the parameter
 /// for an invalid plant (mass, period > 0; damping, stiffness, time_delay >= 0; time_delay <= 1000 period),
-/// gains.stiffness K <= 0, a non-finite gains.damping B, coulomb_friction < 0, position_step <= 0 or a
-/// non-finite external_force.
+/// gains.stiffness K <= 0, a non-finite gains.damping B, coulomb_friction < 0, position_step <= 0, a
+/// non-finite external_force, or an invalid estimator ("cutoff": finite and > 0; "window": 1 .. 1000).
 HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& loop)
 #if HAPTICOPT_DEFINITIONS
 {
@@ -245,12 +271,13 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
     detail::require_non_negative(f, "coulomb_friction", loop.coulomb_friction);
     detail::require_positive(f, "position_step", loop.position_step);
     detail::require_finite(f, "external_force", loop.external_force);
+    validate(loop.estimator, f);
 
     constexpr double pi = 3.14159265358979323846;
     const double m = loop.plant.mass, T = loop.plant.period, q = loop.position_step;
     const NormalizedPlant base = normalize(loop.plant);
     const NormalizedGains gains = normalize(loop.gains, m, T);
-    const detail::LimitCycleLinearPart linear{base, gains.alpha, gains.beta};
+    const detail::LimitCycleLinearPart linear{base, gains.alpha, gains.beta, loop.estimator};
     const double friction = loop.coulomb_friction * T * T / m;  // normalised f_c
     auto delta_at = [&](double amplitude, double theta) {
         return base.delta + (friction > 0 ? 4 * friction / (pi * amplitude * theta) : 0.0);
@@ -265,7 +292,10 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
         double theta = 0;
         double gain = 0;  // |G| = -Re G at the crossover; 0: none
     };
-    const int scan = 64 * (static_cast<int>(std::ceil(base.delay)) + 2);
+    const int order = loop.estimator.kind == VelocityEstimatorKind::window    ? loop.estimator.window
+                      : loop.estimator.kind == VelocityEstimatorKind::lowpass ? 1
+                                                                              : 0;
+    const int scan = 64 * (static_cast<int>(std::ceil(base.delay)) + 2 + order);
     auto crossover = [&](double amplitude) {
         Crossover best;
         auto consider = [&](double theta) {

@@ -188,32 +188,29 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
         const double sigma = hapticopt::force_noise_std(physical, gains, q, estimator);
         if (!std::isfinite(sigma)) return;  // unstable gains (--passivity-control): no steady state
         t.force_noise_std = sigma;
-        // The rest condition is the same for every estimator (at rest the estimate is 0); the Abbott-Okamura bound and
-        // the describing function (hapticopt::predict_limit_cycle) model the backward difference only.
+        // The rest condition is the same for every estimator (at rest the estimate is 0), and the describing function
+        // (hapticopt::predict_limit_cycle) takes the loop's estimator; the Abbott-Okamura bound is a condition on the
+        // spring wall (B = 0), given with the backward difference only.
         EncoderChatter c;
         c.backward_difference = is_backward(estimator);
         c.count_kick =
             std::abs(t.B) * hapticopt::estimator_coefficients<double>(estimator).b.front() * q / plant.period;
         c.friction_for_rest = t.K * q / 2.0;
         c.coulomb_friction = coulomb_friction;
-        if (!c.backward_difference) {
-            c.rest_for_every_push =
-                t.K > 0.0 && hapticopt::quantised_rest_exists((t.K + plant.stiffness) * q * 20.5, t.K, coulomb_friction,
-                                                              q, plant.stiffness);
-            t.chatter = c;
-            return;
+        if (c.backward_difference) {
+            const hapticopt::AbbottOkamuraPassivity ao = hapticopt::abbott_okamura_passivity(
+                std::max(t.K, 0.0), plant.damping, coulomb_friction, q, plant.period);
+            c.abbott_okamura_passive = t.K >= 0.0 && ao.passive;
+            c.abbott_okamura_bound = ao.stiffness_bound;
         }
-        const hapticopt::AbbottOkamuraPassivity ao =
-            hapticopt::abbott_okamura_passivity(std::max(t.K, 0.0), plant.damping, coulomb_friction, q, plant.period);
-        c.abbott_okamura_passive = t.K >= 0.0 && ao.passive;
-        c.abbott_okamura_bound = ao.stiffness_bound;
         if (t.K > 0.0) {
             // A push 20.5 counts deep: half-way between two levels whatever the plant's spring does to the mean,
             // the push farthest from every rest (quantised_rest_exists holds there iff it holds for every push).
             const double push = (t.K + plant.stiffness) * q * 20.5;
             c.rest_for_every_push = hapticopt::quantised_rest_exists(push, t.K, coulomb_friction, q, plant.stiffness);
-            const hapticopt::LimitCyclePrediction p =
-                hapticopt::predict_limit_cycle(hapticopt::LimitCycleLoop{physical, gains, coulomb_friction, q, push});
+            hapticopt::LimitCycleLoop loop{physical, gains, coulomb_friction, q, push};
+            loop.estimator = estimator;
+            const hapticopt::LimitCyclePrediction p = hapticopt::predict_limit_cycle(loop);
             if (p.predicted && p.cycle.stable) {
                 c.cycle_predicted = true;
                 c.cycle_amplitude = p.cycle.amplitude;

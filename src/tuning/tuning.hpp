@@ -61,8 +61,9 @@ struct RobustSummary {
 struct EncoderChatter {
     // The force step of one count on the first tick, B b_0 q / T, b_0 the estimator's weight on the newest sample
     // (backward 1, low-pass 1 - lambda, window 1 / N), N (N m). The rest condition below holds for every estimator
-    // (at rest every estimate is 0); the Abbott-Okamura bound and the describing function model the backward
-    // difference and are given only with it (backward_difference).
+    // (at rest every estimate is 0), and so does the describing function's cycle (with the loop's estimator); the
+    // Abbott-Okamura bound is a condition on a spring wall (B = 0) and is given only with the backward difference
+    // (backward_difference).
     double count_kick = 0.0;
     bool backward_difference = true;
     double friction_for_rest = 0.0;    // K q / 2, N (N m)
@@ -135,9 +136,9 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 // which holds while the handle moves over many steps (docs/velocity-estimation.md). At rest in contact it does not:
 // the measured position sits on one or two levels and the force steps between them (t.chatter). q = 0: nothing
 // predicted. coulomb_friction: the profile's f_c on the wall's axis (>= 0; t.chatter with it). sigma_F is the loop's
-// with the plant's velocity estimator; the describing function models the backward difference only, so t.chatter is
-// left empty for any other estimator. Cost: one Stein equation and one describing-function search (up to about 0.1 s
-// at d = 6, docs/limit-cycles.md, "Cost").
+// with the plant's velocity estimator, and so is the describing function's cycle in t.chatter. Cost: one Stein
+// equation and one describing-function search (backward difference: up to about 0.1 s at d = 6; the shipped Falcon's
+// 15-period window at d = 6 with friction: about 0.4 s; docs/limit-cycles.md, "Cost").
 void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution,
                              double coulomb_friction = 0.0);
 

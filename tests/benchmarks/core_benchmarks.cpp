@@ -225,6 +225,28 @@ BENCHMARK(BM_PredictLimitCycle)
     ->Args({2, 1})
     ->Unit(benchmark::kMillisecond);
 
+// The same with a velocity estimator at d = 6: range(0) 0 low-pass nu = 0.02, 1 window 15, with their CE2 optima
+// (docs/velocity-estimation.md, "alpha_max and the CE2 optimum per estimator"); range(1): Coulomb friction 0 or
+// 0.3 K q. The window's crossover scan and polynomials grow with N.
+void BM_PredictLimitCycleEstimator(benchmark::State& state) {
+    const bool window = state.range(0) == 1;
+    LimitCycleLoop loop;
+    loop.plant = PhysicalPlant{0.3, 0, 0, 1e-3, 6e-3};
+    loop.gains =
+        to_physical(window ? NormalizedGains{0.00126107, 0.0516488} : NormalizedGains{0.0012874, 0.0549007}, 0.3, 1e-3);
+    loop.estimator = window ? VelocityEstimator::moving_window(15) : VelocityEstimator::low_pass(0.02);
+    loop.position_step = 20e-6;
+    loop.coulomb_friction = state.range(1) == 0 ? 0.0 : 0.3 * loop.gains.stiffness * loop.position_step;
+    loop.external_force = loop.gains.stiffness * loop.position_step * 100.5;
+    for (auto _ : state) benchmark::DoNotOptimize(predict_limit_cycle(loop));
+}
+BENCHMARK(BM_PredictLimitCycleEstimator)
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond);
+
 // All 64 rows of Tables III and IV (8 criteria x 8 plants, one WallOptimizer per plant); arg: the energy
 // optima's method (0 newton, the default; 1 brent). Criterion filter: arg 2 = -1 for all eight, else one
 // criterion (its 8 rows), to show where the time goes.

@@ -601,6 +601,19 @@ TEST(DaemonMatchesAnalysis, TheShippedFalconWindowBoundsTheBuzzToOneCountsForce)
         out.summary["force_noise_std"].get<double>(),
         hapticopt::force_noise_std(hapticopt::PhysicalPlant{m, 0.0, 0.0, T, 0.006}, hapticopt::WallGains{K, B}, q,
                                    hapticopt::VelocityEstimator::moving_window(N)));
+    // The start-up limit-cycle prediction is the describing function with the loop's window (docs/limit-cycles.md,
+    // "With a velocity estimator"): the profile's plant, its Coulomb friction (none), a push half-way between two
+    // counts; no Abbott-Okamura bound (a condition on a spring wall, B = 0).
+    const auto& chatter = out.summary["encoder_chatter"];
+    ASSERT_TRUE(chatter.is_object()) << out.summary.dump();
+    EXPECT_TRUE(chatter["abbott_okamura_bound"].is_null());
+    hapticopt::LimitCycleLoop cycle_loop{hapticopt::PhysicalPlant{m, 0.0, 0.0, T, 0.006}, hapticopt::WallGains{K, B},
+                                         0.0, q, K * q * 20.5};
+    cycle_loop.estimator = hapticopt::VelocityEstimator::moving_window(N);
+    const hapticopt::LimitCyclePrediction cycle = hapticopt::predict_limit_cycle(cycle_loop);
+    ASSERT_TRUE(cycle.predicted && cycle.cycle.stable);
+    EXPECT_DOUBLE_EQ(chatter["cycle_amplitude"].get<double>(), cycle.cycle.amplitude);
+    EXPECT_DOUBLE_EQ(chatter["cycle_frequency"].get<double>(), cycle.cycle.frequency);
     double x_lo = HUGE_VAL, x_hi = -HUGE_VAL, f_lo = HUGE_VAL, f_hi = -HUGE_VAL;
     for (std::size_t j = 1000; j < 5999; ++j) {
         x_lo = std::min(x_lo, out.rows[j].x);
