@@ -450,7 +450,7 @@ inline PhaseBand phase_band(const Device& s, const PredictedLimitCycle& c) {
 // the rows inside the DF's hypothesis chosen by the rule of PredictionAgainstSimulation before measuring:
 // push half-way between two levels, Coulomb friction present and too weak to hold any rest (f_c = 0.1 and
 // 0.3 K q), so the mass slides through the cycle. Prints the rows of docs/limit-cycles.md ("With a velocity
-// estimator"; the other rows: DISABLED_EstimatorLimitCycleTable).
+// estimator"; the other rows: EstimatorLimitCycleTable).
 // Tolerances. Frequency: the filtered walls' cycles last 6 to 60 periods, where the whole-period bracket of
 // PredictionAgainstSimulation is narrower than the DF's own phase error; the bracket is taken over the
 // phase band (PhaseBand): the measured frequency between 1/(ceil(P_lo) T) and 1/(floor(P_hi) T),
@@ -551,10 +551,9 @@ TEST(LimitCycles, BackwardEquivalentEstimatorsGiveTheBackwardCycle) {
 }
 
 // The whole table of docs/limit-cycles.md ("With a velocity estimator"): every estimator and delay with
-// f_c / (K q) = 0, 0.1, 0.3, 1 and the push half-way (r = 0.5) or a quarter (r = 0.25) between levels.
-// Disabled (about 12 s): run with --gtest_also_run_disabled_tests --gtest_filter='*EstimatorLimitCycleTable'.
-// Checks only what holds everywhere: without a rest the motion does not stop.
-TEST(LimitCycles, DISABLED_EstimatorLimitCycleTable) {
+// f_c / (K q) = 0, 0.1, 0.3, 1 and the push half-way (r = 0.5) or a quarter (r = 0.25) between levels
+// (about 12 s). Checks only what holds on every row: where no quantised rest exists the motion does not stop.
+TEST(LimitCycles, EstimatorLimitCycleTable) {
     std::printf(
         "| estimator | d | K [N/m] | B [N s/m] | f_c / (K q) | r | rest exists | DF: A [um] | DF: f [Hz] | DF stable | "
         "sim: A_peak [um] | sim: A_fund [um] | sim: f [Hz] | sim at rest |\n");

@@ -148,7 +148,10 @@ TEST(EstimatorChecks, TheEstimatorsOwnOptimumIsAcceptedAndIsTheLibrarys) {
             ASSERT_TRUE(e.cost.has_value());
             // The explicit gains are the optimum's up to the K/B round trip (1 ulp): the cost agrees to 1e-9.
             EXPECT_NEAR(*e.cost, *o.cost, 1e-9 * *o.cost);
-            EXPECT_DOUBLE_EQ(e.alpha_max, o.alpha_max);
+            // The optimum's region is the fast search's coarser grid (kFastOptimumRegionGrid), the explicit gains'
+            // the default one: each locates the tip by Brent on the refined edge from its own bracket, to the
+            // region's stated accuracy of ~1e-12 (EstimatorStabilityRegion).
+            EXPECT_NEAR(e.alpha_max, o.alpha_max, 1e-12 * o.alpha_max);
             // amax: the main region's tip backed off by kAlphaMaxBackOff, stable with the estimator.
             const TuningResult amax = tune_wall("amax", checker.plant());
             EXPECT_DOUBLE_EQ(amax.alpha, o.alpha_max * (1.0 - kAlphaMaxBackOff));
@@ -223,8 +226,8 @@ TEST(EstimatorChecks, DampingRangeIsTheEstimatorsInterval) {
     EXPECT_FALSE(checker.damping_range(1.01 * region.alpha_max() * kMass / (kPeriod * kPeriod), {kMass}).has_value());
 }
 
-// The noise figure is the estimator loop's (hapticopt::force_noise_std with the estimator), the chatter prediction
-// (backward difference only) is left out with another estimator and kept with the backward difference.
+// The noise figure is the estimator loop's (hapticopt::force_noise_std with the estimator); the Abbott-Okamura bound
+// (backward difference only) is left out with another estimator, the describing function takes the estimator.
 TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
     const double q = 1e-5;
     const TuningPlant filtered = plant_with(1.0, window_of(3));
@@ -237,14 +240,23 @@ TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
     EXPECT_NE(*t.force_noise_std,
               hapticopt::force_noise_std(to_hapticopt(filtered), hapticopt::WallGains{t.K, t.B}, q));
     // At rest every estimate is 0, so the rest condition is the backward difference's; a count steps the window's
-    // estimate by q / (3 T) on its first tick; the Abbott-Okamura bound and the describing function model the
-    // backward difference only and are not given.
+    // estimate by q / (3 T) on its first tick; the Abbott-Okamura bound models the backward difference only and
+    // is not given; the cycle is hapticopt::predict_limit_cycle's with the window, at a push 20.5 counts deep.
     ASSERT_TRUE(t.chatter.has_value());
     EXPECT_FALSE(t.chatter->backward_difference);
+    EXPECT_FALSE(t.chatter->abbott_okamura_passive);
+    EXPECT_EQ(t.chatter->abbott_okamura_bound, 0.0);
     EXPECT_DOUBLE_EQ(t.chatter->count_kick, t.B * q / (3.0 * filtered.period));
     EXPECT_DOUBLE_EQ(t.chatter->friction_for_rest, t.K * q / 2.0);
     EXPECT_FALSE(t.chatter->rest_for_every_push);  // no Coulomb friction
-    EXPECT_FALSE(t.chatter->cycle_predicted);
+    hapticopt::LimitCycleLoop loop{to_hapticopt(filtered), hapticopt::WallGains{t.K, t.B}, 0.0, q,
+                                   (t.K + filtered.stiffness) * q * 20.5};
+    loop.estimator = hapticopt::VelocityEstimator::moving_window(3);
+    const hapticopt::LimitCyclePrediction cycle = hapticopt::predict_limit_cycle(loop);
+    EXPECT_EQ(t.chatter->cycle_predicted, cycle.predicted && cycle.cycle.stable);
+    EXPECT_TRUE(t.chatter->cycle_predicted);  // frictionless: the relay's cycle exists for this window wall
+    EXPECT_DOUBLE_EQ(t.chatter->cycle_amplitude, cycle.cycle.amplitude);
+    EXPECT_DOUBLE_EQ(t.chatter->cycle_frequency, cycle.cycle.frequency);
     const TuningPlant backward = plant_with(1.0, {});
     TuningResult b = tune_wall("CE2", backward);
     predict_encoder_effects(b, backward, q);
