@@ -59,6 +59,17 @@ void add_passivity_not_covered(nlohmann::json& out) {
     out["passivity_note"] = kPassivityNotCovered;
 }
 
+/// The text lines of a verdict on passivity (the margin, or why it is not covered) and of the physical gains, when
+/// a plant is known (`gains` not null).
+void print_passivity_and_gains(bool covered, double margin, const WallGains* gains) {
+    if (covered) {
+        std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no", margin);
+    } else {
+        std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
+    }
+    if (gains) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", gains->stiffness, gains->damping);
+}
+
 int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
     const auto step = parse_criterion(name);
     const auto impulse = parse_impulse_criterion(name);
@@ -327,13 +338,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                             o.penetration_converged ? "" : " (not proven final within the period cap)");
                 if (o.on_region_edge) std::printf("note       the infimum lies on the region's edge alpha -> 0\n");
                 std::printf("alpha/alpha_max  %.4f (alpha_max %.10f)\n", o.alpha / o.alpha_max, o.alpha_max);
-                if (covered) {
-                    std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
-                                margin);
-                } else {
-                    std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
-                }
-                if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
+                print_passivity_and_gains(covered, margin, physical ? &g : nullptr);
                 return int{kOk};
             }
             EstimatorOptimumOptions eo;
@@ -375,13 +380,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                             i.alpha_min, i.alpha_max, i.beta_min, i.beta_max);
             }
             std::printf("alpha/alpha_max  %.4f\nnoise gain g_F   %.6g\n", o.alpha / o.alpha_max, noise);
-            if (covered) {
-                std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
-                            margin);
-            } else {
-                std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
-            }
-            if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
+            print_passivity_and_gains(covered, margin, physical ? &g : nullptr);
             return int{kOk};
         }
         if (args->robust) {
@@ -479,13 +478,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
         if (depth) std::printf("penetration %.10g v0 T\n", *depth);
         if (on_edge) std::printf("note       the infimum lies on the region's edge alpha -> -gamma (pure damper)\n");
         std::printf("alpha/alpha_max  %.4f\n", alpha / alpha_max);
-        if (covered) {
-            std::printf("passive    %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
-                        margin);
-        } else {
-            std::printf("passive    not covered (%s)\n", kPassivityNotCovered);
-        }
-        if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
+        print_passivity_and_gains(covered, margin, physical ? &g : nullptr);
         return int{kOk};
     };
 }

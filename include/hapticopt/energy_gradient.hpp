@@ -70,6 +70,33 @@ CompactLoopDerivative<Scalar, MaxN> compact_loop_derivative(const SampledPlant<S
     return out;
 }
 
+/// One segment's term of dJ / dk (k = alpha or beta) in the adjoint gradient (header comment):
+/// sum_q C(p, q) [2 <w_{p-q} R G_q, dR> + [k = alpha] <dw_{p-q} / dalpha, R G_q R^T>], R the segment map, dR its
+/// derivative, w its weights (segment_weights) and dw / dalpha = (Z_x0, Z_x1 + s0 Z_x0, Z_x2 + 2 s0 Z_x1 + s0^2 Z_x0)
+/// from z_r = k Z_x,r + Z_v,r (Z_x the segment's position Gramians, s0 its start). Shared by the backward loop
+/// (R: 3 x N) and the estimator's (R: dense).
+template <typename Scalar, typename Map, typename MapDerivative, typename Gramians>
+Scalar segment_gradient_term(const PlantSegment<Scalar>& seg, bool by_alpha, const Map& r, const MapDerivative& dr,
+                             const std::array<Matrix3<Scalar>, 3>& weights, const Gramians& g,
+                             const std::array<Scalar, 3>& binomial, int p) {
+    std::array<Matrix3<Scalar>, 3> dw;
+    if (by_alpha) {
+        const Scalar s0 = seg.start;
+        const auto& zx = seg.position_gramian;
+        dw = {zx[0], zx[1] + s0 * zx[0], zx[2] + Scalar(2) * s0 * zx[1] + s0 * s0 * zx[0]};
+    }
+    Scalar v = 0;
+    for (int q = 0; q <= p; ++q) {
+        const auto qi = static_cast<std::size_t>(q);
+        const auto wi = static_cast<std::size_t>(p - q);
+        const auto rg = (r * g[qi]).eval();
+        Scalar t = Scalar(2) * (weights[wi] * rg).cwiseProduct(dr).sum();
+        if (by_alpha) t += dw[wi].cwiseProduct((rg * r.transpose()).eval()).sum();
+        v += binomial[qi] * t;
+    }
+    return v;
+}
+
 template <typename Scalar, int MaxN>
 EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<Scalar>& plant, Scalar alpha,
                                                             Scalar beta, int index) {
@@ -148,23 +175,8 @@ EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<S
         }
         for (int s = 0; s < plant.segment_count(); ++s) {
             const auto si = static_cast<std::size_t>(s);
-            const Matrix3N& r = loop.segment_map[si];
-            const Matrix3N& dr = dl.segment_map[si];
-            std::array<Matrix3<Scalar>, 3> dw;  // d w / dk: z_r = k Z_x,r + Z_v,r, so dz_r / dk = Z_x,r
-            if (dir == 0) {
-                const auto& seg = plant.segment(s);
-                const Scalar s0 = seg.start;
-                const auto& zx = seg.position_gramian;
-                dw = {zx[0], zx[1] + s0 * zx[0], zx[2] + Scalar(2) * s0 * zx[1] + s0 * s0 * zx[0]};
-            }
-            for (int q = 0; q <= p; ++q) {
-                const auto qi = static_cast<std::size_t>(q);
-                const auto wi = static_cast<std::size_t>(p - q);
-                const Matrix3N rg = r * g[qi];
-                Scalar t = Scalar(2) * (weights[si][wi] * rg).cwiseProduct(dr).sum();
-                if (dir == 0) t += dw[wi].cwiseProduct(rg * r.transpose()).sum();
-                v += binomial_p[qi] * t;
-            }
+            v += segment_gradient_term(plant.segment(s), dir == 0, loop.segment_map[si], dl.segment_map[si],
+                                       weights[si], g, binomial_p, p);
         }
         dj[dir] = v;
     }

@@ -73,48 +73,11 @@ inline std::vector<double> chebyshev_product(const std::vector<double>& a, const
 }
 
 /// Brackets [lo, hi] of the sign changes of sum a_k T_k(c) on [-1, 1], by the derivative cascade (header).
-struct ChebyshevBracket {
-    double lo, hi;
-};
-
 inline std::vector<ChebyshevBracket> chebyshev_sign_changes(const std::vector<double>& a) {
-    const int n = static_cast<int>(a.size());
-    std::vector<std::vector<double>> derivative(static_cast<std::size_t>(std::max(n, 1)));
+    std::vector<std::vector<double>> derivative(std::max<std::size_t>(a.size(), 1));
     derivative[0] = a;
     for (std::size_t k = 1; k < derivative.size(); ++k) derivative[k] = chebyshev_derivative(derivative[k - 1]);
-    auto value = [&](int k, double c) {
-        const auto& d = derivative[static_cast<std::size_t>(k)];
-        return chebyshev_value(d.data(), static_cast<int>(d.size()), c);
-    };
-    std::vector<ChebyshevBracket> zeros;
-    for (int k = n - 2; k >= 0; --k) {
-        std::vector<double> cuts{-1.0};
-        for (const ChebyshevBracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
-        cuts.push_back(1.0);
-        std::vector<ChebyshevBracket> next;
-        for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
-            double lo = cuts[i], hi = cuts[i + 1];
-            const double vlo = value(k, lo), vhi = value(k, hi);
-            if (!(hi > lo) || vlo == 0 || vhi == 0 || (vlo > 0) == (vhi > 0)) {
-                if (vlo == 0 && i > 0) next.push_back({lo, lo});  // an exact zero at an interior cut
-                continue;
-            }
-            const bool lo_positive = vlo > 0;
-            for (int it = 0; it < 200; ++it) {
-                const double mid = (lo + hi) / 2;
-                if (!(mid > lo && mid < hi)) break;
-                const double v = value(k, mid);
-                if (v == 0) {
-                    lo = hi = mid;
-                    break;
-                }
-                ((v > 0) == lo_positive ? lo : hi) = mid;
-            }
-            next.push_back({lo, hi});
-        }
-        zeros = std::move(next);
-    }
-    return zeros;
+    return chebyshev_cascade_zeros(derivative, 0);
 }
 
 /// R = s / q of the header: Chebyshev coefficients of s and of q (q = {1} for the FIR estimators).
@@ -311,23 +274,8 @@ HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& 
 {
     detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
     if (estimator.kind == VelocityEstimatorKind::backward) return passive_polygon(plant, points);
-    const PassiveAlphaLimit top = largest_passive_alpha(plant, estimator);
-    std::vector<PassivePoint> lower, upper;
-    if (!(top.alpha > 0)) return {};
-    for (int i = 0; i < points; ++i) {
-        const double a = top.alpha * (1 - std::cos(detail::kPassivityPi * i / (points - 1))) / 2;
-        if (i == points - 1) {
-            lower.push_back({top.alpha, top.beta});
-            break;
-        }
-        const auto [lo, hi] = passive_beta_interval(plant, a, estimator);
-        if (!(hi > lo)) continue;
-        lower.push_back({a, lo});
-        upper.push_back({a, hi});
-    }
-    std::vector<PassivePoint> out = lower;
-    for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
-    return out;
+    return detail::passive_outline(largest_passive_alpha(plant, estimator), points,
+                                   [&](double a) { return passive_beta_interval(plant, a, estimator); });
 }
 #else
     ;

@@ -106,6 +106,52 @@ inline std::vector<double> chebyshev_derivative(const std::vector<double>& a) {
     return b;
 }
 
+struct ChebyshevBracket {
+    double lo, hi;
+};
+
+/// Brackets [lo, hi] of the sign changes on [-1, 1] of the series derivative[order] (derivative[k] holds the
+/// Chebyshev coefficients of the k-th derivative of one polynomial, k = 0 .. size - 1), by the derivative cascade:
+/// from k = size - 2 down to `order`, the zeros of derivative k + 1 cut [-1, 1] into pieces on which derivative k is
+/// monotone, and each piece with a sign change is bisected down to adjacent doubles (an exact zero at an
+/// interior cut is kept as [c, c]). Cost: O(size^3) coefficient operations plus 64 bisection steps per zero.
+inline std::vector<ChebyshevBracket> chebyshev_cascade_zeros(const std::vector<std::vector<double>>& derivative,
+                                                             int order) {
+    auto value = [&](int k, double c) {
+        const auto& d = derivative[static_cast<std::size_t>(k)];
+        return chebyshev_value(d.data(), static_cast<int>(d.size()), c);
+    };
+    std::vector<ChebyshevBracket> zeros;
+    for (int k = static_cast<int>(derivative.size()) - 2; k >= order; --k) {
+        std::vector<double> cuts{-1.0};
+        for (const ChebyshevBracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
+        cuts.push_back(1.0);
+        std::vector<ChebyshevBracket> next;
+        for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+            double lo = cuts[i], hi = cuts[i + 1];
+            const double vlo = value(k, lo), vhi = value(k, hi);
+            if (!(hi > lo) || vlo == 0 || vhi == 0 || (vlo > 0) == (vhi > 0)) {
+                if (vlo == 0 && i > 0) next.push_back({lo, lo});  // an exact zero at an interior cut
+                continue;
+            }
+            const bool lo_positive = vlo > 0;
+            for (int it = 0; it < 200; ++it) {
+                const double mid = (lo + hi) / 2;
+                if (!(mid > lo && mid < hi)) break;
+                const double v = value(k, mid);
+                if (v == 0) {
+                    lo = hi = mid;
+                    break;
+                }
+                ((v > 0) == lo_positive ? lo : hi) = mid;
+            }
+            next.push_back({lo, hi});
+        }
+        zeros = std::move(next);
+    }
+    return zeros;
+}
+
 /// The integer delay of `plant`, or InvalidParameter naming `delay` when it is fractional.
 inline int integer_delay(double delay, const char* function) {
     require_non_negative(function, "delay", delay);
@@ -172,38 +218,8 @@ HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const Norma
         const auto& a = derivative[static_cast<std::size_t>(k)];
         return detail::chebyshev_value(a.data(), static_cast<int>(a.size()), c);
     };
-    struct Bracket {
-        double lo, hi;
-    };
-    // Zeros (with a sign change) of p^{(k)}, from k = degree - 1 down to 1.
-    std::vector<Bracket> zeros;
-    for (int k = n - 2; k >= 1; --k) {
-        std::vector<double> cuts{-1.0};
-        for (const Bracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
-        cuts.push_back(1.0);
-        std::vector<Bracket> next;
-        for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
-            double lo = cuts[i], hi = cuts[i + 1];
-            const double vlo = value(k, lo), vhi = value(k, hi);
-            if (!(hi > lo) || vlo == 0 || vhi == 0 || (vlo > 0) == (vhi > 0)) {
-                if (vlo == 0 && i > 0) next.push_back({lo, lo});  // an exact zero at an interior cut
-                continue;
-            }
-            const bool lo_positive = vlo > 0;
-            for (int it = 0; it < 200; ++it) {
-                const double mid = (lo + hi) / 2;
-                if (!(mid > lo && mid < hi)) break;
-                const double v = value(k, mid);
-                if (v == 0) {
-                    lo = hi = mid;
-                    break;
-                }
-                ((v > 0) == lo_positive ? lo : hi) = mid;
-            }
-            next.push_back({lo, hi});
-        }
-        zeros = std::move(next);
-    }
+    // Zeros (with a sign change) of p' by the cascade from p^{(degree - 1)}.
+    const std::vector<detail::ChebyshevBracket> zeros = detail::chebyshev_cascade_zeros(derivative, 1);
     double sum_abs = 0;
     for (double a : derivative[0]) sum_abs += std::abs(a);
     const double u = std::numeric_limits<double>::epsilon() / 2;
@@ -219,7 +235,7 @@ HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const Norma
         }
     };
     consider(-1.0);
-    for (const Bracket& z : zeros) {
+    for (const detail::ChebyshevBracket& z : zeros) {
         consider((z.lo + z.hi) / 2);
         const double slope = std::max(std::abs(value(1, z.lo)), std::abs(value(1, z.hi)));
         bracket_error = std::max(bracket_error, (z.hi - z.lo) / 2 * slope);
@@ -322,23 +338,22 @@ struct PassivePoint {
     double beta;
 };
 
-/// The passive set's boundary as a closed polygon (counter-clockwise from (0, lo(0))): `points` alphas
-/// per side, clustered at both ends (alpha_i = alpha_top (1 - cos(pi i / (points - 1))) / 2); the first
-/// point is not repeated at the end. Empty when delta = 0.
-HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, int points = 64)
-#if HAPTICOPT_DEFINITIONS
-{
-    detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
-    const PassiveAlphaLimit top = largest_passive_alpha(plant);
+namespace detail {
+
+/// The closed polygon of a passive set whose largest alpha is `top` and whose beta interval at alpha is
+/// interval(alpha): `points` alphas per side, clustered at both ends (alpha_i = alpha_top (1 - cos(pi i /
+/// (points - 1))) / 2), lower ends left to right, then upper ends right to left; empty when top.alpha <= 0.
+template <typename Interval>
+std::vector<PassivePoint> passive_outline(const PassiveAlphaLimit& top, int points, Interval&& interval) {
     std::vector<PassivePoint> lower, upper;
     if (!(top.alpha > 0)) return {};
     for (int i = 0; i < points; ++i) {
-        const double a = top.alpha * (1 - std::cos(detail::kPassivityPi * i / (points - 1))) / 2;
+        const double a = top.alpha * (1 - std::cos(kPassivityPi * i / (points - 1))) / 2;
         if (i == points - 1) {
             lower.push_back({top.alpha, top.beta});
             break;
         }
-        const auto [lo, hi] = passive_beta_interval(plant, a);
+        const auto [lo, hi] = interval(a);
         if (!(hi > lo)) continue;
         lower.push_back({a, lo});
         upper.push_back({a, hi});
@@ -346,6 +361,19 @@ HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& 
     std::vector<PassivePoint> out = lower;
     for (auto it = upper.rbegin(); it != upper.rend(); ++it) out.push_back(*it);
     return out;
+}
+
+}  // namespace detail
+
+/// The passive set's boundary as a closed polygon (counter-clockwise from (0, lo(0))): `points` alphas
+/// per side, clustered at both ends (alpha_i = alpha_top (1 - cos(pi i / (points - 1))) / 2); the first
+/// point is not repeated at the end. Empty when delta = 0.
+HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& plant, int points = 64)
+#if HAPTICOPT_DEFINITIONS
+{
+    detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
+    return detail::passive_outline(largest_passive_alpha(plant), points,
+                                   [&](double a) { return passive_beta_interval(plant, a); });
 }
 #else
     ;

@@ -468,23 +468,8 @@ EnergyCostGradientT<Scalar> estimator_gradient_from_solver(const SampledPlant<Sc
         if (dir == 0) v += Scalar(2) * e0.dot(l[0] * (-e0 / k));  // e_0 = -u / k: de_0 / dalpha = -e_0 / k
         for (int s = 0; s < plant.segment_count(); ++s) {
             const auto si = static_cast<std::size_t>(s);
-            const Square& r = loop.segment_map[si];
-            const Square& dr = dl.segment_map[si];
-            std::array<Matrix3<Scalar>, 3> dw;  // d w / dk: z_r = k Z_x,r + Z_v,r, so dz_r / dk = Z_x,r
-            if (dir == 0) {
-                const auto& seg = plant.segment(s);
-                const Scalar s0 = seg.start;
-                const auto& zx = seg.position_gramian;
-                dw = {zx[0], zx[1] + s0 * zx[0], zx[2] + Scalar(2) * s0 * zx[1] + s0 * s0 * zx[0]};
-            }
-            for (int q = 0; q <= p; ++q) {
-                const auto qi = static_cast<std::size_t>(q);
-                const auto wi = static_cast<std::size_t>(p - q);
-                const Square rg = r * g[qi];
-                Scalar t = Scalar(2) * (weights[si][wi] * rg).cwiseProduct(dr).sum();
-                if (dir == 0) t += dw[wi].cwiseProduct(Square(rg * r.transpose())).sum();
-                v += binomial[qi] * t;
-            }
+            v += segment_gradient_term(plant.segment(s), dir == 0, loop.segment_map[si], dl.segment_map[si],
+                                       weights[si], g, binomial, p);
         }
         dj[dir] = v;
     }

@@ -33,9 +33,12 @@ std::pair<int, nlohmann::json> run_velocity_command(CommandRunner (*add)(CLI::Ap
     for (const std::string& a : args) argv.push_back(a.c_str());
     app.parse(static_cast<int>(argv.size()), argv.data());
     std::ostringstream captured;
-    std::streambuf* old = std::cout.rdbuf(captured.rdbuf());
+    // std::cout writes to `captured` until this returns or throws (a throwing command must not leave it there).
+    struct Restore {
+        std::streambuf* old;
+        ~Restore() { std::cout.rdbuf(old); }
+    } restore{std::cout.rdbuf(captured.rdbuf())};
     const int code = run();
-    std::cout.rdbuf(old);
     return {code, captured.str().empty() ? nlohmann::json() : nlohmann::json::parse(captured.str())};
 }
 
