@@ -448,8 +448,9 @@ VelocityEstimator estimator_of(const std::string& kind, double cutoff, int windo
                           "' is invalid; accepted: backward, lowpass, window");
 }
 
-/// Stability, C_E0..2, C_OV and g_F at one point with the estimator (what `hapticopt cost --velocity --json`
-/// prints; the collision criteria and passivity are not modelled with an estimator: absent).
+/// Stability, C_E0..2, C_OV, C_I0..2, the penetration, the passivity margin and g_F at one point with the
+/// estimator (what `hapticopt cost --velocity --json` prints: estimator_impulse.hpp, estimator_passivity.hpp;
+/// the penetration with the CLI's cap of 10^6 periods, +inf when unstable; the margin None for a fractional delay).
 py::dict estimator_point_costs(double gamma, double delta, double delay, double alpha, double beta,
                                const std::string& kind, double cutoff, int window, double overshoot_tolerance) {
     const NormalizedPlant np = plant_of(gamma, delta, delay);
@@ -459,11 +460,16 @@ py::dict estimator_point_costs(double gamma, double delta, double delay, double 
     StabilityReport report;
     EnergyCosts c;
     OvershootResult ov;
-    double g = 0;
+    ImpulseCosts ic{};
+    double depth = HUGE_VAL, margin = 0, g = 0;
+    const bool covered = passivity_is_covered(np);
     without_gil([&] {
         report = stability(np, gains, e);
         c = energy_costs(np, gains, e);
         ov = overshoot(np, gains, e, o);
+        ic = impulse_costs(np, gains, e);
+        if (report.stable) depth = estimator_penetration(SampledPlant<double>(np), e, alpha, beta, 1000000LL).depth;
+        if (covered) margin = passivity_margin(np, gains, e);
         g = force_noise_gain(np, gains, e);
     });
     py::dict d;
@@ -476,6 +482,11 @@ py::dict estimator_point_costs(double gamma, double delta, double delay, double 
     d["ce2"] = c.ce2;
     d["ov"] = ov.value;
     d["no_overshoot"] = report.stable && ov.within_tolerance;
+    d["ci0"] = ic.ci0;
+    d["ci1"] = ic.ci1;
+    d["ci2"] = ic.ci2;
+    d["penetration"] = depth;
+    d["passivity_margin"] = covered ? py::object(py::float_(margin)) : py::object(py::none());
     d["force_noise_gain"] = g;
     return d;
 }

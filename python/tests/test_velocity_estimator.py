@@ -48,10 +48,10 @@ def test_costs_with_an_estimator_match_the_cli(cli, estimator, alpha, beta, dela
         assert close(c[name], expected[name], 1e-11), name
     assert close(c.force_noise_gain, expected["force_noise_gain"], 1e-11)
     assert c.stable == ho.is_stable(alpha, beta, ho.Plant(delay=delay), estimator=estimator)
-    if estimator != "backward":
-        assert c.ci0 is None and c.penetration is None and c.passivity_margin is None
-        with pytest.raises(ValueError, match="CI2 is not modelled"):
-            c["CI2"]
+    for name in ("CI0", "CI1", "CI2"):
+        assert close(c[name], expected[name], 1e-11), name
+    assert close(c.penetration, expected["penetration"], 1e-11)
+    assert close(c.passivity_margin, expected["passivity_margin"], 1e-11)
 
 
 def test_the_paper_optimum_is_unstable_behind_the_filters():

@@ -69,8 +69,8 @@ class Costs:
     with the proven stop reached; passivity_margin: the Colgate-Schenkel margin (passivity.hpp,
     with the loop delay), None for a fractional delay, which that condition does not cover.
     force_noise_gain: g_F, sigma_F = (m q / T^2) g_F (quantisation force noise, velocity_estimator.hpp).
-    With a velocity estimator other than backward the collision criteria, the penetration and the
-    passivity margin are not modelled: None."""
+    Every field is the loop's with its velocity estimator (velocity_estimator.hpp, estimator_impulse.hpp,
+    estimator_passivity.hpp)."""
 
     stable: bool
     spectral_radius: float
@@ -79,10 +79,10 @@ class Costs:
     ce2: float
     ov: float
     no_overshoot: bool
-    ci0: Optional[float]
-    ci1: Optional[float]
-    ci2: Optional[float]
-    penetration: Optional[float]
+    ci0: float
+    ci1: float
+    ci2: float
+    penetration: float
     passivity_margin: Optional[float]
     force_noise_gain: float = math.inf
     velocity_estimator: VelocityEstimator = VelocityEstimator()
@@ -91,10 +91,7 @@ class Costs:
         """The cost by criterion name: costs["CE2"]."""
         if criterion not in CRITERIA_WITH_SURFACE:
             raise ValueError(f"Costs: criterion = {criterion!r} is invalid; accepted: {', '.join(CRITERIA_WITH_SURFACE)}")
-        value = getattr(self, criterion.lower())
-        if value is None:
-            raise ValueError(f"Costs: {criterion} is not modelled with the velocity estimator {self.velocity_estimator}")
-        return float(value)
+        return float(getattr(self, criterion.lower()))
 
 
 @dataclass(frozen=True)
@@ -140,8 +137,8 @@ def costs(alpha: float, beta: float, plant: Optional[Plant] = None, *, overshoot
           estimator: EstimatorLike = None) -> Costs:
     """C_E0..2, C_OV, C_I0..2, penetration, stability, passivity margin and g_F at one point (what
     `hapticopt cost --json` prints). NaN or infinite gains raise InvalidParameterError. With a velocity
-    estimator other than backward (`hapticopt cost --velocity`): stability, C_E0..2, C_OV and g_F of the
-    estimator's loop; the collision criteria, penetration and passivity margin are None."""
+    estimator other than backward (`hapticopt cost --velocity`): every field of the estimator's loop (collision
+    criteria: estimator_impulse.hpp; passivity: estimator_passivity.hpp, None for a fractional delay)."""
     e = velocity_estimator(estimator)
     if e.kind == "backward":
         d = _core.point_costs(*_plant_args(plant), float(alpha), float(beta), float(overshoot_tolerance))
@@ -149,8 +146,9 @@ def costs(alpha: float, beta: float, plant: Optional[Plant] = None, *, overshoot
     d = _core.estimator_point_costs(*_plant_args(plant), float(alpha), float(beta), *e.args(),
                                     float(overshoot_tolerance))
     return Costs(stable=d["stable"], spectral_radius=d["spectral_radius"], ce0=d["ce0"], ce1=d["ce1"], ce2=d["ce2"],
-                 ov=d["ov"], no_overshoot=d["no_overshoot"], ci0=None, ci1=None, ci2=None, penetration=None,
-                 passivity_margin=None, force_noise_gain=d["force_noise_gain"], velocity_estimator=e)
+                 ov=d["ov"], no_overshoot=d["no_overshoot"], ci0=d["ci0"], ci1=d["ci1"], ci2=d["ci2"],
+                 penetration=d["penetration"], passivity_margin=d["passivity_margin"],
+                 force_noise_gain=d["force_noise_gain"], velocity_estimator=e)
 
 
 def force_noise_gain(alpha: float, beta: float, plant: Optional[Plant] = None, *,
