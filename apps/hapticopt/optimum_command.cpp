@@ -184,7 +184,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
     robust->needs(mass);
     CLI::Option* passive =
         sub->add_flag("--passive", args->passive,
-                      "best gains within the Colgate-Schenkel passive set with the delay (delta > max_theta R(theta), "
+                      "best gains within the Colgate-Schenkel passive set with the delay and the --velocity estimator "
+                      "(delta > max_theta R(theta), "
                       "integer delays only); CE0..2, CI0..2 only");
     passive->excludes(robust);
     args->velocity.add_to(*sub);
@@ -292,12 +293,16 @@ CommandRunner add_optimum_command(CLI::App& app) {
             if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
             return int{kOk};
         }
-        if (estimator.kind != VelocityEstimatorKind::backward) {
+        if (estimator.kind != VelocityEstimatorKind::backward && args->robust) {
+            std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
+                      << " with --robust is invalid: the robust optimum models the backward difference\n";
+            return int{kUsage};
+        }
+        if (estimator.kind != VelocityEstimatorKind::backward && !args->passive) {
             const auto step = parse_criterion(args->criterion);
-            if (args->robust || args->passive || (!impulse && (!step || *step == Criterion::Overshoot))) {
+            if (!impulse && (!step || *step == Criterion::Overshoot)) {
                 std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
-                          << " supports amax, CE0..2, CE0+OV..CE2+OV and CI0..2 without --robust and --passive (not "
-                          << args->criterion << ")\n";
+                          << " supports amax, CE0..2, CE0+OV..CE2+OV and CI0..2 (not " << args->criterion << ")\n";
                 return int{kUsage};
             }
             const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
@@ -409,7 +414,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
         bool on_edge = false;
         if (args->passive) {
             const int k = impulse ? energy_index(*impulse) : *energy_index(*parse_criterion(args->criterion));
-            const auto po = impulse ? passive_impulse_optimum(k, np) : passive_optimum(k, np);
+            const auto po = impulse ? passive_impulse_optimum(k, np, estimator) : passive_optimum(k, np, estimator);
             if (!po) {
                 if (args->json) {
                     nlohmann::json out;
@@ -427,7 +432,9 @@ CommandRunner add_optimum_command(CLI::App& app) {
             alpha = po->alpha;
             beta = po->beta;
             cost = po->cost;
-            alpha_max = StabilityRegion(np).alpha_max();
+            alpha_max = estimator.kind == VelocityEstimatorKind::backward
+                            ? StabilityRegion(np).alpha_max()
+                            : EstimatorStabilityRegion(np, estimator).alpha_max();
         } else if (impulse) {
             const ImpulseOptimum o = optimal_point(*impulse, np);
             alpha = o.alpha;
@@ -444,7 +451,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             alpha_max = o.alpha_max;
         }
         const bool covered = passivity_is_covered(np);
-        const double margin = covered ? passivity_margin(np, NormalizedGains{alpha, beta}) : 0.0;
+        const double margin = covered ? passivity_margin(np, NormalizedGains{alpha, beta}, estimator) : 0.0;
         WallGains g{0, 0};
         if (physical) g = to_physical(NormalizedGains{alpha, beta}, plant.mass, plant.period);
         if (args->json) {
@@ -455,7 +462,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             out["cost"] = cost ? nlohmann::json(*cost) : nlohmann::json(nullptr);
             out["alpha_max"] = alpha_max;
             out["velocity_estimator"] = velocity_json(estimator);
-            out["force_noise_gain"] = number_or_null(force_noise_gain(np, NormalizedGains{alpha, beta}));
+            out["force_noise_gain"] = number_or_null(force_noise_gain(np, NormalizedGains{alpha, beta}, estimator));
             if (args->passive) out["passive_constraint"] = true;
             if (depth) {
                 out["penetration"] = *depth;

@@ -43,15 +43,20 @@
 // beta bounds the lower end) and doubles until g >= delta at both ends; then Brent on g and bisection on each side.
 // The largest passive alpha: bisection on the convex h(alpha) = min_beta g over (0, 2 delta). The backward difference
 // goes to passivity.hpp's functions (identical numbers). Integer delays only (passivity.hpp).
+// The passive optima (passive_optimum, passive_impulse_optimum with an estimator): the minimum of C_Ep or C_Ip over
+// the main stable region (EstimatorStabilityRegion) intersected with the passive beta interval, by
+// minimize_on_region (region_minimum.hpp), as passivity.hpp's passive_minimum does for the backward difference.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
 #include "config.hpp"
+#include "estimator_impulse.hpp"
 #include "passivity.hpp"
 #include "velocity_estimator.hpp"
 
@@ -276,6 +281,70 @@ HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& 
     if (estimator.kind == VelocityEstimatorKind::backward) return passive_polygon(plant, points);
     return detail::passive_outline(largest_passive_alpha(plant, estimator), points,
                                    [&](double a) { return passive_beta_interval(plant, a, estimator); });
+}
+#else
+    ;
+#endif
+
+/// The minimum of cost(alpha, beta) over the stable passive gains with the estimator: alpha in (0, min(largest
+/// passive alpha, alpha_max of the main region)), beta in the main region's interval clipped to the passive one;
+/// nullopt when there are none (delta = 0, or the passive set misses the main region). The margin at the point is
+/// passivity_margin with the estimator (>= 0 up to the intervals' bisection; ~0 on the passive edge).
+template <typename Cost>
+std::optional<PassiveOptimum> passive_minimum(const NormalizedPlant& plant, const VelocityEstimator& estimator,
+                                              Cost&& cost, const RegionSearchOptions& options) {
+    const EstimatorStabilityRegion region(plant, estimator);
+    const double a1 = std::min(largest_passive_alpha(plant, estimator).alpha, region.alpha_max());
+    if (!(a1 > 0)) return std::nullopt;
+    auto interval = [&](double a) -> std::pair<double, double> {
+        const auto [plo, phi] = passive_beta_interval(plant, a, estimator);
+        const auto [lo, hi] = region.beta_interval(a);
+        if (!(phi > plo) || !(hi > lo)) return {0.0, 0.0};
+        return {std::max(lo, plo), std::min(hi, phi)};
+    };
+    const RegionMinimum m = minimize_on_region(cost, 0.0, a1, interval, options);
+    if (!std::isfinite(m.value)) return std::nullopt;
+    return PassiveOptimum{m.alpha, m.beta, m.value,
+                          passivity_margin(plant, NormalizedGains{m.alpha, m.beta}, estimator)};
+}
+
+/// Best passive gains for the step criterion C_E<index> (index 0..2) with the estimator; the backward difference is
+/// passive_optimum(index, plant, options) of passivity.hpp. Throws InvalidParameter for an index outside 0..2, a
+/// fractional delay or an invalid estimator.
+HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_optimum(int index, const NormalizedPlant& plant,
+                                                             const VelocityEstimator& estimator,
+                                                             const RegionSearchOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
+    detail::require_in_range("hapticopt::passive_optimum", "index", index, 0, false, 2, "0, 1 or 2");
+    detail::integer_delay(plant.delay, "hapticopt::passive_optimum");
+    validate(estimator, "hapticopt::passive_optimum");
+    if (estimator.kind == VelocityEstimatorKind::backward) return passive_optimum(index, plant, options);
+    const SampledPlant<double> sampled(plant);
+    auto c = [&](double a, double b) {
+        const EnergyCosts e = estimator_energy_costs(sampled, estimator, a, b);
+        return index == 0 ? e.ce0 : index == 1 ? e.ce1 : e.ce2;
+    };
+    return passive_minimum(plant, estimator, c, options);
+}
+#else
+    ;
+#endif
+
+/// Best passive gains for the collision criterion C_I<index> (index 0..2) with the estimator; the backward
+/// difference is passive_impulse_optimum(index, plant, options) of passivity.hpp.
+HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_impulse_optimum(int index, const NormalizedPlant& plant,
+                                                                     const VelocityEstimator& estimator,
+                                                                     const RegionSearchOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
+    detail::require_in_range("hapticopt::passive_impulse_optimum", "index", index, 0, false, 2, "0, 1 or 2");
+    detail::integer_delay(plant.delay, "hapticopt::passive_impulse_optimum");
+    validate(estimator, "hapticopt::passive_impulse_optimum");
+    if (estimator.kind == VelocityEstimatorKind::backward) return passive_impulse_optimum(index, plant, options);
+    const SampledPlant<double> sampled(plant);
+    auto c = [&](double a, double b) { return estimator_impulse_costs(sampled, estimator, a, b)[index]; };
+    return passive_minimum(plant, estimator, c, options);
 }
 #else
     ;

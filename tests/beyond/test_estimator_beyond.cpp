@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -481,6 +482,63 @@ TEST(EstimatorPassivity, InputsAreValidated) {
                  hapticopt::InvalidParameter);
     // A negative stiffness is never passive (passivity.hpp), whatever the estimator.
     EXPECT_LT(hapticopt::passivity_margin(NormalizedPlant{0.0, 0.02, 1.0}, {-0.001, 0.0}, e), 0.0);
+}
+
+// The passive optima with the estimator (passive_optimum, passive_impulse_optimum): the reported gains are
+// passive in the independent complex form (its maximum over 2 x 10^4 frequencies, which can only fall short of the
+// true maximum, and R(0) = alpha (d + 1/2) - beta, stay below delta up to the complex form's rounding, 1e-12), stable
+// by the eigenvalues of the loop matrix (Eigen's real Schur form, not the Schur-Cohn verdict that built the region),
+// and no point of a 30 x 30 grid over the stable passive set is better. The grid tolerance: the search stops at
+// Brent's alpha tolerance 1e-10 of the alpha range; where the optimum lies on the passive edge the cost's slope along
+// alpha, relative to the cost, is below 100 per alpha range here, so 1e-8 relative.
+TEST(EstimatorPassivity, PassiveOptimumIsPassiveStableAndNoPassiveGridPointIsBetter) {
+    int checked = 0;
+    for (const VelocityEstimator& e : {VelocityEstimator::low_pass(0.1), VelocityEstimator::moving_window(5)}) {
+        for (const double d : {0.0, 1.0}) {
+            const NormalizedPlant plant{0.0, 0.02, d};
+            const hapticopt::SampledPlant<double> sampled(plant);
+            const hapticopt::EstimatorStabilityRegion region(plant, e);
+            for (const bool impulse : {false, true}) {
+                const auto o =
+                    impulse ? hapticopt::passive_impulse_optimum(2, plant, e) : hapticopt::passive_optimum(2, plant, e);
+                ASSERT_TRUE(o.has_value()) << "kind=" << int(e.kind) << " d=" << d;
+                auto cost = [&](double a, double b) {
+                    return impulse ? hapticopt::estimator_impulse_costs(sampled, e, a, b).ci2
+                                   : hapticopt::estimator_energy_costs(sampled, e, a, b).ce2;
+                };
+                EXPECT_NEAR(cost(o->alpha, o->beta), o->cost, 1e-12 * o->cost);
+                const NormalizedGains g{o->alpha, o->beta};
+                double grid_max = g.alpha * (d + 0.5) - g.beta;
+                for (int i = 1; i <= 20000; ++i) {
+                    grid_max = std::max(grid_max, complex_condition(g, static_cast<int>(d), e, kPi * i / 20000));
+                }
+                EXPECT_LT(grid_max, plant.delta + 1e-12) << "kind=" << int(e.kind) << " d=" << d;
+                EXPECT_GE(o->margin, -1e-12);
+                const hapticopt::ClosedLoop<double> loop =
+                    hapticopt::make_estimator_impulse_loop(sampled, e, g.alpha, g.beta);
+                const Eigen::VectorXcd eig = Eigen::EigenSolver<Eigen::MatrixXd>(loop.transition).eigenvalues();
+                EXPECT_LT(eig.cwiseAbs().maxCoeff(), 1.0) << "kind=" << int(e.kind) << " d=" << d;
+                const double top = std::min(hapticopt::largest_passive_alpha(plant, e).alpha, region.alpha_max());
+                for (int i = 1; i < 30; ++i) {
+                    const double a = top * i / 30;
+                    const auto [plo, phi] = hapticopt::passive_beta_interval(plant, a, e);
+                    const auto [slo, shi] = region.beta_interval(a);
+                    const double lo = std::max(plo, slo), hi = std::min(phi, shi);
+                    for (int j = 0; j < 30 && hi > lo; ++j) {
+                        const double b = lo + (j + 0.5) * (hi - lo) / 30;
+                        EXPECT_GE(cost(a, b), o->cost * (1 - 1e-8)) << "alpha=" << a << " beta=" << b;
+                        ++checked;
+                    }
+                }
+            }
+        }
+    }
+    EXPECT_GT(checked, 5000);
+    EXPECT_THROW(hapticopt::passive_optimum(3, NormalizedPlant{0, 0.02, 1}, VelocityEstimator::low_pass(0.1)),
+                 hapticopt::InvalidParameter);
+    EXPECT_THROW(hapticopt::passive_optimum(2, NormalizedPlant{0, 0.02, 1.5}, VelocityEstimator::low_pass(0.1)),
+                 hapticopt::InvalidParameter);
+    EXPECT_FALSE(hapticopt::passive_optimum(2, NormalizedPlant{0, 0.0, 1}, VelocityEstimator::low_pass(0.1)));
 }
 
 }  // namespace estimator_beyond_test

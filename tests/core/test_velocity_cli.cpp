@@ -132,6 +132,26 @@ TEST(VelocityCli, OptimumWithEstimator) {
     EXPECT_EQ(ci["penetration"].get<double>(), o.penetration);
     EXPECT_EQ(ci["passivity_margin"].get<double>(),
               passivity_margin({0, 0.02, 1}, {o.alpha, o.beta}, VelocityEstimator::moving_window(15)));
+    // --passive with the estimator: estimator_passivity.hpp's passive optimum, its margin and the main region's tip.
+    const auto [code5, passive] =
+        run_velocity_command(add_optimum_command, {"optimum", "--criterion", "CE2", "--passive", "--velocity",
+                                                   "lowpass:0.1", "--delay", "1", "--delta", "0.02", "--json"});
+    ASSERT_EQ(code5, 0);
+    const VelocityEstimator lp = VelocityEstimator::low_pass(0.1);
+    const auto po = passive_optimum(2, {0, 0.02, 1}, lp);
+    ASSERT_TRUE(po.has_value());
+    EXPECT_EQ(passive["alpha"].get<double>(), po->alpha);
+    EXPECT_EQ(passive["beta"].get<double>(), po->beta);
+    EXPECT_EQ(passive["cost"].get<double>(), po->cost);
+    EXPECT_EQ(passive["passivity_margin"].get<double>(), passivity_margin({0, 0.02, 1}, {po->alpha, po->beta}, lp));
+    EXPECT_TRUE(passive["passive"].get<bool>());
+    EXPECT_EQ(passive["alpha_max"].get<double>(), EstimatorStabilityRegion({0, 0.02, 1}, lp).alpha_max());
+    EXPECT_EQ(passive["velocity_estimator"]["kind"], "lowpass");
+    // The robust optimum models the backward difference only.
+    const auto [code6, robust] =
+        run_velocity_command(add_optimum_command, {"optimum", "--criterion", "CE2", "--robust", "--mass", "0.2:0.3",
+                                                   "--period", "0.001", "--velocity", "window:5", "--json"});
+    EXPECT_EQ(code6, int{kUsage});
 }
 
 // `boundary --velocity`: the main region's boundary by estimator_region_boundary. Window 1 is the backward
