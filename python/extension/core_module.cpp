@@ -416,15 +416,29 @@ py::dict robust_optimum_of(const std::string& criterion, std::pair<double, doubl
     return d;
 }
 
-std::optional<py::dict> passive_optimum_of(const std::string& criterion, double gamma, double delta, double delay) {
+/// The estimator from the Python package's fields (kind "backward", "lowpass" or "window"); the library's
+/// factories validate nu and N (InvalidParameter naming `cutoff` or `window`).
+VelocityEstimator estimator_of(const std::string& kind, double cutoff, int window) {
+    if (kind == "backward") return VelocityEstimator::backward_difference();
+    if (kind == "lowpass") return VelocityEstimator::low_pass(cutoff);
+    if (kind == "window") return VelocityEstimator::moving_window(window);
+    throw py::value_error("hapticopt.VelocityEstimator: kind = '" + kind +
+                          "' is invalid; accepted: backward, lowpass, window");
+}
+
+/// The best passive gains with the loop's estimator (estimator_passivity.hpp; the backward difference is
+/// passivity.hpp's optimum).
+std::optional<py::dict> passive_optimum_of(const std::string& criterion, double gamma, double delta, double delay,
+                                           const std::string& kind, double cutoff, int window) {
     const NormalizedPlant np = plant_of(gamma, delta, delay);
+    const VelocityEstimator e = estimator_of(kind, cutoff, window);
     std::optional<PassiveOptimum> r;
     const auto c = parse_criterion(criterion);
     const auto ci = parse_impulse_criterion(criterion);
     if (c && energy_index(*c) && !requires_no_overshoot(*c)) {
-        without_gil([&] { r = passive_optimum(*energy_index(*c), np); });
+        without_gil([&] { r = passive_optimum(*energy_index(*c), np, e); });
     } else if (ci) {
-        without_gil([&] { r = passive_impulse_optimum(energy_index(*ci), np); });
+        without_gil([&] { r = passive_impulse_optimum(energy_index(*ci), np, e); });
     } else {
         throw py::value_error("hapticopt.passive_optimum: criterion = '" + criterion +
                               "' is invalid; accepted: " + energy_and_collision_names());
@@ -436,16 +450,6 @@ std::optional<py::dict> passive_optimum_of(const std::string& criterion, double 
     d["cost"] = r->cost;
     d["margin"] = r->margin;
     return d;
-}
-
-/// The estimator from the Python package's fields (kind "backward", "lowpass" or "window"); the library's
-/// factories validate nu and N (InvalidParameter naming `cutoff` or `window`).
-VelocityEstimator estimator_of(const std::string& kind, double cutoff, int window) {
-    if (kind == "backward") return VelocityEstimator::backward_difference();
-    if (kind == "lowpass") return VelocityEstimator::low_pass(cutoff);
-    if (kind == "window") return VelocityEstimator::moving_window(window);
-    throw py::value_error("hapticopt.VelocityEstimator: kind = '" + kind +
-                          "' is invalid; accepted: backward, lowpass, window");
 }
 
 /// Stability, C_E0..2, C_OV, C_I0..2, the penetration, the passivity margin and g_F at one point with the
@@ -653,8 +657,10 @@ PYBIND11_MODULE(_core, m) {
     m.def("optimal_curve", &optimal_curve_of);
     m.def("optimal_point", &optimal_point_of);
     m.def("robust_optimum", &robust_optimum_of);
-    m.def("passivity_margin", [](double gamma, double delta, double delay, double alpha, double beta) {
-        return passivity_margin(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta});
+    m.def("passivity_margin", [](double gamma, double delta, double delay, double alpha, double beta,
+                                 const std::string& kind, double cutoff, int window) {
+        return passivity_margin(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta},
+                                estimator_of(kind, cutoff, window));
     });
     m.def("passive_optimum", &passive_optimum_of);
     m.def("estimator_stability", &estimator_stability_of);

@@ -211,14 +211,17 @@ def penetration(alpha: float, beta: float, plant: Optional[Plant] = None, *,
     return Penetration(*_core.penetration(*_plant_args(plant), float(alpha), float(beta), int(max_periods)))
 
 
-def passivity_margin(alpha: float, beta: float, plant: Optional[Plant] = None) -> float:
+def passivity_margin(alpha: float, beta: float, plant: Optional[Plant] = None, *,
+                     estimator: EstimatorLike = None) -> float:
     """Colgate-Schenkel margin with the loop delay z^-d (passivity.hpp): mu = delta - max_theta R(theta),
     R = Re{(1 - e^{-i theta}) e^{-i d theta} (alpha + beta (1 - e^{-i theta}))} / (2 (1 - cos theta));
-    for d = 0, mu = delta - alpha/2 - |beta|. Passive iff mu > 0. Integer delays only (a fractional
+    for d = 0, mu = delta - alpha/2 - |beta|. Passive iff mu > 0. With a velocity estimator the damper is
+    beta D(z) instead of beta (1 - z^-1) (estimator_passivity.hpp). Integer delays only (a fractional
     one raises InvalidParameterError naming `delay`)."""
-    return float(_core.passivity_margin(*_plant_args(plant), float(alpha), float(beta)))
+    e = velocity_estimator(estimator)
+    return float(_core.passivity_margin(*_plant_args(plant), float(alpha), float(beta), *e.args()))
 
 
-def is_passive(alpha: float, beta: float, plant: Optional[Plant] = None) -> bool:
+def is_passive(alpha: float, beta: float, plant: Optional[Plant] = None, *, estimator: EstimatorLike = None) -> bool:
     """passivity_margin(...) > 0."""
-    return passivity_margin(alpha, beta, plant) > 0
+    return passivity_margin(alpha, beta, plant, estimator=estimator) > 0

@@ -137,13 +137,15 @@ class RobustOptimum:
 
 @dataclass(frozen=True)
 class PassiveOptimum:
-    """The best passive gains and the passivity margin there (>= 0, ~0 on the edge)."""
+    """The best passive gains and the passivity margin there (>= 0, ~0 on the edge), for the loop's velocity
+    estimator."""
 
     criterion: str
     alpha: float
     beta: float
     cost: float
     margin: float
+    velocity_estimator: VelocityEstimator = VelocityEstimator()
 
 
 def optimal_curve(criterion: str, alpha: npt.ArrayLike, plant: Optional[Plant] = None, *,
@@ -215,11 +217,15 @@ def robust_optimum(criterion: str, *, mass: Range, period: float, damping: Range
                          nominal_stable_over_box=d["nominal_stable_over_box"])
 
 
-def passive_optimum(criterion: str, plant: Optional[Plant] = None) -> Optional[PassiveOptimum]:
+def passive_optimum(criterion: str, plant: Optional[Plant] = None, *,
+                    estimator: EstimatorLike = None) -> Optional[PassiveOptimum]:
     """The minimum of CE0..2 or CI0..2 over the stable passive gains; None when there are none
-    (delta = 0: no gains satisfy delta > alpha/2 + |beta|)."""
-    d = _core.passive_optimum(str(criterion), *_plant_args(plant))
-    return None if d is None else PassiveOptimum(criterion=str(criterion), **d)
+    (delta = 0: no gains satisfy delta > alpha/2 + |beta|). With a velocity estimator other than backward
+    (`hapticopt optimum --passive --velocity`): over the estimator loop's main stable region clipped to its
+    passive beta interval (estimator_passivity.hpp)."""
+    e = velocity_estimator(estimator)
+    d = _core.passive_optimum(str(criterion), *_plant_args(plant), *e.args())
+    return None if d is None else PassiveOptimum(criterion=str(criterion), velocity_estimator=e, **d)
 
 
 @dataclass(frozen=True)
