@@ -480,7 +480,10 @@ CommandRunner add_optimum_command(CLI::App& app) {
             std::cout << out.dump() << '\n';
             return int{kOk};
         }
-        std::printf("criterion  %s\nalpha      %.10f\nbeta       %.10f\n", args->criterion.c_str(), alpha, beta);
+        std::printf("criterion  %s\n", args->criterion.c_str());
+        if (estimator.kind != VelocityEstimatorKind::backward)
+            std::printf("velocity   %s\n", velocity_text(estimator).c_str());
+        std::printf("alpha      %.10f\nbeta       %.10f\n", alpha, beta);
         if (cost) std::printf("cost       %.10g\n", *cost);
         if (depth) std::printf("penetration %.10g v0 T\n", *depth);
         if (on_edge) std::printf("note       the infimum lies on the region's edge alpha -> -gamma (pure damper)\n");
