@@ -35,6 +35,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "config.hpp"
 #include "criterion.hpp"
@@ -207,22 +208,32 @@ HAPTICOPT_FUNC PenetrationResult penetration(const NormalizedPlant& plant, const
 /// plant, options) of impulse_optimum.hpp. The default search grid is 96 x 96 (not region_minimum.hpp's 24 x 16):
 /// with a heavy low-pass the cost has a valley in beta that narrows towards alpha -> 0, which the coarse grid misses
 /// (measured: nu = 0.02, d = 0, C_I2: a local minimum 1767 at alpha = 0.0052 on 24 x 16, the edge infimum 487 on
-/// 96 x 96; tests/beyond/test_estimator_beyond.cpp). Throws InvalidParameter for an invalid estimator or options.
+/// 96 x 96; tests/beyond/test_estimator_beyond.cpp); without `options` the backward difference keeps its own default.
+/// An empty main region (alpha_max = 0, e.g. a low-pass so slow that lambda rounds to 1): cost and penetration
+/// +inf at (0, 0). Throws InvalidParameter for an invalid estimator or options.
 HAPTICOPT_FUNC ImpulseOptimum optimal_point(ImpulseCriterion criterion, const NormalizedPlant& plant,
                                             const VelocityEstimator& estimator,
-                                            const RegionSearchOptions& options = RegionSearchOptions{96, 96})
+                                            const std::optional<RegionSearchOptions>& options = std::nullopt)
 #if HAPTICOPT_DEFINITIONS
 {
     validate(estimator, "hapticopt::optimal_point");
-    if (estimator.kind == VelocityEstimatorKind::backward) return optimal_point(criterion, plant, options);
+    if (estimator.kind == VelocityEstimatorKind::backward)
+        return options ? optimal_point(criterion, plant, *options) : optimal_point(criterion, plant);
     const EstimatorStabilityRegion region(plant, estimator);
+    ImpulseOptimum out;
+    out.criterion = criterion;
+    out.alpha_max = region.alpha_max();
+    if (!(out.alpha_max > 0)) {
+        out.cost = HUGE_VAL;
+        out.penetration = HUGE_VAL;
+        return out;
+    }
     const SampledPlant<double> sampled(plant);
     const int index = energy_index(criterion);
     auto cost = [&](double a, double b) { return estimator_impulse_costs(sampled, estimator, a, b)[index]; };
     auto interval = [&](double a) { return region.beta_interval(a); };
-    const RegionMinimum m = minimize_on_region(cost, 0.0, region.alpha_max(), interval, options);
-    ImpulseOptimum out;
-    out.criterion = criterion;
+    const RegionMinimum m =
+        minimize_on_region(cost, 0.0, region.alpha_max(), interval, options.value_or(RegionSearchOptions{96, 96}));
     out.alpha = m.alpha;
     out.beta = m.beta;
     out.cost = m.value;
@@ -230,7 +241,6 @@ HAPTICOPT_FUNC ImpulseOptimum optimal_point(ImpulseCriterion criterion, const No
         estimator_penetration(sampled, estimator, m.alpha, m.beta, ImpulseOptimum::kPenetrationPeriods);
     out.penetration = pen.depth;
     out.penetration_converged = pen.converged;
-    out.alpha_max = region.alpha_max();
     out.on_region_edge = m.alpha < 1e-6 * region.alpha_max();
     return out;
 }

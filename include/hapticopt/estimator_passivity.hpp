@@ -21,7 +21,7 @@
 // (lambda -> 0 gives the backward difference.) Every estimator: R(theta = 0) = alpha (d + 1/2) - beta (D(z) ~ 1 - z^-1
 // at low frequency), and the mean of R over theta in [0, pi] is alpha / 2 (the beta term has mean 0: for the
 // window sum of cos k theta, k >= 1; for the low-pass by the Poisson kernel 1/q = (1 + 2 sum lambda^k cos k theta)
-// / (1 - lambda^2), whose products with lambda T_d - T_{d+1} have mean (lambda^{d+1} - lambda^{d+1}) / 2 = 0), so
+// / (1 - lambda^2), whose products with lambda T_d - T_{d+1} have mean lambda^{d+1} - lambda^{d+1} = 0), so
 // a passive wall has alpha < 2 delta whatever the estimator.
 //
 // Method (exact maximum, the cascade of passivity.hpp generalised to R = s / q with q of degree <= 1, q = 1 for the
@@ -32,9 +32,14 @@
 // T_{|m-n|}) / 2; values by Clenshaw's recurrence.
 // Error bound (`error_bound`): on a bracket [lo, hi] of a zero of u, u is monotone, so |R'| <= max(|u(lo)|, |u(hi)|)
 // / min(q(lo), q(hi))^2 there (q is linear) and the maximum inside exceeds R(midpoint) by at most half the width
-// times that; plus a rounding allowance 8 (deg s + 2)^2 u_r sum |s_k| / q_min (Clenshaw's error, q_min = (1 -
-// lambda)^2 or 1), u_r the unit roundoff. Checked in tests/beyond/test_estimator_beyond.cpp against a fine theta grid
-// of the complex form. Cost O((d + N)^3) flops (window) or O(d^3) (low-pass), ~60 bisection steps per bracket.
+// times that; plus a rounding allowance 8 (deg s + 2)^2 u_r times the value's scale: sum |s_k| for the window; for
+// the low-pass, whose R is evaluated as alpha D_d / 2 + beta (1 - lambda)(lambda T_d - T_{d+1}) / q with
+// q = (1 - lambda)^2 + 2 lambda (1 - c) (no cancellation near c = 1, 1 - lambda by expm1), alpha (d + 1/2) +
+// |beta| (1 + lambda) / (1 - lambda); u_r the unit roundoff. Checked in tests/beyond/test_estimator_beyond.cpp
+// against a fine theta grid of the complex form and, for slow low-passes, against the exact R(0). Verified up to
+// degree 200 of s (d + N for the window, d + 1 for the low-pass; InvalidParameter naming `delay` beyond): the
+// cascade's coefficients grow like degree^order and lose their digits past it. Cost O((d + N)^3) flops (window) or
+// O(d^3) (low-pass), ~60 bisection steps per bracket.
 //
 // The margin, the passive beta interval and the largest passive alpha as in passivity.hpp: mu = delta - max R
 // (alpha >= 0), min(mu, alpha) for alpha < 0. g(beta) = max R is convex in beta (a maximum of affine functions) and
@@ -85,9 +90,30 @@ inline std::vector<ChebyshevBracket> chebyshev_sign_changes(const std::vector<do
     return chebyshev_cascade_zeros(derivative, 0);
 }
 
-/// R = s / q of the header: Chebyshev coefficients of s and of q (q = {1} for the FIR estimators).
+/// Largest Chebyshev degree of s (window: d + N; low-pass: d + 1) whose derivative cascade is verified
+/// (tests/beyond/test_estimator_beyond.cpp, at this degree against a direct cosine sum): beyond it the cascade's
+/// coefficients (growing like degree^order) lose their digits and sign changes can be missed.
+inline constexpr int kMaxEstimatorPassivityDegree = 200;
+
+/// The delay as an integer, and the degree of s within kMaxEstimatorPassivityDegree; throws InvalidParameter
+/// naming `delay` otherwise.
+inline int estimator_passivity_delay(double delay, const VelocityEstimator& estimator, const char* function) {
+    const int d = integer_delay(delay, function);
+    const int order = estimator.kind == VelocityEstimatorKind::window ? estimator.window : 1;
+    if (estimator.kind != VelocityEstimatorKind::backward && d > kMaxEstimatorPassivityDegree - order) {
+        throw InvalidParameter(function, "delay", delay,
+                               "an integer number of periods with delay + window <= 200 (low-pass: delay <= 199), "
+                               "the degree up to which the passivity condition's exact maximum is verified");
+    }
+    return d;
+}
+
+/// R = s / q of the header: Chebyshev coefficients of s and of q (q = {1} for the FIR estimators); for the
+/// low-pass also 1 - lambda (by expm1) and lambda, for the cancellation-free forms of the value (below).
 struct PassivityRational {
     std::vector<double> s, q;
+    std::vector<double> alpha_part, beta_part;  ///< low-pass: alpha D_d / 2 and lambda T_d - T_{d+1}
+    double one_minus_lambda = 1.0, lambda = 0.0;
 };
 
 inline PassivityRational estimator_passivity_rational(const NormalizedGains& gains, int delay,
@@ -97,7 +123,13 @@ inline PassivityRational estimator_passivity_rational(const NormalizedGains& gai
     PassivityRational r;
     if (estimator.kind == VelocityEstimatorKind::lowpass) {
         const double lambda = std::exp(-2.0 * kPassivityPi * estimator.cutoff);
+        r.lambda = lambda;
+        r.one_minus_lambda = -std::expm1(-2.0 * kPassivityPi * estimator.cutoff);
         r.q = {1 + lambda * lambda, -2 * lambda};
+        r.alpha_part = p;
+        r.beta_part.assign(static_cast<std::size_t>(delay) + 2, 0.0);
+        r.beta_part[static_cast<std::size_t>(delay)] = lambda;
+        r.beta_part[static_cast<std::size_t>(delay) + 1] = -1.0;
         r.s = chebyshev_product(p, r.q);
         r.s.resize(static_cast<std::size_t>(delay) + 2, 0.0);
         r.s[static_cast<std::size_t>(delay)] += gains.beta * (1 - lambda) * lambda;
@@ -112,6 +144,16 @@ inline PassivityRational estimator_passivity_rational(const NormalizedGains& gai
     return r;
 }
 
+/// R(c) without the cancellations of s / q near c = 1 (slow low-pass: q ~ (1 - lambda)^2): the alpha part
+/// alpha D_d / 2 by Clenshaw, the beta part beta (1 - lambda)(lambda T_d - T_{d+1}) / q with
+/// q = (1 - lambda)^2 + 2 lambda (1 - c) (1 - c exact near c = 1); the window's R is s itself.
+inline double estimator_passivity_value(const PassivityRational& r, double beta, double c) {
+    if (r.q.size() == 1) return chebyshev_value(r.s.data(), static_cast<int>(r.s.size()), c);
+    const double q = r.one_minus_lambda * r.one_minus_lambda + 2 * r.lambda * (1 - c);
+    return chebyshev_value(r.alpha_part.data(), static_cast<int>(r.alpha_part.size()), c) +
+           beta * r.one_minus_lambda * chebyshev_value(r.beta_part.data(), static_cast<int>(r.beta_part.size()), c) / q;
+}
+
 }  // namespace detail
 
 /// R(theta) of the header with the estimator (closed form s(c) / q(c)), the right-hand side of delta > R.
@@ -121,12 +163,10 @@ inline double passivity_condition(const NormalizedGains& gains, double delay, do
     const char* fn = "hapticopt::passivity_condition";
     validate(gains, fn);
     validate(estimator, fn);
-    const int d = detail::integer_delay(delay, fn);
+    const int d = detail::estimator_passivity_delay(delay, estimator, fn);
     detail::require_in_range(fn, "theta", theta, 0.0, false, detail::kPassivityPi, "0 <= theta <= pi");
     const detail::PassivityRational r = detail::estimator_passivity_rational(gains, d, estimator);
-    const double c = std::cos(theta);
-    return detail::chebyshev_value(r.s.data(), static_cast<int>(r.s.size()), c) /
-           detail::chebyshev_value(r.q.data(), static_cast<int>(r.q.size()), c);
+    return detail::estimator_passivity_value(r, gains.beta, std::cos(theta));
 }
 
 /// The exact maximum over theta in [0, pi] of R with the estimator (header: derivative cascade on u = s' q - s q',
@@ -138,17 +178,17 @@ HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const Norma
     const char* fn = "hapticopt::passivity_condition_maximum";
     validate(gains, fn);
     validate(estimator, fn);
-    const int d = detail::integer_delay(delay, fn);
+    const int d = detail::estimator_passivity_delay(delay, estimator, fn);
     if (estimator.kind == VelocityEstimatorKind::backward) return passivity_condition_maximum(gains, delay);
     const detail::PassivityRational r = detail::estimator_passivity_rational(gains, d, estimator);
     std::vector<double> u = detail::chebyshev_product(detail::chebyshev_derivative(r.s), r.q);  // s' q - s q'
     const double dq = r.q.size() > 1 ? r.q[1] : 0.0;
     if (u.size() < r.s.size()) u.resize(r.s.size(), 0.0);
     for (std::size_t k = 0; k < r.s.size(); ++k) u[k] -= r.s[k] * dq;
-    auto q_at = [&](double c) { return detail::chebyshev_value(r.q.data(), static_cast<int>(r.q.size()), c); };
-    auto value = [&](double c) {
-        return detail::chebyshev_value(r.s.data(), static_cast<int>(r.s.size()), c) / q_at(c);
+    auto q_at = [&](double c) {
+        return r.q.size() == 1 ? 1.0 : r.one_minus_lambda * r.one_minus_lambda + 2 * r.lambda * (1 - c);
     };
+    auto value = [&](double c) { return detail::estimator_passivity_value(r, gains.beta, c); };
     auto u_at = [&](double c) { return detail::chebyshev_value(u.data(), static_cast<int>(u.size()), c); };
     PassivityConditionMaximum best;
     best.value = value(1.0);
@@ -168,11 +208,17 @@ HAPTICOPT_FUNC PassivityConditionMaximum passivity_condition_maximum(const Norma
         const double slope = std::max(std::abs(u_at(z.lo)), std::abs(u_at(z.hi))) / (qmin * qmin);
         bracket_error = std::max(bracket_error, (z.hi - z.lo) / 2 * slope);
     }
-    double sum_abs = 0;
-    for (double a : r.s) sum_abs += std::abs(a);
-    const double q_min = r.q.size() > 1 ? r.q[0] - std::abs(r.q[1]) : 1.0;  // (1 - lambda)^2 for the low-pass
+    // Rounding of the value: Clenshaw's 8 (deg + 2)^2 u times the coefficients' sum for the window's s; for the
+    // low-pass the alpha part's sum plus the beta part's |beta| (1 - lambda)(1 + lambda) / q_min (q with relative
+    // error a few u, q_min = (1 - lambda)^2).
     const double deg = static_cast<double>(r.s.size()) + 1;
-    best.error_bound = bracket_error + 8.0 * deg * deg * (std::numeric_limits<double>::epsilon() / 2) * sum_abs / q_min;
+    double scale = 0;
+    if (r.q.size() == 1) {
+        for (double a : r.s) scale += std::abs(a);
+    } else {
+        scale = std::abs(gains.alpha) * (d + 0.5) + std::abs(gains.beta) * (1 + r.lambda) / r.one_minus_lambda;
+    }
+    best.error_bound = bracket_error + 8.0 * deg * deg * (std::numeric_limits<double>::epsilon() / 2) * scale;
     return best;
 }
 #else
@@ -189,7 +235,7 @@ HAPTICOPT_FUNC double passivity_margin(const NormalizedPlant& plant, const Norma
     validate(plant, fn);
     validate(gains, fn);
     validate(estimator, fn);
-    detail::integer_delay(plant.delay, fn);
+    detail::estimator_passivity_delay(plant.delay, estimator, fn);
     if (estimator.kind == VelocityEstimatorKind::backward) return passivity_margin(plant, gains);
     const double mu = plant.delta - passivity_condition_maximum(gains, plant.delay, estimator).value;
     return gains.alpha < 0 ? std::min(mu, gains.alpha) : mu;
@@ -232,7 +278,7 @@ HAPTICOPT_FUNC std::pair<double, double> passive_beta_interval(const NormalizedP
     validate(plant, fn);
     validate(estimator, fn);
     detail::require_finite(fn, "alpha", alpha);
-    const int d = detail::integer_delay(plant.delay, fn);
+    const int d = detail::estimator_passivity_delay(plant.delay, estimator, fn);
     if (estimator.kind == VelocityEstimatorKind::backward) return passive_beta_interval(plant, alpha);
     if (alpha < 0 || !(plant.delta > 0)) return {0.0, 0.0};
     auto g = [&](double beta) { return passivity_condition_maximum({alpha, beta}, d, estimator).value; };
@@ -255,7 +301,7 @@ HAPTICOPT_FUNC PassiveAlphaLimit largest_passive_alpha(const NormalizedPlant& pl
     const char* fn = "hapticopt::largest_passive_alpha";
     validate(plant, fn);
     validate(estimator, fn);
-    const int d = detail::integer_delay(plant.delay, fn);
+    const int d = detail::estimator_passivity_delay(plant.delay, estimator, fn);
     if (estimator.kind == VelocityEstimatorKind::backward) return largest_passive_alpha(plant);
     if (!(plant.delta > 0)) return {};
     auto h = [&](double alpha) {
@@ -277,7 +323,11 @@ HAPTICOPT_FUNC std::vector<PassivePoint> passive_polygon(const NormalizedPlant& 
                                                          const VelocityEstimator& estimator, int points = 64)
 #if HAPTICOPT_DEFINITIONS
 {
-    detail::require_in_range("hapticopt::passive_polygon", "points", points, 3, false, 1e6, "3 <= points <= 10^6");
+    const char* fn = "hapticopt::passive_polygon";
+    detail::require_in_range(fn, "points", points, 3, false, 1e6, "3 <= points <= 10^6");
+    validate(plant, fn);
+    validate(estimator, fn);
+    detail::estimator_passivity_delay(plant.delay, estimator, fn);
     if (estimator.kind == VelocityEstimatorKind::backward) return passive_polygon(plant, points);
     return detail::passive_outline(largest_passive_alpha(plant, estimator), points,
                                    [&](double a) { return passive_beta_interval(plant, a, estimator); });
@@ -317,7 +367,7 @@ HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_optimum(int index, const No
 #if HAPTICOPT_DEFINITIONS
 {
     detail::require_in_range("hapticopt::passive_optimum", "index", index, 0, false, 2, "0, 1 or 2");
-    detail::integer_delay(plant.delay, "hapticopt::passive_optimum");
+    detail::estimator_passivity_delay(plant.delay, estimator, "hapticopt::passive_optimum");
     validate(estimator, "hapticopt::passive_optimum");
     if (estimator.kind == VelocityEstimatorKind::backward) return passive_optimum(index, plant, options);
     const SampledPlant<double> sampled(plant);
@@ -339,7 +389,7 @@ HAPTICOPT_FUNC std::optional<PassiveOptimum> passive_impulse_optimum(int index, 
 #if HAPTICOPT_DEFINITIONS
 {
     detail::require_in_range("hapticopt::passive_impulse_optimum", "index", index, 0, false, 2, "0, 1 or 2");
-    detail::integer_delay(plant.delay, "hapticopt::passive_impulse_optimum");
+    detail::estimator_passivity_delay(plant.delay, estimator, "hapticopt::passive_impulse_optimum");
     validate(estimator, "hapticopt::passive_impulse_optimum");
     if (estimator.kind == VelocityEstimatorKind::backward) return passive_impulse_optimum(index, plant, options);
     const SampledPlant<double> sampled(plant);

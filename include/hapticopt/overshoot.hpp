@@ -338,6 +338,9 @@ OvershootResultT<Scalar> overshoot(const SampledPlant<Scalar>& plant, Scalar alp
     const Scalar best = scan.value;
     const Scalar best_time = scan.time;
     result.value = best > 0 ? best / x_inf : Scalar(0);
+    // The scan compares in absolute units (best > stop_above x_inf); the quotient can round to stop_above itself.
+    if (result.stopped_above && !(result.value > Scalar(options.stop_above)))
+        result.value = std::nextafter(Scalar(options.stop_above), std::numeric_limits<Scalar>::infinity());
     if (result.value > 0) result.time = best_time;
     result.within_tolerance = result.converged && result.value <= Scalar(options.tolerance);
     return result;

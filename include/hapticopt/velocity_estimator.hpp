@@ -498,7 +498,7 @@ EnergyCostGradientT<Scalar> estimator_gradient_from_solver(const SampledPlant<Sc
 /// Schur-Cohn margin 1e-4 of the boundary) on the complex Schur form (detail::SchurSteinSolver). A solution
 /// exists wherever the cost does (a Schur-stable loop); unstable gains give value +inf and NaN derivatives.
 /// Checked against central differences of estimator_energy_costs in long double
-/// (tests/core/test_velocity_estimator.cpp). Cost: about twice the costs' own evaluation (p + 1 adjoint solves
+/// (tests/core/test_estimator_fast_optimum.cpp). Cost: about twice the costs' own evaluation (p + 1 adjoint solves
 /// and O(N^3) products). Throws InvalidParameter for an index outside 0..2.
 template <typename Scalar>
 EnergyCostGradientT<Scalar> estimator_energy_cost_gradient(const SampledPlant<Scalar>& plant,
@@ -553,7 +553,8 @@ Scalar estimator_force_noise_gain(const SampledPlant<Scalar>& plant, const Veloc
 /// C_OV (eq. 9) with the estimator: the exact continuous-time maximum of overshoot.hpp
 /// (detail::continuous_maximum: in-period maxima by Newton on the Taylor series, stop proven by the bound
 /// |x(t) - x_inf| <= kappa sqrt(s_j^T P s_j)) on the estimator's loop, with P = M^T P M + I solved on the
-/// complex Schur form of M^T. +inf when unstable. Throws InvalidParameter for a tolerance outside (0, 1].
+/// complex Schur form of M^T. +inf when unstable. options.stop_above is not used: the value is always the whole
+/// maximum (stopped_above stays false). Throws InvalidParameter for a tolerance outside (0, 1].
 template <typename Scalar>
 OvershootResultT<Scalar> estimator_overshoot(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
                                              Scalar alpha, Scalar beta, const OvershootOptions& options = {}) {
@@ -986,7 +987,8 @@ inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40};
 ///    alphas across (0, alpha_max) x max(4, 3 beta_grid / 8) betas across the main region's beta interval
 ///    (8 x 6 by default); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start point on
 ///    the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by alpha_max and that point's
-///    interval width, to a step below 1e-12 of them. It stops where the gradient vanishes to rounding;
+///    interval width, to a step below 1e-12 of them. It stops where the gradient vanishes to rounding; a point
+///    outside the main region's beta interval there goes to brent's region search on the same region;
 ///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
 ///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
 /// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:
@@ -1075,10 +1077,15 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
             return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
         };
         const detail::NewtonMinimum2 m = detail::minimize_newton_2d(fg, best_a, best_b, out.alpha_max, best_width);
-        out.alpha = m.x;
-        out.beta = m.y;
-        out.cost = cost(m.x, m.y);
-        return out;
+        // The steps are bounded in alpha only; a point outside the main region's beta interval (another stable
+        // region, or within the ends' 1e-6 of them) leaves the answer to the region search below.
+        const auto [lo, hi] = region.beta_interval(m.x, 1e-6);
+        if (m.y > lo && m.y < hi) {
+            out.alpha = m.x;
+            out.beta = m.y;
+            out.cost = cost(m.x, m.y);
+            return out;
+        }
     }
     if (!requires_no_overshoot(criterion)) {
         const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, options.search);

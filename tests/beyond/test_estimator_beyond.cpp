@@ -21,6 +21,7 @@
 #include <hapticopt/estimator_passivity.hpp>
 #include <random>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <utility>
 #include <vector>
 
 namespace estimator_beyond_test {
@@ -142,8 +143,8 @@ const std::vector<CollisionCase>& collision_cases() {
 }
 
 // Periods after which the tail of the energy integrals is negligible: the state decays like rho^j, the integrand
-// like rho^{2j} j^2; 40 / (1 - rho) periods leave rho^{2j} j^2 < e^{-80} j^2, below 1e-25 of the start for every
-// horizon below 10^6 periods.
+// like rho^{2j} j^2; 40 / (1 - rho) periods leave rho^{2j} j^2 < e^{-80} j^2, below 2e-23 of the start for every
+// horizon up to 10^6 periods.
 long long horizon(const NormalizedPlant& plant, const VelocityEstimator& e, const NormalizedGains& g) {
     const hapticopt::ClosedLoop<double> loop =
         hapticopt::make_estimator_impulse_loop(hapticopt::SampledPlant<double>(plant), e, g.alpha, g.beta);
@@ -298,6 +299,23 @@ TEST(EstimatorImpulse, UnstableIsInfiniteAndInputsAreValidated) {
                  hapticopt::InvalidParameter);
 }
 
+// A low-pass so slow that lambda rounds to 1 has D(z) = 0: a delayed spring on a mass, no stable gains; the
+// collision optimum reports +inf instead of searching an empty region. Without options the backward difference
+// keeps impulse_optimum.hpp's own default search.
+TEST(EstimatorImpulse, EmptyMainRegionIsInfiniteAndBackwardKeepsItsDefaults) {
+    const NormalizedPlant plant{0.0, 0.0, 1.0};
+    const hapticopt::ImpulseOptimum none =
+        hapticopt::optimal_point(hapticopt::ImpulseCriterion::CI2, plant, VelocityEstimator::low_pass(1e-18));
+    EXPECT_EQ(none.alpha_max, 0.0);
+    EXPECT_TRUE(std::isinf(none.cost));
+    const hapticopt::ImpulseOptimum b =
+        hapticopt::optimal_point(hapticopt::ImpulseCriterion::CI2, plant, VelocityEstimator::backward_difference());
+    const hapticopt::ImpulseOptimum ref = hapticopt::optimal_point(hapticopt::ImpulseCriterion::CI2, plant);
+    EXPECT_EQ(b.alpha, ref.alpha);
+    EXPECT_EQ(b.beta, ref.beta);
+    EXPECT_EQ(b.cost, ref.cost);
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // Passivity. The independent form: R(theta) = Re{(1 - e^{-j theta}) e^{-j d theta} (alpha + beta D(e^{j theta}))}
 // / (2 (1 - cos theta)) with D written out below (complex arithmetic, no Chebyshev series).
@@ -328,7 +346,7 @@ const std::vector<VelocityEstimator>& passivity_estimators() {
 // maximiser, whose nearest grid point lies within half a step), max|R''| estimated from the grid's second
 // differences with a factor 2 for the sampling, or by the missing theta = 0 end point (compared to R(0) of the
 // closed form alpha (d + 1/2) - beta instead). The reported maximiser must give the reported value in the complex
-// form (1e-12 relative to the terms' size, both rounding).
+// form within the reported error bound plus the complex form's rounding (1e-13 of the terms' size).
 TEST(EstimatorPassivity, MaximumAgreesWithTheComplexFormOnAFineGrid) {
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> ua(0.0, 0.2), ub(-0.5, 1.0);
@@ -354,8 +372,8 @@ TEST(EstimatorPassivity, MaximumAgreesWithTheComplexFormOnAFineGrid) {
                 EXPECT_LE(grid, m.value + m.error_bound + 1e-13 * scale) << "d=" << d << " kind=" << int(e.kind);
                 EXPECT_GE(grid, m.value - 0.5 * 2 * curvature * (step / 2) * (step / 2) - 1e-13 * scale)
                     << "d=" << d << " kind=" << int(e.kind);
-                // Point values: the closed form's rounding is within the bound's Clenshaw allowance (which
-                // divides by the smallest q, (1 - lambda)^2), the complex form's within 1e-13 of the terms.
+                // Point values: the closed form's rounding is within the bound's Clenshaw allowance, the complex
+                // form's within 1e-13 of the terms.
                 const double rounding = m.error_bound + 1e-13 * scale;
                 if (m.theta > 1e-6) {
                     EXPECT_NEAR(complex_condition(g, d, e, m.theta), m.value, rounding);
@@ -482,6 +500,75 @@ TEST(EstimatorPassivity, InputsAreValidated) {
                  hapticopt::InvalidParameter);
     // A negative stiffness is never passive (passivity.hpp), whatever the estimator.
     EXPECT_LT(hapticopt::passivity_margin(NormalizedPlant{0.0, 0.02, 1.0}, {-0.001, 0.0}, e), 0.0);
+}
+
+// Long windows up to the verified degree d + N = 200 (estimator_passivity.hpp): the exact maximum against a direct
+// cosine sum R = alpha (1/2 + sum_{k<=d} cos k theta) - (beta / N) sum_{k=d+1..d+N} cos k theta in long double (cos k
+// theta by the three-term recurrence from cos theta, relative error ~k^2 1e-19) on 2 x 10^5 frequencies, with the
+// grid's tolerances of MaximumAgreesWithTheComplexFormOnAFineGrid; beyond the degree the functions refuse.
+TEST(EstimatorPassivity, LongWindowsUpToTheVerifiedDegreeAgreeWithADirectCosineSum) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> ua(0.0, 0.05), ub(-0.5, 0.5);
+    const int points = 200000;
+    const double step = kPi / points;
+    for (const auto& [n, d] : {std::pair{200, 0}, std::pair{190, 10}, std::pair{150, 50}}) {
+        const VelocityEstimator e = VelocityEstimator::moving_window(n);
+        for (int trial = 0; trial < 2; ++trial) {
+            const NormalizedGains g{ua(rng), ub(rng)};
+            const hapticopt::PassivityConditionMaximum m = hapticopt::passivity_condition_maximum(g, d, e);
+            std::vector<double> r(static_cast<std::size_t>(points) + 1);
+            for (int i = 0; i <= points; ++i) {
+                const long double c1 = std::cos(static_cast<long double>(i) * step);
+                long double prev = 1, cur = c1, sum = static_cast<long double>(g.alpha) / 2;
+                for (int k = 1; k <= d + n; ++k) {
+                    sum += (k <= d ? static_cast<long double>(g.alpha) : -static_cast<long double>(g.beta) / n) * cur;
+                    const long double next = 2 * c1 * cur - prev;
+                    prev = cur;
+                    cur = next;
+                }
+                r[static_cast<std::size_t>(i)] = static_cast<double>(sum);
+            }
+            double grid = r[0], curvature = 0;
+            for (int i = 1; i < points; ++i) {
+                const auto k = static_cast<std::size_t>(i);
+                grid = std::max(grid, r[k]);
+                curvature = std::max(curvature, std::abs(r[k + 1] - 2 * r[k] + r[k - 1]) / (step * step));
+            }
+            const double scale = std::abs(g.alpha) * (d + 1) + std::abs(g.beta) * 2;
+            EXPECT_LE(grid, m.value + m.error_bound + 1e-13 * scale) << "N=" << n << " d=" << d;
+            EXPECT_GE(grid, m.value - 0.5 * 2 * curvature * (step / 2) * (step / 2) - 1e-13 * scale)
+                << "N=" << n << " d=" << d;
+        }
+    }
+    const NormalizedGains g{0.01, 0.3};
+    EXPECT_THROW(hapticopt::passivity_condition_maximum(g, 0, VelocityEstimator::moving_window(201)),
+                 hapticopt::InvalidParameter);
+    EXPECT_THROW(hapticopt::passivity_margin({0, 0.02, 1}, g, VelocityEstimator::moving_window(200)),
+                 hapticopt::InvalidParameter);
+    EXPECT_NO_THROW(hapticopt::passivity_margin({0, 0.02, 199}, g, VelocityEstimator::low_pass(0.02)));
+    EXPECT_THROW(hapticopt::passivity_margin({0, 0.02, 200}, g, VelocityEstimator::low_pass(0.02)),
+                 hapticopt::InvalidParameter);
+    EXPECT_THROW(hapticopt::passive_polygon({0, 0.02, 200}, VelocityEstimator::low_pass(0.02)),
+                 hapticopt::InvalidParameter);
+}
+
+// Slow low-passes (q(1) = (1 - lambda)^2 down to 4e-19): at theta = 0 the condition is exactly
+// R(0) = alpha (d + 1/2) - beta whatever the estimator; the closed form there and the maximum's error bound must
+// cover the difference (the maximum is at least R(0)), and both stay finite.
+TEST(EstimatorPassivity, SlowLowPassMeetsItsErrorBoundAtZeroFrequency) {
+    for (const double nu : {1e-3, 1e-4, 1e-6, 1e-10}) {
+        const VelocityEstimator e = VelocityEstimator::low_pass(nu);
+        for (int d = 0; d <= 3; ++d) {
+            for (const NormalizedGains& g : {NormalizedGains{0.01, 0.3}, NormalizedGains{0.05, -0.2}}) {
+                const double r0 = g.alpha * (d + 0.5) - g.beta;
+                const hapticopt::PassivityConditionMaximum m = hapticopt::passivity_condition_maximum(g, d, e);
+                ASSERT_TRUE(std::isfinite(m.value) && std::isfinite(m.error_bound)) << "nu=" << nu << " d=" << d;
+                EXPECT_GE(m.value, r0 - m.error_bound) << "nu=" << nu << " d=" << d;
+                EXPECT_NEAR(hapticopt::passivity_condition(g, d, 0.0, e), r0, m.error_bound)
+                    << "nu=" << nu << " d=" << d;
+            }
+        }
+    }
 }
 
 // The passive optima with the estimator (passive_optimum, passive_impulse_optimum): the reported gains are

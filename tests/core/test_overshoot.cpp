@@ -118,7 +118,7 @@ TEST(Overshoot, StopAboveGivesALowerBoundAboveItAndChangesNothingBelow) {
 
 TEST(Overshoot, PieceBoundIsAboveEveryPointOfThePiece) {
     // piece_maximum_bound lets the scan skip a piece's interior maximum; it must bound x on the whole piece.
-    // Independent values: x(tau) = e1^T exp(A tau) xi by a 40-term Taylor series in long double on 2001
+    // Independent values: x(tau) = e1^T exp(A tau) xi by a 40-term Taylor series in long double on 1001
     // points (||A|| h <= 2 here, so the truncation error is below 2^40 / 40! ~ 1e-36 of |xi|).
     const NormalizedPlant p{0.001, 0.02, 1};
     const Matrix3<double> a = plant_augmented_matrix<double>(p);
