@@ -36,10 +36,10 @@
 // the low-pass, whose R is evaluated as alpha D_d / 2 + beta (1 - lambda)(lambda T_d - T_{d+1}) / q with
 // q = (1 - lambda)^2 + 2 lambda (1 - c) (no cancellation near c = 1, 1 - lambda by expm1), alpha (d + 1/2) +
 // |beta| (1 + lambda) / (1 - lambda); u_r the unit roundoff. Checked in tests/beyond/test_estimator_beyond.cpp
-// against a fine theta grid of the complex form and, for slow low-passes, against the exact R(0). Verified up to
-// degree 200 of s (d + N for the window, d + 1 for the low-pass; InvalidParameter naming `delay` beyond): the
-// cascade's coefficients grow like degree^order and lose their digits past it. Cost O((d + N)^3) flops (window) or
-// O(d^3) (low-pass), ~60 bisection steps per bracket.
+// against a fine theta grid of the complex form; slow low-passes against a long double log-grid search (nu down to
+// 1e-6) and the exact R(0). Verified up to degree 200 of s (d + N for the window, d + 1 for the low-pass;
+// InvalidParameter naming `delay` beyond): the cascade's coefficients grow like degree^order and lose their digits
+// past it. Cost O((d + N)^3) flops (window) or O(d^3) (low-pass), ~60 bisection steps per bracket.
 //
 // The margin, the passive beta interval and the largest passive alpha as in passivity.hpp: mu = delta - max R
 // (alpha >= 0), min(mu, alpha) for alpha < 0. g(beta) = max R is convex in beta (a maximum of affine functions) and

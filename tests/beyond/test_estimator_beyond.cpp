@@ -552,6 +552,65 @@ TEST(EstimatorPassivity, LongWindowsUpToTheVerifiedDegreeAgreeWithADirectCosineS
                  hapticopt::InvalidParameter);
 }
 
+// Slow low-passes down to nu = 1e-6: the exact maximum against a search in long double that does not use the
+// Chebyshev series: R = alpha (1/2 + sum_{k<=d} cos k theta) + beta (1 - lambda)(lambda cos d theta - cos (d + 1)
+// theta) / ((1 - lambda)^2 + 4 lambda sin^2(theta / 2)) on 2 x 10^4 log-spaced frequencies in [1e-12, 1] (the
+// filter's features have width ~1 - lambda = 6e-6 .. 6e-3) and 2 x 10^4 linear ones in (0, pi], then golden-section
+// refinement between the best point's neighbours (to ~1e-40 of the bracket; long double rounding ~1e-19 of the
+// terms). The search cannot exceed the true maximum, nor fall below it by more than its rounding: both within the
+// reported error bound plus 1e-13 of the terms' size.
+TEST(EstimatorPassivity, SlowLowPassMaximumAgreesWithALogGridSearch) {
+    using L = long double;
+    std::vector<L> thetas;
+    for (int i = 0; i <= 20000; ++i) thetas.push_back(std::pow(10.0L, -12.0L + 12.0L * i / 20000));
+    for (int i = 1; i <= 20000; ++i) thetas.push_back(static_cast<L>(kPi) * i / 20000);
+    std::sort(thetas.begin(), thetas.end());
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> ua(0.0, 0.2), ub(-0.5, 1.0);
+    for (const double nu : {1e-3, 1e-4, 1e-6}) {
+        const L lambda = std::exp(-2 * static_cast<L>(kPi) * nu),
+                one_minus = -std::expm1(-2 * static_cast<L>(kPi) * nu);
+        for (int d = 0; d <= 3; ++d) {
+            for (int trial = 0; trial < 3; ++trial) {
+                const NormalizedGains g{ua(rng), ub(rng)};
+                auto r = [&](L th) {
+                    L v = static_cast<L>(g.alpha) / 2;
+                    for (int k = 1; k <= d; ++k) v += static_cast<L>(g.alpha) * std::cos(k * th);
+                    const L s = std::sin(th / 2);
+                    return v + static_cast<L>(g.beta) * one_minus *
+                                   (lambda * std::cos(d * th) - std::cos((d + 1) * th)) /
+                                   (one_minus * one_minus + 4 * lambda * s * s);
+                };
+                std::size_t at = 0;
+                L best = r(0);
+                for (std::size_t i = 0; i < thetas.size(); ++i) {
+                    if (r(thetas[i]) > best) {
+                        best = r(thetas[i]);
+                        at = i + 1;
+                    }
+                }
+                if (at > 0) {
+                    L lo = at >= 2 ? thetas[at - 2] : 0, hi = thetas[std::min(at, thetas.size() - 1)];
+                    for (int k = 0; k < 200; ++k) {
+                        const L m1 = lo + (hi - lo) * 0.381966L, m2 = lo + (hi - lo) * 0.618034L;
+                        if (r(m1) > r(m2)) {
+                            hi = m2;
+                        } else {
+                            lo = m1;
+                        }
+                    }
+                    best = std::max(best, r((lo + hi) / 2));
+                }
+                const hapticopt::PassivityConditionMaximum m =
+                    hapticopt::passivity_condition_maximum(g, d, VelocityEstimator::low_pass(nu));
+                const double scale = std::abs(g.alpha) * (d + 1) + std::abs(g.beta) * 2;
+                EXPECT_NEAR(static_cast<double>(best), m.value, m.error_bound + 1e-13 * scale)
+                    << "nu=" << nu << " d=" << d << " alpha=" << g.alpha << " beta=" << g.beta;
+            }
+        }
+    }
+}
+
 // Slow low-passes (q(1) = (1 - lambda)^2 down to 4e-19): at theta = 0 the condition is exactly
 // R(0) = alpha (d + 1/2) - beta whatever the estimator; the closed form there and the maximum's error bound must
 // cover the difference (the maximum is at least R(0)), and both stay finite.
