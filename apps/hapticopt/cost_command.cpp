@@ -76,78 +76,29 @@ CommandRunner add_cost_command(CLI::App& app) {
             detail::require_positive("hapticopt cost", "position_resolution", args->resolution);
         }
         const double noise_std = args->mass * args->resolution / (args->period * args->period) * noise_gain;
-        if (estimator.kind != VelocityEstimatorKind::backward) {
-            const StabilityReport report = stability(plant, gains, estimator);
-            const EnergyCosts costs = energy_costs(plant, gains, estimator);
-            OvershootOptions options;
-            options.tolerance = args->tolerance;
-            const OvershootResult ov = overshoot(plant, gains, estimator, options);
-            const ImpulseCosts ic = impulse_costs(plant, gains, estimator);
-            const double depth = report.stable ? estimator_penetration(SampledPlant<double>(plant), estimator,
-                                                                       gains.alpha, gains.beta, 1000000LL)
-                                                     .depth
-                                               : HUGE_VAL;
-            const bool covered = passivity_is_covered(plant);
-            const double margin = covered ? passivity_margin(plant, gains, estimator) : 0.0;
-            if (args->json) {
-                nlohmann::json out = step_response_json(report, costs, ov);
-                out["CI0"] = number_or_null(ic.ci0);
-                out["CI1"] = number_or_null(ic.ci1);
-                out["CI2"] = number_or_null(ic.ci2);
-                out["penetration"] = number_or_null(depth);
-                if (covered) {
-                    out["passive"] = margin > 0;
-                    out["passivity_margin"] = margin;
-                } else {
-                    out["passive"] = nullptr;
-                    out["passivity_margin"] = nullptr;
-                    out["passivity_note"] = kPassivityNotCovered;
-                }
-                out["velocity_estimator"] = velocity_json(estimator);
-                out["force_noise_gain"] = number_or_null(noise_gain);
-                if (physical_noise) out["force_noise_std"] = number_or_null(noise_std);
-                std::cout << out.dump() << '\n';
-                return int{kOk};
-            }
-            std::printf("alpha %.10g  beta %.10g  gamma %.10g  delta %.10g  d %.10g\n", gains.alpha, gains.beta,
-                        plant.gamma, plant.delta, plant.delay);
-            std::printf("velocity         %s\n", velocity_text(estimator).c_str());
-            std::printf("stable           %s (spectral radius %.12f)\n", report.stable ? "yes" : "no",
-                        report.spectral_radius);
-            if (!report.stable) return int{kOk};
-            std::printf("C_E0             %.12g\nC_E1             %.12g\nC_E2             %.12g\n", costs.ce0,
-                        costs.ce1, costs.ce2);
-            std::printf("C_OV             %.6g%s\n", ov.value,
-                        ov.within_tolerance ? "  (no overshoot within tolerance)" : "");
-            std::printf("C_I0             %.12g\nC_I1             %.12g\nC_I2             %.12g\n", ic.ci0, ic.ci1,
-                        ic.ci2);
-            std::printf("penetration      %.12g v0 T\n", depth);
-            if (covered) {
-                std::printf("passive          %s (margin %.6g)\n", margin > 0 ? "yes" : "no", margin);
-            } else {
-                std::printf("passive          not covered (%s)\n", kPassivityNotCovered);
-            }
-            std::printf("noise gain g_F   %.12g (sigma_F = m q / T^2 g_F)\n", noise_gain);
-            if (physical_noise) std::printf("sigma_F          %.6g N\n", noise_std);
-            return int{kOk};
-        }
-        const StabilityReport report = stability(plant, gains);
-        const EnergyCosts costs = energy_costs(plant, gains);
+        // The estimator's functions send the backward difference to the paper's loop (velocity_estimator.hpp,
+        // estimator_impulse.hpp, estimator_passivity.hpp).
+        const bool backward = estimator.kind == VelocityEstimatorKind::backward;
+        const StabilityReport report = stability(plant, gains, estimator);
+        const EnergyCosts costs = energy_costs(plant, gains, estimator);
         OvershootOptions options;
         options.tolerance = args->tolerance;
-        const OvershootResult ov = overshoot(plant, gains, options);
+        const OvershootResult ov = overshoot(plant, gains, estimator, options);
+        const ImpulseCosts ic = impulse_costs(plant, gains, estimator);
+        const SampledPlant<double> sampled(plant);
+        const double depth = !report.stable ? HUGE_VAL
+                             : backward
+                                 ? penetration(sampled, gains.alpha, gains.beta, 1000000LL).depth
+                                 : estimator_penetration(sampled, estimator, gains.alpha, gains.beta, 1000000LL).depth;
+        const bool covered = passivity_is_covered(plant);
+        const double margin = covered ? passivity_margin(plant, gains, estimator) : 0.0;
         if (args->json) {
             nlohmann::json out = step_response_json(report, costs, ov);
-            // Collision criteria and passivity (impulse_costs.hpp, passivity.hpp).
-            const ImpulseCosts ic = impulse_costs(plant, gains);
             out["CI0"] = number_or_null(ic.ci0);
             out["CI1"] = number_or_null(ic.ci1);
             out["CI2"] = number_or_null(ic.ci2);
-            out["penetration"] = number_or_null(
-                report.stable ? penetration(SampledPlant<double>(plant), gains.alpha, gains.beta, 1000000LL).depth
-                              : HUGE_VAL);
-            if (passivity_is_covered(plant)) {
-                const double margin = passivity_margin(plant, gains);
+            out["penetration"] = number_or_null(depth);
+            if (covered) {
                 out["passive"] = margin > 0;
                 out["passivity_margin"] = margin;
             } else {
@@ -163,6 +114,7 @@ CommandRunner add_cost_command(CLI::App& app) {
         }
         std::printf("alpha %.10g  beta %.10g  gamma %.10g  delta %.10g  d %.10g\n", gains.alpha, gains.beta,
                     plant.gamma, plant.delta, plant.delay);
+        std::printf("velocity         %s\n", velocity_text(estimator).c_str());
         std::printf("stable           %s (spectral radius %.12f)\n", report.stable ? "yes" : "no",
                     report.spectral_radius);
         if (!report.stable) return int{kOk};
@@ -170,12 +122,9 @@ CommandRunner add_cost_command(CLI::App& app) {
                     costs.ce2);
         std::printf("C_OV             %.6g%s\n", ov.value,
                     ov.within_tolerance ? "  (no overshoot within tolerance)" : "");
-        const ImpulseCosts ic = impulse_costs(plant, gains);
         std::printf("C_I0             %.12g\nC_I1             %.12g\nC_I2             %.12g\n", ic.ci0, ic.ci1, ic.ci2);
-        std::printf("penetration      %.12g v0 T\n",
-                    penetration(SampledPlant<double>(plant), gains.alpha, gains.beta, 1000000LL).depth);
-        if (passivity_is_covered(plant)) {
-            const double margin = passivity_margin(plant, gains);
+        std::printf("penetration      %.12g v0 T\n", depth);
+        if (covered) {
             std::printf("passive          %s (margin delta - max_theta R(theta) = %.6g)\n", margin > 0 ? "yes" : "no",
                         margin);
         } else {

@@ -186,7 +186,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
         sub->add_flag("--passive", args->passive,
                       "best gains within the Colgate-Schenkel passive set with the delay and the --velocity estimator "
                       "(delta > max_theta R(theta), "
-                      "integer delays only); CE0..2, CI0..2 only");
+                      "integer delays of 0..1000 periods only); CE0..2, CI0..2 only");
     passive->excludes(robust);
     args->velocity.add_to(*sub);
     CLI::Option* noise_budget = sub->add_option(

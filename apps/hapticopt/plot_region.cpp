@@ -91,7 +91,7 @@ CommandRunner add_plot_region(CLI::App& plot) {
                 if (c.plant.delta > widest.delta) widest = c.plant;
             const svg::Style style{"#2ca02c", 1, "", "#2ca02c", 0.3};
             if (!passivity_is_covered(widest)) {
-                ax.legend_line("passive: not covered (fractional delay)", style);
+                ax.legend_line("passive: not covered (delay not an integer 0..1000)", style);
             } else if (widest.delta > 0) {
                 svg::Polyline set;
                 for (const PassivePoint& p : passive_polygon(widest, 64)) set.emplace_back(p.alpha, p.beta);

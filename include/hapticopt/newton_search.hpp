@@ -6,8 +6,10 @@
 //    y / sy). A step is accepted when f decreases, or when f stays within rounding (8 eps |f|) and the
 //    gradient's norm decreases (at a minimum the values differ by rounding only, the gradient still
 //    resolves the point); a rejected step (also one leaving the domain, where f is not finite) raises mu.
-//    Stops when the accepted step is below `step_tolerance` in the scaled coordinates, when no step is
-//    accepted, or after `max_iterations`. Converges quadratically near a minimum with a positive definite
+//    Stops when a step (accepted, or proposed under any damping) is below `step_tolerance` in the scaled
+//    coordinates, when no step is accepted, or after `max_iterations`; a proposed step that small is not
+//    evaluated (near the minimum, where f no longer resolves a step, raising mu would otherwise spend up to 40
+//    evaluations on rejected steps). Converges quadratically near a minimum with a positive definite
 //    Hessian (the forward-difference Hessian's relative error ~1e-6 only slows the last step's contraction to
 //    ~1e-6 per step); J. Nocedal, S. J. Wright, "Numerical Optimization", 2nd ed., 2006, ch. 4 and 10.
 //  - minimize_newton_1d: the same for a function of one variable, kept inside (lo, hi).
@@ -71,7 +73,7 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
         const double huv = ((pu.gv - p.gv) / hu + (pv.gu - p.gu) / hv) / 2;
         const double floor_mu = 1e-3 * (std::abs(huu) + std::abs(hvv)) + 1e-300;
         const double gnorm = std::hypot(p.gu, p.gv);
-        bool accepted = false;
+        bool accepted = false, converged = false;
         double step = 0;
         for (int tries = 0; tries < 40 && !accepted; ++tries) {
             const double a = huu + mu, c = hvv + mu, det = a * c - huv * huv;
@@ -80,6 +82,10 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
                 continue;
             }
             const double su = -(c * p.gu - huv * p.gv) / det, sv = -(a * p.gv - huv * p.gu) / det;
+            if (std::hypot(su, sv) <= step_tolerance) {  // converged: a step this small is not evaluated
+                converged = true;
+                break;
+            }
             const Point q = eval(p.u + su, p.v + sv);
             const bool lower = q.f < p.f;
             const bool level = q.f <= p.f + 8 * eps * std::abs(p.f) && std::hypot(q.gu, q.gv) < gnorm;
@@ -92,7 +98,7 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
                 mu = std::max(4 * mu, floor_mu);
             }
         }
-        if (!accepted || step <= step_tolerance) break;
+        if (converged || !accepted || step <= step_tolerance) break;
     }
     return {p.u * sx, p.v * sy, p.f, evaluations};
 }
@@ -130,7 +136,7 @@ NewtonMinimum2 minimize_newton_1d(F&& fd, double x, double lo, double hi, double
         if (!finite(ph)) break;
         const double curvature = (ph.dx - p.dx) / dh;
         const double floor_mu = 1e-3 * std::abs(curvature) + 1e-300;
-        bool accepted = false;
+        bool accepted = false, converged = false;
         double step = 0;
         for (int tries = 0; tries < 40 && !accepted; ++tries) {
             const double a = curvature + mu;
@@ -139,6 +145,10 @@ NewtonMinimum2 minimize_newton_1d(F&& fd, double x, double lo, double hi, double
                 continue;
             }
             const double s = -p.dx / a;
+            if (std::abs(s) <= step_tolerance * width) {  // converged: a step this small is not evaluated
+                converged = true;
+                break;
+            }
             const double t = x + s;
             if (!(t > lo && t < hi)) {
                 mu = std::max(4 * mu, floor_mu);
@@ -157,7 +167,7 @@ NewtonMinimum2 minimize_newton_1d(F&& fd, double x, double lo, double hi, double
                 mu = std::max(4 * mu, floor_mu);
             }
         }
-        if (!accepted || step <= step_tolerance * width) break;
+        if (converged || !accepted || step <= step_tolerance * width) break;
     }
     return {x, 0, p.value, evaluations};
 }

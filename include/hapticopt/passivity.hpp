@@ -44,7 +44,9 @@
 //
 // Fractional delay d: not covered. The force then switches inside a period and H is not a rational
 // function of z; every function here throws InvalidParameter naming `delay` rather than report the integer
-// answer. Delays within 1e-9 of an integer (rounding of t_d / T) are taken as that integer.
+// answer. Delays within 1e-9 of an integer (rounding of t_d / T) are taken as that integer. Integer delays
+// up to kMaxPassivityDelay = 1000 periods (1 s at 1 kHz): the maximum is checked at d = 1000 against a long
+// double cosine sum refined at its local maxima (tests/beyond/test_passivity.cpp); beyond, InvalidParameter.
 //
 // Passivity margin (normalised, dimensionless):  mu = delta - max_theta R(theta) for alpha >= 0, and
 // min(delta - max R, alpha) for alpha < 0;  passive iff mu > 0. Physical: mu m / T [N s/m]
@@ -74,6 +76,9 @@
 #include "stability_region.hpp"
 
 namespace hapticopt {
+
+/// Largest integer delay (periods) the passivity functions accept (header comment).
+inline constexpr int kMaxPassivityDelay = 1000;
 
 namespace detail {
 
@@ -152,23 +157,26 @@ inline std::vector<ChebyshevBracket> chebyshev_cascade_zeros(const std::vector<s
     return zeros;
 }
 
-/// The integer delay of `plant`, or InvalidParameter naming `delay` when it is fractional.
+/// The integer delay of `plant`, or InvalidParameter naming `delay` when it is fractional or above
+/// kMaxPassivityDelay.
 inline int integer_delay(double delay, const char* function) {
     require_non_negative(function, "delay", delay);
     const double whole = std::round(delay);
-    if (!(std::abs(delay - whole) <= 1e-9 * std::max(1.0, whole)) || whole > 1e6) {
+    if (!(std::abs(delay - whole) <= 1e-9 * std::max(1.0, whole)) || whole > kMaxPassivityDelay) {
         throw InvalidParameter(function, "delay", delay,
-                               "an integer number of periods 0..10^6 (the passivity condition with a fractional "
-                               "delay, where the force switches inside a period, is not covered)");
+                               "an integer number of periods 0..1000 (the passivity condition with a fractional "
+                               "delay, where the force switches inside a period, is not covered; its maximum is "
+                               "verified up to 1000)");
     }
     return static_cast<int>(whole);
 }
 
 }  // namespace detail
 
-/// What the CLI and bindings print when the delay is fractional (passivity_is_covered() false).
+/// What the CLI and bindings print when passivity_is_covered() is false.
 inline constexpr const char* kPassivityNotCovered =
-    "passivity with a fractional delay (the force switches inside a period) is not covered; integer delays only";
+    "passivity with a fractional delay (the force switches inside a period) is not covered; integer delays of "
+    "0..1000 periods only";
 
 /// Whether the passivity functions cover this plant's delay (an integer number of periods, header).
 inline bool passivity_is_covered(const NormalizedPlant& plant) {

@@ -687,20 +687,27 @@ struct StableIsland {
 };
 
 struct EstimatorRegionOptions {
-    int alpha_grid = 160;  ///< scan cells along alpha, >= 16
-    int beta_grid = 160;   ///< scan cells along beta, >= 16
+    int alpha_grid = 160;      ///< scan cells along alpha, >= 16
+    int beta_grid = 160;       ///< scan cells along beta, >= 16
+    bool find_islands = true;  ///< false: islands() stays empty, the box is fitted on a coarse grid first
 };
 
 /// The main stable region with the estimator: the connected stable set that contains small alpha > 0
 /// (alpha -> 0+ at some beta). Found by a scan of the Schur-Cohn verdict on a grid over alpha in (0, 1],
 /// beta in [-1, 4], flood fill from the grid's first alpha column (where that column has nothing stable,
 /// the box shrinks 4x in alpha and beta towards beta = 0 until it does, down to alpha 1e-9), the box re-fitted
-/// to the region until it fills it; its edge along a line of
-/// constant beta is the first instability reached by marching up in alpha from a main-region cell (steps of
-/// a quarter cell) refined by bisection to 1e-14; alpha_max is the maximum of that edge over beta (Brent,
-/// scalar_search.hpp). Stable components of the first (wide) scan that are not connected to the main one
-/// are reported as islands. Accuracy: alpha_max to ~1e-12 where the maximum is a smooth tip (checked against
-/// the exact d = 0 value 12 - 8 sqrt(2) for window 1, tests/core/test_velocity_estimator.cpp).
+/// to the region until it fills it. Without find_islands (the fast optimum's grid) the box is fitted on a
+/// 16 x 16 grid first, then scanned at the options' grid; where the 16 x 16 passes find nothing, the search
+/// runs again at the options' grid.
+/// The region's edge along a line of constant beta is the first instability reached by marching up in alpha
+/// from a main-region cell (steps of a quarter cell) refined by bisection to 1e-14. alpha_max: the largest
+/// local maximum of the D-decomposition curve (alpha(theta), beta(theta)) solving p(e^{i theta}) = 0
+/// (stability_region.hpp; sampled at max(64, 16 degree) frequencies in (0, pi), refined by Brent) inside the
+/// scan's tip cells, taken (as the edge there) when the edge at its beta agrees with it to 1e-12 alpha; else (a corner
+/// tip, where two branches cross) the maximum of the edge over beta (Brent, scalar_search.hpp). Stable components of
+/// the first (wide) scan that are not connected to the main one are reported as islands. Accuracy: alpha_max
+/// to ~1e-12 where the maximum is a smooth tip (checked against the exact d = 0 value 12 - 8 sqrt(2) for
+/// window 1, tests/core/test_velocity_estimator.cpp).
 class EstimatorStabilityRegion {
   public:
     HAPTICOPT_DEFERRED
@@ -712,41 +719,13 @@ class EstimatorStabilityRegion {
         validate(estimator, fn);
         detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 16, false, 1e5, "16 <= alpha_grid <= 10^5");
         detail::require_in_range(fn, "beta_grid", options.beta_grid, 16, false, 1e5, "16 <= beta_grid <= 10^5");
-        double a1 = 1, b0 = -1, b1 = 4;
         std::vector<StableIsland> wide;
-        bool have_wide = false;
-        for (int pass = 0; pass < 40; ++pass) {
-            scan(a1, b0, b1);
-            if (!have_wide) {
-                wide = other_components();
-                have_wide = true;
-            }
-            if (main_cells_ == 0) {  // nothing stable in the first column: the main region is below one cell, or empty
-                if (a1 < 1e-9) {
-                    alpha_max_ = 0;
-                    islands_ = wide;
-                    return;
-                }
-                const double w = (b1 - b0) / 4;
-                a1 /= 4;
-                b0 = -0.2 * w;
-                b1 = 0.8 * w;
-                continue;
-            }
-            // Re-fit the box: grow where the region touches an edge, shrink where it fills little of it.
-            const double da = a1 / na(), db = (b1 - b0) / nb();
-            const double top = (main_i1_ + 1) * da;
-            const double lo = b0 + main_j0_ * db, hi = b0 + (main_j1_ + 1) * db;
-            const bool touches = main_i1_ == na() - 1 || main_j0_ == 0 || main_j1_ == nb() - 1;
-            const bool loose = top < 0.6 * a1 || (hi - lo) < 0.6 * (b1 - b0);
-            if (!touches && !loose) break;
-            const double na1 = main_i1_ == na() - 1 ? 2 * a1 : 1.25 * top;
-            const double margin = 0.15 * (hi - lo);
-            const double nb0 = main_j0_ == 0 ? b0 - (b1 - b0) : lo - margin;
-            const double nb1 = main_j1_ == nb() - 1 ? b1 + (b1 - b0) : hi + margin;
-            a1 = na1;
-            b0 = nb0;
-            b1 = nb1;
+        bool found = !options.find_islands && fit_box(true, nullptr);
+        if (!found) found = fit_box(false, options.find_islands ? &wide : nullptr);
+        if (!found) {
+            alpha_max_ = 0;
+            islands_ = wide;
+            return;
         }
         refine_tip();
         // Islands: the components of the first (widest) scan not connected to its first column, except any that
@@ -767,27 +746,42 @@ class EstimatorStabilityRegion {
 
     /// The stable beta interval of the main region at alpha (0 < alpha < alpha_max), its ends bisected to
     /// `tolerance` x max(1, |beta|) (default 1e-14: ends to ~1e-13; a start grid needs far less);
-    /// (0, 0) when alpha is outside (0, alpha_max).
+    /// (0, 0) when alpha is outside (0, alpha_max). From the lowest main cell centre stable at alpha (nearest
+    /// columns first), the lower end is marched down in steps of a quarter cell; the upper end is marched up a
+    /// cell at a time through that column's run of main cells while they are stable at alpha, then in quarter
+    /// cells.
     std::pair<double, double> beta_interval(double alpha, double tolerance = 1e-14) const {
         if (!(alpha > 0 && alpha < alpha_max_)) return {0, 0};
         const double da = a1_ / na(), db = (b1_ - b0_) / nb();
         int i = std::clamp(static_cast<int>(alpha / da), 0, na() - 1);
         // A stable beta of the main region at this alpha: main cells of the nearest columns, centre out.
         double start = std::nan("");
+        int start_column = i;
         for (int di = 0; di <= 2 && std::isnan(start); ++di) {
             for (int sgn : {-1, 1}) {
                 const int c = std::clamp(i + sgn * di, 0, na() - 1);
                 for (int j = 0; j < nb() && std::isnan(start); ++j) {
                     const double b = b0_ + (j + 0.5) * db;
-                    if (label(c, j) == 1 && test_.stable(alpha, b)) start = b;
+                    if (label(c, j) == 1 && test_.stable(alpha, b)) {
+                        start = b;
+                        start_column = c;
+                    }
                 }
             }
         }
         if (std::isnan(start)) return {0, 0};
+        // Up through the run of main cells above start in its column, a cell at a time while stable at alpha.
+        double top = start;
+        for (int j = static_cast<int>((start - b0_) / db) + 1; j < nb() && label(start_column, j) == 1; ++j) {
+            const double b = b0_ + (j + 0.5) * db;
+            if (!test_.stable(alpha, b)) break;
+            top = b;
+        }
         auto edge = [&](double direction) {
-            double inside = start, outside = start;
+            const double from = direction > 0 ? top : start;
+            double inside = from, outside = from;
             for (int k = 1; k < 8 * nb(); ++k) {
-                outside = start + direction * k * db / 4;
+                outside = from + direction * k * db / 4;
                 if (!test_.stable(alpha, outside)) break;
                 inside = outside;
             }
@@ -801,12 +795,55 @@ class EstimatorStabilityRegion {
     }
 
   private:
-    int na() const { return options_.alpha_grid; }
-    int nb() const { return options_.beta_grid; }
+    static constexpr int kCoarseGrid = 16;
+    int na() const { return scan_na_; }
+    int nb() const { return scan_nb_; }
     int label(int i, int j) const { return labels_[static_cast<std::size_t>(i * nb() + j)]; }
 
+    /// Scans from the box (0, 1] x [-1, 4] and re-fits it until the main region fills it (class comment); false
+    /// when the region is empty (nothing stable in the first column down to alpha 1e-9). `coarse`: the passes
+    /// are on kCoarseGrid until the box fits, then one more at the options' grid (re-fitted there if it no longer
+    /// fits). `wide`: receives the first scan's other components (the islands).
+    bool fit_box(bool coarse, std::vector<StableIsland>* wide) {
+        double a1 = 1, b0 = -1, b1 = 4;
+        bool fine = !coarse;
+        for (int pass = 0; pass < 40; ++pass) {
+            scan(a1, b0, b1, fine ? options_.alpha_grid : kCoarseGrid, fine ? options_.beta_grid : kCoarseGrid);
+            if (wide && pass == 0) *wide = other_components();
+            if (main_cells_ == 0) {  // nothing stable in the first column: the main region is below one cell, or empty
+                if (a1 < 1e-9) return false;
+                const double w = (b1 - b0) / 4;
+                a1 /= 4;
+                b0 = -0.2 * w;
+                b1 = 0.8 * w;
+                continue;
+            }
+            // Re-fit the box: grow where the region touches an edge, shrink where it fills little of it.
+            const double da = a1 / na(), db = (b1 - b0) / nb();
+            const double top = (main_i1_ + 1) * da;
+            const double lo = b0 + main_j0_ * db, hi = b0 + (main_j1_ + 1) * db;
+            const bool touches = main_i1_ == na() - 1 || main_j0_ == 0 || main_j1_ == nb() - 1;
+            const bool loose = top < 0.6 * a1 || (hi - lo) < 0.6 * (b1 - b0);
+            if (!touches && !loose) {
+                if (fine) return true;
+                fine = true;  // the coarse box fits: scan it at the options' grid
+                continue;
+            }
+            const double na1 = main_i1_ == na() - 1 ? 2 * a1 : 1.25 * top;
+            const double margin = 0.15 * (hi - lo);
+            const double nb0 = main_j0_ == 0 ? b0 - (b1 - b0) : lo - margin;
+            const double nb1 = main_j1_ == nb() - 1 ? b1 + (b1 - b0) : hi + margin;
+            a1 = na1;
+            b0 = nb0;
+            b1 = nb1;
+        }
+        return true;
+    }
+
     /// Labels: 0 unstable, 1 main component (flood fill from column 0), 2 stable elsewhere.
-    void scan(double a1, double b0, double b1) {
+    void scan(double a1, double b0, double b1, int alpha_cells, int beta_cells) {
+        scan_na_ = alpha_cells;
+        scan_nb_ = beta_cells;
         a1_ = a1;
         b0_ = b0;
         b1_ = b1;
@@ -904,10 +941,59 @@ class EstimatorStabilityRegion {
         while (last_j + 1 < nb() && label(main_i1_, last_j + 1) == 1) ++last_j;
         const double centre = b0_ + ((best_j + last_j) / 2.0 + 0.5) * db;
         const double half = (last_j - best_j + 1) * db / 2 + 2 * db;
+        if (curve_tip(centre - half, centre + half)) return;
         const detail::ScalarMinimum m =
             detail::minimize_scalar([&](double b) { return -edge_at(b); }, centre - half, centre + half, 1e-13);
         beta_at_alpha_max_ = m.x;
         alpha_max_ = -m.value;
+    }
+
+    /// The tip as a smooth maximum of the D-decomposition curve (header comment), when the region's own edge
+    /// confirms it: true and alpha_max_, beta_at_alpha_max_ set, or false (a corner tip, or no local maximum of
+    /// the curve in the tip's window) and nothing set.
+    bool curve_tip(double beta_lo, double beta_hi) {
+        const AffineCharacteristicPolynomial<double>& p = test_.polynomial();
+        const int n = p.degree();
+        auto point = [&](double theta) {
+            const std::complex<double> z = std::polar(1.0, theta);
+            std::complex<double> c0 = 0, ca = 0, cb = 0;
+            for (int k = n; k >= 0; --k) {
+                c0 = c0 * z + p.base(k);
+                ca = ca * z + p.alpha(k);
+                cb = cb * z + p.beta(k);
+            }
+            const double det = ca.real() * cb.imag() - ca.imag() * cb.real();
+            return std::pair<double, double>{(c0.imag() * cb.real() - c0.real() * cb.imag()) / det,
+                                             (c0.real() * ca.imag() - c0.imag() * ca.real()) / det};
+        };
+        const double pi = 3.14159265358979323846;
+        const int samples = std::max(64, 16 * n);
+        const double da = a1_ / na();
+        const double a_lo = (main_i1_ - 1) * da, a_hi = (main_i1_ + 2) * da;
+        double best_alpha = -HUGE_VAL, best_beta = 0;
+        std::pair<double, double> previous = point(pi / samples), current = point(2 * pi / samples);
+        for (int k = 2; k < samples; ++k) {
+            const std::pair<double, double> next = point(pi * (k + 1) / samples);
+            const bool peak = current.first >= previous.first && current.first >= next.first;
+            if (peak && current.first > a_lo && current.first < a_hi && current.second > beta_lo &&
+                current.second < beta_hi) {
+                const detail::ScalarMinimum m = detail::minimize_scalar(
+                    [&](double t) { return -point(t).first; }, pi * (k - 1) / samples, pi * (k + 1) / samples, 1e-15);
+                const std::pair<double, double> tip = point(m.x);
+                if (tip.first > best_alpha && std::isfinite(tip.second)) {
+                    best_alpha = tip.first;
+                    best_beta = tip.second;
+                }
+            }
+            previous = current;
+            current = next;
+        }
+        if (!(best_alpha > 0 && best_alpha < HUGE_VAL)) return false;
+        const double edge = edge_at(best_beta);
+        if (!(std::abs(edge - best_alpha) <= 1e-12 * best_alpha + 2e-14)) return false;
+        alpha_max_ = edge;  // the stable side, as the edge's maximum below
+        beta_at_alpha_max_ = best_beta;
+        return true;
     }
 
     EstimatorStabilityTest test_;
@@ -916,6 +1002,7 @@ class EstimatorStabilityRegion {
     std::vector<StableIsland> islands_;
     double a1_ = 1, b0_ = -1, b1_ = 4;
     int main_cells_ = 0, main_i1_ = -1, main_j0_ = 0, main_j1_ = -1;
+    int scan_na_ = 16, scan_nb_ = 16;
     double alpha_max_ = 0, beta_at_alpha_max_ = 0;
 };
 
@@ -973,19 +1060,20 @@ struct EstimatorOptimumOptions {
                                                    ///< the slower independent one; CEx+OV always use brent's curve
 };
 
-/// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 40 x 40 cells.
-/// The optimum needs only the main region's tip and its stable beta intervals, which the region finds by
-/// marching and bisecting the Schur-Cohn verdict from a main-region cell to ~1e-13 whatever the grid, once the
-/// grid resolves the region (the scan re-fits its box until the region fills at least 60 % of it, so 40 cells
-/// give it about 24 cells in each direction); the tests require alpha_max of both grids to agree to 1e-10.
-inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40};
+/// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 40 x 40 cells,
+/// no islands (the box fitted on 16 x 16 first). The optimum needs only the main region's tip (the curve's
+/// maximum) and its stable beta intervals (the Schur-Cohn verdict marched and bisected to ~1e-13), whatever the
+/// grid, once the grid resolves the region (the scan re-fits its box until the region fills at least 60 % of it,
+/// so 40 cells give it about 24 cells in each direction); the tests require alpha_max of both grids to agree to
+/// 1e-10.
+inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40, false};
 
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
 /// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
 /// EstimatorStabilityRegion; the CEx points by options.method:
-///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 3)
-///    alphas across (0, alpha_max) x max(4, 3 beta_grid / 8) betas across the main region's beta interval
-///    (8 x 6 by default); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start point on
+///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 4)
+///    alphas across (0, alpha_max) x max(4, beta_grid / 4) betas across the main region's beta interval
+///    (6 x 4 by default); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start point on
 ///    the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by alpha_max and that point's
 ///    interval width, to a step below 1e-12 of them. It stops where the gradient vanishes to rounding; a point
 ///    outside the main region's beta interval there goes to brent's region search on the same region;
@@ -1045,8 +1133,8 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
     };
     auto interval = [&](double a) { return region.beta_interval(a); };
     auto gradient = [&](double a, double b) { return estimator_energy_cost_gradient(sampled, estimator, a, b, index); };
-    const int fast_alphas = std::max(4, options.search.alpha_grid / 3);
-    const int fast_betas = std::max(4, options.search.beta_grid * 3 / 8);
+    const int fast_alphas = std::max(4, options.search.alpha_grid / 4);
+    const int fast_betas = std::max(4, options.search.beta_grid / 4);
     if (!requires_no_overshoot(criterion) && newton) {
         // Start grid of fast_alphas x fast_betas cell centres over the main region, then damped Newton
         // (newton_search.hpp) in coordinates scaled by alpha_max and the best start's beta interval width.

@@ -81,52 +81,70 @@ long double direct_condition_ld(double alpha, double beta, int d, long double th
     return std::real(u * delay * (static_cast<long double>(alpha) + static_cast<long double>(beta) * u)) / (4 * s * s);
 }
 
+/// The maximum of R over [0, pi] in long double by the direct complex form, and the allowance for its rounding
+/// (test below): theta = 0 as the limit R(0) = alpha (d + 1/2) - beta, theta = pi, and golden section (60 steps)
+/// within [theta_{k-1}, theta_{k+1}] of every local maximum k of a grid of N frequencies (N must put R's local maxima
+/// more than 2 pi / N apart). Allowance: 4 u_ld (d + 2)(|alpha| + |beta|) at theta = 0, else
+/// (8 + 2 d pi) u_ld (|alpha| + 2|beta|) / (2 sin(theta/2)) at the maximiser (the product's rounding, as in the grid
+/// test, plus that of the phase d theta, <= d pi u_ld), u_ld = 2^-64.
+struct LongDoubleMaximum {
+    long double value;
+    long double allowance;
+};
+LongDoubleMaximum long_double_maximum(double alpha, double beta, int d, int N) {
+    const long double h = static_cast<long double>(kPi) / N, u_ld = std::ldexp(1.0L, -64);
+    LongDoubleMaximum best{static_cast<long double>(alpha) * (d + 0.5L) - beta,
+                           4 * u_ld * (d + 2) * (std::abs(alpha) + std::abs(beta))};
+    auto take = [&](long double theta) {
+        const long double v = direct_condition_ld(alpha, beta, d, theta);
+        if (v > best.value) {
+            best.value = v;
+            best.allowance = (8 + 2 * d * static_cast<long double>(kPi)) * u_ld *
+                             (std::abs(alpha) + 2 * std::abs(beta)) / (2 * std::sin(theta / 2));
+        }
+    };
+    take(static_cast<long double>(kPi));
+    std::vector<long double> grid(static_cast<std::size_t>(N) + 1);
+    for (int k = 1; k <= N; ++k) grid[static_cast<std::size_t>(k)] = direct_condition_ld(alpha, beta, d, k * h);
+    grid[0] = best.value - 1;  // theta = 0 is handled exactly above; never an interior maximum of the grid
+    for (int k = 1; k < N; ++k) {
+        const auto i = static_cast<std::size_t>(k);
+        if (!(grid[i] >= grid[i - 1] && grid[i] >= grid[i + 1])) continue;
+        long double a = k == 1 ? h * 1e-3L : (k - 1) * h, b = (k + 1) * h;
+        const long double g = 0.6180339887498948482L;
+        for (int it = 0; it < 60; ++it) {
+            const long double x1 = b - g * (b - a), x2 = a + g * (b - a);
+            if (direct_condition_ld(alpha, beta, d, x1) < direct_condition_ld(alpha, beta, d, x2)) {
+                a = x1;  // the maximum is in [x1, b]
+            } else {
+                b = x2;
+            }
+        }
+        take((a + b) / 2);
+    }
+    return best;
+}
+
 // The stated error_bound at its own scale (the grid test above cannot see it: its grid error is ~1e-6). The exact
 // maximum is at theta = 0, theta = pi (R is even about both) or at an interior local maximum; R is a trigonometric
 // polynomial of degree d + 1 <= 9, so its local maxima are far more than 2 h apart on a grid of N = 1000 and each
 // lies within [theta_{k-1}, theta_{k+1}] of a local maximum k of the grid, where golden section (60 steps: width
 // 2 h 0.618^60 < 1e-15, so R there is within L 1e-30 of the peak) finds it. All in long double by the direct complex
 // form; its rounding, as in the grid test with u_ld = 2^-64: 8 u_ld (|alpha| + 2|beta|) / (2 sin(theta/2)) at the
-// maximiser, and 4 u_ld (d + 2)(|alpha| + |beta|) for the limit R(0) = alpha (d + 1/2) - beta. Check, both ways: |exact
-// maximum - value| <= error_bound + that rounding.
+// maximiser (plus the phase's, long_double_maximum), and 4 u_ld (d + 2)(|alpha| + |beta|) for the limit
+// R(0) = alpha (d + 1/2) - beta. Check, both ways: |exact maximum - value| <= error_bound + that rounding.
 TEST(PassivityMaximum, ErrorBoundHoldsAgainstALongDoubleMaximum) {
     std::mt19937 rng(16);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     const int N = 1000;
-    const long double h = static_cast<long double>(kPi) / N, u_ld = std::ldexp(1.0L, -64);
     double worst_ratio = 0, worst_gap = 0, worst_rounding = 0;
     for (int d = 0; d <= 8; ++d) {
         for (int i = 0; i < 40; ++i) {
             const double alpha = i % 5 == 0 ? -0.2 * std::abs(u(rng)) : 0.5 * std::abs(u(rng));
             const double beta = i % 7 == 0 ? 0.0 : u(rng);
             const PassivityConditionMaximum m = passivity_condition_maximum({alpha, beta}, d);
-            long double best = static_cast<long double>(alpha) * (d + 0.5L) - beta;  // theta = 0
-            long double allowance = 4 * u_ld * (d + 2) * (std::abs(alpha) + std::abs(beta));
-            auto take = [&](long double theta) {
-                const long double v = direct_condition_ld(alpha, beta, d, theta);
-                if (v > best) {
-                    best = v;
-                    allowance = 8 * u_ld * (std::abs(alpha) + 2 * std::abs(beta)) / (2 * std::sin(theta / 2));
-                }
-            };
-            take(static_cast<long double>(kPi));
-            std::vector<long double> grid(N + 1);
-            for (int k = 1; k <= N; ++k) grid[k] = direct_condition_ld(alpha, beta, d, k * h);
-            grid[0] = best - 1;  // theta = 0 is handled exactly above; never an interior maximum of the grid
-            for (int k = 1; k < N; ++k) {
-                if (!(grid[k] >= grid[k - 1] && grid[k] >= grid[k + 1])) continue;
-                long double a = k == 1 ? h * 1e-3L : (k - 1) * h, b = (k + 1) * h;
-                const long double g = 0.6180339887498948482L;
-                for (int it = 0; it < 60; ++it) {
-                    const long double x1 = b - g * (b - a), x2 = a + g * (b - a);
-                    if (direct_condition_ld(alpha, beta, d, x1) < direct_condition_ld(alpha, beta, d, x2)) {
-                        a = x1;  // the maximum is in [x1, b]
-                    } else {
-                        b = x2;
-                    }
-                }
-                take((a + b) / 2);
-            }
+            const LongDoubleMaximum reference = long_double_maximum(alpha, beta, d, N);
+            const long double best = reference.value, allowance = reference.allowance;
             const double gap = static_cast<double>(std::abs(best - static_cast<long double>(m.value)));
             const double stated = m.error_bound + static_cast<double>(allowance);
             EXPECT_LE(gap, stated) << "d=" << d << " alpha=" << alpha << " beta=" << beta << " value " << m.value;
@@ -215,6 +233,36 @@ TEST(PassivityMaximum, IssueExampleIsNotPassive) {
     text << in.rdbuf();
     EXPECT_NE(text.str().find("\"passive\":false"), std::string::npos) << text.str();
     EXPECT_NE(text.str().find("\"stable\":false"), std::string::npos) << text.str();
+}
+
+// The longest delay accepted, kMaxPassivityDelay = 1000 (degree 1001 of the Chebyshev series, whose derivative
+// cascade loses digits as the degree grows), and d = 200, against long_double_maximum on a grid of N = 32 (d + 2)
+// frequencies (R has degree d + 1, so its local maxima are about 32 grid steps apart), with its allowance. Gains:
+// alpha in [0, 0.05] (small alphas put the maximum inside (0, pi)), |beta| <= 0.5. One more period is refused by
+// name.
+TEST(PassivityMaximum, LongestDelayAgreesWithALongDoubleMaximum) {
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> ua(0.0, 0.05), ub(-0.5, 0.5);
+    for (int d : {200, kMaxPassivityDelay}) {
+        for (int trial = 0; trial < 3; ++trial) {
+            const double alpha = trial == 0 ? 0.01 * ua(rng) : ua(rng), beta = ub(rng);
+            const PassivityConditionMaximum m = passivity_condition_maximum({alpha, beta}, d);
+            const LongDoubleMaximum reference = long_double_maximum(alpha, beta, d, 32 * (d + 2));
+            const long double best = reference.value, allowance = reference.allowance;
+            const double gap = static_cast<double>(std::abs(best - static_cast<long double>(m.value)));
+            EXPECT_LE(gap, m.error_bound + static_cast<double>(allowance))
+                << "d=" << d << " alpha=" << alpha << " beta=" << beta << " value " << m.value;
+        }
+    }
+    EXPECT_TRUE(passivity_is_covered(NormalizedPlant{0, 0.02, 1000}));
+    EXPECT_FALSE(passivity_is_covered(NormalizedPlant{0, 0.02, 1001}));
+    try {
+        passivity_margin(NormalizedPlant{0, 0.02, 1001}, {0.01, 0.0});
+        ADD_FAILURE() << "no error for d = 1001";
+    } catch (const InvalidParameter& e) {
+        EXPECT_EQ(e.parameter(), "delay");
+        EXPECT_NE(std::string(e.what()).find("0..1000"), std::string::npos) << e.what();
+    }
 }
 
 // A fractional delay is refused by name, never answered with the integer result; the rounding of t_d / T

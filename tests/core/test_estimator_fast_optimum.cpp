@@ -115,8 +115,8 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
                 EXPECT_NEAR(fast.alpha / slow.alpha, 1.0, 1e-5) << where;
                 EXPECT_NEAR(fast.beta / slow.beta, 1.0, 1e-5) << where;
                 EXPECT_NEAR(*fast.cost / *slow.cost, 1.0, 1e-10) << where;
-                // The region's tip by the fast method's 40 x 40 scan and the default 160 x 160 one: both march and
-                // bisect the same verdict to ~1e-13 (kFastOptimumRegionGrid).
+                // The region's tip by the fast method's 40 x 40 scan and the default 160 x 160 one: the same curve
+                // maximum (or, at a corner, the same edge bisected to ~1e-14), whatever the grid.
                 EXPECT_NEAR(fast.alpha_max / slow.alpha_max, 1.0, 1e-10) << where;
                 EXPECT_NEAR(fast.beta_at_alpha_max, slow.beta_at_alpha_max, 1e-5) << where;
             }

@@ -311,6 +311,41 @@ TEST(VelocityEstimator, MainRegionTipAgainstSimulation) {
     }
 }
 
+// The tip (the D-decomposition curve's maximum, confirmed by the edge) against the loop matrix's spectral radius
+// (complex Schur form: independent of the Schur-Cohn verdict and of the curve): at beta_at_alpha_max the radius is
+// below 1 at alpha_max (1 - 1e-7) and above 1 at alpha_max (1 + 1e-7), and at 21 betas across a band of +-10 % of
+// the main region's beta interval at alpha_max / 2 around it, alpha_max (1 + 1e-7) is unstable (no point above the
+// tip nearby). 1e-7 is far above the ~1e-12 accuracy claimed for alpha_max and below any cell of the scan.
+TEST(VelocityEstimator, MainRegionTipAgainstTheLoopsSpectralRadius) {
+    struct Case {
+        VelocityEstimator e;
+        double d;
+    };
+    for (const Case& c :
+         {Case{VelocityEstimator::low_pass(0.02), 1.0}, Case{VelocityEstimator::moving_window(15), 0.0},
+          Case{VelocityEstimator::moving_window(15), 1.0}, Case{VelocityEstimator::moving_window(3), 2.0},
+          Case{VelocityEstimator::low_pass(0.002), 1.0}, Case{VelocityEstimator::low_pass(0.02), 6.0},
+          Case{VelocityEstimator::moving_window(15), 6.0}}) {
+        const NormalizedPlant plant{0, 0, c.d};
+        for (const EstimatorRegionOptions& grid : {EstimatorRegionOptions{}, kFastOptimumRegionGrid}) {
+            const EstimatorStabilityRegion region(plant, c.e, grid);
+            const double a = region.alpha_max(), b = region.beta_at_alpha_max();
+            ASSERT_GT(a, 0);
+            auto radius = [&](double alpha, double beta) {
+                return stability(plant, NormalizedGains{alpha, beta}, c.e).spectral_radius;
+            };
+            EXPECT_LT(radius(a * (1 - 1e-7), b), 1) << c.d;
+            EXPECT_GT(radius(a * (1 + 1e-7), b), 1) << c.d;
+            const auto [lo, hi] = region.beta_interval(a / 2);
+            const double band = 0.1 * (hi - lo);
+            for (int k = -10; k <= 10; ++k) {
+                const double beta = b + band * k / 10;
+                EXPECT_GE(radius(a * (1 + 1e-7), beta), 1) << c.d << " beta " << beta;
+            }
+        }
+    }
+}
+
 // The 15-sample window at d = 0 has a stable island above the main region (negative beta): reported as an
 // island, with alpha_max the main region's, far below it.
 TEST(VelocityEstimator, LongWindowIslandIsSeparate) {

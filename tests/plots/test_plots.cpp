@@ -434,7 +434,13 @@ TEST(PlotNoisePareto, CurvesAreTheConstrainedOptimaPerEstimator) {
             // the budget; 1e-12 relative is the rounding of two evaluations of g_F at the same gains.
             const double g = hapticopt::force_noise_gain(plant, {p.alpha, p.beta}, e);
             EXPECT_LE(g, budgets[static_cast<std::size_t>(i)] * (1 + 1e-12)) << label << " point " << i;
-            EXPECT_NEAR(hapticopt::energy_costs(plant, {p.alpha, p.beta}, e).ce2, p.cost, 1e-12 * p.cost);
+            // The cost at the point by energy_costs() (for the backward difference the paper's loop, not the
+            // estimator loop the search used): two evaluations whose rounding grows like eps / (1 - rho^2)
+            // (velocity_estimator.hpp), allowed 1e3 eps / (1 - rho^2) relative for the three chained Stein solves.
+            const double rho = hapticopt::stability(plant, {p.alpha, p.beta}, e).spectral_radius;
+            EXPECT_NEAR(hapticopt::energy_costs(plant, {p.alpha, p.beta}, e).ce2, p.cost,
+                        1e3 * 2.2e-16 / (1 - rho * rho) * p.cost)
+                << label << " point " << i;
             EXPECT_EQ(p.budget_active, i > 0) << label << " point " << i;
             // Tighter budget, no lower cost (1e-9 relative: the search's stated accuracy).
             if (i > 0) {
