@@ -46,7 +46,7 @@
 // function of z; every function here throws InvalidParameter naming `delay` rather than report the integer
 // answer. Delays within 1e-9 of an integer (rounding of t_d / T) are taken as that integer. Integer delays
 // up to kMaxPassivityDelay = 1000 periods (1 s at 1 kHz): the maximum is checked at d = 1000 against a long
-// double cosine sum refined at its local maxima (tests/beyond/test_passivity.cpp); beyond, InvalidParameter.
+// double maximum of the direct complex form (tests/beyond/test_passivity.cpp); beyond, InvalidParameter.
 //
 // Passivity margin (normalised, dimensionless):  mu = delta - max_theta R(theta) for alpha >= 0, and
 // min(delta - max R, alpha) for alpha < 0;  passive iff mu > 0. Physical: mu m / T [N s/m]
