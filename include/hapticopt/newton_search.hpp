@@ -3,16 +3,19 @@
 //  - minimize_newton_2d: Levenberg-Marquardt-damped Newton steps (a trust-region method: the damping mu
 //    shrinks the step where the quadratic model fails) on f(x, y) given f and its gradient; the Hessian
 //    comes from forward differences of the analytic gradient (step 1e-6 in the scaled coordinates x / sx,
-//    y / sy). A step is accepted when f decreases, or when f stays within rounding (8 eps |f|) and the
-//    gradient's norm decreases (at a minimum the values differ by rounding only, the gradient still
-//    resolves the point); a rejected step (also one leaving the domain, where f is not finite) raises mu.
-//    Stops when a step (accepted, or proposed under any damping) is below `step_tolerance` in the scaled
-//    coordinates, when no step is accepted, or after `max_iterations`; a proposed step that small is not
-//    evaluated (near the minimum, where f no longer resolves a step, raising mu would otherwise spend up to 40
-//    evaluations on rejected steps). Converges quadratically near a minimum with a positive definite
-//    Hessian (the forward-difference Hessian's relative error ~1e-6 only slows the last step's contraction to
+//    y / sy), and is kept after an accepted step below kKeepHessianBelow (a chord step: the Hessian there differs
+//    by about that fraction, so each step still contracts the error by about as much; a kept Hessian whose step
+//    is rejected is replaced by a fresh one at the same point). A step is accepted when f decreases, or when f
+//    stays within rounding (8 eps |f|) and the gradient's norm decreases (at a minimum the values differ by
+//    rounding only, the gradient still resolves the point); a rejected step leaving the domain (f not finite)
+//    raises mu. Stops when a step (accepted, or proposed under any damping) is below `step_tolerance` in the
+//    scaled coordinates, when a step below kUnresolvedStep is rejected inside the domain (the function no longer
+//    resolves it), when no step is accepted, or after `max_iterations`; a proposed step below the tolerance is
+//    not evaluated. Converges quadratically near a minimum with a positive definite Hessian until the chord
+//    steps (the forward-difference Hessian's relative error ~1e-6 only slows the last step's contraction to
 //    ~1e-6 per step); J. Nocedal, S. J. Wright, "Numerical Optimization", 2nd ed., 2006, ch. 4 and 10.
-//  - minimize_newton_1d: the same for a function of one variable, kept inside (lo, hi).
+//  - minimize_newton_1d: the same for a function of one variable, kept inside (lo, hi), with a fresh second
+//    derivative at every step and only the step-tolerance stop.
 // Both converge to a local minimum; callers start them in the global minimum's basin (a coarse grid).
 #pragma once
 
@@ -21,6 +24,14 @@
 #include <limits>
 
 namespace hapticopt::detail {
+
+/// minimize_newton_2d keeps its Hessian after an accepted step below this (scaled coordinates): from there
+/// the Hessian changes by about that fraction, so each further step still contracts the error by about as much.
+inline constexpr double kKeepHessianBelow = 1e-3;
+/// A step below this (scaled coordinates) rejected inside the domain ends minimize_newton_2d: the model's decrease
+/// over it, ~ step^2, is below the values' rounding, and the gradient there differs from the point's by rounding
+/// only. (A step rejected for leaving the domain raises the damping instead.)
+inline constexpr double kUnresolvedStep = 1e-8;
 
 struct ValueAndGradient2 {
     double value;  ///< f, +inf (or NaN) outside the domain
@@ -54,26 +65,32 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
     if (!finite(p)) return {x, y, p.f, evaluations};
     const double h = 1e-6;
     double mu = 0;
+    double huu = 0, hvv = 0, huv = 0, floor_mu = 0;
+    bool fresh_hessian = true;
     for (int it = 0; it < max_iterations; ++it) {
-        // Hessian by forward differences of the gradient (backward where the forward point is outside).
-        Point pu = eval(p.u + h, p.v);
-        double hu = h;
-        if (!finite(pu)) {
-            pu = eval(p.u - h, p.v);
-            hu = -h;
+        const bool reused = !fresh_hessian;
+        if (fresh_hessian) {
+            // Hessian by forward differences of the gradient (backward where the forward point is outside).
+            Point pu = eval(p.u + h, p.v);
+            double hu = h;
+            if (!finite(pu)) {
+                pu = eval(p.u - h, p.v);
+                hu = -h;
+            }
+            Point pv = eval(p.u, p.v + h);
+            double hv = h;
+            if (!finite(pv)) {
+                pv = eval(p.u, p.v - h);
+                hv = -h;
+            }
+            if (!finite(pu) || !finite(pv)) break;
+            huu = (pu.gu - p.gu) / hu;
+            hvv = (pv.gv - p.gv) / hv;
+            huv = ((pu.gv - p.gv) / hu + (pv.gu - p.gu) / hv) / 2;
+            floor_mu = 1e-3 * (std::abs(huu) + std::abs(hvv)) + 1e-300;
         }
-        Point pv = eval(p.u, p.v + h);
-        double hv = h;
-        if (!finite(pv)) {
-            pv = eval(p.u, p.v - h);
-            hv = -h;
-        }
-        if (!finite(pu) || !finite(pv)) break;
-        const double huu = (pu.gu - p.gu) / hu, hvv = (pv.gv - p.gv) / hv;
-        const double huv = ((pu.gv - p.gv) / hu + (pv.gu - p.gu) / hv) / 2;
-        const double floor_mu = 1e-3 * (std::abs(huu) + std::abs(hvv)) + 1e-300;
         const double gnorm = std::hypot(p.gu, p.gv);
-        bool accepted = false, converged = false;
+        bool accepted = false, converged = false, refresh = false;
         double step = 0;
         for (int tries = 0; tries < 40 && !accepted; ++tries) {
             const double a = huu + mu, c = hvv + mu, det = a * c - huv * huv;
@@ -94,11 +111,22 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
                 step = std::hypot(su, sv);
                 accepted = true;
                 mu = mu / 4 < 1e-6 * floor_mu ? 0 : mu / 4;
+            } else if (finite(q) && std::hypot(su, sv) <= kUnresolvedStep) {  // rounding level: stop here
+                converged = true;
+                break;
+            } else if (reused) {  // the kept Hessian failed: a fresh one at the same point
+                refresh = true;
+                break;
             } else {
                 mu = std::max(4 * mu, floor_mu);
             }
         }
+        if (refresh) {
+            fresh_hessian = true;
+            continue;
+        }
         if (converged || !accepted || step <= step_tolerance) break;
+        fresh_hessian = step > kKeepHessianBelow;
     }
     return {p.u * sx, p.v * sy, p.f, evaluations};
 }

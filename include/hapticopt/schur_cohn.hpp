@@ -31,6 +31,7 @@ SchurCohnResult<Scalar> schur_cohn(Eigen::Matrix<Scalar, Eigen::Dynamic, 1> a) {
     using std::abs;
     SchurCohnResult<Scalar> result;
     result.margin = Scalar(1);
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1> r(a.size());  // the next polynomial, one buffer for every step
     for (Eigen::Index n = a.size() - 1; n > 0; --n) {
         const Scalar lead = a(n);
         if (!(std::isfinite(static_cast<double>(lead))) || lead == Scalar(0)) {
@@ -45,9 +46,8 @@ SchurCohnResult<Scalar> schur_cohn(Eigen::Matrix<Scalar, Eigen::Dynamic, 1> a) {
             return result;
         }
         if (m < result.margin) result.margin = m;
-        Eigen::Matrix<Scalar, Eigen::Dynamic, 1> r(n);
         for (Eigen::Index i = 0; i < n; ++i) r(i) = a(i + 1) - k * a(n - 1 - i);
-        a.head(n) = r;
+        a.head(n) = r.head(n);
     }
     result.stable = true;
     return result;

@@ -115,21 +115,17 @@ class ShiftSteinSolver {
                 if (abs(lu_(i, j)) > abs(lu_(p, j))) p = i;
             }
             pivot_(j) = p;
-            if (p != j) {
-                for (int c = 0; c < u; ++c) std::swap(lu_(p, c), lu_(j, c));
-            }
+            if (p != j) lu_.row(p).swap(lu_.row(j));
             const Scalar d = lu_(j, j);
             if (!(d != Scalar(0)) || !std::isfinite(static_cast<double>(d))) {
                 ok_ = false;
                 return;
             }
-            for (int i = j + 1; i < u; ++i) {
-                const Scalar f = lu_(i, j) / d;
-                lu_(i, j) = f;
-                if (f != Scalar(0)) {
-                    for (int c = j + 1; c < u; ++c) lu_(i, c) -= f * lu_(j, c);
-                }
-            }
+            const int rest = u - j - 1;
+            lu_.col(j).tail(rest) /= d;
+            // The rank-1 update of the trailing block as one expression (vectorised; each entry is
+            // a - f b, as written out element by element).
+            lu_.bottomRightCorner(rest, rest).noalias() -= lu_.col(j).tail(rest) * lu_.row(j).tail(rest);
         }
     }
 
@@ -260,6 +256,18 @@ class ShiftSteinSolver {
             for (int k = 2; k < n; ++k) y(k, l) = x(shift_source(k), sl);
         }
         return y;
+    }
+
+    /// M^T X M (the adjoint equation's map), using the shift structure: O(N^2).
+    Square transpose_congruence(const Square& x) const {
+        const int n = n_;
+        Square y(n, n);  // X M: columns 0, 1 of X times the top rows, plus column k >= 2 of X into column s(k)
+        for (int j = 0; j < n; ++j) y.col(j) = x.col(0) * top_(0, j) + x.col(1) * top_(1, j);
+        for (int k = 2; k < n; ++k) y.col(shift_source(k)) += x.col(k);
+        Square z(n, n);  // M^T (X M), the same by rows
+        for (int i = 0; i < n; ++i) z.row(i) = top_(0, i) * y.row(0) + top_(1, i) * y.row(1);
+        for (int k = 2; k < n; ++k) z.row(shift_source(k)) += y.row(k);
+        return z;
     }
 
   private:

@@ -401,6 +401,7 @@ class SchurSteinSolver {
         return back(flip<Scalar>(solve_triangular_stein<Scalar>(flipped_, flip<Scalar>(to_schur(h)))));
     }
     Square propagate(const Square& x) const { return m_ * x * m_.transpose(); }
+    Square transpose_congruence(const Square& x) const { return m_.transpose() * x * m_; }
 
   private:
     ComplexMatrix<Scalar> to_schur(const Square& c) const {
@@ -457,14 +458,18 @@ EnergyCostGradientT<Scalar> estimator_gradient_from_solver(const SampledPlant<Sc
     for (int q = 0; q <= p; ++q) j += h[static_cast<std::size_t>(q)].cwiseProduct(g[static_cast<std::size_t>(q)]).sum();
     if (p >= 2) l[2] = stein.adjoint_solve(h[2]);
     if (p >= 1) l[1] = stein.adjoint_solve(p >= 2 ? Square(h[1] + Scalar(2) * l[2]) : h[1]);
-    l[0] = stein.adjoint_solve(p >= 1 ? Square(h[0] + m.transpose() * (l[1] - l[2]) * m) : h[0]);
-    Square through = (l[0] + l[1] - l[2]) * (m * g[0]);
-    if (p >= 1) through.noalias() += l[1] * (m * g[1]);
-    if (p >= 2) through.noalias() += l[2] * (m * g[2]);
+    l[0] = stein.adjoint_solve(p >= 1 ? Square(h[0] + stein.transpose_congruence(Square(l[1] - l[2]))) : h[0]);
+    // dM is zero below its first two rows (the gains enter only the force row, make_estimator_loop), so only
+    // the first two rows of (L_0 + L_1 - L_2) M G_0 + L_1 M G_1 + L_2 M G_2 are needed: O(N^2) products.
+    using TwoRows = Eigen::Matrix<Scalar, 2, Eigen::Dynamic>;
+    const TwoRows first = (l[0] + l[1] - l[2]).topRows(2);
+    TwoRows through = (first * m) * g[0];
+    if (p >= 1) through.noalias() += (l[1].topRows(2) * m) * g[1];
+    if (p >= 2) through.noalias() += (l[2].topRows(2) * m) * g[2];
     Scalar dj[2];
     for (int dir = 0; dir < 2; ++dir) {
         const ClosedLoop<Scalar>& dl = dloop[static_cast<std::size_t>(dir)];
-        Scalar v = Scalar(2) * through.cwiseProduct(dl.transition).sum();
+        Scalar v = Scalar(2) * through.cwiseProduct(dl.transition.topRows(2)).sum();
         if (dir == 0) v += Scalar(2) * e0.dot(l[0] * (-e0 / k));  // e_0 = -u / k: de_0 / dalpha = -e_0 / k
         for (int s = 0; s < plant.segment_count(); ++s) {
             const auto si = static_cast<std::size_t>(s);
@@ -696,9 +701,11 @@ struct EstimatorRegionOptions {
 /// (alpha -> 0+ at some beta). Found by a scan of the Schur-Cohn verdict on a grid over alpha in (0, 1],
 /// beta in [-1, 4], flood fill from the grid's first alpha column (where that column has nothing stable,
 /// the box shrinks 4x in alpha and beta towards beta = 0 until it does, down to alpha 1e-9), the box re-fitted
-/// to the region until it fills it. Without find_islands (the fast optimum's grid) the box is fitted on a
-/// 16 x 16 grid first, then scanned at the options' grid; where the 16 x 16 passes find nothing, the search
-/// runs again at the options' grid.
+/// to the region until it fills it (a pass whose first column has nothing stable scans no further). Without
+/// find_islands (the fast optimum's grid) the box is fitted on a 16 x 16 grid first, then scanned at the options'
+/// grid (not again where that is 16 x 16); where that finds nothing, the search runs again at 40 x 40, then at the
+/// default 160 x 160; and on a grid coarser than 40 x 40 a corner tip (below) has the region scanned again at
+/// 40 x 40 before its Brent search.
 /// The region's edge along a line of constant beta is the first instability reached by marching up in alpha
 /// from a main-region cell (steps of a quarter cell) refined by bisection to 1e-14. alpha_max: the largest
 /// local maximum of the D-decomposition curve (alpha(theta), beta(theta)) solving p(e^{i theta}) = 0
@@ -722,12 +729,33 @@ class EstimatorStabilityRegion {
         std::vector<StableIsland> wide;
         bool found = !options.find_islands && fit_box(true, nullptr);
         if (!found) found = fit_box(false, options.find_islands ? &wide : nullptr);
+        // Nothing found on a coarse grid: again at kFallbackGrid, then at the default grid (a region whose
+        // first column the coarser scans miss: a thin one, or one at beta < 0 that the box shrinking towards
+        // beta = 0 leaves).
+        for (const int grid : {kFallbackGrid, EstimatorRegionOptions{}.alpha_grid}) {
+            if (found || options.find_islands || std::min(options.alpha_grid, options.beta_grid) >= grid) continue;
+            options_.alpha_grid = std::max(options.alpha_grid, grid);
+            options_.beta_grid = std::max(options.beta_grid, grid);
+            found = fit_box(false, nullptr);
+        }
         if (!found) {
             alpha_max_ = 0;
             islands_ = wide;
             return;
         }
-        refine_tip();
+        if (!refine_tip() && !options.find_islands &&
+            std::min(options_.alpha_grid, options_.beta_grid) < kFallbackGrid) {
+            // A corner tip on a grid coarser than kFallbackGrid: the region again on that grid (the tip's Brent
+            // search and the beta intervals start from the scan's cells); the coarse region where that finds none.
+            const EstimatorRegionOptions coarse = options_;
+            options_.alpha_grid = std::max(options_.alpha_grid, kFallbackGrid);
+            options_.beta_grid = std::max(options_.beta_grid, kFallbackGrid);
+            if (!fit_box(false, nullptr)) {
+                options_ = coarse;
+                fit_box(true, nullptr);
+            }
+            refine_tip();
+        }
         // Islands: the components of the first (widest) scan not connected to its first column, except any that
         // overlaps the main region's box (a main region thinner than that scan's cells can appear detached in it).
         const double db = (b1_ - b0_) / nb();
@@ -796,6 +824,7 @@ class EstimatorStabilityRegion {
 
   private:
     static constexpr int kCoarseGrid = 16;
+    static constexpr int kFallbackGrid = 40;
     int na() const { return scan_na_; }
     int nb() const { return scan_nb_; }
     int label(int i, int j) const { return labels_[static_cast<std::size_t>(i * nb() + j)]; }
@@ -806,9 +835,10 @@ class EstimatorStabilityRegion {
     /// fits). `wide`: receives the first scan's other components (the islands).
     bool fit_box(bool coarse, std::vector<StableIsland>* wide) {
         double a1 = 1, b0 = -1, b1 = 4;
-        bool fine = !coarse;
+        bool fine = !coarse || (options_.alpha_grid == kCoarseGrid && options_.beta_grid == kCoarseGrid);
         for (int pass = 0; pass < 40; ++pass) {
-            scan(a1, b0, b1, fine ? options_.alpha_grid : kCoarseGrid, fine ? options_.beta_grid : kCoarseGrid);
+            scan(a1, b0, b1, fine ? options_.alpha_grid : kCoarseGrid, fine ? options_.beta_grid : kCoarseGrid,
+                 !(wide && pass == 0));
             if (wide && pass == 0) *wide = other_components();
             if (main_cells_ == 0) {  // nothing stable in the first column: the main region is below one cell, or empty
                 if (a1 < 1e-9) return false;
@@ -840,8 +870,9 @@ class EstimatorStabilityRegion {
         return true;
     }
 
-    /// Labels: 0 unstable, 1 main component (flood fill from column 0), 2 stable elsewhere.
-    void scan(double a1, double b0, double b1, int alpha_cells, int beta_cells) {
+    /// Labels: 0 unstable, 1 main component (flood fill from column 0), 2 stable elsewhere. `main_only`: where
+    /// column 0 has no stable cell (so no main component) the other columns are not scanned.
+    void scan(double a1, double b0, double b1, int alpha_cells, int beta_cells, bool main_only) {
         scan_na_ = alpha_cells;
         scan_nb_ = beta_cells;
         a1_ = a1;
@@ -849,20 +880,24 @@ class EstimatorStabilityRegion {
         b1_ = b1;
         const double da = a1 / na(), db = (b1 - b0) / nb();
         labels_.assign(static_cast<std::size_t>(na() * nb()), 0);
+        main_cells_ = 0;
+        main_i1_ = -1;
+        main_j0_ = nb();
+        main_j1_ = -1;
+        bool first_column = false;
         for (int i = 0; i < na(); ++i) {
             for (int j = 0; j < nb(); ++j) {
-                if (test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db))
+                if (test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db)) {
                     labels_[static_cast<std::size_t>(i * nb() + j)] = 2;
+                    first_column = first_column || i == 0;
+                }
             }
+            if (i == 0 && main_only && !first_column) return;
         }
         std::vector<int> stack;
         for (int j = 0; j < nb(); ++j) {
             if (label(0, j) == 2) stack.push_back(j);
         }
-        main_cells_ = 0;
-        main_i1_ = -1;
-        main_j0_ = nb();
-        main_j1_ = -1;
         while (!stack.empty()) {
             const int cell = stack.back();
             stack.pop_back();
@@ -931,7 +966,8 @@ class EstimatorStabilityRegion {
         return inside;
     }
 
-    void refine_tip() {
+    /// Sets alpha_max_ and beta_at_alpha_max_; true when the curve's maximum gave them (a smooth tip).
+    bool refine_tip() {
         const double db = (b1_ - b0_) / nb();
         int best_j = -1;
         for (int j = 0; j < nb() && best_j < 0; ++j) {
@@ -941,11 +977,12 @@ class EstimatorStabilityRegion {
         while (last_j + 1 < nb() && label(main_i1_, last_j + 1) == 1) ++last_j;
         const double centre = b0_ + ((best_j + last_j) / 2.0 + 0.5) * db;
         const double half = (last_j - best_j + 1) * db / 2 + 2 * db;
-        if (curve_tip(centre - half, centre + half)) return;
+        if (curve_tip(centre - half, centre + half)) return true;
         const detail::ScalarMinimum m =
             detail::minimize_scalar([&](double b) { return -edge_at(b); }, centre - half, centre + half, 1e-13);
         beta_at_alpha_max_ = m.x;
         alpha_max_ = -m.value;
+        return false;
     }
 
     /// The tip as a smooth maximum of the D-decomposition curve (header comment), when the region's own edge
@@ -1060,23 +1097,29 @@ struct EstimatorOptimumOptions {
                                                    ///< the slower independent one; CEx+OV always use brent's curve
 };
 
-/// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 40 x 40 cells,
-/// no islands (the box fitted on 16 x 16 first). The optimum needs only the main region's tip (the curve's
-/// maximum) and its stable beta intervals (the Schur-Cohn verdict marched and bisected to ~1e-13), whatever the
-/// grid, once the grid resolves the region (the scan re-fits its box until the region fills at least 60 % of it,
-/// so 40 cells give it about 24 cells in each direction); the tests require alpha_max of both grids to agree to
-/// 1e-10.
-inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40, false};
+/// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 16 x 16 cells,
+/// no islands (EstimatorStabilityRegion: a corner tip re-scanned at 40 x 40; nothing found, again at 40 x 40 and
+/// 160 x 160). The optimum needs only the main region's tip (the curve's maximum) and its stable beta intervals
+/// (the Schur-Cohn verdict marched and bisected), whatever the grid, once the grid resolves the region (the scan
+/// re-fits its box until the region fills at least 60 % of it, so 16 cells give it about 10 in each direction);
+/// the tests require alpha_max of this grid and the default one to agree to 1e-10 at smooth tips.
+inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{16, 16, false};
+
+/// OptimumMethod::newton with an estimator: a minimum found below this fraction of alpha_max is on the edge
+/// alpha -> 0+, and its beta is polished there by a 1-d Newton (optimal_point).
+inline constexpr double kAlphaEdge = 1e-9;
 
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
 /// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
 /// EstimatorStabilityRegion; the CEx points by options.method:
 ///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 4)
 ///    alphas across (0, alpha_max) x max(4, beta_grid / 4) betas across the main region's beta interval
-///    (6 x 4 by default); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start point on
-///    the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by alpha_max and that point's
-///    interval width, to a step below 1e-12 of them. It stops where the gradient vanishes to rounding; a point
-///    outside the main region's beta interval there goes to brent's region search on the same region;
+///    (6 x 4 by default; the interval's ends to 1e-3); then damped Newton (newton_search.hpp, minimize_newton_2d)
+///    from the best start point on the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by
+///    alpha_max and that point's interval width, to a step below 1e-12 of them or the function's resolution. A
+///    minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma > 0): its beta is then minimised at
+///    that alpha by minimize_newton_1d. A point outside the main region's beta interval there, or a start grid
+///    without a finite cost, goes to brent's region search on the same region;
 ///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
 ///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
 /// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:
@@ -1084,7 +1127,8 @@ inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{40, 40, false};
 /// the optimal curve beta_opt(alpha) (grid + Brent over the main region's beta interval), a scan down from
 /// alpha_max in `search.alpha_grid` steps to the first alpha whose curve point has C_OV <= tolerance
 /// (estimator_overshoot), then bisection. Throws InvalidParameter for the OV criterion (its point is not
-/// searched with an estimator) and when no scanned curve point meets the tolerance.
+/// searched with an estimator) and when no scanned curve point meets the tolerance. An empty main region
+/// (alpha_max = 0) gives cost +inf for the CEx criteria.
 HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const NormalizedPlant& plant,
                                               const VelocityEstimator& estimator,
                                               const EstimatorOptimumOptions& options = {})
@@ -1125,6 +1169,10 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
         out.beta = out.beta_at_alpha_max;
         return out;
     }
+    if (!(out.alpha_max > 0) && !requires_no_overshoot(criterion)) {  // no main region: no CEx point
+        out.cost = HUGE_VAL;
+        return out;
+    }
     const int index = *energy_index(criterion);
     const SampledPlant<double> sampled(plant);
     auto cost = [&](double a, double b) {
@@ -1138,11 +1186,12 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
     if (!requires_no_overshoot(criterion) && newton) {
         // Start grid of fast_alphas x fast_betas cell centres over the main region, then damped Newton
         // (newton_search.hpp) in coordinates scaled by alpha_max and the best start's beta interval width.
-        // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-6.
+        // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-3 (the march
+        // brackets them to a quarter of a scan cell first).
         double best_a = out.alpha_max / 2, best_b = 0, best_width = 1, best_value = HUGE_VAL;
         for (int i = 0; i < fast_alphas; ++i) {
             const double a = (i + 0.5) * out.alpha_max / fast_alphas;
-            const auto [lo, hi] = region.beta_interval(a, 1e-6);
+            const auto [lo, hi] = region.beta_interval(a, 1e-3);
             if (!(hi > lo)) continue;
             for (int j = 0; j < fast_betas; ++j) {
                 const double b = lo + (j + 0.5) * (hi - lo) / fast_betas;
@@ -1155,24 +1204,34 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
                 }
             }
         }
-        if (!std::isfinite(best_value)) {
-            out.cost = HUGE_VAL;
-            return out;
-        }
-        auto fg = [&](double a, double b) {
-            if (!(a > 0 && a < out.alpha_max)) return detail::ValueAndGradient2{HUGE_VAL, 0, 0};
-            const EnergyCostGradient g = gradient(a, b);
-            return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
-        };
-        const detail::NewtonMinimum2 m = detail::minimize_newton_2d(fg, best_a, best_b, out.alpha_max, best_width);
-        // The steps are bounded in alpha only; a point outside the main region's beta interval (another stable
-        // region, or within the ends' 1e-6 of them) leaves the answer to the region search below.
-        const auto [lo, hi] = region.beta_interval(m.x, 1e-6);
-        if (m.y > lo && m.y < hi) {
-            out.alpha = m.x;
-            out.beta = m.y;
-            out.cost = cost(m.x, m.y);
-            return out;
+        // No finite start cost (a region thinner than the start grid resolves): the region search below.
+        if (std::isfinite(best_value)) {
+            auto fg = [&](double a, double b) {
+                if (!(a > 0 && a < out.alpha_max)) return detail::ValueAndGradient2{HUGE_VAL, 0, 0};
+                const EnergyCostGradient g = gradient(a, b);
+                return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
+            };
+            detail::NewtonMinimum2 m = detail::minimize_newton_2d(fg, best_a, best_b, out.alpha_max, best_width);
+            // The steps are bounded in alpha only; a point outside the main region's beta interval (another stable
+            // region, or within the ends' 1e-6 of them) leaves the answer to the region search below.
+            const auto [lo, hi] = region.beta_interval(m.x, 1e-6);
+            if (m.y > lo && m.y < hi) {
+                if (m.x < kAlphaEdge * out.alpha_max) {
+                    // The minimum lies on the edge alpha -> 0+ (with gamma > 0), where the damped 2-d steps move
+                    // along alpha only: beta's minimum at that alpha by the 1-d Newton.
+                    const double a = m.x;
+                    auto fd = [&](double b) {
+                        const EnergyCostGradient g = gradient(a, b);
+                        return detail::ValueAndDerivative{g.value, g.d_beta};
+                    };
+                    const detail::NewtonMinimum2 e = detail::minimize_newton_1d(fd, m.y, lo, hi);
+                    if (e.value < m.value) m.y = e.x;
+                }
+                out.alpha = m.x;
+                out.beta = m.y;
+                out.cost = cost(m.x, m.y);
+                return out;
+            }
         }
     }
     if (!requires_no_overshoot(criterion)) {

@@ -173,7 +173,7 @@ void BM_EstimatorOptimum(benchmark::State& state) {
 BENCHMARK(BM_EstimatorOptimum)->ArgsProduct({{0, 1, 2}, {1, 6}, {0, 1}})->Unit(benchmark::kMillisecond);
 
 // The parts of the fast CE2 optimum with the estimator (d = range(1)): 0 = the main region on the fast
-// method's 40 x 40 scan (EstimatorStabilityRegion with kFastOptimumRegionGrid), 1 = one gradient
+// method's 16 x 16 scan (EstimatorStabilityRegion with kFastOptimumRegionGrid), 1 = one gradient
 // (estimator_energy_cost_gradient) at the optimum's neighbourhood, 2 = one cost (estimator_energy_costs) there.
 void BM_EstimatorOptimumParts(benchmark::State& state) {
     const double d = static_cast<double>(state.range(1));

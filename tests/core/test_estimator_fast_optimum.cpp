@@ -4,7 +4,8 @@
 // (1) the gradient against central differences of estimator_energy_costs in long double (only the forward cost
 //     is used there) and its Schur-form route against its shift-structured route;
 // (2) the fast optimum against the derivative-free nested Brent search (OptimumMethod::brent, region_minimum.hpp)
-//     for the backward difference, low-pass filters and windows at d = 0, 1, 2.5, 6.
+//     for the backward difference, low-pass filters and windows at d = 0, 1, 2.5, 6, and with the plant's own
+//     stiffness (gamma > 0), where the minimum can lie on the main region's edge alpha -> 0+.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -115,7 +116,7 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
                 EXPECT_NEAR(fast.alpha / slow.alpha, 1.0, 1e-5) << where;
                 EXPECT_NEAR(fast.beta / slow.beta, 1.0, 1e-5) << where;
                 EXPECT_NEAR(*fast.cost / *slow.cost, 1.0, 1e-10) << where;
-                // The region's tip by the fast method's 40 x 40 scan and the default 160 x 160 one: the same curve
+                // The region's tip by the fast method's 16 x 16 scan and the default 160 x 160 one: the same curve
                 // maximum (or, at a corner, the same edge bisected to ~1e-14), whatever the grid.
                 EXPECT_NEAR(fast.alpha_max / slow.alpha_max, 1.0, 1e-10) << where;
                 EXPECT_NEAR(fast.beta_at_alpha_max, slow.beta_at_alpha_max, 1e-5) << where;
@@ -125,6 +126,43 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
     // The one known case of a basin the slow default grids miss (measured: nu = 0.005, d = 1, C_E2); more would
     // mean the fast and slow methods drifted apart and is worth a look.
     EXPECT_LE(refined, 1);
+}
+
+TEST(EstimatorFastOptimum, EdgeMinimaOfAStiffPlantAgreeWithBrent) {
+    // gamma = 0.01 (the plant's own stiffness): the CE2 minimum of these cases lies on the main region's edge
+    // alpha -> 0+ (measured: both methods end below 1e-9 alpha_max), and for the slow low-pass at d = 2.5 the main
+    // region lies at beta < 0 (negative damping), below the box the 16 x 16 fitting shrinks towards. The fast
+    // method's point must be brent's: the two points differ in alpha by their alpha tolerances near the edge, which
+    // moves the cost by |dC/dalpha| |delta alpha| to first order (the analytic gradient, doubled for the second
+    // order), plus the 1e-10 relative agreement of AgreesWithBrent for the beta minimum.
+    struct Case {
+        VelocityEstimator estimator;
+        double d;
+    };
+    const std::vector<Case> cases = {{VelocityEstimator::low_pass(0.02), 1},
+                                     {VelocityEstimator::low_pass(0.1), 6},
+                                     {VelocityEstimator::moving_window(15), 1},
+                                     {VelocityEstimator::moving_window(4), 6},
+                                     {VelocityEstimator::low_pass(0.002), 2.5}};
+    for (const Case& c : cases) {
+        const NormalizedPlant plant{0.01, 0, c.d};
+        const std::string where = describe(c.estimator, c.d);
+        const EstimatorStabilityRegion coarse(plant, c.estimator, kFastOptimumRegionGrid);
+        const EstimatorStabilityRegion fine(plant, c.estimator);
+        ASSERT_GT(fine.alpha_max(), 0) << where;
+        EXPECT_NEAR(coarse.alpha_max() / fine.alpha_max(), 1.0, 1e-10) << where;
+        EstimatorOptimumOptions slow_options;
+        slow_options.method = OptimumMethod::brent;
+        const EstimatorOptimum fast = optimal_point(Criterion::CE2, plant, c.estimator);
+        const EstimatorOptimum slow = optimal_point(Criterion::CE2, plant, c.estimator, slow_options);
+        ASSERT_TRUE(fast.cost && slow.cost) << where;
+        ASSERT_TRUE(std::isfinite(*fast.cost) && std::isfinite(*slow.cost)) << where;
+        const EnergyCostGradient g =
+            estimator_energy_cost_gradient(SampledPlant<double>(plant), c.estimator, fast.alpha, fast.beta, 2);
+        const double tolerance = 2 * std::abs(g.d_alpha) * std::abs(fast.alpha - slow.alpha) + 1e-10 * *slow.cost;
+        EXPECT_NEAR(*fast.cost, *slow.cost, tolerance) << where;
+        EXPECT_NEAR(fast.beta / slow.beta, 1.0, 1e-5) << where;
+    }
 }
 
 }  // namespace estimator_fast_optimum_test
