@@ -832,7 +832,8 @@ class EstimatorStabilityRegion {
     /// Scans from the box (0, 1] x [-1, 4] and re-fits it until the main region fills it (class comment); false
     /// when the region is empty (nothing stable in the first column down to alpha 1e-9). `coarse`: the passes
     /// are on kCoarseGrid until the box fits, then one more at the options' grid (re-fitted there if it no longer
-    /// fits). `wide`: receives the first scan's other components (the islands).
+    /// fits; none more where the options' grid is kCoarseGrid). `wide`: receives the first scan's other components (the
+    /// islands).
     bool fit_box(bool coarse, std::vector<StableIsland>* wide) {
         double a1 = 1, b0 = -1, b1 = 4;
         bool fine = !coarse || (options_.alpha_grid == kCoarseGrid && options_.beta_grid == kCoarseGrid);
