@@ -18,7 +18,8 @@ int main() {
     for (double nu : {0.002, 0.005, 0.02, 0.1, 0.5}) estimators.push_back(VelocityEstimator::low_pass(nu));
     for (int n : {1, 2, 4, 8, 15, 30, 60}) estimators.push_back(VelocityEstimator::moving_window(n));
     const double nan = std::nan("");
-    std::printf("kind parameter d gamma delta amax_fast amax_default newton_alpha newton_beta newton_cost brent_cost\n");
+    std::printf(
+        "kind parameter d gamma delta amax_fast amax_default newton_alpha newton_beta newton_cost brent_cost\n");
     for (const VelocityEstimator& e : estimators) {
         for (double d : {0.0, 1.0, 2.5, 6.0, 10.0}) {
             for (const auto& [gamma, delta] : {std::pair{0.0, 0.0}, std::pair{0.01, 0.0}, std::pair{0.0, 0.05}}) {
