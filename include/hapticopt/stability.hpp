@@ -18,8 +18,8 @@
 namespace hapticopt {
 
 struct StabilityReport {
-    bool stable = false;         ///< Schur-Cohn verdict (and alpha + gamma > 0)
-    double margin = 0;           ///< min (1 - |k_i|) of the deciding Schur-Cohn recursion
+    bool stable = false;  ///< Schur-Cohn verdict (and alpha + gamma > 0)
+    double margin = 0;    ///< min (1 - |k_i|) of the deciding Schur-Cohn recursion (schur_cohn.hpp; <= 0 unstable)
     double spectral_radius = 0;  ///< max |eigenvalue| of the loop transition M
     bool refined = false;        ///< verdict recomputed in long double (|margin| < 1e-4 in double)
 };

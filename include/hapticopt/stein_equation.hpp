@@ -111,8 +111,13 @@ class ShiftSteinSolver {
         pivot_.resize(u);
         for (int j = 0; j < u; ++j) {
             int p = j;
+            Scalar largest = abs(lu_(j, j));
             for (int i = j + 1; i < u; ++i) {
-                if (abs(lu_(i, j)) > abs(lu_(p, j))) p = i;
+                const Scalar v = abs(lu_(i, j));
+                if (v > largest) {
+                    largest = v;
+                    p = i;
+                }
             }
             pivot_(j) = p;
             if (p != j) lu_.row(p).swap(lu_.row(j));
@@ -122,7 +127,7 @@ class ShiftSteinSolver {
                 return;
             }
             const int rest = u - j - 1;
-            lu_.col(j).tail(rest) /= d;
+            lu_.col(j).tail(rest) *= Scalar(1) / d;  // the multipliers by the pivot's reciprocal (as LAPACK's getf2)
             // The rank-1 update of the trailing block as one expression (vectorised; each entry is
             // a - f b, as written out element by element).
             lu_.bottomRightCorner(rest, rest).noalias() -= lu_.col(j).tail(rest) * lu_.row(j).tail(rest);
@@ -159,16 +164,8 @@ class ShiftSteinSolver {
         for (int j = 0; j < u; ++j) {
             if (pivot_(j) != j) std::swap(rhs(j), rhs(pivot_(j)));
         }
-        for (int i = 1; i < u; ++i) {
-            Scalar v = 0;
-            for (int m = 0; m < i; ++m) v += lu_(i, m) * rhs(m);
-            rhs(i) -= v;
-        }
-        for (int i = u - 1; i >= 0; --i) {
-            Scalar v = 0;
-            for (int m = i + 1; m < u; ++m) v += lu_(i, m) * rhs(m);
-            rhs(i) = (rhs(i) - v) / lu_(i, i);
-        }
+        lu_.template triangularView<Eigen::UnitLower>().solveInPlace(rhs);
+        lu_.template triangularView<Eigen::Upper>().solveInPlace(rhs);
         Square x(n, n);
         for (int k = 0; k < n; ++k) {
             for (int l = 0; l < n; ++l) x(k, l) = offset(k, l) + rhs(ref_(k, l));
@@ -190,16 +187,8 @@ class ShiftSteinSolver {
         for (int l = 0; l < n; ++l) {
             for (int k = 0; k < n; ++k) lambda(ref_(k, l)) += h(k, l);
         }
-        for (int i = 0; i < u; ++i) {  // U^T y = w
-            Scalar v = 0;
-            for (int m = 0; m < i; ++m) v += lu_(m, i) * lambda(m);
-            lambda(i) = (lambda(i) - v) / lu_(i, i);
-        }
-        for (int i = u - 2; i >= 0; --i) {  // L^T z = y
-            Scalar v = 0;
-            for (int m = i + 1; m < u; ++m) v += lu_(m, i) * lambda(m);
-            lambda(i) -= v;
-        }
+        lu_.transpose().template triangularView<Eigen::Lower>().solveInPlace(lambda);      // U^T y = w
+        lu_.transpose().template triangularView<Eigen::UnitUpper>().solveInPlace(lambda);  // L^T z = y
         for (int j = u - 1; j >= 0; --j) {
             if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
         }

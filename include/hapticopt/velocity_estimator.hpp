@@ -699,7 +699,8 @@ struct EstimatorRegionOptions {
 
 /// The main stable region with the estimator: the connected stable set that contains small alpha > 0
 /// (alpha -> 0+ at some beta). Found by a scan of the Schur-Cohn verdict on a grid over alpha in (0, 1],
-/// beta in [-1, 4], flood fill from the grid's first alpha column (where that column has nothing stable,
+/// beta in [-1, 4], flood fill from the grid's first alpha column (only the cells the fill reaches are tested,
+/// except in the first scan when islands are wanted; where that column has nothing stable,
 /// the box shrinks 4x in alpha and beta towards beta = 0 until it does, down to alpha 1e-9), the box re-fitted
 /// to the region until it fills it (a pass whose first column has nothing stable scans no further). Without
 /// find_islands (the fast optimum's grid) the box is fitted on a 16 x 16 grid first, then scanned at the options'
@@ -871,8 +872,9 @@ class EstimatorStabilityRegion {
         return true;
     }
 
-    /// Labels: 0 unstable, 1 main component (flood fill from column 0), 2 stable elsewhere. `main_only`: where
-    /// column 0 has no stable cell (so no main component) the other columns are not scanned.
+    /// Labels: 0 unstable (or, with `main_only`, not tested), 1 main component (flood fill from column 0), 2 stable
+    /// elsewhere. `main_only`: only column 0 and the cells the flood fill reaches are tested (the main component is
+    /// the same; nothing is labelled 2), so a pass whose column 0 has no stable cell tests that column only.
     void scan(double a1, double b0, double b1, int alpha_cells, int beta_cells, bool main_only) {
         scan_na_ = alpha_cells;
         scan_nb_ = beta_cells;
@@ -885,17 +887,40 @@ class EstimatorStabilityRegion {
         main_i1_ = -1;
         main_j0_ = nb();
         main_j1_ = -1;
-        bool first_column = false;
-        for (int i = 0; i < na(); ++i) {
-            for (int j = 0; j < nb(); ++j) {
-                if (test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db)) {
-                    labels_[static_cast<std::size_t>(i * nb() + j)] = 2;
-                    first_column = first_column || i == 0;
-                }
-            }
-            if (i == 0 && main_only && !first_column) return;
-        }
+        auto stable_cell = [&](int cell) {
+            const int i = cell / nb(), j = cell % nb();
+            return test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db);
+        };
         std::vector<int> stack;
+        if (main_only) {
+            std::vector<char> tested(labels_.size(), 0);
+            auto visit = [&](int cell) {  // a stable untested cell joins the main component
+                if (tested[static_cast<std::size_t>(cell)]) return;
+                tested[static_cast<std::size_t>(cell)] = 1;
+                if (stable_cell(cell)) {
+                    labels_[static_cast<std::size_t>(cell)] = 1;
+                    stack.push_back(cell);
+                }
+            };
+            for (int j = 0; j < nb(); ++j) visit(j);
+            while (!stack.empty()) {
+                const int cell = stack.back();
+                stack.pop_back();
+                const int i = cell / nb(), j = cell % nb();
+                ++main_cells_;
+                main_i1_ = std::max(main_i1_, i);
+                main_j0_ = std::min(main_j0_, j);
+                main_j1_ = std::max(main_j1_, j);
+                if (i > 0) visit(cell - nb());
+                if (i + 1 < na()) visit(cell + nb());
+                if (j > 0) visit(cell - 1);
+                if (j + 1 < nb()) visit(cell + 1);
+            }
+            return;
+        }
+        for (int cell = 0; cell < na() * nb(); ++cell) {
+            if (stable_cell(cell)) labels_[static_cast<std::size_t>(cell)] = 2;
+        }
         for (int j = 0; j < nb(); ++j) {
             if (label(0, j) == 2) stack.push_back(j);
         }

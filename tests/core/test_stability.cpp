@@ -7,6 +7,8 @@
 #include <complex>
 #include <random>
 
+#include <hapticopt/loop_schur_form.hpp>
+#include <hapticopt/schur_cohn.hpp>
 #include <hapticopt/stability.hpp>
 #include <hapticopt/stability_region.hpp>
 
@@ -82,6 +84,24 @@ TEST(Stability, SchurCohnVerdictAgreesWithEigenvaluesAwayFromTheBoundary) {
         EXPECT_EQ(is_stable(p, g), r.stable);
     }
     EXPECT_GT(checked, 2900);
+}
+
+// A Schur-Cohn step within rounding of the circle (1 - |k| ~ 5e-15 here), then a failing step whose k is rounding
+// (|k| = 1.012 in double, 0.9994 in long double): the margin must stay the near-circle step's, so that loop_verdict
+// refines it (|margin| < 1e-4) and agrees with long double. The gains are a set of the stress test (tests/stress)
+// where a margin of -0.0123 skipped the refinement and gave the opposite verdict.
+TEST(Stability, AFailingStepAfterANearCircleStepKeepsItsSmallMargin) {
+    const NormalizedPlant p{0.0059597990386868107, 0.043222233735992092, 1.0562015377175449};
+    const double alpha = -0.0046997407473411482, beta = -0.050659820101998376;
+    using LD = long double;
+    const SchurCohnResult<double> plain =
+        schur_cohn<double>(characteristic_polynomial(SampledPlant<double>(p)).at(alpha, beta));
+    const SchurCohnResult<LD> fine =
+        schur_cohn<LD>(characteristic_polynomial(SampledPlant<LD>(p)).at(LD(alpha), LD(beta)));
+    EXPECT_LE(std::abs(plain.margin), 1e-12);  // 1 - |k| of the near-circle step, ~2^-47
+    const LoopVerdict<double> v = loop_verdict(SampledPlant<double>(p), alpha, beta);
+    EXPECT_TRUE(v.refined);
+    EXPECT_EQ(v.stable, fine.stable);
 }
 
 TEST(Stability, RegionPolygonEnclosesExactlyTheStablePoints) {
