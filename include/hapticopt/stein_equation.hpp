@@ -164,8 +164,21 @@ class ShiftSteinSolver {
         for (int j = 0; j < u; ++j) {
             if (pivot_(j) != j) std::swap(rhs(j), rhs(pivot_(j)));
         }
-        lu_.template triangularView<Eigen::UnitLower>().solveInPlace(rhs);
-        lu_.template triangularView<Eigen::Upper>().solveInPlace(rhs);
+        if (u >= kVectorisedSolveUnknowns) {
+            lu_.template triangularView<Eigen::UnitLower>().solveInPlace(rhs);
+            lu_.template triangularView<Eigen::Upper>().solveInPlace(rhs);
+        } else {
+            for (int i = 1; i < u; ++i) {
+                Scalar v = 0;
+                for (int m = 0; m < i; ++m) v += lu_(i, m) * rhs(m);
+                rhs(i) -= v;
+            }
+            for (int i = u - 1; i >= 0; --i) {
+                Scalar v = 0;
+                for (int m = i + 1; m < u; ++m) v += lu_(i, m) * rhs(m);
+                rhs(i) = (rhs(i) - v) / lu_(i, i);
+            }
+        }
         Square x(n, n);
         for (int k = 0; k < n; ++k) {
             for (int l = 0; l < n; ++l) x(k, l) = offset(k, l) + rhs(ref_(k, l));
@@ -187,8 +200,21 @@ class ShiftSteinSolver {
         for (int l = 0; l < n; ++l) {
             for (int k = 0; k < n; ++k) lambda(ref_(k, l)) += h(k, l);
         }
-        lu_.transpose().template triangularView<Eigen::Lower>().solveInPlace(lambda);      // U^T y = w
-        lu_.transpose().template triangularView<Eigen::UnitUpper>().solveInPlace(lambda);  // L^T z = y
+        if (u >= kVectorisedSolveUnknowns) {
+            lu_.transpose().template triangularView<Eigen::Lower>().solveInPlace(lambda);      // U^T y = w
+            lu_.transpose().template triangularView<Eigen::UnitUpper>().solveInPlace(lambda);  // L^T z = y
+        } else {
+            for (int i = 0; i < u; ++i) {  // U^T y = w
+                Scalar v = 0;
+                for (int m = 0; m < i; ++m) v += lu_(m, i) * lambda(m);
+                lambda(i) = (lambda(i) - v) / lu_(i, i);
+            }
+            for (int i = u - 2; i >= 0; --i) {  // L^T z = y
+                Scalar v = 0;
+                for (int m = i + 1; m < u; ++m) v += lu_(m, i) * lambda(m);
+                lambda(i) -= v;
+            }
+        }
         for (int j = u - 1; j >= 0; --j) {
             if (pivot_(j) != j) std::swap(lambda(j), lambda(pivot_(j)));
         }
@@ -260,6 +286,10 @@ class ShiftSteinSolver {
     }
 
   private:
+    /// From this many unknowns the triangular solves are Eigen's (vectorised); below, written-out loops. Measured
+    /// in standalone builds: the loops 3 % faster for the backward optimum at d = 0, 1 (5 to 7 unknowns), even at
+    /// d = 6 (17), Eigen's 3 % faster for the window-15 estimator optimum (35).
+    static constexpr int kVectorisedSolveUnknowns = 24;
     using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1>;
     /// top x (2 x N), the product written out.
     Top top_times(const Square& x) const {
