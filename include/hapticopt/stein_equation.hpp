@@ -287,8 +287,8 @@ class ShiftSteinSolver {
 
   private:
     /// From this many unknowns the triangular solves are Eigen's (vectorised); below, written-out loops. Measured
-    /// in standalone builds: the loops 3 % faster for the backward optimum at d = 0, 1 (5 to 7 unknowns), even at
-    /// d = 6 (17), Eigen's 3 % faster for the window-15 estimator optimum (35).
+    /// in standalone builds: the loops 3 % faster for the backward optimum at d = 0, 1 (5 to 7 unknowns) and as fast
+    /// at d = 6 (17); Eigen's 3 % faster for the window-15 estimator optimum at d = 1 (35).
     static constexpr int kVectorisedSolveUnknowns = 24;
     using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, kMaxUnknowns, 1>;
     /// top x (2 x N), the product written out.
