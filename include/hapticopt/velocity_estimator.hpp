@@ -891,54 +891,36 @@ class EstimatorStabilityRegion {
             const int i = cell / nb(), j = cell % nb();
             return test_.stable((i + 0.5) * da, b0 + (j + 0.5) * db);
         };
-        std::vector<int> stack;
-        if (main_only) {
-            std::vector<char> tested(labels_.size(), 0);
-            auto visit = [&](int cell) {  // a stable untested cell joins the main component
-                if (tested[static_cast<std::size_t>(cell)]) return;
-                tested[static_cast<std::size_t>(cell)] = 1;
-                if (stable_cell(cell)) {
-                    labels_[static_cast<std::size_t>(cell)] = 1;
-                    stack.push_back(cell);
-                }
-            };
-            for (int j = 0; j < nb(); ++j) visit(j);
-            while (!stack.empty()) {
-                const int cell = stack.back();
-                stack.pop_back();
-                const int i = cell / nb(), j = cell % nb();
-                ++main_cells_;
-                main_i1_ = std::max(main_i1_, i);
-                main_j0_ = std::min(main_j0_, j);
-                main_j1_ = std::max(main_j1_, j);
-                if (i > 0) visit(cell - nb());
-                if (i + 1 < na()) visit(cell + nb());
-                if (j > 0) visit(cell - 1);
-                if (j + 1 < nb()) visit(cell + 1);
+        std::vector<char> tested(labels_.size(), 0);
+        if (!main_only) {
+            for (std::size_t cell = 0; cell < labels_.size(); ++cell) {
+                tested[cell] = 1;
+                if (stable_cell(static_cast<int>(cell))) labels_[cell] = 2;
             }
-            return;
         }
-        for (int cell = 0; cell < na() * nb(); ++cell) {
-            if (stable_cell(cell)) labels_[static_cast<std::size_t>(cell)] = 2;
-        }
-        for (int j = 0; j < nb(); ++j) {
-            if (label(0, j) == 2) stack.push_back(j);
-        }
+        std::vector<int> stack;
+        auto visit = [&](int cell) {  // a stable cell the fill reaches joins the main component
+            const auto c = static_cast<std::size_t>(cell);
+            const bool stable = tested[c] ? labels_[c] == 2 : stable_cell(cell);
+            tested[c] = 1;
+            if (stable) {
+                labels_[c] = 1;
+                stack.push_back(cell);
+            }
+        };
+        for (int j = 0; j < nb(); ++j) visit(j);
         while (!stack.empty()) {
             const int cell = stack.back();
             stack.pop_back();
-            auto& l = labels_[static_cast<std::size_t>(cell)];
-            if (l != 2) continue;
-            l = 1;
             const int i = cell / nb(), j = cell % nb();
             ++main_cells_;
             main_i1_ = std::max(main_i1_, i);
             main_j0_ = std::min(main_j0_, j);
             main_j1_ = std::max(main_j1_, j);
-            if (i > 0) stack.push_back(cell - nb());
-            if (i + 1 < na()) stack.push_back(cell + nb());
-            if (j > 0) stack.push_back(cell - 1);
-            if (j + 1 < nb()) stack.push_back(cell + 1);
+            if (i > 0) visit(cell - nb());
+            if (i + 1 < na()) visit(cell + nb());
+            if (j > 0) visit(cell - 1);
+            if (j + 1 < nb()) visit(cell + 1);
         }
     }
 
