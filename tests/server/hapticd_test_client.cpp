@@ -6,7 +6,8 @@
 //   hapticd_test_client SOCKET flood N OBJECT_ID_PLANE_OFFSETS
 //       adds a plane, then N modify commits moving it as fast as it can; prints {"ok":n_ok,"busy":n_busy,...}.
 //   hapticd_test_client SOCKET gainflood
-//       adds a plane away from the hand (n = -z at z = 0.05), then changes its gains back and forth (each change
+//       adds a bilateral plane through the hand's start (n = -z at z = 0: a hand that never moves along z feels
+//       exactly zero force from it), then changes its gains back and forth (each change
 //       a cross-fade ramp in the loop) as fast as the server accepts; busy and session_limit are retried after
 //       5 ms. Prints one line per request as it is answered, [t_sent, t_replied, commit_seq] (CLOCK_MONOTONIC
 //       seconds; commit_seq 0 for a refusal), until SIGUSR1 (or 120 s); then {"ok":n_ok,"refused":n_refused}.
@@ -126,9 +127,10 @@ int main(int argc, char** argv) {
             const long n = argc > 3 ? std::atol(argv[3]) : 1000;
             cl::Client c =
                 cl::Client::connect({.socket_path = socket, .client_name = "flooder", .timeout_s = kReplyTimeout});
+            // Bilateral: one engagement pattern per ramp scene, so each change's check is short.
             cl::Plane p{.normal = {0.0, 0.0, -1.0},
-                        .offset = -0.05,
-                        .bilateral = false,
+                        .offset = 0.0,
+                        .bilateral = true,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, busy = 0;

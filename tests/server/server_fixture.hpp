@@ -20,6 +20,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -69,27 +70,30 @@ inline Names names(const std::string& tag) {
 }
 
 // hapticd --serve on tests/server/<profile> (default sim3.toml) with a config wall that is never touched
-// (x > 0.05 m). The device is free (no simulated hand: the analysis' plant of the profile) unless `extra`
-// sets --hand-stiffness.
+// (x > 0.05 m), the loop at normal priority (--rt-priority 0) and memory unlocked. The device is free (no
+// simulated hand: the analysis' plant of the profile) unless `extra` sets --hand-stiffness. An option in
+// `extra` that is also one of these defaults replaces the default (hapticd takes each option once).
 inline std::vector<std::string> daemon_args(const Names& n, const std::vector<std::string>& extra,
                                             const std::string& profile = "sim3.toml") {
-    std::vector<std::string> a{"--config",
-                               "",
-                               "--device",
-                               std::string(HAPTICD_SERVER_TEST_DIR "/") + profile,
-                               "--serve",
-                               "--serve-socket",
-                               n.socket,
-                               "--serve-shm",
-                               n.shm,
-                               "--rt-priority",
-                               "0",
-                               "--mlock",
-                               "false",
-                               "--wall",
-                               "axis=0 position=0.05 direction=+1"};
-    if (std::find(extra.begin(), extra.end(), "--hand-stiffness") == extra.end()) {
-        a.insert(a.end(), {"--hand-damping", "0", "--hand-stiffness", "0"});
+    const std::vector<std::pair<std::string, std::string>> defaults{
+        {"--config", ""},
+        {"--device", std::string(HAPTICD_SERVER_TEST_DIR "/") + profile},
+        {"--serve-socket", n.socket},
+        {"--serve-shm", n.shm},
+        {"--rt-priority", "0"},
+        {"--mlock", "false"},
+        {"--wall", "axis=0 position=0.05 direction=+1"},
+        {"--hand-damping", "0"},
+        {"--hand-stiffness", "0"}};
+    const auto in_extra = [&](const std::string& option) {
+        return std::find(extra.begin(), extra.end(), option) != extra.end();
+    };
+    std::vector<std::string> a{"--serve"};
+    for (const auto& [option, value] : defaults) {
+        // A simulated hand is one option pair: --hand-stiffness in `extra` leaves --hand-damping to it too.
+        const bool hand = option == "--hand-damping" || option == "--hand-stiffness";
+        if (in_extra(option) || (hand && in_extra("--hand-stiffness"))) continue;
+        a.insert(a.end(), {option, value});
     }
     a.insert(a.end(), extra.begin(), extra.end());
     return a;

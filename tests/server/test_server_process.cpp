@@ -360,9 +360,11 @@ TEST(ServerProcess, ADampingRefusalNamesTheDampingThatMakesTheStiffnessStable) {
 // every batch sent before it at once, docs/protocol.md, section 5).
 TEST(ServerProcess, TheClientRetriesBusyWithABoundedBackOff) {
     const Names n = names("busy");
+    // The loop at SCHED_FIFO as deployed: at normal priority, under ASan beside a parallel test, it stalled
+    // for more than the watchdog's 100 periods and the daemon stopped with a fault (exit 7).
     Child daemon(HAPTICD_BINARY,
                  daemon_args(n, {"--scenario", "step", "--step-force", "0", "--ramp-time", "1",
-                                 "--session-max-in-flight", "64"}),
+                                 "--session-max-in-flight", "64", "--rt-priority", "80"}),
                  "busy_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::BusyRetry no_retry{.tries = 1};
@@ -649,11 +651,12 @@ std::vector<FloodRequest> flood_requests(const Child& flooder) {
 }
 
 // Isolation (docs/protocol.md, section 5, "A client that leaves"): two other clients change the gains of
-// their own planes as fast as the server accepts, each change a 500 ms cross-fade, so the loop applies two a
-// second (fewer than the server accepts; a longer ramp's 6 engagement patterns x its ramp scenes exceed the
-// check's capacity) and the batches accepted and not yet applied pile up (up to 5 per client:
-// --session-max-in-flight). Two, not more: each commit's checks grow with the planes' engagement patterns, and
-// under TSan with a third flooder's plane the server accepted 1.2 a second, fewer than the loop applies. Once at least
+// their own bilateral planes along z (through the hand, which never moves along z: their force is exactly
+// zero) as fast as the server accepts, each change a 500 ms cross-fade, so the loop applies two a second
+// (fewer than the server accepts) and the batches accepted and not yet applied pile up (up to 5 per client:
+// --session-max-in-flight). The planes are bilateral so that each ramp scene of a change is one engagement
+// pattern: with unilateral planes (6 patterns per scene) the server accepted fewer changes a second than the
+// loop applies under ASan on a loaded machine, and the queue never formed. Once at least
 // kQueued of them wait (counted from the flooders' replies against the state's last_commit_seq), the pressing client is
 // SIGKILLed; the flooders go on until the force is zero (then SIGUSR1 stops them). The killed client's ramp-out must
 // not wait behind that queue, nor behind more than the one request the server thread was handling at the kill (it looks
@@ -856,11 +859,8 @@ TEST(ServerProcess, ThirtyTwoClientsAFlooderAndANonReader) {
     // The loop at SCHED_FIFO (as deployed; the server thread is started before and stays at normal
     // priority): spawning 34 client processes on the shared 2-core machine must not starve it into the
     // watchdog (it did at --rt-priority 0 under a parallel ctest run).
-    std::vector<std::string> args = daemon_args(n, {"--scenario", "step", "--step-force", "0"});
-    const auto rt = std::find(args.begin(), args.end(), "--rt-priority");
-    ASSERT_NE(rt, args.end());
-    *(rt + 1) = "80";
-    Child daemon(HAPTICD_BINARY, args, "many_daemon");
+    Child daemon(HAPTICD_BINARY, daemon_args(n, {"--scenario", "step", "--step-force", "0", "--rt-priority", "80"}),
+                 "many_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const cl::StateReader state = cl::StateReader::open(n.shm);
     Child noread(HAPTICD_TEST_CLIENT, {n.socket, "noread"}, "many_noread");
