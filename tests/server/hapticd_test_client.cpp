@@ -127,10 +127,9 @@ int main(int argc, char** argv) {
             const long n = argc > 3 ? std::atol(argv[3]) : 1000;
             cl::Client c =
                 cl::Client::connect({.socket_path = socket, .client_name = "flooder", .timeout_s = kReplyTimeout});
-            // Bilateral: one engagement pattern per ramp scene, so each change's check is short.
             cl::Plane p{.normal = {0.0, 0.0, -1.0},
-                        .offset = 0.0,
-                        .bilateral = true,
+                        .offset = -0.05,
+                        .bilateral = false,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, busy = 0;
@@ -155,9 +154,10 @@ int main(int argc, char** argv) {
             sigaction(SIGUSR1, &stop, nullptr);
             cl::Client c =
                 cl::Client::connect({.socket_path = socket, .client_name = "gainflooder", .timeout_s = kReplyTimeout});
+            // Bilateral: one engagement pattern per ramp scene, so each change's check is short.
             cl::Plane p{.normal = {0.0, 0.0, -1.0},
-                        .offset = -0.05,
-                        .bilateral = false,
+                        .offset = 0.0,
+                        .bilateral = true,
                         .gains = cl::Gains::explicit_gains(100.0, 1.0)};
             const auto id = c.commit(cl::Batch().add(p)).object_ids.at(0);
             long ok = 0, refused = 0;
