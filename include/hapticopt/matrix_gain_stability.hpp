@@ -76,6 +76,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <cmath>
+#include <vector>
 
 #include "config.hpp"
 #include "characteristic_polynomial.hpp"
@@ -151,6 +152,23 @@ HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolyno
     ;
 #endif
 
+// The scalar loops of symmetric, commuting A and B: (u^T A u, u^T B u) along their common eigenvectors u, those
+// of A + c B for a generic c (which separates A's repeated eigenvalues by B's).
+HAPTICOPT_FUNC std::vector<NormalizedGains> common_direction_gains(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B)
+#if HAPTICOPT_DEFINITIONS
+{
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> common(A + 0.7548776662466927 * B);
+    std::vector<NormalizedGains> out;
+    for (Eigen::Index c = 0; c < A.rows(); ++c) {
+        const Eigen::VectorXd u = common.eigenvectors().col(c);
+        out.push_back(NormalizedGains{u.dot(A * u), u.dot(B * u)});
+    }
+    return out;
+}
+#else
+    ;
+#endif
+
 }  // namespace detail
 
 /// Stability of the loop with symmetric normalised gain matrices `A` (stiffness) and `B` (damping), same
@@ -184,17 +202,12 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
         return result;
     }
     const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
-    const Eigen::Index r = Ar.rows();
 
     const double commutator = (Ar * Br - Br * Ar).norm();
     result.commuting = commutator <= 1e-12 * (1.0 + Ar.norm() * Br.norm());
     if (result.commuting) {
-        // Common eigenvectors: those of A + c B for a generic c separate A's repeated eigenvalues by B's.
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> common(Ar + 0.7548776662466927 * Br);
         result.stable = true;
-        for (Eigen::Index c = 0; c < r; ++c) {
-            const Eigen::VectorXd u = common.eigenvectors().col(c);
-            const NormalizedGains gains{u.dot(Ar * u), u.dot(Br * u)};
+        for (const NormalizedGains& gains : detail::common_direction_gains(Ar, Br)) {
             const StabilityReport s = backward ? stability(plant, gains) : stability(plant, gains, estimator);
             result.stable = result.stable && s.stable;
             result.spectral_radius = std::max(result.spectral_radius, s.spectral_radius);

@@ -119,15 +119,18 @@ struct ChebyshevBracket {
 /// Chebyshev coefficients of the k-th derivative of one polynomial, k = 0 .. size - 1), by the derivative cascade:
 /// from k = size - 2 down to `order`, the zeros of derivative k + 1 cut [-1, 1] into pieces on which derivative k is
 /// monotone, and each piece with a sign change is bisected down to adjacent doubles (an exact zero at an
-/// interior cut is kept as [c, c]). Cost: O(size^3) coefficient operations plus 64 bisection steps per zero.
+/// interior cut is kept as [c, c]). `next_order` (optional) receives the brackets of derivative order + 1's sign
+/// changes, the extrema of derivative `order`. Cost: O(size^3) coefficient operations plus 64 bisection steps per zero.
 inline std::vector<ChebyshevBracket> chebyshev_cascade_zeros(const std::vector<std::vector<double>>& derivative,
-                                                             int order) {
+                                                             int order,
+                                                             std::vector<ChebyshevBracket>* next_order = nullptr) {
     auto value = [&](int k, double c) {
         const auto& d = derivative[static_cast<std::size_t>(k)];
         return chebyshev_value(d.data(), static_cast<int>(d.size()), c);
     };
     std::vector<ChebyshevBracket> zeros;
     for (int k = static_cast<int>(derivative.size()) - 2; k >= order; --k) {
+        if (k == order && next_order != nullptr) *next_order = zeros;
         std::vector<double> cuts{-1.0};
         for (const ChebyshevBracket& z : zeros) cuts.push_back((z.lo + z.hi) / 2);
         cuts.push_back(1.0);

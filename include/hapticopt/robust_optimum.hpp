@@ -25,30 +25,27 @@
 //  4. Stability guarantee along every mass segment of the verification grid. When b = k = 0 the
 //     normalised plant does not depend on m and the characteristic polynomial is affine in s:
 //       p(z; s) = P_0(z) + s Q(z),  Q = K T^2 P_alpha + B T P_beta  (characteristic_polynomial.hpp).
-//     A root crosses the unit circle at s only if P_0(z) + s Q(z) = 0 with |z| = 1, i.e. only at the
-//     unit-circle roots of R(z) = z^D (P_0(z) Q(1/z) - Q(z) P_0(1/z)) (where P_0 / Q is real), with
-//     s = -P_0(z) / Q(z). All roots of R (degree 2D) are computed (companion-matrix eigenvalues); if
-//     no crossing s lies in [1/m_max, 1/m_min] and the loop is stable at one s (Schur-Cohn), it is
-//     stable on the whole segment: a certified check (up to rounding in the coefficients and in the
-//     roots; a unit-circle root of R is accepted within 1e-6 in modulus, which also catches the
-//     spread of a double root). When b > 0 or k > 0 the plant itself depends on m, p is not affine
-//     in s, and the segment is checked densely (Schur-Cohn at `verify_mass_points` masses): not a
-//     proof between the points. Damping, stiffness and delay are checked on their verification
-//     grids only (the characteristic polynomial is not affine in them): a dense check, not a proof.
-//     Limits: stated in the result (`mass_segments_certified`).
+//     A root crosses the unit circle at s only if P_0(z) + s Q(z) = 0 with |z| = 1, i.e. where
+//     P_0 / Q is real, with s = -P_0(z) / Q(z): the sign changes of a Chebyshev series in cos(theta),
+//     bracketed by a derivative cascade (mass_scaling_stability.hpp, MassScalingTest). If no crossing s
+//     lies in the segment and the loop is stable at its end (Schur-Cohn), it is stable on the whole
+//     segment: a certified check up to rounding in the coefficients. When b > 0 or k > 0 the plant itself depends on m,
+//     p is not affine in s, and the segment is checked densely (Schur-Cohn at `verify_mass_points` masses): not a proof
+//     between the points. Damping, stiffness and delay are checked on their verification grids only (the characteristic
+//     polynomial is not affine in them): a dense check, not a proof. Limits: stated in the result
+//     (`mass_segments_certified`).
 // Cost: about 10^4 cost evaluations per grid plant for the optimisation (a few 0.1 s at d = 1).
 #pragma once
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <complex>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "config.hpp"
 #include "impulse_optimum.hpp"
+#include "mass_scaling_stability.hpp"
 #include "optimum.hpp"
 
 namespace hapticopt {
@@ -192,62 +189,16 @@ HAPTICOPT_FUNC std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, in
     ;
 #endif
 
-/// Exact unit-circle crossing test along the mass segment for b = k = 0 (header comment, step 4).
-/// Returns true when no root crosses the unit circle for m in [m_min, m_max] and the loop is stable
-/// at the mid mass.
+/// Exact unit-circle crossing test along the mass segment for b = k = 0 (header comment, step 4; the crossings of
+/// mass_scaling_stability.hpp). Returns true when the loop is stable for every m in [m_min, m_max].
 HAPTICOPT_FUNC bool mass_segment_certified_stable(const UncertainPlant& box, double time_delay, double K, double B)
 #if HAPTICOPT_DEFINITIONS
 {
     const double T = box.period;
-    const SampledPlant<double> sp(NormalizedPlant{0.0, 0.0, time_delay / T});
-    const AffineCharacteristicPolynomial<double> poly = characteristic_polynomial(sp);
+    if (!(K > 0)) return false;
+    const MassScalingTest test(NormalizedPlant{0.0, 0.0, time_delay / T});
     // s = m_max / m in [1, m_max / m_min]; alpha = s alpha_ref, beta = s beta_ref.
-    const double a_ref = K * T * T / box.mass.max, b_ref = B * T / box.mass.max;
-    const double s0 = 1.0, s1 = box.mass.max / box.mass.min;
-    const Eigen::VectorXd p0 = poly.base;
-    const Eigen::VectorXd q = a_ref * poly.alpha + b_ref * poly.beta;
-    const Eigen::Index D = p0.size() - 1;
-    const double s_mid = (s0 + s1) / 2;
-    if (!(K > 0) || !schur_cohn<double>(poly.at(s_mid * a_ref, s_mid * b_ref)).stable) return false;
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(2 * D + 1);
-    for (Eigen::Index i = 0; i <= D; ++i) {
-        for (Eigen::Index k = 0; k <= D; ++k) r(i - k + D) += p0(i) * q(k) - q(i) * p0(k);
-    }
-    // Trim: highest zero coefficients (degree drop) and lowest (roots at z = 0, irrelevant).
-    const double scale = r.cwiseAbs().maxCoeff();
-    Eigen::Index hi = 2 * D, lo = 0;
-    while (hi > 0 && std::abs(r(hi)) <= 1e-14 * scale) --hi;
-    while (lo < hi && std::abs(r(lo)) <= 1e-14 * scale) ++lo;
-    std::vector<std::complex<double>> candidates{{1.0, 0.0}, {-1.0, 0.0}};
-    const Eigen::Index deg = hi - lo;
-    if (deg >= 1) {
-        Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(deg, deg);
-        for (Eigen::Index i = 1; i < deg; ++i) companion(i, i - 1) = 1;
-        for (Eigen::Index i = 0; i < deg; ++i) companion(i, deg - 1) = -r(lo + i) / r(hi);
-        const Eigen::EigenSolver<Eigen::MatrixXd> es(companion, false);
-        for (Eigen::Index i = 0; i < deg; ++i) {
-            const std::complex<double> z = es.eigenvalues()(i);
-            if (std::abs(std::abs(z) - 1) < 1e-6) candidates.push_back(z / std::abs(z));
-        }
-    }
-    auto horner = [](const Eigen::VectorXd& c, std::complex<double> z) {
-        std::complex<double> s = 0;
-        for (Eigen::Index k = c.size() - 1; k >= 0; --k) s = s * z + c(k);
-        return s;
-    };
-    for (const auto& z : candidates) {
-        const std::complex<double> pz = horner(p0, z), qz = horner(q, z);
-        if (std::abs(qz) <= 1e-14 * (std::abs(pz) + 1)) {
-            if (std::abs(pz) <= 1e-12) return false;  // a root on the circle for every s: not certified
-            continue;
-        }
-        const std::complex<double> s = -pz / qz;
-        if (std::abs(s.imag()) <= 1e-6 * std::max(1.0, std::abs(s)) && s.real() >= s0 * (1 - 1e-9) &&
-            s.real() <= s1 * (1 + 1e-9)) {
-            return false;
-        }
-    }
-    return true;
+    return test.over(K * T * T / box.mass.max, B * T / box.mass.max, 1.0, box.mass.max / box.mass.min).stable;
 }
 #else
     ;

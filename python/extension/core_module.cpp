@@ -426,6 +426,33 @@ VelocityEstimator estimator_of(const std::string& kind, double cutoff, int windo
                           "' is invalid; accepted: backward, lowpass, window");
 }
 
+/// Stability of physical gains for every mass of [m_min, m_max] (free-mass plant, mass_scaling_stability.hpp):
+/// stable, the failing mass (None when stable) and every mass at which a root lies on the unit circle.
+py::dict mass_range_stability_of(double K, double B, std::pair<double, double> mass, double period, double time_delay,
+                                 const std::string& kind, double cutoff, int window) {
+    const char* fn = "hapticopt.mass_range_stability";
+    detail::require_positive(fn, "mass.min", mass.first);
+    detail::require_in_range(fn, "mass.max", mass.second, mass.first, false, HUGE_VAL, "finite and >= mass.min");
+    detail::require_positive(fn, "period", period);
+    detail::require_in_range(fn, "stiffness", K, 0.0, false, HUGE_VAL, "finite and >= 0");
+    detail::require_finite(fn, "damping", B);
+    const MassScalingTest test(NormalizedPlant{0.0, 0.0, time_delay / period}, estimator_of(kind, cutoff, window));
+    const double alpha = K * period * period / mass.second, beta = B * period / mass.second;
+    GainRayStability r;
+    std::vector<double> crossings;
+    without_gil([&] {
+        r = test.over(alpha, beta, 1.0, mass.second / mass.first);
+        crossings = gain_ray_crossings(test.polynomial(), alpha, beta);
+    });
+    std::vector<double> masses;
+    for (auto it = crossings.rbegin(); it != crossings.rend(); ++it) masses.push_back(mass.second / *it);
+    py::dict d;
+    d["stable"] = r.stable;
+    d["failing_mass"] = r.stable ? py::object(py::none()) : py::object(py::float_(mass.second / r.failing_scale));
+    d["crossing_masses"] = masses;
+    return d;
+}
+
 /// The best passive gains with the loop's estimator (estimator_passivity.hpp; the backward difference is
 /// passivity.hpp's optimum).
 std::optional<py::dict> passive_optimum_of(const std::string& criterion, double gamma, double delta, double delay,
@@ -657,6 +684,7 @@ PYBIND11_MODULE(_core, m) {
     m.def("optimal_curve", &optimal_curve_of);
     m.def("optimal_point", &optimal_point_of);
     m.def("robust_optimum", &robust_optimum_of);
+    m.def("mass_range_stability", &mass_range_stability_of);
     m.def("passivity_margin", [](double gamma, double delta, double delay, double alpha, double beta,
                                  const std::string& kind, double cutoff, int window) {
         return passivity_margin(plant_of(gamma, delta, delay), NormalizedGains{alpha, beta},

@@ -415,6 +415,7 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--noise_seed", p.noise_seed);
     app.add_option("--fail_at_tick", p.fail_at_tick);
     app.add_option("--mass_range", p.mass_range);
+    app.add_option("--mass_margin", p.mass_margin);
     app.add_option("--damping_range", p.damping_range);
     app.add_option("--stiffness_range", p.stiffness_range);
     app.add_option("--inherent_delay_range", p.inherent_delay_range);
@@ -565,6 +566,7 @@ DeviceProfile load_device_profile(const Options& o) {
                     "min <= nominal value (" + std::to_string(r.nominal) + ") <= max");
         }
     }
+    check_range(where, "mass_margin", p.mass_margin, 0.0, 1.0, false, "0 .. 1 (relative)");
     return p;
 }
 

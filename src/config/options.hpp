@@ -140,6 +140,9 @@ struct DeviceProfile {
     std::vector<double> damping_range;
     std::vector<double> stiffness_range;
     std::vector<double> inherent_delay_range;
+    // Every scene is certified stable for the moving masses mass_range (or the mass alone) widened by this relative
+    // margin: [min / (1 + margin), max (1 + margin)] (`mass_margin`, 0 .. 1; docs/robust-stability.md).
+    double mass_margin = 0.1;
 };
 
 // Parses argv (and the config file it selects); --help ends with `help_footer` (the daemon's exit codes). Throws

@@ -55,6 +55,50 @@ struct DeviceCloser {
     }
 };
 
+// Every wall stable over the profile's plant set (docs/robust-stability.md): the masses mass_range widened by
+// mass_margin, with the wall's own mass (its axis's with a mass matrix) and the loop's velocity estimator. A
+// criterion's optimum that is not is derated to the largest fraction of it that is (GainChecker::set_stable_factor);
+// explicit gains that are not are refused (ErrorKind::UnstableGains) unless --passivity-control renders unstable
+// gains on purpose.
+void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, const DeviceProfile& p,
+                            const std::string& what, bool allow_unstable) {
+    GainCheckPlant cp;
+    static_cast<TuningPlant&>(cp) = wall_plant;
+    if (p.mass_range.size() == 2 && p.mass_model.isotropic)
+        cp.mass_range = std::make_pair(p.mass_range[0], p.mass_range[1]);
+    cp.mass_margin = p.mass_margin;
+    const GainChecker checker(cp);
+    const auto [c_min, c_max] = checker.mass_scales();
+    PlantSetCertificate c;
+    c.mass_min = c_min * cp.mass;
+    c.mass_max = c_max * cp.mass;
+    c.exact = checker.certified();
+    double failing_mass = 0.0;
+    if (checker.pair_is_stable(t.K, t.B, cp.mass, failing_mass)) {
+        t.plant_set = c;
+        return;
+    }
+    if (allow_unstable) return;  // --passivity-control: the controller keeps the wall bounded (no certificate)
+    std::ostringstream m;
+    m << what << ": K = " << t.K << " N/m, B = " << t.B << " N s/m"
+      << (t.explicit_gains ? std::string() : " (the optimum of criterion " + t.criterion + ")")
+      << " are unstable with the mass " << failing_mass << " kg of " << checker.set_text() << " (device profile '"
+      << p.path << "': mass_range, mass_margin)";
+    if (t.explicit_gains)
+        throw StartupError(ErrorKind::UnstableGains, m.str() + "; accepted: gains stable over the set");
+    const double T = cp.period;
+    const double f = checker.set_stable_factor(cp.mass, t.K * T * T / cp.mass, t.B * T / cp.mass);
+    if (!(f > 0.0))
+        throw StartupError(ErrorKind::UnstableGains, m.str() + ", and no fraction of them is stable over it");
+    t.K *= f;
+    t.B *= f;
+    t.alpha *= f;
+    t.beta *= f;
+    t.cost.reset();  // the criterion's cost is predicted at its optimum only
+    c.derating = f;
+    t.plant_set = c;
+}
+
 std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p, const TuningPlant& plant,
                                         const std::optional<TuningBox>& box) {
     const ErrorKind code = o.walls_from_command_line ? ErrorKind::Usage : ErrorKind::BadConfig;
@@ -111,6 +155,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             }
             w.tuning = it->second;
         }
+        certify_over_plant_set(w.tuning, wall_plant, p, origin + " '" + text + "'", o.passivity_control);
         predict_encoder_effects(w.tuning, wall_plant, p.position_resolution[spec->axis],
                                 p.coulomb_friction[spec->axis]);
         if (p.max_stiffness && w.tuning.K > *p.max_stiffness) {

@@ -24,6 +24,17 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                   t.explicit_gains ? "explicit gains" : ("tuned for " + t.criterion).c_str(), t.K, ku, t.B, bu, t.alpha,
                   t.beta, t.criterion.c_str(), cost.c_str(), t.stability_margin(), t.alpha_max);
     std::string line = buf;
+    if (t.plant_set) {
+        const PlantSetCertificate& c = *t.plant_set;
+        std::string derated;
+        if (c.derating < 1.0) {
+            std::snprintf(buf, sizeof buf, " derated to %.6g x the %s optimum to be", c.derating, t.criterion.c_str());
+            derated = buf;
+        }
+        std::snprintf(buf, sizeof buf, ";%s stable for every mass %.4g .. %.4g kg (%s)", derated.c_str(), c.mass_min,
+                      c.mass_max, c.exact ? "exact" : "sampled");
+        line += buf;
+    }
     if (t.robust) {
         const RobustSummary& r = *t.robust;
         std::snprintf(buf, sizeof buf,
@@ -127,6 +138,13 @@ nlohmann::json tuning_json(const TuningResult& t) {
     j["predicted_cost"] = t.cost ? nlohmann::json(*t.cost) : nlohmann::json(nullptr);
     j["alpha_max"] = t.alpha_max;
     j["stability_margin"] = t.stability_margin();
+    if (t.plant_set) {
+        j["plant_set"] = {{"mass", {t.plant_set->mass_min, t.plant_set->mass_max}},
+                          {"derating", t.plant_set->derating},
+                          {"exact", t.plant_set->exact}};
+    } else {
+        j["plant_set"] = nullptr;
+    }
     j["position_resolution"] = t.position_resolution;
     j["force_noise_std"] = t.force_noise_std ? nlohmann::json(*t.force_noise_std) : nlohmann::json(nullptr);
     if (t.chatter) {

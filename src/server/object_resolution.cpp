@@ -192,23 +192,22 @@ std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, con
     if (!v.stable) {
         const std::string along =
             masses.size() == 1 ? "the mass along the object's direction" : "one of the object's directional masses";
-        return Refusal{ErrorCode::UnstableGains,
-                       kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " +
-                           g(v.beta) + ") are outside the stability region for " + along + ", " + g(v.mass) +
-                           " kg (device mass " + checker_.mass().describe() + "), period " + g(config_.period) +
-                           " s, delay " + g(config_.delay) + " s; the largest stable K at B = " + g(B) + " N s/m is " +
-                           g(v.largest_stable_K) + " N/m (alpha_max = " + g(v.alpha_max) + "); " +
-                           (v.damping_stable
-                                ? "K = " + g(K) + " N/m is stable for " + g(v.damping_stable->first) + " < B < " +
-                                      g(v.damping_stable->second) + " N s/m" +
-                                      (v.damping_needed
-                                           ? ", accepted for " + g(v.damping_needed->first) + " < B < " +
-                                                 g(v.damping_needed->second) +
-                                                 " N s/m (damping_needed; the spectral radius "
-                                                 "below 1 - 1e-6)"
-                                           : " but never 1e-6 below a spectral radius of 1, which the daemon requires")
-                                : "no B makes K = " + g(K) + " N/m stable with " + along),
-                       v.largest_stable_K, v.damping_needed};
+        return Refusal{
+            ErrorCode::UnstableGains,
+            kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
+                ") are outside the stability region with the mass " + g(v.failing_mass) + " kg of " +
+                checker_.set_text() + ", for " + along + ", " + g(v.mass) + " kg (device mass " +
+                checker_.mass().describe() + "), period " + g(config_.period) + " s, delay " + g(config_.delay) +
+                " s; the largest stable K over the set at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +
+                " N/m (alpha_max = " + g(v.alpha_max) + " at the nominal mass); " +
+                (v.damping_stable
+                     ? "K = " + g(K) + " N/m is stable with the nominal mass for " + g(v.damping_stable->first) +
+                           " < B < " + g(v.damping_stable->second) + " N s/m" +
+                           (v.damping_needed ? ", accepted (stable over the set) for " + g(v.damping_needed->first) +
+                                                   " < B < " + g(v.damping_needed->second) + " N s/m (damping_needed)"
+                                             : " but with no B over the whole set")
+                     : "no B makes K = " + g(K) + " N/m stable with " + along),
+            v.largest_stable_K, v.damping_needed};
     }
     return std::nullopt;
 }

@@ -78,6 +78,8 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.velocity = profile.velocity_estimator;  // the loop's (scene_objects_config)
     plant.mass_matrix = profile.mass_model;       // one mass, per axis or a matrix (config/profile_keys.hpp)
     plant.max_stiffness = profile.max_stiffness;  // none: no limit
+    if (profile.mass_range.size() == 2) plant.mass_range = std::make_pair(profile.mass_range[0], profile.mass_range[1]);
+    plant.mass_margin = profile.mass_margin;  // every verdict holds over the set (docs/robust-stability.md)
     try {
         checker_ = std::make_unique<GainChecker>(plant);
     } catch (const std::invalid_argument& e) {

@@ -60,6 +60,7 @@
 #include <utility>
 #include <vector>
 
+#include <hapticopt/mass_scaling_stability.hpp>
 #include <hapticopt/matrix_gain_stability.hpp>
 
 #include "tuning/device_mass.hpp"
@@ -90,17 +91,24 @@ inline void add_to(Matrix3& a, const Matrix3& b) {
 struct GainCheckPlant : TuningPlant {
     std::optional<DeviceMass> mass_matrix;
     std::optional<double> max_stiffness;  // N/m
+    // The plant set every verdict holds for (docs/robust-stability.md): the mass matrix M scaled by c in
+    // [c_min, c_max], c_min = (mass_range.first / mass) / (1 + mass_margin), c_max = (mass_range.second / mass)
+    // (1 + mass_margin); without mass_range [1 / (1 + mass_margin), 1 + mass_margin]. mass_range (kg) needs one
+    // mass (the profile refuses it with a mass matrix) that lies inside it; mass_margin >= 0 is relative.
+    std::optional<std::pair<double, double>> mass_range;
+    double mass_margin = 0.0;
 };
 
 struct PairVerdict {
     bool stable = false;
-    double mass = 0.0;  // kg, the effective mass the pair was checked with
+    double mass = 0.0;          // kg, the effective mass the pair was checked with (nominal: c = 1)
+    double failing_mass = 0.0;  // kg, when not stable: a mass of the set (c mass) at which the pair is unstable
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
-    double largest_stable_K = 0.0;  // N/m at this B (0: none)
+    double largest_stable_K = 0.0;  // N/m at this B, stable over the whole set (0: none)
     // check_object's refusals (GainChecker::damping_range): the open interval of B (N s/m) that makes this K
-    // stable with every mass, and the B the daemon accepts for it alone (spectral radius below
-    // 1 - kMatrixGainRadiusMargin); none when no B does.
+    // stable with every nominal mass, and the B the daemon accepts for it alone (stable over the whole set);
+    // none when no B does.
     std::optional<std::pair<double, double>> damping_stable;
     std::optional<std::pair<double, double>> damping_needed;
 };
@@ -119,9 +127,22 @@ class GainChecker {
     [[nodiscard]] const DeviceMass& mass() const noexcept { return mass_; }
     [[nodiscard]] std::optional<double> max_stiffness() const noexcept { return plant_.max_stiffness; }
 
-    // Stability of one (K, B) (N/m, N s/m, finite) acting with mass m (kg): one Schur-Cohn verdict.
+    // The set's scale interval [c_min, c_max] of the mass (GainCheckPlant) and whether every verdict over it is
+    // exact (free-mass plant: hapticopt::MassScalingTest) rather than sampled at kSampledMasses masses (b or k > 0).
+    [[nodiscard]] std::pair<double, double> mass_scales() const noexcept { return {scale_min_, scale_max_}; }
+    [[nodiscard]] bool certified() const noexcept { return scaling_.has_value(); }
+    static constexpr int kSampledMasses = 17;
+    // "the profile's plant set: masses 0.667 .. 1.1 x 0.3 kg" (for messages).
+    [[nodiscard]] std::string set_text() const;
+    // The largest f in (0, 1] with f (alpha, beta) (normalised with mass m) stable over the set; 0: none.
+    [[nodiscard]] double set_stable_factor(double m, double alpha, double beta) const;
+
+    // Stability of one (K, B) (N/m, N s/m, finite) acting with nominal mass m (kg) for every mass c m of the set:
+    // the exact verdict at the lightest and the unit-circle crossings along the mass (mass_scaling_stability.hpp).
     [[nodiscard]] bool pair_is_stable(double K, double B, double m) const;
-    // The same and the largest stable K at that B (61 verdicts: for a refusal's message).
+    // The same with the mass of the set at which it fails (0 when stable).
+    [[nodiscard]] bool pair_is_stable(double K, double B, double m, double& failing_mass) const;
+    // The same and the largest K stable over the set at that B (61 set verdicts: for a refusal's message).
     [[nodiscard]] PairVerdict check_pair(double K, double B, double m) const;
 
     // The masses an object with gains (K P, B P) acts with: 1 / s_i for the eigenvalues s_i > 0 of
@@ -150,8 +171,10 @@ class GainChecker {
     [[nodiscard]] std::optional<std::pair<double, double>> damping_range(double K, const std::vector<double>& masses,
                                                                          bool accepted = false) const;
 
-    // The optimum of a criterion (CE0 .. CE2+OV) for mass m (kg), cached as said above. std::nullopt for
-    // an unknown name.
+    // The optimum of a criterion (CE0 .. CE2+OV) for nominal mass m (kg), cached as said above, made stable over
+    // the set: when the optimum (alpha*, beta*) is not, the gains f (alpha*, beta*) with the largest f < 1 that is
+    // (the ray's stable interval through the optimum, from its unit-circle crossings; bisection on the set verdict
+    // when the plant has b or k). std::nullopt for an unknown name.
     std::optional<CriterionGains> criterion_gains(const std::string& criterion, double m);
 
     // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
@@ -171,8 +194,12 @@ class GainChecker {
                                        std::optional<double>& largest_stable_K) const;
 
     // The coupled loop's verdict for physical gain matrices as rendered (K_sum may be non-symmetric: a
-    // field's curl), in the unit-mass coordinates (hapticopt::general_matrix_gain_stability).
+    // field's curl), in the unit-mass coordinates (hapticopt::general_matrix_gain_stability), nominal mass.
     [[nodiscard]] hapticopt::MatrixGainStability coupled(const Matrix3& K_sum, const Matrix3& B_sum) const;
+    // The same over the set (hapticopt::MassScalingTest::matrix_over: exact for symmetric commuting gains,
+    // kSampledMasses scales otherwise; b or k > 0: general_matrix_gain_stability at kSampledMasses masses).
+    [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(const Matrix3& K_sum,
+                                                                       const Matrix3& B_sum) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
 
@@ -194,6 +221,8 @@ class GainChecker {
     [[nodiscard]] double alpha_max_for(double m) const;
     // The scalar verdict with the estimator (hapticopt::is_stable for the backward difference).
     [[nodiscard]] bool stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const;
+    // The scalar verdict over the set for gains normalised with mass m: true, or false and the failing mass.
+    [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass) const;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 
@@ -201,9 +230,11 @@ class GainChecker {
     hapticopt::VelocityEstimator estimator_;
     std::shared_ptr<const hapticopt::EstimatorStabilityRegion> region_;  // non-backward: for the profile's mass
     DeviceMass mass_;
-    MassMatrix mass_sqrt_{};        // M^1/2
-    bool free_mass_plant_ = false;  // b = k = 0: the normalised plant does not depend on the mass
-    double alpha_max_ = 0.0;        // for the profile's mass (any mass when free_mass_plant_)
+    MassMatrix mass_sqrt_{};                             // M^1/2
+    bool free_mass_plant_ = false;                       // b = k = 0: the normalised plant does not depend on the mass
+    double alpha_max_ = 0.0;                             // for the profile's mass (any mass when free_mass_plant_)
+    double scale_min_ = 1.0, scale_max_ = 1.0;           // the set's masses: c M, c in [scale_min_, scale_max_]
+    std::optional<hapticopt::MassScalingTest> scaling_;  // free_mass_plant_: the exact test along the mass
     std::mutex cache_mutex_;
     std::map<std::pair<std::string, double>, CriterionGains> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
 };

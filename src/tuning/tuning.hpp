@@ -79,6 +79,16 @@ struct EncoderChatter {
     double cycle_frequency = 0.0;       // Hz
 };
 
+// A wall's certificate over the profile's plant set (docs/robust-stability.md): stable for every moving mass in
+// [mass_min, mass_max] (the profile's mass_range widened by its mass_margin), decided exactly (free-mass plant) or at
+// GainChecker::kSampledMasses masses; `derating`: the fraction of the criterion's optimum the wall renders (1: the
+// optimum itself is stable over the set; less: the largest fraction of it that is, cost then not predicted).
+struct PlantSetCertificate {
+    double mass_min = 0.0, mass_max = 0.0;  // kg
+    double derating = 1.0;
+    bool exact = true;
+};
+
 struct TuningResult {
     std::string criterion;                // "CE2", ...
     bool explicit_gains = false;          // K, B given by the user (then `criterion` only names the reported cost)
@@ -94,7 +104,8 @@ struct TuningResult {
     // sigma_F = (m q / T^2) g_F (hapticopt::force_noise_std), N (N m); empty when q = 0 or unstable.
     double position_resolution = 0.0;
     std::optional<double> force_noise_std;
-    std::optional<EncoderChatter> chatter;  // with q > 0, stable gains and the backward difference
+    std::optional<EncoderChatter> chatter;         // with q > 0, stable gains and the backward difference
+    std::optional<PlantSetCertificate> plant_set;  // set by the daemon's certification of its walls
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 

@@ -9,6 +9,6 @@ if(TARGET hapticd_core)
   endif()
   add_executable(hapticd_benchmarks "${CMAKE_CURRENT_LIST_DIR}/daemon_tick.cpp"
     "${CMAKE_CURRENT_LIST_DIR}/engagement_check_benchmarks.cpp" "${CMAKE_CURRENT_LIST_DIR}/recorder_benchmarks.cpp"
-    "${CMAKE_CURRENT_LIST_DIR}/estimator_check_benchmarks.cpp")
+    "${CMAKE_CURRENT_LIST_DIR}/estimator_check_benchmarks.cpp" "${CMAKE_CURRENT_LIST_DIR}/plant_set_benchmarks.cpp")
   target_link_libraries(hapticd_benchmarks PRIVATE hapticd_core benchmark::benchmark benchmark::benchmark_main)
 endif()

@@ -15,8 +15,9 @@ from .costs import (CRITERIA_WITH_SURFACE, Costs, Overshoot, Penetration, Stabil
 from .estimator import VelocityEstimator, velocity_estimator
 from .limit_cycles import (AbbottOkamuraPassivity, LimitCycle, LimitCyclePrediction, abbott_okamura_passivity,
                            predict_limit_cycle, quantised_rest_exists)
-from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, OptimalCurve, Optimum, PassiveOptimum, RobustOptimum,
-                     WallTuning, optimal_curve, optimal_point, optimal_wall, passive_optimum, robust_optimum,
+from .optima import (COLLISION_CRITERIA, STEP_CRITERIA, MassRangeStability, OptimalCurve, Optimum, PassiveOptimum,
+                     RobustOptimum, WallTuning, mass_range_stability, optimal_curve, optimal_point, optimal_wall,
+                     passive_optimum, robust_optimum,
                      NoiseBudgetOptimum, noise_pareto_front, optimal_point_under_noise_budget)
 from .plot import noise_pareto as plot_noise_pareto
 from .parameters import (Gains, PhysicalPlant, Plant, WallGains, normalize, normalize_gains, to_physical,
@@ -36,5 +37,5 @@ __all__ = [
     "PassiveOptimum", "optimal_curve", "optimal_point", "optimal_wall", "robust_optimum", "passive_optimum",
     "NoiseBudgetOptimum", "optimal_point_under_noise_budget", "noise_pareto_front", "plot_noise_pareto",
     "AbbottOkamuraPassivity", "LimitCycle", "LimitCyclePrediction", "abbott_okamura_passivity", "predict_limit_cycle",
-    "quantised_rest_exists",
+    "quantised_rest_exists", "MassRangeStability", "mass_range_stability",
 ]

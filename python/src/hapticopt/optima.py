@@ -217,6 +217,29 @@ def robust_optimum(criterion: str, *, mass: Range, period: float, damping: Range
                          nominal_stable_over_box=d["nominal_stable_over_box"])
 
 
+@dataclass(frozen=True)
+class MassRangeStability:
+    """Fixed gains over an interval of moving masses (the hand gripping or letting go): stable for every mass;
+    failing_mass: a mass of the interval where not (None when stable); crossing_masses: every mass > 0 at which a
+    root of the loop lies on the unit circle, ascending (include/hapticopt/mass_scaling_stability.hpp)."""
+
+    stable: bool
+    failing_mass: Optional[float]
+    crossing_masses: Tuple[float, ...]
+
+
+def mass_range_stability(stiffness: float, damping: float, *, mass: Range, period: float, time_delay: float = 0.0,
+                         estimator: EstimatorLike = None) -> MassRangeStability:
+    """Whether K, B (physical) are stable for every mass of `mass` ((min, max) or one value) with the free-mass
+    plant (b = k = 0) at delay `time_delay` and the velocity estimator: exact (the Schur-Cohn verdict at one end
+    and the unit-circle crossings along the mass; docs/robust-stability.md). About 20 us at d = 1."""
+    e = velocity_estimator(estimator, period)
+    d = _core.mass_range_stability(float(stiffness), float(damping), _range("mass", mass), float(period),
+                                   float(time_delay), *e.args())
+    return MassRangeStability(stable=bool(d["stable"]), failing_mass=d["failing_mass"],
+                              crossing_masses=tuple(float(m) for m in d["crossing_masses"]))
+
+
 def passive_optimum(criterion: str, plant: Optional[Plant] = None, *,
                     estimator: EstimatorLike = None) -> Optional[PassiveOptimum]:
     """The minimum of CE0..2 or CI0..2 over the stable passive gains; None when there are none

@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: Apache-2.0
+// An independent model of the rendered scalar loop for the tests: a time-stepping simulation in physical units,
+// written without hapticopt. A free mass m (b = k = 0) starts at rest at x = 1 mm; at each tick j the position is
+// sampled, the velocity estimated by the loop's difference equation (backward, low-pass, window of N), and the wall
+// force f_j = K x_j + B v_j acts against x during [jT + t_d, (j + 1)T + t_d) (delay d = n + phi periods: the period
+// [j, j + 1) sees f_{j-n-1} for phi T, then f_{j-n}; no force before t = 0); the mass moves exactly under each
+// constant force (x += v tau - u tau^2 / 2m).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <deque>
+
+namespace loop_simulation {
+
+enum class Estimator { Backward, LowPass, Window };
+
+struct Velocity {
+    Estimator kind = Estimator::Backward;
+    double cutoff = 0.0;  // low-pass: normalised cutoff nu = f_c T
+    int window = 1;       // window: N periods (<= 1000)
+};
+
+// max |x| over the last tenth of `ticks` periods divided by max |x| over the first tenth; HUGE_VAL once |x| passes
+// 1 m (a million times the start: grown).
+inline double excursion_ratio(double m, double K, double B, double T, double delay_periods, const Velocity& e,
+                              int ticks) {
+    const int n = static_cast<int>(std::floor(delay_periods));
+    const double phi = delay_periods - n;
+    double x = 1e-3, v = 0.0;
+    std::deque<double> samples(1001, x);  // x_j, x_{j-1}, ...: at rest before t = 0
+    double low_pass = 0.0;
+    std::deque<double> forces(static_cast<std::size_t>(n + 2), 0.0);  // f_j, f_{j-1}, ...
+    const double lambda = e.kind == Estimator::LowPass ? std::exp(-2.0 * 3.14159265358979323846 * e.cutoff) : 0.0;
+    double first = 0.0, last = 0.0;
+    auto move = [&](double u, double tau) {
+        x += v * tau - u * tau * tau / (2.0 * m);
+        v -= u * tau / m;
+    };
+    for (int j = 0; j < ticks; ++j) {
+        samples.push_front(x);
+        samples.pop_back();
+        double velocity = 0.0;
+        switch (e.kind) {
+            case Estimator::Backward:
+                velocity = (samples[0] - samples[1]) / T;
+                break;
+            case Estimator::LowPass:
+                low_pass = lambda * low_pass + (1.0 - lambda) * (samples[0] - samples[1]) / T;
+                velocity = low_pass;
+                break;
+            case Estimator::Window:
+                velocity = (samples[0] - samples[static_cast<std::size_t>(e.window)]) / (e.window * T);
+                break;
+        }
+        forces.push_front(K * samples[0] + B * velocity);
+        forces.pop_back();
+        if (phi > 0.0) move(forces[static_cast<std::size_t>(n + 1)], phi * T);
+        move(forces[static_cast<std::size_t>(n)], (1.0 - phi) * T);
+        if (j < ticks / 10) first = std::max(first, std::abs(x));
+        if (j >= ticks - ticks / 10) last = std::max(last, std::abs(x));
+        if (!(std::abs(x) < 1.0)) return HUGE_VAL;
+    }
+    return last / first;
+}
+
+}  // namespace loop_simulation

@@ -1,0 +1,178 @@
+// SPDX-License-Identifier: Apache-2.0
+// The checks over the profile's plant set (tuning/object_checks.hpp, docs/robust-stability.md): every verdict holds
+// for the masses mass_range widened by mass_margin. Checked against the independent time-stepping simulation of the
+// rendered loop (tests/common/loop_simulation.hpp) at the set's corners and inside it, and against the checker's
+// own nominal verdicts (a set verdict implies the nominal one; the converse is what the set adds).
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <hapticopt/hapticopt.hpp>
+
+#include "common/loop_simulation.hpp"
+#include "tuning/object_checks.hpp"
+
+namespace hapticd {
+namespace plant_set_checks_test {
+
+constexpr double kPeriod = 1e-3;
+
+// The shipped Falcon profile's plant (config/devices/falcon.toml): 0.30 kg held, 0.22 kg free, 6 ms, window:15.
+GainCheckPlant falcon(bool with_set) {
+    GainCheckPlant p;
+    p.mass = 0.30;
+    p.period = kPeriod;
+    p.time_delay = 0.006;
+    p.velocity.kind = LoopVelocityKind::Window;
+    p.velocity.window = 15;
+    if (with_set) {
+        p.mass_range = std::make_pair(0.22, 0.30);
+        p.mass_margin = 0.1;
+    }
+    return p;
+}
+
+const loop_simulation::Velocity kWindow15{loop_simulation::Estimator::Window, 0.0, 15};
+
+TEST(PlantSetChecks, TheSetIsTheMassRangeWidenedByTheMargin) {
+    const GainChecker checker(falcon(true));
+    const auto [c_min, c_max] = checker.mass_scales();
+    EXPECT_NEAR(c_min * 0.30, 0.22 / 1.1, 1e-15);
+    EXPECT_NEAR(c_max * 0.30, 0.30 * 1.1, 1e-15);
+    EXPECT_TRUE(checker.certified());
+    GainCheckPlant bad = falcon(true);
+    bad.mass_range = std::make_pair(0.31, 0.40);  // the nominal mass outside
+    EXPECT_THROW(GainChecker{bad}, std::invalid_argument);
+    bad = falcon(false);
+    bad.mass_margin = -0.1;
+    EXPECT_THROW(GainChecker{bad}, std::invalid_argument);
+}
+
+// The case: amax for the held Falcon alone is accepted by the nominal checker and unstable when the hand
+// lets go; over the set it is refused, naming a mass of the set, and the criterion's gains over the set decay in the
+// simulation at the corners and inside.
+TEST(PlantSetChecks, AnAmaxPlaneIsCertifiedForTheWholeSetNotForTheHeldMassAlone) {
+    GainChecker nominal(falcon(false));
+    const GainChecker set(falcon(true));
+    const std::optional<CriterionGains> held = nominal.criterion_gains("amax", 0.30);
+    ASSERT_TRUE(held);
+    EXPECT_TRUE(nominal.pair_is_stable(held->K, held->B, 0.30));
+    EXPECT_GT(loop_simulation::excursion_ratio(0.22, held->K, held->B, kPeriod, 6.0, kWindow15, 60000), 100.0)
+        << "amax for 0.30 kg grows at 0.22 kg";
+    const PairVerdict v = set.check_object(held->K, held->B, {0.30});
+    EXPECT_FALSE(v.stable);
+    EXPECT_GE(v.failing_mass, 0.2 - 1e-12);
+    EXPECT_LT(v.failing_mass, 0.30);
+    EXPECT_GT(v.largest_stable_K, 0.0);
+    EXPECT_LT(v.largest_stable_K, held->K);
+    EXPECT_TRUE(set.pair_is_stable(v.largest_stable_K * (1.0 - 1e-9), held->B, 0.30));
+    EXPECT_FALSE(set.pair_is_stable(v.largest_stable_K * (1.0 + 1e-6), held->B, 0.30));
+    EXPECT_FALSE(v.damping_needed);  // no B makes the held amax stiffness stable at 0.2 kg
+    // The damping that makes 0.6 of that stiffness stable over the set: inside accepted, just outside refused.
+    const std::optional<std::pair<double, double>> needed = set.damping_range(0.6 * held->K, {0.30}, true);
+    ASSERT_TRUE(needed);
+    EXPECT_TRUE(set.pair_is_stable(0.6 * held->K, needed->first * (1 + 1e-6), 0.30));
+    EXPECT_TRUE(set.pair_is_stable(0.6 * held->K, needed->second * (1 - 1e-6), 0.30));
+    EXPECT_FALSE(set.pair_is_stable(0.6 * held->K, needed->first * (1 - 1e-6), 0.30));
+    EXPECT_FALSE(set.pair_is_stable(0.6 * held->K, needed->second * (1 + 1e-6), 0.30));
+
+    GainChecker over_set(falcon(true));
+    const std::optional<CriterionGains> robust = over_set.criterion_gains("amax", 0.30);
+    ASSERT_TRUE(robust);
+    EXPECT_LT(robust->K, held->K);
+    EXPECT_NEAR(robust->B / robust->K, held->B / held->K, 1e-12 * held->B / held->K);  // on the optimum's ray
+    EXPECT_TRUE(over_set.check_object(robust->K, robust->B, {0.30}).stable);
+    // amax over the set puts the lightest mass at its boundary: the simulation decides where the radius is clear
+    // of 1 (the heavier masses); just inside, 0.99 of the gains decay at the light end too.
+    for (const double m : {0.22, 0.25, 0.28, 0.30, 0.33}) {
+        EXPECT_LT(
+            loop_simulation::excursion_ratio(m, 0.99 * robust->K, 0.99 * robust->B, kPeriod, 6.0, kWindow15, 60000),
+            0.9)
+            << "m = " << m;
+    }
+    // CE2's optimum for the held Falcon is stable over the set as it is (no derating).
+    const std::optional<CriterionGains> ce2 = over_set.criterion_gains("CE2", 0.30);
+    const std::optional<CriterionGains> ce2_nominal = nominal.criterion_gains("CE2", 0.30);
+    ASSERT_TRUE(ce2 && ce2_nominal);
+    EXPECT_DOUBLE_EQ(ce2->K, ce2_nominal->K);
+    for (const double m : {0.20, 0.22, 0.30, 0.33}) {
+        EXPECT_LT(loop_simulation::excursion_ratio(m, ce2->K, ce2->B, kPeriod, 6.0, kWindow15, 40000), 0.5)
+            << "m = " << m;
+    }
+}
+
+// A near-free scene: a plane K 100 N/m, B 1 N s/m ramped in over 4 s (the ramp's first tick: spectral radius
+// 0.9999995833, stable for every mass) is accepted over the set, with the backward difference at d = 0.
+TEST(PlantSetChecks, ANearFreeSlowRampIsAcceptedWhenStableOverTheSet) {
+    GainCheckPlant p;
+    p.mass = 0.30;
+    p.period = kPeriod;
+    p.mass_range = std::make_pair(0.22, 0.30);
+    p.mass_margin = 0.1;
+    const GainChecker checker(p);
+    Matrix3 K{}, B{}, zero{};
+    K[0][0] = 100.0;
+    B[0][0] = 1.0;
+    std::string why;
+    EXPECT_TRUE(checker.ramp_is_stable(zero, zero, K, B, zero, zero, kPeriod / 4.0, why)) << why;
+    // Its first ramp scene alone has the radius the fixed margin refused.
+    const double s = kPeriod / 4.0;
+    const hapticopt::StabilityReport first = hapticopt::stability(
+        hapticopt::NormalizedPlant{0.0, 0.0, 0.0},
+        hapticopt::NormalizedGains{100.0 * s * s * kPeriod * kPeriod / 0.30, 1.0 * s * kPeriod / 0.30});
+    EXPECT_GT(first.spectral_radius, 1.0 - 1e-6);
+    EXPECT_LT(first.spectral_radius, 1.0);
+}
+
+// Sums: two orthogonal planes commute and are judged per direction over the set (exact); a pair that is stable at
+// the nominal mass but not at the light end of the set is refused with the mass named.
+TEST(PlantSetChecks, SumsAreJudgedOverTheSetAndTheRefusalNamesTheMass) {
+    GainCheckPlant p;
+    p.mass = 0.30;
+    p.period = kPeriod;
+    p.time_delay = kPeriod;
+    p.mass_range = std::make_pair(0.22, 0.30);
+    p.mass_margin = 0.1;
+    const GainChecker set(p);
+    GainCheckPlant q = p;
+    q.mass_range.reset();
+    q.mass_margin = 0.0;
+    const GainChecker nominal(q);
+    // d = 1: alpha_max = 0.1445 at the nominal mass; K at 0.9 of it is unstable at 0.2 kg (alpha x 1.5).
+    const hapticopt::StabilityRegion region(hapticopt::NormalizedPlant{0.0, 0.0, 1.0});
+    const double alpha = 0.9 * region.alpha_max();
+    const auto [b_lo, b_hi] = region.beta_range(alpha);
+    const double K_hot = alpha * 0.30 / (kPeriod * kPeriod), B_hot = 0.5 * (b_lo + b_hi) * 0.30 / kPeriod;
+    Matrix3 K{}, B{};
+    K[0][0] = K_hot;
+    B[0][0] = B_hot;
+    K[1][1] = 0.2 * K_hot;
+    B[1][1] = 0.5 * B_hot;
+    std::string why;
+    EXPECT_TRUE(nominal.sum_is_stable(K, B, why)) << why;
+    EXPECT_FALSE(set.sum_is_stable(K, B, why));
+    EXPECT_NE(why.find("outside the stability region with the mass"), std::string::npos) << why;
+    EXPECT_NE(why.find("plant set"), std::string::npos) << why;
+    EXPECT_TRUE(set.coupled_over_set(K, B).certified);
+    // The simulation agrees: the hot direction grows at the set's light end, decays at the nominal mass.
+    const loop_simulation::Velocity backward{};
+    EXPECT_GT(loop_simulation::excursion_ratio(0.2, K_hot, B_hot, kPeriod, 1.0, backward, 20000), 2.0);
+    EXPECT_LT(loop_simulation::excursion_ratio(0.30, K_hot, B_hot, kPeriod, 1.0, backward, 20000), 0.5);
+    // Scaled to the set-stable fraction, the sum is accepted.
+    const double f = set.set_stable_factor(0.30, alpha, 0.5 * (b_lo + b_hi));
+    ASSERT_GT(f, 0.0);
+    ASSERT_LT(f, 1.0);
+    Matrix3 Kf = K, Bf = B;
+    Kf[0][0] *= f;
+    Bf[0][0] *= f;
+    EXPECT_TRUE(set.sum_is_stable(Kf, Bf, why)) << why;
+    for (const double m : {0.2, 0.25, 0.33}) {
+        EXPECT_LT(loop_simulation::excursion_ratio(m, 0.99 * Kf[0][0], 0.99 * Bf[0][0], kPeriod, 1.0, backward, 40000),
+                  0.9)
+            << "m = " << m;
+    }
+}
+
+}  // namespace plant_set_checks_test
+}  // namespace hapticd
