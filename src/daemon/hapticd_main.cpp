@@ -604,7 +604,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
             out << " (simulated hand: b_H " << scenario.hand.damping << " N s/m, k_H " << scenario.hand.stiffness
                 << " N/m"
                 << (scenario.hand.mass > 0.0 ? ", m_H +" + std::to_string(scenario.hand.mass) + " kg" : std::string())
-                << ")";
+                << (scenario.schedule.empty() ? std::string() : "; schedule " + describe(scenario.schedule)) << ")";
         }
         out << std::endl;
     }
