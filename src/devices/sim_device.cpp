@@ -153,8 +153,8 @@ SimDevice::ModalPlant SimDevice::build_plant(double mass_delta, bool held, doubl
     // Without the hand (a release) the mass must stay positive: name the hand's part that made it not.
     const std::string released =
         held ? std::string()
-             : " after " + what + ", without the hand's " + std::to_string(-mass_delta) +
-                   " kg (hand.release_mass + hand.mass); accepted: a hand's mass below the plant's";
+             : " after " + what + ": the plant's mass less hand.release_mass = " + std::to_string(-mass_delta) +
+                   " kg; accepted: hand.release_mass below the plant's mass";
     std::array<double, kMaxAxes> modal_mass{};
     modal_mass.fill(p.total.mass);
     for (std::size_t a = 0; a < kMaxAxes; ++a) p.modes[a][a] = 1.0;

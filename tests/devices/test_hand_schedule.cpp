@@ -296,7 +296,7 @@ TEST(HandSchedule, TheDeviceRefusesAnInconsistentScheduleOrMass) {
         SimDevice dev(heavy);
         ADD_FAILURE() << "accepted a hand as heavy as the plant";
     } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("without the hand's 0.3"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("less hand.release_mass = 0.3"), std::string::npos) << e.what();
     }
 }
 
