@@ -12,6 +12,7 @@
 
 #include "config/apply_config_file.hpp"
 #include "config/config_locations.hpp"
+#include "config/hand_schedule.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd {
@@ -66,6 +67,12 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--hand-stiffness", o.hand_stiffness,
                    "Simulated hand: stiffness k_H around its rest position, N/m (default -1: 667 s^-2 times the "
                    "profile's mass; 0: no hand)");
+    app.add_option("--hand-schedule", o.hand_schedule,
+                   "Simulated hand: 'release@T,grip@T,arm@T:k=K:b=B', T in s from the start: the hand lets go "
+                   "(its mass, k_H, b_H and force leave), grips again, or changes k_H, b_H (docs/simulated-hand.md)");
+    app.add_option("--hand-release-mass", o.hand_release_mass,
+                   "Simulated hand: the part of the profile's mass that leaves the handle at a release, kg "
+                   "(default -1: the profile's mass minus the lightest of its mass_range)");
     app.add_option("--path-amplitude", o.path_amplitude,
                    "path intent: amplitude of the hand's rest position, m (default 0.01)");
     app.add_option("--path-frequency", o.path_frequency, "path intent: frequency, Hz (default 0.5)");
@@ -332,6 +339,13 @@ void validate_options(const Options& o) {
         check_range(w, "hand-damping", o.hand_damping, 0.0, 1e6, false, "0 .. 1e6 N s/m, or -1 (default)");
     if (o.hand_stiffness != -1.0)
         check_range(w, "hand-stiffness", o.hand_stiffness, 0.0, 1e9, false, "0 .. 1e9 N/m, or -1 (default)");
+    if (o.hand_release_mass != -1.0)
+        check_range(w, "hand-release-mass", o.hand_release_mass, 0.0, 1e3, false, "0 .. 1000 kg, or -1 (default)");
+    try {
+        (void)parse_hand_schedule(o.hand_schedule);
+    } catch (const std::invalid_argument& e) {
+        throw StartupError(ErrorKind::InvalidParameter, w.prefix("hand-schedule") + e.what());
+    }
     check_range(w, "path-amplitude", o.path_amplitude, 0.0, 1e3, false, "0 .. 1000 m");
     check_range(w, "path-frequency", o.path_frequency, 0.0, 1e3, false, "0 .. 1000 Hz");
     check_range(w, "passivity-damping-cap", o.passivity_damping_cap, 0.0, 1e9, false, "0 (auto) .. 1e9 N s/m");

@@ -35,6 +35,10 @@ struct Options {
     double hand_stiffness = -1.0;   // k_H, N/m; < 0: kHandStiffnessPerMass times the profile's mass
     double path_amplitude = 0.01;   // m
     double path_frequency = 0.5;    // Hz
+    // The simulated hand's grips, releases and arm changes (config/hand_schedule.hpp; "": none), and the kg of the
+    // profile's mass that leaves the handle at a release (< 0: the profile's mass minus the lightest of mass_range).
+    std::string hand_schedule;
+    double hand_release_mass = -1.0;
     bool bilateral = false;
     bool simulate = false;  // simulate the profile's physics even when its driver is a real device
     bool gains_set = false;

@@ -214,27 +214,83 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
 }
 
 // The walls were tuned and checked for the profile's plant (the device with the arm's mass); the simulated
-// hand adds b_H, k_H (and m_H). Usually that keeps them stable (docs/simulated-hand.md), not always: say so.
-void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profile, const SimHand& hand, double period,
-                             double delay) {
-    if (hand.damping == 0.0 && hand.stiffness == 0.0 && hand.mass == 0.0) return;
-    GainCheckPlant held;
-    held.mass = profile.mass + hand.mass;
-    held.damping = profile.damping + hand.damping;
-    held.stiffness = profile.stiffness + hand.stiffness;
-    held.period = period;
-    held.time_delay = delay;
-    held.velocity = profile.velocity_estimator;
-    const GainChecker checker(held);
-    for (const auto& r : report.walls) {
-        if (!checker.pair_is_stable(r.tuning.K, r.tuning.B, held.mass)) {
-            std::cerr << "hapticd: warning: wall " << r.spec << " (K = " << r.tuning.K << ", B = " << r.tuning.B
-                      << ") is not stable with the simulated hand (m_H +" << hand.mass << " kg, b_H " << hand.damping
-                      << " N s/m, k_H " << hand.stiffness
-                      << " N/m): the checks are made for the profile's plant; give the hand more damping "
-                      << "(docs/simulated-hand.md)\n";
+// hand adds b_H, k_H (and m_H). Usually that keeps them stable (docs/simulated-hand.md), not always: say so. The
+// same for each plant the hand's schedule reaches (released: the mass without the hand's, no k_H, b_H).
+void warn_unstable_with_hand(const RunReport& report, const DeviceProfile& profile, const SimScenario& scenario,
+                             double period, double delay) {
+    const SimHand& hand = scenario.hand;
+    auto unstable_walls = [&](double mass, double b_H, double k_H, const std::string& with) {
+        if (mass == profile.mass && b_H == 0.0 && k_H == 0.0) return;  // the profile's own plant: checked
+        GainCheckPlant plant;
+        plant.mass = mass;
+        plant.damping = profile.damping + b_H;
+        plant.stiffness = profile.stiffness + k_H;
+        plant.period = period;
+        plant.time_delay = delay;
+        plant.velocity = profile.velocity_estimator;
+        const GainChecker checker(plant);
+        for (const auto& r : report.walls) {
+            if (!checker.pair_is_stable(r.tuning.K, r.tuning.B, plant.mass)) {
+                std::cerr << "hapticd: warning: wall " << r.spec << " (K = " << r.tuning.K << ", B = " << r.tuning.B
+                          << ") is not stable " << with
+                          << ": the checks are made for the profile's plant (docs/simulated-hand.md)\n";
+            }
         }
+    };
+    std::ostringstream held;
+    held << "with the simulated hand (m_H +" << hand.mass << " kg, b_H " << hand.damping << " N s/m, k_H "
+         << hand.stiffness << " N/m); give the hand more damping";
+    unstable_walls(profile.mass + hand.mass, hand.damping, hand.stiffness, held.str());
+    double b_H = hand.damping, k_H = hand.stiffness;
+    bool on = true;
+    for (const HandEvent& e : scenario.schedule) {
+        if (e.kind == HandEventKind::Release) on = false;
+        if (e.kind == HandEventKind::Grip) on = true;
+        if (e.stiffness) k_H = *e.stiffness;
+        if (e.damping) b_H = *e.damping;
+        if (e.kind == HandEventKind::Arm && !on) continue;  // takes effect at the next grip, checked there
+        std::ostringstream with;
+        const double mass = on ? profile.mass + hand.mass : profile.mass - hand.release_mass;
+        with << "after the simulated hand's " << to_string(e.kind) << " at " << e.time << " s (moving mass " << mass
+             << " kg, b_H " << (on ? b_H : 0.0) << " N s/m, k_H " << (on ? k_H : 0.0) << " N/m)";
+        unstable_walls(mass, on ? b_H : 0.0, on ? k_H : 0.0, with.str());
     }
+}
+
+// The hand's events as they happened (SimDevice::hand_events): one line each.
+std::string hand_events_text(const std::vector<HandEventRecord>& events, double period) {
+    std::ostringstream out;
+    for (const HandEventRecord& r : events) {
+        out << "hapticd: simulated hand: " << to_string(r.event.kind) << "@" << r.event.time;
+        if (r.tick < 0) {
+            out << ": not reached\n";
+            continue;
+        }
+        out << " at tick " << r.tick << " (t = " << static_cast<double>(r.tick) * period << " s): moving mass "
+            << r.mass << " kg, k_H " << r.stiffness << " N/m, b_H " << r.damping
+            << " N s/m; handle at x = " << r.position << " m, v = " << r.velocity << " m/s\n";
+    }
+    return out.str();
+}
+
+nlohmann::json hand_events_json(const std::vector<HandEventRecord>& events, double period) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const HandEventRecord& r : events) {
+        nlohmann::json j{{"event", std::string(to_string(r.event.kind))}, {"time", r.event.time}};
+        if (r.tick >= 0) {
+            j["tick"] = r.tick;
+            j["applied_time"] = static_cast<double>(r.tick) * period;
+            j["mass"] = r.mass;
+            j["hand_stiffness"] = r.stiffness;
+            j["hand_damping"] = r.damping;
+            j["position"] = r.position;
+            j["velocity"] = r.velocity;
+        } else {
+            j["tick"] = nullptr;
+        }
+        list.push_back(j);
+    }
+    return list;
 }
 
 // replay: null, or the recording whose command line argv is (--replay, replay_main): then the run is that
@@ -401,8 +457,30 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     scenario.path_amplitude = o.path_amplitude;
     scenario.path_frequency = o.path_frequency;
     scenario.hand = simulated_hand(o, profile);
+    scenario.schedule = parse_hand_schedule(o.hand_schedule);  // checked by validate_options
+    const bool releases = std::any_of(scenario.schedule.begin(), scenario.schedule.end(),
+                                      [](const HandEvent& e) { return e.kind == HandEventKind::Release; });
+    if (!scenario.schedule.empty() && profile.driver != "sim" && !o.simulate) {
+        std::cerr << "hapticd: warning: hand-schedule acts on the simulated hand only: ignored on device '"
+                  << profile.name << "' (driver " << profile.driver << "; --simulate simulates it)\n";
+    }
+    if (releases && o.hand_release_mass < 0.0 && profile.mass_range.empty() &&
+        (profile.driver == "sim" || o.simulate)) {
+        throw StartupError(ErrorKind::InvalidParameter,
+                           "hand-schedule = '" + o.hand_schedule + "' releases the hand, but device profile '" +
+                               profile.path +
+                               "' has no mass_range to take the hand's mass from; accepted: --hand-release-mass M "
+                               "(kg of the profile's mass that leaves the handle, 0 .. the profile's mass)");
+    }
+    if (releases && profile.mass_model.isotropic && !(scenario.hand.release_mass < profile.mass)) {
+        std::ostringstream what;
+        what << "hand-release-mass = " << scenario.hand.release_mass << " kg (with hand-mass " << scenario.hand.mass
+             << " kg) leaves no moving mass at the release of hand-schedule = '" << o.hand_schedule
+             << "'; accepted range: 0 .. below the profile's mass " << profile.mass << " kg";
+        throw StartupError(ErrorKind::InvalidParameter, what.str());
+    }
     if ((profile.driver == "sim" || o.simulate) && profile.mass_model.isotropic) {
-        warn_unstable_with_hand(report, profile, scenario.hand, period, delay);
+        warn_unstable_with_hand(report, profile, scenario, period, delay);
     }
     for (std::size_t a = 0; a < kMaxAxes && a < profile.workspace_min.size() && a < profile.workspace_max.size(); ++a) {
         scenario.centre[a] = 0.5 * (profile.workspace_min[a] + profile.workspace_max[a]);
@@ -414,6 +492,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         if (!summary)
             throw StartupError(ErrorKind::Usage, "summary-json = '" + o.summary_json + "': cannot open for writing");
     }
+    const std::vector<HandEventRecord>* hand_events = nullptr;  // the simulated hand's schedule, once run
     auto write_summary = [&](int code) {
         report.exit_code = code;
         if (summary.is_open()) {
@@ -423,6 +502,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
                                                               configured_tuning ? &*configured_tuning : nullptr,
                                                               ident_tuning ? &*ident_tuning : nullptr);
             }
+            if (hand_events != nullptr) j["hand_events"] = hand_events_json(*hand_events, period);
             summary << j.dump(2) << "\n";
             summary.close();
             if (!summary) std::cerr << "hapticd: error: writing summary-json '" << o.summary_json << "' failed\n";
@@ -569,7 +649,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
             out << " (simulated hand: b_H " << scenario.hand.damping << " N s/m, k_H " << scenario.hand.stiffness
                 << " N/m"
                 << (scenario.hand.mass > 0.0 ? ", m_H +" + std::to_string(scenario.hand.mass) + " kg" : std::string())
-                << ")";
+                << (scenario.schedule.empty() ? std::string() : "; schedule " + describe(scenario.schedule)) << ")";
         }
         out << std::endl;
     }
@@ -620,6 +700,10 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     }
     if (replay != nullptr) return replay_verdict(*replay, report.run, *playback, feeder.get());
     report.saturated_ticks = scene.stats().saturated_ticks;
+    if (const auto* sim = dynamic_cast<const SimDevice*>(device.get()); sim != nullptr && !sim->hand_events().empty()) {
+        hand_events = &sim->hand_events();
+        if (!o.quiet) out << hand_events_text(*hand_events, period);
+    }
     if (passivity) {
         report.passivity_control = true;
         report.passivity = passivity->stats();

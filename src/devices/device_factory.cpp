@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "devices/device_factory.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -106,6 +107,11 @@ SimHand simulated_hand(const Options& o, const DeviceProfile& p) {
     hand.mass = o.hand_mass;
     hand.damping = o.hand_damping >= 0.0 ? o.hand_damping : kHandDampingPerMass * p.mass;
     hand.stiffness = o.hand_stiffness >= 0.0 ? o.hand_stiffness : kHandStiffnessPerMass * p.mass;
+    if (o.hand_release_mass >= 0.0) {
+        hand.release_mass = o.hand_release_mass;
+    } else if (!p.mass_range.empty()) {
+        hand.release_mass = std::max(0.0, p.mass - *std::min_element(p.mass_range.begin(), p.mass_range.end()));
+    }
     return hand;
 }
 

@@ -25,7 +25,9 @@ bool apply_first_run_limit(DeviceCapabilities& capabilities, const std::string& 
 Scenario scenario_kind(const Options& options);
 
 // The simulated hand's impedance from --hand-*: a negative damping or stiffness is the default,
-// kHandDampingPerMass / kHandStiffnessPerMass times the profile's mass (docs/simulated-hand.md).
+// kHandDampingPerMass / kHandStiffnessPerMass times the profile's mass (docs/simulated-hand.md); the hand's part
+// of the profile's mass (release_mass): --hand-release-mass, else the profile's mass minus the lightest of its
+// mass_range (0 without a range).
 SimHand simulated_hand(const Options& options, const DeviceProfile& profile);
 
 std::unique_ptr<Device> make_device(const DeviceProfile& profile, const Options& options, const SimScenario& scenario,

@@ -29,6 +29,21 @@
 // than 64 stops (none in practice: each slide lasts at least until the velocity's next zero) ends at rest.
 // Cost: a located stop is ~60 series exponentials, ~30 us; the tick's compute time of the simulated Falcon
 // chattering with f_c = 0.02 N is 2.1 us mean, 31 us p99, against 0.08 us without friction (docs/limit-cycles.md).
+//
+// Grip and release (SimScenario::schedule, config/hand_schedule.hpp; docs/simulated-hand.md "Grip and release"):
+// each event takes effect at the first period boundary at or after its time (t = n T), never inside a period.
+// - release: the hand's mass m_H = hand.release_mass + hand.mass leaves the handle (M -> M - m_H I), k_H = b_H = 0,
+//   and its intent force F_H is off (read_external_force gives 0). The handle keeps its position and velocity
+//   (the hand leaves with the handle's velocity, taking its momentum m_H v with it).
+// - grip: the hand's mass joins moving with the handle's velocity (a perfectly inelastic grip of a hand that
+//   moves with the handle: position and velocity are continuous, the momentum becomes (M + m_H I) v); k_H and b_H
+//   (the last arm values) come back, the intent force F_H resumes, and the hand's rest x_H is set to the handle's
+//   position at the grip (plus the intent's motion from there on): the spring adds no force at the grip. The
+//   damper acts on x' - x_H' as always, so a handle moving at the grip is braked by b_H (x' - x_H').
+// - arm: k_H and/or b_H change from that boundary on (while released: from the next grip); x_H stays.
+// Every plant the schedule reaches (masses, b, k, their modes and ZOH steps) is discretised in the constructor:
+// an event in the tick switches a pointer and rotates the state into the new modes (the identity for a diagonal
+// M), with no allocation. Between events the integration is the exact ZOH above.
 #pragma once
 
 #include <array>
@@ -37,6 +52,7 @@
 #include <string>
 #include <vector>
 
+#include "config/hand_schedule.hpp"
 #include "devices/device.hpp"
 #include "devices/zoh_plant.hpp"
 
@@ -49,6 +65,8 @@ struct SimHand {
     double mass = 0.0;       // kg, added to the profile's mass
     double damping = 0.0;    // b_H, N s/m
     double stiffness = 0.0;  // k_H, N/m
+    // kg of the plant's mass that is the hand's: with `mass` it leaves the handle at a release (0: only `mass`).
+    double release_mass = 0.0;
 };
 
 // The hand's intent (the scenario): where it holds the handle and what force it adds. The hand's rest
@@ -76,9 +94,21 @@ struct SimScenario {
     double hold_force = 2.0;       // N
     double hold_distance = 0.001;  // m
     AxisVector centre{};  // the workspace centre: the hand's rest position off the scenario axis (all axes: Rest, Path)
-    double path_amplitude = 0.01;  // m
-    double path_frequency = 0.5;   // Hz
-    SimHand hand;                  // the impedance holding the handle (zero: none)
+    double path_amplitude = 0.01;     // m
+    double path_frequency = 0.5;      // Hz
+    SimHand hand;                     // the impedance holding the handle (zero: none)
+    std::vector<HandEvent> schedule;  // releases, grips, arm changes (empty: the hand holds throughout)
+};
+
+// One event of the schedule as it happened (tick < 0: not reached yet).
+struct HandEventRecord {
+    HandEvent event;
+    std::int64_t tick = -1;  // the period boundary it took effect at: t = tick T (the first at or after event.time)
+    double mass = 0.0;       // the moving mass after it, kg (M_00 for a mass matrix)
+    double stiffness = 0.0;  // k_H after it, N/m (0 while released)
+    double damping = 0.0;    // b_H after it, N s/m (0 while released)
+    double position = 0.0;   // the handle on the scenario axis at the event, m
+    double velocity = 0.0;   // m/s
 };
 
 struct SimDeviceConfig {
@@ -119,31 +149,56 @@ class SimDevice final : public Device {
     // Exact (noise-free) state, for tests and diagnostics.
     [[nodiscard]] double true_position(std::size_t axis) const noexcept { return rest_[axis] + physical(x_, axis); }
     [[nodiscard]] double true_velocity(std::size_t axis) const noexcept { return physical(v_, axis); }
+    // The schedule's events, each with the tick it took effect at once reached (the schedule restarts at open/home).
+    [[nodiscard]] const std::vector<HandEventRecord>& hand_events() const noexcept { return events_; }
+    [[nodiscard]] bool hand_held() const noexcept { return plant_->held; }
+    // The moving mass now (M_aa with the hand's part when held), kg.
+    [[nodiscard]] double moving_mass(std::size_t axis) const noexcept { return plant_->axis_mass[axis]; }
 
   private:
+    // The plant between two events: eq. 1's masses, b and k with the hand on or off, per mode.
+    struct ModalPlant {
+        std::array<ZohStep, kMaxAxes> full{};      // h = T
+        std::array<ZohStep, kMaxAxes> first{};     // h = phi T       (fractional part of the delay)
+        std::array<ZohStep, kMaxAxes> second{};    // h = (1 - phi) T
+        std::array<AxisVector, kMaxAxes> modes{};  // Q, columns the modes (modes[axis][mode]); identity if M diagonal
+        std::array<PlantParameters, kMaxAxes> mode_plant{};  // m_i, b, k of each mode
+        AxisVector slide_piece{};  // per mode, the longest piece holding at most one zero of the velocity, s
+        PlantParameters total{};   // b and k of eq. 1 (plant + hand); mass: the isotropic one
+        AxisVector axis_mass{};    // M_aa
+        bool held = true;
+        double hand_damping = 0.0, hand_stiffness = 0.0;  // b_H, k_H (0 while released)
+    };
+    // The plant with `mass_delta` on M's diagonal and the hand's b_H, k_H; `what` names it in errors. Sets
+    // diagonal_ (every plant of one device has the same off-diagonal M).
+    ModalPlant build_plant(double mass_delta, bool held, double hand_damping, double hand_stiffness, double phi,
+                           const std::string& what);
+    void apply_event(std::size_t index, std::int64_t tick) noexcept;
     void reset_state() noexcept;
     void advance_period(std::int64_t tick) noexcept;  // integrates [tick T, (tick+1) T)
     // (Q y)[axis]: a modal vector in the device's axes.
     [[nodiscard]] double physical(const AxisVector& modal, std::size_t axis) const noexcept;
     // The hand's force on the handle, held over the period starting at `tick` (intent + the moving rest).
     [[nodiscard]] AxisVector hand_force(std::int64_t tick) const noexcept;
+    // The intent's motion of the hand's rest at time t: x_H - rest_ - hand_offset_ on the scenario axis.
+    [[nodiscard]] double intent_motion(double t) const noexcept;
     [[nodiscard]] const AxisVector& written(std::int64_t tick) const noexcept;
     double noise() noexcept;
 
     SimDeviceConfig config_;
-    // Per mode (the axes themselves for a diagonal M).
-    std::array<ZohStep, kMaxAxes> full_{};      // h = T
-    std::array<ZohStep, kMaxAxes> first_{};     // h = phi T       (fractional part of the delay)
-    std::array<ZohStep, kMaxAxes> second_{};    // h = (1 - phi) T
-    std::array<AxisVector, kMaxAxes> modes_{};  // Q, columns the modes (modes_[axis][mode]); identity for a diagonal M
-    PlantParameters total_{};                   // b and k of eq. 1 (plant + hand)
+    std::vector<ModalPlant> plants_;     // [0]: from the start (held); [i + 1]: after the schedule's event i
+    const ModalPlant* plant_ = nullptr;  // the one in effect
+    std::vector<HandEventRecord> events_;
+    std::vector<std::int64_t> due_;  // per event, the boundary it takes effect at (the first n with n T >= time)
+    std::size_t next_event_ = 0;
+    bool diagonal_ = true;
+    AxisVector intent_{};       // the intent's force F_H while held
+    AxisVector hand_offset_{};  // x_H minus (rest_ + the intent's motion): set at a grip, 0 before the first
     void apply(const std::array<ZohStep, kMaxAxes>& steps, double h, const AxisVector& written_force,
                const AxisVector& hand) noexcept;
     // Advances axis `a` by h under the constant input u with its Coulomb friction (the model above); `whole` is
     // the ZOH step of length h.
     void apply_with_friction(std::size_t a, const ZohStep& whole, double h, double u) noexcept;
-    std::array<PlantParameters, kMaxAxes> mode_plant_{};  // m_i, b, k of each mode
-    AxisVector slide_piece_{};               // per mode, the longest piece holding at most one zero of the velocity, s
     double h_first_ = 0.0, h_second_ = 0.0;  // phi T, (1 - phi) T
     std::int64_t delay_periods_ = 0;         // integer part n of t_inh / T
     bool fractional_ = false;
