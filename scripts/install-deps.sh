@@ -9,6 +9,7 @@ PACKAGES=(
   build-essential
   cmake
   ninja-build
+  ccache            # the compiler cache scripts/build-and-test.sh uses (outside the checkout)
   pkg-config
   libeigen3-dev
   libcli11-dev

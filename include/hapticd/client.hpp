@@ -168,6 +168,10 @@ struct DeviceInfo {
     // The velocity estimate every damper acts on and every check analyses: "backward", "lowpass:<F>Hz" or
     // "window:<N>" (docs/velocity-estimation.md).
     std::string velocity_estimator = "backward";
+    // The plant set every check holds for (docs/robust-stability.md): the mass matrix scaled by mass_scale[0] ..
+    // mass_scale[1]; plant_set_exact false when the checks sample the set (a profile with b or k > 0).
+    std::array<double, 2> mass_scale{1.0, 1.0};
+    bool plant_set_exact = true;
 };
 
 struct Welcome {

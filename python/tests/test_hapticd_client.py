@@ -75,6 +75,9 @@ def test_welcome_describes_the_device(daemon):
         assert c.device.mass_matrix == ((0.3,),)
         assert c.device.max_stiffness is None
         assert w["device"]["velocity_estimator"] == "backward" == c.device.velocity_estimator
+        # The default sim profile's plant set: mass_range [0.22, 0.30] kg widened by 10 % (0.200 .. 0.330 kg).
+        assert c.device.mass_scale == pytest.approx((0.22 / 0.30 / 1.1, 1.1), rel=1e-12)
+        assert w["device"]["plant_set"]["exact"] is True is c.device.plant_set_exact
         c.bye()
 
 

@@ -199,6 +199,12 @@ Client Client::connect(const ConnectOptions& options) {
     if (d.contains("max_stiffness") && d["max_stiffness"].is_number())
         we.device.max_stiffness = d["max_stiffness"].get<double>();
     we.device.velocity_estimator = d.value("velocity_estimator", std::string("backward"));
+    const json set = d.value("plant_set", json::object());
+    const json scale = set.value("mass_scale", json::array());
+    if (scale.is_array() && scale.size() == 2 && scale[0].is_number() && scale[1].is_number()) {
+        we.device.mass_scale = {scale[0].get<double>(), scale[1].get<double>()};
+    }
+    we.device.plant_set_exact = set.value("exact", true);
     return c;
 }
 

@@ -66,7 +66,10 @@ json device_json(const ServerConfig& config, const GainChecker& checker) {
                 {"delay_s", config.delay},
                 {"max_force", config.max_force},
                 {"max_stiffness", limit ? json(*limit) : json(nullptr)},
-                {"velocity_estimator", to_string(checker.plant().velocity)}};
+                {"velocity_estimator", to_string(checker.plant().velocity)},
+                {"plant_set",
+                 {{"mass_scale", {checker.mass_scales().first, checker.mass_scales().second}},
+                  {"exact", checker.certified()}}}};
 }
 
 json welcome_reply(const ServerConfig& config, const GainChecker& checker, std::uint64_t session, double lease_s,

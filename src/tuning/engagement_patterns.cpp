@@ -225,9 +225,10 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // The groups (header comment): terms i, j couple when their span operators are not orthogonal,
 // ||S_i S_j||_F > kMatrixGainRoundingLevel ||S_i||_F ||S_j||_F (for two planes this ratio is |n_i.n_j| in
 // the unit-mass coordinates); the groups are the connected components of that relation. Terms across groups
-// then have orthogonal spans up to that level: the coupling neglected is below 64 eps of the gains, which
-// moves a root by at most ~sqrt(1.5e-14) = 1.2e-7 (a double root), below the verdict's margin of 1e-6 —
-// the same bound by which matrix_gain_stability.hpp leaves out directions touched below rounding.
+// then have orthogonal spans up to that level: the coupling neglected is below 64 eps of the gains, the level at
+// which the loop's own summed gains are rounded, and the same bound by which matrix_gain_stability.hpp leaves out
+// directions touched below rounding (it moves a root by at most ~sqrt(1.5e-14) = 1.2e-7 for a double root, inside
+// the 1e-6 radius margin of the sampled coupled path; the exact paths judge each group over the whole mass set).
 EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step,
                                           PatternLimit limit) {
     EngagementCheck result;

@@ -30,6 +30,9 @@ class DeviceInfo:
         max_stiffness: N/m, the profile's stiffness limit; None: only the stability region bounds K.
         velocity_estimator: the velocity estimate every damper acts on and every check analyses: "backward",
             "lowpass:<F>Hz" or "window:<N>" ("backward" when the welcome does not name one).
+        mass_scale: the plant set every check holds for: the mass matrix scaled by mass_scale[0] .. mass_scale[1]
+            (the profile's mass_range widened by its mass_margin; docs/robust-stability.md).
+        plant_set_exact: False when the checks sample the set (a profile with damping or stiffness).
     """
 
     name: str
@@ -41,6 +44,8 @@ class DeviceInfo:
     max_force: float
     max_stiffness: Optional[float]
     velocity_estimator: str = "backward"
+    mass_scale: Tuple[float, float] = (1.0, 1.0)
+    plant_set_exact: bool = True
 
     @classmethod
     def from_welcome(cls, welcome: dict) -> "DeviceInfo":
@@ -78,7 +83,15 @@ class DeviceInfo:
         estimator = device.get("velocity_estimator", "backward")
         if not isinstance(estimator, str):
             raise bad("velocity_estimator", 'a string ("backward", "lowpass:<F>Hz" or "window:<N>")')
+        plant_set = device.get("plant_set", {})
+        scale = plant_set.get("mass_scale", [1.0, 1.0]) if isinstance(plant_set, dict) else None
+        if not isinstance(scale, list) or len(scale) != 2 or not all(_is_number(v) for v in scale):
+            raise bad("plant_set", 'an object {"mass_scale": [c_min, c_max], "exact": true | false}')
+        exact = plant_set.get("exact", True)
+        if not isinstance(exact, bool):
+            raise bad("plant_set", 'an object {"mass_scale": [c_min, c_max], "exact": true | false}')
         return cls(name=name, axes=axes, period_s=number("period_s"), mass=tuple(float(v) for v in mass),
                    mass_matrix=tuple(tuple(float(v) for v in row) for row in matrix), delay_s=number("delay_s"),
                    max_force=number("max_force"), max_stiffness=None if limit is None else float(limit),
-                   velocity_estimator=estimator)
+                   velocity_estimator=estimator, mass_scale=(float(scale[0]), float(scale[1])),
+                   plant_set_exact=exact)
