@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "common/run_child.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {
@@ -179,6 +180,45 @@ TEST(ServeShm, AStaleOwnSegmentIsReplacedAnotherUsersIsRefused) {
     EXPECT_EQ(st.st_uid, nobody);
     EXPECT_EQ(st.st_size, 4096);
     ::shm_unlink(foreign.shm.c_str());
+}
+
+// The case: a daemon that does not run as root (here as "nobody") and a segment of its name made first by
+// another user (here root): refused, exit 8, naming the segment and both users; the segment is left as it was.
+// The same daemon with a name nobody holds starts, runs and removes its segment. Needs root (to drop to nobody).
+TEST(ServeShm, ANonRootDaemonRefusesASegmentAnotherUserMadeFirst) {
+    if (::geteuid() != 0) GTEST_SKIP() << "needs root to run the daemon as another user";
+    const test::Credentials nobody = test::unprivileged_user();
+    const std::string tag = std::to_string(::getpid());
+    const std::string squatted = "/hapticd-test-" + tag + "-squatted";
+    {
+        const int fd = ::shm_open(squatted.c_str(), O_CREAT | O_EXCL | O_RDWR, 0644);
+        ASSERT_GE(fd, 0) << std::strerror(errno);
+        ::close(fd);
+    }
+    auto run_as_nobody = [&](const std::string& shm) {
+        return test::run_child(
+            {HAPTICD_BINARY, "--config", "", "--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml", "--serve",
+             "--serve-socket", "/tmp/hapticd-test-" + tag + "-nobody.sock", "--serve-shm", shm, "--rt-priority", "0",
+             "--mlock", "false", "--lockstep", "--duration", "0.05", "--wall", "axis=0 position=0.05 direction=+1"},
+            std::chrono::seconds(60), &nobody);
+    };
+    const test::ChildResult refused = run_as_nobody(squatted);
+    EXPECT_EQ(refused.exit_code, 8) << refused.output;
+    EXPECT_NE(refused.output.find("/dev/shm" + squatted + " exists and belongs to uid 0"), std::string::npos)
+        << refused.output;
+    EXPECT_NE(refused.output.find("not to this daemon's user uid " + std::to_string(nobody.uid)), std::string::npos)
+        << refused.output;
+    struct stat st {};
+    ASSERT_EQ(::stat(("/dev/shm" + squatted).c_str(), &st), 0);
+    EXPECT_EQ(st.st_uid, 0U);
+    ::shm_unlink(squatted.c_str());
+
+    const std::string own = "/hapticd-test-" + tag + "-nobody";
+    const test::ChildResult ran = run_as_nobody(own);
+    EXPECT_EQ(ran.exit_code, 0) << ran.output;
+    EXPECT_NE(::stat(("/dev/shm" + own).c_str(), &st), 0) << "the daemon unlinks its segment when it stops";
+    ::shm_unlink(own.c_str());
+    std::filesystem::remove("/tmp/hapticd-test-" + tag + "-nobody.sock");
 }
 
 // Bilateral: each ramp scene of a batch is one engagement pattern, so a batch's check (1000 ramp scenes at
