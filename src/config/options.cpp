@@ -354,7 +354,8 @@ void validate_options(const Options& o) {
     check_range(w, "identify-distance", o.identify_distance, 0.0, 1e3, false, "0 (auto) .. 1000 m");
     check_range(w, "identify-duration", o.identify_duration, 0.1, 600.0, false, "0.1 .. 600 s");
     check_range(w, "ramp-time", o.ramp_time, 0.0, 10.0, false, "0 .. 10 s");
-    check_range(w, "max-force-rate", o.max_force_rate, 0.0, 1e9, true, "> 0 and <= 1e9 N/s");
+    check_range(w, "max-force-rate", o.max_force_rate, 0.0, 1e9, false,
+                "0 (the default: max_force per 4 ms) or > 0 N/s with a step per tick below the device's max_force");
     check_range(w, "move-interval-max", o.move_interval_max, 0.0, 10.0, false, "0 .. 10 s");
     check_range(w, "activation-speed", o.activation_speed, 0.0, 1e3, false, "0 .. 1000 m/s");
     if (o.serve_mode.empty() || o.serve_mode.size() > 4 ||

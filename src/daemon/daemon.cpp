@@ -16,22 +16,35 @@ Daemon::Daemon(Device& device, Scene& scene, TraceWriter* trace, const DaemonCon
       config_(config),
       loop_(config.loop),
       delay_(config.delay_samples),
-      watchdog_(config.watchdog) {}
+      limiter_(config.max_force > 0.0 ? config.max_force : scene.max_force(),
+               config.max_force_rate > 0.0
+                   ? config.max_force_rate
+                   : default_max_force_rate(config.max_force > 0.0 ? config.max_force : scene.max_force(),
+                                            static_cast<double>(config.loop.period_ns) * 1e-9),
+               static_cast<double>(config.loop.period_ns) * 1e-9, kMaxAxes),
+      watchdog_(config.watchdog) {
+    if (config_.max_ticks != 0) final_tick_ = config_.max_ticks - 1;
+    result_.stop_ticks = limiter_.stop_ticks();
+}
 
 RunResult Daemon::run() noexcept {
     result_.counters = loop_.run([this](const TickInput& in) { return tick(in); });
+    result_.limiter = limiter_.stats();
     return result_;
 }
 
 TickOutput Daemon::tick(const TickInput& in) noexcept {
     AxisVector position{};
     AxisVector force{};
-    const bool last = config_.max_ticks != 0 && in.tick + 1 >= config_.max_ticks;
-    const bool stop = stop_requested();
-    if (stop && !result_.stopped_by_signal) {
+    const std::uint64_t window = config_.end_without_stop_window ? 1U : limiter_.stop_ticks();
+    if (stop_requested() && !result_.stopped_by_signal) {
         result_.stopped_by_signal = true;
         result_.signal = stop_signal();
+        if (in.tick + window - 1 < final_tick_) final_tick_ = in.tick + window - 1;
     }
+    // The stop window: the R ticks up to and including the final one (all of a run shorter than R).
+    const bool stopping = in.tick + window > final_tick_;
+    const bool last = in.tick >= final_tick_;
 
     if (config_.recorder != nullptr) config_.recorder->begin_tick(in.tick);
     if (config_.feeder != nullptr) config_.feeder->before_commits(in.tick);
@@ -62,10 +75,19 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
     }
     // The delay buffer keeps its timing whatever happens; its output is applied only while all is well.
     AxisVector delayed = delay_.push_pop(force);
-    // Passivity control observes the port after the delay buffer and damps what it generated (same tick).
-    if (config_.passivity != nullptr && result_.fault == StateFault::None) config_.passivity->apply(position, delayed);
-    const bool zero = result_.fault != StateFault::None || stop || last;
-    const AxisVector applied = zero ? AxisVector{} : delayed;
+    // Passivity control observes the port after the delay buffer and damps what it generated (same tick); it
+    // books the force the limiter lets through (commit below).
+    const bool passivity = config_.passivity != nullptr && result_.fault == StateFault::None;
+    if (passivity) config_.passivity->propose(position, delayed);
+    // The force limiter, last: a fault zeroes at once; a stop's target is zero, reached at the rate limit.
+    AxisVector applied{};
+    if (result_.fault != StateFault::None) {
+        limiter_.zero();
+    } else {
+        applied = limiter_.step(stopping ? AxisVector{} : delayed);
+        if (last) applied = AxisVector{};  // zero already: R steps of max_step reach it from any saturated force
+    }
+    if (passivity) config_.passivity->commit(applied);
 
     status = device_.write_force(applied);
     if (status != DeviceStatus::Ok && result_.fault == StateFault::None) {
@@ -107,7 +129,11 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         st.config_contact_mask = scene_.contact_mask();
         st.fault = result_.fault;
         hooks_.state->publish(st, hooks_.objects);
-        if (hooks_.contacts != nullptr) hooks_.contacts->detect(st, hooks_.objects);
+        if (hooks_.contacts != nullptr) {
+            hooks_.contacts->detect(st, hooks_.objects);
+            // The run's last tick: every contact still in progress ends here (docs/protocol.md, section 6).
+            if (last || result_.fault != StateFault::None) hooks_.contacts->end_all(st);
+        }
     }
 
     if (trace_ != nullptr) {
@@ -122,7 +148,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         r.wake_latency_us = static_cast<double>(in.wake_latency_ns) * 1e-3;
         trace_->push(r);
     }
-    return TickOutput{.stop = zero || result_.fault != StateFault::None};
+    return TickOutput{.stop = last || result_.fault != StateFault::None};
 }
 
 }  // namespace hapticd

@@ -1,8 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // One run of the wall: per tick read the device position, compute the scene's force, delay it by the
-// delay buffer, write it to the device, trace. Every path out of the loop ends with a tick that writes
-// zero force: the last tick of --duration, the tick after SIGINT/SIGTERM, and the tick of a fault
-// (device error, non-finite value, watchdog), after which the loop stops.
+// delay buffer, apply passivity control, pass it through the force limiter (scene/force_limiter.hpp: saturation
+// and the rate limit against the force written the tick before), write it to the device, trace. Every path out
+// of the loop ends with a tick that writes zero force:
+//  * a fault (device error, non-finite value, watchdog): zero at once in the tick of the fault, and the loop
+//    stops — the one step the rate limit does not bound;
+//  * a stop (SIGINT/SIGTERM, the end of --duration): the stop window, ForceLimiter::stop_ticks() = R ticks
+//    whose target is zero, the rate limit bringing the force there; the last writes exactly zero. A signal at
+//    tick S ends the run after tick S + R - 1; --duration's R last ticks are its stop window (a run of N ticks
+//    renders ticks 0 .. N - R - 1), so a replay of N recorded ticks stops where the recorded run did.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +16,7 @@
 
 #include "hapticd/state_layout.hpp"
 #include "scene/delay_ring.hpp"
+#include "scene/force_limiter.hpp"
 #include "scene/passivity_controller.hpp"
 #include "devices/device.hpp"
 #include "loop/realtime_loop.hpp"
@@ -49,6 +56,13 @@ struct DaemonConfig {
     Recorder* recorder = nullptr;
     // --replay: may be null.
     TickFeeder* feeder = nullptr;
+    // --replay of a run that ended by a fault (the recording's last tick has one): the last tick zeroes at once
+    // as the recorded one did, no stop window before it (a watchdog fault, which lockstep does not detect again,
+    // is reproduced so).
+    bool end_without_stop_window = false;
+    // The force limiter (scene/force_limiter.hpp): 0 takes the scene's max_force and default_max_force_rate.
+    double max_force = 0.0;       // N per axis
+    double max_force_rate = 0.0;  // N/s
 };
 
 struct RunResult {
@@ -59,6 +73,8 @@ struct RunResult {
     std::uint64_t fault_tick = 0;
     bool stopped_by_signal = false;
     int signal = 0;
+    ForceLimiterStats limiter;     // the force written: rate-limited and saturated ticks, the largest step
+    std::uint64_t stop_ticks = 0;  // the stop window, ticks (ForceLimiter::stop_ticks)
 };
 
 class Daemon {
@@ -82,7 +98,10 @@ class Daemon {
     DaemonConfig config_;
     RealtimeLoop loop_;
     DelayRing<AxisVector> delay_;
+    ForceLimiter limiter_;
     Watchdog watchdog_;
+    // The last tick of the run: max_ticks - 1, or S + R - 1 after a stop request seen at tick S.
+    std::uint64_t final_tick_ = ~std::uint64_t{0};
     RunResult result_;
     ServerHooks hooks_;
     // The published record, reused from tick to tick: every field is written before each publish, and a

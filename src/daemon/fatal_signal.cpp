@@ -51,7 +51,8 @@ void stop_everything(StateFault fault, int signal_number) noexcept {
     write_text(fault == StateFault::Terminate ? "hapticd: fatal: std::terminate" : "hapticd: fatal: signal ");
     if (fault != StateFault::Terminate) write_number(signal_number);
     write_text(zeroed ? "; zero force written to the device"
-                      : (device != nullptr ? "; the device's driver cannot write zero force from a signal handler"
+                      : (device != nullptr ? "; zero force could not be written to the device from the signal "
+                                             "handler (docs/devices.md, \"A fatal signal\")"
                                            : "; no device open"));
     write_text(g_state.load(std::memory_order_acquire) != nullptr ? "; the state says fault " : "");
     if (g_state.load(std::memory_order_acquire) != nullptr) write_number(static_cast<int>(fault));

@@ -356,6 +356,17 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     std::ostream& out = std::cout;
 
     const double period = 1.0 / o.rate;
+    {
+        // The force limiter's rate (scene/force_limiter.hpp), on the loop's period as it runs (whole ns).
+        const double loop_period = static_cast<double>(std::llround(1e9 / o.rate)) * 1e-9;
+        if (o.max_force_rate == 0.0) {
+            o.max_force_rate = default_max_force_rate(profile.max_force, loop_period);
+        } else if (const std::string e = max_force_rate_error(o.max_force_rate, profile.max_force, loop_period);
+                   !e.empty()) {
+            throw StartupError(ErrorKind::InvalidParameter,
+                               e + " (max_force from device profile '" + profile.path + "', T = 1 / --rate)");
+        }
+    }
     const double delay = profile.inherent_delay + static_cast<double>(o.delay_buffer) / o.rate;
     const TuningPlant configured_plant{profile.mass, profile.damping, profile.stiffness,
                                        period,       delay,           profile.velocity_estimator};
@@ -390,6 +401,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     }
     if (replay != nullptr)
         max_ticks = replay->ticks.size();  // the recorded run's last tick wrote zero force, as this one's will
+                                           // (after the same stop window, or at once after a fault)
 
     RunReport report;
     report.options = &o;
@@ -562,6 +574,9 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
     cfg.loop.lockstep = o.lockstep;
     cfg.loop.spin_ns = static_cast<std::int64_t>(std::llround(o.spin_us * 1e3));
     cfg.max_ticks = max_ticks;
+    cfg.max_force = profile.max_force;
+    cfg.max_force_rate = o.max_force_rate;
+    cfg.end_without_stop_window = replay != nullptr && !replay->ticks.empty() && replay->ticks.back().fault != 0;
     cfg.delay_samples = static_cast<std::size_t>(o.delay_buffer);
     cfg.watchdog.max_consecutive_overruns = static_cast<std::uint32_t>(o.watchdog_overruns);
     cfg.watchdog.max_skipped_periods = static_cast<std::uint64_t>(o.watchdog_stall_periods);

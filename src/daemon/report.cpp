@@ -108,6 +108,18 @@ std::string statistics_text(const RunReport& r) {
         }
         s += "\n";
     }
+    if (r.options != nullptr) {
+        const Options& o = *r.options;
+        const ForceLimiterStats& l = r.run.limiter;
+        std::snprintf(buf, sizeof buf,
+                      "force limiter: %.6g N/s (step %.6g N per tick), rate-limited ticks %llu, saturated ticks %llu, "
+                      "largest step %.6g N, stop window %llu ticks\n",
+                      o.max_force_rate, o.max_force_rate * r.period,
+                      static_cast<unsigned long long>(l.rate_limited_ticks),
+                      static_cast<unsigned long long>(l.saturated_ticks), l.largest_step,
+                      static_cast<unsigned long long>(r.run.stop_ticks));
+        s += buf;
+    }
     if (r.passivity_control) {
         const PassivityControlStats& p = r.passivity;
         std::snprintf(
@@ -245,6 +257,12 @@ nlohmann::json summary_json(const RunReport& r) {
     j["skipped_periods"] = c.skipped_periods;
     j["max_consecutive_overruns"] = c.max_consecutive_overruns;
     j["saturated_ticks"] = r.saturated_ticks;
+    j["force_limiter"] = {{"max_force_rate", o.max_force_rate},
+                          {"max_step", o.max_force_rate * r.period},
+                          {"rate_limited_ticks", r.run.limiter.rate_limited_ticks},
+                          {"saturated_ticks", r.run.limiter.saturated_ticks},
+                          {"largest_step", r.run.limiter.largest_step},
+                          {"stop_ticks", r.run.stop_ticks}};
     if (r.passivity_control) {
         const PassivityControlStats& p = r.passivity;
         j["passivity_control"] = {{"damper_ticks", p.damper_ticks},

@@ -68,8 +68,8 @@ class Device {
     virtual DeviceStatus open() = 0;
     virtual DeviceStatus home() = 0;
     virtual void close() noexcept = 0;
-    // Zero force without locks, allocation or library calls that are not async-signal-safe; the default:
-    // the driver cannot (libusb and hidapi transfers take locks and allocate).
+    // Zero force without locks, allocation or library calls that are not async-signal-safe; true when it was
+    // written (and, where the driver can tell, taken by the device). The default: the driver cannot.
     virtual bool zero_force_from_signal_handler() noexcept { return false; }
 
     virtual DeviceStatus read_position(AxisVector& position) noexcept = 0;

@@ -192,8 +192,14 @@ DeviceStatus FalconDevice::home() {
         return fail(to_device_status(t),
                     "cannot start the Falcon's asynchronous transfers: " + transport_->last_error());
     }
+    zero_packet_ = falcon::encode_command(falcon::Command{});
     streaming_ = true;
     return DeviceStatus::Ok;
+}
+
+bool FalconDevice::zero_force_from_signal_handler() noexcept {
+    return streaming_ && transport_ &&
+           transport_->post_final_from_signal_handler(zero_packet_, config_.signal_zero_timeout_ms);
 }
 
 bool FalconDevice::update_kinematics(int max_iterations) noexcept {

@@ -35,6 +35,9 @@ struct FalconDeviceConfig {
     double homing_timeout = 60.0;          // s
     int homing_poll_ms = 1;                // sleep between homing polls (0 in tests)
     int io_timeout_ms = 1;                 // read timeout of the set-up exchanges (the loop never waits)
+    // How long a fatal-signal handler waits for the Falcon to take the zero-torque command (the process ends
+    // then either way): ~50 transfers of the 1 kHz stream.
+    int signal_zero_timeout_ms = 50;
     // Forces start only after the grip has left the homing pose: libnifalcon's examples
     // (examples/falcon_test_cli/FalconCubeTest.cpp) wait until the kinematic z exceeds 0.170 m
     // ("Move the end effector all the way out") before rendering anything.
@@ -56,6 +59,10 @@ class FalconDevice final : public Device {
     DeviceStatus open() override;
     DeviceStatus home() override;
     void close() noexcept override;
+    // While streaming: a zero-torque command (built before the loop starts) handed to the transport as the last
+    // command (FtdiTransport::post_final_from_signal_handler: the libusb transport's event thread sends it);
+    // true once the Falcon has taken it, within FalconDeviceConfig::signal_zero_timeout_ms.
+    bool zero_force_from_signal_handler() noexcept override;
 
     DeviceStatus read_position(AxisVector& position) noexcept override;
     DeviceStatus write_force(const AxisVector& force) noexcept override;
@@ -98,8 +105,9 @@ class FalconDevice final : public Device {
     int consecutive_kinematics_failures_ = 0;
     bool open_ = false;
     bool streaming_ = false;
-    std::string error_;          // set outside the real-time path
-    const char* rt_error_ = "";  // set in the real-time path (static text: no allocation)
+    falcon::Packet zero_packet_{};  // zero torque, LEDs off: the fatal-signal handler's command
+    std::string error_;             // set outside the real-time path
+    const char* rt_error_ = "";     // set in the real-time path (static text: no allocation)
 };
 
 }  // namespace hapticd

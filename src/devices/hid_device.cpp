@@ -133,6 +133,11 @@ DeviceStatus HidFfbDevice::open() {
         close();
         return fail(DeviceStatus::HardwareFault, ids + ": starting the constant-force effect failed");
     }
+    // The fatal-signal handler's descriptor and reports (zero_force_from_signal_handler).
+    signal_reports_ = {hid::encode_constant_force(0.0, block_, p, config_.layout, saturated),
+                       hid::encode_effect_operation(block_, hid::EffectOperation::Stop, p),
+                       hid::encode_device_control(hid::DeviceControl::StopAll, p)};
+    signal_fd_ = ::open(path_.c_str(), O_WRONLY | O_CLOEXEC);  // -1: the handler cannot zero (reported then)
     counters_ = DeviceCounters{};
     have_position_ = false;
     consecutive_stale_ = 0;
@@ -160,7 +165,22 @@ DeviceStatus HidFfbDevice::home() {
     return DeviceStatus::Ok;
 }
 
+bool HidFfbDevice::zero_force_from_signal_handler() noexcept {
+    const int fd = signal_fd_;
+    if (fd < 0) return false;
+    bool all = true;
+    for (const hid::Report& r : signal_reports_) {
+        if (r.size == 0) continue;  // the device has no such report
+        all = ::write(fd, r.bytes.data(), r.size) == static_cast<ssize_t>(r.size) && all;
+    }
+    return all;
+}
+
 void HidFfbDevice::close() noexcept {
+    if (signal_fd_ >= 0) {
+        ::close(signal_fd_);
+        signal_fd_ = -1;
+    }
     if (handle_ == nullptr) return;
     bool saturated = false;
     write_report(hid::encode_constant_force(0.0, block_, *pid_, config_.layout, saturated));

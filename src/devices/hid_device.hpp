@@ -35,6 +35,11 @@ class HidFfbDevice final : public Device {
     DeviceStatus open() override;
     DeviceStatus home() override;  // HID wheels/joysticks need no homing: waits for a first input report
     void close() noexcept override;
+    // write(2) (async-signal-safe) of reports built at open() on a second descriptor of the hidraw node, opened
+    // at open(): magnitude 0, Effect Operation Stop, Device Control Stop All Effects. The kernel serialises
+    // them with the loop's writes; a magnitude written after them does not restart the stopped effect. True
+    // when the three were written whole.
+    bool zero_force_from_signal_handler() noexcept override;
 
     DeviceStatus read_position(AxisVector& position) noexcept override;
     DeviceStatus write_force(const AxisVector& force) noexcept override;
@@ -56,6 +61,8 @@ class HidFfbDevice final : public Device {
     std::unique_ptr<hid::PidLayout> pid_;
     std::string path_;
     hid_device_* handle_ = nullptr;
+    int signal_fd_ = -1;                           // the hidraw node, write-only, for the fatal-signal handler
+    std::array<hid::Report, 3> signal_reports_{};  // what the handler writes (zero_force_from_signal_handler)
     std::uint8_t block_ = 1;
     double position_ = 0.0;
     bool have_position_ = false;

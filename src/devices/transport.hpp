@@ -63,6 +63,13 @@ class FtdiTransport {
     }
     // The payload bytes that arrived since the last call (at most buffer.size()); never waits.
     virtual TransportResult poll(std::span<std::uint8_t> buffer) noexcept { return read(buffer, 0); }
+    // From a fatal-signal handler while streaming (Device::zero_force_from_signal_handler): `packet` (16 bytes)
+    // becomes the last command, post() is ignored from then on, and the call waits at most timeout_ms for the
+    // device to have taken it. Only async-signal-safe work in the calling thread. True when the transfer of
+    // `packet` completed; the default: the transport cannot.
+    virtual bool post_final_from_signal_handler(std::span<const std::uint8_t> /*packet*/, int /*timeout_ms*/) noexcept {
+        return false;
+    }
 };
 
 }  // namespace hapticd

@@ -4,6 +4,7 @@
 #include <libusb.h>
 #include <poll.h>
 #include <sys/eventfd.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -169,8 +170,10 @@ TransportStatus LibusbFtdiTransport::start_streaming() noexcept {
         return map(rc);
     }
     streaming_ = true;
+    final_.store(false);
     try {
         event_thread_ = std::thread([this] { event_loop(); });
+        stream_running_.store(true, std::memory_order_release);
     } catch (...) {
         libusb_cancel_transfer(in_transfer_);
         timeval tv{0, 100000};
@@ -183,6 +186,7 @@ TransportStatus LibusbFtdiTransport::start_streaming() noexcept {
 }
 
 void LibusbFtdiTransport::stop_streaming() noexcept {
+    stream_running_.store(false, std::memory_order_release);
     if (streaming_) {
         stop_.store(true);
         const std::uint64_t one = 1;
@@ -267,6 +271,7 @@ void LibusbFtdiTransport::submit_out_if_due() noexcept {
         fail_stream(map_error(rc));
         return;
     }
+    in_flight_seq_ = before;
     sent_seq_.store(before, std::memory_order_release);
 }
 
@@ -312,6 +317,8 @@ void LibusbFtdiTransport::on_out_done(libusb_transfer* transfer) {
     auto* self = static_cast<LibusbFtdiTransport*>(transfer->user_data);
     switch (transfer->status) {
         case LIBUSB_TRANSFER_COMPLETED:
+            self->done_seq_.store(self->in_flight_seq_, std::memory_order_release);
+            break;
         case LIBUSB_TRANSFER_CANCELLED:
             break;
         case LIBUSB_TRANSFER_NO_DEVICE:
@@ -330,6 +337,7 @@ void LibusbFtdiTransport::on_out_done(libusb_transfer* transfer) {
 
 TransportStatus LibusbFtdiTransport::post(std::span<const std::uint8_t> data, bool& replaced) noexcept {
     replaced = false;
+    if (final_.load(std::memory_order_acquire)) return TransportStatus::Ok;  // the process is dying: zero stays
     if (!streaming_) return write(data, 1).status;
     if (const int s = stream_status_.load(std::memory_order_acquire); s != 0) return static_cast<TransportStatus>(s);
     if (data.size() != kPacketBytes) return TransportStatus::Error;
@@ -366,6 +374,60 @@ TransportResult LibusbFtdiTransport::poll(std::span<std::uint8_t> buffer) noexce
 
 std::string LibusbFtdiTransport::last_error() const {
     return last_error_code_ == 0 ? std::string("no error") : std::string(libusb_error_name(last_error_code_));
+}
+
+namespace {
+
+std::int64_t signal_safe_now_ns() noexcept {
+    timespec ts{};
+    ::clock_gettime(CLOCK_MONOTONIC, &ts);  // async-signal-safe (POSIX)
+    return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+void signal_safe_sleep_us(long us) noexcept {
+    timespec ts{0, us * 1000};
+    ::nanosleep(&ts, nullptr);  // async-signal-safe (POSIX)
+}
+
+}  // namespace
+
+// The mailbox gets a second writer here, the handler: post() returns at once once final_ is set, so at most one
+// post() that passed that test before can still write, on another thread (within nanoseconds), or on this
+// thread, interrupted by the signal (it never finishes). The handler waits up to 1 ms for an odd sequence to
+// become even, then writes its packet with a sequence above any post()'s, and writes it again if a post()
+// overwrote it meanwhile. Then the event thread submits it as any command; the handler waits for its transfer
+// to complete (done_seq_), the stream to fail, or timeout_ms.
+bool LibusbFtdiTransport::post_final_from_signal_handler(std::span<const std::uint8_t> packet,
+                                                         int timeout_ms) noexcept {
+    if (!stream_running_.load(std::memory_order_acquire) || packet.size() != kPacketBytes) return false;
+    final_.store(true, std::memory_order_seq_cst);
+    const std::int64_t until = signal_safe_now_ns() + static_cast<std::int64_t>(timeout_ms) * 1000000;
+    const std::int64_t settle = signal_safe_now_ns() + 1000000;
+    while ((mailbox_seq_.load(std::memory_order_acquire) & 1U) != 0U && signal_safe_now_ns() < settle) {
+    }
+    std::array<std::uint64_t, 2> words{};
+    std::memcpy(words.data(), packet.data(), kPacketBytes);
+    std::uint32_t mine = 0;
+    bool written = false;
+    while (signal_safe_now_ns() < until) {
+        const std::uint32_t now = mailbox_seq_.load(std::memory_order_acquire);
+        if (!written || now != mine) {  // not written yet, or overwritten by a post() that was under way
+            const std::uint32_t odd = (now | 1U) + 2U;
+            mailbox_seq_.store(odd, std::memory_order_relaxed);
+            std::atomic_thread_fence(std::memory_order_release);
+            mailbox_[0].store(words[0], std::memory_order_relaxed);
+            mailbox_[1].store(words[1], std::memory_order_relaxed);
+            mine = odd + 1U;
+            written = true;
+            mailbox_seq_.store(mine, std::memory_order_release);
+            const std::uint64_t one = 1;
+            [[maybe_unused]] const ssize_t w = ::write(wake_fd_, &one, sizeof one);  // async-signal-safe
+        }
+        if (done_seq_.load(std::memory_order_acquire) == mine) return true;
+        if (stream_status_.load(std::memory_order_acquire) != 0) return false;
+        signal_safe_sleep_us(100);
+    }
+    return false;
 }
 
 }  // namespace hapticd

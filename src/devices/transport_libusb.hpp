@@ -46,6 +46,10 @@ class LibusbFtdiTransport final : public FtdiTransport {
     void stop_streaming() noexcept override;
     TransportStatus post(std::span<const std::uint8_t> data, bool& replaced) noexcept override;
     TransportResult poll(std::span<std::uint8_t> buffer) noexcept override;
+    // The handler's thread only touches atomics, writes the eventfd and sleeps (nanosleep); the event thread
+    // (another thread, running until the process ends) submits the packet with libusb as any command. Not
+    // confirmed (false) when the signal stopped the event thread itself, or the stream had failed.
+    bool post_final_from_signal_handler(std::span<const std::uint8_t> packet, int timeout_ms) noexcept override;
 
     // Streaming statistics (any thread).
     [[nodiscard]] std::uint64_t ring_overflows() const noexcept {
@@ -89,8 +93,12 @@ class LibusbFtdiTransport final : public FtdiTransport {
     // Seqlock mailbox for the newest command: odd sequence = being written.
     std::atomic<std::uint32_t> mailbox_seq_{0};
     std::array<std::atomic<std::uint64_t>, 2> mailbox_{};
-    std::uint32_t posted_seq_ = 0;            // real-time thread: last sequence it published
-    std::atomic<std::uint32_t> sent_seq_{0};  // event thread: sequence of the last packet submitted
+    std::uint32_t posted_seq_ = 0;             // real-time thread: last sequence it published
+    std::atomic<std::uint32_t> sent_seq_{0};   // event thread: sequence of the last packet submitted
+    std::uint32_t in_flight_seq_ = 0;          // event thread: the sequence of the OUT transfer in flight
+    std::atomic<std::uint32_t> done_seq_{0};   // event thread: the sequence of the last OUT transfer completed
+    std::atomic<bool> final_{false};           // a fatal-signal handler posted the last command: post() ignored
+    std::atomic<bool> stream_running_{false};  // the event thread runs (for the signal handler)
     // Received payload ring (event thread produces, real-time thread consumes).
     std::array<std::uint8_t, kRingSize> ring_{};
     std::atomic<std::size_t> ring_head_{0};

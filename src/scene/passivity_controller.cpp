@@ -26,14 +26,22 @@ void validate(const PassivityControlConfig& c) {
 PassivityController::PassivityController(const PassivityControlConfig& config) : config_(config) { validate(config_); }
 
 void PassivityController::apply(const AxisVector& position, AxisVector& force) noexcept {
+    propose(position, force);
+    commit(force);
+}
+
+void PassivityController::propose(const AxisVector& position, AxisVector& force) noexcept {
     const double T = config_.period;
     for (std::size_t a = 0; a < config_.axes; ++a) {
+        Pending& q = pending_[a];
         double F = force[a];
         const double x = position[a];
         last_damping_[a] = 0.0;
+        q = Pending{};
         if (!std::isfinite(F) || !std::isfinite(x)) {
             force[a] = 0.0;
             ++stats_.nonfinite_events;
+            q.skip = true;
             continue;
         }
         const double dx = primed_ ? x - previous_position_[a] : 0.0;
@@ -43,8 +51,10 @@ void PassivityController::apply(const AxisVector& position, AxisVector& force) n
         // Its error against last tick's prediction (the observer's imprecision: velocity changes in a period).
         if (primed_) stats_.prediction_error += std::abs(W - energy_[a]);
         port_energy_[a] = W;
+        q.W = W;
+        q.v = v;
+        q.x = x;
         double P = W - F * v * T;  // predicted port energy after this tick's force, displacement v T
-        bool short_booked = false;
         if (P < 0.0) {
             if (std::abs(v) >= config_.velocity_guard) {
                 const double needed = -P / (v * v * T);
@@ -52,13 +62,13 @@ void PassivityController::apply(const AxisVector& position, AxisVector& force) n
                 if (b > config_.damping_cap) {
                     b = config_.damping_cap;
                     ++stats_.capped_ticks;
-                    short_booked = true;
+                    q.short_booked = true;
                 }
                 double damped = F - b * v;
                 if (damped > config_.max_force || damped < -config_.max_force) {
                     damped = std::clamp(damped, -config_.max_force, config_.max_force);
                     ++stats_.saturated_ticks;
-                    short_booked = true;
+                    q.short_booked = true;
                 }
                 const double added = (F - damped) / v;  // the damping the written force really adds
                 F = damped;
@@ -69,26 +79,41 @@ void PassivityController::apply(const AxisVector& position, AxisVector& force) n
                 P = W - F * v * T;
             } else {
                 ++stats_.guarded_ticks;
-                short_booked = true;
+                q.short_booked = true;
             }
         }
         if (!std::isfinite(F) || !std::isfinite(P)) {
             force[a] = 0.0;
             ++stats_.nonfinite_events;
-            previous_force_[a] = 0.0;
-            previous_position_[a] = x;
-            energy_[a] = W;
+            q.nonfinite = true;
             continue;
         }
-        if (short_booked) stats_.shortfall += std::max(0.0, std::min(0.0, W) - P);
-        energy_[a] = P;
         force[a] = F;
-        previous_force_[a] = F;
-        previous_position_[a] = x;
-        stats_.min_observed_energy = std::min(stats_.min_observed_energy, P);
-        stats_.min_port_energy = std::min(stats_.min_port_energy, W);
+        q.force = F;
     }
     primed_ = true;
+}
+
+void PassivityController::commit(const AxisVector& written) noexcept {
+    const double T = config_.period;
+    for (std::size_t a = 0; a < config_.axes; ++a) {
+        const Pending& q = pending_[a];
+        if (q.skip) continue;
+        const double F = std::isfinite(written[a]) ? written[a] : 0.0;
+        previous_position_[a] = q.x;
+        previous_force_[a] = F;
+        if (q.nonfinite) {
+            energy_[a] = q.W - F * q.v * T;
+            continue;
+        }
+        const double P = q.W - F * q.v * T;
+        const bool limited = F != q.force;  // the force limiter after this controller changed it
+        stats_.limited_ticks += limited ? 1U : 0U;
+        if (q.short_booked || limited) stats_.shortfall += std::max(0.0, std::min(0.0, q.W) - P);
+        energy_[a] = P;
+        stats_.min_observed_energy = std::min(stats_.min_observed_energy, P);
+        stats_.min_port_energy = std::min(stats_.min_port_energy, q.W);
+    }
 }
 
 void PassivityController::reset() noexcept {
@@ -98,6 +123,7 @@ void PassivityController::reset() noexcept {
     energy_ = AxisVector{};
     port_energy_ = AxisVector{};
     last_damping_ = AxisVector{};
+    pending_ = {};
     primed_ = false;
 }
 

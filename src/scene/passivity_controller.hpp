@@ -24,7 +24,8 @@
 //   book P_j with the force actually written. Guard: below v_guard no damper (-P / v^2 would blow up; a damper
 //   cannot dissipate without motion); cap: b <= b_cap. Both, and the saturation, are counted.
 // Bound (tested at every tick): W_j >= -(S_j + E_j), where S_j (`shortfall`) sums over the capped / guarded /
-// saturated ticks how far P fell below min(0, W) there, and E_j (`prediction_error`) sums |W_{k+1} - P_k|, the
+// saturated / limited ticks (limited: the force limiter after the controller changed the force) how far P fell
+// below min(0, W) there, and E_j (`prediction_error`) sums |W_{k+1} - P_k|, the
 // observer's error (the "imprecise energy observation": velocity changes inside a period). Induction: on any
 // other tick P_k >= 0, and W_{k+1} = P_k + (W_{k+1} - P_k). With an exact prediction and no binding cap the
 // port would be passive (W >= 0).
@@ -32,6 +33,7 @@
 // is counted (the scene has already latched its own fault for non-finite positions).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -54,6 +56,7 @@ struct PassivityControlStats {
     std::uint64_t guarded_ticks = 0;     // P < 0 but |v| < v_guard: no damper
     std::uint64_t saturated_ticks = 0;   // the damped force was saturated to F_max
     std::uint64_t nonfinite_events = 0;  // non-finite input or result: the axis's force zeroed
+    std::uint64_t limited_ticks = 0;     // the force written differed from the proposed (the force limiter)
     double max_added_damping = 0.0;      // largest b used [N s/m]
     double dissipated = 0.0;             // sum of b v^2 T [J]
     double shortfall = 0.0;              // S: sum over capped/guarded/saturated ticks of the energy left negative [J]
@@ -69,8 +72,16 @@ class PassivityController {
   public:
     explicit PassivityController(const PassivityControlConfig& config);
 
-    // Adjusts `force` (device frame, about to be written) for the sampled `position`. Real-time safe.
+    // Adjusts `force` (device frame, about to be written) for the sampled `position` and books it as written:
+    // propose() then commit(force). Real-time safe.
     void apply(const AxisVector& position, AxisVector& force) noexcept;
+    // The two halves, for a stage between the controller and the device (scene/force_limiter.hpp):
+    // propose() adjusts `force` and books the port energy W_j; commit() books the force the device really
+    // got (P_j = W_j - F_j v_j T with it, and it is the F_{j-1} of the next W). A tick whose written force
+    // differs from the proposed one counts as constrained (limited_ticks; its P below min(0, W) goes into the
+    // shortfall S), so the bound W_j >= -(S_j + E_j) holds for the force written. One commit per propose.
+    void propose(const AxisVector& position, AxisVector& force) noexcept;
+    void commit(const AxisVector& written) noexcept;
 
     [[nodiscard]] const PassivityControlStats& stats() const noexcept { return stats_; }
     [[nodiscard]] const PassivityControlConfig& config() const noexcept { return config_; }
@@ -87,6 +98,12 @@ class PassivityController {
     AxisVector energy_{};
     AxisVector port_energy_{};
     AxisVector last_damping_{};
+    // propose()'s per-axis results, booked by commit().
+    struct Pending {
+        double W = 0.0, v = 0.0, x = 0.0, force = 0.0;
+        bool short_booked = false, nonfinite = false, skip = false;
+    };
+    std::array<Pending, kMaxAxes> pending_{};
     bool primed_ = false;
 };
 

@@ -48,4 +48,15 @@ void ContactDetector::detect(const StateTick& t, const SceneObjects* objects) no
     object_mask_ = mask;
 }
 
+void ContactDetector::end_all(const StateTick& t) noexcept {
+    for (std::uint64_t m = config_mask_; m != 0; m &= m - 1)
+        push(t, static_cast<unsigned>(__builtin_ctzll(m)) + 1U, false);
+    config_mask_ = 0;
+    for (std::size_t s = 0; s < ids_.size(); ++s) {
+        if (ids_[s] != 0U) push(t, ids_[s], false);
+        ids_[s] = 0;
+    }
+    object_mask_ = 0;
+}
+
 }  // namespace hapticd

@@ -3,7 +3,8 @@
 // state is published, ContactDetector::detect compares the contacts published this tick (the config walls'
 // config_contact_mask; the client objects' contact_mask & occupied_mask with the slot table's ids) with the
 // previous tick's and hands one fixed-size record per begin and per end to the server thread through a
-// preallocated lock-free SPSC ring. A full ring drops the record and counts it (the next record carries the
+// preallocated lock-free SPSC ring; at the loop's last tick, end_all ends every contact still in progress. A
+// full ring drops the record and counts it (the next record carries the
 // count); detect() never blocks, allocates, locks, throws or makes a system call.
 #pragma once
 
@@ -43,6 +44,11 @@ class ContactDetector {
     // the config walls in ascending id, then the slots in order; in a slot whose object changed (a slot freed
     // and given to another object), the old object's end before the new one's begin.
     void detect(const StateTick& t, const SceneObjects* objects) noexcept;
+
+    // The loop's last tick (a stop's last tick or a fault's), after detect(t, objects): an `end` for every
+    // object still in contact (config walls in ascending id, then the slots in order), at that tick, so that
+    // per object every begin has its end. Nothing is in contact afterwards.
+    void end_all(const StateTick& t) noexcept;
 
     // Records the ring could not take so far (loop thread).
     [[nodiscard]] std::uint64_t lost() const noexcept { return lost_; }

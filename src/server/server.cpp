@@ -559,6 +559,24 @@ struct Server::Impl {
         send_reply(s, ok);
     }
 
+    // At the stop, after the loop's last tick: its records (the `end` of every contact still in progress,
+    // ContactDetector::end_all) go to the subscribers, each session's queue sent as its socket takes it for up
+    // to kFinalContactFlush; what a session that does not read leaves then is lost with the session.
+    void final_contacts() {
+        drain_contacts();
+        const auto until = Clock::now() + server::kFinalContactFlush;
+        std::vector<pollfd> fds;
+        while (Clock::now() < until) {
+            fds.clear();
+            for (auto& [sid, s] : sessions) {
+                if (!s.closed && !s.contact_queue.empty()) fds.push_back({s.fd, POLLOUT, 0});
+            }
+            if (fds.empty()) return;
+            if (::poll(fds.data(), fds.size(), 10) < 0 && errno != EINTR) return;
+            for (auto& [sid, s] : sessions) flush_contacts(s);
+        }
+    }
+
     // ---- the thread ----------------------------------------------------------------------------
     // run() again after anything that escaped a round outside a request (logged): the server thread never
     // ends by an exception while the daemon runs.
@@ -617,6 +635,7 @@ struct Server::Impl {
                 it = it->second.closed ? sessions.erase(it) : std::next(it);
             }
         }
+        final_contacts();
         for (auto& [sid, s] : sessions) close_session(s, "server stopping");
         sessions.clear();
     }

@@ -24,6 +24,8 @@ inline constexpr std::size_t kMaxSessions = 256;
 inline constexpr int kHelloTimeoutS = 5;  // a connection that never says hello is closed (it would hold a session)
 // Contact messages a session may have waiting for room in its socket: 256 of ~250 bytes.
 inline constexpr std::size_t kContactQueueCapacity = 256;
+// At the daemon's stop, how long the server waits for the sessions' sockets to take their last contact messages.
+inline constexpr std::chrono::milliseconds kFinalContactFlush{200};
 
 struct Session {
     int fd = -1;

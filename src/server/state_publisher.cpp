@@ -2,9 +2,12 @@
 #include "server/state_publisher.hpp"
 
 #include <fcntl.h>
+#include <pwd.h>
+#include <sys/stat.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -17,6 +20,58 @@
 
 namespace hapticd {
 
+namespace {
+
+std::string user_text(uid_t uid) {
+    std::string text = "uid " + std::to_string(uid);
+    std::array<char, 1024> buffer{};
+    passwd entry{};
+    passwd* found = nullptr;
+    if (::getpwuid_r(uid, &entry, buffer.data(), buffer.size(), &found) == 0 && found != nullptr) {
+        text += std::string(" (") + found->pw_name + ")";
+    }
+    return text;
+}
+
+// The segment, new, mode 0640, with this process's effective uid as its owner (O_CREAT | O_EXCL: never one
+// another user made). A segment of that name that exists already is replaced only when this euid owns it
+// (a stale one of a daemon that died): /dev/shm is sticky, so no other user can unlink or rename a segment we
+// own between the check and the unlink. One that belongs to another user is refused: it could be read or
+// fed by its owner, and unlinking it (which root could) would hide whatever made it.
+int create_segment(const std::string& name) {
+    const int flags = O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC | O_NOFOLLOW;
+    int fd = ::shm_open(name.c_str(), flags, 0640);
+    if (fd >= 0) return fd;
+    if (errno != EEXIST) throw std::runtime_error("StatePublisher: shm_open('" + name + "'): " + std::strerror(errno));
+    const std::string path = std::string(kShmDirectory) + name;
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0) {
+        throw std::runtime_error("StatePublisher: --serve-shm '" + name + "': " + path +
+                                 " exists but lstat failed: " + std::strerror(errno));
+    }
+    const uid_t self = ::geteuid();
+    if (st.st_uid != self || !S_ISREG(st.st_mode)) {
+        throw std::runtime_error(
+            "--serve-shm '" + name + "': the state segment " + path + " exists and belongs to " + user_text(st.st_uid) +
+            (S_ISREG(st.st_mode) ? "" : " (not a regular file)") + ", not to this daemon's user " + user_text(self) +
+            "; accepted: no segment of that name, or a stale one this user owns (replaced). Remove it as its "
+            "owner or as root (rm " +
+            path + ") after finding who made it, or choose another --serve-shm name");
+    }
+    if (::shm_unlink(name.c_str()) != 0 && errno != ENOENT) {
+        throw std::runtime_error("StatePublisher: shm_unlink('" + name +
+                                 "') of this user's stale segment: " + std::strerror(errno));
+    }
+    fd = ::shm_open(name.c_str(), flags, 0640);
+    if (fd < 0) {
+        throw std::runtime_error("StatePublisher: shm_open('" + name + "') after removing this user's stale segment: " +
+                                 std::strerror(errno) + " (another process created it meanwhile)");
+    }
+    return fd;
+}
+
+}  // namespace
+
 StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid)
     : name_(shm_name) {
     if (shm_name.size() < 2 || shm_name[0] != '/' || shm_name.find('/', 1) != std::string::npos ||
@@ -24,9 +79,7 @@ StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, do
         throw std::runtime_error("StatePublisher: shm name '" + shm_name +
                                  "' is invalid; accepted: '/' followed by 1..199 characters without '/'");
     }
-    ::shm_unlink(shm_name.c_str());  // a stale segment of a crashed daemon
-    const int fd = ::shm_open(shm_name.c_str(), O_CREAT | O_EXCL | O_RDWR | O_CLOEXEC, 0640);
-    if (fd < 0) throw std::runtime_error("StatePublisher: shm_open('" + shm_name + "'): " + std::strerror(errno));
+    const int fd = create_segment(shm_name);
     if (::ftruncate(fd, sizeof(StateLayout)) != 0) {
         const int e = errno;
         ::close(fd);

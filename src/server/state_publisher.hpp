@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The loop's side of the shared-memory state (docs/protocol.md, section 6; layout
-// include/hapticd/state_layout.hpp): created (shm_open, mode 0640, the socket's group) before the loop
-// starts, written once per tick under a seqlock, unlinked at shut-down.
+// include/hapticd/state_layout.hpp): created (shm_open O_CREAT | O_EXCL, mode 0640, the socket's group) before
+// the loop starts, written once per tick under a seqlock, unlinked at shut-down. A segment of the same name that
+// exists already is replaced only when the daemon's effective uid owns it, refused otherwise (never opened).
 // Writer protocol: sequence <- s + 1 (odd, relaxed store) ; release fence ; fields ; sequence <- s + 2
 // (release store). publish() does not allocate, lock, throw or make a system call.
 #pragma once
@@ -17,6 +18,9 @@ namespace hapticd {
 
 class SceneObjects;
 
+// Where POSIX shared memory segments are on Linux (glibc's shm_open: /dev/shm/<name without the '/'>).
+inline constexpr const char* kShmDirectory = "/dev/shm";
+
 struct StateTick {
     std::uint64_t tick = 0;
     double time_s = 0.0;
@@ -31,7 +35,8 @@ struct StateTick {
 
 class StatePublisher {
   public:
-    // Throws std::runtime_error naming the shm name and errno on failure. gid < 0: keep the group.
+    // Throws std::runtime_error naming the shm name and errno on failure, or --serve-shm, the segment's path and its
+    // owner when another user owns a segment of that name. gid < 0: keep the group.
     StatePublisher(const std::string& shm_name, std::size_t axes, double period_s, int gid);
     ~StatePublisher();
     StatePublisher(const StatePublisher&) = delete;

@@ -5,11 +5,16 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "daemon/daemon.hpp"
 #include "loop/realtime_loop.hpp"
+#include "scene/force_limiter.hpp"
+#include "scene/scene_objects.hpp"
 #include "scene/safety.hpp"
 
 namespace hapticd {
@@ -129,33 +134,74 @@ DaemonConfig lockstep_config(std::uint64_t ticks, std::size_t delay) {
     return c;
 }
 
-TEST(Daemon, DelayBufferAndZeroForceOnTheLastTick) {
+// The limiter's rate at its largest for this device (step 4.999 N < max_force 5 N): R = ceil(5 / 4.999) + 1 = 3.
+DaemonConfig unlimited_config(std::uint64_t ticks, std::size_t delay) {
+    DaemonConfig c = lockstep_config(ticks, delay);
+    c.max_force_rate = 4999.0;
+    return c;
+}
+
+TEST(Daemon, DelayBufferAndTheStopWindowOfTheLastTicks) {
     clear_stop_request();
-    ScriptedDevice dev({0.001, 0.002, 0.003, 0.004, 0.005, 0.006});
+    ScriptedDevice dev({0.001, 0.002, 0.003, 0.004, 0.0045, 0.004, 0.003, 0.002});
     Scene scene = one_wall();
-    Daemon d(dev, scene, nullptr, lockstep_config(6, 2));
+    Daemon d(dev, scene, nullptr, unlimited_config(8, 2));
     const RunResult r = d.run();
     EXPECT_EQ(r.fault, StateFault::None);
-    EXPECT_EQ(r.counters.ticks, 6U);
-    ASSERT_EQ(dev.forces.size(), 6U);
+    EXPECT_EQ(r.stop_ticks, 3U);
+    EXPECT_EQ(r.counters.ticks, 8U);
+    ASSERT_EQ(dev.forces.size(), 8U);
     // forces computed at ticks 0..: -(1000 x_j + 1 (x_j - x_{j-1})/T), applied 2 ticks later
     EXPECT_EQ(dev.forces[0], 0.0);
     EXPECT_EQ(dev.forces[1], 0.0);
     EXPECT_DOUBLE_EQ(dev.forces[2], -(1.0 + 0.0));  // tick 0: x_{-1} = x_0
     EXPECT_DOUBLE_EQ(dev.forces[3], -(2.0 + 1.0));  // tick 1
     EXPECT_DOUBLE_EQ(dev.forces[4], -(3.0 + 1.0));  // tick 2
-    EXPECT_EQ(dev.forces[5], 0.0);                  // last tick: zero
+    // Ticks 5, 6, 7: the stop window, target zero, 4 N reached in one step of at most 4.999 N.
+    EXPECT_EQ(dev.forces[5], 0.0);
+    EXPECT_EQ(dev.forces[6], 0.0);
+    EXPECT_EQ(dev.forces[7], 0.0);  // the last tick: zero
 }
 
-TEST(Daemon, StopRequestGivesZeroForceOnTheNextTick) {
+// The handle held 10 mm into the wall (10 N asked, saturated to 5 N) under the default rate: max_force per
+// 4 ms, 1.25 N per tick. The force rises by 1.25 N per tick, stays at 5 N, and the last R = 5 ticks bring it
+// to zero by the same steps; no step anywhere exceeds 1.25 N.
+TEST(Daemon, TheDefaultRateBoundsEveryStepUpAndDownAtTheEndOfTheDuration) {
     clear_stop_request();
-    ScriptedDevice dev({0.001});
+    ScriptedDevice dev({0.01});
+    Scene scene = one_wall();
+    Daemon d(dev, scene, nullptr, lockstep_config(60, 0));
+    const RunResult r = d.run();
+    EXPECT_EQ(r.fault, StateFault::None);
+    EXPECT_EQ(r.stop_ticks, 5U);
+    ASSERT_EQ(dev.forces.size(), 60U);
+    double previous = 0.0;
+    for (std::size_t j = 0; j < dev.forces.size(); ++j) {
+        EXPECT_LE(std::fabs(dev.forces[j] - previous), 1.25 + 1e-12) << "tick " << j;
+        previous = dev.forces[j];
+    }
+    EXPECT_NEAR(dev.forces[0], -1.25, 1e-12);
+    EXPECT_NEAR(dev.forces[3], -5.0, 1e-12);
+    EXPECT_NEAR(dev.forces[54], -5.0, 1e-12);   // the last rendered tick (60 - 5 - 1)
+    EXPECT_NEAR(dev.forces[55], -3.75, 1e-12);  // the stop window's first
+    EXPECT_NEAR(dev.forces[57], -1.25, 1e-12);
+    EXPECT_NEAR(dev.forces[58], 0.0, 1e-12);
+    EXPECT_EQ(dev.forces[59], 0.0);
+    // 3 up and 3 down (the 4th step of each, exactly 1.25 N, is limited or not by the step's rounding).
+    EXPECT_GE(r.limiter.rate_limited_ticks, 6U);
+    EXPECT_LE(r.limiter.rate_limited_ticks, 8U);
+    EXPECT_NEAR(r.limiter.largest_step, 1.25, 1e-12);
+}
+
+TEST(Daemon, StopRequestRampsTheForceToZeroInTheStopWindow) {
+    clear_stop_request();
+    ScriptedDevice dev({0.01});
     Scene scene = one_wall();
     DaemonConfig cfg = lockstep_config(0, 0);
     Daemon d(dev, scene, nullptr, cfg);
-    // Unlimited run: request the stop from "outside" after a few ticks via a scripted position count.
+    // Unlimited run: request the stop from "outside" once the force is saturated.
     std::thread stopper([&] {
-        while (dev.writes.load() < 3) std::this_thread::yield();
+        while (dev.writes.load() < 20) std::this_thread::yield();
         request_stop(15);
     });
     const RunResult r = d.run();
@@ -163,8 +209,17 @@ TEST(Daemon, StopRequestGivesZeroForceOnTheNextTick) {
     EXPECT_TRUE(r.stopped_by_signal);
     EXPECT_EQ(r.signal, 15);
     EXPECT_EQ(r.fault, StateFault::None);
-    ASSERT_FALSE(dev.forces.empty());
+    ASSERT_GE(dev.forces.size(), 20U + 5U);
     EXPECT_EQ(dev.forces.back(), 0.0);
+    // The last 5 ticks are the stop window; the force was saturated before it; no step above 1.25 N.
+    const std::size_t n = dev.forces.size();
+    EXPECT_NEAR(dev.forces[n - 6], -5.0, 1e-12);
+    EXPECT_NEAR(dev.forces[n - 5], -3.75, 1e-12);
+    double previous = 0.0;
+    for (const double f : dev.forces) {
+        EXPECT_LE(std::fabs(f - previous), 1.25 + 1e-12);
+        previous = f;
+    }
     clear_stop_request();
 }
 
@@ -180,6 +235,116 @@ TEST(Daemon, NonFinitePositionGivesZeroForceFaultAndStop) {
     EXPECT_EQ(r.counters.ticks, 3U);
     ASSERT_EQ(dev.forces.size(), 3U);
     EXPECT_EQ(dev.forces.back(), 0.0);
+}
+
+// Hands the loop batches at given ticks (as --replay does, through the TickFeeder hook).
+class CommitFeeder final : public TickFeeder {
+  public:
+    explicit CommitFeeder(CommitRing& ring) : ring_(ring) {}
+    void at(std::uint64_t tick, const ObjectCommit& commit) { batches_.emplace_back(tick, commit); }
+    void before_commits(std::uint64_t tick) noexcept override {
+        for (const auto& [t, c] : batches_) {
+            if (t == tick) (void)ring_.try_push(c);
+        }
+    }
+
+  private:
+    CommitRing& ring_;
+    std::vector<std::pair<std::uint64_t, ObjectCommit>> batches_;
+};
+
+// A client's spring pulls the handle with 4 N; at tick 30 its departure cuts it at once (SlotUpdate::Cut, no
+// ramp), and the objects' own rate limit is set out of the way (a step of 1000 N). The force written still
+// changes by at most the limiter's 1.25 N per tick (the default for 5 N): 4 -> 2.75 -> 1.5 -> 0.25 -> 0, and
+// the same on the way up.
+TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
+    clear_stop_request();
+    ScriptedDevice dev({0.0});
+    Scene scene(std::vector<VirtualWall>{}, 1, 5.0);
+    CommitRing ring(8);
+    SceneObjectsConfig oc;
+    oc.ramp_time = 0.0;
+    oc.max_force = 5.0;
+    oc.max_force_rate = 1e6;
+    oc.axes = 1;
+    SceneObjects objects(oc, ring);
+    ObjectParams spring;
+    spring.id = 7;
+    spring.kind = ObjectKind::Spring;
+    spring.point = {0.004, 0.0, 0.0};
+    spring.K = 1000.0;
+    ObjectCommit add;
+    add.seq = 1;
+    add.count = 1;
+    add.updates[0] = SlotUpdate{0, SlotUpdate::Action::Set, spring};
+    ObjectCommit cut;
+    cut.seq = 2;
+    cut.count = 1;
+    cut.updates[0] = SlotUpdate{0, SlotUpdate::Action::Cut, spring};
+    CommitFeeder feeder(ring);
+    feeder.at(0, add);
+    feeder.at(30, cut);
+    DaemonConfig cfg = lockstep_config(60, 0);
+    cfg.feeder = &feeder;
+    Daemon d(dev, scene, nullptr, cfg);
+    d.attach(ServerHooks{&objects, nullptr, nullptr});
+    const RunResult r = d.run();
+    EXPECT_EQ(r.fault, StateFault::None);
+    ASSERT_EQ(dev.forces.size(), 60U);
+    EXPECT_NEAR(dev.forces[0], 1.25, 1e-12);
+    EXPECT_NEAR(dev.forces[29], 4.0, 1e-12);
+    EXPECT_NEAR(dev.forces[30], 2.75, 1e-12);  // the cut: 4 N asked away in one tick
+    EXPECT_NEAR(dev.forces[31], 1.5, 1e-12);
+    EXPECT_NEAR(dev.forces[32], 0.25, 1e-12);
+    EXPECT_EQ(dev.forces[33], 0.0);
+    double previous = 0.0;
+    for (std::size_t j = 0; j < dev.forces.size(); ++j) {
+        EXPECT_LE(std::fabs(dev.forces[j] - previous), 1.25 + 1e-12) << "tick " << j;
+        previous = dev.forces[j];
+    }
+}
+
+// A fault is the exception to the rate limit: the force goes from 5 N to zero in the tick of the fault.
+TEST(Daemon, AFaultZeroesTheForceAtOnce) {
+    clear_stop_request();
+    std::vector<double> positions(30, 0.01);
+    positions.push_back(std::numeric_limits<double>::quiet_NaN());
+    ScriptedDevice dev(positions);
+    Scene scene = one_wall();
+    Daemon d(dev, scene, nullptr, lockstep_config(100, 0));
+    const RunResult r = d.run();
+    EXPECT_EQ(r.fault, StateFault::NonFinite);
+    EXPECT_EQ(r.fault_tick, 30U);
+    ASSERT_EQ(dev.forces.size(), 31U);
+    EXPECT_NEAR(dev.forces[29], -5.0, 1e-12);
+    EXPECT_EQ(dev.forces[30], 0.0);
+}
+
+// A rate whose step per tick is max_force or more is refused, naming --max-force-rate and the range.
+TEST(ForceLimiter, ARateStepOfTheWholeForceLimitIsRefusedNamingTheRange) {
+    EXPECT_DOUBLE_EQ(default_max_force_rate(9.0, 1e-3), 2250.0);  // the Falcon: 9 N in 4 ms
+    EXPECT_DOUBLE_EQ(default_max_force_rate(10.0, 0.05), 50.0);   // 20 Hz: a quarter of 10 N per tick
+    EXPECT_EQ(max_force_rate_error(2250.0, 9.0, 1e-3), "");
+    const std::string e = max_force_rate_error(10000.0, 10.0, 1e-3);
+    EXPECT_NE(e.find("--max-force-rate = 10000"), std::string::npos) << e;
+    EXPECT_NE(e.find("accepted range: > 0 and < max_force / T = 10000 N/s"), std::string::npos) << e;
+    EXPECT_NE(max_force_rate_error(-1.0, 10.0, 1e-3), "");
+    EXPECT_NE(max_force_rate_error(std::numeric_limits<double>::infinity(), 10.0, 1e-3), "");
+    EXPECT_THROW(ForceLimiter(10.0, 10000.0, 1e-3, 3), std::invalid_argument);
+    ForceLimiter l(10.0, 1000.0, 1e-3, 3);
+    EXPECT_EQ(l.stop_ticks(), 11U);
+    // The change is scaled as a whole: direction kept, infinity norm 1 N.
+    const AxisVector f = l.step({4.0, -2.0, 0.0});
+    EXPECT_DOUBLE_EQ(f[0], 1.0);
+    EXPECT_DOUBLE_EQ(f[1], -0.5);
+    // Saturation per axis first (40 N -> 10 N), then the rate limit.
+    const AxisVector g = l.step({40.0, -0.5, 0.0});
+    EXPECT_DOUBLE_EQ(g[0], 2.0);
+    EXPECT_DOUBLE_EQ(g[1], -0.5);
+    EXPECT_EQ(l.stats().saturated_ticks, 1U);
+    EXPECT_EQ(l.stats().rate_limited_ticks, 2U);
+    l.zero();
+    EXPECT_EQ(l.last(), AxisVector{});
 }
 
 TEST(Daemon, DeviceWriteErrorStopsWithDeviceFault) {

@@ -124,6 +124,13 @@ TEST(HapticdProcess, LockstepDurationWritesSummary) {
     EXPECT_EQ(j["mass_matrix"], nlohmann::json::parse("[[0.3]]"));
     EXPECT_EQ(j["axis_masses"], nlohmann::json::parse("[0.3]"));
     EXPECT_TRUE(j["max_stiffness"].is_null()) << j["max_stiffness"];
+    // The force limiter's default: the shipped sim's max_force 10 N per 4 ms, 2.5 N per tick; the stop window
+    // ceil(10 / 2.5) + 1 = 5 ticks; the 1 N step response never reaches the limit.
+    EXPECT_DOUBLE_EQ(j["force_limiter"]["max_force_rate"].get<double>(), 2500.0);
+    EXPECT_NEAR(j["force_limiter"]["max_step"].get<double>(), 2.5, 1e-12);
+    EXPECT_EQ(j["force_limiter"]["stop_ticks"], 5);
+    EXPECT_EQ(j["force_limiter"]["rate_limited_ticks"], 0);
+    EXPECT_LE(j["force_limiter"]["largest_step"].get<double>(), 2.5);
 }
 
 // An anisotropic profile (a full mass matrix, the one of tests/server/sim3_aniso.toml: eigenvalues 0.176,
@@ -238,6 +245,20 @@ INSTANTIATE_TEST_SUITE_P(
                 kExitBadConfig,
                 {"unknown key", "mas"}},
         BadCase{"profile_missing_mass", "", "max_force = 10.0\n", {}, kExitBadConfig, {"missing key 'mass'"}},
+        // A rate limit whose step per tick (10000 N/s x 1 ms = 10 N) is the whole max_force (10 N).
+        BadCase{"max_force_rate_step_of_the_whole_limit",
+                "",
+                kProfileOk,
+                {"--max-force-rate", "10000"},
+                kExitInvalidParameter,
+                {"--max-force-rate = 10000", "10 N", "max_force = 10 N",
+                 "accepted range: > 0 and < max_force / T = 10000 N/s"}},
+        BadCase{"max_force_rate_negative",
+                "",
+                "",
+                {"--max-force-rate", "-5"},
+                kExitInvalidParameter,
+                {"max-force-rate = -5", "accepted range"}},
         BadCase{"nan_rate", "", "", {"--rate", "nan"}, kExitInvalidParameter, {"rate = nan", "accepted range"}},
         BadCase{"inf_duration", "", "", {"--duration", "inf"}, kExitInvalidParameter, {"duration = inf"}},
         BadCase{"hand_stiffness",

@@ -2,7 +2,8 @@
 // The Falcon driver through the REAL libusb-1.0 on a Falcon emulated under umockdev (emulated_falcon.hpp):
 // enumeration by VID:PID, the FTDI control requests, homing (the firmware upload through bulk transfers
 // with status-only packets is test_usb_falcon_loader.cpp), then the asynchronous streaming of the 1 kHz loop, which
-// must not block; unplug (ENODEV) and a stalled endpoint end the stream with a device error, and nothing hangs. Label
+// must not block; unplug (ENODEV) and a stalled endpoint end the stream with a device error, and nothing hangs; the
+// fatal-signal handler's zero-torque command is the last one the Falcon takes. Label
 // usb (the binary re-executes itself under libumockdev-preload, test_usb_hid.cpp).
 #include <gtest/gtest.h>
 
@@ -11,6 +12,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <string>
 #include <chrono>
@@ -19,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "daemon/fatal_signal.hpp"
 #include "devices/falcon_device.hpp"
 #include "devices/transport_libusb.hpp"
 #include "emulated_falcon.hpp"
@@ -136,6 +139,68 @@ TEST_F(UsbFalcon, HomesThenTheLoopNeverWaitsForTheDevice) {
         for (const auto& c : emulated.falcon().commands) torque = torque || c.torque[0] != 0;
         EXPECT_TRUE(torque);  // the 0.5 N along z reached the motors
     }
+    dev.close();
+}
+
+// The fatal-signal path (daemon/fatal_signal.hpp) through the real libusb: the handler's call hands a zero-torque
+// command to the transport's event thread, which sends it; the call returns once the Falcon has taken it, and
+// the loop's later commands are ignored. The timeout is the test's generous deadline (the handler's is 50 ms).
+TEST_F(UsbFalcon, TheSignalSafeZeroIsTheLastCommandTheFalconTakes) {
+    FalconDeviceConfig c = falcon_usb_config();
+    c.max_stale_reads = 1000;
+    c.signal_zero_timeout_ms = 30000;
+    FalconDevice dev(c);
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
+    ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
+    DeviceStatus s = DeviceStatus::Ok;
+    run_ticks(dev, 50, s);
+    ASSERT_EQ(s, DeviceStatus::Ok) << dev.last_error();
+    const auto zero_torque = [](const falcon::Command& command) {
+        return command.torque[0] == 0 && command.torque[1] == 0 && command.torque[2] == 0;
+    };
+    {
+        auto l = emulated.lock();
+        ASSERT_FALSE(emulated.falcon().commands.empty());
+        EXPECT_FALSE(zero_torque(emulated.falcon().commands.back())) << "the 0.5 N along z never reached the motors";
+    }
+    const auto t0 = Clock::now();
+    EXPECT_TRUE(dev.zero_force_from_signal_handler());
+    std::printf("MEASURED the signal-safe zero on the emulated Falcon: confirmed after %.3f ms\n",
+                std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    std::size_t taken = 0;
+    {
+        auto l = emulated.lock();
+        taken = emulated.falcon().commands.size();
+        EXPECT_TRUE(zero_torque(emulated.falcon().commands.back()));
+    }
+    run_ticks(dev, 20, s);  // the loop goes on writing 0.5 N: ignored
+    {
+        auto l = emulated.lock();
+        EXPECT_EQ(emulated.falcon().commands.size(), taken);
+        EXPECT_TRUE(zero_torque(emulated.falcon().commands.back()));
+    }
+    dev.close();
+}
+
+// And from a real fatal signal with the daemon's handlers installed (a death test in a re-executed child, which
+// builds its own emulated Falcon): the handler reports the zero as written.
+TEST_F(UsbFalcon, AFatalSignalZeroesTheFalcon) {
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
+    FalconDeviceConfig c = falcon_usb_config();
+    c.max_stale_reads = 1000;
+    c.signal_zero_timeout_ms = 30000;
+    FalconDevice dev(c);
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
+    ASSERT_EQ(dev.home(), DeviceStatus::Ok) << dev.last_error();
+    DeviceStatus s = DeviceStatus::Ok;
+    run_ticks(dev, 20, s);
+    ASSERT_EQ(s, DeviceStatus::Ok) << dev.last_error();
+    EXPECT_EXIT(
+        {
+            install_fatal_signal_handlers(&dev, nullptr);
+            std::raise(SIGSEGV);
+        },
+        ::testing::KilledBySignal(SIGSEGV), "hapticd: fatal: signal 11; zero force written to the device");
     dev.close();
 }
 

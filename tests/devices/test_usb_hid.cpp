@@ -2,13 +2,15 @@
 // The HID driver through the REAL hidapi (hidraw backend) on an emulated OpenFFBoard-like device under
 // umockdev (emulated_hid_device.hpp): enumeration, the report descriptor ioctls, the start-up and effect
 // reports as the firmware receives them, input reports only on change or every ~100 ms, the magnitude
-// range, unplug and silence, and `hapticd --list-devices` (a child process sees the same emulated device).
-// Label `usb`. The binary re-executes itself with libumockdev-preload.so.0 preloaded when it is not.
+// range, unplug and silence, the fatal-signal handler's zero, and `hapticd --list-devices` (a child process
+// sees the same emulated device). Label `usb`. The binary re-executes itself with libumockdev-preload.so.0
+// preloaded when it is not.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "daemon/fatal_signal.hpp"
 #include "devices/hid_device.hpp"
 #include "emulated_hid_device.hpp"
 
@@ -141,6 +144,39 @@ TEST_F(UsbHid, ForceReportsUseTheDescriptorRange) {
     EXPECT_EQ(dev.counters().saturated_commands, 1U);
     EXPECT_EQ(dev.write_force({NAN, 0, 0}), DeviceStatus::InvalidArgument);
     EXPECT_EQ(emulated.output_reports().back(), (std::vector<std::uint8_t>{0x05, 1, 0, 0}));
+}
+
+// The fatal-signal path (daemon/fatal_signal.hpp): write(2) of pre-built reports on the driver's own hidraw
+// descriptor. Called directly: magnitude 0, Stop, Stop All reach the device after a non-zero magnitude.
+TEST_F(UsbHid, TheSignalSafeZeroWritesMagnitudeZeroStopAndStopAll) {
+    HidFfbDevice dev(hid_usb_config());
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
+    ASSERT_EQ(dev.write_force({2.5, 0, 0}), DeviceStatus::Ok);
+    const std::size_t before = emulated.output_reports().size();
+    EXPECT_TRUE(dev.zero_force_from_signal_handler());
+    const auto out = emulated.output_reports();
+    ASSERT_EQ(out.size(), before + 3);
+    EXPECT_EQ(out[before], (std::vector<std::uint8_t>{0x05, 1, 0, 0}));      // magnitude 0
+    EXPECT_EQ(out[before + 1], (std::vector<std::uint8_t>{0x0A, 1, 3, 1}));  // Effect Operation: Stop
+    EXPECT_EQ(out[before + 2], (std::vector<std::uint8_t>{0x0C, 3}));        // Device Control: Stop All Effects
+    dev.close();
+    EXPECT_FALSE(dev.zero_force_from_signal_handler());  // closed: nothing to write to
+}
+
+// And from a real fatal signal with the daemon's handlers installed (a death test in a re-executed child, which
+// builds its own emulated device): the handler reports the zero as written.
+TEST_F(UsbHid, AFatalSignalZeroesTheDevice) {
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
+    HidFfbDevice dev(hid_usb_config());
+    ASSERT_EQ(dev.open(), DeviceStatus::Ok) << dev.last_error();
+    ASSERT_EQ(dev.write_force({2.5, 0, 0}), DeviceStatus::Ok);
+    EXPECT_EXIT(
+        {
+            install_fatal_signal_handlers(&dev, nullptr);
+            std::raise(SIGSEGV);
+        },
+        ::testing::KilledBySignal(SIGSEGV), "hapticd: fatal: signal 11; zero force written to the device");
+    dev.close();
 }
 
 TEST_F(UsbHid, UnplugIsADisconnectAndSilenceATimeout) {

@@ -45,8 +45,10 @@ class RecordingDevice final : public Device {
             bound.push_back(-(pc_->stats().shortfall + pc_->stats().prediction_error));
             observed_energy.push_back(pc_->observed_energy(0));
             const PassivityControlStats& s = pc_->stats();
-            const std::uint64_t shorts = s.capped_ticks + s.guarded_ticks + s.saturated_ticks + s.nonfinite_events;
-            unconstrained.push_back(shorts == shorts_);  // this tick neither capped, guarded, saturated nor zeroed
+            const std::uint64_t shorts =
+                s.capped_ticks + s.guarded_ticks + s.saturated_ticks + s.nonfinite_events + s.limited_ticks;
+            // this tick neither capped, guarded, saturated, zeroed nor changed by the daemon's force limiter
+            unconstrained.push_back(shorts == shorts_);
             shorts_ = shorts;
         }
         return sim_.write_force(f);
@@ -104,6 +106,9 @@ StepRun step_run(double K, double B, std::size_t d, bool control, double device_
     cfg.delay_samples = d;
     cfg.watchdog_enabled = false;
     cfg.passivity = control ? &pc : nullptr;
+    // The controller alone: the daemon's force limiter at its largest rate (a step of 0.999 kMaxForce per tick;
+    // the runs stay far below it unless they diverge), as the forces are left unsaturated (10 kN).
+    cfg.max_force_rate = 0.999 * kMaxForce / kT;
     clear_stop_request();
     Daemon daemon(dev, scene, nullptr, cfg);
     daemon.run();

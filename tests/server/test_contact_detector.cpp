@@ -137,6 +137,36 @@ TEST(ContactDetector, ARemovedObjectEndsAtTheTickItsRampOutFreesTheSlot) {
     EXPECT_EQ(rig.records[1].tick, freed);
 }
 
+// The loop's last tick (ContactDetector::end_all): an end for every object in contact, config walls by ascending id
+// then the slots in order, at that tick with its state; nothing is in contact afterwards (a later detect() of the
+// same contacts begins them again).
+TEST(ContactDetector, TheLastTickEndsEveryContactInProgress) {
+    DetectorRig rig;
+    const AxisVector x{0.0, 0.0, 0.0};
+    rig.commit({{5, SlotUpdate::Action::Set, zero_field(20, 0.05)}, {2, SlotUpdate::Action::Set, zero_field(21, 0.05)}},
+               1);
+    for (int i = 0; i < 10; ++i) rig.step(x, 0b101);  // config walls 1 and 3, fields 21 (slot 2) and 20 (slot 5)
+    ASSERT_EQ(rig.records.size(), 4U);
+    StateTick last;
+    last.tick = 9;
+    last.time_s = 0.009;
+    last.position = {0.001, 0.0, 0.0};
+    rig.detector.end_all(last);
+    std::vector<ContactRecord> ends;
+    ContactRecord r;
+    while (rig.ring.try_pop(r)) ends.push_back(r);
+    ASSERT_EQ(ends.size(), 4U);
+    const std::uint32_t order[4] = {1, 3, 21, 20};
+    for (std::size_t i = 0; i < 4; ++i) {
+        EXPECT_FALSE(ends[i].begin);
+        EXPECT_EQ(ends[i].object_id, order[i]);
+        EXPECT_EQ(ends[i].tick, 9U);
+        EXPECT_EQ(ends[i].position[0], 0.001);
+    }
+    rig.detector.end_all(last);  // nothing left in contact
+    EXPECT_FALSE(rig.ring.try_pop(r));
+}
+
 // A slot that changes hands in one tick (object 10 cut and object 11 set in the same batch, both in contact):
 // the old id's end, then the new id's begin, at that tick. Config walls first, in ascending id.
 TEST(ContactDetector, ASlotGivenToAnotherObjectEndsTheOldIdBeforeItBeginsTheNew) {

@@ -13,7 +13,8 @@
 // Each step waits for a state sample, newer than the last event, that shows the step's contact. In both:
 // per object, begin and end alternate with rising ticks; every state sample's contacts are exactly
 // the objects whose last event up to that sample's tick is a begin; a sample of an event's tick has the
-// event's position and force; no event is dropped. Plus a malformed subscribe_contacts gets an error reply.
+// event's position and force; no event is dropped. Plus a malformed subscribe_contacts gets an error reply, and
+// a daemon that stops sends the `end` of every contact in progress.
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -217,6 +218,59 @@ TEST(ContactEvents, AConfigWallTheHandleIsPushedIntoBeginsAndEnds) {
     c.bye();
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// The daemon stops (SIGTERM) with a config wall and a client's field in contact: the subscriber receives an
+// `end` of each before the session closes — the field's at the loop's last tick (force zero: the stop window's
+// last tick); per object begin and end alternate and the last event is an end.
+TEST(ContactEvents, EveryContactInProgressEndsWhenTheDaemonStops) {
+    const Names n = names("contacts_stop");
+    Child daemon(HAPTICD_BINARY, contact_daemon_args(n, {"--wall", "axis=0 position=0.002 direction=+1"}),
+                 "contacts_stop_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    cl::Client c = cl::Client::connect({.socket_path = n.socket, .client_name = "contacts", .timeout_s = 30.0});
+    EXPECT_TRUE(c.subscribe_contacts().empty());
+    c.subscribe(1000.0);
+    Received r;
+    const cl::Field push{.center = {0, 0, 0}, .radius = 0.05, .force = {1.0, 0, 0}};
+    const std::uint32_t field = c.commit(cl::Batch().add(push)).object_ids.at(0);
+    ASSERT_TRUE(wait_sample(c, r, [&](const cl::StateSample& s) {
+        return state_in_contact(s, 1) && state_in_contact(s, field);
+    })) << "the handle never on wall 1";
+    c.unsubscribe();
+    daemon.signal(SIGTERM);
+    // Every event until the server closes the session (30 s at most).
+    const double end = monotonic_s() + 30.0;
+    bool closed = false;
+    while (!closed && monotonic_s() < end) {
+        try {
+            while (auto e = c.next_contact(0.1)) r.contacts.push_back(*e);
+            closed = !daemon.running() && !c.poll_contact().has_value();
+        } catch (const std::exception&) {
+            closed = true;  // the session closed: what it had sent was read first
+        }
+    }
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+    ASSERT_GE(r.contacts.size(), 2U);
+    std::map<std::uint32_t, const cl::ContactEvent*> last;
+    std::map<std::uint32_t, bool> in;
+    for (const auto& e : r.contacts) {
+        EXPECT_EQ(e.dropped, 0U);
+        EXPECT_NE(in[e.object_id], e.kind == cl::ContactEvent::Kind::Begin)
+            << "object " << e.object_id << " tick " << e.tick << ": begin and end must alternate";
+        in[e.object_id] = e.kind == cl::ContactEvent::Kind::Begin;
+        last[e.object_id] = &e;
+    }
+    for (const std::uint32_t id : {1U, field}) {
+        ASSERT_EQ(last.count(id), 1U) << "no event of object " << id;
+        EXPECT_EQ(last[id]->kind, cl::ContactEvent::Kind::End) << "object " << id << " still in contact at the stop";
+    }
+    // The field (5 cm around the handle) is in contact to the end: its end is the loop's last tick, force zero.
+    // The wall may end earlier: once the stop window has taken the force away, the hand pulls the handle out.
+    EXPECT_EQ(last[field], &r.contacts.back());
+    for (std::size_t a = 0; a < 3; ++a) EXPECT_EQ(last[field]->force[a], 0.0);
+    EXPECT_LE(last[1]->tick, last[field]->tick);
+    EXPECT_GT(r.contacts.back().tick, r.states.back().tick);
 }
 
 // A field without force (F0 = 0, J = 0) around the handle is in contact from the tick its commit is applied

@@ -37,6 +37,11 @@ std::vector<HandTraceRow> read_hand_trace(const std::string& path) {
     return rows;
 }
 
+// The run's last ticks are its stop window, whose target force is zero (docs/hapticd.md, "Safety"): 5 ticks on
+// the sim and Falcon profiles at the default rate (ceil(max_force / (max_force / 4)) + 1). The rendered run ends
+// before them.
+constexpr std::size_t kStopWindow = 5;
+
 // Runs the README's daemon (lockstep, starting once the plane is accepted, 2 s) and returns its trace.
 std::vector<HandTraceRow> readme_run(const std::string& tag, const std::vector<std::string>& extra) {
     const Names n = names(tag);
@@ -94,7 +99,7 @@ TEST(ServerHand, TheReadmeWallAppearsWithoutAKickAndTheHandleRestsOnIt) {
     for (std::size_t j = first; j < first + 100; ++j) peak = std::max(peak, std::abs(rows[j].f));
     const double peak_bound = v * (std::sqrt(t.K * kMass) + t.B) + kH * v * 0.1 + bH * v;
     const double p = kH * kOffset / (t.K + kH);
-    const HandTraceRow& last = rows[rows.size() - 2];  // the last tick, SIGTERM's zero-force tick excepted
+    const HandTraceRow& last = rows[rows.size() - 1 - kStopWindow];  // the last tick before the stop window
     std::printf(
         "[ readme hand ] first force %.4g N (bound %.4g), peak over 100 ms %.4g N (bound %.4g); at rest x = %.6f mm "
         "(expected %.6f), f = %.6f N (expected %.6f)\n",
@@ -187,7 +192,7 @@ TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
     const double expected = 1.0 / (t.alpha * 0.30 / 1e-6 + 1000.0 * 2.0 / 3.0 * 0.30);
     const std::vector<HandTraceRow> step = step_run(unrounded, "falcon_step");
     ASSERT_GE(step.size(), 5000U);
-    const double x_end = step[step.size() - 2].x;
+    const double x_end = step[step.size() - 1 - kStopWindow].x;
     std::printf("[ falcon --simulate ] step: x = %.6g mm after 5 s (balance %.6g mm)\n", 1e3 * x_end, 1e3 * expected);
     EXPECT_NEAR(x_end, expected, 1e-3 * expected);
 
@@ -195,7 +200,7 @@ TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
     const std::vector<HandTraceRow> rounded = step_run(falcon, "falcon_step_rounded");
     ASSERT_GE(rounded.size(), 5000U);
     double lo = HUGE_VAL, hi = -HUGE_VAL;
-    for (std::size_t j = rounded.size() - 1001; j + 1 < rounded.size(); ++j) {
+    for (std::size_t j = rounded.size() - 1001 - kStopWindow; j + kStopWindow < rounded.size(); ++j) {
         lo = std::min(lo, rounded[j].x);
         hi = std::max(hi, rounded[j].x);
     }

@@ -2,10 +2,17 @@
 // The daemon's life as a client sees it (docs/protocol.md, sections 6 and 7; docs/hapticd.md): a daemon
 // killed by a fatal signal leaves a state that says so (fault, signal, a heartbeat that stops) after
 // zeroing the simulated device; a stopped daemon reads stale, a quiet one does not; --serve-socket never
-// removes what is not a stale hapticd socket; one session cannot take every slot or fill the hand-over.
+// removes what is not a stale hapticd socket, --serve-shm replaces only its own user's stale segment; one
+// session cannot take every slot or fill the hand-over.
+#include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
+
+#include "common/run_child.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {
@@ -123,6 +130,95 @@ TEST(ServeSocketPath, OnlyAStaleHapticdSocketIsReplaced) {
     EXPECT_TRUE(wait_for_socket(stale.socket)) << next.err();
     next.signal(SIGTERM);
     EXPECT_EQ(next.wait(), 0) << next.err();
+}
+
+// --serve-shm: a segment of the daemon's name that its user owns (a daemon that died) is replaced; one that
+// another user owns is refused, exit 8, the message naming the option, the segment and its owner, and left
+// as it was. The second part needs root (to give the segment to "nobody").
+TEST(ServeShm, AStaleOwnSegmentIsReplacedAnotherUsersIsRefused) {
+    const Names own = names("shm_own");
+    {
+        const int fd = ::shm_open(own.shm.c_str(), O_CREAT | O_EXCL | O_RDWR, 0600);
+        ASSERT_GE(fd, 0) << std::strerror(errno);
+        ASSERT_EQ(::ftruncate(fd, 16), 0);
+        ASSERT_EQ(::write(fd, "stale stale", 11), 11);
+        ::close(fd);
+    }
+    Child replaced(HAPTICD_BINARY, daemon_args(own, with({"--scenario", "step", "--step-force", "0"}, kNoWatchdog)),
+                   "shm_own_daemon");
+    ASSERT_TRUE(wait_for_socket(own.socket)) << replaced.err();
+    const cl::StateReader state = cl::StateReader::open(own.shm);
+    EXPECT_EQ(state.writer_pid(), replaced.pid());
+    ASSERT_TRUE(wait_live(state).has_value()) << replaced.err();
+    struct stat st {};
+    ASSERT_EQ(::stat(("/dev/shm" + own.shm).c_str(), &st), 0);
+    EXPECT_EQ(st.st_uid, ::geteuid());
+    EXPECT_EQ(st.st_mode & 0777, 0640U);
+    replaced.signal(SIGTERM);
+    EXPECT_EQ(replaced.wait(), 0) << replaced.err();
+    EXPECT_NE(::stat(("/dev/shm" + own.shm).c_str(), &st), 0) << "the daemon unlinks its segment when it stops";
+
+    if (::geteuid() != 0) GTEST_SKIP() << "a segment of another user needs root to make (fchown)";
+    const Names foreign = names("shm_foreign");
+    const uid_t nobody = 65534;
+    {
+        const int fd = ::shm_open(foreign.shm.c_str(), O_CREAT | O_EXCL | O_RDWR, 0666);
+        ASSERT_GE(fd, 0) << std::strerror(errno);
+        ASSERT_EQ(::ftruncate(fd, 4096), 0);
+        ASSERT_EQ(::fchown(fd, nobody, nobody), 0) << std::strerror(errno);
+        ::close(fd);
+    }
+    Child refused(HAPTICD_BINARY, daemon_args(foreign, with({"--scenario", "step", "--step-force", "0"}, kNoWatchdog)),
+                  "shm_foreign_daemon");
+    EXPECT_EQ(refused.wait(), 8) << refused.err();
+    const std::string path = "/dev/shm" + foreign.shm;
+    EXPECT_NE(refused.err().find("--serve-shm"), std::string::npos) << refused.err();
+    EXPECT_NE(refused.err().find(path), std::string::npos) << refused.err();
+    EXPECT_NE(refused.err().find("uid 65534"), std::string::npos) << refused.err();
+    EXPECT_NE(refused.err().find("not to this daemon's user uid 0"), std::string::npos) << refused.err();
+    ASSERT_EQ(::stat(path.c_str(), &st), 0) << "the other user's segment is left in place";
+    EXPECT_EQ(st.st_uid, nobody);
+    EXPECT_EQ(st.st_size, 4096);
+    ::shm_unlink(foreign.shm.c_str());
+}
+
+// The case: a daemon that does not run as root (here as "nobody") and a segment of its name made first by
+// another user (here root): refused, exit 8, naming the segment and both users; the segment is left as it was.
+// The same daemon with a name nobody holds starts, runs and removes its segment. Needs root (to drop to nobody).
+TEST(ServeShm, ANonRootDaemonRefusesASegmentAnotherUserMadeFirst) {
+    if (::geteuid() != 0) GTEST_SKIP() << "needs root to run the daemon as another user";
+    const test::Credentials nobody = test::unprivileged_user();
+    const std::string tag = std::to_string(::getpid());
+    const std::string squatted = "/hapticd-test-" + tag + "-squatted";
+    {
+        const int fd = ::shm_open(squatted.c_str(), O_CREAT | O_EXCL | O_RDWR, 0644);
+        ASSERT_GE(fd, 0) << std::strerror(errno);
+        ::close(fd);
+    }
+    auto run_as_nobody = [&](const std::string& shm) {
+        return test::run_child(
+            {HAPTICD_BINARY, "--config", "", "--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml", "--serve",
+             "--serve-socket", "/tmp/hapticd-test-" + tag + "-nobody.sock", "--serve-shm", shm, "--rt-priority", "0",
+             "--mlock", "false", "--lockstep", "--duration", "0.05", "--wall", "axis=0 position=0.05 direction=+1"},
+            std::chrono::seconds(60), &nobody);
+    };
+    const test::ChildResult refused = run_as_nobody(squatted);
+    EXPECT_EQ(refused.exit_code, 8) << refused.output;
+    EXPECT_NE(refused.output.find("/dev/shm" + squatted + " exists and belongs to uid 0"), std::string::npos)
+        << refused.output;
+    EXPECT_NE(refused.output.find("not to this daemon's user uid " + std::to_string(nobody.uid)), std::string::npos)
+        << refused.output;
+    struct stat st {};
+    ASSERT_EQ(::stat(("/dev/shm" + squatted).c_str(), &st), 0);
+    EXPECT_EQ(st.st_uid, 0U);
+    ::shm_unlink(squatted.c_str());
+
+    const std::string own = "/hapticd-test-" + tag + "-nobody";
+    const test::ChildResult ran = run_as_nobody(own);
+    EXPECT_EQ(ran.exit_code, 0) << ran.output;
+    EXPECT_NE(::stat(("/dev/shm" + own).c_str(), &st), 0) << "the daemon unlinks its segment when it stops";
+    ::shm_unlink(own.c_str());
+    std::filesystem::remove("/tmp/hapticd-test-" + tag + "-nobody.sock");
 }
 
 // Bilateral: each ramp scene of a batch is one engagement pattern, so a batch's check (1000 ramp scenes at
