@@ -43,7 +43,8 @@
 // commuting A and B the loop decouples along their common eigenvectors into scalar loops (alpha_i, beta_i), each
 // judged as above: an exact verdict (`certified`). Otherwise the characteristic loci do not reduce to one
 // polynomial in s; the block companion matrix's spectral radius is checked below 1 - kMatrixGainRadiusMargin at
-// `samples` scales spread over the interval (ends included): a dense check, not a proof (`certified` false).
+// `samples` scales spread over the interval (ends included) and at s = 1: a sampled check, not a proof
+// (`certified` false).
 //
 // Cost: the cascade is O(N^3) with ~64 bisection steps per zero of each derivative, N = n + 3 (+ L); ~20 us at
 // d = 1 with the backward difference, ~0.3 ms with a 15-period window at d = 6 (docs/robust-stability.md).
@@ -222,7 +223,8 @@ class MassScalingTest {
     }
 
     /// Matrix gains A, B (any real r x r, normalised for the reference mass matrix) over s in [s_lo, s_hi]
-    /// (header comment): exact per direction when A and B are symmetric and commute, else `samples` scales.
+    /// (header comment): exact per direction when A and B are symmetric and commute, else `samples` scales spread over
+    /// the interval, ends included (one when s_lo = s_hi), and s = 1 (the reference mass) when inside it.
     HAPTICOPT_DEFERRED MatrixGainScaleStability matrix_over(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
                                                             double s_lo, double s_hi, int samples = 33) const {
         const char* fn = "hapticopt::MassScalingTest::matrix_over";
@@ -258,9 +260,11 @@ class MassScalingTest {
             }
             return r;
         }
-        const int n = std::max(samples, 2);
-        for (int i = 0; i < n; ++i) {
-            const double s = s_lo + (s_hi - s_lo) * i / (n - 1);
+        const int n = s_hi > s_lo ? std::max(samples, 2) : 1;
+        std::vector<double> scales;
+        for (int i = 0; i < n; ++i) scales.push_back(n == 1 ? s_lo : s_lo + (s_hi - s_lo) * i / (n - 1));
+        if (s_lo < 1.0 && 1.0 < s_hi) scales.push_back(1.0);  // the reference mass itself
+        for (const double s : scales) {
             const double radius = detail::companion_spectral_radius(poly_, s * Ar, s * Br);
             r.spectral_radius = std::max(r.spectral_radius, radius);
             if (!(radius < 1.0 - kMatrixGainRadiusMargin)) {

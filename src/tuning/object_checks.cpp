@@ -83,8 +83,9 @@ bool GainChecker::stable_over_set(double m, double alpha, double beta, double& f
         if (!r.stable) failing_mass = m / r.failing_scale;
         return r.stable;
     }
-    for (int i = 0; i < kSampledMasses; ++i) {
-        const double c = scale_min_ + (scale_max_ - scale_min_) * i / (kSampledMasses - 1);
+    const int count = scale_max_ > scale_min_ ? kSampledMasses : 1;
+    for (int i = 0; i < count; ++i) {
+        const double c = count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1);
         if (!stable(normalized_for(c * m), alpha / c, beta / c)) {
             failing_mass = c * m;
             return false;
@@ -270,13 +271,14 @@ double GainChecker::set_stable_factor(double m, double alpha, double beta) const
     if (scaling_) {
         // f (alpha, beta) acts on the set as the scales f [s_lo, s_hi] of the ray through (alpha, beta): they must lie
         // in one gap (a, b) between consecutive crossings of the ray (a = 0 below the first), a stable one. The largest
-        // f <= 1 of a gap is min(1, b / s_hi) (less 1e-6 relative), valid when above a / s_lo; gaps from the top down.
+        // f <= 1 of a gap is min(1, b / s_hi), moved inwards by amax's kAlphaMaxBackOff (0.1 %: the lightest mass then
+        // sees the gains as amax for it sees its tip), valid when above a / s_lo; gaps from the top down.
         const double s_lo = 1.0 / scale_max_, s_hi = 1.0 / scale_min_;
         std::vector<double> ends{0.0};
         for (const double c : hapticopt::gain_ray_crossings(scaling_->polynomial(), alpha, beta)) ends.push_back(c);
         ends.push_back(HUGE_VAL);
         for (std::size_t k = ends.size() - 1; k >= 1; --k) {
-            const double f = std::min(1.0, ends[k] / s_hi * (1.0 - 1e-6));
+            const double f = std::min(1.0, ends[k] / s_hi * (1.0 - kAlphaMaxBackOff));
             if (f > ends[k - 1] / s_lo * (1.0 + 1e-6) && stable_over_set(m, f * alpha, f * beta, failing_mass))
                 return f;
         }
@@ -349,11 +351,14 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
     const Eigen::MatrixXd A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
     const Eigen::MatrixXd Bn = T * (Mis * as_eigen(B_sum) * Mis);
     // The mass matrix c M gives the unit-mass gains (A, B) / c: the scales s = 1 / c.
-    if (scaling_) return scaling_->matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledMasses);
+    if (scaling_) return scaling_->matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
     hapticopt::MatrixGainScaleStability r;  // b or k > 0 (one mass): the coupled verdict at each sampled mass
     r.stable = true;
-    for (int i = 0; i < kSampledMasses; ++i) {
-        const double c = scale_min_ + (scale_max_ - scale_min_) * i / (kSampledMasses - 1);
+    const int count = scale_max_ > scale_min_ ? kSampledCoupledScales : 1;
+    std::vector<double> scales{1.0};  // the nominal mass, then the set's spread
+    for (int i = 0; i < count; ++i)
+        scales.push_back(count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1));
+    for (const double c : scales) {
         const hapticopt::MatrixGainStability v =
             hapticopt::general_matrix_gain_stability(normalized_for(c * plant_.mass), A / c, Bn / c, estimator_);
         r.commuting = v.commuting;

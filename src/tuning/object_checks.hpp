@@ -132,9 +132,13 @@ class GainChecker {
     [[nodiscard]] std::pair<double, double> mass_scales() const noexcept { return {scale_min_, scale_max_}; }
     [[nodiscard]] bool certified() const noexcept { return scaling_.has_value(); }
     static constexpr int kSampledMasses = 17;
+    // Scales at which a coupled (non-commuting) sum is checked over the set, ends included, and the nominal mass
+    // (each one block companion eigenproblem; docs/robust-stability.md).
+    static constexpr int kSampledCoupledScales = 5;
     // "the profile's plant set: masses 0.667 .. 1.1 x 0.3 kg" (for messages).
     [[nodiscard]] std::string set_text() const;
-    // The largest f in (0, 1] with f (alpha, beta) (normalised with mass m) stable over the set; 0: none.
+    // The largest f in (0, 1] (less kAlphaMaxBackOff when below 1) with f (alpha, beta) (normalised with mass m) stable
+    // over the set; 0: none.
     [[nodiscard]] double set_stable_factor(double m, double alpha, double beta) const;
 
     // Stability of one (K, B) (N/m, N s/m, finite) acting with nominal mass m (kg) for every mass c m of the set:
@@ -172,9 +176,9 @@ class GainChecker {
                                                                          bool accepted = false) const;
 
     // The optimum of a criterion (CE0 .. CE2+OV) for nominal mass m (kg), cached as said above, made stable over
-    // the set: when the optimum (alpha*, beta*) is not, the gains f (alpha*, beta*) with the largest f < 1 that is
-    // (the ray's stable interval through the optimum, from its unit-circle crossings; bisection on the set verdict
-    // when the plant has b or k). std::nullopt for an unknown name.
+    // the set: when the optimum (alpha*, beta*) is not, the gains f (alpha*, beta*) with the largest f < 1 that is,
+    // less kAlphaMaxBackOff (the ray's stable interval through the optimum, from its unit-circle crossings; bisection
+    // on the set verdict when the plant has b or k). std::nullopt for an unknown name.
     std::optional<CriterionGains> criterion_gains(const std::string& criterion, double m);
 
     // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
@@ -197,7 +201,8 @@ class GainChecker {
     // field's curl), in the unit-mass coordinates (hapticopt::general_matrix_gain_stability), nominal mass.
     [[nodiscard]] hapticopt::MatrixGainStability coupled(const Matrix3& K_sum, const Matrix3& B_sum) const;
     // The same over the set (hapticopt::MassScalingTest::matrix_over: exact for symmetric commuting gains,
-    // kSampledMasses scales otherwise; b or k > 0: general_matrix_gain_stability at kSampledMasses masses).
+    // kSampledCoupledScales scales otherwise; b or k > 0: general_matrix_gain_stability at kSampledCoupledScales
+    // masses).
     [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(const Matrix3& K_sum,
                                                                        const Matrix3& B_sum) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.

@@ -49,19 +49,28 @@ std::vector<Row> read_trace(const std::string& path) {
     return rows;
 }
 
-// Gains the server accepts for the free device (d = 0, near the region's large-beta edge: alpha 0.034,
+// Gains stable for the free device's nominal 0.30 kg (d = 0, near the region's large-beta edge: alpha 0.034,
 // beta 1.965) are unstable with a simulated hand that has stiffness and no damping
-// (SimulatedHand.TheFreeDeviceChecksStayConservativeForTheDefaultHand): hapticd says so at start-up, and
-// not for the default hand.
+// (SimulatedHand.TheFreeDeviceChecksStayConservativeForTheDefaultHand): on a profile certified for its nominal mass
+// alone (mass_margin = 0, no mass_range) hapticd says so at start-up, and not for the default hand. On the shipped
+// sim profile the same explicit gains are refused at start-up (exit 5): on that edge they are not stable for every
+// mass of its plant set (0.200 .. 0.330 kg), and the message names the mass.
 TEST(HapticdProcess, WarnsWhenAWallIsUnstableWithTheSimulatedHand) {
-    const auto undamped = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5", "--hand-damping", "0",
-                                    "--hand-stiffness", "300"}),
+    const std::string nominal =
+        test::write_file("sim_nominal_only.toml", "mass = 0.3\nmax_force = 10.0\nmass_margin = 0.0\n");
+    const auto undamped = run(args({"--dry-run", "--device", nominal, "--stiffness", "10294", "--damping", "589.5",
+                                    "--hand-damping", "0", "--hand-stiffness", "300"}),
                               "hand_warning");
     EXPECT_EQ(undamped.code, 0) << undamped.err;
     EXPECT_NE(undamped.err.find("is not stable with the simulated hand"), std::string::npos) << undamped.err;
-    const auto held = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5"}), "hand_default");
+    const auto held =
+        run(args({"--dry-run", "--device", nominal, "--stiffness", "10294", "--damping", "589.5"}), "hand_default");
     EXPECT_EQ(held.code, 0) << held.err;
     EXPECT_EQ(held.err.find("simulated hand"), std::string::npos) << held.err;
+    const auto set = run(args({"--dry-run", "--stiffness", "10294", "--damping", "589.5"}), "hand_set");
+    EXPECT_EQ(set.code, 5) << set.err;
+    EXPECT_NE(set.err.find("are unstable with the mass"), std::string::npos) << set.err;
+    EXPECT_NE(set.err.find("plant set: masses 0.6667 .. 1.1 x 0.3 kg"), std::string::npos) << set.err;
 }
 
 TEST(HapticdProcess, HelpListsExitCodes) {

@@ -376,6 +376,7 @@ class Driver {
     }
 
     void commit(Session& s, const cl::Batch& b, bool adds) {
+        if (!s.client) return;  // this session's connection was lost by an earlier commit of the same burst
         try {
             const cl::CommitResult r = s.client->commit(b);
             ++tally_.accepted;
