@@ -46,8 +46,9 @@
 // `samples` scales spread over the interval (ends included) and at s = 1: a sampled check, not a proof
 // (`certified` false).
 //
-// Cost: the cascade is O(N^3) with ~64 bisection steps per zero of each derivative, N = n + 3 (+ L); ~20 us at
-// d = 1 with the backward difference, ~0.3 ms with a 15-period window at d = 6 (docs/robust-stability.md).
+// Cost: the cascade is O(N^3) with up to 64 bisection steps per zero of each derivative, N = n + 3 (+ L): 2.5 us at
+// d = 1 and 16 us at d = 6 with the backward difference, 0.34 ms with a 15-period window at d = 6
+// (docs/benchmarks.md, "Plant set").
 // Not for the real-time loop (allocates).
 #pragma once
 

@@ -187,7 +187,7 @@ def test_too_little_damping_is_refused_naming_the_damping_needed(daemon):
         assert e.value.code == "unstable_gains"
         needed = e.value.damping_needed
         assert needed is not None and 0.0 < needed[0] < needed[1], e.value.reply
-        assert "K = 2000 N/m is stable for" in str(e.value)
+        assert "K = 2000 N/m is stable with the nominal mass for" in str(e.value)
         with pytest.raises(hc.HapticdError):
             c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0.5 * needed[0]))
         ok = c.add(hc.plane(normal=(-1, 0, 0), offset=0.005, K=2000, B=0.5 * (needed[0] + needed[1])))

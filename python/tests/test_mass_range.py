@@ -18,11 +18,12 @@ def radius(K, B, m, d, estimator):
 
 @pytest.mark.parametrize("d,estimator", [(1, "backward"), (6, "window:15"), (2, "lowpass:0.02")])
 def test_the_verdict_over_the_interval_agrees_with_a_dense_scan(d, estimator):
+    tip = ho.optimal_point("amax", ho.Plant(delay=d), estimator=estimator)  # the region's size for this loop
     rng = np.random.default_rng(7)
     verdicts = set()
     for _ in range(12):
-        alpha = rng.uniform(0.0, 0.25 / (1 + d))
-        beta = rng.uniform(0.0, 1.0 / (1 + 0.5 * d))
+        alpha = rng.uniform(0.0, 1.2 * tip.alpha)
+        beta = rng.uniform(0.0, 2.0 * tip.beta)
         K, B = alpha * 0.30 / T ** 2, beta * 0.30 / T
         r = ho.mass_range_stability(K, B, mass=(0.20, 0.33), period=T, time_delay=d * T, estimator=estimator)
         verdicts.add(r.stable)

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/process.hpp"
+#include "common/trace_rows.hpp"
 #include "daemon/exit_codes.hpp"
 
 namespace hapticd {
@@ -22,27 +23,8 @@ namespace {
 
 using test::run;
 
-struct Row {
-    unsigned long long tick;
-    double time, position, force, external, latency;
-};
-
-std::vector<Row> read_trace(const std::string& path) {
-    std::vector<Row> rows;
-    std::ifstream in(path);
-    std::string line;
-    std::getline(in, line);  // header
-    while (std::getline(in, line)) {
-        Row r{};
-        if (std::sscanf(line.c_str(), "%llu,%lf,%lf,%lf,%lf,%lf", &r.tick, &r.time, &r.position, &r.force, &r.external,
-                        &r.latency) == 6) {
-            rows.push_back(r);
-        } else {
-            ADD_FAILURE() << "malformed trace line: " << line;
-        }
-    }
-    return rows;
-}
+using Row = test::TraceRow;
+using test::read_trace;
 
 double max_abs_force(const std::vector<Row>& rows, std::size_t from, std::size_t to) {
     double m = 0.0;

@@ -10,6 +10,7 @@
 
 #include "daemon/exit_codes.hpp"
 #include "common/process.hpp"
+#include "common/trace_rows.hpp"
 
 namespace hapticd {
 namespace {
@@ -27,27 +28,8 @@ std::vector<std::string> args(std::initializer_list<std::string> extra) {
     return a;
 }
 
-struct Row {
-    unsigned long long tick;
-    double time, position, force, external, latency;
-};
-
-std::vector<Row> read_trace(const std::string& path) {
-    std::vector<Row> rows;
-    std::ifstream in(path);
-    std::string line;
-    std::getline(in, line);  // header
-    while (std::getline(in, line)) {
-        Row r{};
-        if (std::sscanf(line.c_str(), "%llu,%lf,%lf,%lf,%lf,%lf", &r.tick, &r.time, &r.position, &r.force, &r.external,
-                        &r.latency) == 6) {
-            rows.push_back(r);
-        } else {
-            ADD_FAILURE() << "malformed trace line: " << line;
-        }
-    }
-    return rows;
-}
+using Row = test::TraceRow;
+using test::read_trace;
 
 // Gains stable for the free device's nominal 0.30 kg (d = 0, near the region's large-beta edge: alpha 0.034,
 // beta 1.965) are unstable with a simulated hand that has stiffness and no damping

@@ -232,7 +232,8 @@ def mass_range_stability(stiffness: float, damping: float, *, mass: Range, perio
                          estimator: EstimatorLike = None) -> MassRangeStability:
     """Whether K, B (physical) are stable for every mass of `mass` ((min, max) or one value) with the free-mass
     plant (b = k = 0) at delay `time_delay` and the velocity estimator: exact (the Schur-Cohn verdict at one end
-    and the unit-circle crossings along the mass; docs/robust-stability.md). About 20 us at d = 1."""
+    and the unit-circle crossings along the mass; docs/robust-stability.md). A few us at d = 1 with the backward
+    difference, 0.3 ms with a 15-period window at d = 6 (docs/benchmarks.md)."""
     e = velocity_estimator(estimator, period)
     d = _core.mass_range_stability(float(stiffness), float(damping), _range("mass", mass), float(period),
                                    float(time_delay), *e.args())
