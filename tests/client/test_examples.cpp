@@ -123,8 +123,10 @@ WallRun moving_wall_against_readme_daemon(const std::string& tag, const std::vec
 
 TEST(Examples, MovingWallRendersWithoutChatterAgainstTheReadmeDaemon) {
     const WallRun held = moving_wall_against_readme_daemon("moving_held", {});
-    const WallRun at_once =
-        moving_wall_against_readme_daemon("moving_at_once", {"--move-interval-max", "0", "--activation-speed", "0"});
+    // The baseline renders the moves' steps as they come: its force-rate limit at 9.99 N per tick (the largest
+    // accepted, below max_force), so that the default limit (2.5 N per tick) does not smooth the 4.7 N steps.
+    const WallRun at_once = moving_wall_against_readme_daemon(
+        "moving_at_once", {"--move-interval-max", "0", "--activation-speed", "0", "--max-force-rate", "9990"});
     ASSERT_GT(held.counted, 600U) << "too many late ticks to judge";
     ASSERT_GT(at_once.counted, 600U) << "too many late ticks to judge";
     EXPECT_LE(10 * held.releases, at_once.releases);
