@@ -3,8 +3,8 @@
 // criteria CI0..2; the robust optimum over a box of physical parameters (--robust, ranges MIN:MAX);
 // every answer reports the delay-aware Colgate-Schenkel passivity margin (passivity.hpp, with --velocity
 // estimator_passivity.hpp; null for a fractional delay, which it does not cover). --noise-budget G (normalised g_max)
-// or --force-noise-budget N [N] with --position-resolution q: the optimum of CE0..2 with g_F <= g_max
-// (noise_budget.hpp; g_max = N T^2/(m q)).
+// or --force-noise-budget N [N] with --position-resolution q: the criterion's optimum with g_F <= g_max
+// (noise_budget.hpp; g_max = N T^2/(m q)); with --robust, the budget met over the box (robust_optimum.hpp).
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -70,10 +70,10 @@ void print_passivity_and_gains(bool covered, double margin, const WallGains* gai
     if (gains) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", gains->stiffness, gains->damping);
 }
 
-int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
+int run_robust(const std::string& name, const UncertainPlant& box, const RobustOptions& options, bool json) {
     const auto step = parse_criterion(name);
     const auto impulse = parse_impulse_criterion(name);
-    RobustOptimum r = impulse ? robust_optimum(*impulse, box) : robust_optimum(*step, box);
+    RobustOptimum r = impulse ? robust_optimum(*impulse, box, options) : robust_optimum(*step, box, options);
     // Passivity over the box: the physical margin b - max_theta R(theta; K T, B) (passivity.hpp) does not
     // depend on m and is smallest at b = b_min; the normalised margin (T/m) * that is smallest at m_min when
     // negative (m_max when positive). Covered for one integer delay (t_d fixed), else reported as null.
@@ -105,6 +105,11 @@ int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
         out["stable_over_box"] = r.stability.stable;
         out["mass_segments_certified"] = r.stability.mass_segments_certified;
         out["K_max"] = r.K_max;
+        out["velocity_estimator"] = velocity_json(options.estimator);
+        if (options.force_noise_budget > 0) {
+            out["force_noise_budget"] = options.force_noise_budget;
+            out["force_noise_max"] = r.force_noise_max;
+        }
         if (covered) {
             add_passivity(out, margin);
             out["passivity_margin_physical"] = phys;
@@ -133,6 +138,11 @@ int run_robust(const std::string& name, const UncertainPlant& box, bool json) {
                 r.stability.mass_segments_certified ? "yes" : "no");
     std::printf("nominal optimum (box centre) K %.6g, B %.6g: worst case %.10g at m = %.6g kg\n",
                 r.nominal_gains.stiffness, r.nominal_gains.damping, r.nominal_worst.cost, r.nominal_worst.where.mass);
+    std::printf("velocity   %s\n", velocity_text(options.estimator).c_str());
+    if (options.force_noise_budget > 0) {
+        std::printf("sigma_F    at most %.6g N over the box (budget %.6g N)\n", r.force_noise_max,
+                    options.force_noise_budget);
+    }
     if (covered) {
         std::printf("passive    %s (margin %.4g)\n", margin > 0 ? "yes" : "no", margin);
     } else {
@@ -180,7 +190,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
         ->capture_default_str();
     CLI::Option* robust = sub->add_flag("--robust", args->robust,
                                         "minimise the worst case over the box of --mass/--damping/--stiffness/"
-                                        "--time-delay ranges (MIN:MAX); CE0..2, CI0..2 only");
+                                        "--time-delay ranges (MIN:MAX) for the loop with the --velocity estimator; "
+                                        "CE0..2 (with --force-noise-budget: met over the box), CI0..2 (backward)");
     robust->needs(mass);
     CLI::Option* passive =
         sub->add_flag("--passive", args->passive,
@@ -191,7 +202,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
     args->velocity.add_to(*sub);
     CLI::Option* noise_budget = sub->add_option(
         "--noise-budget", args->noise_budget,
-        "CE0..2 under a force-noise budget: g_F <= G (normalised, sigma_F = (m q / T^2) g_F; noise_budget.hpp)");
+        "the criterion under a force-noise budget: g_F <= G (normalised, sigma_F = (m q / T^2) g_F; noise_budget.hpp)");
     CLI::Option* force_budget = sub->add_option("--force-noise-budget", args->force_noise_budget,
                                                 "the budget as sigma_F [N] (needs --mass, --period, "
                                                 "--position-resolution): g_max = N T^2 / (m q)");
@@ -201,8 +212,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
     force_budget->needs(resolution);
     resolution->needs(force_budget);
     force_budget->excludes(noise_budget);
+    noise_budget->excludes(robust);
     for (CLI::Option* o : {noise_budget, force_budget}) {
-        o->excludes(robust);
         o->excludes(passive);
     }
     sub->add_flag("--json", args->json, "print one JSON object");
@@ -231,11 +242,11 @@ CommandRunner add_optimum_command(CLI::App& app) {
         }
         const auto impulse = parse_impulse_criterion(args->criterion);
         const VelocityEstimator estimator = args->velocity.parse(physical ? box.period : 0.0);
-        if (noise_budget->count() > 0 || force_budget->count() > 0) {
+        if ((noise_budget->count() > 0 || force_budget->count() > 0) && !args->robust) {
             const auto step = parse_criterion(args->criterion);
-            if (!step || !energy_index(*step) || requires_no_overshoot(*step)) {
-                std::cerr << "hapticopt optimum: --noise-budget and --force-noise-budget support CE0, CE1, CE2 (not "
-                          << args->criterion << ")\n";
+            if (!step) {
+                std::cerr << "hapticopt optimum: --noise-budget and --force-noise-budget support the step criteria "
+                          << joined_names(criterion_names(kAllCriteria)) << " (not " << args->criterion << ")\n";
                 return int{kUsage};
             }
             const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
@@ -293,16 +304,27 @@ CommandRunner add_optimum_command(CLI::App& app) {
             if (physical) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", g.stiffness, g.damping);
             return int{kOk};
         }
-        if (estimator.kind != VelocityEstimatorKind::backward && args->robust) {
-            std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
-                      << " with --robust is invalid: the robust optimum models the backward difference\n";
-            return int{kUsage};
+        if (args->robust) {
+            const auto step = parse_criterion(args->criterion);
+            if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
+                std::cerr << "hapticopt optimum: --robust supports CE0, CE1, CE2, CI0, CI1, CI2 (not "
+                          << args->criterion << ")\n";
+                return int{kUsage};
+            }
+            RobustOptions ro;
+            ro.estimator = estimator;
+            if (force_budget->count() > 0) {
+                ro.force_noise_budget = args->force_noise_budget;
+                ro.position_resolution = args->resolution;
+            }
+            return run_robust(args->criterion, box, ro, args->json);
         }
         if (estimator.kind != VelocityEstimatorKind::backward && !args->passive) {
             const auto step = parse_criterion(args->criterion);
-            if (!impulse && (!step || *step == Criterion::Overshoot)) {
-                std::cerr << "hapticopt optimum: --velocity " << args->velocity.text
-                          << " supports amax, CE0..2, CE0+OV..CE2+OV and CI0..2 (not " << args->criterion << ")\n";
+            if (!impulse && !step) {
+                std::cerr << "hapticopt optimum: --velocity " << args->velocity.text << " supports "
+                          << joined_names(criterion_names(kAllCriteria)) << " and CI0..2 (not " << args->criterion
+                          << ")\n";
                 return int{kUsage};
             }
             const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
@@ -348,8 +370,21 @@ CommandRunner add_optimum_command(CLI::App& app) {
             }
             EstimatorOptimumOptions eo;
             eo.overshoot_tolerance = args->tolerance;
-            const EstimatorOptimum o = optimal_point(*step, np, estimator, eo);
             const EstimatorStabilityRegion region(np, estimator);
+            EstimatorOptimum o;
+            if (*step == Criterion::Overshoot) {  // the OV point with the estimator (noise_budget.hpp)
+                NoiseBudgetOptions nbo;
+                nbo.unconstrained = eo;
+                const NoiseBudgetOptimum ov = estimator_overshoot_point(np, estimator, nbo);
+                o.criterion = *step;
+                o.alpha = ov.alpha;
+                o.beta = ov.beta;
+                o.cost = ov.cost;
+                o.alpha_max = region.alpha_max();
+                o.beta_at_alpha_max = region.beta_at_alpha_max();
+            } else {
+                o = optimal_point(*step, np, estimator, eo);
+            }
             const double noise = force_noise_gain(np, NormalizedGains{o.alpha, o.beta}, estimator);
             WallGains g{0, 0};
             if (physical) g = to_physical(NormalizedGains{o.alpha, o.beta}, plant.mass, plant.period);
@@ -387,15 +422,6 @@ CommandRunner add_optimum_command(CLI::App& app) {
             std::printf("alpha/alpha_max  %.4f\nnoise gain g_F   %.6g\n", o.alpha / o.alpha_max, noise);
             print_passivity_and_gains(covered, margin, physical ? &g : nullptr);
             return int{kOk};
-        }
-        if (args->robust) {
-            const auto step = parse_criterion(args->criterion);
-            if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
-                std::cerr << "hapticopt optimum: --robust supports CE0, CE1, CE2, CI0, CI1, CI2 (not "
-                          << args->criterion << ")\n";
-                return int{kUsage};
-            }
-            return run_robust(args->criterion, box, args->json);
         }
         if (args->passive) {
             const auto step = parse_criterion(args->criterion);

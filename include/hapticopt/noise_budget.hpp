@@ -32,6 +32,11 @@
 // plus the unconstrained optimum. Measured (BM_NoiseBudgetOptimum, d = 1): ~0.1 s backward and low-pass,
 // ~2 s window 15 (docs/velocity-estimation.md).
 //
+// The other criteria under the budget (optimal_point_under_noise_budget's comment): amax the largest alpha whose
+// band {beta stable: g_F <= g_max} is not empty; OV and CEx+OV the largest alpha where the band holds a beta without
+// overshoot (OV: any; CEx+OV: the band's least C_Ex), each by a scan down in log alpha and bisection. The OV point with
+// any estimator and no budget: estimator_overshoot_point. Measured on the Falcon's loop: docs/benchmarks.md.
+//
 // The Pareto front (C against g_F): the constrained optimum for a list of budgets (noise_pareto_front).
 // The estimator's parameter jointly: the constrained optimum for each candidate estimator (a list: windows
 // 1..N_max, or low-pass cutoffs on a grid), the best one returned (optimal_estimator_under_noise_budget); for
@@ -42,6 +47,7 @@
 #include <cmath>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "velocity_estimator.hpp"
@@ -74,19 +80,213 @@ struct NoiseBudgetOptimum {
 
 namespace detail {
 
-inline int noise_budget_energy_index(const char* fn, Criterion criterion) {
-    const auto k = energy_index(criterion);
-    if (!k || requires_no_overshoot(criterion)) {
-        throw InvalidParameter(fn, "criterion", static_cast<double>(criterion), "CE0, CE1 or CE2 under a noise budget");
+/// The budget's band at one alpha: the betas of the main region's stable interval (lo, hi) at alpha with
+/// g_F <= g_max. g_min(alpha) = min over beta of g_F by a `beta_grid`-cell grid and Brent; where g_min <= g_max
+/// the band is (beta_lo, beta_hi) around the minimiser, each end by bisection that keeps the side with
+/// g_F <= g_max, to 1e-13 of the interval (g_F taken to grow monotonically away from its minimiser; it is +inf
+/// at the stability edges). An empty band is (NaN, NaN). With g_max = +inf the band is the stable interval.
+class NoiseBudgetBand {
+  public:
+    NoiseBudgetBand(const NormalizedPlant& plant, const VelocityEstimator& estimator, double g_max, int beta_grid)
+        : sampled_(plant), estimator_(estimator), g_max_(g_max), beta_grid_(beta_grid), region_(plant, estimator) {}
+
+    const EstimatorStabilityRegion& region() const { return region_; }
+    double g_max() const { return g_max_; }
+    double noise(double a, double b) const { return estimator_force_noise_gain(sampled_, estimator_, a, b); }
+
+    /// beta_lo (side 0) or beta_hi (side 1) at alpha; NaN where g_min(alpha) > g_max.
+    double edge(double a, int side) const {
+        const std::pair<double, double> interval = region_.beta_interval(a);
+        if (!(interval.second > interval.first)) return std::nan("");
+        if (std::isinf(g_max_)) return side == 0 ? interval.first : interval.second;
+        const ScalarMinimum m = noise_minimum(a, interval);
+        if (!(m.value <= g_max_)) return std::nan("");
+        return bisect(a, m.x, side == 0 ? interval.first : interval.second, interval.second - interval.first);
     }
-    return *k;
+
+    /// The band at alpha: (lo, hi) and the minimiser of g_F (NaN with g_max = +inf); all NaN when empty.
+    struct Band {
+        double lo = std::nan("");
+        double hi = std::nan("");
+        double least_noise_beta = std::nan("");
+        bool empty() const { return !(hi > lo); }
+    };
+    Band band(double a) const {
+        const std::pair<double, double> interval = region_.beta_interval(a);
+        Band out;
+        if (!(interval.second > interval.first)) return out;
+        if (std::isinf(g_max_)) {
+            out.lo = interval.first;
+            out.hi = interval.second;
+            return out;
+        }
+        const ScalarMinimum m = noise_minimum(a, interval);
+        if (!(m.value <= g_max_)) return out;
+        const double width = interval.second - interval.first;
+        out.lo = bisect(a, m.x, interval.first, width);
+        out.hi = bisect(a, m.x, interval.second, width);
+        out.least_noise_beta = m.x;
+        return out;
+    }
+
+  private:
+    ScalarMinimum noise_minimum(double a, const std::pair<double, double>& interval) const {
+        auto range = [&](double) { return interval; };
+        auto g = [&](double, double b) { return noise(a, b); };
+        return minimize_over_beta(g, range, a, beta_grid_);
+    }
+
+    double bisect(double a, double inside, double outside, double width) const {
+        if (noise(a, outside) <= g_max_) return outside;  // the budget does not bind before the edge
+        for (int k = 0; k < 200 && std::abs(outside - inside) > 1e-13 * width; ++k) {
+            const double mid = (inside + outside) / 2;
+            (noise(a, mid) <= g_max_ ? inside : outside) = mid;
+        }
+        return inside;
+    }
+
+    SampledPlant<double> sampled_;
+    VelocityEstimator estimator_;
+    double g_max_;
+    int beta_grid_;
+    EstimatorStabilityRegion region_;
+};
+
+/// The largest alpha in [floor top, top) where holds(alpha), for a property that holds below some alpha and not
+/// above it: a scan down from top over `grid` points log-spaced to floor top (the first point where it holds),
+/// then bisection in log alpha between it and the scan point above to `log_tolerance`. Returns the alpha where it
+/// holds; NaN when no scan point holds.
+template <typename Holds>
+double largest_alpha_where(Holds&& holds, double top, double floor, int grid, double log_tolerance) {
+    const double l1 = std::log(top), l0 = std::log(floor * top), step = (l1 - l0) / grid;
+    double with = l1, without = std::nan("");
+    for (int i = 0; i < grid; ++i) {
+        const double l = l1 - (i + 0.5) * step;
+        if (holds(std::exp(l))) {
+            without = l;
+            break;
+        }
+        with = l;
+    }
+    if (std::isnan(without)) return without;
+    while (with - without > log_tolerance) {
+        const double mid = (with + without) / 2;
+        (holds(std::exp(mid)) ? without : with) = mid;
+    }
+    return std::exp(without);
+}
+
+/// The least C_OV over the band at alpha, or a value <= tolerance as soon as one is found: the band's cell
+/// centres (`beta_grid`), then Brent on the best one's neighbouring cells. (beta, C_OV); +inf on an empty band.
+inline ScalarMinimum least_overshoot(const SampledPlant<double>& sampled, const VelocityEstimator& estimator,
+                                     const std::pair<double, double>& band, double a, int beta_grid,
+                                     const OvershootOptions& ov) {
+    if (!(band.second > band.first)) return {band.first, HUGE_VAL};
+    auto c_ov = [&](double b) { return static_cast<double>(estimator_overshoot(sampled, estimator, a, b, ov).value); };
+    const double step = (band.second - band.first) / beta_grid;
+    int best = 0;
+    double best_value = HUGE_VAL;
+    for (int i = 0; i < beta_grid; ++i) {
+        const double b = band.first + (i + 0.5) * step;
+        const double v = c_ov(b);
+        if (v <= ov.tolerance) return {b, v};
+        if (v < best_value) {
+            best_value = v;
+            best = i;
+        }
+    }
+    const double centre = band.first + (best + 0.5) * step;
+    const ScalarMinimum m =
+        minimize_scalar(c_ov, std::max(band.first, centre - step), std::min(band.second, centre + step),
+                        1e-12 * std::max(std::abs(centre), band.second - band.first));
+    return m.value <= best_value ? m : ScalarMinimum{centre, best_value};
+}
+
+/// amax, OV and CEx+OV under the budget (optimal_point_under_noise_budget; arguments checked there).
+HAPTICOPT_DEFERRED
+NoiseBudgetOptimum largest_alpha_under_noise_budget(Criterion criterion, const NormalizedPlant& plant,
+                                                    const VelocityEstimator& estimator, double noise_budget,
+                                                    const NoiseBudgetOptions& options) {
+    const char* fn = "hapticopt::optimal_point_under_noise_budget";
+    NoiseBudgetOptimum out;
+    out.criterion = criterion;
+    out.estimator = estimator;
+    out.noise_budget = noise_budget;
+    const NoiseBudgetBand budget(plant, estimator, noise_budget, options.beta_grid);
+    out.alpha_max = budget.region().alpha_max();
+    const SampledPlant<double> sampled(plant);
+    OvershootOptions ov;
+    ov.tolerance = options.unconstrained.overshoot_tolerance;
+    const int index = energy_index(criterion).value_or(0);
+    auto energy = [&](double a, double b) {
+        const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
+        return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+    };
+    // The criterion's beta in the band at alpha and whether its property holds there: (beta, holds).
+    auto choose = [&](double a) -> std::pair<double, bool> {
+        const NoiseBudgetBand::Band band = budget.band(a);
+        if (band.empty()) return {std::nan(""), false};
+        if (criterion == Criterion::AlphaMax) return {band.least_noise_beta, true};
+        double b = 0;
+        if (criterion == Criterion::Overshoot) {
+            b = least_overshoot(sampled, estimator, {band.lo, band.hi}, a, options.beta_grid, ov).x;
+        } else {
+            auto range = [&](double) { return std::pair<double, double>{band.lo, band.hi}; };
+            const ScalarMinimum m = minimize_over_beta(energy, range, a, options.beta_grid);
+            if (!std::isfinite(m.value)) return {m.x, false};
+            b = m.x;
+        }
+        return {b, estimator_overshoot(sampled, estimator, a, b, ov).within_tolerance};
+    };
+    const double a = out.alpha_max > 0
+                         ? largest_alpha_where([&](double x) { return choose(x).second; }, out.alpha_max,
+                                               options.alpha_floor, options.alpha_grid, options.alpha_tolerance)
+                         : std::nan("");
+    if (std::isnan(a) && std::isinf(noise_budget)) {
+        throw InvalidParameter(fn, "overshoot_tolerance", ov.tolerance,
+                               "a tolerance met by some stable gains with alpha >= alpha_floor alpha_max (none found "
+                               "on the scan)");
+    }
+    if (std::isnan(a)) {
+        throw InvalidParameter(fn, "noise_budget", noise_budget,
+                               criterion == Criterion::AlphaMax
+                                   ? "a g_F met by some stable gains with alpha >= alpha_floor alpha_max (none "
+                                     "found on the scan)"
+                                   : "a g_F met without overshoot by some stable gains with alpha >= alpha_floor "
+                                     "alpha_max (none found on the scan)");
+    }
+    out.alpha = a;
+    out.beta = choose(a).first;
+    out.force_noise_gain = budget.noise(out.alpha, out.beta);
+    out.cost = criterion == Criterion::AlphaMax ? out.alpha
+               : criterion == Criterion::Overshoot
+                   ? static_cast<double>(estimator_overshoot(sampled, estimator, a, out.beta, ov).value)
+                   : energy(out.alpha, out.beta);
+    out.budget_active = std::isfinite(noise_budget);
+    return out;
 }
 
 }  // namespace detail
 
-/// The optimum of CE0..2 subject to g_F <= noise_budget (the method and accuracy of the header comment).
+/// The optimum of a criterion subject to g_F <= noise_budget, over the main stable region with the estimator:
+///  - CE0..2: the method and accuracy of the header comment;
+///  - amax: the stiffest wall that meets the budget, the largest alpha whose band (detail::NoiseBudgetBand) is not
+///    empty, with the beta of least g_F there; cost = alpha. It lies inside the region (g_F finite), so no back-off
+///    from the boundary is needed;
+///  - OV: the largest alpha at which some beta of the band has C_OV <= options.unconstrained.overshoot_tolerance,
+///    with that beta (the band's least C_OV); cost = C_OV there;
+///  - CE0+OV..CE2+OV: the largest alpha at which the band's least C_Ex (beta_opt restricted to the band: grid and
+///    Brent, detail::minimize_over_beta) has C_OV <= the tolerance, with that beta; cost = C_Ex there.
+/// OV and CEx+OV: the point without the budget (the same search with the band equal to the stable interval) when
+/// it meets the budget (budget_active false), else the search on the band (budget_active true). A budget that cuts
+/// the C_Ex curve at every alpha leaves only the band's edges, which overshoot: no CEx+OV point (the error below).
+/// The three "largest alpha" searches: detail::largest_alpha_where down from alpha_max over `alpha_grid` points
+/// log-spaced to alpha_floor alpha_max, then bisection in log alpha to `alpha_tolerance` (the property is taken
+/// to hold below its largest alpha, as in optimum.hpp; tests/core/test_noise_budget.cpp checks each point against
+/// grids of the region). The returned point meets g_F <= g_max as computed (every beta is chosen inside the band);
+/// amax's budget_active is always true (g_F is infinite at the region's tip).
 /// Throws InvalidParameter naming `noise_budget` when it is not finite and > 0 or when no stable gains with
-/// alpha >= alpha_floor alpha_max meet it, `criterion` for anything but CE0..2, and the options' names.
+/// alpha >= alpha_floor alpha_max meet it (for OV and CEx+OV: meet it without overshoot), and the options' names.
 HAPTICOPT_DEFERRED
 NoiseBudgetOptimum optimal_point_under_noise_budget(Criterion criterion, const NormalizedPlant& plant,
                                                     const VelocityEstimator& estimator, double noise_budget,
@@ -94,7 +294,6 @@ NoiseBudgetOptimum optimal_point_under_noise_budget(Criterion criterion, const N
     const char* fn = "hapticopt::optimal_point_under_noise_budget";
     validate(plant, fn);
     validate(estimator, fn);
-    const int index = detail::noise_budget_energy_index(fn, criterion);
     detail::require_in_range(fn, "noise_budget", noise_budget, 0.0, true, HUGE_VAL,
                              "finite and > 0 (normalised g_max = sigma_max T^2 / (m q))");
     detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 8, false, 1e5, "8 <= alpha_grid <= 10^5");
@@ -102,6 +301,28 @@ NoiseBudgetOptimum optimal_point_under_noise_budget(Criterion criterion, const N
     detail::require_in_range(fn, "alpha_floor", options.alpha_floor, 0.0, true, 0.1, "0 < alpha_floor <= 0.1");
     detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-3,
                              "0 < alpha_tolerance <= 1e-3");
+    if (criterion == Criterion::Overshoot || requires_no_overshoot(criterion)) {
+        // The point without the budget when it meets the budget (as for CE0..2); else the search on the band.
+        NoiseBudgetOptimum free =
+            detail::largest_alpha_under_noise_budget(criterion, plant, estimator, HUGE_VAL, options);
+        if (free.force_noise_gain <= noise_budget) {
+            free.noise_budget = noise_budget;
+            free.budget_active = false;
+            free.unconstrained_cost = free.cost;
+            free.unconstrained_force_noise_gain = free.force_noise_gain;
+            return free;
+        }
+        NoiseBudgetOptimum out =
+            detail::largest_alpha_under_noise_budget(criterion, plant, estimator, noise_budget, options);
+        out.budget_active = true;
+        out.unconstrained_cost = free.cost;
+        out.unconstrained_force_noise_gain = free.force_noise_gain;
+        return out;
+    }
+    if (criterion == Criterion::AlphaMax) {
+        return detail::largest_alpha_under_noise_budget(criterion, plant, estimator, noise_budget, options);
+    }
+    const int index = *energy_index(criterion);
     NoiseBudgetOptimum out;
     out.criterion = criterion;
     out.estimator = estimator;
@@ -126,26 +347,10 @@ NoiseBudgetOptimum optimal_point_under_noise_budget(Criterion criterion, const N
     }
     out.budget_active = true;
 
-    const EstimatorStabilityRegion region(plant, estimator);
-    // beta on branch `side` (0: below beta*, 1: above) at alpha, NaN where g_min(alpha) > g_max.
-    auto crossing = [&](double a, int side) {
-        const std::pair<double, double> interval = region.beta_interval(a);
-        auto range = [&](double) { return interval; };
-        auto g = [&](double, double b) { return noise(a, b); };
-        const detail::ScalarMinimum m = detail::minimize_over_beta(g, range, a, options.beta_grid);
-        if (!(m.value <= noise_budget)) return std::nan("");
-        double inside = m.x, outside = side == 0 ? interval.first : interval.second;
-        if (noise(a, outside) <= noise_budget) return outside;  // the budget does not bind before the edge
-        const double width = interval.second - interval.first;
-        for (int k = 0; k < 200 && std::abs(outside - inside) > 1e-13 * width; ++k) {
-            const double mid = (inside + outside) / 2;
-            (noise(a, mid) <= noise_budget ? inside : outside) = mid;
-        }
-        return inside;
-    };
+    const detail::NoiseBudgetBand band(plant, estimator, noise_budget, options.beta_grid);
     auto branch_cost = [&](double log_a, int side) {
         const double a = std::exp(log_a);
-        const double b = crossing(a, side);
+        const double b = band.edge(a, side);
         return std::isnan(b) ? HUGE_VAL : cost(a, b);
     };
     const double l0 = std::log(options.alpha_floor * out.alpha_max), l1 = std::log(out.alpha_max);
@@ -181,9 +386,33 @@ NoiseBudgetOptimum optimal_point_under_noise_budget(Criterion criterion, const N
         }
     }
     out.alpha = std::exp(best_l);
-    out.beta = crossing(out.alpha, best_side);
+    out.beta = band.edge(out.alpha, best_side);
     out.cost = cost(out.alpha, out.beta);
     out.force_noise_gain = noise(out.alpha, out.beta);
+    return out;
+}
+
+/// The OV point with the estimator and no budget: the largest alpha at which some beta of the main region's stable
+/// interval has C_OV <= options.unconstrained.overshoot_tolerance, with that beta; cost = C_OV there. The search of
+/// optimal_point_under_noise_budget for OV with the band equal to the stable interval (g_max = +inf). The backward
+/// difference's OV point is optimal_point(Criterion::Overshoot, plant) (optimum.hpp). Throws InvalidParameter
+/// naming `overshoot_tolerance` when no scanned alpha meets it, and the options' names.
+HAPTICOPT_DEFERRED
+NoiseBudgetOptimum estimator_overshoot_point(const NormalizedPlant& plant, const VelocityEstimator& estimator,
+                                             const NoiseBudgetOptions& options = {}) {
+    const char* fn = "hapticopt::estimator_overshoot_point";
+    validate(plant, fn);
+    validate(estimator, fn);
+    detail::require_in_range(fn, "alpha_grid", options.alpha_grid, 8, false, 1e5, "8 <= alpha_grid <= 10^5");
+    detail::require_in_range(fn, "beta_grid", options.beta_grid, 4, false, 1e5, "4 <= beta_grid <= 10^5");
+    detail::require_in_range(fn, "alpha_floor", options.alpha_floor, 0.0, true, 0.1, "0 < alpha_floor <= 0.1");
+    detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-3,
+                             "0 < alpha_tolerance <= 1e-3");
+    detail::require_in_range(fn, "overshoot_tolerance", options.unconstrained.overshoot_tolerance, 0.0, true, 1.0,
+                             "0 < tolerance <= 1");
+    NoiseBudgetOptimum out =
+        detail::largest_alpha_under_noise_budget(Criterion::Overshoot, plant, estimator, HUGE_VAL, options);
+    out.budget_active = false;
     return out;
 }
 

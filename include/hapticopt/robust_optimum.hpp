@@ -34,7 +34,14 @@
 //     between the points. Damping, stiffness and delay are checked on their verification grids only (the characteristic
 //     polynomial is not affine in them): a dense check, not a proof. Limits: stated in the result
 //     (`mass_segments_certified`).
-// Cost: about 10^4 cost evaluations per grid plant for the optimisation (a few 0.1 s at d = 1).
+// With a velocity estimator (RobustOptions::estimator): the same steps on the loop with it — the costs of
+// velocity_estimator.hpp, each grid plant's main region (EstimatorStabilityRegion on kFastOptimumRegionGrid, its
+// beta interval to 1e-9), the crossing test of MassScalingTest with the estimator, the dense check by its Schur-Cohn
+// verdict. A force-noise budget (RobustOptions::force_noise_budget) makes W = +inf wherever sigma_F exceeds it at a
+// grid plant: the minimiser meets it on the optimisation grid (the region search treats +inf as infeasible), and
+// force_noise_max reports the largest sigma_F on the verification grid.
+// Cost: about 10^4 cost evaluations per grid plant for the optimisation (a few 0.1 s at d = 1 with the backward
+// difference; measured with estimators in docs/benchmarks.md).
 #pragma once
 
 #include <algorithm>
@@ -47,6 +54,7 @@
 #include "impulse_optimum.hpp"
 #include "mass_scaling_stability.hpp"
 #include "optimum.hpp"
+#include "velocity_estimator.hpp"
 
 namespace hapticopt {
 
@@ -112,6 +120,14 @@ struct RobustOptions {
     int verify_other_points = 5;
     int verify_delay_points = 9;
     RegionSearchOptions search{16, 12};
+    /// The loop's velocity estimator (velocity_estimator.hpp): the costs, regions and stability checks are those
+    /// of the loop with it. Collision criteria need the backward difference.
+    VelocityEstimator estimator{};
+    /// A force-noise budget sigma_F <= force_noise_budget [N] at every grid plant (0: none), sigma_F =
+    /// (m q / T^2) g_F with q = position_resolution [m] (> 0 with a budget): gains that exceed it at a plant
+    /// of the optimisation grid have W = +inf, and the verification reports the largest sigma_F on its grid.
+    double force_noise_budget = 0;
+    double position_resolution = 0;
 };
 
 /// Where the worst case occurs and its value (+inf: unstable there).
@@ -137,16 +153,20 @@ struct RobustOptimum {
     WallGains nominal_gains{0, 0};  ///< optimum of the criterion at the nominal plant
     BoxWorstCase nominal_worst;     ///< its worst case over the box (+inf if unstable somewhere)
     RobustStability nominal_stability;
+    /// Largest sigma_F [N] of the robust gains over the verification grid (0 without a position_resolution).
+    double force_noise_max = 0;
 };
 
 namespace detail {
 
 HAPTICOPT_FUNC double criterion_cost(const RobustCriterion& c, const SampledPlant<double>& plant, double alpha,
-                                     double beta)
+                                     double beta, const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
     if (c.impulse) return impulse_costs(plant, alpha, beta)[c.index];
-    const EnergyCosts e = energy_costs(plant, alpha, beta);
+    const EnergyCosts e = estimator.kind == VelocityEstimatorKind::backward
+                              ? energy_costs(plant, alpha, beta)
+                              : estimator_energy_costs(plant, estimator, alpha, beta);
     return c.index == 0 ? e.ce0 : c.index == 1 ? e.ce1 : e.ce2;
 }
 #else
@@ -155,10 +175,10 @@ HAPTICOPT_FUNC double criterion_cost(const RobustCriterion& c, const SampledPlan
 
 /// Cost at physical gains for a physical plant (normalising both).
 HAPTICOPT_FUNC double physical_cost(const RobustCriterion& c, const PhysicalPlant& p, const SampledPlant<double>& sp,
-                                    double K, double B)
+                                    double K, double B, const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
-    return criterion_cost(c, sp, K * p.period * p.period / p.mass, B * p.period / p.mass);
+    return criterion_cost(c, sp, K * p.period * p.period / p.mass, B * p.period / p.mass, estimator);
 }
 #else
     ;
@@ -191,12 +211,13 @@ HAPTICOPT_FUNC std::vector<PhysicalPlant> box_grid(const UncertainPlant& box, in
 
 /// Exact unit-circle crossing test along the mass segment for b = k = 0 (header comment, step 4; the crossings of
 /// mass_scaling_stability.hpp). Returns true when the loop is stable for every m in [m_min, m_max].
-HAPTICOPT_FUNC bool mass_segment_certified_stable(const UncertainPlant& box, double time_delay, double K, double B)
+HAPTICOPT_FUNC bool mass_segment_certified_stable(const UncertainPlant& box, double time_delay, double K, double B,
+                                                  const VelocityEstimator& estimator = {})
 #if HAPTICOPT_DEFINITIONS
 {
     const double T = box.period;
     if (!(K > 0)) return false;
-    const MassScalingTest test(NormalizedPlant{0.0, 0.0, time_delay / T});
+    const MassScalingTest test(NormalizedPlant{0.0, 0.0, time_delay / T}, estimator);
     // s = m_max / m in [1, m_max / m_min]; alpha = s alpha_ref, beta = s beta_ref.
     return test.over(K * T * T / box.mass.max, B * T / box.mass.max, 1.0, box.mass.max / box.mass.min).stable;
 }
@@ -221,7 +242,8 @@ HAPTICOPT_FUNC RobustStability robust_stability(const UncertainPlant& box, const
     for (const PhysicalPlant& corner : grid) {
         ++out.plants_checked;
         if (corner.damping == 0 && corner.stiffness == 0) {
-            if (!detail::mass_segment_certified_stable(box, corner.time_delay, gains.stiffness, gains.damping)) {
+            if (!detail::mass_segment_certified_stable(box, corner.time_delay, gains.stiffness, gains.damping,
+                                                       options.estimator)) {
                 out.stable = false;
                 out.mass_segments_certified = false;
                 return out;
@@ -233,7 +255,10 @@ HAPTICOPT_FUNC RobustStability robust_stability(const UncertainPlant& box, const
             PhysicalPlant p = corner;
             p.mass = box.mass.at(im, nm);
             const NormalizedGains g = normalize(gains, p.mass, p.period);
-            if (!loop_is_stable(SampledPlant<double>(normalize(p)), g.alpha, g.beta)) {
+            const bool stable = options.estimator.kind == VelocityEstimatorKind::backward
+                                    ? loop_is_stable(SampledPlant<double>(normalize(p)), g.alpha, g.beta)
+                                    : EstimatorStabilityTest(normalize(p), options.estimator).stable(g.alpha, g.beta);
+            if (!stable) {
                 out.stable = false;
                 out.mass_segments_certified = false;
                 return out;
@@ -261,7 +286,8 @@ HAPTICOPT_FUNC BoxWorstCase robust_worst_case(const RobustCriterion& criterion, 
     std::size_t at = 0;
     for (std::size_t i = 0; i < grid.size(); ++i) {
         const SampledPlant<double> sp(normalize(grid[i]));
-        const double c = detail::physical_cost(criterion, grid[i], sp, gains.stiffness, gains.damping);
+        const double c =
+            detail::physical_cost(criterion, grid[i], sp, gains.stiffness, gains.damping, options.estimator);
         if (!(c <= worst.cost)) {
             worst.cost = c;
             worst.where = grid[i];
@@ -276,7 +302,7 @@ HAPTICOPT_FUNC BoxWorstCase robust_worst_case(const RobustCriterion& criterion, 
             PhysicalPlant p = base;
             p.mass = m;
             return -detail::physical_cost(criterion, p, SampledPlant<double>(normalize(p)), gains.stiffness,
-                                          gains.damping);
+                                          gains.damping, options.estimator);
         };
         const auto r = detail::minimize_scalar(negative, std::max(box.mass.min, base.mass - step),
                                                std::min(box.mass.max, base.mass + step), 1e-9 * base.mass);
@@ -305,39 +331,77 @@ HAPTICOPT_FUNC RobustOptimum robust_optimum_impl(const RobustCriterion& criterio
     require_in_range(fn, "verify_mass_points", options.verify_mass_points, 2, false, 1e5, ">= 2");
     require_in_range(fn, "verify_other_points", options.verify_other_points, 2, false, 1e3, ">= 2");
     require_in_range(fn, "verify_delay_points", options.verify_delay_points, 2, false, 1e3, ">= 2");
+    validate(options.estimator, fn);
+    const bool backward = options.estimator.kind == VelocityEstimatorKind::backward;
+    if (criterion.impulse && !backward) {
+        throw InvalidParameter(fn, "estimator", static_cast<double>(options.estimator.kind),
+                               "the backward difference for the collision criteria (CI0..2)");
+    }
+    require_in_range(fn, "force_noise_budget", options.force_noise_budget, 0.0, false, HUGE_VAL,
+                     "finite and >= 0 N (0: none)");
+    if (options.force_noise_budget > 0) {
+        require_in_range(fn, "position_resolution", options.position_resolution, 0.0, true, HUGE_VAL,
+                         "finite and > 0 m with a force_noise_budget");
+    }
     const double T = box.period;
     const std::vector<PhysicalPlant> grid =
         box_grid(box, options.mass_points, options.other_points, options.delay_points);
     std::vector<SampledPlant<double>> sampled;
-    std::vector<StabilityRegion> regions;
+    std::vector<StabilityRegion> regions;                     // the backward difference's exact regions
+    std::vector<EstimatorStabilityRegion> estimator_regions;  // or the estimator's main regions
     sampled.reserve(grid.size());
-    regions.reserve(grid.size());
     double K_max = HUGE_VAL;
     for (const PhysicalPlant& p : grid) {
         sampled.emplace_back(normalize(p));
-        regions.emplace_back(normalize(p));
-        K_max = std::min(K_max, regions.back().alpha_max() * p.mass / (T * T));
+        double alpha_max = 0;
+        if (backward) {
+            regions.emplace_back(normalize(p));
+            alpha_max = regions.back().alpha_max();
+        } else {
+            estimator_regions.emplace_back(normalize(p), options.estimator, kFastOptimumRegionGrid);
+            alpha_max = estimator_regions.back().alpha_max();
+        }
+        K_max = std::min(K_max, alpha_max * p.mass / (T * T));
     }
     auto interval = [&](double K) {
         double lo = -HUGE_VAL, hi = HUGE_VAL;
         for (std::size_t i = 0; i < grid.size(); ++i) {
             const double m = grid[i].mass;
-            const auto [bl, bh] = regions[i].beta_range(std::min(K * T * T / m, regions[i].alpha_max()));
-            lo = std::max(lo, bl * m / T);
-            hi = std::min(hi, bh * m / T);
+            std::pair<double, double> b;
+            if (backward) {
+                b = regions[i].beta_range(std::min(K * T * T / m, regions[i].alpha_max()));
+            } else {
+                const EstimatorStabilityRegion& r = estimator_regions[i];
+                b = r.beta_interval(std::min(K * T * T / m, r.alpha_max()), 1e-9);
+            }
+            lo = std::max(lo, b.first * m / T);
+            hi = std::min(hi, b.second * m / T);
         }
         return std::pair<double, double>{lo, hi};
+    };
+    auto force_noise = [&](const PhysicalPlant& p, const SampledPlant<double>& sp, double K, double B) {
+        const double g = estimator_force_noise_gain(sp, options.estimator, K * T * T / p.mass, B * T / p.mass);
+        return p.mass * options.position_resolution / (T * T) * g;
     };
     auto worst = [&](double K, double B) {
         double w = -HUGE_VAL;
         for (std::size_t i = 0; i < grid.size(); ++i) {
-            const double c = physical_cost(criterion, grid[i], sampled[i], K, B);
+            const double c = physical_cost(criterion, grid[i], sampled[i], K, B, options.estimator);
             if (!std::isfinite(c)) return HUGE_VAL;
+            if (options.force_noise_budget > 0 &&
+                !(force_noise(grid[i], sampled[i], K, B) <= options.force_noise_budget)) {
+                return HUGE_VAL;
+            }
             w = std::max(w, c);
         }
         return w;
     };
     const RegionMinimum m = minimize_on_region(worst, 0.0, K_max, interval, options.search);
+    if (!std::isfinite(m.value) && options.force_noise_budget > 0) {
+        throw InvalidParameter(fn, "force_noise_budget", options.force_noise_budget,
+                               "a budget met by some (K, B) stable over the box (none found on the grid): a larger "
+                               "force_noise_budget, a finer position_resolution or a smoother velocity estimator");
+    }
     if (!std::isfinite(m.value)) {
         throw InvalidParameter(fn, "mass", box.mass.max,
                                "a box with a common stable (K, B) region (none found on the grid)");
@@ -349,6 +413,14 @@ HAPTICOPT_FUNC RobustOptimum robust_optimum_impl(const RobustCriterion& criterio
     out.K_max = K_max;
     out.worst = robust_worst_case(criterion, box, out.gains, options);
     out.stability = robust_stability(box, out.gains, options);
+    if (options.position_resolution > 0) {
+        for (const PhysicalPlant& p :
+             box_grid(box, options.verify_mass_points, options.verify_other_points, options.verify_delay_points)) {
+            const double sigma =
+                force_noise(p, SampledPlant<double>(normalize(p)), out.gains.stiffness, out.gains.damping);
+            out.force_noise_max = std::max(out.force_noise_max, sigma);
+        }
+    }
     out.nominal = box.nominal();
     const NormalizedPlant np = normalize(out.nominal);
     NormalizedGains ng{0, 0};
@@ -358,10 +430,10 @@ HAPTICOPT_FUNC RobustOptimum robust_optimum_impl(const RobustCriterion& criterio
                                                                                      : ImpulseCriterion::CI2);
         ng = {o.alpha, o.beta};
     } else {
-        const Optimum o = optimal_point(criterion.index == 0   ? Criterion::CE0
-                                        : criterion.index == 1 ? Criterion::CE1
-                                                               : Criterion::CE2,
-                                        np);
+        const EstimatorOptimum o = optimal_point(criterion.index == 0   ? Criterion::CE0
+                                                 : criterion.index == 1 ? Criterion::CE1
+                                                                        : Criterion::CE2,
+                                                 np, options.estimator);
         ng = {o.alpha, o.beta};
     }
     out.nominal_gains = to_physical(ng, out.nominal.mass, T);

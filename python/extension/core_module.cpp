@@ -382,9 +382,16 @@ py::dict physical_plant_dict(const PhysicalPlant& p) {
     return d;
 }
 
+VelocityEstimator estimator_of(const std::string& kind, double cutoff, int window);
+
 py::dict robust_optimum_of(const std::string& criterion, std::pair<double, double> mass,
                            std::pair<double, double> damping, std::pair<double, double> stiffness, double period,
-                           std::pair<double, double> time_delay) {
+                           std::pair<double, double> time_delay, const std::string& kind, double cutoff, int window,
+                           double force_noise_budget, double position_resolution) {
+    RobustOptions options;
+    options.estimator = estimator_of(kind, cutoff, window);
+    options.force_noise_budget = force_noise_budget;
+    options.position_resolution = position_resolution;
     UncertainPlant box;
     box.mass = {mass.first, mass.second};
     box.damping = {damping.first, damping.second};
@@ -393,9 +400,9 @@ py::dict robust_optimum_of(const std::string& criterion, std::pair<double, doubl
     box.time_delay = {time_delay.first, time_delay.second};
     RobustOptimum r;
     if (const auto c = parse_criterion(criterion)) {
-        without_gil([&] { r = robust_optimum(*c, box); });
+        without_gil([&] { r = robust_optimum(*c, box, options); });
     } else if (const auto ci = parse_impulse_criterion(criterion)) {
-        without_gil([&] { r = robust_optimum(*ci, box); });
+        without_gil([&] { r = robust_optimum(*ci, box, options); });
     } else {
         throw py::value_error("hapticopt.robust_optimum: criterion = '" + criterion +
                               "' is invalid; accepted: " + energy_and_collision_names());
@@ -413,6 +420,7 @@ py::dict robust_optimum_of(const std::string& criterion, std::pair<double, doubl
     d["nominal_damping"] = r.nominal_gains.damping;
     d["nominal_worst_cost"] = r.nominal_worst.cost;
     d["nominal_stable_over_box"] = r.nominal_stability.stable;
+    d["force_noise_max"] = r.force_noise_max;
     return d;
 }
 
@@ -535,16 +543,17 @@ double force_noise_gain_of(double gamma, double delta, double delay, double alph
                             estimator_of(kind, cutoff, window));
 }
 
-/// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator (velocity_estimator.hpp's optimal_point),
-/// g_F there and the stable islands of the gain plane (as `hapticopt optimum --velocity --json`).
+/// The optimum of every criterion with the estimator (velocity_estimator.hpp's optimal_point; OV by
+/// noise_budget.hpp's estimator_overshoot_point), g_F there and the stable islands of the gain plane (as
+/// `hapticopt optimum --velocity --json`).
 py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, double delta, double delay,
                                     const std::string& kind, double cutoff, int window, double overshoot_tolerance) {
     const char* fn = "hapticopt.optimal_point";
     const auto c = parse_criterion(criterion);
-    if (!c || *c == Criterion::Overshoot) {
-        throw py::value_error(
-            std::string(fn) + ": criterion = '" + criterion +
-            "' is invalid with a velocity estimator; accepted: amax, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV");
+    if (!c) {
+        throw py::value_error(std::string(fn) + ": criterion = '" + criterion +
+                              "' is invalid with a velocity estimator; accepted: amax, OV, CE0, CE1, CE2, CE0+OV, "
+                              "CE1+OV, CE2+OV");
     }
     const NormalizedPlant np = plant_of(gamma, delta, delay);
     const VelocityEstimator e = estimator_of(kind, cutoff, window);
@@ -554,9 +563,22 @@ py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, 
     double g = 0;
     std::vector<StableIsland> islands;
     without_gil([&] {
-        r = optimal_point(*c, np, e, o);
+        const EstimatorStabilityRegion region(np, e);
+        if (*c == Criterion::Overshoot) {
+            NoiseBudgetOptions nbo;
+            nbo.unconstrained = o;
+            const NoiseBudgetOptimum ov = estimator_overshoot_point(np, e, nbo);
+            r.criterion = *c;
+            r.alpha = ov.alpha;
+            r.beta = ov.beta;
+            r.cost = ov.cost;
+            r.alpha_max = region.alpha_max();
+            r.beta_at_alpha_max = region.beta_at_alpha_max();
+        } else {
+            r = optimal_point(*c, np, e, o);
+        }
         g = force_noise_gain(np, NormalizedGains{r.alpha, r.beta}, e);
-        islands = EstimatorStabilityRegion(np, e).islands();
+        islands = region.islands();
     });
     py::dict d;
     d["alpha"] = r.alpha;
@@ -571,13 +593,13 @@ py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, 
     return d;
 }
 
-/// The optimum of CE0..2 under g_F <= noise_budget (noise_budget.hpp), as `hapticopt optimum --noise-budget`.
+/// The optimum of a step criterion under g_F <= noise_budget (noise_budget.hpp), as `hapticopt optimum --noise-budget`.
 py::dict noise_budget_optimum_of(const std::string& criterion, double gamma, double delta, double delay,
                                  const std::string& kind, double cutoff, int window, double noise_budget) {
     const auto c = parse_criterion(criterion);
-    if (!c || !energy_index(*c) || requires_no_overshoot(*c)) {
+    if (!c) {
         throw py::value_error("hapticopt.optimal_point_under_noise_budget: criterion = '" + criterion +
-                              "' is invalid; accepted: CE0, CE1, CE2");
+                              "' is invalid; accepted: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV");
     }
     const NormalizedPlant np = plant_of(gamma, delta, delay);
     const VelocityEstimator e = estimator_of(kind, cutoff, window);

@@ -230,5 +230,5 @@ def test_noise_pareto_front_and_bad_budgets():
     with pytest.raises(ho.InvalidParameterError) as info:
         ho.optimal_point_under_noise_budget("CE2", -1.0, plant, estimator="lowpass:0.02")
     assert info.value.parameter == "noise_budget"
-    with pytest.raises(ValueError, match="CE0, CE1, CE2"):
-        ho.optimal_point_under_noise_budget("CE2+OV", 0.01, plant)
+    with pytest.raises(ValueError, match="amax, OV, CE0, CE1, CE2, CE0\\+OV"):
+        ho.optimal_point_under_noise_budget("CI2", 0.01, plant)

@@ -537,10 +537,9 @@ DeviceProfile load_device_profile(const Options& o) {
                     "lowpass:<F>Hz with F <= " + std::to_string(nyquist) + " Hz (the Nyquist frequency of --rate)");
         }
         p.velocity_estimator = *estimator;
-        // These analyse the backward difference only (robust_optimum.hpp, the passivity controller's observer).
-        // Nor do they bound the force noise.
-        for (auto [set, option] :
-             {std::pair{o.robust, "--robust"}, std::pair{o.passivity_control, "--passivity-control"}}) {
+        // The passivity controller's observer analyses the backward difference only, and it does not bound the
+        // force noise (--robust analyses the loop's estimator and meets the budget: robust_optimum.hpp).
+        for (auto [set, option] : {std::pair{o.passivity_control, "--passivity-control"}}) {
             if (set && !estimator->is_backward()) {
                 throw StartupError(ErrorKind::Usage, where.prefix("velocity_estimator") + std::string(option) +
                                                          " models the backward difference only; the "

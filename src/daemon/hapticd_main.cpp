@@ -179,7 +179,12 @@ TuningBox robust_box(const Options& o, const DeviceProfile& p, const std::option
     const double buffer = static_cast<double>(o.delay_buffer) / o.rate;
     TuningBox b;
     b.period = period;
-    b.velocity = p.velocity_estimator;  // tune_wall_robust refuses any but the backward difference
+    b.velocity = p.velocity_estimator;
+    // The budget judged with the coarsest axis's encoder step (sigma_F grows with q): met on every axis.
+    if (p.force_noise_budget) {
+        b.force_noise_budget = p.force_noise_budget;
+        for (const double q : p.position_resolution) b.position_resolution = std::max(b.position_resolution, q);
+    }
     if (ident) {
         const IdentificationResult& r = ident->result;
         constexpr double k = 3.0;  // +- 3 standard errors

@@ -47,6 +47,11 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                       r.worst_case, r.worst_mass, r.worst_damping, r.worst_stiffness, r.worst_delay * 1e3,
                       r.nominal_worst_case, r.mass_certified ? "proven" : "checked on a grid");
         line += buf;
+        if (r.box.force_noise_budget && r.force_noise_max) {
+            std::snprintf(buf, sizeof buf, "; force noise at most %.4g N over the box (budget %.4g N)",
+                          *r.force_noise_max, *r.box.force_noise_budget);
+            line += buf;
+        }
     }
     return line;
 }
@@ -178,18 +183,22 @@ nlohmann::json tuning_json(const TuningResult& t) {
     if (t.robust) {
         const RobustSummary& r = *t.robust;
         auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-        j["robust"] = {{"mass", {r.box.mass_min, r.box.mass_max}},
-                       {"damping", {r.box.damping_min, r.box.damping_max}},
-                       {"stiffness", {r.box.stiffness_min, r.box.stiffness_max}},
-                       {"delay", {r.box.delay_min, r.box.delay_max}},
-                       {"worst_case", r.worst_case},
-                       {"worst_at",
-                        {{"mass", r.worst_mass},
-                         {"damping", r.worst_damping},
-                         {"stiffness", r.worst_stiffness},
-                         {"delay", r.worst_delay}}},
-                       {"nominal_worst_case", finite_or_null(r.nominal_worst_case)},
-                       {"mass_stability_certified", r.mass_certified}};
+        j["robust"] = {
+            {"mass", {r.box.mass_min, r.box.mass_max}},
+            {"damping", {r.box.damping_min, r.box.damping_max}},
+            {"stiffness", {r.box.stiffness_min, r.box.stiffness_max}},
+            {"delay", {r.box.delay_min, r.box.delay_max}},
+            {"worst_case", r.worst_case},
+            {"worst_at",
+             {{"mass", r.worst_mass},
+              {"damping", r.worst_damping},
+              {"stiffness", r.worst_stiffness},
+              {"delay", r.worst_delay}}},
+            {"nominal_worst_case", finite_or_null(r.nominal_worst_case)},
+            {"mass_stability_certified", r.mass_certified},
+            {"force_noise_budget",
+             r.box.force_noise_budget ? nlohmann::json(*r.box.force_noise_budget) : nlohmann::json(nullptr)},
+            {"force_noise_max", r.force_noise_max ? nlohmann::json(*r.force_noise_max) : nlohmann::json(nullptr)}};
     }
     return j;
 }

@@ -105,13 +105,6 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         if (plant.force_noise_budget) {
             // sigma_F = (m q / T^2) g_F: the budget in normalised units is g_max = budget T^2 / (m q).
             const double budget = *plant.force_noise_budget, q = plant.position_resolution;
-            if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
-                throw StartupError(ErrorKind::InvalidParameter,
-                                   "tuning: criterion = " + criterion +
-                                       " is invalid with force_noise_budget = " + g(budget) +
-                                       " N; accepted: CE0, CE1, CE2 (the budgeted optimum minimises an "
-                                       "energy criterion), or no force_noise_budget");
-            }
             if (!(q > 0.0)) {
                 throw StartupError(ErrorKind::InvalidParameter,
                                    "tuning: force_noise_budget = " + g(budget) +
@@ -130,6 +123,7 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
                                        "; accepted: a larger force_noise_budget or a finer position_resolution");
             }
             take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
+            r.force_noise_budget_active = t.budget_active;
         } else if (is_backward(estimator)) {
             const hapticopt::WallTuning t = hapticopt::optimal_wall(c, physical);
             r.K = t.K;
@@ -139,17 +133,17 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
             r.cost = t.cost;
             r.alpha_max = t.alpha_max;
         } else {
-            // The optimum of the loop with the estimator over its main stable region (hapticopt::optimal_point).
+            // The optimum of the loop with the estimator over its main stable region (hapticopt::optimal_point; the
+            // OV point by hapticopt::estimator_overshoot_point).
             if (c == hapticopt::Criterion::Overshoot) {
-                throw StartupError(
-                    ErrorKind::InvalidParameter,
-                    "tuning: criterion = OV has no optimum with velocity_estimator = " + to_string(plant.velocity) +
-                        "; accepted: amax, CE0..2, CE0+OV..CE2+OV, or velocity_estimator = backward");
+                const hapticopt::NoiseBudgetOptimum t = hapticopt::estimator_overshoot_point(normalized, estimator);
+                take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
+            } else {
+                const hapticopt::EstimatorOptimum t = hapticopt::optimal_point(c, normalized, estimator);
+                take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
             }
-            const hapticopt::EstimatorOptimum t = hapticopt::optimal_point(c, normalized, estimator);
-            take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
         }
-        if (c == hapticopt::Criterion::AlphaMax) {
+        if (c == hapticopt::Criterion::AlphaMax && !plant.force_noise_budget) {
             // amax is the region's tip (alpha_max, the beta there), on its boundary: marginally stable. What is
             // rendered is the tip moved inwards along alpha, alpha_max (1 - kAlphaMaxBackOff) at the tip's beta:
             // the stable beta interval at that alpha has a half-width of order sqrt(kAlphaMaxBackOff) around a
@@ -158,6 +152,8 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
             r.K = r.alpha * plant.mass / (plant.period * plant.period);
             r.cost = r.alpha;
         }
+        // amax under a force-noise budget is the stiffest wall meeting it: inside the region (g_F finite there),
+        // no back-off from the boundary (hapticopt::optimal_point_under_noise_budget).
         // Every tuned wall is checked as explicit gains are: an optimum on or outside the boundary is refused.
         const hapticopt::NormalizedGains gains{r.alpha, r.beta};
         if (!stable_with(normalized, gains, estimator)) {
@@ -225,11 +221,6 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
 
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
     const hapticopt::Criterion c = parse(criterion);
-    if (!box.velocity.is_backward()) {
-        throw StartupError(ErrorKind::Usage, "--robust with velocity_estimator = " + to_string(box.velocity) +
-                                                 " is invalid: the robust optimum models the backward difference; "
-                                                 "accepted: velocity_estimator = backward with --robust");
-    }
     if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
         throw StartupError(ErrorKind::Usage, "criterion = " + criterion +
                                                  " is invalid with --robust; accepted: CE0, CE1, CE2 "
@@ -241,8 +232,14 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
     u.stiffness = {box.stiffness_min, box.stiffness_max};
     u.time_delay = {box.delay_min, box.delay_max};
     u.period = box.period;
+    hapticopt::RobustOptions options;
+    options.estimator = to_hapticopt_estimator(box.velocity, box.period);
+    if (box.force_noise_budget) {
+        options.force_noise_budget = *box.force_noise_budget;
+        options.position_resolution = box.position_resolution;
+    }
     try {
-        const hapticopt::RobustOptimum r = hapticopt::robust_optimum(c, u);
+        const hapticopt::RobustOptimum r = hapticopt::robust_optimum(c, u, options);
         if (!r.stability.stable || !std::isfinite(r.worst.cost)) {
             throw StartupError(ErrorKind::InvalidParameter,
                                "robust tuning: no wall gains are stable over the whole parameter box (mass " +
@@ -260,7 +257,7 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
         t.alpha = gains.alpha;
         t.beta = gains.beta;
         t.cost = r.worst.cost;
-        t.alpha_max = hapticopt::StabilityRegion(nominal).alpha_max();
+        t.alpha_max = alpha_max_with(nominal, options.estimator);
         RobustSummary s;
         s.box = box;
         s.worst_case = r.worst.cost;
@@ -270,6 +267,18 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
         s.worst_delay = r.worst.where.time_delay;
         s.nominal_worst_case = r.nominal_worst.cost;
         s.mass_certified = r.stability.mass_segments_certified;
+        if (box.force_noise_budget) {
+            s.force_noise_max = r.force_noise_max;
+            // The budget is met on the optimisation grid; what is reported holds on the finer verification grid too.
+            if (!(r.force_noise_max <= *box.force_noise_budget)) {
+                throw StartupError(
+                    ErrorKind::InvalidParameter,
+                    "robust tuning: the robust " + criterion + " gains K = " + g(t.K) + " N/m, B = " + g(t.B) +
+                        " N s/m exceed force_noise_budget = " + g(*box.force_noise_budget) +
+                        " N between the optimisation grid's masses (sigma_F up to " + g(r.force_noise_max) +
+                        " N); accepted: a larger force_noise_budget or a narrower mass range");
+            }
+        }
         t.robust = s;
         return t;
     } catch (const hapticopt::InvalidParameter& e) {

@@ -36,9 +36,13 @@ struct TuningBox {
     double stiffness_min = 0.0, stiffness_max = 0.0;  // N/m
     double delay_min = 0.0, delay_max = 0.0;          // s, total loop delay (device + buffer)
     double period = 1e-3;                             // s
-    // The loop's velocity estimator: the robust optimum models the backward difference only, so
-    // tune_wall_robust refuses any other (the caller sets it from the profile's velocity_estimator).
+    // The loop's velocity estimator (the caller sets it from the profile's velocity_estimator): the robust optimum
+    // analyses the loop with it.
     VelocityEstimatorSpec velocity{};
+    // The profile's force_noise_budget (N; none: no budget) and the encoder step it is judged with (m, > 0 with a
+    // budget): the robust gains meet sigma_F <= budget at every plant of the optimisation grid.
+    std::optional<double> force_noise_budget{};
+    double position_resolution = 0.0;
 };
 
 // What --robust adds to a tuning: the box, the worst case of the gains over it and where it occurs, and
@@ -47,8 +51,9 @@ struct RobustSummary {
     TuningBox box;
     double worst_case = 0.0;
     double worst_mass = 0.0, worst_damping = 0.0, worst_stiffness = 0.0, worst_delay = 0.0;
-    double nominal_worst_case = 0.0;  // +inf: the nominal optimum is unstable somewhere in the box
-    bool mass_certified = false;      // stability over the mass range proven (not only sampled)
+    double nominal_worst_case = 0.0;        // +inf: the nominal optimum is unstable somewhere in the box
+    bool mass_certified = false;            // stability over the mass range proven (not only sampled)
+    std::optional<double> force_noise_max;  // with a budget: the largest sigma_F over the verification grid, N
 };
 
 // What the encoder step does at rest in contact (docs/limit-cycles.md), for the profile's plant with the profile's
@@ -106,6 +111,7 @@ struct TuningResult {
     std::optional<double> force_noise_std;
     std::optional<EncoderChatter> chatter;         // with q > 0, stable gains and the backward difference
     std::optional<PlantSetCertificate> plant_set;  // set by the daemon's certification of its walls
+    bool force_noise_budget_active = false;        // the force-noise budget moved the optimum (tune_wall)
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
 
@@ -132,14 +138,16 @@ inline constexpr double kAlphaMaxBackOff = 1e-3;
 
 // Optimal gains for the criterion (computes only that criterion; amax as above) for the loop with the plant's
 // velocity estimator: the backward difference by hapticopt::optimal_wall, any other by hapticopt::optimal_point with
-// the estimator (its main stable region's alpha_max; OV has no estimator optimum). Throws StartupError
+// the estimator (its main stable region's alpha_max; OV by hapticopt::estimator_overshoot_point). Throws StartupError
 // (ErrorKind::InvalidParameter) when hapticopt rejects a parameter or the criterion with the estimator,
 // (ErrorKind::UnstableGains) when the gains are not strictly inside the stability region of the loop with the
 // estimator (hapticopt::is_stable, or the estimator's Schur-Cohn verdict).
-// With plant.force_noise_budget: the optimum of CE0, CE1 or CE2 subject to sigma_F <= budget
+// With plant.force_noise_budget: the criterion's optimum subject to sigma_F <= budget
 // (hapticopt::optimal_point_under_noise_budget with the estimator and g_max = budget T^2 / (m q), q =
-// plant.position_resolution; the unconstrained optimum when it meets the budget); StartupError
-// (ErrorKind::InvalidParameter) for another criterion, for q = 0, and when no stable gains meet the budget.
+// plant.position_resolution: CE0..2 minimised on the budget's set, the unconstrained optimum when it meets the budget;
+// amax the stiffest wall that meets it, rendered as found (inside the region, no back-off); OV and CEx+OV the
+// largest alpha without overshoot on the budget's set); StartupError (ErrorKind::InvalidParameter) for q = 0 and
+// when no stable gains meet the budget.
 TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 
 // Sets t.position_resolution, t.force_noise_std and t.chatter for the plant the gains act on. sigma_F: the
@@ -153,10 +161,11 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
 void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double position_resolution,
                              double coulomb_friction = 0.0);
 
-// Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box, stable over the whole
-// box (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
-// another criterion or a velocity estimator other than backward (the robust optimum models the backward
-// difference), ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box.
+// Robust gains for CE0, CE1 or CE2: minimise the criterion's worst case over the box for the loop with the box's
+// velocity estimator, stable over the whole box and within its force-noise budget
+// (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
+// another criterion, ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box (or
+// meet the budget there).
 TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box);
 
 // Explicit gains: accepted when inside the stability region of the loop with the plant's velocity estimator (cost

@@ -201,6 +201,35 @@ void BM_NoiseBudgetOptimum(benchmark::State& state) {
 }
 BENCHMARK(BM_NoiseBudgetOptimum)->Args({0, 1})->Args({1, 1})->Args({2, 1})->Unit(benchmark::kMillisecond);
 
+// Every criterion under the shipped Falcon profile's budget (config/devices/falcon.toml: window 15, d = 6, 0.30 kg,
+// T = 1 ms, q = 4.85e-5 m, 0.05 N: g_max = 3.436e-3; it binds for amax only), range(0): 0 CE2, 1 amax, 2 CE2+OV,
+// 3 OV; CE2's point is the baseline in the same run.
+void BM_NoiseBudgetFalconCriteria(benchmark::State& state) {
+    const NormalizedPlant plant{0, 0, 6};
+    const VelocityEstimator e = VelocityEstimator::moving_window(15);
+    const double g_max = 0.05 * 1e-6 / (0.30 * 4.85e-5);
+    const Criterion c[] = {Criterion::CE2, Criterion::AlphaMax, Criterion::CE2_OV, Criterion::Overshoot};
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point_under_noise_budget(c[state.range(0)], plant, e, g_max));
+}
+BENCHMARK(BM_NoiseBudgetFalconCriteria)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
+
+// The robust CE2 wall of the shipped Falcon profile (mass 0.22 .. 0.30 kg, 6 ms): range(0) 0 the backward difference
+// without a budget (the baseline), 1 window 15 without a budget, 2 window 15 with the 0.05 N budget (q = 4.85e-5 m).
+void BM_RobustFalcon(benchmark::State& state) {
+    UncertainPlant box;
+    box.mass = {0.22, 0.30};
+    box.period = 1e-3;
+    box.time_delay = {0.006, 0.006};
+    RobustOptions o;
+    if (state.range(0) > 0) o.estimator = VelocityEstimator::moving_window(15);
+    if (state.range(0) == 2) {
+        o.force_noise_budget = 0.05;
+        o.position_resolution = 4.85e-5;
+    }
+    for (auto _ : state) benchmark::DoNotOptimize(robust_optimum(Criterion::CE2, box, o));
+}
+BENCHMARK(BM_RobustFalcon)->DenseRange(0, 2)->Unit(benchmark::kMillisecond);
+
 // The describing-function limit cycle (limit_cycles.hpp) of the C_E2 optimum at d = 0, 1, 6 on m = 0.3 kg,
 // T = 1 ms, q = 20 um, push half-way between two levels; range(1): Coulomb friction 0 or 0.3 N (with friction
 // the plant is re-discretised at every amplitude and frequency). Baseline in the same run: BM_StabilityTest.

@@ -11,6 +11,8 @@
 
 #include <hapticopt/estimator_impulse.hpp>
 #include <hapticopt/estimator_passivity.hpp>
+#include <hapticopt/noise_budget.hpp>
+#include <hapticopt/robust_optimum.hpp>
 #include <hapticopt/stability_region.hpp>
 
 #include "cli_output.hpp"
@@ -113,9 +115,14 @@ TEST(VelocityCli, OptimumWithEstimator) {
     EXPECT_EQ(out["velocity_estimator"]["window"], 15);
     EXPECT_LT(out["alpha"].get<double>(), out["alpha_max"].get<double>());
     EXPECT_EQ(out["stable_islands"].size(), 1u);
-    const auto [code2, refused] = run_velocity_command(
+    // OV with the estimator: estimator_overshoot_point's point (no overshoot there).
+    const auto [code2, ov_point] = run_velocity_command(
         add_optimum_command, {"optimum", "--criterion", "OV", "--velocity", "window:15", "--json"});
-    EXPECT_EQ(code2, int{kUsage});
+    ASSERT_EQ(code2, 0);
+    const NoiseBudgetOptimum expected_ov = estimator_overshoot_point({0, 0, 0}, VelocityEstimator::moving_window(15));
+    EXPECT_EQ(ov_point["alpha"].get<double>(), expected_ov.alpha);
+    EXPECT_EQ(ov_point["beta"].get<double>(), expected_ov.beta);
+    EXPECT_LE(ov_point["cost"].get<double>(), 1e-12);
     const auto [code3, ov] = run_velocity_command(
         add_optimum_command, {"optimum", "--criterion", "CE2+OV", "--velocity", "lowpass:0.1", "--json"});
     ASSERT_EQ(code3, 0);
@@ -147,11 +154,23 @@ TEST(VelocityCli, OptimumWithEstimator) {
     EXPECT_TRUE(passive["passive"].get<bool>());
     EXPECT_EQ(passive["alpha_max"].get<double>(), EstimatorStabilityRegion({0, 0.02, 1}, lp).alpha_max());
     EXPECT_EQ(passive["velocity_estimator"]["kind"], "lowpass");
-    // The robust optimum models the backward difference only.
+    // The robust optimum of the loop with the estimator: robust_optimum with RobustOptions::estimator.
     const auto [code6, robust] =
         run_velocity_command(add_optimum_command, {"optimum", "--criterion", "CE2", "--robust", "--mass", "0.2:0.3",
                                                    "--period", "0.001", "--velocity", "window:5", "--json"});
-    EXPECT_EQ(code6, int{kUsage});
+    ASSERT_EQ(code6, 0);
+    RobustOptions ro;
+    ro.estimator = VelocityEstimator::moving_window(5);
+    UncertainPlant box;
+    box.mass = {0.2, 0.3};
+    box.period = 0.001;
+    const RobustOptimum expected = robust_optimum(Criterion::CE2, box, ro);
+    EXPECT_EQ(robust["K"].get<double>(), expected.gains.stiffness);
+    EXPECT_EQ(robust["B"].get<double>(), expected.gains.damping);
+    EXPECT_TRUE(robust["stable_over_box"].get<bool>());
+    EXPECT_EQ(robust["velocity_estimator"]["window"], 5);
+    // The collision criteria need the backward difference in the robust optimum: a clear error, not a wrong answer.
+    EXPECT_THROW(robust_optimum(ImpulseCriterion::CI2, box, ro), InvalidParameter);
 }
 
 // `boundary --velocity`: the main region's boundary by estimator_region_boundary. Window 1 is the backward

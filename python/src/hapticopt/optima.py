@@ -123,6 +123,8 @@ class RobustOptimum:
     nominal_damping: float
     nominal_worst_cost: float
     nominal_stable_over_box: bool
+    force_noise_max: float = 0.0  # largest sigma_F [N] over the verification grid (0 without position_resolution)
+    velocity_estimator: VelocityEstimator = VelocityEstimator()
 
     @property
     def K(self) -> float:  # noqa: N802 (the C++ library's and hapticd's name)
@@ -203,18 +205,25 @@ def _range(name: str, value: Range) -> Tuple[float, float]:
 
 
 def robust_optimum(criterion: str, *, mass: Range, period: float, damping: Range = 0.0, stiffness: Range = 0.0,
-                   time_delay: Range = 0.0) -> RobustOptimum:
+                   time_delay: Range = 0.0, estimator: EstimatorLike = None, force_noise_budget: float = 0.0,
+                   position_resolution: float = 0.0) -> RobustOptimum:
     """Gains minimising the worst case of CE0..2 or CI0..2 over the box (each parameter a value or a
-    (min, max) range; physical units). A few 0.1 s at d = 1."""
+    (min, max) range; physical units) for the loop with the velocity estimator (CI0..2: backward only); with
+    force_noise_budget [N] > 0 and the encoder step position_resolution [m], sigma_F stays within the budget at every
+    plant of the optimisation grid (force_noise_max: the largest over the verification grid). A few 0.1 s at d = 1
+    with the backward difference, about 1 s with a 15-period window at d = 6 (robust_optimum.hpp)."""
+    e = velocity_estimator(estimator, period)
     d = _core.robust_optimum(str(criterion), _range("mass", mass), _range("damping", damping),
-                             _range("stiffness", stiffness), float(period), _range("time_delay", time_delay))
+                             _range("stiffness", stiffness), float(period), _range("time_delay", time_delay),
+                             *e.args(), float(force_noise_budget), float(position_resolution))
     return RobustOptimum(criterion=str(criterion), stiffness=d["stiffness"], damping=d["damping"],
                          worst_cost=d["worst_cost"], worst_at=PhysicalPlant(**d["worst_at"]),
                          stable_over_box=d["stable_over_box"], mass_segments_certified=d["mass_segments_certified"],
                          stiffness_max=d["K_max"], nominal=PhysicalPlant(**d["nominal"]),
                          nominal_stiffness=d["nominal_stiffness"], nominal_damping=d["nominal_damping"],
                          nominal_worst_cost=d["nominal_worst_cost"],
-                         nominal_stable_over_box=d["nominal_stable_over_box"])
+                         nominal_stable_over_box=d["nominal_stable_over_box"],
+                         force_noise_max=d["force_noise_max"], velocity_estimator=e)
 
 
 @dataclass(frozen=True)
@@ -254,7 +263,7 @@ def passive_optimum(criterion: str, plant: Optional[Plant] = None, *,
 
 @dataclass(frozen=True)
 class NoiseBudgetOptimum:
-    """The optimum of CE0..2 with g_F <= noise_budget (normalised g_max = sigma_max T^2 / (m q)); budget_active
+    """The criterion's optimum with g_F <= noise_budget (normalised g_max = sigma_max T^2 / (m q)); budget_active
     False: the unconstrained optimum meets the budget and is returned."""
 
     criterion: str
@@ -272,10 +281,12 @@ class NoiseBudgetOptimum:
 
 def optimal_point_under_noise_budget(criterion: str, noise_budget: float, plant: Optional[Plant] = None, *,
                                      estimator: EstimatorLike = None) -> NoiseBudgetOptimum:
-    """minimise C (CE0, CE1 or CE2) over the estimator loop's main stable region subject to
-    g_F(alpha, beta) <= noise_budget (noise_budget.hpp): the unconstrained optimum if it meets the budget,
-    else the minimum along the curve g_F = noise_budget (bisection for the curve, Brent along it). A budget
-    no stable gains with alpha >= 1e-6 alpha_max meet raises InvalidParameterError naming `noise_budget`."""
+    """The criterion's optimum over the estimator loop's main stable region subject to g_F(alpha, beta) <=
+    noise_budget (noise_budget.hpp). CE0..2: the unconstrained optimum if it meets the budget, else the minimum along
+    the curve g_F = noise_budget (bisection for the curve, Brent along it); amax: the stiffest gains meeting it;
+    OV, CE0+OV..CE2+OV: the largest alpha without overshoot on the betas meeting it (the unconstrained point when it
+    meets it). A budget no stable gains with alpha >= 1e-6 alpha_max meet raises InvalidParameterError naming
+    `noise_budget`."""
     e = velocity_estimator(estimator)
     d = _core.noise_budget_optimum(str(criterion), *_plant_args(plant), *e.args(), float(noise_budget))
     return NoiseBudgetOptimum(criterion=str(criterion), velocity_estimator=e, **d)
