@@ -18,16 +18,15 @@ jobs="$(nproc)"
 # missing #include that a unity unit would hide still fails there.
 # Compiled mode (HAPTICOPT_PROGRAMS_USE_COMPILED, CMakeLists.txt): the programs link hapticopt::compiled, so the
 # library's bodies are instrumented and compiled once, not in every unity unit that calls them (the same source;
-# the release tree tests the header-only mode an embedding project uses).
-common=(-G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -g1" -DCMAKE_UNITY_BUILD=ON
-        -DHAPTICOPT_PROGRAMS_USE_COMPILED=ON
-        -DHAPTICOPT_BUILD_BENCHMARKS=OFF -DHAPTICOPT_BUILD_PACKAGING_TESTS=OFF -DHAPTICOPT_WARNINGS_AS_ERRORS=OFF)
+# the packaging tests build the header-only mode an embedding project uses).
+# The trees' settings are the presets `asan` and `tsan` (CMakePresets.json: -O1 -g1, unity, compiled mode, no
+# benchmarks or packaging tests, warnings not errors), so `cmake --preset asan` builds the same tree by hand.
 # Address-space randomisation off (setarch -R): the sanitizers' fixed shadow layout then never collides
 # with a randomised mapping on kernels with high mmap entropy.
 norandom=(setarch "$(uname -m)" -R)
 
 if [[ "$what" == asan || "$what" == all ]]; then
-  cmake -S . -B build/asan "${common[@]}" -DHAPTICOPT_SANITIZE=address,undefined
+  cmake --preset asan
   cmake --build build/asan -j"$jobs"
   # One test is left to the release stage: the moving-wall example against the real-time daemon judges the
   # contact chatter of poses sent on time, which the instrumented loop and client (several times slower, on
@@ -39,7 +38,7 @@ if [[ "$what" == asan || "$what" == all ]]; then
       -E '^Examples\.MovingWallRendersWithoutChatterAgainstTheReadmeDaemon$'
 fi
 if [[ "$what" == tsan || "$what" == all ]]; then
-  cmake -S . -B build/tsan "${common[@]}" -DHAPTICOPT_SANITIZE=thread
+  cmake --preset tsan
   cmake --build build/tsan -j"$jobs" --target hapticd hapticd_loop_tests hapticd_scene_tests hapticd_tick_tests hapticd_config_tests \
     hapticd_sim_device_tests hapticd_analysis_tests hapticd_process_tests hapticd_experiment_tests \
     hapticd_systemd_tests hapticd_server_tests hapticd_server_stability_tests hapticd_rendered_scene_tests hapticd_record_replay_tests hapticd_test_client
