@@ -714,7 +714,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay = nullpt
         }
     }
     if (replay != nullptr) return replay_verdict(*replay, report.run, *playback, feeder.get());
-    report.saturated_ticks = scene.stats().saturated_ticks;
+    report.saturated_ticks = report.run.limiter.saturated_ticks;
     if (const auto* sim = dynamic_cast<const SimDevice*>(device.get()); sim != nullptr && !sim->hand_events().empty()) {
         hand_events = &sim->hand_events();
         if (!o.quiet) out << hand_events_text(*hand_events, period);

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "scene/scene_objects.hpp"
 
-#include "scene/saturation.hpp"
-
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -47,9 +45,6 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
     if (!(config_.ramp_time >= 0.0) || !std::isfinite(config_.ramp_time)) {
         throw std::invalid_argument("SceneObjects: ramp_time = " + std::to_string(config_.ramp_time) +
                                     " is invalid; accepted range: finite, >= 0 s");
-    }
-    if (!(config_.max_force > 0.0) || !(config_.max_force_rate > 0.0)) {
-        throw std::invalid_argument("SceneObjects: max_force and max_force_rate must be > 0");
     }
     inverse_period_ = 1.0 / config_.period;
     held_.resize(kHeldCommitCapacity);  // preallocated here, never in the loop
@@ -781,26 +776,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
     if (config_.axes < 3) f2 = 0.0;
     if (!std::isfinite(f0) || !std::isfinite(f1) || !std::isfinite(f2)) {
         force = AxisVector{};
-        previous_total_ = AxisVector{};
         return false;
     }
-    // Saturation per axis, then the rate limit on the change (scalars: no store-and-reload of an array).
-    const double m = config_.max_force;
-    const bool saturated = saturate(f0, m) | saturate(f1, m) | saturate(f2, m);  // each axis, no short circuit
-    stats_.saturated_ticks += saturated ? 1U : 0U;
-    const double p0 = previous_total_[0], p1 = previous_total_[1], p2 = previous_total_[2];
-    const double c0 = std::fabs(f0 - p0), c1 = std::fabs(f1 - p1), c2 = std::fabs(f2 - p2);
-    const double c01 = c0 > c1 ? c0 : c1;
-    const double largest = c01 > c2 ? c01 : c2;
-    const double max_step = config_.max_force_rate * config_.period;
-    if (largest > max_step) {
-        const double scale = max_step / largest;
-        f0 = p0 + scale * (f0 - p0);
-        f1 = p1 + scale * (f1 - p1);
-        f2 = p2 + scale * (f2 - p2);
-        ++stats_.rate_limited_ticks;
-    }
-    previous_total_ = {f0, f1, f2};
     force = {f0, f1, f2};
     return true;
 }

@@ -254,7 +254,7 @@ class CommitFeeder final : public TickFeeder {
 };
 
 // A client's spring pulls the handle with 4 N; at tick 30 its departure cuts it at once (SlotUpdate::Cut, no
-// ramp), and the objects' own rate limit is set out of the way (a step of 1000 N). The force written still
+// ramp). The force written (the objects neither saturate nor rate-limit their sum) still
 // changes by at most the limiter's 1.25 N per tick (the default for 5 N): 4 -> 2.75 -> 1.5 -> 0.25 -> 0, and
 // the same on the way up.
 TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
@@ -264,8 +264,6 @@ TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
     CommitRing ring(8);
     SceneObjectsConfig oc;
     oc.ramp_time = 0.0;
-    oc.max_force = 5.0;
-    oc.max_force_rate = 1e6;
     oc.axes = 1;
     SceneObjects objects(oc, ring);
     ObjectParams spring;

@@ -147,8 +147,6 @@ struct Rig {
         SceneObjectsConfig c;
         c.period = kT;
         c.ramp_time = ramp;
-        c.max_force = 1e12;  // neither saturation nor the rate limit: the laws alone are compared
-        c.max_force_rate = 1e18;
         c.axes = 3;
         return c;
     }
