@@ -78,6 +78,10 @@
 //    by at most B activation_speed T / kActivationTailTime per tick instead of B activation_speed at once.
 //    Moves that arrive meanwhile change where it goes, not how fast. Positions only, never gains.
 // No allocation, lock, exception or I/O in anything called per tick.
+// The code, one concern per file: scene_objects.cpp (construction, add_forces, the observations),
+// scene_objects_batches.cpp (batches, departures, ramps), scene_objects_affine.cpp (the affine laws, compensated
+// sums), scene_objects_classify.cpp (classification, safe radius, moves), scene_objects_unilateral.cpp (the
+// vectorised unilateral planes), scene_objects_glides.cpp (move holds, activation).
 #pragma once
 
 #include <array>
@@ -226,7 +230,7 @@ class SceneObjects {
     SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, CommitRing* departures = nullptr);
 
     // Start of a tick: applies up to commits_per_tick waiting batches; one that starts ramps while another
-    // batch's ramps run is held until they have ended (apply_commits in scene_objects.cpp). Real-time safe.
+    // batch's ramps run is held until they have ended (apply_commits in scene_objects_batches.cpp). Real-time safe.
     void apply_commits() noexcept;
 
     // Before the loop starts (may be null): told of every batch taken from a ring. Must outlive this object.

@@ -321,7 +321,7 @@ TEST(SceneObjectsClosedForm, APressedPlaneIsSummedOnlyWhileItsClampCannotAct) {
 }
 
 // A proxy moved every tick for 20 000 ticks among 63 still objects: the compensated update of the summed
-// constant (TwoSum, scene_objects.cpp) does not drift. Each tick is compared with the per-object sum,
+// constant (TwoSum, scene_objects_affine.cpp) does not drift. Each tick is compared with the per-object sum,
 // within the bound of compare_on_random_scenes.
 TEST(SceneObjectsClosedForm, TwentyThousandMovesDoNotDriftFromThePerObjectSum) {
     std::mt19937_64 rng(314);
