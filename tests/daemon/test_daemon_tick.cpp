@@ -302,6 +302,43 @@ TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
     }
 }
 
+// The force limiter is the one stage that saturates: it saturates the total (config walls plus the clients'
+// objects), not the walls' sum first. The handle 2 mm into a bilateral wall of 10 kN/m (20 N asked, pushing out)
+// while a client's spring pulls it 8 N the other way: the total, -12 N, is written saturated to -5 N (the walls'
+// sum saturated first, -5 + 8 = 3 N, was written before the limiter became the only stage).
+TEST(Daemon, TheForceLimiterSaturatesTheTotalOfWallsAndObjects) {
+    clear_stop_request();
+    ScriptedDevice dev({0.002});
+    std::vector<VirtualWall> walls;
+    walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1e4, 0.0, 1e-3);
+    Scene scene(std::move(walls), 1, 5.0);
+    CommitRing ring(8);
+    SceneObjectsConfig oc;
+    oc.ramp_time = 0.0;
+    oc.axes = 1;
+    SceneObjects objects(oc, ring);
+    ObjectParams spring;
+    spring.id = 7;
+    spring.kind = ObjectKind::Spring;
+    spring.point = {0.010, 0.0, 0.0};
+    spring.K = 1000.0;
+    ObjectCommit add;
+    add.seq = 1;
+    add.count = 1;
+    add.updates[0] = SlotUpdate{0, SlotUpdate::Action::Set, spring};
+    CommitFeeder feeder(ring);
+    feeder.at(0, add);
+    DaemonConfig cfg = lockstep_config(40, 0);
+    cfg.feeder = &feeder;
+    Daemon d(dev, scene, nullptr, cfg);
+    d.attach(ServerHooks{&objects, nullptr, nullptr});
+    const RunResult r = d.run();
+    EXPECT_EQ(r.fault, StateFault::None);
+    ASSERT_EQ(dev.forces.size(), 40U);
+    EXPECT_EQ(dev.forces[30], -5.0);
+    EXPECT_GT(r.limiter.saturated_ticks, 25U);
+}
+
 // A fault is the exception to the rate limit: the force goes from 5 N to zero in the tick of the fault.
 TEST(Daemon, AFaultZeroesTheForceAtOnce) {
     clear_stop_request();
