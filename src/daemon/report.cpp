@@ -226,7 +226,7 @@ nlohmann::json summary_json(const RunReport& r) {
     // along axis 0, 1 / (M^-1)_00. The full plant: mass_matrix, M on the device's axes row by row (m I for
     // one mass), and axis_masses, per axis a the mass a wall on that axis acts with and was tuned for
     // (unless --identify replaced the profile's one mass), 1 / (M^-1)_aa (= M_aa for a diagonal M;
-    // config/profile_keys.hpp, hapticd_main.cpp). All the profile's values, not identified ones.
+    // config/profile_keys.hpp, wall_tuning.cpp). All the profile's values, not identified ones.
     j["mass"] = p.mass;
     const DeviceMass& M = p.mass_model;
     nlohmann::json matrix = nlohmann::json::array(), axis_masses = nlohmann::json::array();

@@ -34,8 +34,8 @@ struct RunReport {
     std::uint64_t trace_dropped = 0;
     std::uint64_t trace_written = 0;
     bool trace_error = false;
-    std::uint64_t saturated_ticks = 0;
-    bool passivity_control = false;  // --passivity-control: `passivity` holds its counters
+    std::uint64_t saturated_ticks = 0;  // ticks whose written force the force limiter saturated (run.limiter)
+    bool passivity_control = false;     // --passivity-control: `passivity` holds its counters
     PassivityControlStats passivity;
     std::string device_error;  // device's last_error() after a device fault
     int exit_code = 0;

@@ -5,9 +5,21 @@
 #include <stdexcept>
 
 #include "common/number_text.hpp"
-#include "scene/saturation.hpp"
 
 namespace hapticd {
+
+namespace {
+
+// f <- min(max(f, -limit), limit) for a finite f and limit > 0; true when it changed f. The one saturation of the
+// force on the real-time path (force_limiter.hpp).
+[[nodiscard]] inline bool saturate(double& f, double limit) noexcept {
+    const double clamped = f > limit ? limit : f < -limit ? -limit : f;
+    const bool changed = clamped != f;
+    f = clamped;
+    return changed;
+}
+
+}  // namespace
 
 double default_max_force_rate(double max_force, double period) noexcept {
     const double full_scale = period / kMaxStepFraction > kFullScaleTime ? period / kMaxStepFraction : kFullScaleTime;

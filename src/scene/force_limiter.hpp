@@ -1,5 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// The last stage before the device (docs/hapticd.md, "Force limits"): every force the loop writes is saturated
+// The last stage before the device (docs/hapticd.md, "Force limits") and the only place on the real-time path that
+// saturates or rate-limits the force (the config walls' scene and the clients' objects compute and check their sums
+// and leave both to it; passivity control bounds only its own damped force; src/daemon/tick.cpp calls it): every
+// force the loop writes is saturated
 // per axis to the device's max_force, and its change from the force written the tick before is limited to
 // max_force_rate T (infinity norm, the change scaled as a whole so its direction is kept). It runs on the
 // force about to be written, after the scene, the clients' objects, the delay buffer and passivity control,

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "scene/scene.hpp"
 
-#include "scene/saturation.hpp"
-
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -149,18 +147,14 @@ SceneFault Scene::evaluate(const AxisVector& position, AxisVector& force) noexce
         ++i;
     }
     contact_mask_ = mask;
-    bool saturated = false;
     for (std::size_t a = 0; a < axes_; ++a) {
-        double& f = force[a];
-        if (!std::isfinite(f)) {
+        if (!std::isfinite(force[a])) {
             force = AxisVector{};
             contact_mask_ = 0;
             fault_ = SceneFault::NonFiniteForce;
             return fault_;
         }
-        saturated |= saturate(f, max_force_);
     }
-    stats_.saturated_ticks += saturated ? 1U : 0U;
     return SceneFault::None;
 }
 
@@ -170,7 +164,6 @@ void Scene::reset() noexcept {
     }
     if (velocity_) velocity_->reset();
     fault_ = SceneFault::None;
-    stats_ = SceneStats{};
 }
 
 }  // namespace hapticd

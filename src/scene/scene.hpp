@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // The scene: the walls of the configuration and what one tick of wall rendering does with them.
 // Each tick: check the sampled position, estimate the velocity (unless backward), let every wall add its force on its
-// axis (a unilateral wall out of contact costs one subtraction and a comparison), saturate per axis to the device
-// maximum and check the result is finite. A non-finite position or force latches the fault state: zero force from that
-// tick on, until reset().
+// axis (a unilateral wall out of contact costs one subtraction and a comparison) and check the sum is finite. A
+// non-finite position or force latches the fault state: zero force from that tick on, until reset(). The sum is not
+// saturated here: the force limiter (force_limiter.hpp) is the one stage that saturates and rate-limits the force
+// written to the device.
 #pragma once
 
 #include <cstdint>
@@ -37,10 +38,6 @@ std::string to_string(const WallSpec& spec);
 enum class SceneFault : std::uint8_t { None, NonFinitePosition, NonFiniteForce };
 std::string_view to_string(SceneFault fault) noexcept;
 
-struct SceneStats {
-    std::uint64_t saturated_ticks = 0;
-};
-
 class Scene {
   public:
     // `velocity`: the estimate the walls' dampers act on (backward: each wall's own difference of its penetration,
@@ -53,12 +50,12 @@ class Scene {
     SceneFault evaluate(const AxisVector& position, AxisVector& force) noexcept;
 
     [[nodiscard]] SceneFault fault() const noexcept { return fault_; }
-    [[nodiscard]] const SceneStats& stats() const noexcept { return stats_; }
     // The walls in contact at the last evaluate(): bit i for walls()[i] (the first 64), set while the handle
     // is behind its surface (penetration x > 0; the same flag as a client plane's, SceneObjects::contact_mask).
     // Zero after a fault.
     [[nodiscard]] std::uint64_t contact_mask() const noexcept { return contact_mask_; }
     [[nodiscard]] const std::vector<VirtualWall>& walls() const noexcept { return walls_; }
+    // The device's limit per axis, for the force limiter (Daemon takes it when DaemonConfig::max_force is 0).
     [[nodiscard]] double max_force() const noexcept { return max_force_; }
     void reset() noexcept;
 
@@ -68,7 +65,6 @@ class Scene {
     double max_force_;
     std::optional<VelocityFilter> velocity_;  // none: backward difference per wall
     SceneFault fault_ = SceneFault::None;
-    SceneStats stats_;
     std::uint64_t contact_mask_ = 0;
 };
 

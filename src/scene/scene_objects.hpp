@@ -26,8 +26,8 @@
 // A departure (a client that left) comes through a second ring and is never queued behind other batches:
 // the loop brings every batch sent before it to its final state at once (take_departures), then starts
 // its ramp-out.
-// The summed force (config walls included) is saturated per axis and its change per tick limited to max_force_rate T
-// (infinity norm, scaled as a whole so the direction is kept); a non-finite value latches a fault.
+// The summed force (config walls included) is checked finite (a non-finite value latches a fault), not saturated or
+// rate-limited: the force limiter (force_limiter.hpp) does both on the force written, after the delay buffer.
 //
 // How a tick is computed (the cost does not grow with the objects that cannot change the force law):
 //  * Linear part, in closed form. Springs, bilateral planes and fields with the handle inside them are
@@ -78,6 +78,10 @@
 //    by at most B activation_speed T / kActivationTailTime per tick instead of B activation_speed at once.
 //    Moves that arrive meanwhile change where it goes, not how fast. Positions only, never gains.
 // No allocation, lock, exception or I/O in anything called per tick.
+// The code, one concern per file: scene_objects.cpp (construction, add_forces, the observations),
+// scene_objects_batches.cpp (batches, departures, ramps), scene_objects_affine.cpp (the affine laws, compensated
+// sums), scene_objects_classify.cpp (classification, safe radius, moves), scene_objects_unilateral.cpp (the
+// vectorised unilateral planes), scene_objects_glides.cpp (move holds, activation).
 #pragma once
 
 #include <array>
@@ -200,10 +204,8 @@ class CommitObserver {
 };
 
 struct SceneObjectsConfig {
-    double period = 1e-3;         // s
-    double ramp_time = 0.03;      // s (0: no ramp)
-    double max_force = 10.0;      // N per axis
-    double max_force_rate = 1e4;  // N/s, infinity norm of the change of the total force
+    double period = 1e-3;     // s
+    double ramp_time = 0.03;  // s (0: no ramp)
     std::size_t axes = 3;
     std::size_t commits_per_tick = 8;  // bound on the commits applied in one tick
     double move_interval_max = 0.0;    // s: longest first-order hold of a move (0: moves are applied at once)
@@ -217,8 +219,6 @@ struct SceneObjectsStats {
     std::uint64_t commits_held = 0;        // batches held until the ramps of an earlier one had ended
     std::uint64_t departures_applied = 0;  // departure batches (the second ring)
     std::uint64_t commits_jumped = 0;      // batches brought to their final state at once ahead of a departure
-    std::uint64_t rate_limited_ticks = 0;
-    std::uint64_t saturated_ticks = 0;
 };
 
 class SceneObjects {
@@ -230,18 +230,15 @@ class SceneObjects {
     SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, CommitRing* departures = nullptr);
 
     // Start of a tick: applies up to commits_per_tick waiting batches; one that starts ramps while another
-    // batch's ramps run is held until they have ended (apply_commits in scene_objects.cpp). Real-time safe.
+    // batch's ramps run is held until they have ended (apply_commits in scene_objects_batches.cpp). Real-time safe.
     void apply_commits() noexcept;
 
     // Before the loop starts (may be null): told of every batch taken from a ring. Must outlive this object.
     void set_observer(CommitObserver* observer) noexcept { observer_ = observer; }
 
-    // Adds the objects' forces to `force` (the config walls' sum), then saturates and rate-limits the
-    // total. Returns false on a non-finite value (force is then zero). Real-time safe.
+    // Adds the objects' forces to `force` (the config walls' sum). Returns false on a non-finite total (force is
+    // then zero). Real-time safe.
     bool add_forces(const AxisVector& position, AxisVector& force) noexcept;
-
-    // Forget the last applied total (after a zero-force tick the next may start from zero again).
-    void reset_rate_limit() noexcept { previous_total_ = AxisVector{}; }
 
     // Bit s: the object in slot s was in contact at the last add_forces() (its surface's flag as rendered in
     // that tick; an entry whose ramp-out ended with that tick keeps its bit although its slot is now free).
@@ -400,7 +397,6 @@ class SceneObjects {
     double inverse_period_ = 1e3;
     std::optional<VelocityFilter> velocity_filter_;  // built by the constructor (its ring is allocated there)
     AxisVector velocity_{};
-    AxisVector previous_total_{};
     std::uint64_t contact_mask_ = 0;
     SceneObjectsStats stats_;
 

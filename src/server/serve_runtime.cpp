@@ -33,8 +33,6 @@ SceneObjectsConfig scene_objects_config(const Options& o, const DeviceProfile& p
     SceneObjectsConfig oc;
     oc.period = period;
     oc.ramp_time = o.ramp_time;
-    oc.max_force = profile.max_force;
-    oc.max_force_rate = o.max_force_rate;
     oc.axes = static_cast<std::size_t>(profile.axes);
     oc.move_interval_max = o.move_interval_max;
     oc.activation_speed = o.activation_speed;

@@ -346,8 +346,6 @@ struct ObjectsTick {
     static SceneObjectsConfig objects_config(TickScene scene_kind) {
         SceneObjectsConfig c;
         c.axes = 3;
-        c.max_force = 10.0;
-        c.max_force_rate = 1e4;
         if (scene_kind == TickScene::BilateralOneGliding) c.move_interval_max = 0.05;  // the daemon's default
         return c;
     }

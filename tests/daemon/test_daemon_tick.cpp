@@ -254,7 +254,7 @@ class CommitFeeder final : public TickFeeder {
 };
 
 // A client's spring pulls the handle with 4 N; at tick 30 its departure cuts it at once (SlotUpdate::Cut, no
-// ramp), and the objects' own rate limit is set out of the way (a step of 1000 N). The force written still
+// ramp). The force written (the objects neither saturate nor rate-limit their sum) still
 // changes by at most the limiter's 1.25 N per tick (the default for 5 N): 4 -> 2.75 -> 1.5 -> 0.25 -> 0, and
 // the same on the way up.
 TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
@@ -264,8 +264,6 @@ TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
     CommitRing ring(8);
     SceneObjectsConfig oc;
     oc.ramp_time = 0.0;
-    oc.max_force = 5.0;
-    oc.max_force_rate = 1e6;
     oc.axes = 1;
     SceneObjects objects(oc, ring);
     ObjectParams spring;
@@ -302,6 +300,43 @@ TEST(Daemon, ACutDepartureStepsTheForceWrittenByAtMostTheRateLimit) {
         EXPECT_LE(std::fabs(dev.forces[j] - previous), 1.25 + 1e-12) << "tick " << j;
         previous = dev.forces[j];
     }
+}
+
+// The force limiter is the one stage that saturates: it saturates the total (config walls plus the clients'
+// objects), not the walls' sum first. The handle 2 mm into a bilateral wall of 10 kN/m (20 N asked, pushing out)
+// while a client's spring pulls it 8 N the other way: the total, -12 N, is written saturated to -5 N (the walls'
+// sum saturated first, -5 + 8 = 3 N, was written before the limiter became the only stage).
+TEST(Daemon, TheForceLimiterSaturatesTheTotalOfWallsAndObjects) {
+    clear_stop_request();
+    ScriptedDevice dev({0.002});
+    std::vector<VirtualWall> walls;
+    walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1e4, 0.0, 1e-3);
+    Scene scene(std::move(walls), 1, 5.0);
+    CommitRing ring(8);
+    SceneObjectsConfig oc;
+    oc.ramp_time = 0.0;
+    oc.axes = 1;
+    SceneObjects objects(oc, ring);
+    ObjectParams spring;
+    spring.id = 7;
+    spring.kind = ObjectKind::Spring;
+    spring.point = {0.010, 0.0, 0.0};
+    spring.K = 1000.0;
+    ObjectCommit add;
+    add.seq = 1;
+    add.count = 1;
+    add.updates[0] = SlotUpdate{0, SlotUpdate::Action::Set, spring};
+    CommitFeeder feeder(ring);
+    feeder.at(0, add);
+    DaemonConfig cfg = lockstep_config(40, 0);
+    cfg.feeder = &feeder;
+    Daemon d(dev, scene, nullptr, cfg);
+    d.attach(ServerHooks{&objects, nullptr, nullptr});
+    const RunResult r = d.run();
+    EXPECT_EQ(r.fault, StateFault::None);
+    ASSERT_EQ(dev.forces.size(), 40U);
+    EXPECT_EQ(dev.forces[30], -5.0);
+    EXPECT_GT(r.limiter.saturated_ticks, 25U);
 }
 
 // A fault is the exception to the rate limit: the force goes from 5 N to zero in the tick of the fault.

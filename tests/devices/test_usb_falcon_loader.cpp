@@ -121,7 +121,7 @@ TEST_F(UsbFalconLoader, ALoaderThatTakesItsTimeIsWaitedFor) {
 // A loader that does not wake within the driver's budget (100 tries, each one latency period: 1.6 s).
 // One attempt: the budget under test is the attempt's; the 10 attempts with a reopen each are the scripted
 // tests' (test_falcon_firmware.cpp), and 10 x 1.6 s would cost the usb label 16 s. hapticd turns this
-// open() failure into exit code 6 like every open() failure (src/daemon/hapticd_main.cpp; the exit code of
+// open() failure into exit code 6 like every open() failure (src/daemon/run.cpp, open_and_home; the exit code of
 // hapticd itself is checked by UsbAccess.OpeningARefusedFalconExits6WithTheUdevHint).
 TEST_F(UsbFalconLoader, ALoaderSlowerThanTheHandshakeBudgetFailsWithTheCountsInBoundedTime) {
     emulated.set_slow_loader({10s, 0ms});  // far beyond 1.6 s: no scheduling delay can make it answer in time

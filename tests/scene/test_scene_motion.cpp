@@ -12,6 +12,7 @@
 #include <numbers>
 
 #include "devices/sim_device.hpp"
+#include "scene/force_limiter.hpp"
 #include "scene/scene_objects.hpp"
 
 namespace hapticd {
@@ -29,8 +30,6 @@ struct MotionRig {
         SceneObjectsConfig c;
         c.period = kMotionT;
         c.ramp_time = ramp;
-        c.max_force = 1e6;
-        c.max_force_rate = 1e12;
         c.axes = 3;
         c.move_interval_max = hold_max;
         c.activation_speed = activation_speed;
@@ -268,9 +267,9 @@ TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
         ASSERT_EQ(dev.open(), DeviceStatus::Ok);
         CommitRing ring{8};
         SceneObjectsConfig oc = MotionRig::config(0.03, hold ? 0.05 : 0.0, hold ? 0.01 : 0.0);
-        oc.max_force = 10.0;
-        oc.max_force_rate = 1e4;
         SceneObjects objects(oc, ring);
+        // The daemon's last stage (10 N per axis; its step, 9.999 N, binds on no change of a force within 0 .. 10 N).
+        ForceLimiter limiter(10.0, 9999.0, kMotionT, 3);
         const double K = 74225.8, B = 223.336;
         std::uint64_t seq = 0;
         auto send = [&](SlotUpdate::Action a, double offset) {
@@ -291,6 +290,7 @@ TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
             ASSERT_EQ(dev.read_position(x), DeviceStatus::Ok);
             objects.apply_commits();
             ASSERT_TRUE(objects.add_forces(x, f));
+            f = limiter.step(f);
             ASSERT_EQ(dev.write_force(f), DeviceStatus::Ok);
             const double fn = -f[0];
             if (j >= 700) {

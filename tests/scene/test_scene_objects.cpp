@@ -21,6 +21,7 @@
 #include "config/options.hpp"
 #include "daemon/exit_codes.hpp"
 #include "devices/sim_device.hpp"
+#include "scene/force_limiter.hpp"
 #include "scene/scene_objects.hpp"
 #include "tuning/object_checks.hpp"
 
@@ -32,13 +33,11 @@ constexpr double kT = 1e-3;
 struct Rig {
     CommitRing ring{8};
     SceneObjects objects;
-    explicit Rig(double ramp, double rate = 1e9) : objects(config(ramp, rate), ring) {}
-    static SceneObjectsConfig config(double ramp, double rate) {
+    explicit Rig(double ramp) : objects(config(ramp), ring) {}
+    static SceneObjectsConfig config(double ramp) {
         SceneObjectsConfig c;
         c.period = kT;
         c.ramp_time = ramp;
-        c.max_force = 1e6;
-        c.max_force_rate = rate;
         c.axes = 3;
         return c;
     }
@@ -337,22 +336,27 @@ TEST(SceneObjects, AUnilateralPlaneIsTheWallLawAlongItsNormal) {
     EXPECT_EQ(f, AxisVector{});
 }
 
-// The total force's change per tick is limited to max_force_rate T (scaled as a whole).
-TEST(SceneObjects, TheTotalForceRateIsLimited) {
-    Rig rig(0.0, 1000.0);  // 1 N per tick
+// The objects' sum is their laws' sum, neither saturated nor rate-limited: the force limiter
+// (scene/force_limiter.hpp) does both on the force written, its change per tick limited to max_force_rate T
+// (scaled as a whole).
+TEST(SceneObjects, TheTotalIsTheLawsSumAndTheForceLimiterLimitsItsRate) {
+    Rig rig(0.0);
+    ForceLimiter limiter(1e6, 1000.0, kT, 3);  // 1 N per tick
     ObjectParams field;
     field.id = 1;
     field.kind = ObjectKind::Field;
     field.radius = 1.0;
     field.force = {3.0, 4.0, 0};
     rig.commit({{0, SlotUpdate::Action::Set, field}});
-    AxisVector f = rig.tick({0, 0, 0});
+    AxisVector total = rig.tick({0, 0, 0});
+    EXPECT_EQ(total, (AxisVector{3.0, 4.0, 0.0}));
+    AxisVector f = limiter.step(total);
     EXPECT_NEAR(f[1], 1.0, 1e-12);  // the larger component moves by 1 N, the direction is kept
     EXPECT_NEAR(f[0], 0.75, 1e-12);
-    for (int k = 0; k < 5; ++k) f = rig.tick({0, 0, 0});
+    for (int k = 0; k < 5; ++k) f = limiter.step(rig.tick({0, 0, 0}));
     EXPECT_NEAR(f[0], 3.0, 1e-12);
     EXPECT_NEAR(f[1], 4.0, 1e-12);
-    EXPECT_GE(rig.objects.stats().rate_limited_ticks, 3U);
+    EXPECT_GE(limiter.stats().rate_limited_ticks, 3U);
 }
 
 TEST(SceneObjects, ANonFiniteForceIsAFaultWithZeroForce) {

@@ -147,8 +147,6 @@ struct Rig {
         SceneObjectsConfig c;
         c.period = kT;
         c.ramp_time = ramp;
-        c.max_force = 1e12;  // neither saturation nor the rate limit: the laws alone are compared
-        c.max_force_rate = 1e18;
         c.axes = 3;
         return c;
     }
@@ -323,7 +321,7 @@ TEST(SceneObjectsClosedForm, APressedPlaneIsSummedOnlyWhileItsClampCannotAct) {
 }
 
 // A proxy moved every tick for 20 000 ticks among 63 still objects: the compensated update of the summed
-// constant (TwoSum, scene_objects.cpp) does not drift. Each tick is compared with the per-object sum,
+// constant (TwoSum, scene_objects_affine.cpp) does not drift. Each tick is compared with the per-object sum,
 // within the bound of compare_on_random_scenes.
 TEST(SceneObjectsClosedForm, TwentyThousandMovesDoNotDriftFromThePerObjectSum) {
     std::mt19937_64 rng(314);

@@ -21,8 +21,6 @@ struct DepartureRig {
         SceneObjectsConfig c;
         c.period = kPeriod;
         c.ramp_time = 0.010;  // 10 ticks
-        c.max_force = 1e6;
-        c.max_force_rate = 1e9;
         c.axes = 3;
         return c;
     }

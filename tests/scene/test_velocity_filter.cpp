@@ -141,8 +141,6 @@ TEST(VelocityFilter, ClientObjectsDampTheLoopsEstimate) {
     // A bilateral plane along x: f = n (K (offset - n.x) - B n.v) with v the configured estimate.
     SceneObjectsConfig config;
     config.ramp_time = 0.0;
-    config.max_force = 1e6;
-    config.max_force_rate = 1e12;
     config.velocity = spec_of("lowpass:30Hz");
     CommitRing ring(4);
     SceneObjects objects(config, ring);

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "scene/delay_ring.hpp"
+#include "scene/force_limiter.hpp"
 #include "scene/scene.hpp"
 #include "scene/wall.hpp"
 
@@ -103,9 +104,10 @@ TEST(WallSpec, ParsesAndRejectsWithNamedKeys) {
     EXPECT_FALSE(parse_wall_spec("", err));
 }
 
-// Property: whatever the position sequence, the scene's force is finite and within the saturation;
-// a non-finite position (or a force that would overflow) gives zero force and latches the fault.
-TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
+// Property: whatever the position sequence, the scene's force is finite, and within the saturation once through
+// the force limiter (the daemon's last stage, the only one that saturates); a non-finite position (or a force that
+// would overflow) gives zero force and latches the fault.
+TEST(SceneProperty, ForceAlwaysFiniteAndSaturatedByTheLimiter) {
     const double fmax = 7.5;
     std::mt19937_64 rng(12345);
     std::uniform_real_distribution<double> small(-0.05, 0.05);
@@ -120,6 +122,7 @@ TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
         walls.emplace_back(WallGeometry{0, 0.01, -1.0, WallMode::Unilateral}, 1e5, 100.0, kT);
         walls.emplace_back(WallGeometry{2, 0.0, 1.0, WallMode::Bilateral}, 1e9, 1e6, kT);
         Scene scene(std::move(walls), 3, fmax);
+        ForceLimiter limiter(fmax, default_max_force_rate(fmax, kT), kT, 3);
         for (int j = 0; j < 500; ++j) {
             AxisVector p{};
             for (auto& v : p) {
@@ -140,10 +143,8 @@ TEST(SceneProperty, ForceAlwaysFiniteAndSaturated) {
             }
             AxisVector f{1.0, 1.0, 1.0};
             const SceneFault fault = scene.evaluate(p, f);
-            for (double v : f) {
-                ASSERT_TRUE(std::isfinite(v));
-                ASSERT_LE(std::abs(v), fmax);
-            }
+            for (double v : f) ASSERT_TRUE(std::isfinite(v));
+            for (double v : limiter.step(f)) ASSERT_LE(std::abs(v), fmax);
             if (fault != SceneFault::None) {
                 for (double v : f) ASSERT_EQ(v, 0.0);
             }
@@ -178,14 +179,19 @@ TEST(SceneProperty, OverflowingForceIsAFault) {
     EXPECT_EQ(f, AxisVector{});
 }
 
-TEST(SceneProperty, SaturationIsCounted) {
+// The scene gives the walls' sum as the law asks; the force limiter saturates it (and counts).
+TEST(SceneProperty, TheSceneDoesNotSaturateTheForceLimiterDoes) {
     std::vector<VirtualWall> walls;
     walls.emplace_back(WallGeometry{0, 0.0, 1.0, WallMode::Bilateral}, 1e4, 0.0, kT);
     Scene scene(std::move(walls), 1, 5.0);
+    ForceLimiter limiter(scene.max_force(), 4999.0, kT, 1);
     AxisVector f{};
-    scene.evaluate({0.01, 0.0, 0.0}, f);  // 100 N -> -5 N
-    EXPECT_EQ(f[0], -5.0);
-    EXPECT_EQ(scene.stats().saturated_ticks, 1U);
+    scene.evaluate({0.01, 0.0, 0.0}, f);  // 100 N asked
+    EXPECT_EQ(f[0], -100.0);
+    EXPECT_DOUBLE_EQ(limiter.step(f)[0], -4.999);  // saturated to 5 N, then one step of 4.999 N from zero
+    EXPECT_EQ(limiter.step(f)[0], -5.0);
+    EXPECT_EQ(limiter.stats().saturated_ticks, 2U);
+    EXPECT_EQ(limiter.stats().rate_limited_ticks, 1U);
 }
 
 TEST(Scene, RejectsWallOnMissingAxis) {

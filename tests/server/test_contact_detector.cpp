@@ -32,8 +32,6 @@ struct DetectorRig {
         SceneObjectsConfig c;
         c.period = 1e-3;
         c.ramp_time = 0.005;  // 5 ticks
-        c.max_force = 1e6;
-        c.max_force_rate = 1e9;
         c.axes = 3;
         return c;
     }
