@@ -24,8 +24,9 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
                             const std::string& what, bool allow_unstable) {
     GainCheckPlant cp;
     static_cast<TuningPlant&>(cp) = wall_plant;
+    // The set holds the mass the wall is tuned for: an identified mass (--identify) may lie outside mass_range.
     if (p.mass_range.size() == 2 && p.mass_model.isotropic)
-        cp.mass_range = std::make_pair(p.mass_range[0], p.mass_range[1]);
+        cp.mass_range = std::make_pair(std::min(p.mass_range[0], cp.mass), std::max(p.mass_range[1], cp.mass));
     cp.mass_margin = p.mass_margin;
     const GainChecker checker(cp);
     const auto [c_min, c_max] = checker.mass_scales();

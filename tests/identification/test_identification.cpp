@@ -482,5 +482,32 @@ TEST(HapticdIdentify, WritesReusesAndWarnsOnChange) {
     fs::remove_all(dir);
 }
 
+// An identified mass outside the profile's mass_range (the shipped sim profile: [0.22, 0.30] kg, and the identified
+// mass of its 0.30 kg handle lands either side of 0.30 by the noise): the plant set the walls are certified over
+// holds the identified mass too, and the run starts (it was an internal error).
+TEST(HapticdIdentify, AnIdentifiedMassOutsideTheMassRangeWidensTheSet) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / ("hapticd_ident_range_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const std::string profile = (dir / "ranged.toml").string();
+    const std::string summary = (dir / "summary.json").string();
+    {
+        std::ofstream f(profile);
+        f << "name = \"ranged\"\ndriver = \"sim\"\nmass = 0.30\nmass_range = [0.22, 0.30]\ndamping = 2.0\n"
+             "inherent_delay = 0.0031\nmax_force = 10.0\naxes = 1\nworkspace_min = [-0.06]\nworkspace_max = [0.06]\n"
+             "position_noise = 2e-6\nposition_resolution = 2e-6\nnoise_seed = 3\n";
+    }
+    const Captured c = run_hapticd({"--config", "", "--device", profile, "--lockstep", "--identify", "--hand-mass", "0.01", "--duration", "0.1",
+                                    "--summary-json", summary, "--bilateral"});
+    ASSERT_EQ(c.code, 0) << c.err;
+    const nlohmann::json s = read_json(summary);
+    const double m = s["identified"]["mass"].get<double>();
+    EXPECT_GT(m, 0.30) << "the case needs an identified mass above the range";
+    ASSERT_TRUE(s.contains("plant_set")) << s.dump();
+    EXPECT_LE(s["plant_set"]["mass"][0].get<double>(), 0.22 / 1.1 + 1e-12);
+    EXPECT_GE(s["plant_set"]["mass"][1].get<double>(), m * 1.1 - 1e-12);
+    fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace hapticd
