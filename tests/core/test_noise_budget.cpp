@@ -337,9 +337,17 @@ TEST(NoiseBudgetCli, NormalisedAndPhysicalBudgets) {
     EXPECT_LE(phys["force_noise_std"].get<double>(), 0.05 * (1 + 1e-12));
     EXPECT_GT(phys["K"].get<double>(), 0);
     EXPECT_GT(phys["B"].get<double>(), 0);
-    const auto [code3, refused] =
-        run_budget_command({"optimum", "--criterion", "CE2+OV", "--noise-budget", "0.002", "--json"});
-    EXPECT_EQ(code3, int{kUsage});
+    // Every step criterion takes a budget (CE2+OV: its point meets 0.5 here, so it is the unconstrained one); the
+    // collision criteria do not.
+    const auto [code3, ce2ov] =
+        run_budget_command({"optimum", "--criterion", "CE2+OV", "--noise-budget", "0.5", "--json"});
+    ASSERT_EQ(code3, 0);
+    EXPECT_LE(ce2ov["force_noise_gain"].get<double>(), 0.5);
+    EXPECT_EQ(ce2ov["alpha"].get<double>(),
+              optimal_point_under_noise_budget(Criterion::CE2_OV, {0, 0, 0}, VelocityEstimator{}, 0.5).alpha);
+    const auto [code4, refused] =
+        run_budget_command({"optimum", "--criterion", "CI2", "--noise-budget", "0.002", "--json"});
+    EXPECT_EQ(code4, int{kUsage});
 }
 
 }  // namespace

@@ -497,8 +497,8 @@ TEST(HapticdIdentify, AnIdentifiedMassOutsideTheMassRangeWidensTheSet) {
              "inherent_delay = 0.0031\nmax_force = 10.0\naxes = 1\nworkspace_min = [-0.06]\nworkspace_max = [0.06]\n"
              "position_noise = 2e-6\nposition_resolution = 2e-6\nnoise_seed = 3\n";
     }
-    const Captured c = run_hapticd({"--config", "", "--device", profile, "--lockstep", "--identify", "--hand-mass", "0.01", "--duration", "0.1",
-                                    "--summary-json", summary, "--bilateral"});
+    const Captured c = run_hapticd({"--config", "", "--device", profile, "--lockstep", "--identify", "--hand-mass",
+                                    "0.01", "--duration", "0.1", "--summary-json", summary, "--bilateral"});
     ASSERT_EQ(c.code, 0) << c.err;
     const nlohmann::json s = read_json(summary);
     const double m = s["identified"]["mass"].get<double>();
