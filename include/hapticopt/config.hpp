@@ -29,6 +29,9 @@
 #define HAPTICOPT_DEFINITIONS 1
 #endif
 
-// Member functions of the optimiser classes whose bodies use heavy templates: deferred the same way in
-// every mode (they are defined in the headers, instantiated where they are called).
+// Member functions (and constructors) of the optimiser classes whose bodies use heavy templates: deferred the
+// same way in every mode (they are defined in the headers, instantiated where they are called). A plain `inline`
+// function, or a member function defined in its class, whose body reaches a cost, an optimum search or an Eigen
+// decomposition is instantiated in every translation unit that includes its header: the ctest test
+// compile_time.readme_example_vs_eigen (tests/compile_time/) fails when the README example's compile time grows.
 #define HAPTICOPT_DEFERRED template <typename HapticoptDeferred = void>

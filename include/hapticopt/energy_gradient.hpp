@@ -70,11 +70,52 @@ CompactLoopDerivative<Scalar, MaxN> compact_loop_derivative(const SampledPlant<S
     return out;
 }
 
+/// The products of the gradient below, written out as loops over Eigen storage (each sum in index order): the
+/// same arithmetic as Eigen's product expressions up to the order of the additions, at a fraction of their
+/// compile time (Eigen's product kernels, instantiated per operand type and per storage variant, made most of
+/// the README example's compile time; docs/building.md, "Compile time of the library").
+/// out = a b.
+template <typename Out, typename A, typename B>
+void multiply_into(Out& out, const A& a, const B& b) {
+    const Eigen::Index rows = a.rows(), cols = b.cols(), depth = a.cols();
+    out.resize(rows, cols);
+    for (Eigen::Index l = 0; l < cols; ++l) {
+        for (Eigen::Index i = 0; i < rows; ++i) {
+            typename Out::Scalar v = 0;
+            for (Eigen::Index k = 0; k < depth; ++k) v += a(i, k) * b(k, l);
+            out(i, l) = v;
+        }
+    }
+}
+
+/// out += a^T b.
+template <typename Out, typename A, typename B>
+void add_transposed_product(Out& out, const A& a, const B& b) {
+    const Eigen::Index rows = a.cols(), cols = b.cols(), depth = a.rows();
+    for (Eigen::Index l = 0; l < cols; ++l) {
+        for (Eigen::Index i = 0; i < rows; ++i) {
+            typename Out::Scalar v = 0;
+            for (Eigen::Index k = 0; k < depth; ++k) v += a(k, i) * b(k, l);
+            out(i, l) += v;
+        }
+    }
+}
+
+/// <a, b> = sum_ij a_ij b_ij.
+template <typename Scalar, typename A, typename B>
+Scalar frobenius_product(const A& a, const B& b) {
+    Scalar v = 0;
+    for (Eigen::Index l = 0; l < a.cols(); ++l) {
+        for (Eigen::Index i = 0; i < a.rows(); ++i) v += a(i, l) * b(i, l);
+    }
+    return v;
+}
+
 /// One segment's term of dJ / dk (k = alpha or beta) in the adjoint gradient (header comment):
 /// sum_q C(p, q) [2 <w_{p-q} R G_q, dR> + [k = alpha] <dw_{p-q} / dalpha, R G_q R^T>], R the segment map, dR its
 /// derivative, w its weights (segment_weights) and dw / dalpha = (Z_x0, Z_x1 + s0 Z_x0, Z_x2 + 2 s0 Z_x1 + s0^2 Z_x0)
 /// from z_r = k Z_x,r + Z_v,r (Z_x the segment's position Gramians, s0 its start). Shared by the backward loop
-/// (R: 3 x N) and the estimator's (R: dense).
+/// (R: 3 x N) and the estimator's (R: dense storage, 3 rows).
 template <typename Scalar, typename Map, typename MapDerivative, typename Gramians>
 Scalar segment_gradient_term(const PlantSegment<Scalar>& seg, bool by_alpha, const Map& r, const MapDerivative& dr,
                              const std::array<Matrix3<Scalar>, 3>& weights, const Gramians& g,
@@ -85,13 +126,30 @@ Scalar segment_gradient_term(const PlantSegment<Scalar>& seg, bool by_alpha, con
         const auto& zx = seg.position_gramian;
         dw = {zx[0], zx[1] + s0 * zx[0], zx[2] + Scalar(2) * s0 * zx[1] + s0 * s0 * zx[0]};
     }
+    using Gramian = typename Gramians::value_type;
+    Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, Gramian::MaxColsAtCompileTime> rg;
+    Matrix3<Scalar> rgr;
+    const Eigen::Index n = r.cols();
     Scalar v = 0;
     for (int q = 0; q <= p; ++q) {
         const auto qi = static_cast<std::size_t>(q);
-        const auto wi = static_cast<std::size_t>(p - q);
-        const auto rg = (r * g[qi]).eval();
-        Scalar t = Scalar(2) * (weights[wi] * rg).cwiseProduct(dr).sum();
-        if (by_alpha) t += dw[wi].cwiseProduct((rg * r.transpose()).eval()).sum();
+        const Matrix3<Scalar>& w = weights[static_cast<std::size_t>(p - q)];
+        multiply_into(rg, r, g[qi]);  // R G_q (R has 3 rows)
+        Scalar t = 0;                 // <w R G_q, dR>
+        for (Eigen::Index l = 0; l < n; ++l) {
+            for (int i = 0; i < 3; ++i) t += (w(i, 0) * rg(0, l) + w(i, 1) * rg(1, l) + w(i, 2) * rg(2, l)) * dr(i, l);
+        }
+        t *= Scalar(2);
+        if (by_alpha) {
+            for (int k = 0; k < 3; ++k) {  // R G_q R^T
+                for (int i = 0; i < 3; ++i) {
+                    Scalar y = 0;
+                    for (Eigen::Index l = 0; l < n; ++l) y += rg(i, l) * r(k, l);
+                    rgr(i, k) = y;
+                }
+            }
+            t += frobenius_product<Scalar>(dw[static_cast<std::size_t>(p - q)], rgr);
+        }
         v += binomial[qi] * t;
     }
     return v;
@@ -115,22 +173,38 @@ EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<S
                                                       : std::array<Scalar, 3>{1, 2, 1};  // C(p, q)
     // Dense M (rows >= 2: the shift rows).
     Square m = Square::Zero(n, n);
-    m.topRows(2) = loop.top;
+    for (int l = 0; l < n; ++l) {
+        m(0, l) = loop.top(0, l);
+        m(1, l) = loop.top(1, l);
+    }
     for (int k = 2; k < n; ++k) m(k, shift_source(k)) = Scalar(1);
     const auto& e0 = loop.initial_state;
     // Forward: the G's.
     std::array<Square, 3> g;
     Square shifted;  // P(G_0)
-    g[0] = stein.solve(Square(e0 * e0.transpose()));
+    {
+        Square c(n, n);  // e_0 e_0^T
+        for (int l = 0; l < n; ++l) {
+            for (int k = 0; k < n; ++k) c(k, l) = e0(k) * e0(l);
+        }
+        g[0] = stein.solve(c);
+    }
     if (p >= 1) {
         shifted = stein.propagate(g[0]);
         g[1] = stein.solve(shifted);
-        if (p >= 2) g[2] = stein.solve(Square(Scalar(2) * g[1] - shifted));
+        if (p >= 2) {
+            Square c(n, n);  // 2 G_1 - P(G_0)
+            for (int l = 0; l < n; ++l) {
+                for (int k = 0; k < n; ++k) c(k, l) = Scalar(2) * g[1](k, l) - shifted(k, l);
+            }
+            g[2] = stein.solve(c);
+        }
     }
     // H_q and the explicit part of J_p.
     std::array<Square, 3> h;
     for (int q = 0; q <= p; ++q) h[static_cast<std::size_t>(q)] = Square::Zero(n, n);
     std::array<std::array<Matrix3<Scalar>, 3>, 2> weights;
+    Matrix3N wr(3, n);
     for (int s = 0; s < plant.segment_count(); ++s) {
         const Matrix3N& r = loop.segment_map[static_cast<std::size_t>(s)];
         weights[static_cast<std::size_t>(s)] = segment_weights(plant.segment(s), loop.total_stiffness);
@@ -138,30 +212,65 @@ EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<S
             const auto qi = static_cast<std::size_t>(q);
             const Matrix3<Scalar> w =
                 binomial_p[qi] * weights[static_cast<std::size_t>(s)][static_cast<std::size_t>(p - q)];
-            h[qi].noalias() += r.transpose() * (w * r);
+            multiply_into(wr, w, r);
+            add_transposed_product(h[qi], r, wr);  // H_q += R^T w R
         }
     }
     Scalar j = 0;
-    for (int q = 0; q <= p; ++q) j += h[static_cast<std::size_t>(q)].cwiseProduct(g[static_cast<std::size_t>(q)]).sum();
+    for (int q = 0; q <= p; ++q) {
+        j += frobenius_product<Scalar>(h[static_cast<std::size_t>(q)], g[static_cast<std::size_t>(q)]);
+    }
     // Adjoint.
     std::array<Square, 3> l;
     for (auto& x : l) x = Square::Zero(n, n);
     if (p >= 2) l[2] = stein.adjoint_solve(h[2]);
-    if (p >= 1) l[1] = stein.adjoint_solve(p >= 2 ? Square(h[1] + Scalar(2) * l[2]) : h[1]);
+    if (p >= 1) {
+        Square c = h[1];  // H_1 + 2 L_2
+        if (p >= 2) {
+            for (int b = 0; b < n; ++b) {
+                for (int a = 0; a < n; ++a) c(a, b) = h[1](a, b) + Scalar(2) * l[2](a, b);
+            }
+        }
+        l[1] = stein.adjoint_solve(c);
+    }
     {
-        const Square d = l[1] - l[2];
-        Square rhs = h[0];
-        if (p >= 1) rhs.noalias() += m.transpose() * d * m;
+        Square rhs = h[0];  // H_0 + M^T (L_1 - L_2) M
+        if (p >= 1) {
+            Square d(n, n);
+            for (int b = 0; b < n; ++b) {
+                for (int a = 0; a < n; ++a) d(a, b) = l[1](a, b) - l[2](a, b);
+            }
+            Square mtd = Square::Zero(n, n);
+            add_transposed_product(mtd, m, d);
+            Square mtdm;
+            multiply_into(mtdm, mtd, m);
+            for (int b = 0; b < n; ++b) {
+                for (int a = 0; a < n; ++a) rhs(a, b) += mtdm(a, b);
+            }
+        }
         l[0] = stein.adjoint_solve(rhs);
     }
     // 2 <sum L M G, dM>: only rows 0, 1 of dM are non-zero, so only rows 0, 1 of the sum are needed.
     using Top = typename ShiftSteinSolver<Scalar, MaxN>::Top;
     Top through_m = Top::Zero(2, n);
     {
-        const Square l0 = l[0] + l[1] - l[2];
-        through_m.noalias() += l0.topRows(2) * (m * g[0]);
-        if (p >= 1) through_m.noalias() += l[1].topRows(2) * (m * g[1]);
-        if (p >= 2) through_m.noalias() += l[2].topRows(2) * (m * g[2]);
+        Square l0(n, n);  // L_0 + L_1 - L_2
+        for (int b = 0; b < n; ++b) {
+            for (int a = 0; a < n; ++a) l0(a, b) = l[0](a, b) + l[1](a, b) - l[2](a, b);
+        }
+        Square mg;
+        for (int q = 0; q <= p; ++q) {
+            const auto qi = static_cast<std::size_t>(q);
+            const Square& left = q == 0 ? l0 : l[qi];
+            multiply_into(mg, m, g[qi]);  // through_m += left.topRows(2) (M G_q)
+            for (int b = 0; b < n; ++b) {
+                for (int a = 0; a < 2; ++a) {
+                    Scalar v = 0;
+                    for (int i = 0; i < n; ++i) v += left(a, i) * mg(i, b);
+                    through_m(a, b) += v;
+                }
+            }
+        }
     }
     const Scalar k = loop.total_stiffness;
     Scalar dj[2];
@@ -169,9 +278,15 @@ EnergyCostGradientT<Scalar> energy_cost_gradient_structured(const SampledPlant<S
         const Scalar da = dir == 0 ? Scalar(1) : Scalar(0);
         const Scalar db = dir == 0 ? Scalar(0) : Scalar(1);
         const CompactLoopDerivative<Scalar, MaxN> dl = compact_loop_derivative<Scalar, MaxN>(plant, da, db);
-        Scalar v = Scalar(2) * through_m.cwiseProduct(dl.top).sum();
-        if (dir == 0) {  // e_0 = -u / k: de_0 / dalpha = -e_0 / k
-            v += Scalar(2) * e0.dot(l[0] * (-e0 / k));
+        Scalar v = Scalar(2) * frobenius_product<Scalar>(through_m, dl.top);
+        if (dir == 0) {  // e_0 = -u / k: de_0 / dalpha = -e_0 / k; the term 2 e_0^T L_0 de_0
+            Scalar dot = 0;
+            for (int a = 0; a < n; ++a) {
+                Scalar y = 0;
+                for (int b = 0; b < n; ++b) y += l[0](a, b) * (-e0(b) / k);
+                dot += e0(a) * y;
+            }
+            v += Scalar(2) * dot;
         }
         for (int s = 0; s < plant.segment_count(); ++s) {
             const auto si = static_cast<std::size_t>(s);

@@ -87,14 +87,17 @@ namespace detail {
 /// at the stability edges). An empty band is (NaN, NaN). With g_max = +inf the band is the stable interval.
 class NoiseBudgetBand {
   public:
+    HAPTICOPT_DEFERRED
     NoiseBudgetBand(const NormalizedPlant& plant, const VelocityEstimator& estimator, double g_max, int beta_grid)
         : sampled_(plant), estimator_(estimator), g_max_(g_max), beta_grid_(beta_grid), region_(plant, estimator) {}
 
     const EstimatorStabilityRegion& region() const { return region_; }
     double g_max() const { return g_max_; }
+    HAPTICOPT_DEFERRED
     double noise(double a, double b) const { return estimator_force_noise_gain(sampled_, estimator_, a, b); }
 
     /// beta_lo (side 0) or beta_hi (side 1) at alpha; NaN where g_min(alpha) > g_max.
+    HAPTICOPT_DEFERRED
     double edge(double a, int side) const {
         const std::pair<double, double> interval = region_.beta_interval(a);
         if (!(interval.second > interval.first)) return std::nan("");
@@ -111,6 +114,7 @@ class NoiseBudgetBand {
         double least_noise_beta = std::nan("");
         bool empty() const { return !(hi > lo); }
     };
+    HAPTICOPT_DEFERRED
     Band band(double a) const {
         const std::pair<double, double> interval = region_.beta_interval(a);
         Band out;
@@ -130,12 +134,14 @@ class NoiseBudgetBand {
     }
 
   private:
+    HAPTICOPT_DEFERRED
     ScalarMinimum noise_minimum(double a, const std::pair<double, double>& interval) const {
         auto range = [&](double) { return interval; };
         auto g = [&](double, double b) { return noise(a, b); };
         return minimize_over_beta(g, range, a, beta_grid_);
     }
 
+    HAPTICOPT_DEFERRED
     double bisect(double a, double inside, double outside, double width) const {
         if (noise(a, outside) <= g_max_) return outside;  // the budget does not bind before the edge
         for (int k = 0; k < 200 && std::abs(outside - inside) > 1e-13 * width; ++k) {
@@ -178,9 +184,10 @@ double largest_alpha_where(Holds&& holds, double top, double floor, int grid, do
 
 /// The least C_OV over the band at alpha, or a value <= tolerance as soon as one is found: the band's cell
 /// centres (`beta_grid`), then Brent on the best one's neighbouring cells. (beta, C_OV); +inf on an empty band.
-inline ScalarMinimum least_overshoot(const SampledPlant<double>& sampled, const VelocityEstimator& estimator,
-                                     const std::pair<double, double>& band, double a, int beta_grid,
-                                     const OvershootOptions& ov) {
+HAPTICOPT_DEFERRED
+ScalarMinimum least_overshoot(const SampledPlant<double>& sampled, const VelocityEstimator& estimator,
+                              const std::pair<double, double>& band, double a, int beta_grid,
+                              const OvershootOptions& ov) {
     if (!(band.second > band.first)) return {band.first, HUGE_VAL};
     auto c_ov = [&](double b) { return static_cast<double>(estimator_overshoot(sampled, estimator, a, b, ov).value); };
     const double step = (band.second - band.first) / beta_grid;
