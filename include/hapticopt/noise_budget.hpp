@@ -281,7 +281,8 @@ NoiseBudgetOptimum largest_alpha_under_noise_budget(Criterion criterion, const N
 ///    empty, with the beta of least g_F there; cost = alpha. It lies inside the region (g_F finite), so no back-off
 ///    from the boundary is needed;
 ///  - OV: the largest alpha at which some beta of the band has C_OV <= options.unconstrained.overshoot_tolerance,
-///    with that beta (the band's least C_OV); cost = C_OV there;
+///    with the first such beta of detail::least_overshoot (the band's cell centres, then Brent towards the least
+///    C_OV); cost = C_OV there;
 ///  - CE0+OV..CE2+OV: the largest alpha at which the band's least C_Ex (beta_opt restricted to the band: grid and
 ///    Brent, detail::minimize_over_beta) has C_OV <= the tolerance, with that beta; cost = C_Ex there.
 /// OV and CEx+OV: the point without the budget (the same search with the band equal to the stable interval) when
