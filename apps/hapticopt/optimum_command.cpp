@@ -370,21 +370,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
             }
             EstimatorOptimumOptions eo;
             eo.overshoot_tolerance = args->tolerance;
+            const EstimatorOptimum o = estimator_optimum(*step, np, estimator, eo);  // OV too (noise_budget.hpp)
             const EstimatorStabilityRegion region(np, estimator);
-            EstimatorOptimum o;
-            if (*step == Criterion::Overshoot) {  // the OV point with the estimator (noise_budget.hpp)
-                NoiseBudgetOptions nbo;
-                nbo.unconstrained = eo;
-                const NoiseBudgetOptimum ov = estimator_overshoot_point(np, estimator, nbo);
-                o.criterion = *step;
-                o.alpha = ov.alpha;
-                o.beta = ov.beta;
-                o.cost = ov.cost;
-                o.alpha_max = region.alpha_max();
-                o.beta_at_alpha_max = region.beta_at_alpha_max();
-            } else {
-                o = optimal_point(*step, np, estimator, eo);
-            }
             const double noise = force_noise_gain(np, NormalizedGains{o.alpha, o.beta}, estimator);
             WallGains g{0, 0};
             if (physical) g = to_physical(NormalizedGains{o.alpha, o.beta}, plant.mass, plant.period);

@@ -424,6 +424,29 @@ NoiseBudgetOptimum estimator_overshoot_point(const NormalizedPlant& plant, const
     return out;
 }
 
+/// The optimum of every criterion with the estimator, as optimal_point (velocity_estimator.hpp) reports it: OV with
+/// an estimator other than backward by estimator_overshoot_point (cost = C_OV there; beta_at_alpha_max from the main
+/// region), every other case by optimal_point. Throws what they throw.
+HAPTICOPT_DEFERRED
+EstimatorOptimum estimator_optimum(Criterion criterion, const NormalizedPlant& plant,
+                                   const VelocityEstimator& estimator, const EstimatorOptimumOptions& options = {}) {
+    if (criterion != Criterion::Overshoot || estimator.kind == VelocityEstimatorKind::backward) {
+        return optimal_point(criterion, plant, estimator, options);
+    }
+    NoiseBudgetOptions nbo;
+    nbo.unconstrained = options;
+    const NoiseBudgetOptimum ov = estimator_overshoot_point(plant, estimator, nbo);
+    EstimatorOptimum out;
+    out.criterion = criterion;
+    out.alpha = ov.alpha;
+    out.beta = ov.beta;
+    out.cost = ov.cost;
+    const EstimatorStabilityRegion region(plant, estimator);
+    out.alpha_max = region.alpha_max();
+    out.beta_at_alpha_max = region.beta_at_alpha_max();
+    return out;
+}
+
 /// The Pareto front of C against g_F: the constrained optimum for each budget (any order; budgets that no
 /// scanned gains meet are left out). Each point's force_noise_gain <= its budget and cost is the least cost
 /// for it (budget_active false: the unconstrained optimum).

@@ -563,22 +563,9 @@ py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, 
     double g = 0;
     std::vector<StableIsland> islands;
     without_gil([&] {
-        const EstimatorStabilityRegion region(np, e);
-        if (*c == Criterion::Overshoot) {
-            NoiseBudgetOptions nbo;
-            nbo.unconstrained = o;
-            const NoiseBudgetOptimum ov = estimator_overshoot_point(np, e, nbo);
-            r.criterion = *c;
-            r.alpha = ov.alpha;
-            r.beta = ov.beta;
-            r.cost = ov.cost;
-            r.alpha_max = region.alpha_max();
-            r.beta_at_alpha_max = region.beta_at_alpha_max();
-        } else {
-            r = optimal_point(*c, np, e, o);
-        }
+        r = estimator_optimum(*c, np, e, o);  // OV too (noise_budget.hpp)
         g = force_noise_gain(np, NormalizedGains{r.alpha, r.beta}, e);
-        islands = region.islands();
+        islands = EstimatorStabilityRegion(np, e).islands();
     });
     py::dict d;
     d["alpha"] = r.alpha;

@@ -133,15 +133,10 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
             r.cost = t.cost;
             r.alpha_max = t.alpha_max;
         } else {
-            // The optimum of the loop with the estimator over its main stable region (hapticopt::optimal_point; the
-            // OV point by hapticopt::estimator_overshoot_point).
-            if (c == hapticopt::Criterion::Overshoot) {
-                const hapticopt::NoiseBudgetOptimum t = hapticopt::estimator_overshoot_point(normalized, estimator);
-                take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
-            } else {
-                const hapticopt::EstimatorOptimum t = hapticopt::optimal_point(c, normalized, estimator);
-                take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
-            }
+            // The optimum of the loop with the estimator over its main stable region (hapticopt::estimator_optimum:
+            // optimal_point, and the OV point by estimator_overshoot_point).
+            const hapticopt::EstimatorOptimum t = hapticopt::estimator_optimum(c, normalized, estimator);
+            take_normalised(t.alpha, t.beta, t.cost, t.alpha_max);
         }
         if (c == hapticopt::Criterion::AlphaMax && !plant.force_noise_budget) {
             // amax is the region's tip (alpha_max, the beta there), on its boundary: marginally stable. What is
