@@ -1,0 +1,195 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "mesh/mesh_hierarchy.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <utility>
+
+namespace hapticd::mesh {
+namespace {
+
+// Slab test of the segment p + s d, s in [0, 1], against the box [lower, upper].
+bool segment_meets_box(const Eigen::Vector3d& p, const Eigen::Vector3d& d, const Eigen::Vector3d& lower,
+                       const Eigen::Vector3d& upper) noexcept {
+    double enter = 0.0;
+    double leave = 1.0;
+    for (int k = 0; k < 3; ++k) {
+        if (std::abs(d[k]) < 1e-300) {
+            if (p[k] < lower[k] || p[k] > upper[k]) return false;
+            continue;
+        }
+        const double inv = 1.0 / d[k];
+        double s0 = (lower[k] - p[k]) * inv;
+        double s1 = (upper[k] - p[k]) * inv;
+        if (s0 > s1) std::swap(s0, s1);
+        enter = std::max(enter, s0);
+        leave = std::min(leave, s1);
+        if (enter > leave) return false;
+    }
+    return true;
+}
+
+// x (on the triangle's plane) within `tolerance` of the triangle: on the inner side of each edge line, or less
+// than `tolerance` outside it.
+bool inside_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& x, double tolerance) noexcept {
+    const Eigen::Vector3d b = t.a + t.ab;
+    const Eigen::Vector3d c = t.a + t.ac;
+    const Eigen::Vector3d bc = c - b;
+    if (t.ab.cross(x - t.a).dot(t.normal) < -tolerance * t.ab.norm()) return false;
+    if (bc.cross(x - b).dot(t.normal) < -tolerance * bc.norm()) return false;
+    if ((-t.ac).cross(x - c).dot(t.normal) < -tolerance * t.ac.norm()) return false;
+    return true;
+}
+
+// The hit rule of MeshHierarchy::sweep for one triangle: the fraction the proxy may move, or a value > 1 when the
+// segment does not meet the triangle's front.
+double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, const Eigen::Vector3d& d,
+                      double length, double offset) noexcept {
+    constexpr double kNever = 2.0;
+    const double approach = t.normal.dot(d);
+    if (!(approach < -1e-12 * length)) return kNever;
+    const double sp = t.normal.dot(p - t.a);
+    if (sp < -0.5 * offset) return kNever;
+    const double st = sp + approach;
+    if (!(st < offset)) return kNever;
+    Eigen::Vector3d x;
+    if (sp < 0.0) {
+        x = p - sp * t.normal;
+    } else if (st < 0.0) {
+        x = p + (sp / (sp - st)) * d;
+    } else {
+        x = p + d - st * t.normal;
+    }
+    if (!inside_triangle(t, x, MeshHierarchy::kEdgeTolerance)) return kNever;
+    return sp > offset ? (sp - offset) / (sp - st) : 0.0;
+}
+
+}  // namespace
+
+std::shared_ptr<const MeshHierarchy> MeshHierarchy::build(TriangleMesh mesh, MeshMode mode) {
+    std::shared_ptr<MeshHierarchy> h(new MeshHierarchy());
+    h->mode_ = mode;
+    h->mesh_ = std::move(mesh);
+    const auto& vertices = h->mesh_.vertices;
+    const auto& tris = h->mesh_.triangles;
+    const std::size_t n = tris.size();
+    std::vector<HierarchyTriangle> prepared(n);
+    std::vector<Eigen::Vector3d> centroids(n);
+    std::vector<Eigen::Vector3d> lowers(n);
+    std::vector<Eigen::Vector3d> uppers(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Eigen::Vector3d& a = vertices[tris[i][0]];
+        const Eigen::Vector3d& b = vertices[tris[i][1]];
+        const Eigen::Vector3d& c = vertices[tris[i][2]];
+        HierarchyTriangle& t = prepared[i];
+        t.a = a;
+        t.ab = b - a;
+        t.ac = c - a;
+        t.normal = t.ab.cross(t.ac).normalized();
+        t.index = static_cast<std::uint32_t>(i);
+        centroids[i] = (a + b + c) / 3.0;
+        lowers[i] = a.cwiseMin(b).cwiseMin(c);
+        uppers[i] = a.cwiseMax(b).cwiseMax(c);
+    }
+    std::vector<std::uint32_t> order(n);
+    std::iota(order.begin(), order.end(), 0u);
+    h->nodes_.reserve(n == 0 ? 1 : 2 * n);
+
+    struct Work {
+        std::uint32_t node;
+        std::uint32_t begin;
+        std::uint32_t end;
+        std::size_t depth;
+    };
+    std::vector<Work> work;
+    h->nodes_.push_back(Node{});
+    work.push_back({0, 0, static_cast<std::uint32_t>(n), 1});
+    while (!work.empty()) {
+        const Work w = work.back();
+        work.pop_back();
+        h->depth_ = std::max(h->depth_, w.depth);
+        Eigen::Vector3d lower = Eigen::Vector3d::Constant(HUGE_VAL);
+        Eigen::Vector3d upper = Eigen::Vector3d::Constant(-HUGE_VAL);
+        Eigen::Vector3d clower = lower;
+        Eigen::Vector3d cupper = upper;
+        for (std::uint32_t i = w.begin; i < w.end; ++i) {
+            lower = lower.cwiseMin(lowers[order[i]]);
+            upper = upper.cwiseMax(uppers[order[i]]);
+            clower = clower.cwiseMin(centroids[order[i]]);
+            cupper = cupper.cwiseMax(centroids[order[i]]);
+        }
+        h->nodes_[w.node].lower = lower;
+        h->nodes_[w.node].upper = upper;
+        if (w.end - w.begin <= kLeafSize) {
+            h->nodes_[w.node].first = w.begin;
+            h->nodes_[w.node].count = w.end - w.begin;
+            continue;
+        }
+        int axis = 0;
+        (cupper - clower).maxCoeff(&axis);
+        const std::uint32_t mid = w.begin + (w.end - w.begin) / 2;
+        std::nth_element(order.begin() + w.begin, order.begin() + mid, order.begin() + w.end,
+                         [&](std::uint32_t x, std::uint32_t y) { return centroids[x][axis] < centroids[y][axis]; });
+        const auto first_child = static_cast<std::uint32_t>(h->nodes_.size());
+        h->nodes_[w.node].first = first_child;
+        h->nodes_[w.node].count = 0;
+        h->nodes_.push_back(Node{});
+        h->nodes_.push_back(Node{});
+        work.push_back({first_child, w.begin, mid, w.depth + 1});
+        work.push_back({first_child + 1, mid, w.end, w.depth + 1});
+    }
+    if (h->depth_ + 1 > kStackSize) throw std::length_error("MeshHierarchy: deeper than its traversal stack");
+    h->triangles_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) h->triangles_[i] = prepared[order[i]];
+    h->nodes_.shrink_to_fit();
+    return h;
+}
+
+SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double offset) const noexcept {
+    SweepHit best;
+    if (nodes_.empty() || triangles_.empty()) return best;
+    const Eigen::Vector3d d = q - p;
+    const double length = d.norm();
+    if (!(length > 0.0)) return best;
+    const double grow = offset + kEdgeTolerance;
+    std::array<std::uint32_t, kStackSize> stack;
+    std::size_t top = 0;
+    stack[top++] = 0;
+    double fraction = HUGE_VAL;
+    const HierarchyTriangle* met = nullptr;
+    while (top > 0) {
+        const Node& node = nodes_[stack[--top]];
+        if (!segment_meets_box(p, d, node.lower.array() - grow, node.upper.array() + grow)) continue;
+        if (node.count > 0) {
+            for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
+                const double s = sweep_triangle(triangles_[i], p, d, length, offset);
+                if (s <= 1.0 && s < fraction) {
+                    fraction = s;
+                    met = &triangles_[i];
+                }
+            }
+        } else if (top + 2 <= kStackSize) {
+            stack[top++] = node.first + 1;
+            stack[top++] = node.first;
+        }
+    }
+    if (met != nullptr) {
+        best.fraction = fraction;
+        best.triangle = met->index;
+        best.normal = met->normal;
+        best.plane_offset = met->normal.dot(met->a);
+    }
+    return best;
+}
+
+std::size_t MeshHierarchy::memory_bytes() const {
+    return sizeof(*this) + nodes_.capacity() * sizeof(Node) + triangles_.capacity() * sizeof(HierarchyTriangle) +
+           mesh_.vertices.capacity() * sizeof(Eigen::Vector3d) +
+           mesh_.triangles.capacity() * sizeof(std::array<std::uint32_t, 3>);
+}
+
+}  // namespace hapticd::mesh
