@@ -47,8 +47,8 @@ bool inside_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& x, doubl
 
 // The hit rule of MeshHierarchy::sweep for one triangle: the fraction the proxy may move, or a value > 1 when the
 // segment does not meet the triangle's front.
-double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, const Eigen::Vector3d& d,
-                      double length, double offset) noexcept {
+double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, const Eigen::Vector3d& d, double length,
+                      double offset) noexcept {
     constexpr double kNever = 2.0;
     const double approach = t.normal.dot(d);
     if (!(approach < -1e-12 * length)) return kNever;

@@ -31,10 +31,10 @@ struct HierarchyTriangle {
 
 // The first front-face contact of a swept segment p -> q.
 struct SweepHit {
-    double fraction = 1.0;                 // the proxy may move to p + fraction (q - p), fraction in [0, 1]
-    std::uint32_t triangle = UINT32_MAX;   // index in the mesh; UINT32_MAX: the segment is free
+    double fraction = 1.0;                // the proxy may move to p + fraction (q - p), fraction in [0, 1]
+    std::uint32_t triangle = UINT32_MAX;  // index in the mesh; UINT32_MAX: the segment is free
     Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-    double plane_offset = 0.0;             // the triangle's plane: normal . x = plane_offset
+    double plane_offset = 0.0;  // the triangle's plane: normal . x = plane_offset
     bool hit() const { return triangle != UINT32_MAX; }
 };
 

@@ -37,15 +37,16 @@ std::optional<std::string> solid_error(const TriangleMesh& mesh) {
     };
     for (std::size_t i = 0; i + 1 < edges.size(); ++i) {
         if (edges[i].first == edges[i + 1].first) {
-            return "mesh: mode solid: edge " + describe(edges[i].first) + " is used in the same direction by triangles " +
-                   std::to_string(edges[i].second) + " and " + std::to_string(edges[i + 1].second) +
+            return "mesh: mode solid: edge " + describe(edges[i].first) +
+                   " is used in the same direction by triangles " + std::to_string(edges[i].second) + " and " +
+                   std::to_string(edges[i + 1].second) +
                    " (a solid's triangles are wound consistently: each edge once in each direction; or the edge is "
                    "shared by more than two triangles)";
         }
     }
     for (const auto& [key, t] : edges) {
-        const std::uint64_t reverse = edge_key(static_cast<std::uint32_t>(key & 0xffffffffu),
-                                               static_cast<std::uint32_t>(key >> 32));
+        const std::uint64_t reverse =
+            edge_key(static_cast<std::uint32_t>(key & 0xffffffffu), static_cast<std::uint32_t>(key >> 32));
         const auto it = std::lower_bound(edges.begin(), edges.end(), std::make_pair(reverse, std::uint32_t{0}));
         if (it == edges.end() || it->first != reverse) {
             return "mesh: mode solid: edge " + describe(key) + " of triangle " + std::to_string(t) +
