@@ -125,11 +125,12 @@ const ProxyContact& GodObjectProxy::step(const Eigen::Vector3d& handle) noexcept
     bool slid = false;
     int sweeps = 0;
     int kept = 0;  // the planes before the last restart (reported when the sweeps run out after it)
+    bool converged = false;
     while (sweeps < kMaxSweeps) {
         Eigen::Vector3d goal = handle;
         if (count > 0) {
             solution = closest_point(planes, count, handle);
-            if (!solution.found) break;
+            if (!solution.found) break;  // dependent planes: not converged
             goal = solution.point;
             if (mu_static > 0.0) {
                 // Friction cone around the frictionless proxy `goal`: penetration |h - goal| (along the active
@@ -138,17 +139,26 @@ const ProxyContact& GodObjectProxy::step(const Eigen::Vector3d& handle) noexcept
                 const double offset = (p - goal).norm();
                 const double mu = first_friction_check && !contact_.sliding ? mu_static : mu_dynamic;
                 first_friction_check = false;
-                if (offset <= mu * penetration) break;  // sticks
+                if (offset <= mu * penetration) {  // sticks
+                    converged = true;
+                    break;
+                }
                 goal += (mu_dynamic * penetration / offset) * (p - goal);
                 slid = true;
             }
         }
-        if ((goal - p).squaredNorm() <= 1e-24) break;
+        if ((goal - p).squaredNorm() <= 1e-24) {
+            converged = true;
+            break;
+        }
         const SweepHit hit = mesh.sweep(p, goal);
         ++sweeps;
         if (!hit.hit()) {
             p = goal;
-            if (count == 0) break;
+            if (count == 0) {
+                converged = true;
+                break;
+            }
             // On the target of these planes: sweep toward the handle again (it may reach past a convex edge).
             kept = count;
             count = 0;
@@ -163,6 +173,7 @@ const ProxyContact& GodObjectProxy::step(const Eigen::Vector3d& handle) noexcept
     contact_.proxy = p;
     contact_.sweeps = sweeps;
     contact_.sliding = slid;
+    contact_.converged = converged;
     contact_.constraints = 0;
     contact_.triangle = UINT32_MAX;
     if (count == 0 && (p - handle).squaredNorm() > 1e-24) count = kept;

@@ -29,6 +29,10 @@ struct ProxyContact {
     std::uint32_t triangle = UINT32_MAX;              // one active face, UINT32_MAX when free
     int sweeps = 0;                                   // sweeps the last step used (at most kMaxSweeps)
     bool sliding = false;                             // friction: the proxy slid in the last step
+    // The last step ended on the constrained closest point (or stuck by friction) within its bounds; false when it
+    // ran out of sweeps or planes (the proxy is then left where its last sweep stopped: outside, and it goes on
+    // at the next step).
+    bool converged = true;
 };
 
 class GodObjectProxy {

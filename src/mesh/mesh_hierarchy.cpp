@@ -45,6 +45,10 @@ bool inside_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& x, doubl
     return true;
 }
 
+// A segment ending on the offset level (a proxy sliding on a constraint plane) does not meet the plane: its end
+// must be kLevelTolerance below the level, 1e4 times the rounding of a point on a plane at 1 m.
+constexpr double kLevelTolerance = 1e-12;
+
 // The hit rule of MeshHierarchy::sweep for one triangle: the fraction the proxy may move, or a value > 1 when the
 // segment does not meet the triangle's front.
 double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, const Eigen::Vector3d& d, double length,
@@ -55,7 +59,7 @@ double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, cons
     const double sp = t.normal.dot(p - t.a);
     if (sp < -0.5 * offset) return kNever;
     const double st = sp + approach;
-    if (!(st < offset)) return kNever;
+    if (!(st < offset - kLevelTolerance)) return kNever;
     Eigen::Vector3d x;
     if (sp < 0.0) {
         x = p - sp * t.normal;

@@ -55,7 +55,7 @@ class MeshHierarchy {
 
     // The first triangle whose front the segment p -> q meets (the hit rule of docs/mesh-rendering.md): a
     // triangle counts when the segment approaches its plane (normal . (q - p) < -1e-12 |q - p|), starts no more
-    // than offset / 2 behind it, ends less than `offset` in front of it, and crosses the triangle (grown by
+    // than offset / 2 behind it, ends less than offset - 1e-12 in front of it, and crosses the triangle (grown by
     // kEdgeTolerance) there. fraction: the largest in [0, 1] that keeps the proxy `offset` in front of that plane,
     // the smallest over the triangles met. No allocation, no lock, no exception; visits each node at most once.
     SweepHit sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double offset = kSurfaceOffset) const noexcept;

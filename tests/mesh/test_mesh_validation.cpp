@@ -27,8 +27,8 @@ std::string error_of(const TriangleMesh& m, MeshMode mode, const MeshLimits& lim
 }
 
 TEST(MeshValidation, ClosedMeshesAreValidInBothModes) {
-    for (const TriangleMesh& m : {tetrahedron(), icosphere(0.05, 3), box({0.03, 0.02, 0.01}, 3),
-                                  torus(0.05, 0.02, 24, 12)}) {
+    for (const TriangleMesh& m :
+         {tetrahedron(), icosphere(0.05, 3), box({0.03, 0.02, 0.01}, 3), torus(0.05, 0.02, 24, 12)}) {
         EXPECT_EQ(error_of(m, MeshMode::solid), "");
         EXPECT_EQ(error_of(m, MeshMode::surface), "");
     }
@@ -125,8 +125,7 @@ TEST(MeshValidation, SolidModeRefusesNonManifoldEdges) {
     }();
     const auto solid_volume_sign = [](const TriangleMesh& t) {
         double v = 0;
-        for (const auto& tri : t.triangles)
-            v += t.vertices[tri[0]].dot(t.vertices[tri[1]].cross(t.vertices[tri[2]]));
+        for (const auto& tri : t.triangles) v += t.vertices[tri[0]].dot(t.vertices[tri[1]].cross(t.vertices[tri[2]]));
         return v;
     };
     ASSERT_NE(solid_volume_sign(other), 0.0);
