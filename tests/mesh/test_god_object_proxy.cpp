@@ -77,15 +77,13 @@ PathStats run_random_path(const TriangleMesh& m, MeshMode mode, MeshFriction fri
                     for (std::size_t i = 0; i < planes.size(); ++i)
                         if ((subset >> i) & 1u) some.push_back(planes[i]);
                     const Eigen::Vector3d t = ref::closest_feasible_point(some, handle);
-                    margin = std::min(margin, (c.proxy - t).norm() -
-                                                  friction.static_coefficient * (handle - t).norm());
+                    margin = std::min(margin, (c.proxy - t).norm() - friction.static_coefficient * (handle - t).norm());
                 }
                 if (planes.empty()) margin = (c.proxy - handle).norm();
-                EXPECT_LE(margin, kSamePoint) << "step " << stats.steps << ": outside the static friction cone, "
-                                              << planes.size() << " resting planes, " << c.constraints
-                                              << " constraints, sliding " << c.sliding << ", " << c.sweeps
-                                              << " sweeps, proxy " << c.proxy.transpose() << ", handle "
-                                              << handle.transpose();
+                EXPECT_LE(margin, kSamePoint)
+                    << "step " << stats.steps << ": outside the static friction cone, " << planes.size()
+                    << " resting planes, " << c.constraints << " constraints, sliding " << c.sliding << ", " << c.sweeps
+                    << " sweeps, proxy " << c.proxy.transpose() << ", handle " << handle.transpose();
             }
             if (height_field) {
                 EXPECT_GE(c.proxy.z(), ref::surface_height(faces, c.proxy.x(), c.proxy.y()) - 1e-12)
@@ -127,8 +125,7 @@ TEST(GodObjectProxy, FrictionKeepsTheProxyInTheStaticConeOnRandomMeshes) {
     std::mt19937_64 rng(99);
     for (int i = 0; i < 3; ++i) {
         const TriangleMesh m = ref::bumpy_sphere(0.05, 3, 0.15, rng);
-        const PathStats s =
-            run_random_path(m, MeshMode::solid, {0.6, 0.4}, rng, {0, 0.1, 0}, 0.03, 0.07, false);
+        const PathStats s = run_random_path(m, MeshMode::solid, {0.6, 0.4}, rng, {0, 0.1, 0}, 0.03, 0.07, false);
         expect_mostly_converged(s);
     }
     for (int i = 0; i < 2; ++i) {
