@@ -28,6 +28,7 @@ PACKAGES=(
   python3-dev python3-venv python3-pip pybind11-dev  # the Python package (python/, scripts/test-python.sh)
   python3-numpy python3-scipy python3-matplotlib python3-pytest  # its run time, reference and tests
   xvfb xauth        # xvfb-run: a virtual X display for the scope's window-mode test (python/tests/test_scope.py)
+  libembree-dev     # Embree 3: only the mesh benchmark's comparison (tests/benchmarks/mesh.cmake, optional)
   clang-format      # the C++ style check (scripts/check-format.sh, ctest layout.format)
   dpkg-dev lintian  # the Debian packages: dpkg-shlibdeps (CPack), lintian (scripts/test-debian-packages.sh)
   systemd           # systemd-analyze verify, systemd-sysusers (the package's postinst)

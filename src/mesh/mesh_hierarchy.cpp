@@ -12,19 +12,21 @@
 namespace hapticd::mesh {
 namespace {
 
-// Slab test of the segment p + s d, s in [0, 1], against the box [lower, upper].
-bool segment_meets_box(const Eigen::Vector3d& p, const Eigen::Vector3d& d, const Eigen::Vector3d& lower,
-                       const Eigen::Vector3d& upper) noexcept {
+// Slab test of the segment p + s d, s in [0, 1], against the box [lower - grow, upper + grow]; inverse[k] is
+// 1 / d[k] where flat[k] is false; where it is true (d[k] = 0) the slab holds p or not.
+bool segment_meets_box(const Eigen::Vector3d& p, const Eigen::Vector3d& inverse, const std::array<bool, 3>& flat,
+                       const MeshHierarchy::Node& node, double grow) noexcept {
     double enter = 0.0;
     double leave = 1.0;
     for (int k = 0; k < 3; ++k) {
-        if (std::abs(d[k]) < 1e-300) {
-            if (p[k] < lower[k] || p[k] > upper[k]) return false;
+        const double lower = node.lower[k] - grow;
+        const double upper = node.upper[k] + grow;
+        if (flat[k]) {
+            if (p[k] < lower || p[k] > upper) return false;
             continue;
         }
-        const double inv = 1.0 / d[k];
-        double s0 = (lower[k] - p[k]) * inv;
-        double s1 = (upper[k] - p[k]) * inv;
+        double s0 = (lower - p[k]) * inverse[k];
+        double s1 = (upper - p[k]) * inverse[k];
         if (s0 > s1) std::swap(s0, s1);
         enter = std::max(enter, s0);
         leave = std::min(leave, s1);
@@ -166,6 +168,12 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
     const double length = d.norm();
     if (!(length > 0.0)) return best;
     const double grow = offset + kEdgeTolerance;
+    Eigen::Vector3d inverse;
+    std::array<bool, 3> flat{};
+    for (int k = 0; k < 3; ++k) {
+        flat[k] = std::abs(d[k]) < 1e-300;
+        inverse[k] = flat[k] ? 0.0 : 1.0 / d[k];
+    }
     std::array<std::uint32_t, kStackSize> stack;
     std::size_t top = 0;
     stack[top++] = 0;
@@ -173,7 +181,7 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
     const HierarchyTriangle* met = nullptr;
     while (top > 0) {
         const Node& node = nodes_[stack[--top]];
-        if (!segment_meets_box(p, d, node.lower.array() - grow, node.upper.array() + grow)) continue;
+        if (!segment_meets_box(p, inverse, flat, node, grow)) continue;
         if (node.count > 0) {
             for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
                 const double s = sweep_triangle(triangles_[i], p, d, length, offset);

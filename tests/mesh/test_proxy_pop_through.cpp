@@ -82,9 +82,7 @@ void search_pop_through(const TriangleMesh& m, const Eigen::Vector3d& centre, Me
 
 TEST(ProxyPopThrough, NeverInsideAClosedSphere) { search_pop_through(icosphere(0.03, 3), {0, 0, 0}, {}, "sphere"); }
 
-TEST(ProxyPopThrough, NeverInsideABox) {
-    search_pop_through(box({0.03, 0.02, 0.025}, 3), {0, 0, 0}, {}, "box");
-}
+TEST(ProxyPopThrough, NeverInsideABox) { search_pop_through(box({0.03, 0.02, 0.025}, 3), {0, 0, 0}, {}, "box"); }
 
 TEST(ProxyPopThrough, NeverInsideBumpySpheres) {
     std::mt19937_64 rng(3);
@@ -110,8 +108,8 @@ TEST(ProxyPopThrough, NeverInsideATorusAcrossItsHole) {
     for (int k = 0; k < 300; ++k) {
         const Eigen::Vector3d from = 0.08 * Eigen::Vector3d(u(rng), u(rng), 0.3 * u(rng)).normalized();
         const Eigen::Vector3d to(0.05 * u(rng), 0.05 * u(rng), 0.01 * u(rng));
-        run_line(proxy, faces, from, (to - from).normalized(), (to - from).norm() * 1.5, k % 2 ? 1e-3 : 1e-2,
-                 counts, "torus");
+        run_line(proxy, faces, from, (to - from).normalized(), (to - from).norm() * 1.5, k % 2 ? 1e-3 : 1e-2, counts,
+                 "torus");
     }
     EXPECT_GT(counts.contacts, counts.steps / 10);
 }
