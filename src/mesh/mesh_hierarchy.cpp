@@ -205,6 +205,31 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
     return best;
 }
 
+void MeshHierarchy::visit_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double grow,
+                                  const std::function<void(const HierarchyTriangle&)>& visit) const {
+    if (nodes_.empty() || triangles_.empty()) return;
+    const Eigen::Vector3d d = q - p;
+    Eigen::Vector3d inverse;
+    std::array<bool, 3> flat{};
+    for (int k = 0; k < 3; ++k) {
+        flat[k] = std::abs(d[k]) < 1e-300;
+        inverse[k] = flat[k] ? 0.0 : 1.0 / d[k];
+    }
+    std::array<std::uint32_t, kStackSize> stack;
+    std::size_t top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const Node& node = nodes_[stack[--top]];
+        if (!segment_meets_box(p, inverse, flat, node, grow)) continue;
+        if (node.count > 0) {
+            for (std::uint32_t i = node.first; i < node.first + node.count; ++i) visit(triangles_[i]);
+        } else if (top + 2 <= kStackSize) {
+            stack[top++] = node.first + 1;
+            stack[top++] = node.first;
+        }
+    }
+}
+
 std::size_t MeshHierarchy::memory_bytes() const {
     return sizeof(*this) + nodes_.capacity() * sizeof(Node) + triangles_.capacity() * sizeof(HierarchyTriangle) +
            mesh_.vertices.capacity() * sizeof(Eigen::Vector3d) +

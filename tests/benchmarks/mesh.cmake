@@ -2,7 +2,7 @@
 # The mesh benchmarks (docs/mesh-rendering.md); included by tests/benchmarks/CMakeLists.txt when the daemon is built.
 # Target: hapticd_mesh_benchmarks (Google Benchmark). Run it with
 #   <build>/tests/benchmarks/hapticd_mesh_benchmarks --benchmark_counters_tabular=true
-# With Debian's libembree-dev installed (optional, scripts/install-deps.sh does not install it), the same segment
+# With Debian's libembree-dev installed (scripts/install-deps.sh lists it; optional here), the same segment
 # queries also run through Embree 3 (rtcIntersect1) for the comparison of docs/mesh-rendering.md.
 if(TARGET hapticd_mesh)
   if(NOT TARGET benchmark::benchmark)

@@ -148,5 +148,24 @@ TEST(MeshValidation, SolidModeRefusesInwardWinding) {
     EXPECT_NE(e.find("accepted > 0"), std::string::npos) << e;
 }
 
+TEST(MeshValidation, SolidModeRefusesSelfIntersection) {
+    // Two closed spheres in one mesh: apart they are a valid solid; overlapping, their surfaces cross. The offset is
+    // not along an axis of symmetry (mirror-image meshes would cross exactly on their edges).
+    const auto two_spheres = [](double gap) {
+        TriangleMesh a = icosphere(0.02, 2);
+        const TriangleMesh b = icosphere(0.02, 2);
+        const auto base = static_cast<std::uint32_t>(a.vertices.size());
+        for (const auto& v : b.vertices) a.vertices.push_back(v + Eigen::Vector3d(0.04 + gap, 0.0037, 0.0021));
+        for (auto t : b.triangles) a.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+        return a;
+    };
+    EXPECT_EQ(error_of(two_spheres(0.001), MeshMode::solid), "");
+    const std::string e = error_of(two_spheres(-0.01), MeshMode::solid);
+    EXPECT_NE(e.find("intersects itself"), std::string::npos) << e;
+    EXPECT_EQ(error_of(two_spheres(-0.01), MeshMode::surface), "");  // surfaces may cross
+    // A torus is no self-intersection (its inner faces come close across the hole but do not cross).
+    EXPECT_EQ(error_of(torus(0.05, 0.02, 33, 16), MeshMode::solid), "");
+}
+
 }  // namespace
 }  // namespace hapticd::mesh
