@@ -9,6 +9,7 @@
 
 #include "mesh/procedural_meshes.hpp"
 #include "mesh/triangle_mesh.hpp"
+#include "mesh/weld_vertices.hpp"
 
 namespace hapticd::mesh {
 namespace {
@@ -165,6 +166,31 @@ TEST(MeshValidation, SolidModeRefusesSelfIntersection) {
     EXPECT_EQ(error_of(two_spheres(-0.01), MeshMode::surface), "");  // surfaces may cross
     // A torus is no self-intersection (its inner faces come close across the hole but do not cross).
     EXPECT_EQ(error_of(torus(0.05, 0.02, 33, 16), MeshMode::solid), "");
+}
+
+TEST(MeshValidation, WeldingMakesAnUnweldedSolidValid) {
+    // Every triangle of a box on its own three vertices (as in an STL file), one of them written as -0.
+    const TriangleMesh welded = box({0.03, 0.02, 0.01}, 2);
+    TriangleMesh soup;
+    for (const auto& t : welded.triangles) {
+        const auto base = static_cast<std::uint32_t>(soup.vertices.size());
+        for (const auto v : t) soup.vertices.push_back(welded.vertices[v]);
+        soup.triangles.push_back({base, base + 1, base + 2});
+    }
+    for (auto& v : soup.vertices)
+        if (v.x() == 0.0) v.x() = -0.0;
+    EXPECT_NE(error_of(soup, MeshMode::solid).find("weld duplicate vertices"), std::string::npos);
+    const TriangleMesh rewelded = weld_vertices(soup);
+    EXPECT_EQ(rewelded.vertices.size(), welded.vertices.size());
+    EXPECT_EQ(rewelded.triangles.size(), welded.triangles.size());
+    EXPECT_EQ(error_of(rewelded, MeshMode::solid), "");
+    // Same triangles, same corners' positions.
+    for (std::size_t i = 0; i < soup.triangles.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            EXPECT_EQ(rewelded.vertices[rewelded.triangles[i][k]], soup.vertices[soup.triangles[i][k]]);
+    // An index out of range stays out of range.
+    soup.triangles[0][1] = 999999;
+    EXPECT_NE(error_of(weld_vertices(soup), MeshMode::surface).find("vertex index 1"), std::string::npos);
 }
 
 }  // namespace
