@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdlib>
+#include <initializer_list>
 #include <string>
 
 namespace hapticd {
