@@ -286,7 +286,7 @@ struct ConnectOptions {
     std::string socket_path;  // empty: default_socket_path(instance)
     // The daemon instance (hapticd --instance NAME, include/hapticd/instance.hpp) when socket_path is empty: its
     // socket hapticd-NAME.sock; empty: default_socket_path(). Both set: std::invalid_argument from connect().
-    std::string instance;
+    std::string instance{};
     std::string client_name = "hapticd-client";
     double lease_s = 0.0;             // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
     int protocol = kProtocolVersion;  // for tests of the refusal

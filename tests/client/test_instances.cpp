@@ -130,10 +130,8 @@ TEST_F(Instances, EachInstanceHasItsOwnSocketAndStateNamedAfterIt) {
     EXPECT_TRUE(fs::is_socket(right_->socket()));
     EXPECT_FALSE(fs::exists(*run_dir_ / "hapticd.sock"));  // neither is the default instance
 
-    cl::Client left =
-        cl::Client::connect({.socket_path = {}, .instance = *left_name_, .client_name = "instances-left"});
-    cl::Client right =
-        cl::Client::connect({.socket_path = {}, .instance = *right_name_, .client_name = "instances-right"});
+    cl::Client left = cl::Client::connect({.instance = *left_name_, .client_name = "instances-left"});
+    cl::Client right = cl::Client::connect({.instance = *right_name_, .client_name = "instances-right"});
     EXPECT_EQ(left.welcome().state_shm, "/hapticd-" + *left_name_ + "-state");
     EXPECT_EQ(right.welcome().state_shm, "/hapticd-" + *right_name_ + "-state");
     // Two devices: the default simulated one (1 axis) and tests/server/sim3.toml (3 axes).
@@ -167,8 +165,7 @@ TEST_F(Instances, EachInstanceHasItsOwnSocketAndStateNamedAfterIt) {
 TEST_F(Instances, AnObjectAddedOnOneInstanceIsNotOnTheOther) {
     const auto left_before = client_objects(*left_name_);
     const auto right_before = client_objects(*right_name_);
-    cl::Client left =
-        cl::Client::connect({.socket_path = {}, .instance = *left_name_, .client_name = "instances-plane"});
+    cl::Client left = cl::Client::connect({.instance = *left_name_, .client_name = "instances-plane"});
     const auto result = left.commit(cl::Batch().add(
         cl::Plane{.normal = {-1.0, 0.0, 0.0}, .offset = 0.005, .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
     ASSERT_EQ(result.object_ids.size(), 1U);
@@ -223,7 +220,7 @@ TEST_F(Instances, ASecondDaemonWithARunningInstancesNameIsRefused) {
     EXPECT_EQ(second.code, 9) << second.out << second.err;  // kExitSocketPathInUse
     EXPECT_NE(second.err.find("'" + left_->socket() + "' is in use"), std::string::npos) << second.err;
     // The running instance still serves, on its socket and its (not replaced) state segment.
-    cl::Client c = cl::Client::connect({.socket_path = {}, .instance = *left_name_, .client_name = "instances-after"});
+    cl::Client c = cl::Client::connect({.instance = *left_name_, .client_name = "instances-after"});
     const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
     EXPECT_EQ(state.writer_pid(), left_->pid());
     cl::StateSample s1;
