@@ -14,6 +14,7 @@
 
 #include <filesystem>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -31,6 +32,17 @@ using clients_test::Result;
 
 // One instance: hapticd --serve --instance NAME in lockstep, the simulated hand holding the handle against a soft
 // config wall at x = 5 cm (as clients_test::LockstepDaemon), no --serve-socket / --serve-shm.
+// A consistent sample of a lockstep daemon's state: a reader can overlap its back-to-back writes many times in a
+// row (StateReader::read's 1000 attempts), so it tries again for up to 10 s.
+bool read_state(const cl::StateReader& state, cl::StateSample& out) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (!state.read(out)) {
+        if (std::chrono::steady_clock::now() >= end) return false;
+        std::this_thread::yield();
+    }
+    return true;
+}
+
 class InstanceDaemon {
   public:
     InstanceDaemon(const std::string& name, const std::vector<std::string>& extra)
@@ -130,8 +142,10 @@ TEST_F(Instances, EachInstanceHasItsOwnSocketAndStateNamedAfterIt) {
     EXPECT_TRUE(fs::is_socket(right_->socket()));
     EXPECT_FALSE(fs::exists(*run_dir_ / "hapticd.sock"));  // neither is the default instance
 
-    cl::Client left = cl::Client::connect({.instance = *left_name_, .client_name = "instances-left"});
-    cl::Client right = cl::Client::connect({.instance = *right_name_, .client_name = "instances-right"});
+    cl::Client left =
+        cl::Client::connect({.socket_path = {}, .instance = *left_name_, .client_name = "instances-left"});
+    cl::Client right =
+        cl::Client::connect({.socket_path = {}, .instance = *right_name_, .client_name = "instances-right"});
     EXPECT_EQ(left.welcome().state_shm, "/hapticd-" + *left_name_ + "-state");
     EXPECT_EQ(right.welcome().state_shm, "/hapticd-" + *right_name_ + "-state");
     // Two devices: the default simulated one (1 axis) and tests/server/sim3.toml (3 axes).
@@ -151,8 +165,8 @@ TEST_F(Instances, EachInstanceHasItsOwnSocketAndStateNamedAfterIt) {
     cl::StateSample b;
     const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     do {
-        ASSERT_TRUE(left_state.read(a));
-        ASSERT_TRUE(right_state.read(b));
+        ASSERT_TRUE(read_state(left_state, a));
+        ASSERT_TRUE(read_state(right_state, b));
     } while ((a.tick < 100 || b.tick < 100) && std::chrono::steady_clock::now() < end);
     EXPECT_GE(a.tick, 100U);
     EXPECT_GE(b.tick, 100U);
@@ -165,7 +179,8 @@ TEST_F(Instances, EachInstanceHasItsOwnSocketAndStateNamedAfterIt) {
 TEST_F(Instances, AnObjectAddedOnOneInstanceIsNotOnTheOther) {
     const auto left_before = client_objects(*left_name_);
     const auto right_before = client_objects(*right_name_);
-    cl::Client left = cl::Client::connect({.instance = *left_name_, .client_name = "instances-plane"});
+    cl::Client left =
+        cl::Client::connect({.socket_path = {}, .instance = *left_name_, .client_name = "instances-plane"});
     const auto result = left.commit(cl::Batch().add(
         cl::Plane{.normal = {-1.0, 0.0, 0.0}, .offset = 0.005, .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
     ASSERT_EQ(result.object_ids.size(), 1U);
@@ -220,15 +235,15 @@ TEST_F(Instances, ASecondDaemonWithARunningInstancesNameIsRefused) {
     EXPECT_EQ(second.code, 9) << second.out << second.err;  // kExitSocketPathInUse
     EXPECT_NE(second.err.find("'" + left_->socket() + "' is in use"), std::string::npos) << second.err;
     // The running instance still serves, on its socket and its (not replaced) state segment.
-    cl::Client c = cl::Client::connect({.instance = *left_name_, .client_name = "instances-after"});
+    cl::Client c = cl::Client::connect({.socket_path = {}, .instance = *left_name_, .client_name = "instances-after"});
     const cl::StateReader state = cl::StateReader::open(c.welcome().state_shm);
     EXPECT_EQ(state.writer_pid(), left_->pid());
     cl::StateSample s1;
     cl::StateSample s2;
-    ASSERT_TRUE(state.read(s1));
+    ASSERT_TRUE(read_state(state, s1));
     const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     do {
-        ASSERT_TRUE(state.read(s2));
+        ASSERT_TRUE(read_state(state, s2));
     } while (s2.tick == s1.tick && std::chrono::steady_clock::now() < end);
     EXPECT_GT(s2.tick, s1.tick);
     c.bye();
