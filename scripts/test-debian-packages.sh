@@ -6,8 +6,9 @@
 #   3. apt-get install of the three packages;
 #   4. with the checkout out of reach (a private mount namespace with an empty, mode-0 tmpfs over it): the installed
 #      hapticd's --help, `hapticd --dry-run`, `hapticd --criterion CE2 --duration 1`, the config search order
-#      (/etc/hapticd over /usr/share/hapticd, $HAPTICD_CONFIG over both, --config over all), and
-#      `systemd-analyze verify` of the installed unit;
+#      (/etc/hapticd over /usr/share/hapticd, $HAPTICD_CONFIG over both, --config over all; /etc/hapticd/NAME.toml
+#      over hapticd.toml for --instance NAME), and
+#      `systemd-analyze verify` of the installed unit and of an instance of its template (hapticd@left.service);
 #   5. the outside projects tests/packaging/consumer (find_package(hapticopt)) and client_consumer
 #      (find_package(hapticd)) against /usr;
 #   6. apt-get purge of the three, then no file of theirs is left. The user and group hapticd stay (Debian never
@@ -73,13 +74,19 @@ mkdir /etc/hapticd
 printf 'rate = 500.0\n' >/etc/hapticd/hapticd.toml
 printf 'rate = 250.0\n' >/tmp/hapticd-env.toml
 printf 'rate = 125.0\n' >/tmp/hapticd-cli.toml
+printf 'rate = 400.0\n' >/etc/hapticd/left.toml
 etc=$(rate_of /usr/bin/hapticd --dry-run)
+left=$(rate_of /usr/bin/hapticd --instance left --dry-run)     # /etc/hapticd/left.toml
+right=$(rate_of /usr/bin/hapticd --instance right --dry-run)   # no right.toml: /etc/hapticd/hapticd.toml
 env_=$(rate_of env HAPTICD_CONFIG=/tmp/hapticd-env.toml /usr/bin/hapticd --dry-run)
 cli=$(rate_of env HAPTICD_CONFIG=/tmp/hapticd-env.toml /usr/bin/hapticd --config /tmp/hapticd-cli.toml --dry-run)
 rm -rf /etc/hapticd /tmp/hapticd-env.toml /tmp/hapticd-cli.toml
-echo "  /etc/hapticd: $etc; \$HAPTICD_CONFIG: $env_; --config: $cli"
+echo "  /etc/hapticd: $etc; \$HAPTICD_CONFIG: $env_; --config: $cli; --instance left: $left; --instance right: $right"
 [[ $etc == *500* && $env_ == *250* && $cli == *125* ]] || fail "config search order not --config > \$HAPTICD_CONFIG > /etc/hapticd"
+[[ $left == *400* && $right == *500* ]] || fail "--instance NAME does not read /etc/hapticd/NAME.toml before hapticd.toml"
 hidden systemd-analyze verify /usr/lib/systemd/system/hapticd.service
+# An instance of the template: systemd-analyze finds hapticd@.service for it in /usr/lib/systemd/system.
+hidden systemd-analyze verify hapticd@left.service
 
 step "outside projects on the installed CMake packages"
 version=$(dpkg-deb --field "$out"/libhapticopt-dev_*.deb Version)

@@ -15,12 +15,15 @@
 #include <iostream>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+
+#include "hapticd/instance.hpp"
 
 #include "exit_codes.hpp"
 #include "object_spec.hpp"
@@ -34,6 +37,7 @@ namespace {
 
 struct Common {
     std::string socket;
+    std::string instance;  // hapticd --instance NAME: its socket (include/hapticd/instance.hpp)
     double timeout = 5.0;
     double lease = 1.0;
     std::string name = "hapticctl";
@@ -42,6 +46,7 @@ struct Common {
 hc::Client connect(const Common& c, double lease) {
     hc::ConnectOptions o;
     o.socket_path = c.socket;
+    o.instance = c.instance;
     o.client_name = c.name;
     o.lease_s = lease;
     o.timeout_s = c.timeout;
@@ -279,9 +284,21 @@ int main(int argc, char** argv) {
     app.footer(kExitCodeHelp);
     app.require_subcommand(1);
     Common common;
-    app.add_option("--socket", common.socket,
-                   "Control socket (default: $HAPTICD_SOCKET, $RUNTIME_DIRECTORY/hapticd.sock, "
-                   "$XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock)");
+    auto* socket = app.add_option("--socket", common.socket,
+                                  "Control socket (default: $HAPTICD_SOCKET, the socket of $HAPTICD_INSTANCE, "
+                                  "$RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock, "
+                                  "/run/hapticd/hapticd.sock)");
+    app.add_option("--instance", common.instance,
+                   "The daemon instance (hapticd --instance NAME): its socket hapticd-NAME.sock in "
+                   "$RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR or /run/hapticd")
+        ->excludes(socket)
+        ->check(
+            [](const std::string& name) {
+                return hapticd::valid_instance_name(name)
+                           ? std::string()
+                           : "--instance '" + name + "' is invalid; accepted: " + hapticd::kInstanceNameForm;
+            },
+            "NAME");
     app.add_option("--timeout", common.timeout, "Seconds to wait for each reply")->check(CLI::Range(0.01, 600.0));
     app.add_option("--lease", common.lease, "Lease of add/session in seconds (0: none; heartbeats at a third of it)")
         ->check(CLI::Range(0.0, 60.0));
@@ -359,6 +376,9 @@ int main(int argc, char** argv) {
         if (what.rfind("StateReader::open", 0) == 0) return kExitNoState;
         // A transport failure while connecting: no daemon (3); after the welcome: the session was lost (8).
         return exit_code_for(e, /*connected=*/what.rfind("Client::connect", 0) != 0);
+    } catch (const std::invalid_argument& e) {  // e.g. a bad $HAPTICD_INSTANCE (the message names it)
+        std::cerr << "hapticctl: " << e.what() << "\n";
+        return kExitUsage;
     } catch (const std::exception& e) {
         std::cerr << "hapticctl: internal error: " << e.what() << "\n";
         return kExitInternal;

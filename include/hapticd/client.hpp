@@ -283,7 +283,10 @@ struct BusyRetry {
 };
 
 struct ConnectOptions {
-    std::string socket_path;  // empty: default_socket_path()
+    std::string socket_path;  // empty: default_socket_path(instance)
+    // The daemon instance (hapticd --instance NAME, include/hapticd/instance.hpp) when socket_path is empty: its
+    // socket hapticd-NAME.sock; empty: default_socket_path(). Both set: std::invalid_argument from connect().
+    std::string instance{};
     std::string client_name = "hapticd-client";
     double lease_s = 0.0;             // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
     int protocol = kProtocolVersion;  // for tests of the refusal
@@ -296,8 +299,13 @@ struct ConnectOptions {
     BusyRetry busy_retry{};  // commit()'s retries of `busy`; checked by connect() (std::invalid_argument)
 };
 
-// $HAPTICD_SOCKET, else $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock.
+// $HAPTICD_SOCKET, else the socket of the instance $HAPTICD_INSTANCE names, else $RUNTIME_DIRECTORY/hapticd.sock,
+// $XDG_RUNTIME_DIR/hapticd.sock, /run/hapticd/hapticd.sock. An invalid $HAPTICD_INSTANCE: std::invalid_argument
+// naming it and the accepted form.
 [[nodiscard]] std::string default_socket_path();
+// The socket of instance NAME: hapticd-NAME.sock in $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR or /run/hapticd (the
+// daemon's order); "" : default_socket_path(). An invalid name: std::invalid_argument naming the accepted form.
+[[nodiscard]] std::string default_socket_path(const std::string& instance);
 
 class Client {
   public:

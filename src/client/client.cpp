@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/object_json.hpp"
+#include "hapticd/instance.hpp"
 
 namespace hapticd::client {
 
@@ -137,15 +138,30 @@ Batch& Batch::clear() {
 
 std::string default_socket_path() {
     if (const char* s = std::getenv("HAPTICD_SOCKET"); s != nullptr && *s != '\0') return s;
-    if (const char* s = std::getenv("RUNTIME_DIRECTORY"); s != nullptr && *s != '\0')
-        return std::string(s) + "/hapticd.sock";
-    if (const char* s = std::getenv("XDG_RUNTIME_DIR"); s != nullptr && *s != '\0')
-        return std::string(s) + "/hapticd.sock";
-    return "/run/hapticd/hapticd.sock";
+    if (const char* s = std::getenv("HAPTICD_INSTANCE"); s != nullptr && *s != '\0') {
+        if (!valid_instance_name(s)) {
+            throw std::invalid_argument(std::string("$HAPTICD_INSTANCE = '") + s +
+                                        "' is invalid; accepted: " + kInstanceNameForm);
+        }
+        return instance_socket_path(s);
+    }
+    return instance_socket_path("");
+}
+
+std::string default_socket_path(const std::string& instance) {
+    if (instance.empty()) return default_socket_path();
+    if (!valid_instance_name(instance)) {
+        throw std::invalid_argument("instance = '" + instance + "' is invalid; accepted: " + kInstanceNameForm);
+    }
+    return instance_socket_path(instance);
 }
 
 Client Client::connect(const ConnectOptions& options) {
-    const std::string path = options.socket_path.empty() ? default_socket_path() : options.socket_path;
+    if (!options.socket_path.empty() && !options.instance.empty()) {
+        throw std::invalid_argument("ConnectOptions: socket_path = '" + options.socket_path + "' and instance = '" +
+                                    options.instance + "' both given; accepted: one of them");
+    }
+    const std::string path = options.socket_path.empty() ? default_socket_path(options.instance) : options.socket_path;
     sockaddr_un addr{};
     addr.sun_family = AF_UNIX;
     if (path.size() >= sizeof(addr.sun_path)) {

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <system_error>
 
+#include "hapticd/instance.hpp"
+
 // Set by src/CMakeLists.txt from GNUInstallDirs, relative so that the same binary works under any prefix.
 #if !defined(HAPTICD_BINDIR_TO_DATA_DIR) || !defined(HAPTICD_BINDIR_TO_PREFIX) || !defined(HAPTICD_SYSCONFDIR)
 #error "HAPTICD_BINDIR_TO_DATA_DIR, HAPTICD_BINDIR_TO_PREFIX and HAPTICD_SYSCONFDIR must be defined"
@@ -88,14 +90,23 @@ std::vector<std::string> config_search_dirs() {
     return out;
 }
 
-std::string default_config_file(bool& from_environment) {
+std::string default_config_file(bool& from_environment, const std::string& instance) {
     const char* env = std::getenv("HAPTICD_CONFIG");
     from_environment = env != nullptr && *env != '\0';
     if (from_environment) return env;
-    for (const auto& dir : config_search_dirs()) {
-        const fs::path candidate = fs::path(dir) / "hapticd.toml";
-        std::error_code ec;
-        if (fs::exists(candidate, ec)) return candidate.string();
+    return find_config_file(config_search_dirs(), instance);
+}
+
+std::string find_config_file(const std::vector<std::string>& dirs, const std::string& instance) {
+    std::vector<std::string> names;
+    if (!instance.empty()) names.push_back(instance_config_file(instance));
+    names.push_back(instance_config_file(""));
+    for (const auto& name : names) {
+        for (const auto& dir : dirs) {
+            const fs::path candidate = fs::path(dir) / name;
+            std::error_code ec;
+            if (fs::exists(candidate, ec)) return candidate.string();
+        }
     }
     return "";
 }
@@ -103,6 +114,9 @@ std::string default_config_file(bool& from_environment) {
 std::string config_search_help() {
     const ConfigDirectories& d = config_directories();
     std::string s = "Config file, first match: --config FILE (\"\": none); $HAPTICD_CONFIG; ";
+    s += "with --instance NAME: NAME.toml in";
+    for (const auto& dir : config_search_dirs()) s += " " + dir;
+    s += "; ";
     if (!d.system.empty()) s += d.system + "/hapticd.toml; ";
     s += d.data + "/hapticd.toml";
     s += d.build_tree ? " (the repository's, found through the build tree's hapticd-build-tree.txt)" : "";

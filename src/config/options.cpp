@@ -13,6 +13,7 @@
 #include "config/apply_config_file.hpp"
 #include "config/config_locations.hpp"
 #include "config/hand_schedule.hpp"
+#include "hapticd/instance.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd {
@@ -30,6 +31,7 @@ struct Handles {
     CLI::Option* stiffness = nullptr;
     CLI::Option* damping = nullptr;
     CLI::Option* wall = nullptr;
+    CLI::Option* serve_shm = nullptr;
 };
 
 // Which of the options that need it were given (the CLI::App owning the handles is gone by then).
@@ -38,8 +40,10 @@ struct Given {
     bool stiffness = false;
     bool damping = false;
     bool wall = false;
+    bool serve_shm = false;
     static Given of(const Handles& h) {
-        return {h.duration->count() > 0, h.stiffness->count() > 0, h.damping->count() > 0, h.wall->count() > 0};
+        return {h.duration->count() > 0, h.stiffness->count() > 0, h.damping->count() > 0, h.wall->count() > 0,
+                h.serve_shm->count() > 0};
     }
 };
 
@@ -138,12 +142,17 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
                  "Tune CE0/CE1/CE2 for the worst case over the profile's mass_range, damping_range, stiffness_range "
                  "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
     app.add_flag("--serve", o.serve, "Serve client applications on a control socket (docs/protocol.md)");
+    app.add_option("--instance", o.instance,
+                   "Instance name, one per device on the machine: socket hapticd-NAME.sock, state /hapticd-NAME-state, "
+                   "config NAME.toml (default: none, hapticd.sock, /hapticd-state, hapticd.toml; docs/hapticd.md)");
     app.add_option("--serve-socket", o.serve_socket,
                    "Control socket path (default $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock or "
-                   "/run/hapticd/hapticd.sock)");
+                   "/run/hapticd/hapticd.sock; hapticd-NAME.sock with --instance NAME)");
     app.add_option("--serve-mode", o.serve_mode, "Octal file mode of the control socket (default 0660)");
     app.add_option("--serve-group", o.serve_group, "Group of the control socket and the state (default: the daemon's)");
-    app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");
+    h.serve_shm = app.add_option(
+        "--serve-shm", o.serve_shm,
+        "POSIX shared-memory name of the state stream (default /hapticd-state; /hapticd-NAME-state with --instance)");
     app.add_option("--ramp-time", o.ramp_time, "Ramp in/out time of client objects in s (default 0.03; 0: none)");
     app.add_option("--max-force-rate", o.max_force_rate,
                    "Limit on the change of the total force in N/s (default 10000)");
@@ -209,6 +218,7 @@ Options parse_options(int argc, const char* const* argv, const std::string& help
     // Pass 1: the command line alone (usage errors, --help, where the config file is).
     std::string config_arg;
     bool config_given = false;
+    std::string instance_arg;  // --instance on the command line
     {
         Options scratch;
         Handles h;
@@ -241,13 +251,18 @@ Options parse_options(int argc, const char* const* argv, const std::string& help
             throw StartupError(ErrorKind::Usage, std::string(e.what()) + " (see hapticd --help)");
         }
         config_given = cfg->count() > 0;
+        instance_arg = scratch.instance;
+    }
+    // The instance names files: checked before it chooses one.
+    if (!instance_arg.empty() && !valid_instance_name(instance_arg)) {
+        invalid(KeyLocations{}, "instance", instance_arg, kInstanceNameForm);
     }
 
     Options o;
     Given from_file;
     Given from_cli;
     bool from_environment = false;
-    const std::string config_path = config_given ? config_arg : default_config_file(from_environment);
+    const std::string config_path = config_given ? config_arg : default_config_file(from_environment, instance_arg);
     if (!config_path.empty()) {  // "": --config "" or nothing found, built-in defaults only
         if (!fs::is_regular_file(config_path)) {
             throw StartupError(ErrorKind::BadConfig, "config file '" + config_path + "'" +
@@ -292,6 +307,12 @@ Options parse_options(int argc, const char* const* argv, const std::string& help
     o.gains_set = k_set;
     o.walls_from_command_line = from_cli.wall;
     if (o.no_walls && !from_cli.wall) o.walls.clear();  // --wall on the command line wins over wall = [] in a file
+    // An instance's names, unless --serve-socket / --serve-shm name others (a bad name from the file:
+    // validate_options).
+    if (!o.instance.empty() && valid_instance_name(o.instance)) {
+        if (o.serve_socket.empty()) o.serve_socket = instance_socket_path(o.instance);
+        if (!from_file.serve_shm && !from_cli.serve_shm) o.serve_shm = instance_state_shm(o.instance);
+    }
     return o;
 }
 
@@ -362,6 +383,7 @@ void validate_options(const Options& o) {
         o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
         invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
     }
+    if (!o.instance.empty() && !valid_instance_name(o.instance)) invalid(w, "instance", o.instance, kInstanceNameForm);
     if (o.serve_shm.size() < 2 || o.serve_shm[0] != '/' || o.serve_shm.find('/', 1) != std::string::npos) {
         invalid(w, "serve-shm", o.serve_shm, "'/' followed by a name without '/', e.g. /hapticd-state");
     }

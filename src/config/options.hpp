@@ -82,10 +82,14 @@ struct Options {
     double passivity_velocity_guard = 1e-4;  // m/s: no damper below this speed
     // The control socket for client applications (docs/protocol.md, server/server.hpp).
     bool serve = false;
-    std::string serve_socket;         // "" : $RUNTIME_DIRECTORY or $XDG_RUNTIME_DIR /hapticd.sock, else /run/hapticd/
-    std::string serve_mode = "0660";  // octal file mode of the socket
-    std::string serve_group;          // group of the socket and the state ("" : the daemon's group)
-    std::string serve_shm = "/hapticd-state";  // POSIX shared-memory name of the state stream
+    // --instance NAME: this daemon's socket hapticd-NAME.sock, state /hapticd-NAME-state and config NAME.toml
+    // (include/hapticd/instance.hpp); "": the default instance (hapticd.sock, /hapticd-state, hapticd.toml).
+    std::string instance;
+    // "" : $RUNTIME_DIRECTORY or $XDG_RUNTIME_DIR /hapticd.sock, else /run/hapticd/ (hapticd-NAME.sock for an instance)
+    std::string serve_socket;
+    std::string serve_mode = "0660";           // octal file mode of the socket
+    std::string serve_group;                   // group of the socket and the state ("" : the daemon's group)
+    std::string serve_shm = "/hapticd-state";  // POSIX shared-memory name of the state stream (/hapticd-NAME-state)
     double ramp_time = 0.03;                   // s, ramp in/out of client objects
     // N/s, limit on the change of the force written per tick (scene/force_limiter.hpp); 0: derived from the device
     // profile (default_max_force_rate), resolved by hapticd's main once the profile is read.

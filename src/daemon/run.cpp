@@ -36,6 +36,7 @@
 #include "daemon/report.hpp"
 #include "daemon/run_messages.hpp"
 #include "daemon/run_outputs.hpp"
+#include "daemon/socket_lock.hpp"
 #include "daemon/systemd_notify.hpp"
 #include "daemon/wall_tuning.hpp"
 #include "devices/device_factory.hpp"
@@ -279,7 +280,12 @@ int run_main(int argc, const char* const* argv, const Recording* replay) {
     ReplayObjects replay_objects = make_replay_objects(replay, o, profile, period, cfg);
     auto daemon = std::make_unique<Daemon>(*device, scene, trace.get(), cfg);
     if (replay_objects.objects) daemon->attach(ServerHooks{replay_objects.objects.get(), nullptr});
-    // --serve: client objects, state stream, control socket
+    // --serve: the socket's lock (daemon/socket_lock.hpp), held until the end, then client objects, state stream,
+    // control socket
+    const SocketLock socket_lock =
+        o.serve && replay == nullptr
+            ? SocketLock::acquire(o.serve_socket.empty() ? default_server_socket_path() : o.serve_socket)
+            : SocketLock{};
     std::unique_ptr<ServeRuntime> serving =
         start_serving(o, profile, period, delay, walls, *daemon, recorder.get(), replay);
     // From here a fatal signal or std::terminate zeroes the device where the driver can and marks the state

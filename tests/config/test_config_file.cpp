@@ -555,5 +555,59 @@ TEST_F(ConfigFileTest, EveryShippedProfileKeyRejectsTheWrongType) {
                     "numbers ([a, b, ...]) or a number");  // one mass, or one per axis
 }
 
+// --instance NAME (or `instance` in the file) names the socket, the state segment and (config_locations) the config
+// file; no instance keeps today's names; --serve-socket / --serve-shm, on the command line or in the file, win; a
+// name outside [a-z0-9][a-z0-9_-]{0,31} is refused naming the option and the accepted form.
+TEST_F(ConfigFileTest, InstanceNamesItsSocketAndStateUnlessTheyAreGiven) {
+    const char* saved = std::getenv("RUNTIME_DIRECTORY");
+    const std::string saved_value = saved != nullptr ? saved : "";
+    ::setenv("RUNTIME_DIRECTORY", "/run/test-instances", 1);
+    const auto none = load_config("");
+    EXPECT_EQ(none.code, -1) << none.message;
+    EXPECT_EQ(none.options.instance, "");
+    EXPECT_EQ(none.options.serve_socket, "");  // the server's default: $RUNTIME_DIRECTORY/hapticd.sock
+    EXPECT_EQ(none.options.serve_shm, "/hapticd-state");
+
+    const auto cli = load_config("", {"--instance", "left"});
+    EXPECT_EQ(cli.code, -1) << cli.message;
+    EXPECT_EQ(cli.options.serve_socket, "/run/test-instances/hapticd-left.sock");
+    EXPECT_EQ(cli.options.serve_shm, "/hapticd-left-state");
+    const auto file = load_config("instance = \"right-2\"\n");
+    EXPECT_EQ(file.code, -1) << file.message;
+    EXPECT_EQ(file.options.serve_socket, "/run/test-instances/hapticd-right-2.sock");
+    EXPECT_EQ(file.options.serve_shm, "/hapticd-right-2-state");
+    const auto cli_over_file = load_config("instance = \"right\"\n", {"--instance", "left"});
+    EXPECT_EQ(cli_over_file.options.serve_shm, "/hapticd-left-state");
+
+    const auto given = load_config("", {"--instance", "left", "--serve-socket", "/tmp/x.sock", "--serve-shm", "/x"});
+    EXPECT_EQ(given.code, -1) << given.message;
+    EXPECT_EQ(given.options.serve_socket, "/tmp/x.sock");
+    EXPECT_EQ(given.options.serve_shm, "/x");
+    const auto given_in_file = load_config("serve-shm = \"/y\"\n", {"--instance", "left"});
+    EXPECT_EQ(given_in_file.options.serve_shm, "/y");
+    EXPECT_EQ(given_in_file.options.serve_socket, "/run/test-instances/hapticd-left.sock");
+
+    ::unsetenv("RUNTIME_DIRECTORY");
+    ::setenv("XDG_RUNTIME_DIR", "/run/user/test", 1);
+    EXPECT_EQ(load_config("", {"--instance", "a"}).options.serve_socket, "/run/user/test/hapticd-a.sock");
+    ::unsetenv("XDG_RUNTIME_DIR");
+    EXPECT_EQ(load_config("", {"--instance", "a"}).options.serve_socket, "/run/hapticd/hapticd-a.sock");
+    if (saved != nullptr) ::setenv("RUNTIME_DIRECTORY", saved_value.c_str(), 1);
+
+    const std::string form = "1 to 32 characters of a-z, 0-9, '_' and '-', starting with a letter or a digit";
+    for (const std::string& bad :
+         std::vector<std::string>{"Left", "-left", "_x", "le/ft", "../x", "a.b", "left right", std::string(33, 'a')}) {
+        SCOPED_TRACE(bad);
+        const auto r = load_config("", {"--instance", bad});
+        EXPECT_EQ(r.code, kExitInvalidParameter);
+        EXPECT_CONTAINS(r.message, "instance = " + bad + " is invalid; accepted range: " + form);
+    }
+    EXPECT_EQ(load_config("", {"--instance", std::string(32, 'a')}).code, -1);
+    EXPECT_EQ(load_config("", {"--instance", "0_a-b"}).code, -1);
+    const auto bad_file = load_config("rate = 1000.0\ninstance = \"Left\"\n");
+    EXPECT_EQ(bad_file.code, kExitInvalidParameter);
+    EXPECT_CONTAINS(bad_file.message, "line 2, column 1: instance = Left is invalid; accepted range: " + form);
+}
+
 }  // namespace
 }  // namespace hapticd

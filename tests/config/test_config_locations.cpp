@@ -103,6 +103,27 @@ TEST_F(ConfigLocationsTest, ProfileNextToTheConfigFileComesBeforeTheSearchDirs) 
               fs::canonical(fs::path(HAPTICD_SOURCE_CONFIG_DIR) / "devices" / "falcon.toml"));
 }
 
+// --instance NAME: NAME.toml in any search directory before hapticd.toml in any; without one, hapticd.toml.
+TEST_F(ConfigLocationsTest, InstanceConfigComesBeforeTheDefaultConfig) {
+    const std::string system = (dir_ / "etc").string();
+    const std::string data = (dir_ / "share").string();
+    const std::string shipped = write("share/hapticd.toml", "rate = 1000.0\n");
+    EXPECT_EQ(find_config_file({system, data}, "left"), shipped);  // no left.toml: the default config
+    EXPECT_EQ(find_config_file({system, data}, ""), shipped);
+    const std::string admin = write("etc/hapticd.toml", "rate = 500.0\n");
+    EXPECT_EQ(find_config_file({system, data}, "left"), admin);
+    const std::string left_data = write("share/left.toml", "rate = 400.0\n");
+    EXPECT_EQ(find_config_file({system, data}, "left"), left_data);  // an instance's file, even the data dir's
+    const std::string left_system = write("etc/left.toml", "rate = 300.0\n");
+    EXPECT_EQ(find_config_file({system, data}, "left"), left_system);
+    EXPECT_EQ(find_config_file({system, data}, "right"), admin);
+    EXPECT_EQ(find_config_file({system, data}, ""), admin);  // the default instance never reads left.toml
+    EXPECT_EQ(find_config_file({(dir_ / "none").string()}, "left"), "");
+    // In the build tree: no left.toml in the repository's config/, so its hapticd.toml.
+    EXPECT_EQ(fs::canonical(parse({"--instance", "left"}).config_path),
+              fs::canonical(fs::path(HAPTICD_SOURCE_CONFIG_DIR) / "hapticd.toml"));
+}
+
 TEST_F(ConfigLocationsTest, HelpStatesTheSearchOrder) {
     const std::string help = config_search_help();
     const auto at = [&](const std::string& s) { return help.find(s); };
@@ -111,6 +132,8 @@ TEST_F(ConfigLocationsTest, HelpStatesTheSearchOrder) {
     ASSERT_NE(at(config_directories().data + "/hapticd.toml"), std::string::npos) << help;
     EXPECT_LT(at("--config FILE"), at("$HAPTICD_CONFIG"));
     EXPECT_LT(at("$HAPTICD_CONFIG"), at(config_directories().data + "/hapticd.toml"));
+    EXPECT_LT(at("$HAPTICD_CONFIG"), at("with --instance NAME: NAME.toml"));
+    EXPECT_LT(at("with --instance NAME: NAME.toml"), at(config_directories().data + "/hapticd.toml"));
 }
 
 }  // namespace

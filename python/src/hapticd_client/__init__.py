@@ -14,6 +14,7 @@ from .client import (CONTACT_QUEUE_CAPACITY, EVENT_QUEUE_CAPACITY, MAX_MESSAGE_B
                      default_socket_path)
 from .device import DeviceInfo
 from .errors import ERROR_CODES, HapticdError
+from .instance import INSTANCE_NAME_FORM, instance_socket_path, instance_state_shm, valid_instance_name
 from .objects import Batch, field, gains, plane, spring
 from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
 
@@ -30,6 +31,7 @@ __all__ = [
     "FAULT_NAMES",
     "FAULT_TERMINATE",
     "HapticdError",
+    "INSTANCE_NAME_FORM",
     "MAX_MESSAGE_BYTES",
     "PROTOCOL_VERSION",
     "StateFault",
@@ -38,8 +40,11 @@ __all__ = [
     "default_socket_path",
     "field",
     "gains",
+    "instance_socket_path",
+    "instance_state_shm",
     "plane",
     "shm_path",
     "spring",
     "stale_after_s",
+    "valid_instance_name",
 ]

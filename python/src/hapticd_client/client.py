@@ -26,6 +26,7 @@ from typing import Deque, Dict, Iterable, List, Optional, Tuple, Union
 
 from .device import DeviceInfo
 from .errors import HapticdError
+from .instance import check_instance_name, instance_socket_path
 from .objects import Batch
 
 PROTOCOL_VERSION = 1
@@ -83,15 +84,18 @@ class ContactEvent:
                    force=vec("force"), dropped=int(message.get("dropped", 0)))
 
 
-def default_socket_path() -> str:
-    """``$HAPTICD_SOCKET``, else ``$RUNTIME_DIRECTORY/hapticd.sock``, ``$XDG_RUNTIME_DIR/hapticd.sock``,
-    ``/run/hapticd/hapticd.sock`` (the order of the daemon and the C++ client)."""
+def default_socket_path(instance: Optional[str] = None) -> str:
+    """The socket of ``instance`` (hapticd --instance NAME: ``hapticd-NAME.sock``) when given; else
+    ``$HAPTICD_SOCKET``, else the socket of the instance ``$HAPTICD_INSTANCE`` names; in
+    ``$RUNTIME_DIRECTORY``, ``$XDG_RUNTIME_DIR`` or ``/run/hapticd`` (the order of the daemon and the C++ client).
+    An invalid name raises ValueError naming it and the accepted form."""
+    if instance:
+        return instance_socket_path(check_instance_name(instance))
     if os.environ.get("HAPTICD_SOCKET"):
         return os.environ["HAPTICD_SOCKET"]
-    for var in ("RUNTIME_DIRECTORY", "XDG_RUNTIME_DIR"):
-        if os.environ.get(var):
-            return os.path.join(os.environ[var], "hapticd.sock")
-    return "/run/hapticd/hapticd.sock"
+    if os.environ.get("HAPTICD_INSTANCE"):
+        return instance_socket_path(check_instance_name(os.environ["HAPTICD_INSTANCE"], "$HAPTICD_INSTANCE"))
+    return instance_socket_path(None)
 
 
 BUSY_RETRY_DEFAULT = (8, 1e-3, 0.05)  # tries, initial delay (s), largest delay (s): as the C++ client's BusyRetry
@@ -134,14 +138,19 @@ class Client:
                 timeout_s: float = 5.0, protocol: int = PROTOCOL_VERSION,
                 event_queue_capacity: int = EVENT_QUEUE_CAPACITY,
                 busy_retry: Tuple[int, float, float] = BUSY_RETRY_DEFAULT,
-                contact_queue_capacity: int = CONTACT_QUEUE_CAPACITY) -> "Client":
+                contact_queue_capacity: int = CONTACT_QUEUE_CAPACITY, instance: Optional[str] = None) -> "Client":
         """Connects and performs the handshake; raises HapticdError ("transport", "protocol_version", ...).
+        ``instance``: the daemon instance (hapticd --instance NAME) whose socket to use when ``socket_path`` is
+        not given (both: ValueError).
         ``event_queue_capacity``: events kept until ``poll_event``/``next_event`` takes them (more are
         dropped and counted in ``events_dropped``). ``busy_retry``: how ``commit`` retries ``busy``
         (``set_busy_retry``). ``contact_queue_capacity``: contact events kept until ``poll_contact``/
         ``next_contact`` takes them (more are dropped and counted in ``contacts_dropped``)."""
         _check_busy_retry(busy_retry)
-        path = socket_path or default_socket_path()
+        if socket_path and instance:
+            raise ValueError(f"socket_path = {socket_path!r} and instance = {instance!r} both given; "
+                             "accepted: one of them")
+        path = socket_path or default_socket_path(instance)
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
         try:
             sock.connect(path)

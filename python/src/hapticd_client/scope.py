@@ -42,6 +42,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .errors import HapticdError
+from .instance import INSTANCE_NAME_FORM, valid_instance_name
 from .state import CAPACITY, LAYOUT_SIZE, StateReader, _FIELDS, _FIELDS_OFFSET, FAULT_NAMES
 
 EXIT_OK = 0
@@ -91,6 +92,12 @@ def _size(text: str) -> Tuple[int, int]:
     return w, h
 
 
+def _instance_name(text: str) -> str:
+    if not valid_instance_name(text):
+        raise argparse.ArgumentTypeError(f"--instance = {text!r}: accepted: {INSTANCE_NAME_FORM}")
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="hapticd-scope",
@@ -103,6 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="shared-memory name of the state (e.g. /hapticd-state); default: ask the daemon at --socket")
     src.add_argument("--socket", metavar="PATH",
                      help="control socket, used only to learn the state's name (default $HAPTICD_SOCKET, then hapticd's)")
+    src.add_argument("--instance", metavar="NAME", type=_instance_name,
+                     help="the daemon instance (hapticd --instance NAME) whose socket to ask (default $HAPTICD_INSTANCE)")
     src.add_argument("--recording", metavar="FILE",
                      help="plot a recording (hapticd --record FILE) instead of the live state: every tick of the run, "
                           "or of its last --window seconds when --window is given (docs/recording.md)")
@@ -299,11 +308,13 @@ def _open_state(args) -> StateReader:
     if shm is None:
         from .client import Client  # the socket is needed only for the name
         try:
-            with Client.connect(socket_path=args.socket, client="hapticd-scope") as client:
+            with Client.connect(socket_path=args.socket, instance=args.instance, client="hapticd-scope") as client:
                 shm = client.welcome["state_shm"]
                 client.bye()
         except HapticdError as e:
             raise _Exit(EXIT_NO_DAEMON, f"--socket: {e} (give --shm NAME to read a state without asking the daemon)")
+        except ValueError as e:  # --socket and --instance both, or a bad $HAPTICD_INSTANCE
+            raise _Exit(EXIT_USAGE, str(e))
     try:
         return StateReader(shm)
     except HapticdError as e:
