@@ -112,7 +112,8 @@ def test_a_plane_set_as_a_parameter_holds_the_handle_and_a_pose_moves_it(node, r
     assert -f == pytest.approx(HAND_STIFFNESS * -x, rel=2e-3)  # the hand's spring holds it there
     begins = [a.status[0] for a in contacts.messages if a.status[0].message == "begin"]
     values = {kv.key: kv.value for kv in begins[0].values} if begins else {}
-    assert values.get("object") == "floor" and int(values["object_id"]) == floor["id"], contacts.messages
+    assert values.get("object") == "floor" and int(values["object_id"]) == floor["id"], [
+        (a.status[0].message, {kv.key: kv.value for kv in a.status[0].values}) for a in contacts.messages]
 
     # A pose stream on ~/objects/floor/pose (100 Hz, the point going from x = -5 mm to -3 mm over 1 s, then held)
     # moves the surface through each point (offset = n . p); the handle follows it and rests at the new balance.
@@ -202,3 +203,25 @@ def test_a_frozen_node_loses_its_lease_and_its_objects_ramp_out(daemon, ros, tmp
     daemon["log"].flush()
     daemon["log"].seek(0)
     assert "lease" in daemon["log"].read()
+
+
+def test_clear_objects_removes_every_object_of_the_node_and_its_parameter(node, ros, daemon):
+    from rcl_interfaces.srv import GetParameters
+    from std_srvs.srv import Trigger
+    result = set_parameters(ros, NS, {"objects.left": "plane normal=1,0,0 offset=-0.02 K=500 B=2",
+                                      "objects.right": "plane normal=-1,0,0 offset=-0.02 K=500 B=2"}, atomically=True)
+    assert result.successful, result.reason
+    assert len(daemon_objects(daemon)) == 2
+    client = ros.create_client(Trigger, f"{NS}/clear_objects")
+    assert client.wait_for_service(timeout_sec=20.0)
+    future = client.call_async(Trigger.Request())
+    rclpy.spin_until_future_complete(ros, future, timeout_sec=20.0)
+    assert future.result().success and "removed 2 object(s)" in future.result().message, future.result()
+    assert wait_until(lambda: not daemon_objects(daemon), 5.0)
+    get = ros.create_client(GetParameters, f"{NS}/get_parameters")
+    assert get.wait_for_service(timeout_sec=20.0)
+    future = get.call_async(GetParameters.Request(names=["objects.left"]))
+    rclpy.spin_until_future_complete(ros, future, timeout_sec=20.0)
+    assert [v.type for v in future.result().values] == [0]  # PARAMETER_NOT_SET: undeclared
+    ros.destroy_client(client)
+    ros.destroy_client(get)

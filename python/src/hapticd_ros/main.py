@@ -4,8 +4,9 @@
     hapticd-ros [--socket PATH] [--instance NAME] [--namespace /hapticd] [--rate 500] [--frame-id hapticd]
                 [--lease 0.5] [--ros-args ...]
 
-The flags set the parameters' values and the node's name; ``--ros-args -p NAME:=VALUE`` (or ``-r __ns:=``,
-``-r __node:=``) after them wins, as in any ROS 2 node. Exit status: 0 on SIGINT/SIGTERM, 1 when the daemon's
+The flags set the parameters' values and the node's name; ``--ros-args`` sets the others (``-p NAME:=VALUE``,
+``--params-file``) and may rename the node (``-r __ns:=``, ``-r __node:=``); a flag wins over ``-p`` of its
+parameter. Exit status: 0 on SIGINT/SIGTERM, 1 when the daemon's
 session ends (lease lost, daemon gone), 2 for a bad flag or parameter (the message names it), 3 when the
 daemon cannot be reached or refuses an object given at start.
 """
