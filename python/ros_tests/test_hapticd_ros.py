@@ -225,3 +225,51 @@ def test_clear_objects_removes_every_object_of_the_node_and_its_parameter(node, 
     assert [v.type for v in future.result().values] == [0]  # PARAMETER_NOT_SET: undeclared
     ros.destroy_client(client)
     ros.destroy_client(get)
+
+
+def _run_node(*args, timeout_s=60.0):
+    import subprocess
+    import sys
+    import pathlib
+    script = pathlib.Path(sys.executable).with_name("hapticd-ros")
+    return subprocess.run([str(script), *args], capture_output=True, text=True, timeout=timeout_s)
+
+
+@pytest.mark.parametrize("args, code, named", [
+    (["--rate", "5000"], 2, "rate_hz = 5000.0: accepted: a number 1 .. 1000"),
+    (["--rate", "nan"], 2, "rate_hz = nan: accepted: a number 1 .. 1000"),
+    (["--lease", "0"], 2, "lease_s = 0.0: accepted: a number 0.05 .. 60"),
+    (["--frame-id", ""], 2, "frame_id = '': accepted: a non-empty frame name"),
+    (["--ros-args", "-p", "objects.floor:=plane normal=-1,0,0 K=1e9"], 3,
+     "the objects given at start were refused: unstable_gains: "),
+])
+def test_bad_flags_and_refused_start_objects_end_the_node_naming_them(daemon, args, code, named):
+    result = _run_node("--socket", daemon["socket"], "--namespace", NS + "_bad", *args)
+    assert result.returncode == code and named in result.stderr, (result.returncode, result.stderr)
+
+
+def test_no_daemon_ends_the_node_with_the_transport_error(tmp_path):
+    result = _run_node("--socket", str(tmp_path / "none.sock"), "--namespace", NS + "_none")
+    assert result.returncode == 3 and "transport" in result.stderr and "none.sock" in result.stderr, result.stderr
+
+
+def test_the_daemon_s_end_ends_the_node_with_status_1(ros, tmp_path_factory):
+    """A daemon of its own, stopped under the node: the node's session ends and it exits 1 saying so."""
+    import subprocess
+    directory = tmp_path_factory.mktemp("ending")
+    sock = str(directory / "hapticd.sock")
+    from conftest import DAEMON_ARGS, HAPTICD, _connectable
+    daemon = subprocess.Popen([HAPTICD, *DAEMON_ARGS, "--serve", "--serve-socket", sock, "--serve-shm",
+                               f"/hapticd-ros-ending-{os.getpid()}"], stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+    try:
+        assert wait_until(lambda: _connectable(sock), 20.0)
+        process = NodeProcess({"socket": sock}, NS + "_ending", directory / "node.log")
+        wait_for_node(ros, process)
+        daemon.send_signal(signal.SIGTERM)
+        assert daemon.wait(20) == 0
+        assert process.process.wait(20) == 1
+        assert "the daemon's" in process.output() and "session ended" in process.output(), process.output()
+    finally:
+        if daemon.poll() is None:
+            daemon.kill()
+            daemon.wait()

@@ -68,7 +68,10 @@ def main(argv: Optional[List[str]] = None) -> int:
         except ValueError as e:
             print(f"hapticd-ros: error: {e}", file=sys.stderr)
             return 2
-        except (hc.HapticdError, RuntimeError) as e:
+        except hc.HapticdError as e:
+            print(f"hapticd-ros: error: {e.code}: {e}", file=sys.stderr)
+            return 3
+        except RuntimeError as e:
             print(f"hapticd-ros: error: {e}", file=sys.stderr)
             return 3
         node.get_logger().info(
