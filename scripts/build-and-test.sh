@@ -7,9 +7,10 @@
 #   2a. the Debian packages from that tree: lintian, installed and run with the checkout hidden, purged
 #       (scripts/test-debian-packages.sh, as root);
 #   2b. the Python package: pip install ./python into build/python-venv, pytest python/tests (scripts/test-python.sh);
+#   2c. the ROS 2 node: pip install "./python[ros]" into build/ros-venv, pytest python/ros_tests (scripts/test-ros.sh);
 #   3. the same tests under ASan + UBSan, and the daemon's threaded tests under TSan (scripts/sanitize.sh);
 #   4. each libFuzzer target for a bounded time over its corpus (scripts/fuzz.sh, clang).
-# `--quick` stops after step 2b. Exit status: non-zero as soon as a step fails.
+# `--quick` stops after step 2c. Exit status: non-zero as soon as a step fails.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 quick=0
@@ -53,6 +54,9 @@ fi
 
 step "python package (pip install ./python, pytest python/tests)"
 HAPTICOPT_CLI="$PWD/build/release/apps/hapticopt/hapticopt" scripts/test-python.sh
+
+step "ROS 2 node (pip install ./python[ros] into its own venv, pytest python/ros_tests)"
+scripts/test-ros.sh
 
 if [[ $quick -eq 1 ]]; then
   exit 0
