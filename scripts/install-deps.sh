@@ -31,6 +31,7 @@ PACKAGES=(
   clang-format      # the C++ style check (scripts/check-format.sh, ctest layout.format)
   dpkg-dev lintian  # the Debian packages: dpkg-shlibdeps (CPack), lintian (scripts/test-debian-packages.sh)
   systemd           # systemd-analyze verify, systemd-sysusers (the package's postinst)
+  openssh-server openssh-client  # sshd started by python/tests/test_remote.py itself (the ssh service is not used)
 )
 
 missing=()

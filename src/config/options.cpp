@@ -141,6 +141,10 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--serve-socket", o.serve_socket,
                    "Control socket path (default $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock or "
                    "/run/hapticd/hapticd.sock)");
+    app.add_option("--serve-stream-socket", o.serve_stream_socket,
+                   "Stream control socket (SOCK_STREAM, one JSON message per line; what an ssh -L Unix-socket "
+                   "forward reaches), same mode, group and sessions (default: the control socket's path + "
+                   "\".stream\"; none: no stream socket)");
     app.add_option("--serve-mode", o.serve_mode, "Octal file mode of the control socket (default 0660)");
     app.add_option("--serve-group", o.serve_group, "Group of the control socket and the state (default: the daemon's)");
     app.add_option("--serve-shm", o.serve_shm, "POSIX shared-memory name of the state stream (default /hapticd-state)");

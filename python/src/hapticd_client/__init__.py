@@ -15,6 +15,7 @@ from .client import (CONTACT_QUEUE_CAPACITY, EVENT_QUEUE_CAPACITY, MAX_MESSAGE_B
 from .device import DeviceInfo
 from .errors import ERROR_CODES, HapticdError
 from .objects import Batch, field, gains, plane, spring
+from .state_source import StateSource, sample_from_state_message
 from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
 
 __all__ = [
@@ -35,10 +36,12 @@ __all__ = [
     "StateFault",
     "StateReader",
     "StateSample",
+    "StateSource",
     "default_socket_path",
     "field",
     "gains",
     "plane",
+    "sample_from_state_message",
     "shm_path",
     "spring",
     "stale_after_s",
