@@ -216,3 +216,22 @@ def test_a_client_over_ssh_adds_a_plane_the_handle_rests_on_and_gets_refusals(da
     out = subprocess.run([HAPTICCTL, "--socket", local, "watch", "--count", "3", "--rate", "50"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 0 and len(out.stdout.strip().splitlines()) == 3, out
+
+
+def test_the_stream_socket_option_names_its_path_or_none(tmp_path):
+    sock = str(tmp_path / "h.sock")
+    same = subprocess.run([HAPTICD, "--config", "", "--no-walls", "--serve", "--serve-socket", sock,
+                           "--serve-stream-socket", sock, "--duration", "0.1"], capture_output=True, text=True, timeout=60)
+    assert same.returncode != 0 and "serve-stream-socket" in same.stderr, same
+    log = open(tmp_path / "none.log", "w+")
+    process = subprocess.Popen([HAPTICD, "--config", "", "--no-walls", "--rt-priority", "0", "--serve",
+                                "--serve-socket", sock, "--serve-stream-socket", "none",
+                                "--serve-shm", f"/hapticd-remote-none-{os.getpid()}"], stdout=log, stderr=subprocess.STDOUT)
+    try:
+        assert wait_until(lambda: connectable(sock) or process.poll() is not None, 20.0)
+        assert process.poll() is None
+        assert not os.path.exists(sock + ".stream")
+    finally:
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(20) == 0
+        log.close()

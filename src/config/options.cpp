@@ -366,6 +366,10 @@ void validate_options(const Options& o) {
         o.serve_mode.find_first_not_of("01234567") != std::string::npos) {
         invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
     }
+    if (!o.serve_stream_socket.empty() && o.serve_stream_socket == o.serve_socket) {
+        invalid(w, "serve-stream-socket", o.serve_stream_socket,
+                "a path other than --serve-socket's (default: that path + \".stream\"), or none");
+    }
     if (o.serve_shm.size() < 2 || o.serve_shm[0] != '/' || o.serve_shm.find('/', 1) != std::string::npos) {
         invalid(w, "serve-shm", o.serve_shm, "'/' followed by a name without '/', e.g. /hapticd-state");
     }

@@ -10,7 +10,6 @@
 #include <string>
 #include <string_view>
 
-
 namespace hapticd::server {
 
 enum class SendResult { Sent, Full, Failed };

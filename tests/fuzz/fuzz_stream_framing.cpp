@@ -5,7 +5,8 @@
 // frames LineFramer returns, and where it says Oversized, are those of a reference written independently here
 // (split the whole stream at every '\n', drop one '\r' before it, skip empty lines, stop at the first line
 // longer than the limit or at a tail without '\n' already longer than limit + 1); every frame holds no '\n' and
-// is at most the limit; has_frame() is true whenever next() has a frame or an overrun, false once next() said NeedMore; the bytes kept never exceed the limit + one append.
+// is at most the limit; has_frame() is true whenever next() has a frame or an overrun, false once next() said NeedMore;
+// the bytes kept never exceed the limit + one append.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
