@@ -114,6 +114,20 @@ def test_the_stream_socket_answers_one_line_per_message_however_the_bytes_are_cu
         s.close()
 
 
+def test_requests_sent_before_a_half_close_are_answered_then_the_session_ends(daemon):
+    """socat at the end of piped input shuts its sending side down (shutdown(SHUT_WR)): the server answers what
+    came before and ends the session at the end of the stream."""
+    s = raw_stream(daemon["stream"])
+    try:
+        s.sendall(HELLO + b'{"type":"status","id":1}\n{"type":"heartbeat","id":2}\n')
+        s.shutdown(socket.SHUT_WR)
+        welcome, status, beat = read_lines(s, 3)
+        assert (welcome["type"], status["id"], beat["id"]) == ("welcome", 1, 2) and status["type"] == "ok"
+        assert s.recv(100) == b""  # then the server closes
+    finally:
+        s.close()
+
+
 def test_a_line_longer_than_64_KiB_is_answered_oversized_and_closed(daemon):
     s = raw_stream(daemon["stream"])
     try:

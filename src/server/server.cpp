@@ -187,7 +187,7 @@ struct Server::Impl {
     void close_departed_sessions() {
         departures.clear();
         for (auto& [sid, other] : sessions) {
-            if (!other.closed) departures.watch(other.fd, sid);
+            if (!other.closed) departures.watch(other.fd, sid, other.stream);
         }
         for (const std::uint64_t sid : departures.departed()) close_session(sessions.at(sid), "disconnected (EOF)");
     }

@@ -153,18 +153,20 @@ Silence silence_of(const Session& s, Clock::time_point now) {
 void DepartureDetector::clear() {
     fds_.clear();
     ids_.clear();
+    gone_.clear();
 }
 
-void DepartureDetector::watch(int fd, std::uint64_t session) {
+void DepartureDetector::watch(int fd, std::uint64_t session, bool stream) {
     fds_.push_back({fd, POLLRDHUP, 0});
     ids_.push_back(session);
+    gone_.push_back(static_cast<short>(stream ? (POLLHUP | POLLERR) : (POLLRDHUP | POLLHUP | POLLERR)));
 }
 
 const std::vector<std::uint64_t>& DepartureDetector::departed() {
     departed_.clear();
     if (fds_.empty() || ::poll(fds_.data(), fds_.size(), 0) <= 0) return departed_;
     for (std::size_t i = 0; i < fds_.size(); ++i) {
-        if ((fds_[i].revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0) departed_.push_back(ids_[i]);
+        if ((fds_[i].revents & gone_[i]) != 0) departed_.push_back(ids_[i]);
     }
     return departed_;
 }

@@ -92,17 +92,20 @@ enum class Silence { None, NoHello, LeaseLost };
 [[nodiscard]] Silence silence_of(const Session& s, Clock::time_point now);
 
 // Finds the sessions whose peer has gone (POLLRDHUP, POLLHUP or POLLERR) with one zero-timeout poll; keeps
-// its storage between calls.
+// its storage between calls. A stream session's peer has gone only on POLLHUP or POLLERR: POLLRDHUP alone is a
+// half-close (shutdown(SHUT_WR), e.g. socat at the end of its input), after which the requests it sent are
+// still answered and the end of the stream closes the session.
 class DepartureDetector {
   public:
     void clear();
-    void watch(int fd, std::uint64_t session);
+    void watch(int fd, std::uint64_t session, bool stream = false);
     // The watched sessions whose peer has gone, in the order watched.
     [[nodiscard]] const std::vector<std::uint64_t>& departed();
 
   private:
     std::vector<pollfd> fds_;
     std::vector<std::uint64_t> ids_;
+    std::vector<short> gone_;  // the revents that mean the peer has gone, per fd
     std::vector<std::uint64_t> departed_;
 };
 
