@@ -32,6 +32,7 @@ PACKAGES=(
   clang-format      # the C++ style check (scripts/check-format.sh, ctest layout.format)
   dpkg-dev lintian  # the Debian packages: dpkg-shlibdeps (CPack), lintian (scripts/test-debian-packages.sh)
   systemd           # systemd-analyze verify, systemd-sysusers (the package's postinst)
+  openssh-server openssh-client  # sshd started by python/tests/test_remote.py itself (the ssh service is not used)
 )
 
 missing=()
@@ -68,5 +69,11 @@ run() {
 }
 run apt-get update -qq
 run apt-get install -y -qq --no-install-recommends -o Dpkg::Use-Pty=0 "${missing[@]}"
+# openssh-server is there for the sshd the remote-client tests start themselves: the system's ssh service,
+# which the package enables and starts, is stopped and disabled again (nothing listens on port 22 for the tests).
+if [[ " ${missing[*]} " == *" openssh-server "* ]] && command -v systemctl >/dev/null 2>&1; then
+  "${SUDO[@]}" systemctl disable ssh.service >>"$log" 2>&1 || true
+  "${SUDO[@]}" systemctl stop ssh.service >>"$log" 2>&1 || true
+fi
 rm -f "$log"
 echo "install-deps: done"

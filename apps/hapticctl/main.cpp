@@ -3,7 +3,7 @@
 //   hapticctl status | list [--json]
 //   hapticctl add plane normal=0,0,1 offset=0.01 criterion=CE2 [--for SECONDS]
 //   hapticctl session [FILE]          (commands from FILE or stdin, one session)
-//   hapticctl watch [--rate HZ] [--count N] [--duration S] [--via-socket]
+//   hapticctl watch [--rate HZ] [--count N] [--duration S] [--via-socket]   (a stream socket: by subscription)
 //   hapticctl contacts [--count N] [--duration S] [--object ID ...]
 // An object lives as long as the session that added it (docs/protocol.md, section 7): `add` holds its
 // session until SIGINT/SIGTERM or --for; `session` runs add/modify/remove/clear in one session.
@@ -186,14 +186,18 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
         period_s = client->welcome().device.period_s;
         if (shm.empty()) shm = client->welcome().state_shm;
     }
+    // --shm: that segment, no session. Else the session's StateSource: the shared memory when it can be opened
+    // here over the SOCK_SEQPACKET socket, a subscription over the stream transport (a forwarded socket: the
+    // daemon may be on another machine) or with --via-socket.
     std::optional<hc::StateReader> reader;
-    if (via_socket) {
-        client->subscribe(rate);
-    } else {
+    std::optional<hc::StateSource> source;
+    if (!client) {
         reader.emplace(hc::StateReader::open(shm));
-        if (!client) axes = reader->axes();
+        axes = reader->axes();
         period_s = reader->period_s();
-        client.reset();  // the shared memory needs no session
+    } else {
+        source.emplace(*client, rate, via_socket ? hc::StateSource::Mode::Subscribe : hc::StateSource::Mode::Auto);
+        via_socket = !source->shared_memory();
     }
     const bool tty = ::isatty(STDOUT_FILENO) != 0;
     const auto start = std::chrono::steady_clock::now();
@@ -206,7 +210,7 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
     while (!stop_requested()) {
         hc::StateSample s;
         if (via_socket) {
-            const auto next = client->next_state(stall_s);
+            const auto next = source->read(stall_s);
             if (!next) {
                 std::cerr << "\nhapticctl: watch: no state message for " << stall_s << " s\n";
                 code = kExitNoState;
@@ -215,7 +219,14 @@ int cmd_watch(const Common& common, double rate, long long count, double duratio
             s = *next;
         } else {
             std::this_thread::sleep_for(shown == 0 ? std::chrono::duration<double>(0) : period);
-            if (!reader->read(s)) continue;  // the writer kept overlapping: try at the next refresh
+            std::optional<hc::StateSample> got;
+            if (reader) {
+                if (reader->read(s)) got = s;
+            } else {
+                got = source->read();
+            }
+            if (!got) continue;  // the writer kept overlapping: try at the next refresh
+            s = *got;
         }
         const auto now = std::chrono::steady_clock::now();
         if (!have_tick || s.tick != last_tick) {

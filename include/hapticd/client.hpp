@@ -282,11 +282,17 @@ struct BusyRetry {
     double max_delay_s = 0.05;      // initial_delay_s .. 10 s
 };
 
+// The socket a Client talks over (docs/protocol.md, section 1): SeqPacket, the control socket (one message per
+// packet); Stream, the daemon's `.stream` socket or a forward of it (`ssh -L`), one JSON message per line;
+// Auto, the one the socket at the path is (SOCK_SEQPACKET, then SOCK_STREAM when connect says EPROTOTYPE).
+enum class Transport { Auto, SeqPacket, Stream };
+
 struct ConnectOptions {
     std::string socket_path;  // empty: default_socket_path(instance)
     // The daemon instance (hapticd --instance NAME, include/hapticd/instance.hpp) when socket_path is empty: its
     // socket hapticd-NAME.sock; empty: default_socket_path(). Both set: std::invalid_argument from connect().
     std::string instance{};
+    Transport transport = Transport::Auto;
     std::string client_name = "hapticd-client";
     double lease_s = 0.0;             // 0: no lease; else 0.01 .. 60 s, send heartbeat() (or anything) faster
     int protocol = kProtocolVersion;  // for tests of the refusal
@@ -364,9 +370,16 @@ class Client {
     void send_raw(const std::string& message);
     std::optional<std::string> receive_raw(double timeout_s);
     [[nodiscard]] int fd() const noexcept { return fd_; }
+    // True over the stream transport (the daemon may be on another machine: StateSource subscribes).
+    [[nodiscard]] bool stream() const noexcept { return stream_; }
+    // The newest subscribed `state` message arrived (older ones queued are discarded); with none arrived, the
+    // next one within timeout_s, else std::nullopt.
+    std::optional<StateSample> latest_state(double timeout_s);
 
   private:
     Client(int fd, double timeout_s) : fd_(fd), timeout_s_(timeout_s) {}
+    bool stream_ = false;
+    std::string rx_;  // stream: received bytes not yet returned as messages
     std::string request(const std::string& type, const std::string& body_json);  // returns the ok reply
     int fd_ = -1;
     double timeout_s_ = 5.0;
@@ -410,6 +423,29 @@ class StateReader {
   private:
     explicit StateReader(const StateLayout* layout) : layout_(layout) {}
     const StateLayout* layout_ = nullptr;
+};
+
+// The device state from wherever this client can read it (docs/clients.md, "Remote use"): the shared memory
+// (StateReader) or `subscribe` over the session's socket. Auto: over the stream transport subscribe (the daemon
+// may run on another machine, and a segment of the same name here would be another daemon's); over the
+// SOCK_SEQPACKET socket the shared memory, subscribing only when the segment cannot be opened.
+class StateSource {
+  public:
+    enum class Mode { Auto, SharedMemory, Subscribe };
+    // Throws Error(Transport) for SharedMemory when the segment cannot be opened, std::invalid_argument for a
+    // rate outside 0.1 .. 1000 Hz. The client must outlive the source.
+    StateSource(Client& client, double rate_hz = 1000.0, Mode mode = Mode::Auto);
+    [[nodiscard]] bool shared_memory() const noexcept { return reader_.has_value(); }
+    // Why the subscription was chosen in Auto mode (empty: the shared memory).
+    [[nodiscard]] const std::string& why() const noexcept { return why_; }
+    // The latest tick: from the shared memory, or the newest state message (waiting up to timeout_s for one;
+    // std::nullopt when none came).
+    std::optional<StateSample> read(double timeout_s = 1.0);
+
+  private:
+    Client* client_;
+    std::optional<StateReader> reader_;
+    std::string why_;
 };
 
 }  // namespace hapticd::client

@@ -169,16 +169,26 @@ Client Client::connect(const ConnectOptions& options) {
                                                      std::to_string(sizeof(addr.sun_path) - 1) + " bytes");
     }
     std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-    if (fd < 0) throw transport_error("Client::connect", std::string("socket: ") + std::strerror(errno));
-    if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+    int fd = -1;
+    bool stream = options.transport == Transport::Stream;
+    for (;;) {
+        fd = ::socket(AF_UNIX, (stream ? SOCK_STREAM : SOCK_SEQPACKET) | SOCK_CLOEXEC, 0);
+        if (fd < 0) throw transport_error("Client::connect", std::string("socket: ") + std::strerror(errno));
+        if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0) break;
         const int e = errno;
         ::close(fd);
-        throw transport_error("Client::connect",
-                              "connect to '" + path + "': " + std::strerror(e) +
-                                  " (is hapticd running with --serve? may this user open the socket?)");
+        if (e == EPROTOTYPE && !stream && options.transport == Transport::Auto) {
+            stream = true;  // a stream socket: the daemon's .stream socket or an ssh -L forward
+            continue;
+        }
+        throw transport_error(
+            "Client::connect",
+            "connect to '" + path + "': " + std::strerror(e) +
+                (e == EPROTOTYPE ? " (a socket of the other type: use Transport::Auto)"
+                                 : " (is hapticd running with --serve? may this user open the socket?)"));
     }
     Client c(fd, options.timeout_s);
+    c.stream_ = stream;
     c.event_capacity_ = options.event_queue_capacity;
     c.contact_capacity_ = options.contact_queue_capacity;
     c.set_busy_retry(options.busy_retry);
@@ -237,6 +247,8 @@ Client::Client(Client&& other) noexcept
       contact_capacity_(other.contact_capacity_),
       contacts_dropped_(other.contacts_dropped_),
       busy_retry_(other.busy_retry_) {
+    stream_ = other.stream_;
+    rx_ = std::move(other.rx_);
     other.fd_ = -1;
 }
 
@@ -255,6 +267,8 @@ Client& Client::operator=(Client&& other) noexcept {
         contact_capacity_ = other.contact_capacity_;
         contacts_dropped_ = other.contacts_dropped_;
         busy_retry_ = other.busy_retry_;
+        stream_ = other.stream_;
+        rx_ = std::move(other.rx_);
         other.fd_ = -1;
     }
     return *this;
@@ -266,6 +280,17 @@ Client::~Client() {
 
 void Client::send_raw(const std::string& message) {
     if (fd_ < 0) throw transport_error("Client::send_raw", "not connected");
+    if (stream_) {  // one line: the message and '\n', sent whole (send may take part of it)
+        const std::string line = message + "\n";
+        std::size_t sent = 0;
+        while (sent < line.size()) {
+            const ssize_t n = ::send(fd_, line.data() + sent, line.size() - sent, MSG_NOSIGNAL);
+            if (n < 0 && errno == EINTR) continue;
+            if (n < 0) throw transport_error("Client::send_raw", std::string("send: ") + std::strerror(errno));
+            sent += static_cast<std::size_t>(n);
+        }
+        return;
+    }
     for (;;) {
         const ssize_t n = ::send(fd_, message.data(), message.size(), MSG_NOSIGNAL);
         if (n >= 0) return;
@@ -279,6 +304,20 @@ std::optional<std::string> Client::receive_raw(double timeout_s) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     std::string buffer(kMaxMessageBytes + 1, '\0');
     for (;;) {
+        if (stream_) {  // a complete line already received
+            const std::size_t end = rx_.find('\n');
+            if (end != std::string::npos) {
+                std::string line = rx_.substr(0, end);
+                rx_.erase(0, end + 1);
+                if (!line.empty() && line.back() == '\r') line.pop_back();
+                if (line.empty()) continue;
+                return line;
+            }
+            if (rx_.size() > kMaxMessageBytes + 1) {
+                throw transport_error("Client::receive_raw", "a line of more than " + std::to_string(kMaxMessageBytes) +
+                                                                 " bytes from the server");
+            }
+        }
         const auto left =
             std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
         pollfd p{fd_, POLLIN, 0};
@@ -290,6 +329,10 @@ std::optional<std::string> Client::receive_raw(double timeout_s) {
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) throw transport_error("Client::receive_raw", std::string("recv: ") + std::strerror(errno));
         if (n == 0) throw transport_error("Client::receive_raw", "the server closed the connection");
+        if (stream_) {
+            rx_.append(buffer.data(), static_cast<std::size_t>(n));
+            continue;
+        }
         buffer.resize(static_cast<std::size_t>(n));
         return buffer;
     }
@@ -439,6 +482,16 @@ std::optional<StateSample> Client::next_state(double timeout_s) {
         if (j.is_object() && j.value("type", std::string()) == "state") return state_from_json(j);
         keep_unsolicited(*raw, "Client::next_state");
     }
+}
+
+std::optional<StateSample> Client::latest_state(double timeout_s) {
+    while (const auto raw = receive_raw(0.0)) keep_unsolicited(*raw, "Client::latest_state");
+    if (!pending_states_.empty()) {
+        const json j = json::parse(pending_states_.back());
+        pending_states_.clear();
+        return state_from_json(j);
+    }
+    return next_state(timeout_s);
 }
 
 bool Client::keep_unsolicited(const std::string& raw, const std::string& function) {

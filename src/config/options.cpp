@@ -148,6 +148,10 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--serve-socket", o.serve_socket,
                    "Control socket path (default $RUNTIME_DIRECTORY/hapticd.sock, $XDG_RUNTIME_DIR/hapticd.sock or "
                    "/run/hapticd/hapticd.sock; hapticd-NAME.sock with --instance NAME)");
+    app.add_option("--serve-stream-socket", o.serve_stream_socket,
+                   "Stream control socket (SOCK_STREAM, one JSON message per line; what an ssh -L Unix-socket "
+                   "forward reaches), same mode, group and sessions (default: the control socket's path + "
+                   "\".stream\"; none: no stream socket)");
     app.add_option("--serve-mode", o.serve_mode, "Octal file mode of the control socket (default 0660)");
     app.add_option("--serve-group", o.serve_group, "Group of the control socket and the state (default: the daemon's)");
     h.serve_shm = app.add_option(
@@ -384,6 +388,10 @@ void validate_options(const Options& o) {
         invalid(w, "serve-mode", o.serve_mode, "an octal file mode 0 .. 0777, e.g. 0660");
     }
     if (!o.instance.empty() && !valid_instance_name(o.instance)) invalid(w, "instance", o.instance, kInstanceNameForm);
+    if (!o.serve_stream_socket.empty() && o.serve_stream_socket == o.serve_socket) {
+        invalid(w, "serve-stream-socket", o.serve_stream_socket,
+                "a path other than --serve-socket's (default: that path + \".stream\"), or none");
+    }
     if (o.serve_shm.size() < 2 || o.serve_shm[0] != '/' || o.serve_shm.find('/', 1) != std::string::npos) {
         invalid(w, "serve-shm", o.serve_shm, "'/' followed by a name without '/', e.g. /hapticd-state");
     }

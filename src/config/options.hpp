@@ -89,6 +89,7 @@ struct Options {
     std::string serve_socket;
     std::string serve_mode = "0660";           // octal file mode of the socket
     std::string serve_group;                   // group of the socket and the state ("" : the daemon's group)
+    std::string serve_stream_socket;           // "" : serve_socket + ".stream"; "none": no stream socket
     std::string serve_shm = "/hapticd-state";  // POSIX shared-memory name of the state stream (/hapticd-NAME-state)
     double ramp_time = 0.03;                   // s, ramp in/out of client objects
     // N/s, limit on the change of the force written per tick (scene/force_limiter.hpp); 0: derived from the device

@@ -56,7 +56,12 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     // The socket path first: a second daemon started on a live one's names stops here, before it replaces
     // the live one's state segment.
     try {
-        remove_stale_socket(o.serve_socket.empty() ? default_server_socket_path() : o.serve_socket);
+        const std::string socket = o.serve_socket.empty() ? default_server_socket_path() : o.serve_socket;
+        remove_stale_socket(socket);
+        if (o.serve_stream_socket != "none") {
+            remove_stale_socket(o.serve_stream_socket.empty() ? stream_socket_path_for(socket) : o.serve_stream_socket,
+                                SOCK_STREAM);
+        }
     } catch (const SocketPathError& e) {
         throw StartupError(ErrorKind::SocketPathInUse, e.what());
     }
@@ -93,6 +98,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
 
     ServerConfig sc;
     sc.socket_path = o.serve_socket;
+    sc.stream_socket_path = o.serve_stream_socket;
     sc.socket_mode = mode;
     sc.socket_gid = gid;
     sc.device_name = profile.name;

@@ -78,6 +78,7 @@ struct Server::Impl {
     std::uint64_t contact_lost_seen = 0;    // the lost_before of the last record taken
     std::vector<std::uint32_t> in_contact;  // ascending: the objects in contact after the last record taken
     server::ListeningSocket socket;
+    server::ListeningSocket stream_socket;  // listen_fd -1: no stream socket
     std::atomic<bool> stop{false};
     std::map<std::uint64_t, Session> sessions;
     server::SlotTable slots{};
@@ -102,14 +103,27 @@ struct Server::Impl {
 
     void open_socket() {
         if (config.socket_path.empty()) config.socket_path = default_server_socket_path();
-        socket = server::open_listening_socket(config.socket_path, config.socket_mode, config.socket_gid);
+        if (config.stream_socket_path.empty()) config.stream_socket_path = stream_socket_path_for(config.socket_path);
+        if (config.stream_socket_path == "none") config.stream_socket_path.clear();
+        socket = server::open_listening_socket(config.socket_path, config.socket_mode, config.socket_gid,
+                                               SOCK_SEQPACKET, true);
+        if (config.stream_socket_path.empty()) return;
+        try {
+            stream_socket = server::open_listening_socket(config.stream_socket_path, config.socket_mode,
+                                                          config.socket_gid, SOCK_STREAM, false);
+        } catch (...) {
+            ::close(socket.listen_fd);
+            ::close(socket.wake_fd);
+            ::unlink(config.socket_path.c_str());
+            throw;
+        }
     }
 
     // ---- sending -------------------------------------------------------------------------------
     // Replies: a full socket means the client does not read -> disconnect (never block).
     void send_reply(Session& s, json message) {
         if (s.closed) return;
-        switch (server::send_message(s.fd, server::reply_text(std::move(message)))) {
+        switch (server::send_to(s, server::reply_text(std::move(message)))) {
             case server::SendResult::Sent:
                 return;
             case server::SendResult::Full:
@@ -129,14 +143,15 @@ struct Server::Impl {
     }
 
     // ---- sessions ------------------------------------------------------------------------------
-    void accept_all() {
-        while (const std::optional<server::Peer> peer = server::accept_peer(socket.listen_fd)) {
+    void accept_all(int listen_fd, bool stream) {
+        while (const std::optional<server::Peer> peer = server::accept_peer(listen_fd)) {
             if (sessions.size() >= server::kMaxSessions) {
                 (void)server::send_message(
                     peer->fd,
                     server::refused_reply(cl::ErrorCode::Capacity,
                                           "Server: " + std::to_string(server::kMaxSessions) + " sessions already open")
-                        .dump());
+                            .dump() +
+                        (stream ? "\n" : ""));
                 ::close(peer->fd);
                 continue;
             }
@@ -147,8 +162,9 @@ struct Server::Impl {
             s.uid = peer->uid;
             s.gid = peer->gid;
             s.last_rx = Clock::now();
-            log("session " + std::to_string(s.id) + " connected: pid " + std::to_string(s.pid) + ", uid " +
-                std::to_string(s.uid) + ", gid " + std::to_string(s.gid));
+            s.stream = stream;
+            log("session " + std::to_string(s.id) + " connected" + (stream ? " (stream socket)" : "") + ": pid " +
+                std::to_string(s.pid) + ", uid " + std::to_string(s.uid) + ", gid " + std::to_string(s.gid));
             sessions.emplace(s.id, s);
             count(&ServerCounters::sessions_opened);
         }
@@ -171,7 +187,7 @@ struct Server::Impl {
     void close_departed_sessions() {
         departures.clear();
         for (auto& [sid, other] : sessions) {
-            if (!other.closed) departures.watch(other.fd, sid);
+            if (!other.closed) departures.watch(other.fd, sid, other.stream);
         }
         for (const std::uint64_t sid : departures.departed()) close_session(sessions.at(sid), "disconnected (EOF)");
     }
@@ -183,18 +199,17 @@ struct Server::Impl {
                 case server::Silence::None:
                     break;
                 case server::Silence::NoHello:
-                    (void)server::send_message(
-                        s.fd, server::refused_hello_reply(
-                                  cl::ErrorCode::BadHello,
-                                  "Server: no hello within " + std::to_string(server::kHelloTimeoutS) + " s")
-                                  .dump());
+                    (void)server::send_to(
+                        s, server::refused_hello_reply(
+                               cl::ErrorCode::BadHello,
+                               "Server: no hello within " + std::to_string(server::kHelloTimeoutS) + " s")
+                               .dump());
                     close_session(s, "no hello within " + std::to_string(server::kHelloTimeoutS) + " s");
                     break;
                 case server::Silence::LeaseLost:
-                    (void)server::send_message(s.fd,
-                                               server::lease_expired_message("lease: no message for " + g(s.lease_s) +
-                                                                             " s; the session's objects ramp out")
-                                                   .dump());
+                    (void)server::send_to(s, server::lease_expired_message("lease: no message for " + g(s.lease_s) +
+                                                                           " s; the session's objects ramp out")
+                                                 .dump());
                     close_session(s, "lease lost (no message for " + g(s.lease_s) + " s)");
                     break;
             }
@@ -439,6 +454,10 @@ struct Server::Impl {
     }
 
     void read_session(Session& s) {
+        if (s.stream) {
+            read_stream_session(s);
+            return;
+        }
         for (int i = 0; i < kMessagesPerRound && !s.closed; ++i) {
             const ssize_t n = ::recv(s.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
             if (n < 0) {
@@ -457,6 +476,42 @@ struct Server::Impl {
         }
     }
 
+    // The stream transport: the frames already received first, then what the socket holds, at most
+    // kMessagesPerRound messages per round (what stays in the framer is taken next round without POLLIN).
+    void read_stream_session(Session& s) {
+        int handled = 0;
+        bool socket_empty = false;
+        while (handled < kMessagesPerRound && !s.closed) {
+            const server::LineFramer::Next next = s.framer.next();
+            if (next.status == server::LineFramer::Status::Frame) {
+                handle_guarded(s, next.frame);
+                close_departed_sessions();
+                ++handled;
+                continue;
+            }
+            if (next.status == server::LineFramer::Status::Oversized) {
+                send_error(s, std::nullopt, cl::ErrorCode::Oversized,
+                           "Server: a message of more than " + std::to_string(cl::kMaxMessageBytes) +
+                               " bytes without its '\\n' (stream socket, docs/protocol.md section 1)");
+                close_session(s, "oversized message");
+                return;
+            }
+            if (socket_empty) return;
+            const ssize_t n = ::recv(s.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
+            if (n < 0) {
+                if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) return;
+                close_session(s, std::string("recv failed: ") + std::strerror(errno));
+                return;
+            }
+            if (n == 0) {  // SOCK_STREAM: the end of the stream (a partial frame left is discarded)
+                close_session(s, "disconnected (EOF)");
+                return;
+            }
+            s.framer.append(std::string_view(buffer.data(), static_cast<std::size_t>(n)));
+            socket_empty = static_cast<std::size_t>(n) < buffer.size();
+        }
+    }
+
     // ---- subscriptions -------------------------------------------------------------------------
     void send_states(Clock::time_point now) {
         bool have = false;
@@ -469,7 +524,8 @@ struct Server::Impl {
             }
             s.next_state += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.rate_hz));
             if (s.next_state < now) s.next_state = now;  // never send bursts to catch up
-            switch (server::send_message(s.fd, server::state_message(snapshot, s.dropped).dump())) {
+            const std::string text = server::state_message(snapshot, s.dropped).dump();
+            switch (s.stream ? s.outbox.send_if_idle(s.fd, text) : server::send_message(s.fd, text)) {
                 case server::SendResult::Sent:
                     break;
                 case server::SendResult::Full:
@@ -528,7 +584,8 @@ struct Server::Impl {
     // next round); never blocks.
     void flush_contacts(Session& s) {
         while (!s.closed && !s.contact_queue.empty()) {
-            switch (server::send_message(s.fd, s.contact_queue.front())) {
+            const std::string& text = s.contact_queue.front();
+            switch (s.stream ? s.outbox.send_if_idle(s.fd, text) : server::send_message(s.fd, text)) {
                 case server::SendResult::Sent:
                     s.contact_queue.pop_front();
                     break;
@@ -577,6 +634,15 @@ struct Server::Impl {
         }
     }
 
+    // The replies, states and contact messages a stream socket did not take yet, as far as it takes them now.
+    void flush_stream_outboxes() {
+        for (auto& [sid, s] : sessions) {
+            if (s.closed || !s.stream || s.outbox.idle()) continue;
+            if (s.outbox.flush(s.fd) == server::SendResult::Failed)
+                close_session(s, std::string("send failed: ") + std::strerror(errno));
+        }
+    }
+
     // ---- the thread ----------------------------------------------------------------------------
     // run() again after anything that escaped a round outside a request (logged): the server thread never
     // ends by an exception while the daemon runs.
@@ -604,27 +670,33 @@ struct Server::Impl {
             ids.clear();
             fds.push_back({socket.listen_fd, POLLIN, 0});
             fds.push_back({socket.wake_fd, POLLIN, 0});
+            fds.push_back({stream_socket.listen_fd, POLLIN, 0});  // fd -1: ignored by poll
+            bool framed_waiting = false;  // stream messages received in an earlier round and not handled yet
             for (auto& [sid, s] : sessions) {
-                fds.push_back({s.fd, POLLIN, 0});
+                fds.push_back({s.fd, static_cast<short>(s.outbox.idle() ? POLLIN : POLLIN | POLLOUT), 0});
                 ids.push_back(sid);
+                framed_waiting = framed_waiting || (s.stream && s.framer.has_frame());
             }
-            const int r = ::poll(fds.data(), fds.size(), 1);  // 1 ms: leases, subscriptions, slot reclaim
+            // 1 ms: leases, subscriptions, slot reclaim
+            const int r = ::poll(fds.data(), fds.size(), framed_waiting ? 0 : 1);
             if (r < 0 && errno != EINTR) {
                 log(std::string("poll failed: ") + std::strerror(errno));
                 return;
             }
             if (stop.load(std::memory_order_acquire)) break;
-            if (r > 0) {
-                if ((fds[0].revents & POLLIN) != 0) accept_all();
+            if (r > 0 || framed_waiting) {
+                if ((fds[0].revents & POLLIN) != 0) accept_all(socket.listen_fd, false);
+                if ((fds[2].revents & POLLIN) != 0) accept_all(stream_socket.listen_fd, true);
                 close_departed_sessions();
                 for (std::size_t i = 0; i < ids.size(); ++i) {
-                    const short ev = fds[i + 2].revents;
-                    if (ev == 0) continue;
+                    const short ev = fds[i + 3].revents;
                     Session& s = sessions.at(ids[i]);
-                    if ((ev & POLLIN) != 0) read_session(s);
+                    if (s.closed) continue;
+                    if ((ev & POLLIN) != 0 || (s.stream && s.framer.has_frame())) read_session(s);
                     if (!s.closed && (ev & (POLLHUP | POLLERR)) != 0 && (ev & POLLIN) == 0) close_session(s, "hung up");
                 }
             }
+            flush_stream_outboxes();
             const auto now = Clock::now();
             close_silent_sessions(now);
             drain_contacts();
@@ -657,7 +729,10 @@ Server::Server(const ServerConfig& config, GainChecker& checker, CommitRing& rin
                    o << std::oct << impl_->config.socket_mode;
                    return o.str();
                }() +
-               "), state in shared memory " + state.name());
+               ")" +
+               (impl_->config.stream_socket_path.empty() ? std::string()
+                                                         : ", stream socket " + impl_->config.stream_socket_path) +
+               ", state in shared memory " + state.name());
 }
 
 Server::~Server() {
@@ -665,6 +740,10 @@ Server::~Server() {
     if (impl_->socket.listen_fd >= 0) ::close(impl_->socket.listen_fd);
     if (impl_->socket.wake_fd >= 0) ::close(impl_->socket.wake_fd);
     ::unlink(impl_->config.socket_path.c_str());
+    if (impl_->stream_socket.listen_fd >= 0) {
+        ::close(impl_->stream_socket.listen_fd);
+        ::unlink(impl_->config.stream_socket_path.c_str());
+    }
 }
 
 void Server::start() {
@@ -682,6 +761,8 @@ void Server::stop() {
 }
 
 const std::string& Server::socket_path() const noexcept { return impl_->config.socket_path; }
+
+const std::string& Server::stream_socket_path() const noexcept { return impl_->config.stream_socket_path; }
 
 ServerCounters Server::counters() const {
     std::lock_guard<std::mutex> lock(impl_->counters_mutex);

@@ -10,6 +10,8 @@
 // slot is empty, so a ramp-out is never cut short.
 #pragma once
 
+#include <sys/socket.h>
+
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -40,6 +42,9 @@ struct ServerConfig {
     std::string socket_path;  // empty: default_server_socket_path()
     unsigned socket_mode = 0660;
     int socket_gid = -1;  // -1: the process's group
+    // The stream socket (SOCK_STREAM, '\n'-framed; what an OpenSSH Unix-socket forward reaches): "" is
+    // stream_socket_path_for(socket_path), "none" is no stream socket. Same mode, group and sessions.
+    std::string stream_socket_path;
     std::string device_name = "sim";
     std::size_t axes = 1;
     double period = 1e-3;         // s
@@ -66,8 +71,12 @@ class SocketPathError : public std::runtime_error {
 
 // Removes what is at `path` only when it is a stale hapticd socket: a Unix socket nobody listens on (connect
 // gives ECONNREFUSED); nothing there is fine. Anything else (a regular file, a directory, a socket of another
-// type or one that accepts) is left alone: SocketPathError naming the path.
-void remove_stale_socket(const std::string& path);
+// type or one that accepts) is left alone: SocketPathError naming the path. `type`: the socket type probed
+// with (SOCK_SEQPACKET for the control socket, SOCK_STREAM for the stream socket).
+void remove_stale_socket(const std::string& path, int type = SOCK_SEQPACKET);
+
+// The stream socket beside a control socket (docs/protocol.md section 1): the same path + ".stream".
+[[nodiscard]] std::string stream_socket_path_for(const std::string& socket_path);
 
 struct ServerCounters {
     std::uint64_t sessions_opened = 0;
@@ -103,6 +112,8 @@ class Server {
     void stop();   // ends it (sessions closed) and joins
 
     [[nodiscard]] const std::string& socket_path() const noexcept;
+    // The stream socket's path; empty when there is none.
+    [[nodiscard]] const std::string& stream_socket_path() const noexcept;
     // Batches handed to the loop so far (any thread).
     [[nodiscard]] std::uint64_t commits_pushed() const noexcept {
         return commits_pushed_.load(std::memory_order_acquire);

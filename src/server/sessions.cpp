@@ -25,7 +25,9 @@ std::string default_server_socket_path() {
     return "/run/hapticd/hapticd.sock";
 }
 
-void remove_stale_socket(const std::string& path) {
+std::string stream_socket_path_for(const std::string& socket_path) { return socket_path + ".stream"; }
+
+void remove_stale_socket(const std::string& path, int type) {
     sockaddr_un addr{};
     if (path.size() >= sizeof(addr.sun_path)) return;  // refused by the bind with the accepted length
     struct stat st {};
@@ -38,7 +40,7 @@ void remove_stale_socket(const std::string& path) {
                               "' exists and is not a socket; hapticd replaces only a stale socket "
                               "of its own: remove the file or choose another --serve-socket");
     }
-    const int probe = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+    const int probe = ::socket(AF_UNIX, type | SOCK_CLOEXEC, 0);
     if (probe < 0) throw SocketPathError(std::string("Server: socket: ") + std::strerror(errno));
     addr.sun_family = AF_UNIX;
     std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
@@ -61,7 +63,7 @@ void remove_stale_socket(const std::string& path) {
 
 namespace server {
 
-ListeningSocket open_listening_socket(const std::string& path, unsigned mode, int gid) {
+ListeningSocket open_listening_socket(const std::string& path, unsigned mode, int gid, int type, bool with_wake_fd) {
     ListeningSocket out;
     sockaddr_un addr{};
     addr.sun_family = AF_UNIX;
@@ -79,7 +81,7 @@ ListeningSocket open_listening_socket(const std::string& path, unsigned mode, in
         }
     }
     std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    out.listen_fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    out.listen_fd = ::socket(AF_UNIX, type | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (out.listen_fd < 0) throw std::runtime_error(std::string("Server: socket: ") + std::strerror(errno));
     // From here on a failure closes what is open.
     auto fail = [&out](const std::string& what) {
@@ -88,7 +90,7 @@ ListeningSocket open_listening_socket(const std::string& path, unsigned mode, in
         throw std::runtime_error(what);
     };
     try {
-        remove_stale_socket(path);
+        remove_stale_socket(path, type);
     } catch (...) {
         ::close(out.listen_fd);
         throw;
@@ -105,6 +107,7 @@ ListeningSocket open_listening_socket(const std::string& path, unsigned mode, in
     if (::chmod(path.c_str(), static_cast<mode_t>(mode)) != 0)
         fail("Server: chmod('" + path + "'): " + std::strerror(errno));
     if (::listen(out.listen_fd, 64) != 0) fail(std::string("Server: listen: ") + std::strerror(errno));
+    if (!with_wake_fd) return out;
     out.wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     if (out.wake_fd < 0) fail(std::string("Server: eventfd: ") + std::strerror(errno));
     return out;
@@ -130,6 +133,10 @@ SendResult send_message(int fd, const std::string& text) noexcept {
     return errno == EAGAIN || errno == EWOULDBLOCK ? SendResult::Full : SendResult::Failed;
 }
 
+SendResult send_to(Session& s, const std::string& text) {
+    return s.stream ? s.outbox.send_reply(s.fd, text) : send_message(s.fd, text);
+}
+
 bool peer_hung_up(int fd) noexcept {
     pollfd p{fd, POLLRDHUP, 0};
     const int r = ::poll(&p, 1, 0);
@@ -146,18 +153,20 @@ Silence silence_of(const Session& s, Clock::time_point now) {
 void DepartureDetector::clear() {
     fds_.clear();
     ids_.clear();
+    gone_.clear();
 }
 
-void DepartureDetector::watch(int fd, std::uint64_t session) {
+void DepartureDetector::watch(int fd, std::uint64_t session, bool stream) {
     fds_.push_back({fd, POLLRDHUP, 0});
     ids_.push_back(session);
+    gone_.push_back(static_cast<short>(stream ? (POLLHUP | POLLERR) : (POLLRDHUP | POLLHUP | POLLERR)));
 }
 
 const std::vector<std::uint64_t>& DepartureDetector::departed() {
     departed_.clear();
     if (fds_.empty() || ::poll(fds_.data(), fds_.size(), 0) <= 0) return departed_;
     for (std::size_t i = 0; i < fds_.size(); ++i) {
-        if ((fds_[i].revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0) departed_.push_back(ids_[i]);
+        if ((fds_[i].revents & gone_[i]) != 0) departed_.push_back(ids_[i]);
     }
     return departed_;
 }

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "server/stream_framing.hpp"
+
 namespace hapticd::server {
 
 using Clock = std::chrono::steady_clock;
@@ -47,6 +49,9 @@ struct Session {
     std::optional<std::vector<std::uint32_t>> contact_filter;  // none: every object
     std::deque<std::string> contact_queue;  // contact messages waiting for room in the socket, oldest first
     std::uint64_t contact_dropped = 0;      // contact events lost for this subscription so far
+    bool stream = false;                    // came through the stream socket: '\n'-framed (stream_framing.hpp)
+    LineFramer framer{65536};               // stream: received bytes cut into messages
+    StreamOutbox outbox;                    // stream: sent bytes the socket has not taken yet
 };
 
 struct ListeningSocket {
@@ -55,9 +60,11 @@ struct ListeningSocket {
 };
 
 // Creates the socket directory if needed, removes a stale socket (remove_stale_socket), binds `path` with
-// `mode` (never wider while it exists) and group `gid` (< 0: the process's), listens; then the eventfd.
+// `mode` (never wider while it exists) and group `gid` (< 0: the process's), listens; then the eventfd (only
+// when `with_wake_fd`). `type`: SOCK_SEQPACKET (the control socket) or SOCK_STREAM (the stream socket).
 // std::runtime_error naming the path and the call on failure (SocketPathError for a path in use).
-[[nodiscard]] ListeningSocket open_listening_socket(const std::string& path, unsigned mode, int gid);
+[[nodiscard]] ListeningSocket open_listening_socket(const std::string& path, unsigned mode, int gid, int type,
+                                                    bool with_wake_fd);
 
 // A connection taken from the listening socket, non-blocking, with its peer's credentials (pid 0, uid and gid
 // -1 when SO_PEERCRED fails).
@@ -70,10 +77,11 @@ struct Peer {
 // The next pending connection; none when no connection waits (or accept failed: tried again next round).
 [[nodiscard]] std::optional<Peer> accept_peer(int listen_fd);
 
-enum class SendResult { Sent, Full, Failed };
 // One message, never blocking (MSG_DONTWAIT | MSG_NOSIGNAL): Full when the socket has no room (errno
 // EAGAIN), Failed for any other error (errno kept for the caller's message).
 [[nodiscard]] SendResult send_message(int fd, const std::string& text) noexcept;
+// A message on either transport: as is (SOCK_SEQPACKET) or through the session's outbox as a reply (stream).
+[[nodiscard]] SendResult send_to(Session& s, const std::string& text);
 
 // SOCK_SEQPACKET: a zero-length read is both an empty message and the end of the stream; true for the
 // latter (or when poll fails).
@@ -84,17 +92,20 @@ enum class Silence { None, NoHello, LeaseLost };
 [[nodiscard]] Silence silence_of(const Session& s, Clock::time_point now);
 
 // Finds the sessions whose peer has gone (POLLRDHUP, POLLHUP or POLLERR) with one zero-timeout poll; keeps
-// its storage between calls.
+// its storage between calls. A stream session's peer has gone only on POLLHUP or POLLERR: POLLRDHUP alone is a
+// half-close (shutdown(SHUT_WR), e.g. socat at the end of its input), after which the requests it sent are
+// still answered and the end of the stream closes the session.
 class DepartureDetector {
   public:
     void clear();
-    void watch(int fd, std::uint64_t session);
+    void watch(int fd, std::uint64_t session, bool stream = false);
     // The watched sessions whose peer has gone, in the order watched.
     [[nodiscard]] const std::vector<std::uint64_t>& departed();
 
   private:
     std::vector<pollfd> fds_;
     std::vector<std::uint64_t> ids_;
+    std::vector<short> gone_;  // the revents that mean the peer has gone, per fd
     std::vector<std::uint64_t> departed_;
 };
 

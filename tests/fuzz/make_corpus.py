@@ -77,3 +77,17 @@ put("hid_reports", "short", hid([1, 5, 1, 1, 0, 0x12, 0, 1], [1, 0, 0]))
 put("hid_reports", "block_load_ok", hid([9, 1, 1, 1, 0, 0x12, 0, 1], [0x12, 3, 1, 0, 1]))
 put("hid_reports", "block_load_full", hid([9, 1, 1, 1, 0, 0x12, 0, 1], [0x12, 3, 2, 0, 1]))
 put("hid_reports", "empty_report", hid([0, 0, 0, 0, 0, 0, 0, 0], []))
+
+# stream_framing: two bytes (the frame limit and the cut of the stream into appends), then the stream: protocol
+# lines, empty lines, CRLF, a line at the limit and one above it, a tail without '\n', NUL and invalid UTF-8.
+STREAM_SEEDS = [
+    b'{"type":"hello","protocol":1}\n{"type":"heartbeat","id":1}\n',
+    b'\n\n\r\n{"type":"status","id":2}\r\n',
+    b'a' * 40 + b'\n' + b'b' * 41 + b'\n',
+    b'x' * 600,
+    b'{"id":1}\n{"id":2',
+    b'\x00\xff\xfe\n\r\r\n\n',
+]
+for i, stream in enumerate(STREAM_SEEDS):
+    for limit_byte, cut_byte in ((20, 0), (20, 7), (255, 255), (0, 1)):
+        put("stream_framing", f"seed_{i}_{limit_byte}_{cut_byte}", bytes([limit_byte, cut_byte]) + stream)

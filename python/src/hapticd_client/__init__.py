@@ -16,6 +16,7 @@ from .device import DeviceInfo
 from .errors import ERROR_CODES, HapticdError
 from .instance import INSTANCE_NAME_FORM, instance_socket_path, instance_state_shm, valid_instance_name
 from .objects import Batch, field, gains, plane, spring
+from .state_source import StateSource, sample_from_state_message
 from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
 
 __all__ = [
@@ -37,12 +38,14 @@ __all__ = [
     "StateFault",
     "StateReader",
     "StateSample",
+    "StateSource",
     "default_socket_path",
     "field",
     "gains",
     "instance_socket_path",
     "instance_state_shm",
     "plane",
+    "sample_from_state_message",
     "shm_path",
     "spring",
     "stale_after_s",

@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """A session with ``hapticd --serve`` (docs/protocol.md): a Unix-domain SOCK_SEQPACKET socket carrying one
-UTF-8 JSON object per message (at most 65536 bytes), the versioned ``hello``/``welcome`` handshake, requests
-with ids and their replies, batches, leases and subscriptions. Standard library only.
+UTF-8 JSON object per message (at most 65536 bytes), or the daemon's SOCK_STREAM socket (``<socket>.stream``,
+the one an ``ssh -L`` Unix-socket forward reaches) carrying one JSON object per line; the versioned
+``hello``/``welcome`` handshake, requests with ids and their replies, batches, leases and subscriptions.
+Standard library only.
 
     with Client.connect(client="demo", lease_s=0.5) as c:
         wall = c.add(plane(normal=(0, 0, 1), offset=0.0, criterion="CE2"))
@@ -16,6 +18,7 @@ Not thread-safe: one Client per thread.
 from __future__ import annotations
 
 import collections
+import errno
 import json
 import os
 import select
@@ -98,6 +101,33 @@ def default_socket_path(instance: Optional[str] = None) -> str:
     return instance_socket_path(None)
 
 
+TRANSPORTS = ("auto", "seqpacket", "stream")
+
+
+def _open_socket(path: str, transport: str) -> Tuple[socket.socket, bool]:
+    """A connected socket and whether it is the stream transport. ``auto``: SOCK_SEQPACKET, and SOCK_STREAM
+    when the socket at ``path`` is a stream socket (connect fails with EPROTOTYPE: the daemon's ``.stream``
+    socket, or the local end of an ``ssh -L`` forward)."""
+    if transport not in TRANSPORTS:
+        raise ValueError(f"Client.connect: transport = {transport!r} is invalid; accepted: {', '.join(TRANSPORTS)}")
+    kinds = [socket.SOCK_STREAM] if transport == "stream" else [socket.SOCK_SEQPACKET]
+    if transport == "auto":
+        kinds.append(socket.SOCK_STREAM)
+    for kind in kinds:
+        sock = socket.socket(socket.AF_UNIX, kind | socket.SOCK_CLOEXEC)
+        try:
+            sock.connect(path)
+            return sock, kind == socket.SOCK_STREAM
+        except OSError as e:
+            sock.close()
+            if e.errno == errno.EPROTOTYPE and kind != kinds[-1]:
+                continue
+            hint = (" (a stream socket: connect with transport 'stream' or 'auto')" if e.errno == errno.EPROTOTYPE
+                    else " (is hapticd running with --serve? may this user open the socket?)")
+            raise HapticdError("transport", f"Client.connect: connect to {path!r}: {e.strerror}{hint}") from e
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
 BUSY_RETRY_DEFAULT = (8, 1e-3, 0.05)  # tries, initial delay (s), largest delay (s): as the C++ client's BusyRetry
 
 
@@ -131,6 +161,8 @@ class Client:
         self.welcome: Dict = {}
         self.device: Optional[DeviceInfo] = None
         self._last_sent = time.monotonic()
+        self.stream = False  # the stream transport: one JSON object per line (docs/protocol.md, section 1)
+        self._rx = bytearray()  # stream: received bytes not yet returned as messages
 
     # -- connection ------------------------------------------------------------------------------------
     @classmethod
@@ -138,27 +170,25 @@ class Client:
                 timeout_s: float = 5.0, protocol: int = PROTOCOL_VERSION,
                 event_queue_capacity: int = EVENT_QUEUE_CAPACITY,
                 busy_retry: Tuple[int, float, float] = BUSY_RETRY_DEFAULT,
-                contact_queue_capacity: int = CONTACT_QUEUE_CAPACITY, instance: Optional[str] = None) -> "Client":
+                contact_queue_capacity: int = CONTACT_QUEUE_CAPACITY, instance: Optional[str] = None,
+                transport: str = "auto") -> "Client":
         """Connects and performs the handshake; raises HapticdError ("transport", "protocol_version", ...).
         ``instance``: the daemon instance (hapticd --instance NAME) whose socket to use when ``socket_path`` is
         not given (both: ValueError).
         ``event_queue_capacity``: events kept until ``poll_event``/``next_event`` takes them (more are
         dropped and counted in ``events_dropped``). ``busy_retry``: how ``commit`` retries ``busy``
         (``set_busy_retry``). ``contact_queue_capacity``: contact events kept until ``poll_contact``/
-        ``next_contact`` takes them (more are dropped and counted in ``contacts_dropped``)."""
+        ``next_contact`` takes them (more are dropped and counted in ``contacts_dropped``). ``transport``:
+        ``seqpacket`` (the control socket), ``stream`` (the ``.stream`` socket or a forward of it, e.g.
+        ``ssh -L``), ``auto`` (the one the socket at the path is)."""
         _check_busy_retry(busy_retry)
         if socket_path and instance:
             raise ValueError(f"socket_path = {socket_path!r} and instance = {instance!r} both given; "
                              "accepted: one of them")
         path = socket_path or default_socket_path(instance)
-        sock = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
-        try:
-            sock.connect(path)
-        except OSError as e:
-            sock.close()
-            raise HapticdError("transport", f"Client.connect: connect to {path!r}: {e.strerror} "
-                                            "(is hapticd running with --serve? may this user open the socket?)") from e
+        sock, stream = _open_socket(path, transport)
         c = cls(sock, timeout_s, event_queue_capacity)
+        c.stream = stream
         c._busy_retry = tuple(busy_retry)
         c._contact_capacity = max(0, int(contact_queue_capacity))
         try:
@@ -198,7 +228,10 @@ class Client:
             raise HapticdError("transport", "Client.send_raw: not connected")
         data = message.encode("utf-8") if isinstance(message, str) else message
         try:
-            self._sock.send(data)
+            if self.stream:
+                self._sock.sendall(data + b"\n")
+            else:
+                self._sock.send(data)
         except OSError as e:
             raise HapticdError("transport", f"Client.send_raw: send: {e.strerror}") from e
         self._last_sent = time.monotonic()
@@ -207,6 +240,8 @@ class Client:
         """One message, or None after ``timeout_s``; HapticdError("transport") when the server closed."""
         if self._sock is None:
             raise HapticdError("transport", "Client.receive_raw: not connected")
+        if self.stream:
+            return self._receive_line(timeout_s)
         ready, _, _ = select.select([self._sock], [], [], max(0.0, timeout_s))
         if not ready:
             return None
@@ -217,6 +252,31 @@ class Client:
         if not data:
             raise HapticdError("transport", "Client.receive_raw: the server closed the connection")
         return data
+
+    def _receive_line(self, timeout_s: float) -> Optional[bytes]:
+        """The stream transport: the next line (without its newline), or None after ``timeout_s``."""
+        deadline = time.monotonic() + max(0.0, timeout_s)
+        while True:
+            end = self._rx.find(b"\n")
+            if end >= 0:
+                line = bytes(self._rx[:end])
+                del self._rx[:end + 1]
+                if line.strip():
+                    return line
+                continue
+            if len(self._rx) > MAX_MESSAGE_BYTES + 1:
+                raise HapticdError("transport", f"Client.receive_raw: a line of more than {MAX_MESSAGE_BYTES} bytes "
+                                                "from the server")
+            ready, _, _ = select.select([self._sock], [], [], max(0.0, deadline - time.monotonic()))
+            if not ready:
+                return None
+            try:
+                data = self._sock.recv(MAX_MESSAGE_BYTES + 1)
+            except OSError as e:
+                raise HapticdError("transport", f"Client.receive_raw: recv: {e.strerror}") from e
+            if not data:
+                raise HapticdError("transport", "Client.receive_raw: the server closed the connection")
+            self._rx += data
 
     @staticmethod
     def _decode(function: str, raw: bytes) -> Dict:
@@ -327,6 +387,16 @@ class Client:
         """The next subscribed ``state`` message (a dict), or None after ``timeout_s``."""
         return self._read_until("Client.next_state", timeout_s,
                                 lambda: self._pending_states.pop(0) if self._pending_states else None)
+
+    def latest_state(self, timeout_s: float) -> Optional[Dict]:
+        """The newest subscribed ``state`` message that has arrived (older ones queued are discarded); with none
+        arrived, the next one within ``timeout_s``, else None."""
+        self._read_until("Client.latest_state", 0.0, lambda: None)
+        if self._pending_states:
+            newest = self._pending_states[-1]
+            self._pending_states.clear()
+            return newest
+        return self.next_state(timeout_s)
 
     def subscribe_contacts(self, object_ids: Optional[Iterable[int]] = None) -> List[int]:
         """Contact events (docs/protocol.md, section 6, "Contact events"): of every object, or only of

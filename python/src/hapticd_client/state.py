@@ -73,9 +73,12 @@ class StateSample:
     stale: bool = False  # the writer is dead or stalled (module docstring)
     heartbeat_age_s: float = 0.0  # s since the loop's last tick; -1: never written
     fatal_signal: int = 0  # the signal that ended the daemon (fault 4 or 5)
+    contact_ids: Optional[List[int]] = None  # a subscribed state message's `contact` (no slot table in it)
 
     def contacts(self) -> List[int]:
         """The ids of the objects in contact: the config walls' (ascending), then the client objects' in slot order."""
+        if self.contact_ids is not None:
+            return list(self.contact_ids)
         walls = [i + 1 for i in range(64) if (self.config_contact_mask >> i) & 1]
         return walls + [self.slot_object_id[s] for s in range(CAPACITY)
                         if (self.contact_mask >> s) & 1 and self.slot_object_id[s] != 0]
