@@ -23,6 +23,7 @@
 #include "devices/sim_device.hpp"
 #include "scene/force_limiter.hpp"
 #include "scene/scene_objects.hpp"
+#include "server/object_resolution.hpp"
 #include "tuning/object_checks.hpp"
 
 namespace hapticd {
@@ -828,6 +829,71 @@ TEST(AnisotropicMass, ProfileKeysAreValidatedByName) {
     o.identify = true;  // one mass only
     EXPECT_THROW((void)load_device_profile(o), StartupError);
     std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace hapticd
+
+namespace hapticd {
+namespace {
+
+// The orthogonal projector on the span of the columns of N (Eigen's QR, independent of the loop's Gram-Schmidt).
+Eigen::Matrix3d projector_on(const Eigen::MatrixXd& N) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(N);
+    const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(3, N.cols());
+    return Q * Q.transpose();
+}
+
+// A mesh object's gains as the server checks them (server/object_resolution.cpp, mesh_masses over the plant set
+// [1/1.1, 1.1] of the anisotropic M), at the criterion's optimum and at 99 % of the largest K the check accepts at
+// that B, against the physical state matrix of every contact configuration the proxy can render: K P, B P with P
+// the projector on 1, 2 or 3 random normals, and P = I (friction), at the set's corners c_min M and c_max M and at
+// M; d = 0, 1, 2. Every one decays (spectral radius < 1). The same gains checked with the point spring's masses
+// alone (M's eigenvalues) would miss the masses between them; mesh_masses' chain covers the interval.
+TEST(AnisotropicMass, AMeshsGainsAreStableInEveryContactConfigurationOverThePlantSet) {
+    const Eigen::Matrix3d M = eigen_of(anisotropic_matrix());
+    std::mt19937 rng(20261205);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    double worst = 0.0;
+    int configurations = 0;
+    for (int d = 0; d < 3; ++d) {
+        GainCheckPlant p = anisotropic_plant(d * kT);
+        p.mass_margin = 0.1;
+        GainChecker checker(p);
+        Matrix3 I{};
+        for (std::size_t i = 0; i < 3; ++i) I[i][i] = 1.0;
+        const auto [c_min, c_max] = checker.mass_scales();
+        const std::vector<double> masses = server::mesh_masses(checker.masses_of(I), c_min, c_max);
+        ASSERT_GE(masses.size(), 3U);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+        EXPECT_NEAR(masses.front(), es.eigenvalues()(0), 1e-12);
+        EXPECT_NEAR(masses.back(), es.eigenvalues()(2), 1e-12);
+        for (std::size_t i = 1; i < masses.size(); ++i)
+            EXPECT_LE(masses[i] * c_min, masses[i - 1] * c_max * (1 + 1e-12));
+        const auto optimum = checker.criterion_gains("CE2", masses.front());
+        ASSERT_TRUE(optimum.has_value());
+        const PairVerdict at_optimum = checker.check_object(optimum->K, optimum->B, masses);
+        ASSERT_TRUE(at_optimum.stable);
+        const double near_edge = 0.99 * at_optimum.largest_stable_K;
+        ASSERT_TRUE(checker.check_object(near_edge, optimum->B, masses).stable);
+        for (const double K : {optimum->K, near_edge}) {
+            for (int trial = 0; trial < 60; ++trial) {
+                const int rank = 1 + trial % 4;  // 4: friction, P = I
+                Eigen::MatrixXd N(3, std::min(rank, 3));
+                for (int c = 0; c < N.cols(); ++c)
+                    N.col(c) = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+                const Eigen::Matrix3d P = rank == 4 ? Eigen::Matrix3d::Identity() : projector_on(N);
+                for (const double c : {c_min, 1.0, c_max}) {
+                    const double radius = physical_state_spectral_radius(c * M, K * P, optimum->B * P, d);
+                    worst = std::max(worst, radius);
+                    EXPECT_LT(radius, 1.0) << "d " << d << " K " << K << " rank " << rank << " c " << c;
+                    ++configurations;
+                }
+            }
+        }
+    }
+    std::printf("[ mesh configurations ] %d contact configurations x masses, largest spectral radius %.9f\n",
+                configurations, worst);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@ from .client import (CONTACT_QUEUE_CAPACITY, EVENT_QUEUE_CAPACITY, MAX_MESSAGE_B
                      default_socket_path)
 from .device import DeviceInfo
 from .errors import ERROR_CODES, HapticdError
+from .meshes import box, icosphere, mesh, torus
 from .objects import Batch, field, gains, plane, spring
 from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
 
@@ -35,11 +36,15 @@ __all__ = [
     "StateFault",
     "StateReader",
     "StateSample",
+    "box",
     "default_socket_path",
     "field",
     "gains",
+    "icosphere",
+    "mesh",
     "plane",
     "shm_path",
     "spring",
     "stale_after_s",
+    "torus",
 ]
