@@ -17,7 +17,33 @@ struct Plane {
     Eigen::Vector3d normal;
     double offset;
     std::uint32_t triangle;
+    const HierarchyTriangle* face;
 };
+
+// Distance from x to the closed triangle (Ericson, Real-Time Collision Detection, 5.1.5: the Voronoi region of
+// x among the vertices, edges and face).
+double distance_to_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& x) noexcept {
+    const Eigen::Vector3d& ab = t.ab;
+    const Eigen::Vector3d& ac = t.ac;
+    const Eigen::Vector3d ap = x - t.a;
+    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+    if (d1 <= 0.0 && d2 <= 0.0) return ap.norm();
+    const Eigen::Vector3d bp = ap - ab;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    if (d3 >= 0.0 && d4 <= d3) return bp.norm();
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return (ap - (d1 / (d1 - d3)) * ab).norm();
+    const Eigen::Vector3d cp = ap - ac;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    if (d6 >= 0.0 && d5 <= d6) return cp.norm();
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return (ap - (d2 / (d2 - d6)) * ac).norm();
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        return (bp - ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (ac - ab)).norm();
+    }
+    return std::abs(t.normal.dot(ap));
+}
 
 struct ClosestPoint {
     Eigen::Vector3d point;
@@ -120,34 +146,74 @@ const ProxyContact& GodObjectProxy::step(const Eigen::Vector3d& handle) noexcept
     Eigen::Vector3d p = contact_.proxy;
     std::array<Plane, kMaxPlanes> planes{};
     int count = 0;
-    ClosestPoint solution;
     bool first_friction_check = true;
     bool slid = false;
-    int sweeps = 0;
-    int kept = 0;  // the planes before the last restart (reported when the sweeps run out after it)
     bool converged = false;
-    while (sweeps < kMaxSweeps) {
+    int sweeps = 0;
+    // Drops the planes whose triangle the proxy does not rest on: farther than kSurfaceOffset + kRestingReach from
+    // the triangle, or above the plane's offset level (by more than 1e-9 m). A plane constrains the proxy only
+    // where it touches it. True when one was dropped.
+    const auto prune = [&]() noexcept {
+        int kept = 0;
+        for (int i = 0; i < count; ++i) {
+            if (planes[i].normal.dot(p) <= planes[i].offset + 1e-9 &&
+                distance_to_triangle(*planes[i].face, p) <= kSurfaceOffset + MeshHierarchy::kRestingReach) {
+                planes[kept++] = planes[i];
+            }
+        }
+        const bool dropped = kept < count;
+        count = kept;
+        return dropped;
+    };
+    // Each pass sweeps once or drops a plane (at most kMaxPlanes drops between sweeps).
+    for (int pass = 0; pass < kMaxSweeps * (kMaxPlanes + 1) && sweeps < kMaxSweeps; ++pass) {
         Eigen::Vector3d goal = handle;
         if (count > 0) {
-            solution = closest_point(planes, count, handle);
+            if (mu_static > 0.0 && prune()) continue;  // friction acts on the planes the proxy touches
+            const ClosestPoint solution = closest_point(planes, count, handle);
             if (!solution.found) break;  // dependent planes: not converged
             goal = solution.point;
             if (mu_static > 0.0) {
-                // Friction cone around the frictionless proxy `goal`: penetration |h - goal| (along the active
-                // normals), tangential offset |p - goal| (within the active planes).
-                const double penetration = (handle - goal).norm();
-                const double offset = (p - goal).norm();
-                const double mu = first_friction_check && !contact_.sliding ? mu_static : mu_dynamic;
-                first_friction_check = false;
-                if (offset <= mu * penetration) {  // sticks
-                    converged = true;
-                    break;
+                // The frictionless proxy `goal` must be reachable on these planes: a plane the proxy rests on and
+                // would meet at once on its way there joins them first.
+                if ((goal - p).squaredNorm() > 1e-24) {
+                    const SweepHit toward = mesh.sweep(p, goal);
+                    ++sweeps;
+                    if (toward.hit() && toward.fraction <= 0.0) {
+                        bool known = false;
+                        for (int i = 0; i < count; ++i) known = known || planes[i].triangle == toward.triangle;
+                        if (!known && count < kMaxPlanes) {
+                            planes[count++] = Plane{toward.normal, toward.plane_offset + kSurfaceOffset,
+                                                    toward.triangle, toward.face};
+                            continue;
+                        }
+                    }
                 }
-                goal += (mu_dynamic * penetration / offset) * (p - goal);
-                slid = true;
+                // Friction cone around the frictionless proxy `goal`: penetration |h - goal| (along the active
+                // normals), tangential offset |lifted - goal| (within the active planes), `lifted` the proxy put
+                // back on the planes' front if it is below one (friction holds tangential motion only).
+                const ClosestPoint lift = closest_point(planes, count, p);
+                const Eigen::Vector3d lifted = lift.found ? lift.point : p;
+                const double penetration = (handle - goal).norm();
+                const double offset = (lifted - goal).norm();
+                const double mu = first_friction_check && !contact_.sliding ? mu_static : mu_dynamic;
+                if (offset <= mu * penetration) {  // sticks
+                    if ((lifted - p).squaredNorm() > 1e-24) {
+                        goal = lifted;
+                    } else {
+                        if (prune()) continue;
+                        converged = true;
+                        break;
+                    }
+                } else {
+                    first_friction_check = false;
+                    goal += (mu_dynamic * penetration / offset) * (lifted - goal);
+                    slid = true;
+                }
             }
         }
         if ((goal - p).squaredNorm() <= 1e-24) {
+            if (prune()) continue;
             converged = true;
             break;
         }
@@ -155,20 +221,28 @@ const ProxyContact& GodObjectProxy::step(const Eigen::Vector3d& handle) noexcept
         ++sweeps;
         if (!hit.hit()) {
             p = goal;
-            if (count == 0) {
+            // On the closest point of planes it rests on: done; else without the planes left behind.
+            if (count == 0 || !prune()) {
                 converged = true;
                 break;
             }
-            // On the target of these planes: sweep toward the handle again (it may reach past a convex edge).
-            kept = count;
-            count = 0;
             continue;
         }
         p += hit.fraction * (goal - p);
         bool known = false;
         for (int i = 0; i < count; ++i) known = known || planes[i].triangle == hit.triangle;
-        if (known || count == kMaxPlanes) break;
-        planes[count++] = Plane{hit.normal, hit.plane_offset + kSurfaceOffset, hit.triangle};
+        if (known) break;
+        if (count == kMaxPlanes) {
+            // Full (a vertex shared by more than three triangles): keep the planes the closest point lies on.
+            const ClosestPoint solution = closest_point(planes, count, handle);
+            int kept = 0;
+            for (int i = 0; i < count; ++i) {
+                if (solution.found && ((solution.subset >> i) & 1u)) planes[kept++] = planes[i];
+            }
+            if (kept == kMaxPlanes) break;
+            count = kept;
+        }
+        planes[count++] = Plane{hit.normal, hit.plane_offset + kSurfaceOffset, hit.triangle, hit.face};
     }
     contact_.proxy = p;
     contact_.sweeps = sweeps;
@@ -176,9 +250,8 @@ const ProxyContact& GodObjectProxy::step(const Eigen::Vector3d& handle) noexcept
     contact_.converged = converged;
     contact_.constraints = 0;
     contact_.triangle = UINT32_MAX;
-    if (count == 0 && (p - handle).squaredNorm() > 1e-24) count = kept;
     if (count > 0) {
-        solution = closest_point(planes, count, handle);
+        const ClosestPoint solution = closest_point(planes, count, handle);
         if (solution.found) {
             for (int i = 0; i < count; ++i) {
                 if (((solution.subset >> i) & 1u) && contact_.constraints < 3) {

@@ -69,7 +69,13 @@ double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, cons
         x = p + d - st * t.normal;
     }
     if (!inside_triangle(t, x, MeshHierarchy::kEdgeTolerance)) return kNever;
-    return sp > offset ? (sp - offset) / (sp - st) : 0.0;
+    if (sp >= offset) return (sp - offset) / (sp - st);
+    // The start is within the offset of the plane: resting on the triangle when the point met is within
+    // kRestingReach of it (no motion toward it), else the proxy is only near the plane's extension and may move
+    // until kRestingReach before the point met.
+    const double reach = MeshHierarchy::kRestingReach;
+    const double along = (x - p).norm();
+    return along <= reach ? 0.0 : (along - reach) / length;
 }
 
 }  // namespace
@@ -186,6 +192,7 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
         best.triangle = met->index;
         best.normal = met->normal;
         best.plane_offset = met->normal.dot(met->a);
+        best.face = met;
     }
     return best;
 }

@@ -34,7 +34,8 @@ struct SweepHit {
     double fraction = 1.0;                // the proxy may move to p + fraction (q - p), fraction in [0, 1]
     std::uint32_t triangle = UINT32_MAX;  // index in the mesh; UINT32_MAX: the segment is free
     Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-    double plane_offset = 0.0;  // the triangle's plane: normal . x = plane_offset
+    double plane_offset = 0.0;                // the triangle's plane: normal . x = plane_offset
+    const HierarchyTriangle* face = nullptr;  // the triangle met, in the hierarchy
     bool hit() const { return triangle != UINT32_MAX; }
 };
 
@@ -53,16 +54,21 @@ class MeshHierarchy {
     // pre: mesh_error(mesh, mode) is empty. Allocates; O(n log n). Throws std::bad_alloc only.
     static std::shared_ptr<const MeshHierarchy> build(TriangleMesh mesh, MeshMode mode);
 
-    // The first triangle whose front the segment p -> q meets (the hit rule of docs/mesh-rendering.md): a
-    // triangle counts when the segment approaches its plane (normal . (q - p) < -1e-12 |q - p|), starts no more
-    // than offset / 2 behind it, ends less than offset - 1e-12 in front of it, and crosses the triangle (grown by
-    // kEdgeTolerance) there. fraction: the largest in [0, 1] that keeps the proxy `offset` in front of that plane,
-    // the smallest over the triangles met. No allocation, no lock, no exception; visits each node at most once.
+    // The first triangle whose front the segment p -> q meets (docs/mesh-rendering.md): a triangle counts when
+    // the segment approaches its plane (normal . (q - p) < -1e-12 |q - p|), starts no more than offset / 2 behind
+    // it, ends less than offset - 1e-12 in front of it, and crosses the triangle (grown by kEdgeTolerance) there
+    // (or, ending in front, the end's projection does). The fraction it allows: to `offset` in front of the plane
+    // when the start is farther; else 0 when the point met is within kRestingReach of the start (the proxy rests
+    // on the triangle), else up to kRestingReach before that point. The smallest over the triangles met.
+    // No allocation, no lock, no exception; visits each node at most once.
     SweepHit sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double offset = kSurfaceOffset) const noexcept;
 
     // A point on the triangles' planes within kEdgeTolerance of a triangle's edge counts as inside it, so a
     // segment through a shared edge or vertex meets at least one of its triangles despite rounding.
     static constexpr double kEdgeTolerance = 1e-9;
+    // A proxy within this distance of a triangle (and on its offset plane) rests on it: 10 offsets, as a proxy on
+    // the offset planes of a convex edge lies up to offset x tan(half the bend) beyond either triangle.
+    static constexpr double kRestingReach = 10 * kSurfaceOffset;
 
     const TriangleMesh& mesh() const { return mesh_; }
     MeshMode mode() const { return mode_; }

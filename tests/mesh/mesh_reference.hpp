@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // Independent references for the mesh tests, written without src/mesh's code: brute force over every triangle
-// (barycentric coordinates, Moller-Trumbore rays), the closest point on intersected half-spaces by Dykstra's
-// alternating projections, an inside test by ray parity, and random meshes (bumpy spheres, height fields).
+// (barycentric coordinates, Moller-Trumbore rays), the closest point on intersected half-spaces by
+// enumeration with Eigen's complete orthogonal decomposition, an inside test by ray parity, and random meshes (bumpy
+// spheres, height fields).
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <cmath>
@@ -87,35 +89,54 @@ struct HalfSpace {
     double offset;           // normal . x >= offset
 };
 
-// The point closest to h in the intersection of the half-spaces, by Dykstra's alternating projections (converges
-// to the projection for any closed convex sets; stopped when a whole cycle moves less than 1e-15 m).
-inline Eigen::Vector3d dykstra_closest_point(const std::vector<HalfSpace>& s, const Eigen::Vector3d& h) {
-    Eigen::Vector3d x = h;
-    std::vector<Eigen::Vector3d> y(s.size(), Eigen::Vector3d::Zero());
-    for (int cycle = 0; cycle < 200000; ++cycle) {
-        const Eigen::Vector3d start = x;
-        double moved = 0.0;
-        for (std::size_t i = 0; i < s.size(); ++i) {
-            const Eigen::Vector3d z = x + y[i];
-            const double gap = s[i].offset - s[i].normal.dot(z);
-            const Eigen::Vector3d projected = gap > 0.0 ? Eigen::Vector3d(z + gap * s[i].normal) : z;
-            y[i] = z - projected;
-            moved = std::max(moved, (projected - x).norm());
-            x = projected;
-        }
-        if ((x - start).norm() < 1e-15 && cycle > 2) break;
-    }
-    return x;
+// The point closest to h in the intersection of the half-spaces, by brute force: the minimiser is the
+// projection of h on the planes of some subset of at most three of them (the face of the feasible polyhedron it
+// lies in), so it is the feasible one of those projections nearest h. Each projection is the minimum-norm
+// solution of (N N^T) lambda = c - N h by a complete orthogonal decomposition (dependent planes allowed).
+inline Eigen::Vector3d closest_feasible_point(const std::vector<HalfSpace>& s, const Eigen::Vector3d& h) {
+    const int n = static_cast<int>(s.size());
+    const auto feasible = [&](const Eigen::Vector3d& x) {
+        for (const auto& hs : s)
+            if (hs.normal.dot(x) < hs.offset - 1e-11) return false;
+        return true;
+    };
+    Eigen::Vector3d best = h;
+    double best_distance = feasible(h) ? 0.0 : HUGE_VAL;
+    std::vector<int> subset;
+    for (int a = 0; a < n; ++a)
+        for (int b = a; b < n; ++b)
+            for (int c = b; c < n; ++c) {
+                subset = {a};
+                if (b != a) subset.push_back(b);
+                if (c != b) subset.push_back(c);
+                if (b == a && c != b) continue;  // each subset once: {a}, {a, b}, {a, b, c}
+                const int k = static_cast<int>(subset.size());
+                Eigen::MatrixXd N(k, 3);
+                Eigen::VectorXd r(k);
+                for (int i = 0; i < k; ++i) {
+                    N.row(i) = s[subset[i]].normal.transpose();
+                    r[i] = s[subset[i]].offset - s[subset[i]].normal.dot(h);
+                }
+                const Eigen::VectorXd lambda = (N * N.transpose()).completeOrthogonalDecomposition().solve(r);
+                const Eigen::Vector3d x = h + N.transpose() * lambda;
+                if ((N * x - (r + N * h)).cwiseAbs().maxCoeff() > 1e-11) continue;  // inconsistent planes
+                if (feasible(x) && (x - h).norm() < best_distance) {
+                    best = x;
+                    best_distance = (x - h).norm();
+                }
+            }
+    return best;
 }
 
-// The faces the point rests on: within `plane_tolerance` of the face's plane moved out by `offset`, and within
-// `reach` of the face.
+// The faces the point rests on: within `reach` of the face, and between `lowest` and the offset (+ 1e-9 m) in
+// front of its plane (on the plane moved out by the offset, or, for the further triangles of a vertex shared by
+// more than three, a little below it).
 inline std::vector<HalfSpace> resting_planes(const std::vector<Face>& f, const Eigen::Vector3d& p, double offset,
-                                             double plane_tolerance, double reach) {
+                                             double reach, double lowest) {
     std::vector<HalfSpace> out;
     for (const auto& face : f) {
         const double level = face.normal.dot(p - face.a);
-        if (std::abs(level - offset) <= plane_tolerance && distance_to_face(face, p) <= offset + reach) {
+        if (level >= lowest && level <= offset + 1e-9 && distance_to_face(face, p) <= offset + reach) {
             out.push_back({face.normal, face.normal.dot(face.a) + offset});
         }
     }

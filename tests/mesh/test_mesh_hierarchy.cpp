@@ -28,12 +28,13 @@ BruteHit brute_sweep(const std::vector<ref::Face>& f, const Eigen::Vector3d& p, 
     for (int i = 0; i < static_cast<int>(f.size()); ++i) {
         const double sp = f[i].normal.dot(p - f[i].a), st = f[i].normal.dot(q - f[i].a);
         if (!(st - sp < -1e-12 * d.norm()) || sp < -offset / 2 || !(st < offset - 1e-12)) continue;
-        const Eigen::Vector3d x = sp < 0 ? Eigen::Vector3d(p - sp * f[i].normal)
+        const Eigen::Vector3d x = sp < 0   ? Eigen::Vector3d(p - sp * f[i].normal)
                                   : st < 0 ? Eigen::Vector3d(p + sp / (sp - st) * d)
                                            : Eigen::Vector3d(q - st * f[i].normal);
         const Eigen::Vector3d bc = ref::barycentric(f[i], x);
         if (bc.minCoeff() < 0.0) continue;  // strictly inside: the tolerance band is compared apart
-        const double s = sp > offset ? (sp - offset) / (sp - st) : 0.0;
+        const double along = (x - p).norm(), reach = MeshHierarchy::kRestingReach;
+        const double s = sp >= offset ? (sp - offset) / (sp - st) : along <= reach ? 0.0 : (along - reach) / d.norm();
         if (s < best.fraction) best = {s, i};
     }
     return best;
@@ -66,8 +67,8 @@ TEST(MeshHierarchy, SweepEqualsBruteForceOnRandomSegments) {
     std::mt19937_64 rng(11);
     int hits = 0, misses = 0;
     for (int mesh_index = 0; mesh_index < 4; ++mesh_index) {
-        const TriangleMesh m = mesh_index % 2 == 0 ? ref::bumpy_sphere(0.05, 3, 0.25, rng)
-                                                   : ref::height_field(0.05, 20, 0.01, rng);
+        const TriangleMesh m =
+            mesh_index % 2 == 0 ? ref::bumpy_sphere(0.05, 3, 0.25, rng) : ref::height_field(0.05, 20, 0.01, rng);
         const auto f = ref::faces(m);
         const auto h = MeshHierarchy::build(m, mesh_index % 2 == 0 ? MeshMode::solid : MeshMode::surface);
         std::uniform_real_distribution<double> u(-0.07, 0.07), len(0.0, 0.06);
@@ -87,7 +88,8 @@ TEST(MeshHierarchy, SweepEqualsBruteForceOnRandomSegments) {
             ASSERT_TRUE(s.hit()) << "segment " << k << " of mesh " << mesh_index;
             EXPECT_NEAR(s.fraction, b.fraction, 1e-12) << "segment " << k << " of mesh " << mesh_index;
             EXPECT_LE(s.fraction, b.fraction + 1e-12);
-            EXPECT_NEAR(s.normal.dot(f[b.face].normal), 1.0, s.triangle == static_cast<std::uint32_t>(b.face) ? 1e-12 : 2.0);
+            EXPECT_NEAR(s.normal.dot(f[b.face].normal), 1.0,
+                        s.triangle == static_cast<std::uint32_t>(b.face) ? 1e-12 : 2.0);
         }
     }
     EXPECT_GT(hits, 1000);
@@ -106,8 +108,9 @@ TEST(MeshHierarchy, SegmentsThroughSharedEdgesAndVerticesAreMet) {
             const Eigen::Vector3d mid = 0.5 * (a + m.vertices[t[(k + 1) % 3]]);
             for (const Eigen::Vector3d& target : {a, mid}) {
                 // From outside, at a grazing tilt and straight in, through the target to inside.
-                for (const Eigen::Vector3d& from : {Eigen::Vector3d(target * 1.2), Eigen::Vector3d(target * 1.02 +
-                                                        0.3 * target.norm() * target.unitOrthogonal())}) {
+                for (const Eigen::Vector3d& from :
+                     {Eigen::Vector3d(target * 1.2),
+                      Eigen::Vector3d(target * 1.02 + 0.3 * target.norm() * target.unitOrthogonal())}) {
                     const Eigen::Vector3d to = target + 0.5 * (target - from);
                     const SweepHit s = h->sweep(from, to);
                     ASSERT_TRUE(s.hit()) << "through " << target.transpose();
