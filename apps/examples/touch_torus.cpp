@@ -100,8 +100,8 @@ int main(int argc, char** argv) {
                 const bool now_touching = std::find(ids.begin(), ids.end(), id) != ids.end();
                 if (now_touching != touching) {
                     touching = now_touching;
-                    const double f = std::sqrt(s.force[0] * s.force[0] + s.force[1] * s.force[1] +
-                                               s.force[2] * s.force[2]);
+                    const double f =
+                        std::sqrt(s.force[0] * s.force[0] + s.force[1] * s.force[1] + s.force[2] * s.force[2]);
                     std::printf("%s at (%.1f, %.1f, %.1f) mm, |f| %.3f N\n", touching ? "touching" : "free",
                                 s.position[0] * 1e3, s.position[1] * 1e3, s.position[2] * 1e3, f);
                     std::fflush(stdout);

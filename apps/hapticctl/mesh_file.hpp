@@ -15,8 +15,8 @@
 namespace hapticctl {
 
 struct MeshFile {
-    std::vector<hapticd::client::Vec3> vertices;               // m (the file's units times `scale`)
-    std::vector<std::array<std::uint32_t, 3>> triangles;        // outward normal (b - a) x (c - a)
+    std::vector<hapticd::client::Vec3> vertices;          // m (the file's units times `scale`)
+    std::vector<std::array<std::uint32_t, 3>> triangles;  // outward normal (b - a) x (c - a)
 };
 
 // Throws SpecError naming the file and what is wrong (unreadable, no triangles, scale not finite and > 0).

@@ -4,6 +4,8 @@
 #include <exception>
 #include <utility>
 
+#include "mesh/triangle_mesh.hpp"
+
 namespace hapticd::server {
 
 namespace {
@@ -59,7 +61,13 @@ void MeshStore::work() {
         Result result;
         result.id = job.id;
         try {
-            result.hierarchy = mesh::MeshHierarchy::build(std::move(job.data), job.mode);
+            const mesh::MeshLimits limits{job.max_vertices, job.max_triangles};
+            if (const std::optional<std::string> why = mesh::mesh_error(job.data, job.mode, limits)) {
+                result.error = std::string("the mesh (") + (job.mode == mesh::MeshMode::solid ? "solid" : "surface") +
+                               ") is invalid: " + *why;
+            } else {
+                result.hierarchy = mesh::MeshHierarchy::build(std::move(job.data), job.mode);
+            }
         } catch (const std::exception& e) {
             result.error = std::string("building the hierarchy failed: ") + e.what();
         } catch (...) {
@@ -133,9 +141,9 @@ std::variant<std::uint32_t, Refusal> MeshStore::begin(std::uint64_t session, con
                            " of meshes; accepted: at most " + mib(limits_.bytes_per_session) + " per session");
     }
     if (total_bytes_ + bytes > limits_.bytes_total) {
-        return refusal(cl::ErrorCode::Capacity, "mesh_begin: the daemon holds " + mib(total_bytes_) +
-                                                    " of meshes; " + mib(bytes) + " more would exceed the " +
-                                                    mib(limits_.bytes_total) + " of every session together; retry");
+        return refusal(cl::ErrorCode::Capacity, "mesh_begin: the daemon holds " + mib(total_bytes_) + " of meshes; " +
+                                                    mib(bytes) + " more would exceed the " + mib(limits_.bytes_total) +
+                                                    " of every session together; retry");
     }
     std::uint32_t id = next_id_;
     while (id == 0 || entries_.count(id) != 0) ++id;  // 2^32 ids: wraps, skips those in use
@@ -158,7 +166,8 @@ std::optional<Refusal> MeshStore::chunk(std::uint64_t session, const MeshChunkRe
     Entry& e = it->second;
     if (e.state != MeshState::Uploading) {
         return refusal(cl::ErrorCode::BadMessage, "mesh_chunk: mesh " + std::to_string(r.mesh) + " is " +
-                                                      to_string(e.state) + "; chunks are accepted only while uploading");
+                                                      to_string(e.state) +
+                                                      "; chunks are accepted only while uploading");
     }
     const char* what = r.triangles ? "triangles" : "vertices";
     const std::size_t have = r.triangles ? e.data.triangles.size() : e.data.vertices.size();
@@ -170,9 +179,9 @@ std::optional<Refusal> MeshStore::chunk(std::uint64_t session, const MeshChunkRe
                                                       std::to_string(have) + " (chunks arrive in order)");
     }
     if (have + count > total) {
-        return refusal(cl::ErrorCode::BadMessage,
-                       std::string("mesh_chunk.") + what + ": " + std::to_string(count) + " more after " +
-                           std::to_string(have) + " exceed the " + std::to_string(total) + " announced by mesh_begin");
+        return refusal(cl::ErrorCode::BadMessage, std::string("mesh_chunk.") + what + ": " + std::to_string(count) +
+                                                      " more after " + std::to_string(have) + " exceed the " +
+                                                      std::to_string(total) + " announced by mesh_begin");
     }
     if (r.triangles) {
         for (std::size_t i = 0; i < count; ++i) {
@@ -202,18 +211,10 @@ std::optional<Refusal> MeshStore::end(std::uint64_t session, std::uint32_t mesh)
                            std::to_string(e.data.triangles.size()) + " of " + std::to_string(e.triangles) +
                            " triangles; send the rest first (mesh_chunk)");
     }
-    const mesh::MeshLimits limits{limits_.max_vertices, limits_.max_triangles};
-    if (const std::optional<std::string> why = mesh::mesh_error(e.data, e.mode, limits)) {
-        const std::string message = "mesh_end: mesh " + std::to_string(mesh) + " (" +
-                                    (e.mode == mesh::MeshMode::solid ? "solid" : "surface") + ") is invalid: " + *why +
-                                    "; the upload is dropped";
-        erase(it);
-        return refusal(cl::ErrorCode::BadMessage, message);
-    }
     e.state = MeshState::Building;
     {
         std::lock_guard<std::mutex> lock(mutex_);
-        jobs_.push_back(Job{mesh, std::move(e.data), e.mode});
+        jobs_.push_back(Job{mesh, std::move(e.data), e.mode, limits_.max_vertices, limits_.max_triangles});
     }
     e.data = mesh::TriangleMesh{};
     wake_.notify_one();

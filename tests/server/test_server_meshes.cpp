@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // Mesh uploads and mesh objects against a running hapticd --serve (docs/protocol.md, sections 4 and 4a): the
-// upload's order, limits and errors (unknown ids, out-of-order chunks, NaN and out-of-range vertices, degenerate,
-// oversized and open-in-solid-mode meshes), an upload that never finishes (timed out), a client that dies
-// mid-upload (its bytes freed, seen in `status`), and a box mesh rendered like the plane it has as a face: the
-// step response of the analysis, in lockstep.
+// upload's order, limits and errors (unknown ids, out-of-order chunks, NaN and out-of-range vertices, oversized
+// counts; degenerate, out-of-range-index and open-in-solid-mode meshes failed by the worker's validation), an upload
+// that never finishes (timed out), a client that dies mid-upload (its bytes freed, seen in `status`), and a box mesh
+// rendered like the plane it has as a face: the step response of the analysis, in lockstep.
 #include <cmath>
 #include <cstdio>
 
@@ -105,6 +105,13 @@ json wait_built(const RawConnection& c, std::uint32_t id) {
 
 json status(const RawConnection& c) { return request(c, {{"type", "status"}}); }
 
+// Uploads and waits for the worker: the last mesh_status (state ready or failed), or the refusal of a request.
+json upload_and_build(const RawConnection& c, const MeshData& m, const std::string& mode) {
+    json error;
+    const std::uint32_t id = upload(c, m, mode, error);
+    return id == 0 ? error : wait_built(c, id);
+}
+
 // The fixture's daemon without its config wall: a mesh is checked in the sums as a spring of K in every direction
 // (docs/protocol.md, section 5), so a CE2 mesh beside the CE2 wall along x would be refused (unstable_sum), and the
 // step response below is the mesh's alone.
@@ -126,8 +133,7 @@ class ServerMeshes : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
         n_ = new Names(names(kMeshTag));
-        daemon_ = new Child(HAPTICD_BINARY,
-                            mesh_daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}),
+        daemon_ = new Child(HAPTICD_BINARY, mesh_daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}),
                             std::string(kMeshTag) + "_daemon");
         ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
     }
@@ -152,9 +158,10 @@ TEST_F(ServerMeshes, ABoxUploadsBuildsAndIsAddedListedAndRemoved) {
     EXPECT_EQ(built.value("vertices", 0), 8);
     EXPECT_EQ(built.value("triangles", 0), 12);
     EXPECT_GT(built.value("bytes", 0), 0);
-    json r = request(c, {{"type", "commit"},
-                         {"ops", {{{"op", "add"},
-                                   {"object", mesh_object(id, {0.0, 0.0, -0.03}, {1, 0, 0, 0}, {{"criterion", "CE2"}})}}}}});
+    json r = request(
+        c, {{"type", "commit"},
+            {"ops",
+             {{{"op", "add"}, {"object", mesh_object(id, {0.0, 0.0, -0.03}, {1, 0, 0, 0}, {{"criterion", "CE2"}})}}}}});
     ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
     const std::uint32_t object = r["object_ids"][0].get<std::uint32_t>();
     r = request(c, {{"type", "list"}});
@@ -216,10 +223,16 @@ TEST_F(ServerMeshes, BadUploadsGetErrorsNamingTheFieldAndTheSessionGoesOn) {
     EXPECT_EQ(r.value("vertices", 0), 3) << r.dump();
     r = request(c, {{"type", "mesh_chunk"}, {"mesh", id}, {"first", 0}, {"triangles", {0, 1, 3}}});
     EXPECT_EQ(r.value("type", ""), "ok") << r.dump();
-    // An index out of range is found at mesh_end, which drops the upload.
+    // An index out of range is found by the worker's validation: the mesh is failed, naming it.
     r = request(c, {{"type", "mesh_end"}, {"mesh", id}});
-    EXPECT_EQ(r.value("code", ""), "bad_message") << r.dump();
-    expect({{"type", "mesh_status"}, {"mesh", id}}, "unknown_object", "mesh");
+    EXPECT_EQ(r.value("state", ""), "building") << r.dump();
+    r = wait_built(c, id);
+    EXPECT_EQ(r.value("state", ""), "failed") << r.dump();
+    EXPECT_NE(r.value("message", "").find("triangle 0"), std::string::npos) << r.dump();
+    expect({{"type", "commit"},
+            {"ops", {{{"op", "add"}, {"object", mesh_object(id, {0, 0, 0}, {1, 0, 0, 0}, {{"criterion", "CE2"}})}}}}},
+           "bad_message", "failed");
+    EXPECT_EQ(request(c, {{"type", "mesh_delete"}, {"mesh", id}}).value("type", ""), "ok");
     // A mesh object naming a mesh that does not exist.
     expect({{"type", "commit"},
             {"ops", {{{"op", "add"}, {"object", mesh_object(4242, {0, 0, 0}, {1, 0, 0, 0}, {{"criterion", "CE2"}})}}}}},
@@ -227,26 +240,24 @@ TEST_F(ServerMeshes, BadUploadsGetErrorsNamingTheFieldAndTheSessionGoesOn) {
     EXPECT_EQ(request(c, {{"type", "heartbeat"}}).value("type", ""), "ok");  // still served
 }
 
-TEST_F(ServerMeshes, DegenerateAndOpenSolidMeshesAreRefusedAtMeshEnd) {
+TEST_F(ServerMeshes, DegenerateAndOpenSolidMeshesFailNamingTheRule) {
     RawConnection c(n_->socket);
     c.hello();
-    json error;
     MeshData degenerate = box(0.01);
     degenerate.triangles[2] = degenerate.triangles[1];  // triangle 0 has two equal indices
-    EXPECT_EQ(upload(c, degenerate, "surface", error), 0U);
-    EXPECT_EQ(error.value("code", ""), "bad_message") << error.dump();
+    json r = upload_and_build(c, degenerate, "surface");
+    EXPECT_EQ(r.value("state", ""), "failed") << r.dump();
     MeshData open = box(0.01);
     open.triangles.resize(open.triangles.size() - 3);  // one face triangle missing: open
-    EXPECT_EQ(upload(c, open, "solid", error), 0U);
-    EXPECT_EQ(error.value("code", ""), "bad_message") << error.dump();
-    EXPECT_NE(error.value("message", "").find("solid"), std::string::npos) << error.dump();
+    r = upload_and_build(c, open, "solid");
+    EXPECT_EQ(r.value("state", ""), "failed") << r.dump();
+    EXPECT_NE(r.value("message", "").find("solid"), std::string::npos) << r.dump();
     // The same open mesh is a valid one-sided surface.
-    const std::uint32_t id = upload(c, open, "surface", error);
-    ASSERT_NE(id, 0U) << error.dump();
-    EXPECT_EQ(wait_built(c, id).value("state", ""), "ready");
+    r = upload_and_build(c, open, "surface");
+    EXPECT_EQ(r.value("state", ""), "ready") << r.dump();
     MeshData flat{{0, 0, 0, 0.01, 0, 0, 0.02, 0, 0}, {0, 1, 2}};  // collinear: zero area
-    EXPECT_EQ(upload(c, flat, "surface", error), 0U);
-    EXPECT_EQ(error.value("code", ""), "bad_message") << error.dump();
+    r = upload_and_build(c, flat, "surface");
+    EXPECT_EQ(r.value("state", ""), "failed") << r.dump();
 }
 
 TEST_F(ServerMeshes, ASessionHoldsAtMostEightMeshes) {
@@ -265,12 +276,12 @@ TEST_F(ServerMeshes, ASessionHoldsAtMostEightMeshes) {
     EXPECT_EQ(st.value("mesh_bytes", 0), 8 * (24 * 200000 + 12 * 200000)) << st.dump();
 }
 
-// A daemon of its own with --mesh-upload-timeout 0.3: silent uploads are dropped and their bytes freed; one that
+// A daemon of its own with --mesh-upload-timeout 1: silent uploads are dropped and their bytes freed; one that
 // keeps sending chunks stays.
 TEST(ServerMeshTimeout, AnUploadThatNeverFinishesTimesOut) {
     const Names n = names("mesh_timeout");
     Child daemon(HAPTICD_BINARY,
-                 mesh_daemon_args(n, {"--scenario", "step", "--step-force", "0", "--mesh-upload-timeout", "0.3"}),
+                 mesh_daemon_args(n, {"--scenario", "step", "--step-force", "0", "--mesh-upload-timeout", "1"}),
                  "mesh_timeout_daemon");
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     {
@@ -282,10 +293,10 @@ TEST(ServerMeshTimeout, AnUploadThatNeverFinishesTimesOut) {
         r = request(c, {{"type", "mesh_begin"}, {"vertices", 1000}, {"triangles", 10}, {"mode", "surface"}});
         ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
         const std::uint32_t busy = r["mesh"].get<std::uint32_t>();
-        for (int k = 0; k < 12; ++k) {  // 0.6 s: a chunk every 50 ms keeps `busy` alive
+        for (int k = 0; k < 40; ++k) {  // > 2 s: a chunk every 50 ms keeps `busy` alive (1 s allows a loaded machine)
             std::this_thread::sleep_for(std::chrono::milliseconds(50));
             r = request(c, {{"type", "mesh_chunk"}, {"mesh", busy}, {"first", k}, {"vertices", {0, 0, 0}}});
-            ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
+            ASSERT_EQ(r.value("type", ""), "ok") << "chunk " << k << ": " << r.dump();
         }
         r = request(c, {{"type", "mesh_chunk"}, {"mesh", silent}, {"first", 0}, {"vertices", {0, 0, 0}}});
         EXPECT_EQ(r.value("code", ""), "unknown_object") << r.dump();
@@ -308,10 +319,9 @@ TEST_F(ServerMeshes, EverySessionTogetherIsBoundedAndAClientThatDiesMidUploadLea
         clients.push_back(std::make_unique<RawConnection>(n_->socket));
         clients.back()->hello();
         for (int i = 0; i < 8; ++i) {
-            const json r = request(*clients.back(), {{"type", "mesh_begin"},
-                                                     {"vertices", 200000},
-                                                     {"triangles", 200000},
-                                                     {"mode", "surface"}});
+            const json r =
+                request(*clients.back(),
+                        {{"type", "mesh_begin"}, {"vertices", 200000}, {"triangles", 200000}, {"mode", "surface"}});
             if (r.value("type", "") != "ok") {
                 refused = r;
                 break;
@@ -363,7 +373,8 @@ TEST(ServerMeshStep, ABoxMeshFaceGivesThePlanesAnalysedStepResponse) {
     const double theta = std::atan2(-0.6, 0.8);
     const std::array<double, 4> q{std::cos(theta / 2), std::sin(theta / 2), 0.0, 0.0};
     const json ops = json::array({
-        {{"op", "add"}, {"object", mesh_object(id, {0.0, -0.6 * (a + delta), -0.8 * (a + delta)}, q, {{"criterion", "CE2"}})}},
+        {{"op", "add"},
+         {"object", mesh_object(id, {0.0, -0.6 * (a + delta), -0.8 * (a + delta)}, q, {{"criterion", "CE2"}})}},
         {{"op", "add"},
          {"object",
           {{"kind", "field"},
@@ -398,9 +409,11 @@ TEST(ServerMeshStep, ABoxMeshFaceGivesThePlanesAnalysedStepResponse) {
     for (std::size_t j = 0; j < y.size(); ++j) {
         worst = std::max(worst, std::abs(-y[j] / 0.6 - x[j] * kT * kT / kMass) / x_inf);
     }
-    std::printf("[ mesh step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g over %zu ticks\n", t.K, t.B,
-                worst, y.size());
-    EXPECT_LE(worst, 1e-9);
+    std::printf("[ mesh step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g (%.3g m) over %zu ticks\n",
+                t.K, t.B, worst, worst * x_inf, y.size());
+    // The proxy's geometry works to 1e-12 m (a sweep ending within 1e-12 m of the offset level counts as on it;
+    // src/mesh/mesh_hierarchy.hpp): ten times that bounds the penetration's deviation (x_inf = 13.5 um here).
+    EXPECT_LE(worst * x_inf, 1e-11);
     EXPECT_GT(-y[100] / 0.6, 0.5 * x_inf);  // it did move into the face
 }
 
