@@ -17,6 +17,8 @@ PACKAGES=(
   libgmock-dev
   libbenchmark-dev
   nlohmann-json3-dev
+  libassimp-dev     # Open Asset Import: `hapticctl add mesh FILE.stl|FILE.obj` reads meshes (apps/hapticctl/mesh_file.cpp); the
+                    # runtime package gets libassimp5 through dpkg-shlibdeps
   libtomlplusplus-dev  # toml++: hapticd's config file and device profiles (src/config/config_file.cpp)
   libusb-1.0-0-dev
   libhidapi-dev

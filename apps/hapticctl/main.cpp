@@ -11,6 +11,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -18,6 +19,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <variant>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -26,6 +28,7 @@
 #include "hapticd/instance.hpp"
 
 #include "exit_codes.hpp"
+#include "mesh_file.hpp"
 #include "object_spec.hpp"
 #include "session_script.hpp"
 #include "state_line.hpp"
@@ -138,9 +141,41 @@ int cmd_list(const Common& common, bool json) {
     return kExitOk;
 }
 
-int cmd_add(const Common& common, const std::vector<std::string>& words, double hold_s) {
-    const hc::ObjectDescription object = parse_object_spec(words);  // before connecting: a typo costs nothing
+int cmd_add(const Common& common, const std::vector<std::string>& given, double hold_s) {
+    // `add mesh FILE [mode=solid|surface] [scale=S] key=value...`: the file read here (assimp), uploaded, then
+    // added as `mesh mesh=ID key=value...`.
+    std::vector<std::string> words = given;
+    std::optional<MeshFile> file;
+    bool solid = true;
+    if (words.size() >= 2 && words[0] == "mesh" && words[1].find('=') == std::string::npos) {
+        double scale = 1.0;
+        std::vector<std::string> rest{"mesh", "mesh=1"};  // the id is set once uploaded
+        for (std::size_t i = 2; i < words.size(); ++i) {
+            if (words[i].rfind("mode=", 0) == 0) {
+                const std::string mode = words[i].substr(5);
+                if (mode != "solid" && mode != "surface") {
+                    throw SpecError("add mesh: mode = '" + mode + "'; accepted: solid, surface");
+                }
+                solid = mode == "solid";
+            } else if (words[i].rfind("scale=", 0) == 0) {
+                char* end = nullptr;
+                scale = std::strtod(words[i].c_str() + 6, &end);
+                if (*end != '\0') throw SpecError("add mesh: scale = '" + words[i].substr(6) + "' is not a number");
+            } else {
+                rest.push_back(words[i]);
+            }
+        }
+        (void)parse_object_spec(rest);  // the keys checked before the file is read
+        file = load_mesh_file(words[1], scale);
+        words = rest;
+    }
+    hc::ObjectDescription object = parse_object_spec(words);  // before connecting: a typo costs nothing
     hc::Client client = connect(common, common.lease);
+    if (file) {
+        std::get<hc::Mesh>(object).mesh = client.upload_mesh(file->vertices, file->triangles, solid);
+        std::cout << "uploaded " << given[1] << ": " << file->vertices.size() << " vertices, " << file->triangles.size()
+                  << " triangles (" << (solid ? "solid" : "surface") << ")" << std::endl;
+    }
     hc::Batch batch;
     batch.add(object);
     const hc::CommitResult r = client.commit(batch);
@@ -326,6 +361,8 @@ int main(int argc, char** argv) {
     auto* add = app.add_subcommand("add",
                                    "Add one object and hold it until SIGINT/SIGTERM (or --for): "
                                    "plane normal=X,Y,Z [offset=M] [mode=bilateral] [criterion=C | K= B=]; "
+                                   "mesh FILE.stl|FILE.obj [mode=solid|surface] [scale=S] [position=X,Y,Z] "
+                                   "[orientation=W,X,Y,Z] [criterion=C | K= B=] [static_friction= dynamic_friction=]; "
                                    "spring [constraint=point|line|plane] point=X,Y,Z [direction=X,Y,Z] K= [B=]; "
                                    "field center=X,Y,Z radius=M [force=X,Y,Z] [jacobian=9 numbers]");
     add->add_option("object", words, "KIND key=value ...")->required()->expected(1, -1);

@@ -104,7 +104,9 @@ std::vector<std::string> split_words(const std::string& line) {
 }
 
 hc::ObjectDescription parse_object_spec(const std::vector<std::string>& words) {
-    if (words.empty()) throw SpecError("parse_object_spec: an object kind is required: plane, spring or field");
+    if (words.empty()) {
+        throw SpecError("parse_object_spec: an object kind is required: plane, spring, field or mesh");
+    }
     const std::string& kind = words.front();
     if (kind == "plane") {
         const Words w = split_key_values(words, {"normal", "offset", "mode", "criterion", "K", "B"});
@@ -152,7 +154,26 @@ hc::ObjectDescription parse_object_spec(const std::vector<std::string>& words) {
         }
         return f;
     }
-    throw SpecError("parse_object_spec: object kind '" + kind + "' is unknown; accepted: plane, spring, field");
+    if (kind == "mesh") {
+        const Words w = split_key_values(
+            words, {"mesh", "position", "orientation", "criterion", "K", "B", "static_friction", "dynamic_friction"});
+        hc::Mesh m;
+        const double id = parse_number("mesh", w.at("mesh"));
+        if (!(id >= 1 && id <= 4294967295.0) || id != std::floor(id)) {
+            throw SpecError("parse_object_spec: mesh: mesh = '" + w.at("mesh") + "'; accepted: an uploaded mesh's id");
+        }
+        m.mesh = static_cast<std::uint32_t>(id);
+        if (w.has("position")) m.position = parse_vec3("position", w.at("position"));
+        if (w.has("orientation")) {
+            const auto q = parse_numbers("orientation", w.at("orientation"), 4);
+            m.orientation = {q[0], q[1], q[2], q[3]};
+        }
+        m.gains = parse_gains(w, false).value_or(hc::Gains::by_criterion("CE2"));
+        if (w.has("static_friction")) m.static_friction = parse_number("static_friction", w.at("static_friction"));
+        if (w.has("dynamic_friction")) m.dynamic_friction = parse_number("dynamic_friction", w.at("dynamic_friction"));
+        return m;
+    }
+    throw SpecError("parse_object_spec: object kind '" + kind + "' is unknown; accepted: plane, spring, field, mesh");
 }
 
 }  // namespace hapticctl

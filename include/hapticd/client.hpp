@@ -125,7 +125,18 @@ struct Field {
     double damping = 0.0;            // B, N s/m
 };
 
-using ObjectDescription = std::variant<Plane, Spring, Field>;
+// A triangle mesh this session uploaded (Client::upload_mesh; docs/protocol.md, section 4a), rendered through a
+// god-object proxy with the wall law (K, B) along its contact normals at the pose (position, orientation).
+struct Mesh {
+    std::uint32_t mesh = 0;                                 // the id upload_mesh returned
+    Vec3 position{};                                        // m: where the mesh's origin is, device frame
+    std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};  // unit quaternion w, x, y, z: mesh frame -> device frame
+    Gains gains = Gains::by_criterion("CE2");
+    double static_friction = 0.0;  // 0 <= dynamic <= static <= 10
+    double dynamic_friction = 0.0;
+};
+
+using ObjectDescription = std::variant<Plane, Spring, Field, Mesh>;
 
 // One batch of operations, committed all-or-nothing at one tick boundary.
 class Batch {
@@ -189,7 +200,7 @@ struct Welcome {
 struct ObjectInfo {
     std::uint32_t id = 0;
     std::uint64_t owner = 0;  // session; 0: the daemon's config walls
-    std::string kind;         // "plane", "spring", "field"
+    std::string kind;         // "plane", "spring", "field", "mesh"
     double K = 0.0;           // gains used, N/m
     double B = 0.0;           // N s/m
     std::string description_json;
@@ -202,6 +213,8 @@ struct Status {
     std::uint64_t overruns = 0;
     std::uint64_t commits_applied = 0;
     std::string fault;
+    std::uint64_t meshes = 0;      // meshes held by every session (uploading, building or built)
+    std::uint64_t mesh_bytes = 0;  // what they count against the limits (docs/protocol.md, section 4a)
 };
 
 // One consistent copy of the shared-memory state (or of a subscribed `state` message).
@@ -333,6 +346,14 @@ class Client {
     [[nodiscard]] const BusyRetry& busy_retry() const noexcept { return busy_retry_; }
     std::vector<ObjectInfo> list();
     Status status();
+    // Uploads a triangle mesh (docs/protocol.md, section 4a: mesh_begin, chunks of at most 500 vertices or 1000
+    // triangles, mesh_end) and waits up to build_timeout_s for its hierarchy (mesh_status every 5 ms). Returns
+    // the mesh's id, for Mesh::mesh. The server's refusals (bad_message naming the vertex or triangle, open in
+    // solid mode, the session's limits) are thrown as Error; a mesh that fails to build too.
+    std::uint32_t upload_mesh(const std::vector<Vec3>& vertices,
+                              const std::vector<std::array<std::uint32_t, 3>>& triangles, bool solid,
+                              double build_timeout_s = 10.0);
+    void delete_mesh(std::uint32_t mesh);  // freed once no object renders it
     void subscribe(double rate_hz);
     void unsubscribe();
     // The next subscribed `state` message; std::nullopt after timeout_s without one.

@@ -365,6 +365,49 @@ std::string Client::request(const std::string& type, const std::string& body_jso
     }
 }
 
+std::uint32_t Client::upload_mesh(const std::vector<Vec3>& vertices,
+                                  const std::vector<std::array<std::uint32_t, 3>>& triangles, bool solid,
+                                  double build_timeout_s) {
+    constexpr std::size_t kVerticesPerChunk = 500, kTrianglesPerChunk = 1000;
+    const json begun = json::parse(request(
+        "mesh_begin",
+        json{{"vertices", vertices.size()}, {"triangles", triangles.size()}, {"mode", solid ? "solid" : "surface"}}
+            .dump()));
+    const auto id = begun.at("mesh").get<std::uint32_t>();
+    for (std::size_t at = 0; at < vertices.size(); at += kVerticesPerChunk) {
+        json values = json::array();
+        for (std::size_t i = at; i < std::min(vertices.size(), at + kVerticesPerChunk); ++i) {
+            for (const double c : vertices[i]) values.push_back(c);
+        }
+        (void)request("mesh_chunk", json{{"mesh", id}, {"first", at}, {"vertices", std::move(values)}}.dump());
+    }
+    for (std::size_t at = 0; at < triangles.size(); at += kTrianglesPerChunk) {
+        json values = json::array();
+        for (std::size_t i = at; i < std::min(triangles.size(), at + kTrianglesPerChunk); ++i) {
+            for (const std::uint32_t v : triangles[i]) values.push_back(v);
+        }
+        (void)request("mesh_chunk", json{{"mesh", id}, {"first", at}, {"triangles", std::move(values)}}.dump());
+    }
+    (void)request("mesh_end", json{{"mesh", id}}.dump());
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(build_timeout_s);
+    for (;;) {
+        const json st = json::parse(request("mesh_status", json{{"mesh", id}}.dump()));
+        const std::string state = st.value("state", std::string());
+        if (state == "ready") return id;
+        if (state == "failed") {
+            throw Error(ErrorCode::BadMessage, "Client::upload_mesh: mesh " + std::to_string(id) +
+                                                   " failed: " + st.value("message", std::string()));
+        }
+        if (std::chrono::steady_clock::now() > until) {
+            throw Error(ErrorCode::Busy, "Client::upload_mesh: mesh " + std::to_string(id) + " still " + state +
+                                             " after " + std::to_string(build_timeout_s) + " s");
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+}
+
+void Client::delete_mesh(std::uint32_t mesh) { (void)request("mesh_delete", json{{"mesh", mesh}}.dump()); }
+
 std::uint64_t Client::heartbeat() {
     const json r = json::parse(request("heartbeat", ""));
     return r.value("tick", std::uint64_t{0});
@@ -456,6 +499,8 @@ Status Client::status() {
     s.overruns = r.value("overruns", std::uint64_t{0});
     s.commits_applied = r.value("commits_applied", std::uint64_t{0});
     s.fault = r.value("fault", std::string());
+    s.meshes = r.value("meshes", std::uint64_t{0});
+    s.mesh_bytes = r.value("mesh_bytes", std::uint64_t{0});
     return s;
 }
 

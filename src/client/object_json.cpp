@@ -104,8 +104,10 @@ const char* kind_name(const ObjectDescription& object) noexcept {
             return "plane";
         case 1:
             return "spring";
-        default:
+        case 2:
             return "field";
+        default:
+            return "mesh";
     }
 }
 
@@ -125,6 +127,15 @@ json object_to_json(const ObjectDescription& object) {
         if (s->constraint != Constraint::Point) j["direction"] = vec(s->direction);
         return j;
     }
+    if (const auto* m = std::get_if<Mesh>(&object)) {
+        return json{
+            {"kind", "mesh"},
+            {"mesh", m->mesh},
+            {"position", vec(m->position)},
+            {"orientation", json::array({m->orientation[0], m->orientation[1], m->orientation[2], m->orientation[3]})},
+            {"gains", gains_json(m->gains)},
+            {"friction", json{{"static", m->static_friction}, {"dynamic", m->dynamic_friction}}}};
+    }
     const auto& f = std::get<Field>(object);
     return json{{"kind", "field"},
                 {"center", vec(f.center)},
@@ -137,12 +148,12 @@ json object_to_json(const ObjectDescription& object) {
 std::optional<ObjectDescription> object_from_json(const json& j, std::string& error) {
     const std::string where = "object";
     if (!j.is_object()) {
-        error = "object: expected a JSON object with \"kind\" plane|spring|field";
+        error = "object: expected a JSON object with \"kind\" plane|spring|field|mesh";
         return std::nullopt;
     }
     const auto kind = j.find("kind");
     if (kind == j.end() || !kind->is_string()) {
-        error = "object.kind: missing or not a string; accepted: plane, spring, field";
+        error = "object.kind: missing or not a string; accepted: plane, spring, field, mesh";
         return std::nullopt;
     }
     const std::string k = kind->get<std::string>();
@@ -208,7 +219,44 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
         }
         return ObjectDescription{f};
     }
-    error = "object.kind: \"" + truncate_utf8(k, 40) + "\" is invalid; accepted: plane, spring, field";
+    if (k == "mesh") {
+        Mesh m;
+        const auto id = j.find("mesh");
+        if (id == j.end() || !id->is_number_unsigned() || id->get<std::uint64_t>() == 0 ||
+            id->get<std::uint64_t>() > 0xffffffffULL) {
+            error = "object.mesh: missing or invalid; accepted: the id of a mesh this session uploaded, 1 .. 2^32-1";
+            return std::nullopt;
+        }
+        m.mesh = static_cast<std::uint32_t>(id->get<std::uint64_t>());
+        if (!read_vec(j, "position", where, m.position, error) || !read_gains(j, where, m.gains, error)) {
+            return std::nullopt;
+        }
+        if (const auto q = j.find("orientation"); q != j.end()) {
+            if (!q->is_array() || q->size() != 4) {
+                error = "object.orientation: expected a unit quaternion [w, x, y, z] of 4 finite numbers";
+                return std::nullopt;
+            }
+            for (std::size_t i = 0; i < 4; ++i) {
+                if (!(*q)[i].is_number() || !std::isfinite((*q)[i].get<double>())) {
+                    error = "object.orientation[" + std::to_string(i) + "]: expected a finite number";
+                    return std::nullopt;
+                }
+                m.orientation[i] = (*q)[i].get<double>();
+            }
+        }
+        if (const auto fr = j.find("friction"); fr != j.end()) {
+            if (!fr->is_object()) {
+                error = "object.friction: expected {\"static\": number, \"dynamic\": number}";
+                return std::nullopt;
+            }
+            if (!read_number(*fr, "static", where + ".friction", m.static_friction, error, false) ||
+                !read_number(*fr, "dynamic", where + ".friction", m.dynamic_friction, error, false)) {
+                return std::nullopt;
+            }
+        }
+        return ObjectDescription{m};
+    }
+    error = "object.kind: \"" + truncate_utf8(k, 40) + "\" is invalid; accepted: plane, spring, field, mesh";
     return std::nullopt;
 }
 

@@ -173,6 +173,9 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_option("--session-max-in-flight", o.session_max_in_flight,
                    "Batches of one client session handed to the loop and not yet applied, 1 .. 64 (default 8; "
                    "docs/protocol.md, section 7)");
+    app.add_option("--mesh-upload-timeout", o.mesh_upload_timeout,
+                   "A mesh upload with no chunk for this long is dropped, s, 0.1 .. 600 (default 10; "
+                   "docs/protocol.md, section 4a)");
     app.add_flag("--serve-wait-commit", o.serve_wait_commit,
                  "Start the loop only once a client batch was accepted (tests)");
     app.add_option("--trace-axis", o.trace_axis, "Axis the trace records (default -1: the first wall's)");
@@ -400,6 +403,9 @@ void validate_options(const Options& o) {
     }
     if (o.session_max_in_flight < 1 || o.session_max_in_flight > 64) {
         invalid(w, "session-max-in-flight", std::to_string(o.session_max_in_flight), "1 .. 64 batches");
+    }
+    if (!(o.mesh_upload_timeout >= 0.1 && o.mesh_upload_timeout <= 600.0)) {
+        invalid(w, "mesh-upload-timeout", std::to_string(o.mesh_upload_timeout), "0.1 .. 600 s");
     }
     if (o.trace_axis < -1 || o.trace_axis > 2)
         invalid(w, "trace-axis", std::to_string(o.trace_axis), "-1 (the first wall's), 0, 1, 2");

@@ -95,13 +95,14 @@ struct Options {
     // N/s, limit on the change of the force written per tick (scene/force_limiter.hpp); 0: derived from the device
     // profile (default_max_force_rate), resolved by hapticd's main once the profile is read.
     double max_force_rate = 0.0;
-    double move_interval_max = 0.05;  // s, longest first-order hold of a client's move (0: at once)
-    double activation_speed = 0.01;   // m/s, a plane appearing around the handle moves out at this speed (0: at once)
-    int session_max_objects = 32;     // --serve: objects one session may hold (of the scene's 64)
-    int session_max_in_flight = 8;    // --serve: one session's batches handed to the loop, not yet applied
-    bool serve_wait_commit = false;   // start the loop only once a client batch was accepted (tests)
-    long long trace_axis = -1;        // axis the trace records (-1: the first wall's)
-    KeyLocations config_locations;    // where the config file wrote the values the command line did not override
+    double move_interval_max = 0.05;    // s, longest first-order hold of a client's move (0: at once)
+    double activation_speed = 0.01;     // m/s, a plane appearing around the handle moves out at this speed (0: at once)
+    int session_max_objects = 32;       // --serve: objects one session may hold (of the scene's 64)
+    double mesh_upload_timeout = 10.0;  // --serve: s without a chunk after which a mesh upload is dropped
+    int session_max_in_flight = 8;      // --serve: one session's batches handed to the loop, not yet applied
+    bool serve_wait_commit = false;     // start the loop only once a client batch was accepted (tests)
+    long long trace_axis = -1;          // axis the trace records (-1: the first wall's)
+    KeyLocations config_locations;      // where the config file wrote the values the command line did not override
 };
 
 // The simulated hand's default impedance per kg of the profile's mass: the limits of Hulin et al. 2008 that

@@ -30,6 +30,7 @@ SceneObjects::SceneObjects(const SceneObjectsConfig& config, CommitRing& ring, C
                                     " is invalid; accepted range: finite, >= 0 s");
     }
     inverse_period_ = 1.0 / config_.period;
+    for (std::size_t k = 0; k < proxy_of_.size(); ++k) proxy_of_[k] = static_cast<std::uint8_t>(k);
     held_.resize(kHeldCommitCapacity);  // preallocated here, never in the loop
     ramp_step_ = config_.ramp_time > 0.0 ? config_.period / config_.ramp_time : 1.0;
     if (ramp_step_ > 1.0) ramp_step_ = 1.0;
@@ -55,6 +56,9 @@ bool is_move(const ObjectParams& before, const ObjectParams& after) noexcept {
             return before.constraint == after.constraint && before.direction == after.direction;
         case ObjectKind::Field:
             return before.radius == after.radius && before.jacobian == after.jacobian;
+        case ObjectKind::Mesh:
+            return before.mesh == after.mesh && before.static_friction == after.static_friction &&
+                   before.dynamic_friction == after.dynamic_friction;
     }
     return false;
 }
@@ -120,6 +124,13 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
             mask |= static_cast<std::uint64_t>(contact) << n.slot[i];
         }
     }
+    if (meshes_.count > 0) {
+        double fm[3] = {f0, f1, f2};
+        add_meshes(x, velocity_, fm, mask);
+        f0 = fm[0];
+        f1 = fm[1];
+        f2 = fm[2];
+    }
     contact_mask_ = mask;
     if (ramping_ > 0) step_ramps();
 
@@ -165,6 +176,8 @@ void SceneObjects::rendered_gains(const AxisVector& x, const AxisVector& v, std:
             } else if (p.kind == ObjectKind::Field) {
                 const AxisVector d{x[0] - p.point[0], x[1] - p.point[1], x[2] - p.point[2]};
                 acts = dot(d, d) <= p.radius * p.radius;
+            } else if (p.kind == ObjectKind::Mesh) {  // its proxy's state: in contact at the last tick
+                acts = ((contact_mask_ >> s) & 1U) != 0;
             }
             if (!acts) continue;
             add_linear(l, p, e->ramp);

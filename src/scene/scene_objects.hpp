@@ -93,6 +93,7 @@
 
 #include "common/axis_vector.hpp"
 #include "common/velocity_estimator_spec.hpp"
+#include "mesh/god_object_proxy.hpp"
 #include "loop/spsc_ring.hpp"
 #include "scene/velocity_filter.hpp"
 
@@ -112,7 +113,7 @@ inline constexpr std::size_t kHeldCommitCapacity = 64;
 inline constexpr double kActivationTailTime = 0.02;  // s
 inline constexpr double kActivationArrival = 1e-9;   // m
 
-enum class ObjectKind : std::uint8_t { Plane, Spring, Field };
+enum class ObjectKind : std::uint8_t { Plane, Spring, Field, Mesh };
 enum class SpringConstraint : std::uint8_t { Point, Line, Plane };
 
 // One object as the loop renders it: plain data, copied through the ring.
@@ -127,8 +128,15 @@ struct ObjectParams {
     double radius = 0.0;                                    // field, m
     AxisVector force{};                                     // field F0, N
     std::array<AxisVector, 3> jacobian{};                   // field J, N/m (rows)
-    double K = 0.0;                                         // N/m (plane, spring)
-    double B = 0.0;                                         // N s/m (plane, spring, field)
+    double K = 0.0;                                         // N/m (plane, spring, mesh)
+    double B = 0.0;                                         // N s/m (plane, spring, field, mesh)
+    // mesh: the hierarchy (kept alive by the server's slot table for as long as the loop may render it: the
+    // server frees a slot's resources only after the loop has emptied it), the pose's orientation (unit quaternion
+    // w, x, y, z; the position is `point`) and the proxy's friction coefficients.
+    const mesh::MeshHierarchy* mesh = nullptr;
+    std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};
+    double static_friction = 0.0;
+    double dynamic_friction = 0.0;
     // The loop's own (clients' objects arrive with zeros): the velocity of the rendered pose while a move is
     // interpolated, d(offset)/dt (m/s) and d(point)/dt (m/s), so that the damping acts on the handle's
     // velocity relative to the object's surface (SceneObjects::advance_glides).
@@ -141,7 +149,7 @@ struct ObjectParams {
 // act everywhere. The server checks every pattern of these engaging and not (docs/protocol.md, section 5,
 // tuning/engagement_patterns.hpp); anything that changes when an object engages asks this.
 [[nodiscard]] constexpr bool engages_conditionally(const ObjectParams& p) noexcept {
-    return (p.kind == ObjectKind::Plane && !p.bilateral) || p.kind == ObjectKind::Field;
+    return (p.kind == ObjectKind::Plane && !p.bilateral) || p.kind == ObjectKind::Field || p.kind == ObjectKind::Mesh;
 }
 
 // A Move keeps everything but where the object is (plane offset, spring point, field centre and F0): same
@@ -363,6 +371,7 @@ class SceneObjects {
         double offset = 0.0;
         AxisVector point{};
         AxisVector force{};
+        std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};  // a mesh's (normalised linear interpolation)
     };
     struct Glide {
         Pose from, to;
@@ -372,7 +381,9 @@ class SceneObjects {
         AxisVector point_rate{};
         bool approaching = false;  // activation: the offset approaches to.offset at activation_speed
     };
-    [[nodiscard]] static Pose pose_of(const ObjectParams& p) noexcept { return {p.offset, p.point, p.force}; }
+    [[nodiscard]] static Pose pose_of(const ObjectParams& p) noexcept {
+        return {p.offset, p.point, p.force, p.orientation};
+    }
     void begin_glide(std::size_t slot, const ObjectParams& commanded) noexcept;
     void note_new_object(std::size_t slot, const ObjectParams& commanded, bool slot_was_empty) noexcept;
     void cancel_glide(std::size_t slot) noexcept;
@@ -436,6 +447,19 @@ class SceneObjects {
     std::uint64_t classifications_ = 0;
     std::uint64_t pressed_fallbacks_ = 0;
     std::uint64_t pressed_summed_ = 0;
+    // Meshes (scene_objects_meshes.cpp): each entry k = 2 slot + which renders through the proxy
+    // mesh_proxies_[proxy_of_[k]]; start_fading swaps the two entries' indices, so the fading entry keeps its
+    // proxy's state without a copy. Constructed in place when a Set brings a mesh (no allocation: the proxy is
+    // handed a non-owning pointer to the hierarchy the server keeps alive).
+    struct MeshProxy {
+        std::optional<mesh::GodObjectProxy> proxy;
+        bool fresh = true;  // reset to the handle at its first tick
+    };
+    std::array<MeshProxy, 2 * kSceneObjectCapacity> mesh_proxies_{};
+    std::array<std::uint8_t, 2 * kSceneObjectCapacity> proxy_of_{};
+    Members meshes_;  // the mesh entries, listed at each classification (evaluated every tick)
+    void bind_mesh(std::size_t entry, const ObjectParams& p) noexcept;
+    void add_meshes(const AxisVector& x, const AxisVector& v, double (&f)[3], std::uint64_t& mask) noexcept;
     std::array<Glide, kSceneObjectCapacity> glides_{};
     std::array<std::uint64_t, kSceneObjectCapacity> pose_tick_{};  // tick of the slot's last commanded pose
     std::array<double, kSceneObjectCapacity> pose_interval_{};     // its mean update interval (ticks), see begin_glide

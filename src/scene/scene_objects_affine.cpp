@@ -92,7 +92,8 @@ void SceneObjects::add_linear(AffineLaw& l, const ObjectParams& p, double r) noe
         }
         return;
     }
-    if (p.kind == ObjectKind::Spring && p.constraint == SpringConstraint::Point) {
+    // A mesh counts as what the server checks it as: a spring of K and a damper of B in every direction.
+    if ((p.kind == ObjectKind::Spring && p.constraint == SpringConstraint::Point) || p.kind == ObjectKind::Mesh) {
         for (std::size_t r = 0; r < 3; ++r) {
             l.K[r][r] += wk;
             l.B[r][r] += wb;

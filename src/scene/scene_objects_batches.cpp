@@ -137,6 +137,8 @@ void SceneObjects::finish_ramps() noexcept {
 // The slot's current object starts to fade out from its ramp factor now (1 unless a batch was applied
 // while its ramp ran, which apply_commits prevents); without ramps it is gone at once.
 void SceneObjects::start_fading(Slot& slot) noexcept {
+    const auto s = static_cast<std::size_t>(&slot - slots_.data());
+    std::swap(proxy_of_[2 * s], proxy_of_[2 * s + 1]);  // the fading entry keeps the current one's proxy
     slot.fading = slot.current;
     slot.fading.active = ramp_step_ < 1.0;
     slot.fading.start = slot.current.ramp;
@@ -159,6 +161,7 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
                 slot.current.ramp = ramp_step_ >= 1.0 || at_once ? 1.0 : 0.0;
                 slot.current.steps = 0;
                 slot.current.params = u.params;
+                if (u.params.kind == ObjectKind::Mesh) bind_mesh(2 * u.slot, u.params);
                 break;
             case SlotUpdate::Action::Move:
                 if (slot.current.active) {
@@ -168,6 +171,7 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
                         only_moves = false;
                         cancel_glide(u.slot);
                         slot.current.params = u.params;
+                        if (u.params.kind == ObjectKind::Mesh) bind_mesh(2 * u.slot, u.params);
                     }
                 }
                 break;

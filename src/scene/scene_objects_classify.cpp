@@ -50,6 +50,7 @@ void SceneObjects::apply_moves() noexcept {
     for (std::uint64_t m = moved_mask_; m != 0; m &= m - 1) {
         const auto s = static_cast<std::size_t>(__builtin_ctzll(m));
         const ObjectParams& p = slots_[s].current.params;
+        if (p.kind == ObjectKind::Mesh) continue;  // evaluated every tick from its params: nothing to update
         const double w = slots_[s].current.ramp;
         EntryPlace& place = place_[2 * s];
         const SurfaceDistance sd = surface_distance(p, reference_, reference_norm1_);
@@ -141,6 +142,7 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
     near_planes_.count = 0;
     near_flags_.count = 0;
     near_fields_.count = 0;
+    meshes_.count = 0;
     static_mask_ = 0;
     pressed_mask_ = 0;
     ramping_ = 0;
@@ -214,6 +216,9 @@ void SceneObjects::classify(const AxisVector& x) noexcept {
                 case ObjectKind::Spring:
                     sum_linear();
                     static_mask_ |= bit;
+                    break;
+                case ObjectKind::Mesh:  // its proxy every tick (add_meshes); no surface bounds the safe radius
+                    meshes_.entry[meshes_.count++] = static_cast<std::uint8_t>(k);
                     break;
                 case ObjectKind::Field: {
                     const SurfaceDistance sd = surface_distance(p, x, x1);

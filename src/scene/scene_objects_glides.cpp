@@ -11,6 +11,7 @@
 namespace hapticd {
 
 using scene_objects_detail::dot;
+using scene_objects_detail::interpolate_orientation;
 using scene_objects_detail::norm1;
 
 // A commanded pose of the slot's object (a Move of the same object). Without interpolation it is rendered at
@@ -34,12 +35,14 @@ void SceneObjects::begin_glide(std::size_t s, const ObjectParams& commanded) noe
     if (g.approaching && (gliding_mask_ & bit) != 0) {
         p.point = commanded.point;  // a plane's pose is its offset; the rest is carried along unchanged
         p.force = commanded.force;
+        p.orientation = commanded.orientation;
         return;
     }
     if (move_hold_max_ == 0) {
         p.offset = commanded.offset;
         p.point = commanded.point;
         p.force = commanded.force;
+        p.orientation = commanded.orientation;
         p.offset_rate = 0.0;
         p.point_rate = AxisVector{};
         gliding_mask_ &= ~bit;
@@ -132,6 +135,7 @@ bool SceneObjects::advance_hold(Glide& g, ObjectParams& p) const noexcept {
             p.point[a] = there ? g.to.point[a] : g.from.point[a] + w * (g.to.point[a] - g.from.point[a]);
             p.force[a] = there ? g.to.force[a] : g.from.force[a] + w * (g.to.force[a] - g.from.force[a]);
         }
+        interpolate_orientation(g.from.orientation, g.to.orientation, there ? 1.0 : w, p.orientation);
         p.offset_rate = g.offset_rate;
         p.point_rate = g.point_rate;
         if (there && g.settling) {
@@ -145,6 +149,7 @@ bool SceneObjects::advance_hold(Glide& g, ObjectParams& p) const noexcept {
         const double ahead = static_cast<double>(g.step - g.steps) * config_.period;
         p.offset = g.to.offset + g.offset_rate * ahead;
         for (std::size_t a = 0; a < 3; ++a) p.point[a] = g.to.point[a] + g.point_rate[a] * ahead;
+        p.orientation = g.to.orientation;
         if (g.step < 2 * g.steps) return false;
     }
     // Back to the commanded pose.

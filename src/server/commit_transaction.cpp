@@ -95,7 +95,7 @@ class Transaction {
   private:
     std::optional<Refusal> add(const client::ObjectDescription& object) {
         Resolved r;
-        if (auto refusal = context_.resolver.resolve(object, r)) return refusal;
+        if (auto refusal = context_.resolver.resolve(object, r, context_.meshes)) return refusal;
         std::array<bool, kSceneObjectCapacity> taken{};
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) taken[i] = updates_[i].has_value();
         const int slot = free_slot(proposal_, taken);
@@ -130,7 +130,7 @@ class Transaction {
         const SlotLookup found = owned_slot(proposal_, object_id, session_, context_.config.config_walls.size());
         if (found.refusal) return found.refusal;
         Resolved r;
-        if (auto refusal = context_.resolver.resolve(object, r)) return refusal;
+        if (auto refusal = context_.resolver.resolve(object, r, context_.meshes)) return refusal;
         ServerSlot& s = proposal_[static_cast<std::size_t>(found.slot)];
         r.params.id = s.id;
         const bool move = is_move(s.resolved.params, r.params);

@@ -24,6 +24,7 @@ struct CommitContext {
     const ServerConfig& config;
     const GainChecker& checker;
     ObjectResolver& resolver;
+    const MeshLookup* meshes = nullptr;  // the committing session's meshes (null: a mesh object is refused)
 };
 
 struct CommitPlan {

@@ -153,6 +153,112 @@ DecodeResult decode_subscribe_contacts(const json& j, std::uint64_t id) {
     return Request{id, r};
 }
 
+// `field` of a mesh request: a mesh id 1 .. 2^32-1.
+std::optional<std::uint32_t> mesh_id(const json& j, const char* field) {
+    const auto m = j.find(field);
+    if (m == j.end() || !m->is_number_unsigned() || m->get<std::uint64_t>() == 0 ||
+        m->get<std::uint64_t>() > 0xffffffffULL) {
+        return std::nullopt;
+    }
+    return static_cast<std::uint32_t>(m->get<std::uint64_t>());
+}
+
+DecodeResult decode_mesh_begin(const json& j, std::uint64_t id) {
+    MeshBeginRequest r;
+    for (const char* field : {"vertices", "triangles"}) {
+        const auto v = j.find(field);
+        if (v == j.end() || !v->is_number_unsigned() || v->get<std::uint64_t>() > 0xffffffffULL) {
+            return error(ErrorCode::BadMessage,
+                         std::string("decode_message: mesh_begin.") + field +
+                             ": missing or not an integer 0 .. 2^32-1 (the mesh's count; docs/protocol.md, section 4a)",
+                         id);
+        }
+        (std::string(field) == "vertices" ? r.vertices : r.triangles) = v->get<std::uint64_t>();
+    }
+    const auto mode = j.find("mode");
+    if (mode == j.end() || !mode->is_string() ||
+        (mode->get_ref<const std::string&>() != "surface" && mode->get_ref<const std::string&>() != "solid")) {
+        return error(ErrorCode::BadMessage,
+                     "decode_message: mesh_begin.mode: missing or invalid; accepted: \"surface\" "
+                     "(one-sided) or \"solid\" (closed, edge-manifold)",
+                     id);
+    }
+    r.solid = mode->get_ref<const std::string&>() == "solid";
+    return Request{id, r};
+}
+
+DecodeResult decode_mesh_chunk(const json& j, std::uint64_t id) {
+    MeshChunkRequest r;
+    const auto mesh = mesh_id(j, "mesh");
+    if (!mesh)
+        return error(ErrorCode::BadMessage,
+                     "decode_message: mesh_chunk.mesh: missing or invalid; accepted: a mesh id 1 .. 2^32-1", id);
+    r.mesh = *mesh;
+    const auto first = j.find("first");
+    if (first == j.end() || !first->is_number_unsigned() || first->get<std::uint64_t>() > 0xffffffffULL) {
+        return error(ErrorCode::BadMessage,
+                     "decode_message: mesh_chunk.first: missing or invalid; accepted: an index 0 .. 2^32-1", id);
+    }
+    r.first = first->get<std::uint64_t>();
+    const auto v = j.find("vertices");
+    const auto t = j.find("triangles");
+    if ((v == j.end()) == (t == j.end())) {
+        return error(ErrorCode::BadMessage,
+                     "decode_message: mesh_chunk: expected exactly one of \"vertices\" (a flat array of 3k numbers) "
+                     "and \"triangles\" (a flat array of 3k indices)",
+                     id);
+    }
+    r.triangles = t != j.end();
+    const json& a = r.triangles ? *t : *v;
+    const char* name = r.triangles ? "triangles" : "vertices";
+    if (!a.is_array() || a.empty() || a.size() % 3 != 0) {
+        return error(ErrorCode::BadMessage,
+                     std::string("decode_message: mesh_chunk.") + name + ": " +
+                         (a.is_array() ? std::to_string(a.size()) + " values" : std::string("not an array")) +
+                         "; expected a flat array of 3k values, k >= 1",
+                     id);
+    }
+    if (r.triangles) {
+        r.indices.reserve(a.size());
+    } else {
+        r.vertices.reserve(a.size());
+    }
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const json& x = a[i];
+        if (r.triangles) {
+            if (!x.is_number_unsigned() || x.get<std::uint64_t>() > 0xffffffffULL) {
+                return error(ErrorCode::BadMessage,
+                             "decode_message: mesh_chunk.triangles[" + std::to_string(i) +
+                                 "]: not a vertex index; accepted: an integer 0 .. 2^32-1",
+                             id);
+            }
+            r.indices.push_back(static_cast<std::uint32_t>(x.get<std::uint64_t>()));
+        } else {
+            if (!x.is_number() || !std::isfinite(x.get<double>()) || std::fabs(x.get<double>()) > kMaxMeshCoordinate) {
+                return error(ErrorCode::BadMessage,
+                             "decode_message: mesh_chunk.vertices[" + std::to_string(i) +
+                                 "]: not a coordinate; accepted: a finite number of metres, |x| <= 10",
+                             id);
+            }
+            r.vertices.push_back(x.get<double>());
+        }
+    }
+    return Request{id, std::move(r)};
+}
+
+template <class T>
+DecodeResult decode_mesh_ref(const json& j, std::uint64_t id, const char* type) {
+    const auto mesh = mesh_id(j, "mesh");
+    if (!mesh) {
+        return error(
+            ErrorCode::BadMessage,
+            std::string("decode_message: ") + type + ".mesh: missing or invalid; accepted: a mesh id 1 .. 2^32-1", id);
+    }
+    T r;
+    r.mesh = *mesh;
+    return Request{id, r};
+}
+
 }  // namespace
 
 DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept {
@@ -211,6 +317,11 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         if (t == "bye") return Request{id, ByeRequest{}};
         if (t == "subscribe_contacts") return decode_subscribe_contacts(j, id);
         if (t == "unsubscribe_contacts") return Request{id, UnsubscribeContactsRequest{}};
+        if (t == "mesh_begin") return decode_mesh_begin(j, id);
+        if (t == "mesh_chunk") return decode_mesh_chunk(j, id);
+        if (t == "mesh_end") return decode_mesh_ref<MeshEndRequest>(j, id, "mesh_end");
+        if (t == "mesh_status") return decode_mesh_ref<MeshStatusRequest>(j, id, "mesh_status");
+        if (t == "mesh_delete") return decode_mesh_ref<MeshDeleteRequest>(j, id, "mesh_delete");
         if (t == "subscribe") {
             const auto r = j.find("rate_hz");
             if (r == j.end() || !r->is_number() || !(r->get<double>() >= 0.1 && r->get<double>() <= 1000.0)) {
@@ -222,11 +333,13 @@ DecodeResult decode_message(std::string_view bytes, bool expect_hello) noexcept 
         }
         if (t == "hello")
             return error(ErrorCode::BadMessage, "decode_message: hello: already welcomed (hello only once)", id);
-        return error(ErrorCode::BadMessage,
-                     "decode_message: type = \"" + client::truncate_utf8(t, 40) +
-                         "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, "
-                         "subscribe_contacts, unsubscribe_contacts, bye",
-                     id);
+        return error(
+            ErrorCode::BadMessage,
+            "decode_message: type = \"" + client::truncate_utf8(t, 40) +
+                "\" is invalid; accepted: heartbeat, commit, list, status, subscribe, unsubscribe, "
+                "subscribe_contacts, unsubscribe_contacts, bye, mesh_begin, mesh_chunk, mesh_end, mesh_status, "
+                "mesh_delete",
+            id);
     } catch (const std::exception& e) {
         return error(ErrorCode::BadMessage, std::string("decode_message: ") + e.what());
     } catch (...) {

@@ -48,10 +48,35 @@ struct SubscribeContactsRequest {
 };
 struct UnsubscribeContactsRequest {};
 struct ByeRequest {};
+// Mesh uploads (docs/protocol.md, section 4a). The decoder checks types and the per-message ranges; the counts'
+// limits, the order of chunks and the mesh's validity are the mesh store's (server/mesh_store.hpp).
+inline constexpr double kMaxMeshCoordinate = 10.0;  // m, |x|, |y|, |z| of a vertex in the mesh's frame
+struct MeshBeginRequest {
+    std::uint64_t vertices = 0;
+    std::uint64_t triangles = 0;
+    bool solid = false;  // mode: "solid" (closed, edge-manifold) or "surface" (one-sided)
+};
+struct MeshChunkRequest {
+    std::uint32_t mesh = 0;
+    std::uint64_t first = 0;             // index of the chunk's first vertex (or triangle)
+    bool triangles = false;              // which array the chunk carries
+    std::vector<double> vertices;        // x y z per vertex, m
+    std::vector<std::uint32_t> indices;  // a b c per triangle
+};
+struct MeshEndRequest {
+    std::uint32_t mesh = 0;
+};
+struct MeshStatusRequest {
+    std::uint32_t mesh = 0;
+};
+struct MeshDeleteRequest {
+    std::uint32_t mesh = 0;
+};
 
 using RequestBody =
     std::variant<HelloRequest, HeartbeatRequest, CommitRequest, ListRequest, StatusRequest, SubscribeRequest,
-                 UnsubscribeRequest, SubscribeContactsRequest, UnsubscribeContactsRequest, ByeRequest>;
+                 UnsubscribeRequest, SubscribeContactsRequest, UnsubscribeContactsRequest, ByeRequest, MeshBeginRequest,
+                 MeshChunkRequest, MeshEndRequest, MeshStatusRequest, MeshDeleteRequest>;
 
 struct Request {
     std::optional<std::uint64_t> id;  // absent for hello

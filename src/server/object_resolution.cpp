@@ -212,10 +212,12 @@ std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, con
     return std::nullopt;
 }
 
-std::optional<Refusal> ObjectResolver::resolve(const cl::ObjectDescription& d, Resolved& out) {
+std::optional<Refusal> ObjectResolver::resolve(const cl::ObjectDescription& d, Resolved& out,
+                                               const MeshLookup* meshes) {
     out = Resolved{};
     if (const auto* plane = std::get_if<cl::Plane>(&d)) return resolve_plane(*plane, out);
     if (const auto* spring = std::get_if<cl::Spring>(&d)) return resolve_spring(*spring, out);
+    if (const auto* m = std::get_if<cl::Mesh>(&d)) return resolve_mesh(*m, out, meshes);
     return resolve_field(std::get<cl::Field>(d), out);
 }
 
@@ -337,6 +339,74 @@ std::optional<Refusal> ObjectResolver::resolve_field(const cl::Field& field, Res
     for (std::size_t i = 0; i < 3; ++i) p.jacobian[i] = AxisVector{J[i][0], J[i][1], J[i][2]};
     out.K_matrix = GainChecker::field_stiffness_matrix(J);
     out.B_matrix = B_field;
+    return std::nullopt;
+}
+
+std::vector<double> mesh_masses(const std::vector<double>& eigen_masses, double scale_min, double scale_max) {
+    if (eigen_masses.empty()) return {};
+    const double lo = *std::min_element(eigen_masses.begin(), eigen_masses.end());
+    const double hi = *std::max_element(eigen_masses.begin(), eigen_masses.end());
+    const double ratio = scale_max / scale_min;
+    std::vector<double> out{lo};
+    if (!(hi > lo)) return out;
+    if (!(ratio > 1.0 + 1e-9)) {  // a point set: no interval to chain; the range sampled at 65 masses
+        for (int j = 1; j <= 64; ++j) out.push_back(lo * std::pow(hi / lo, j / 64.0));
+        return out;
+    }
+    for (double m = lo * ratio; m < hi; m *= ratio) out.push_back(m);
+    out.push_back(hi);
+    return out;
+}
+
+// Mesh: a proxy whose coupling to the handle is K P, B P for the active constraints' projector P (any rank, I
+// with friction): certified as a spring of K and a damper of B in every direction with every mass P can give
+// (mesh_masses); in the sums a conditional term K I, B I on the device's axes.
+std::optional<Refusal> ObjectResolver::resolve_mesh(const cl::Mesh& m, Resolved& out, const MeshLookup* meshes) {
+    ObjectParams& p = out.params;
+    if (auto r = check_vector(m.position, "mesh.position", false)) return r;
+    if (auto r = from_limits(check_in_workspace(m.position, "mesh.position", workspace()))) return r;
+    const double qn = std::sqrt(m.orientation[0] * m.orientation[0] + m.orientation[1] * m.orientation[1] +
+                                m.orientation[2] * m.orientation[2] + m.orientation[3] * m.orientation[3]);
+    if (!(std::fabs(qn - 1.0) <= 1e-6)) {
+        return Refusal{
+            ErrorCode::BadMessage,
+            "mesh.orientation: |q| = " + g(qn) + "; accepted: a unit quaternion [w, x, y, z], ||q|| - 1| <= 1e-6",
+            std::nullopt};
+    }
+    if (!(m.dynamic_friction >= 0.0 && m.dynamic_friction <= m.static_friction && m.static_friction <= 10.0)) {
+        return Refusal{ErrorCode::BadMessage,
+                       "mesh.friction: static = " + g(m.static_friction) + ", dynamic = " + g(m.dynamic_friction) +
+                           "; accepted: 0 <= dynamic <= static <= 10",
+                       std::nullopt};
+    }
+    if (config_.axes != 3) {
+        return Refusal{
+            ErrorCode::BadMessage,
+            "mesh: the device has " + std::to_string(config_.axes) + " axes; accepted: meshes on 3-axis devices",
+            std::nullopt};
+    }
+    if (meshes == nullptr) {
+        return Refusal{ErrorCode::UnknownObject, "mesh.mesh = " + std::to_string(m.mesh) + ": no mesh store",
+                       std::nullopt};
+    }
+    MeshLookupResult found = (*meshes)(m.mesh);
+    if (found.refusal) return found.refusal;
+    Matrix3 I{};
+    for (std::size_t i = 0; i < config_.axes; ++i) I[i][i] = 1.0;
+    const auto [c_min, c_max] = checker_.mass_scales();
+    const std::vector<double> masses = mesh_masses(checker_.masses_of(I), c_min, c_max);
+    if (auto r = resolve_gains(m.gains, "mesh", masses, p.K, p.B)) return r;
+    p.kind = ObjectKind::Mesh;
+    p.point = to_axis(m.position);
+    for (std::size_t i = 0; i < 4; ++i) p.orientation[i] = m.orientation[i] / qn;
+    p.static_friction = m.static_friction;
+    p.dynamic_friction = m.dynamic_friction;
+    p.mesh = found.hierarchy.get();
+    out.mesh = std::move(found.hierarchy);
+    for (std::size_t i = 0; i < 3; ++i) {
+        out.K_matrix[i][i] = p.K * I[i][i];
+        out.B_matrix[i][i] = p.B * I[i][i];
+    }
     return std::nullopt;
 }
 

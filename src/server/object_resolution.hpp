@@ -11,6 +11,8 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -28,11 +30,13 @@ namespace hapticd::server {
 // A slot's drain_seq before the batch removing its object has entered a ring.
 inline constexpr std::uint64_t kNotPushed = ~std::uint64_t{0};
 
-// A checked object: what the loop renders and what the summed-gain check adds.
+// A checked object: what the loop renders and what the summed-gain check adds. A mesh object also owns its
+// hierarchy here (params.mesh points into it): the slot table keeps it alive until the loop is done with it.
 struct Resolved {
     ObjectParams params;
     Matrix3 K_matrix{};
     Matrix3 B_matrix{};
+    std::shared_ptr<const mesh::MeshHierarchy> mesh;
 };
 
 // Why a request is refused: the protocol's code, the message naming the field and the accepted range, and
@@ -80,6 +84,22 @@ struct SlotLookup {
 // The first free slot that `taken` (slots this batch already changes) leaves, or -1.
 [[nodiscard]] int free_slot(const SlotTable& slots, const std::array<bool, kSceneObjectCapacity>& taken);
 
+// A mesh id of the committing session -> its built hierarchy, or the refusal (server/mesh_store.hpp: built()).
+struct MeshLookupResult {
+    std::shared_ptr<const mesh::MeshHierarchy> hierarchy;
+    std::optional<Refusal> refusal;
+};
+using MeshLookup = std::function<MeshLookupResult(std::uint32_t mesh)>;
+
+// The masses a mesh object acts with, for every contact configuration: with P any orthogonal projector (the span
+// of 1, 2 or 3 contact normals, or I), the gains K P, B P split in y = M^1/2 x into scalar loops of mass 1 / s,
+// s the non-zero eigenvalues of M^-1/2 P M^-1/2, which lie in [1 / lambda_max(M), 1 / lambda_min(M)]: every mass
+// of [lambda_min, lambda_max] can occur. The set check holds each mass m over [c_min m, c_max m]; masses
+// lambda_min (c_max / c_min)^j, j = 0, 1, .., up to lambda_max (and lambda_max itself) make these intervals
+// cover [c_min lambda_min, c_max lambda_max] without a gap. `eigen_masses`: masses_of(I) (M's eigenvalues).
+[[nodiscard]] std::vector<double> mesh_masses(const std::vector<double>& eigen_masses, double scale_min,
+                                              double scale_max);
+
 // Checks and resolves object descriptions against the device of `config` (axes, workspace, period, delay,
 // max_force) with `checker` (masses, stiffness limit, stability verdicts, the criteria's cached optima).
 // Both must outlive the resolver.
@@ -89,7 +109,9 @@ class ObjectResolver {
 
     // `out` the resolved object (its params' id left 0), or the refusal naming the field (without the
     // "commit: ops[i]: " prefix the commit adds).
-    [[nodiscard]] std::optional<Refusal> resolve(const client::ObjectDescription& d, Resolved& out);
+    // `meshes`: the committing session's meshes (a mesh object without it is refused).
+    [[nodiscard]] std::optional<Refusal> resolve(const client::ObjectDescription& d, Resolved& out,
+                                                 const MeshLookup* meshes = nullptr);
 
   private:
     [[nodiscard]] std::optional<Refusal> check_vector(const client::Vec3& v, const std::string& field, bool unit) const;
@@ -100,6 +122,7 @@ class ObjectResolver {
     [[nodiscard]] std::optional<Refusal> resolve_plane(const client::Plane& plane, Resolved& out);
     [[nodiscard]] std::optional<Refusal> resolve_spring(const client::Spring& spring, Resolved& out);
     [[nodiscard]] std::optional<Refusal> resolve_field(const client::Field& field, Resolved& out);
+    [[nodiscard]] std::optional<Refusal> resolve_mesh(const client::Mesh& m, Resolved& out, const MeshLookup* meshes);
 
     const ServerConfig& config_;
     GainChecker& checker_;

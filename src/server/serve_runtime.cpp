@@ -116,6 +116,7 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     sc.config_walls = config_walls;
     sc.session_max_objects = static_cast<std::size_t>(o.session_max_objects);
     sc.session_max_in_flight = static_cast<std::size_t>(o.session_max_in_flight);
+    sc.mesh_upload_timeout = o.mesh_upload_timeout;
     sc.log_connections = !o.quiet;
     try {
         server_ = std::make_unique<Server>(sc, *checker_, *ring_, *state_, departure_ring_.get(), contact_ring_.get());

@@ -29,6 +29,7 @@
 #include "client/text_limits.hpp"
 #include "server/commit_transaction.hpp"
 #include "server/departure_plan.hpp"
+#include "server/mesh_store.hpp"
 #include "server/message_decoder.hpp"
 #include "server/object_limits.hpp"
 #include "server/object_resolution.hpp"
@@ -65,7 +66,9 @@ struct Server::Impl {
           departure_ring(d != nullptr ? *d : r),
           state(s),
           commits_pushed(pushed),
-          contact_ring(contacts) {}
+          contact_ring(contacts),
+          meshes(server::MeshStoreLimits{.upload_timeout = std::chrono::milliseconds(
+                                             static_cast<long>(config.mesh_upload_timeout * 1000.0 + 0.5))}) {}
 
     ServerConfig config;
     GainChecker& checker;
@@ -91,6 +94,15 @@ struct Server::Impl {
     ServerCounters counters;
     std::vector<char> buffer = std::vector<char>(cl::kMaxMessageBytes + 1);
     StateLayout snapshot{};
+    server::MeshStore meshes;  // the sessions' meshes (docs/protocol.md, section 4a); its worker builds hierarchies
+    // Hierarchies a modify replaced while the loop may still fade the old object out: freed once the batch is
+    // applied (last_commit_seq) and a ramp's ticks more have passed (the fade ends within ramp_s of it).
+    struct Retired {
+        std::shared_ptr<const mesh::MeshHierarchy> mesh;
+        std::uint64_t seq = 0;
+        std::uint64_t applied_tick = 0;  // 0: not yet seen applied
+    };
+    std::vector<Retired> retired;
 
     void log(const std::string& line) const {
         if (config.log_connections) std::cerr << "hapticd: server: " << line << "\n";
@@ -176,6 +188,7 @@ struct Server::Impl {
         ::close(s.fd);
         s.fd = -1;
         ramp_out_objects_of(s.id);
+        meshes.drop_session(s.id);
         log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " +
             std::to_string(s.pid) + ", uid " + std::to_string(s.uid) + ") closed: " + why);
         count(&ServerCounters::sessions_closed);
@@ -285,6 +298,13 @@ struct Server::Impl {
             if (slot.state != ServerSlot::State::Draining || slot.drain_seq == server::kNotPushed) continue;
             if (snapshot.last_commit_seq >= slot.drain_seq && snapshot.slot_object_id[i] == 0) slot = ServerSlot{};
         }
+        const auto ramp_ticks = static_cast<std::uint64_t>(std::ceil(config.ramp_time / config.period)) + 2;
+        for (Retired& r : retired) {
+            if (r.applied_tick == 0 && snapshot.last_commit_seq >= r.seq) r.applied_tick = snapshot.tick + 1;
+        }
+        std::erase_if(retired, [&](const Retired& r) {
+            return r.applied_tick != 0 && snapshot.tick >= r.applied_tick + ramp_ticks;
+        });
     }
 
     // ---- commit --------------------------------------------------------------------------------
@@ -315,8 +335,18 @@ struct Server::Impl {
             send_error(s, id, cl::ErrorCode::Busy, "commit: the hand-over queue to the loop is full; retry", -1);
             return;
         }
-        server::CommitOutcome outcome =
-            server::plan_commit(server::CommitContext{config, checker, resolver}, slots, s.id, next_object_id, req);
+        const server::MeshLookup lookup = [&](std::uint32_t mesh) {
+            server::MeshLookupResult out;
+            auto found = meshes.built(s.id, mesh);
+            if (auto* r = std::get_if<server::Refusal>(&found)) {
+                out.refusal = std::move(*r);
+            } else {
+                out.hierarchy = std::get<server::MeshStore::Built>(found).hierarchy;
+            }
+            return out;
+        };
+        server::CommitOutcome outcome = server::plan_commit(server::CommitContext{config, checker, resolver, &lookup},
+                                                            slots, s.id, next_object_id, req);
         if (const auto* r = std::get_if<server::CommitRefusal>(&outcome)) {
             count(&ServerCounters::commits_refused);
             send_error(s, id, r->refusal.code, r->refusal.message, r->op_index, r->refusal.largest_stable_K,
@@ -344,6 +374,11 @@ struct Server::Impl {
         for (ServerSlot& slot : plan.slots) {
             if (slot.state == ServerSlot::State::Draining && slot.drain_seq == server::kNotPushed) slot.drain_seq = seq;
         }
+        for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {  // a modify that replaced a mesh object's hierarchy
+            if (slots[i].resolved.mesh && slots[i].resolved.mesh != plan.slots[i].resolved.mesh) {
+                retired.push_back(Retired{slots[i].resolved.mesh, seq, 0});
+            }
+        }
         slots = plan.slots;
         next_object_id = plan.next_object_id;
         if (c.count > 0) s.in_flight.push_back(seq);
@@ -351,6 +386,49 @@ struct Server::Impl {
         ok["commit_seq"] = seq;
         ok["object_ids"] = plan.new_ids;
         send_reply(s, ok);
+    }
+
+    // ---- meshes (docs/protocol.md, section 4a) ---------------------------------------------------
+    void send_refusal(Session& s, std::uint64_t id, const server::Refusal& r) { send_error(s, id, r.code, r.message); }
+
+    json mesh_info_reply(std::uint64_t id, std::uint32_t mesh, const server::MeshInfo& info) {
+        json ok = server::ok_reply(id);
+        ok["mesh"] = mesh;
+        ok["state"] = server::to_string(info.state);
+        ok["vertices"] = info.received_vertices;
+        ok["triangles"] = info.received_triangles;
+        ok["bytes"] = info.bytes;
+        if (!info.message.empty()) ok["message"] = cl::truncate_utf8(info.message, 1024);
+        return ok;
+    }
+
+    template <class Request>
+    void handle_mesh(Session& s, std::uint64_t id, const Request& body) {
+        const auto now = Clock::now();
+        meshes.collect();
+        meshes.expire(now);
+        if constexpr (std::is_same_v<Request, server::MeshBeginRequest>) {
+            auto r = meshes.begin(s.id, body, now);
+            if (const auto* refusal = std::get_if<server::Refusal>(&r)) return send_refusal(s, id, *refusal);
+            json ok = server::ok_reply(id);
+            ok["mesh"] = std::get<std::uint32_t>(r);
+            send_reply(s, ok);
+        } else if constexpr (std::is_same_v<Request, server::MeshChunkRequest>) {
+            if (auto refusal = meshes.chunk(s.id, body, now)) return send_refusal(s, id, *refusal);
+            auto info = meshes.status(s.id, body.mesh);
+            send_reply(s, mesh_info_reply(id, body.mesh, std::get<server::MeshInfo>(info)));
+        } else if constexpr (std::is_same_v<Request, server::MeshEndRequest>) {
+            if (auto refusal = meshes.end(s.id, body.mesh)) return send_refusal(s, id, *refusal);
+            auto info = meshes.status(s.id, body.mesh);
+            send_reply(s, mesh_info_reply(id, body.mesh, std::get<server::MeshInfo>(info)));
+        } else if constexpr (std::is_same_v<Request, server::MeshStatusRequest>) {
+            auto info = meshes.status(s.id, body.mesh);
+            if (const auto* refusal = std::get_if<server::Refusal>(&info)) return send_refusal(s, id, *refusal);
+            send_reply(s, mesh_info_reply(id, body.mesh, std::get<server::MeshInfo>(info)));
+        } else {
+            if (auto refusal = meshes.remove(s.id, body.mesh)) return send_refusal(s, id, *refusal);
+            send_reply(s, server::ok_reply(id));
+        }
     }
 
     // ---- requests ------------------------------------------------------------------------------
@@ -405,7 +483,10 @@ struct Server::Impl {
                     state.read(snapshot);
                     std::size_t n = config.config_walls.size();
                     for (const auto& slot : slots) n += slot.state != ServerSlot::State::Free ? 1U : 0U;
-                    send_reply(s, server::status_reply(id, snapshot, sessions.size(), n));
+                    json ok = server::status_reply(id, snapshot, sessions.size(), n);
+                    ok["meshes"] = meshes.meshes();
+                    ok["mesh_bytes"] = meshes.total_bytes();
+                    send_reply(s, ok);
                 } else if constexpr (std::is_same_v<T, server::SubscribeRequest>) {
                     s.subscribed = true;
                     s.rate_hz = body.rate_hz;
@@ -420,6 +501,12 @@ struct Server::Impl {
                     s.contacts = false;
                     s.contact_queue.clear();
                     send_reply(s, server::ok_reply(id));
+                } else if constexpr (std::is_same_v<T, server::MeshBeginRequest> ||
+                                     std::is_same_v<T, server::MeshChunkRequest> ||
+                                     std::is_same_v<T, server::MeshEndRequest> ||
+                                     std::is_same_v<T, server::MeshStatusRequest> ||
+                                     std::is_same_v<T, server::MeshDeleteRequest>) {
+                    handle_mesh(s, id, body);
                 } else if constexpr (std::is_same_v<T, server::ByeRequest>) {
                     send_reply(s, server::ok_reply(id));
                     close_session(s, "bye");
@@ -703,6 +790,8 @@ struct Server::Impl {
             send_states(now);
             push_pending();
             reclaim_slots();
+            meshes.collect();
+            meshes.expire(now);
             for (auto it = sessions.begin(); it != sessions.end();) {
                 it = it->second.closed ? sessions.erase(it) : std::next(it);
             }

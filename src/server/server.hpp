@@ -59,6 +59,7 @@ struct ServerConfig {
     bool log_connections = true;            // SO_PEERCRED lines on stderr
     std::size_t session_max_objects = 32;   // objects one session may hold (used, not ramping out)
     std::size_t session_max_in_flight = 8;  // one session's batches pushed to the loop and not yet applied
+    double mesh_upload_timeout = 10.0;      // s: a mesh upload without a chunk for this long is dropped
 };
 
 [[nodiscard]] std::string default_server_socket_path();

@@ -376,4 +376,57 @@ TEST_F(Hapticctl, ContactsPrintsTheBeginAndEndOfAFieldAsJsonLines) {
     EXPECT_EQ(p.wait(), 0) << p.err();
 }
 
+// The cube [-10, 10]^3 (file units, scale=0.001: 20 mm) as an OBJ (shared vertices) and as an ASCII STL (each
+// facet's three vertices written out: assimp joins them), wound outward.
+constexpr int kCubeFaces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                                   {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+std::string cube_vertex(int i) {
+    return std::to_string((i & 1) ? 10 : -10) + " " + std::to_string((i & 2) ? 10 : -10) + " " +
+           std::to_string((i & 4) ? 10 : -10);
+}
+
+// `hapticctl add mesh FILE` on the 3-axis simulated device: an OBJ and an STL cube are read (assimp), uploaded and
+// added (8 vertices and 12 triangles each: the STL's 36 vertices joined), held for --for; an open cube in solid mode
+// is refused by the daemon's validation naming the mode, a missing file and an unknown key before connecting (2).
+TEST(HapticctlMesh, AddMeshReadsObjAndStlUploadsAndAdds) {
+    LockstepDaemon daemon("hapticctl_mesh", {"--device", "sim3"});
+    ASSERT_TRUE(daemon.ready()) << daemon.log();
+    std::string obj, stl = "solid cube\n", open_obj;
+    for (int i = 0; i < 8; ++i) obj += "v " + cube_vertex(i) + "\n";
+    open_obj = obj;
+    for (int f = 0; f < 12; ++f) {
+        const std::string face = "f " + std::to_string(kCubeFaces[f][0] + 1) + " " +
+                                 std::to_string(kCubeFaces[f][1] + 1) + " " + std::to_string(kCubeFaces[f][2] + 1) +
+                                 "\n";
+        obj += face;
+        if (f < 11) open_obj += face;
+        stl += "facet normal 0 0 0\nouter loop\n";
+        for (const int v : kCubeFaces[f]) stl += "vertex " + cube_vertex(v) + "\n";
+        stl += "endloop\nendfacet\n";
+    }
+    stl += "endsolid cube\n";
+    const auto ctl = [&](std::vector<std::string> args, const std::string& tag) {
+        args.insert(args.begin(), {"--socket", daemon.socket()});
+        return clients_test::run(HAPTICCTL_BINARY, args, tag);
+    };
+    for (const auto& [name, text] : {std::pair<std::string, std::string>{"cube.obj", obj}, {"cube.stl", stl}}) {
+        const std::string path = clients_test::write_file(name, text);
+        const Result r = ctl({"add", "mesh", path, "scale=0.001", "position=0,0,-0.03", "K=500", "B=5", "--for", "0.2"},
+                             "mesh_" + name);
+        EXPECT_EQ(r.code, 0) << r.err;
+        EXPECT_NE(r.out.find("8 vertices, 12 triangles (solid)"), std::string::npos) << r.out;
+        EXPECT_NE(r.out.find("(mesh, K = 500 N/m, B = 5 N s/m)"), std::string::npos) << r.out;
+    }
+    const Result open = ctl({"add", "mesh", clients_test::write_file("open.obj", open_obj), "K=500", "B=5"}, "open");
+    EXPECT_NE(open.code, 0) << open.out;
+    EXPECT_NE(open.err.find("solid"), std::string::npos) << open.err;
+    const Result missing = ctl({"add", "mesh", "/nonexistent/x.stl"}, "missing");
+    EXPECT_EQ(missing.code, 2) << missing.err;
+    EXPECT_NE(missing.err.find("/nonexistent/x.stl"), std::string::npos) << missing.err;
+    const Result key = ctl({"add", "mesh", "/nonexistent/x.stl", "colour=red"}, "badkey");
+    EXPECT_EQ(key.code, 2) << key.err;
+    EXPECT_NE(key.err.find("unknown key 'colour'"), std::string::npos) << key.err;
+    EXPECT_EQ(daemon.stop(), 0) << daemon.log();
+}
+
 }  // namespace

@@ -4,6 +4,7 @@
 // Daemon::run() runs 4000 ticks of a busy scene in lockstep (the tick driven back to back on the test's own
 // thread: no timing, no real-time thread). The scene: three config walls (unilateral on x and z, bilateral on
 // y); client objects of every kind (unilateral and bilateral planes, springs to a point and to a line, a field)
+// and a mesh (an icosphere rendered through its god-object proxy, moved and turned every 10 ticks)
 // planned by the server's own commit transaction (server/commit_transaction.hpp, plan_commit) and handed to the
 // loop through its rings at given ticks, as --replay does (TickFeeder); moves every 5 ticks (first-order
 // holds), a change of gains (a cross-fade), a removal (a ramp-out) and a departure (the departures ring);
@@ -27,6 +28,7 @@
 
 #include "daemon/daemon.hpp"
 #include "daemon/recorder.hpp"
+#include "mesh/procedural_meshes.hpp"
 #include "loop/trace.hpp"
 #include "scene/passivity_controller.hpp"
 #include "scene/scene.hpp"
@@ -210,8 +212,11 @@ struct ServerSide {
     }
     // Plans the batch (fails the test on a refusal) and adopts it, as the server does once it is in the ring.
     ObjectCommit commit(std::vector<CommitOperation> ops, std::vector<std::uint32_t>* ids = nullptr) {
-        server::CommitOutcome o = server::plan_commit(server::CommitContext{config, checker, resolver}, slots, 1,
-                                                      next_id, server::CommitRequest{std::move(ops)});
+        const server::MeshLookup lookup = [this](std::uint32_t) {
+            return server::MeshLookupResult{mesh, std::nullopt};
+        };
+        server::CommitOutcome o = server::plan_commit(server::CommitContext{config, checker, resolver, &lookup}, slots,
+                                                      1, next_id, server::CommitRequest{std::move(ops)});
         if (const auto* r = std::get_if<server::CommitRefusal>(&o)) {
             ADD_FAILURE() << r->refusal.message;
             return {};
@@ -230,6 +235,9 @@ struct ServerSide {
     server::SlotTable slots{};
     std::uint32_t next_id = 1 + std::size(kWalls);
     std::uint64_t next_seq = 1;
+    // The session's one mesh (mesh id 1): an icosphere of 3 mm, built here as the server's worker would.
+    std::shared_ptr<const mesh::MeshHierarchy> mesh =
+        mesh::MeshHierarchy::build(mesh::icosphere(0.003, 2), mesh::MeshMode::solid);
 };
 
 CommitOperation add(const cl::ObjectDescription& d) { return CommitOperation{CommitOperation::Kind::Add, 0, d}; }
@@ -245,6 +253,16 @@ cl::Plane plane(const cl::Vec3& n, double offset, bool bilateral, double K, doub
 cl::Spring spring(cl::Constraint c, const cl::Vec3& point, const cl::Vec3& direction, double K, double B) {
     return cl::Spring{
         .constraint = c, .point = point, .direction = direction, .gains = cl::Gains::explicit_gains(K, B)};
+}
+cl::Mesh mesh_object(const cl::Vec3& position, double angle) {
+    cl::Mesh m;
+    m.mesh = 1;
+    m.position = position;
+    m.orientation = {std::cos(angle / 2), 0.0, 0.0, std::sin(angle / 2)};
+    m.gains = cl::Gains::explicit_gains(300.0, 3.0);
+    m.static_friction = 0.4;
+    m.dynamic_friction = 0.3;
+    return m;
 }
 cl::Field field(const cl::Vec3& center, double radius, const cl::Vec3& force) {
     cl::Field f;
@@ -306,9 +324,15 @@ TEST(TickAllocation, ABusySceneTicksWithoutAnAllocation) {
                              &ids));
     ASSERT_EQ(ids.size(), 2U);
     const std::uint32_t bilateral_plane = ids[0];
+    feeder.at(30, srv.commit({add(mesh_object({0.002, 0.0, 0.003}, 0.0))}, &ids));
+    ASSERT_EQ(ids.size(), 1U);
+    const std::uint32_t the_mesh = ids[0];
     for (std::uint64_t tick = 150; tick < 3300; tick += 5) {  // moves: first-order holds in progress throughout
         const double s = std::sin(2.0 * std::numbers::pi * static_cast<double>(tick) * kT);
         std::vector<CommitOperation> ops{modify(moving_plane, plane({0, 0, -1}, -0.001 + 0.002 * s, false, 300, 3))};
+        if (tick % 10 == 0) {  // the mesh moved and turned: holds of its position and orientation
+            ops.push_back(modify(the_mesh, mesh_object({0.002, 0.001 * s, 0.003}, 0.5 * s)));
+        }
         if (tick % 15 == 0) {
             ops.push_back(
                 modify(moving_spring, spring(cl::Constraint::Point, {0.001 + 0.001 * s, 0, 0}, {1, 0, 0}, 80, 1)));
@@ -355,6 +379,12 @@ TEST(TickAllocation, ABusySceneTicksWithoutAnAllocation) {
     EXPECT_GT(result.limiter.largest_step, 0.0);
     EXPECT_GT(passivity.stats().damper_ticks + passivity.stats().guarded_ticks, 0U);
     EXPECT_NE(contact_ring.front(), nullptr);  // contact events were detected
+    bool mesh_touched = false;                 // the path went into the mesh: its proxy rendered contacts
+    for (const ContactRecord* r = contact_ring.front(); r != nullptr; r = contact_ring.front()) {
+        mesh_touched = mesh_touched || (r->object_id == the_mesh && r->begin);
+        contact_ring.pop();
+    }
+    EXPECT_TRUE(mesh_touched);
     EXPECT_TRUE(recorder.close());
     EXPECT_EQ(recorder.ticks_written(), kTicks);
     EXPECT_EQ(recorder.batches_written(), feeder.size());

@@ -5,15 +5,17 @@
 // protocol's codes and a message naming the function; a decoded hello speaks protocol 1 with a lease of 0 or
 // 0.01 .. 60 s; a decoded request after the handshake has an id <= 2^53; a commit has 1 .. 64 operations,
 // adds and modifies carry an object, modifies and removes an id >= 1; a subscribe_contacts filter has 1 .. 64 ids >= 1;
-// every decoded object re-encodes (object_to_json) and decodes again to the same kind. Then the server's range checks
-// (src/server/object_limits.*, on the 3-axis test profile's +-0.06 m workspace: an accepted plane meets
-// it, an accepted point lies in it, accepted explicit gains are within the plausibility bounds) and the
-// reply path (src/server/reply_text.*): the error reply for a decode error or a refusal, and an ok reply
-// echoing every decoded object, are encoded without an exception, at most 65536 bytes, valid UTF-8 JSON
-// that parses back. (The stability verdicts need the gain checker and are tested in tests/server/.)
+// mesh requests carry a mesh id >= 1 and chunks a non-empty flat array of 3k finite coordinates (|x| <= 10 m) or
+// indices; every decoded object re-encodes (object_to_json) and decodes again to the same kind. Then the server's range
+// checks (src/server/object_limits.*, on the 3-axis test profile's +-0.06 m workspace: an accepted plane meets it, an
+// accepted point lies in it, accepted explicit gains are within the plausibility bounds) and the reply path
+// (src/server/reply_text.*): the error reply for a decode error or a refusal, and an ok reply echoing every decoded
+// object, are encoded without an exception, at most 65536 bytes, valid UTF-8 JSON that parses back. (The stability
+// verdicts need the gain checker and are tested in tests/server/.)
 #include <cstddef>
 #include <cstdint>
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <optional>
 #include <set>
@@ -68,6 +70,13 @@ void check_limits(const hapticd::client::ObjectDescription& object, std::uint64_
             for (std::size_t a = 0; a < 3; ++a) check(s->point[a] >= -0.06 && s->point[a] <= 0.06);
         }
         gains = &s->gains;
+    } else if (const auto* m = std::get_if<cl::Mesh>(&object)) {
+        refusal = check_in_workspace(m->position, "mesh.position", box);
+        if (!refusal) {
+            for (std::size_t a = 0; a < 3; ++a) check(m->position[a] >= -0.06 && m->position[a] <= 0.06);
+        }
+        check(m->mesh >= 1);
+        gains = &m->gains;
     } else {
         const auto& f = std::get<cl::Field>(object);
         refusal = check_in_workspace(f.center, "field.center", box);
@@ -122,6 +131,18 @@ void check_result(const hapticd::server::DecodeResult& r, bool expect_hello) {
         check(!s->object_ids->empty() && s->object_ids->size() <= kMaxContactFilterIds);
         for (const std::uint32_t oid : *s->object_ids) check(oid >= 1);
     }
+    if (const auto* m = std::get_if<MeshBeginRequest>(&req.body)) {
+        check(m->vertices <= 0xffffffffULL && m->triangles <= 0xffffffffULL);
+    }
+    if (const auto* m = std::get_if<MeshChunkRequest>(&req.body)) {
+        check(m->mesh >= 1 && m->first <= 0xffffffffULL);
+        const std::size_t n = m->triangles ? m->indices.size() : m->vertices.size();
+        check(n >= 3 && n % 3 == 0 && (m->triangles ? m->vertices.empty() : m->indices.empty()));
+        for (const double x : m->vertices) check(std::isfinite(x) && std::fabs(x) <= kMaxMeshCoordinate);
+    }
+    if (const auto* m = std::get_if<MeshEndRequest>(&req.body)) check(m->mesh >= 1);
+    if (const auto* m = std::get_if<MeshStatusRequest>(&req.body)) check(m->mesh >= 1);
+    if (const auto* m = std::get_if<MeshDeleteRequest>(&req.body)) check(m->mesh >= 1);
     if (const auto* c = std::get_if<CommitRequest>(&req.body)) {
         check(!c->ops.empty() && c->ops.size() <= kMaxOpsPerCommit);
         for (const auto& op : c->ops) {

@@ -6,7 +6,9 @@
 // state matrix, the criterion optimum per mass, the simulated device's exact ZOH, and the profile keys.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +25,7 @@
 #include "devices/sim_device.hpp"
 #include "scene/force_limiter.hpp"
 #include "scene/scene_objects.hpp"
+#include "server/object_resolution.hpp"
 #include "tuning/object_checks.hpp"
 
 namespace hapticd {
@@ -643,8 +646,8 @@ TEST(AnisotropicMass, CriterionGainsAreTheOptimumForTheObjectsMass) {
 // The loop state (x_j, v_j, x_{j-1} .. x_{j-d-1}) in physical units with M x'' = -u, u_j = K x_{j-d} +
 // B (x_{j-d} - x_{j-d-1}) / T held over the period; one period from Eigen's exponential of the 9 x 9
 // augmented matrix [[0, I, 0], [0, 0, -M^-1], [0, 0, 0]] T — no change of coordinates, no polynomial.
-double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B,
-                                      int d) {
+Eigen::VectorXcd physical_state_eigenvalues(const Eigen::Matrix3d& M, const Eigen::Matrix3d& K,
+                                            const Eigen::Matrix3d& B, int d) {
     Eigen::Matrix<double, 9, 9> c = Eigen::Matrix<double, 9, 9>::Zero();
     c.block<3, 3>(0, 3) = Eigen::Matrix3d::Identity();
     c.block<3, 3>(3, 6) = -M.inverse();
@@ -660,7 +663,12 @@ double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Mat
     S.block(0, x_block(d + 1), 6, 3) += gamma * Bd;
     for (int age = 1; age <= d + 1; ++age) S.block(x_block(age), x_block(age - 1), 3, 3) = Eigen::Matrix3d::Identity();
     const Eigen::EigenSolver<Eigen::MatrixXd> es(S, false);
-    return es.eigenvalues().cwiseAbs().maxCoeff();
+    return es.eigenvalues();
+}
+
+double physical_state_spectral_radius(const Eigen::Matrix3d& M, const Eigen::Matrix3d& K, const Eigen::Matrix3d& B,
+                                      int d) {
+    return physical_state_eigenvalues(M, K, B, d).cwiseAbs().maxCoeff();
 }
 
 // The summed check with a matrix mass against that independent construction: spectral radius agreement and
@@ -828,6 +836,100 @@ TEST(AnisotropicMass, ProfileKeysAreValidatedByName) {
     o.identify = true;  // one mass only
     EXPECT_THROW((void)load_device_profile(o), StartupError);
     std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace hapticd
+
+namespace hapticd {
+namespace {
+
+// The orthogonal projector on the span of the columns of N (Eigen's QR, independent of the loop's Gram-Schmidt).
+Eigen::Matrix3d projector_on(const Eigen::MatrixXd& N) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(N);
+    const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(3, N.cols());
+    return Q * Q.transpose();
+}
+
+// A mesh object's gains as the server checks them (server/object_resolution.cpp, mesh_masses over the plant set
+// [1/1.1, 1.1] of the anisotropic M), at the criterion's optimum and at 99 % of the largest K the check accepts at
+// that B (bisection), against the physical state matrix of every contact configuration the proxy can render: K P, B P
+// with P the projector on 1, 2 or 3 random normals, and P = I (friction), at the set's corners c_min M and c_max M and
+// at M; d = 0, 1, 2. Every one decays (spectral radius < 1). The same gains checked with the point spring's masses
+// alone (M's eigenvalues) would miss the masses between them; mesh_masses' chain covers the interval.
+TEST(AnisotropicMass, AMeshsGainsAreStableInEveryContactConfigurationOverThePlantSet) {
+    const Eigen::Matrix3d M = eigen_of(anisotropic_matrix());
+    std::mt19937 rng(20261205);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    double worst = 0.0;
+    int configurations = 0;
+    for (int d = 0; d < 3; ++d) {
+        GainCheckPlant p = anisotropic_plant(d * kT);
+        p.mass_margin = 0.1;
+        GainChecker checker(p);
+        Matrix3 I{};
+        for (std::size_t i = 0; i < 3; ++i) I[i][i] = 1.0;
+        const auto [c_min, c_max] = checker.mass_scales();
+        const std::vector<double> masses = server::mesh_masses(checker.masses_of(I), c_min, c_max);
+        ASSERT_GE(masses.size(), 3U);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+        EXPECT_NEAR(masses.front(), es.eigenvalues()(0), 1e-12);
+        EXPECT_NEAR(masses.back(), es.eigenvalues()(2), 1e-12);
+        for (std::size_t i = 1; i < masses.size(); ++i)
+            EXPECT_LE(masses[i] * c_min, masses[i - 1] * c_max * (1 + 1e-12));
+        const auto optimum = checker.criterion_gains("CE2", masses.front());
+        ASSERT_TRUE(optimum.has_value());
+        const PairVerdict at_optimum = checker.check_object(optimum->K, optimum->B, masses);
+        ASSERT_TRUE(at_optimum.stable);
+        double lo = optimum->K, hi = 100.0 * optimum->K;  // the largest K the check accepts at B, by bisection
+        ASSERT_FALSE(checker.check_object(hi, optimum->B, masses).stable);
+        for (int i = 0; i < 40; ++i) {
+            const double mid = 0.5 * (lo + hi);
+            (checker.check_object(mid, optimum->B, masses).stable ? lo : hi) = mid;
+        }
+        const double near_edge = 0.99 * lo;
+        ASSERT_TRUE(checker.check_object(near_edge, optimum->B, masses).stable);
+        {  // not vacuous: 5 % beyond the accepted K, a contact along M's lightest direction grows at the set's lightest
+            const Eigen::Vector3d e = es.eigenvectors().col(0);
+            const Eigen::VectorXcd ev =
+                physical_state_eigenvalues(c_min * M, 1.05 * lo * e * e.transpose(), optimum->B * e * e.transpose(), d);
+            double beyond = 0.0;
+            for (const auto& z : ev) {
+                if (std::abs(z - 1.0) > 1e-6) beyond = std::max(beyond, std::abs(z));
+            }
+            EXPECT_GT(beyond, 1.0) << "d " << d;
+        }
+        for (const double K : {optimum->K, near_edge}) {
+            for (int trial = 0; trial < 60; ++trial) {
+                const int rank = 1 + trial % 4;  // 4: friction, P = I
+                Eigen::MatrixXd N(3, std::min(rank, 3));
+                for (int c = 0; c < N.cols(); ++c)
+                    N.col(c) = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+                const Eigen::Matrix3d P = rank == 4 ? Eigen::Matrix3d::Identity() : projector_on(N);
+                for (const double c : {c_min, 1.0, c_max}) {
+                    // A rank-r P leaves 3 - r directions free: a double integrator each, 2 (3 - r) eigenvalues at 1
+                    // (a Jordan block: within ~1e-8 of 1 in double). Those nearest 1 are set aside (checked within
+                    // 1e-6 of it); the radius of the rest is the contact's.
+                    const int r = rank == 4 ? 3 : rank;
+                    Eigen::VectorXcd ev = physical_state_eigenvalues(c * M, K * P, optimum->B * P, d);
+                    std::vector<std::complex<double>> rest(ev.data(), ev.data() + ev.size());
+                    std::sort(rest.begin(), rest.end(),
+                              [](auto a, auto b) { return std::abs(a - 1.0) < std::abs(b - 1.0); });
+                    for (int f = 0; f < 2 * (3 - r); ++f)
+                        EXPECT_LT(std::abs(rest[static_cast<std::size_t>(f)] - 1.0), 1e-6);
+                    double radius = 0.0;
+                    for (std::size_t i = static_cast<std::size_t>(2 * (3 - r)); i < rest.size(); ++i) {
+                        radius = std::max(radius, std::abs(rest[i]));
+                    }
+                    worst = std::max(worst, radius);
+                    EXPECT_LT(radius, 1.0) << "d " << d << " K " << K << " rank " << rank << " c " << c;
+                    ++configurations;
+                }
+            }
+        }
+    }
+    std::printf("[ mesh configurations ] %d contact configurations x masses, largest spectral radius %.9f\n",
+                configurations, worst);
 }
 
 }  // namespace

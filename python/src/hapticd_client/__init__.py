@@ -15,6 +15,7 @@ from .client import (CONTACT_QUEUE_CAPACITY, EVENT_QUEUE_CAPACITY, MAX_MESSAGE_B
 from .device import DeviceInfo
 from .errors import ERROR_CODES, HapticdError
 from .instance import INSTANCE_NAME_FORM, instance_socket_path, instance_state_shm, valid_instance_name
+from .meshes import box, icosphere, mesh, torus
 from .objects import Batch, field, gains, plane, spring
 from .state_source import StateSource, sample_from_state_message
 from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
@@ -39,15 +40,19 @@ __all__ = [
     "StateReader",
     "StateSample",
     "StateSource",
+    "box",
     "default_socket_path",
     "field",
     "gains",
+    "icosphere",
     "instance_socket_path",
     "instance_state_shm",
+    "mesh",
     "plane",
     "sample_from_state_message",
     "shm_path",
     "spring",
     "stale_after_s",
+    "torus",
     "valid_instance_name",
 ]

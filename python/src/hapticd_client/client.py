@@ -326,7 +326,7 @@ class Client:
     def commit(self, batch: Union[Batch, Iterable[Dict]]) -> Dict:
         """Commits the operations all-or-nothing at one tick boundary. Returns the reply: ``commit_seq``
         (seen as ``last_commit_seq`` in the state once applied) and ``object_ids`` (one per add)."""
-        ops = batch.ops if isinstance(batch, Batch) else list(batch)
+        ops = [self._uploaded(op) for op in (batch.ops if isinstance(batch, Batch) else list(batch))]
         tries, delay, max_delay = self._busy_retry
         start = time.monotonic()
         attempt = 1
@@ -342,6 +342,48 @@ class Client:
             time.sleep(delay)
             delay = min(2.0 * delay, max_delay)
             attempt += 1
+
+    def _uploaded(self, op: Dict) -> Dict:
+        """An operation whose ``mesh`` object carries its geometry (``hapticd_client.mesh(vertices, triangles)``):
+        the mesh uploaded first (``upload_mesh``) and the object naming it."""
+        obj = op.get("object") if isinstance(op, dict) else None
+        if not isinstance(obj, dict) or "_upload" not in obj:
+            return op
+        vertices, triangles, mode = obj["_upload"]
+        sent = {k: v for k, v in obj.items() if k != "_upload"}
+        sent["mesh"] = self.upload_mesh(vertices, triangles, solid=(mode == "solid"))
+        return {**op, "object": sent}
+
+    def upload_mesh(self, vertices, triangles, solid: bool = True, build_timeout_s: float = 10.0) -> int:
+        """Uploads a triangle mesh (docs/protocol.md, section 4a: ``mesh_begin``, chunks of at most 500 vertices or
+        1000 triangles, ``mesh_end``) and waits up to ``build_timeout_s`` until the daemon has built it. Vertices
+        (n x 3, m) and triangles (m x 3 indices) as numpy arrays or sequences. Returns the mesh id (for
+        ``mesh(mesh_id=...)``); the daemon's refusals raise HapticdError naming the vertex, triangle or limit."""
+        from .meshes import _rows
+        v = _rows("vertices", vertices, float)
+        t = _rows("triangles", triangles, int)
+        mesh_id = int(self.request("mesh_begin", vertices=len(v), triangles=len(t),
+                                   mode="solid" if solid else "surface")["mesh"])
+        for at in range(0, len(v), 500):
+            self.request("mesh_chunk", mesh=mesh_id, first=at, vertices=[c for row in v[at:at + 500] for c in row])
+        for at in range(0, len(t), 1000):
+            self.request("mesh_chunk", mesh=mesh_id, first=at, triangles=[i for row in t[at:at + 1000] for i in row])
+        self.request("mesh_end", mesh=mesh_id)
+        deadline = time.monotonic() + build_timeout_s
+        while True:
+            status = self.request("mesh_status", mesh=mesh_id)
+            if status.get("state") == "ready":
+                return mesh_id
+            if status.get("state") == "failed":
+                raise HapticdError("bad_message", f"Client.upload_mesh: mesh {mesh_id} failed: {status.get('message')}")
+            if time.monotonic() > deadline:
+                raise HapticdError("busy", f"Client.upload_mesh: mesh {mesh_id} still {status.get('state')} after "
+                                           f"{build_timeout_s} s")
+            time.sleep(0.005)
+
+    def delete_mesh(self, mesh_id: int) -> None:
+        """Drops an uploaded mesh (freed once no object renders it)."""
+        self.request("mesh_delete", mesh=int(mesh_id))
 
     def set_busy_retry(self, tries: int = 8, initial_delay_s: float = 1e-3, max_delay_s: float = 0.05) -> None:
         """How ``commit`` retries a ``busy`` reply (the hand-over queue to the loop is full): up to ``tries``
