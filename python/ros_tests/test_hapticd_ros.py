@@ -281,3 +281,44 @@ def test_the_daemon_s_end_ends_the_node_with_status_1(ros, tmp_path_factory):
         if daemon.poll() is None:
             daemon.kill()
             daemon.wait()
+
+
+def test_an_instance_s_node_reaches_that_daemon_under_its_own_namespace(ros, tmp_path_factory):
+    """`hapticd --instance NAME` and `hapticd-ros --instance NAME` find each other by the name alone (the socket
+    hapticd-NAME.sock in $XDG_RUNTIME_DIR), and the node's default namespace is /hapticd/NAME."""
+    import subprocess
+    import sys
+    import pathlib
+    from conftest import DAEMON_ARGS, HAPTICD, _connectable
+    directory = tmp_path_factory.mktemp("instance")
+    name = f"r{os.getpid()}"
+    env = {k: v for k, v in os.environ.items() if k not in ("RUNTIME_DIRECTORY", "HAPTICD_SOCKET", "HAPTICD_INSTANCE")}
+    env["XDG_RUNTIME_DIR"] = str(directory)
+    daemon = subprocess.Popen([HAPTICD, *DAEMON_ARGS, "--serve", "--instance", name], env=env,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+    node = None
+    try:
+        sock = str(directory / f"hapticd-{name}.sock")
+        assert wait_until(lambda: _connectable(sock) or daemon.poll() is not None, 20.0)
+        assert daemon.poll() is None, "hapticd --instance ended at start-up"
+        log = open(directory / "node.log", "w+")
+        script = pathlib.Path(sys.executable).with_name("hapticd-ros")
+        node = subprocess.Popen([str(script), "--instance", name], env=env, stdout=log, stderr=subprocess.STDOUT)
+        got = []
+        subscription = ros.create_subscription(PoseStamped, f"/hapticd/{name}/pose", got.append, 10)
+        ok = wait_until(lambda: len(got) >= 10 or node.poll() is not None, 60.0, spin=ros)
+        ros.destroy_subscription(subscription)
+        log.seek(0)
+        assert ok and node.poll() is None, log.read()
+        node.send_signal(signal.SIGTERM)
+        assert node.wait(20) == 0
+    finally:
+        for p in (node, daemon):
+            if p is not None and p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+                try:
+                    p.wait(20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+    assert daemon.returncode == 0

@@ -129,13 +129,7 @@ class HapticdNode(Node):
 
     def _connect(self, name: str, lease_s: float) -> hc.Client:
         kwargs = {"socket_path": self.socket_path or None, "client": name[:64], "lease_s": lease_s}
-        if self.instance:
-            try:
-                return hc.Client.connect(instance=self.instance, **kwargs)
-            except TypeError as e:  # a client without instances
-                raise ValueError(f"instance = {self.instance!r}: this hapticd_client does not support instances; "
-                                 "give socket instead") from e
-        return hc.Client.connect(**kwargs)
+        return hc.Client.connect(instance=self.instance or None, **kwargs)
 
     def _on_set_parameters(self, parameters: List[Parameter]) -> SetParametersResult:
         """Every ``objects.<name>`` in one call becomes one batch (all-or-nothing, as the service's atomic
