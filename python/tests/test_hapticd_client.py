@@ -264,9 +264,15 @@ def test_the_socket_subscription_delivers_state_messages(daemon):
     with connect(daemon) as c:
         c.subscribe(100.0)
         first = c.next_state(5.0)
-        second = c.next_state(5.0)
-        assert first is not None and second is not None
-        assert first["type"] == "state" and second["tick"] > first["tick"]
+        assert first is not None and first["type"] == "state"
+        # The next message with a later tick (a loaded machine may hold the loop back for a state period: then a
+        # message repeats its tick).
+        second = None
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and (second is None or second["tick"] <= first["tick"]):
+            second = c.next_state(5.0)
+            assert second is not None and second["tick"] >= first["tick"]
+        assert second["tick"] > first["tick"]
         assert len(first["position"]) == 3 and first["fault"] == "none"
         c.unsubscribe()
         assert c.status()["tick"] >= second["tick"]
@@ -395,8 +401,11 @@ def test_a_dead_daemon_reads_stale_and_a_live_one_does_not(tmp_path):
                 assert state.writer_pid == process.pid
                 assert state.stale_after_s == pytest.approx(0.05)
                 assert wait_until(lambda: state.read().tick > 10)
-                live = state.read(require_live=True)
-                assert not live.stale and 0.0 <= live.heartbeat_age_s < 0.05
+                # Live: a read within the staleness bound of the loop's last heartbeat (a loaded machine may hold the
+                # loop off the CPU longer than 50 ms once; then the next reads see it live again).
+                assert wait_until(lambda: not state.read().stale)
+                live = state.read()
+                assert (not live.stale) == (0.0 <= live.heartbeat_age_s <= 0.05), live
                 process.send_signal(signal.SIGSEGV)
                 assert process.wait(20) == -signal.SIGSEGV
                 dead = state.read()
