@@ -1,16 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // The tick allocates nothing (docs/architecture.md, "The real-time path"): this executable replaces the global
-// operator new and delete with counting ones, and counts the calls made on the loop's thread while
-// Daemon::run() runs 4000 ticks of a busy scene in lockstep (the tick driven back to back on the test's own
-// thread: no timing, no real-time thread). The scene: three config walls (unilateral on x and z, bilateral on
-// y); client objects of every kind (unilateral and bilateral planes, springs to a point and to a line, a field)
-// and a mesh (an icosphere rendered through its god-object proxy, moved and turned every 10 ticks)
-// planned by the server's own commit transaction (server/commit_transaction.hpp, plan_commit) and handed to the
-// loop through its rings at given ticks, as --replay does (TickFeeder); moves every 5 ticks (first-order
-// holds), a change of gains (a cross-fade), a removal (a ramp-out) and a departure (the departures ring);
-// the handle on a Lissajous path through walls and objects; a delay buffer, passivity control, the force
-// limiter, the shared-memory state with contact events, the recorder and the trace. A single allocation or
-// release inside the counted ticks fails the test, naming the counts.
+// operator new and delete with counting ones (tests/common/counting_allocator.hpp), and counts the calls made on the
+// loop's thread while Daemon::run() runs 4000 ticks of a busy scene in lockstep (the tick driven back to back on the
+// test's own thread: no timing, no real-time thread). The scene: three config walls (unilateral on x and z, bilateral
+// on y); client objects of every kind (unilateral and bilateral planes, springs to a point and to a line, a field) and
+// a mesh (an icosphere rendered through its god-object proxy, moved and turned every 10 ticks) planned by the server's
+// own commit transaction (server/commit_transaction.hpp, plan_commit) and handed to the loop through its rings at given
+// ticks, as --replay does (TickFeeder); moves every 5 ticks (first-order holds), a change of gains (a cross-fade), a
+// removal (a ramp-out) and a departure (the departures ring); the handle on a Lissajous path through walls and objects;
+// a delay buffer, passivity control, the force limiter, the shared-memory state with contact events, the recorder and
+// the trace. A single allocation or release inside the counted ticks fails the test, naming the counts.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -26,6 +25,7 @@
 #include <variant>
 #include <vector>
 
+#include "common/counting_allocator.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/recorder.hpp"
 #include "mesh/procedural_meshes.hpp"
@@ -36,68 +36,6 @@
 #include "server/commit_transaction.hpp"
 #include "server/contact_events.hpp"
 #include "server/state_publisher.hpp"
-
-// The counting allocator: every global operator new and delete of this executable. Only the thread that set
-// the flag counts (the recorder's and the trace's writer threads allocate as they like).
-namespace {
-thread_local bool t_counting = false;
-std::atomic<std::uint64_t> g_allocations{0};
-std::atomic<std::uint64_t> g_releases{0};
-
-void* counted_alloc(std::size_t size, std::size_t align = 0) {
-    if (t_counting) g_allocations.fetch_add(1, std::memory_order_relaxed);
-    if (size == 0) size = 1;
-    void* p = align > alignof(std::max_align_t) ? std::aligned_alloc(align, (size + align - 1) / align * align)
-                                                : std::malloc(size);
-    return p;
-}
-void counted_free(void* p) noexcept {
-    if (p == nullptr) return;
-    if (t_counting) g_releases.fetch_add(1, std::memory_order_relaxed);
-    std::free(p);
-}
-}  // namespace
-
-void* operator new(std::size_t size) {
-    void* p = counted_alloc(size);
-    if (p == nullptr) throw std::bad_alloc();
-    return p;
-}
-void* operator new[](std::size_t size) {
-    void* p = counted_alloc(size);
-    if (p == nullptr) throw std::bad_alloc();
-    return p;
-}
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept { return counted_alloc(size); }
-void* operator new[](std::size_t size, const std::nothrow_t&) noexcept { return counted_alloc(size); }
-void* operator new(std::size_t size, std::align_val_t align) {
-    void* p = counted_alloc(size, static_cast<std::size_t>(align));
-    if (p == nullptr) throw std::bad_alloc();
-    return p;
-}
-void* operator new[](std::size_t size, std::align_val_t align) {
-    void* p = counted_alloc(size, static_cast<std::size_t>(align));
-    if (p == nullptr) throw std::bad_alloc();
-    return p;
-}
-void* operator new(std::size_t size, std::align_val_t align, const std::nothrow_t&) noexcept {
-    return counted_alloc(size, static_cast<std::size_t>(align));
-}
-void* operator new[](std::size_t size, std::align_val_t align, const std::nothrow_t&) noexcept {
-    return counted_alloc(size, static_cast<std::size_t>(align));
-}
-void operator delete(void* p) noexcept { counted_free(p); }
-void operator delete[](void* p) noexcept { counted_free(p); }
-void operator delete(void* p, std::size_t) noexcept { counted_free(p); }
-void operator delete[](void* p, std::size_t) noexcept { counted_free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { counted_free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { counted_free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { counted_free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { counted_free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { counted_free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { counted_free(p); }
-void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { counted_free(p); }
-void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept { counted_free(p); }
 
 namespace hapticd {
 namespace {
@@ -356,12 +294,9 @@ TEST(TickAllocation, ABusySceneTicksWithoutAnAllocation) {
     Daemon daemon(device, scene, &trace, cfg);
     daemon.attach(ServerHooks{&objects, &state, &contacts});
 
-    g_allocations = 0;
-    g_releases = 0;
-    t_counting = true;
+    test::start_counting();  // only this thread counts: the recorder's and the trace's writer threads allocate freely
     const RunResult result = daemon.run();
-    t_counting = false;
-    const std::uint64_t allocations = g_allocations.load(), releases = g_releases.load();
+    const auto [allocations, releases] = test::stop_counting();
 
     EXPECT_EQ(allocations, 0U) << "operator new called " << allocations << " times in " << kTicks << " ticks";
     EXPECT_EQ(releases, 0U) << "operator delete called " << releases << " times in " << kTicks << " ticks";

@@ -245,6 +245,10 @@ class Client:
         ready, _, _ = select.select([self._sock], [], [], max(0.0, timeout_s))
         if not ready:
             return None
+        return self._recv()
+
+    def _recv(self) -> bytes:
+        """What one recv() gives (one message on SOCK_SEQPACKET); HapticdError("transport") on an error or hang-up."""
         try:
             data = self._sock.recv(MAX_MESSAGE_BYTES + 1)
         except OSError as e:
@@ -270,13 +274,7 @@ class Client:
             ready, _, _ = select.select([self._sock], [], [], max(0.0, deadline - time.monotonic()))
             if not ready:
                 return None
-            try:
-                data = self._sock.recv(MAX_MESSAGE_BYTES + 1)
-            except OSError as e:
-                raise HapticdError("transport", f"Client.receive_raw: recv: {e.strerror}") from e
-            if not data:
-                raise HapticdError("transport", "Client.receive_raw: the server closed the connection")
-            self._rx += data
+            self._rx += self._recv()
 
     @staticmethod
     def _decode(function: str, raw: bytes) -> Dict:
