@@ -14,7 +14,7 @@
 namespace hapticd::server_test {
 namespace {
 
-constexpr double kMass = 0.30, kT = 1e-3;
+constexpr double kBoxMass = 0.30, kBoxPeriod = 1e-3;
 
 struct MeshData {
     std::vector<double> vertices;  // x y z per vertex
@@ -389,8 +389,8 @@ TEST(ServerMeshStep, ABoxMeshFaceGivesThePlanesAnalysedStepResponse) {
     ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
     ASSERT_EQ(daemon.wait(), 0) << daemon.err();
 
-    const hapticopt::WallTuning t =
-        hapticopt::optimal_wall(hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{kMass, 0.0, 0.0, kT, 0.0});
+    const hapticopt::WallTuning t = hapticopt::optimal_wall(
+        hapticopt::Criterion::CE2, hapticopt::PhysicalPlant{kBoxMass, 0.0, 0.0, kBoxPeriod, 0.0});
     std::vector<double> y;
     {
         std::ifstream in(trace);
@@ -409,7 +409,7 @@ TEST(ServerMeshStep, ABoxMeshFaceGivesThePlanesAnalysedStepResponse) {
     const double x_inf = 1.0 / t.K;
     double worst = 0.0;
     for (std::size_t j = 0; j < y.size(); ++j) {
-        worst = std::max(worst, std::abs(-y[j] / 0.6 - x[j] * kT * kT / kMass) / x_inf);
+        worst = std::max(worst, std::abs(-y[j] / 0.6 - x[j] * kBoxPeriod * kBoxPeriod / kBoxMass) / x_inf);
     }
     std::printf("[ mesh step ] K %.6g B %.6g: max |p_daemon - p_analysis| / x_inf = %.3g (%.3g m) over %zu ticks\n",
                 t.K, t.B, worst, worst * x_inf, y.size());
