@@ -80,6 +80,34 @@ double sweep_triangle(const HierarchyTriangle& t, const Eigen::Vector3d& p, cons
     return along <= reach ? 0.0 : (along - reach) / length;
 }
 
+// Every triangle of every leaf whose box, grown by `grow`, the segment p + s d (s in [0, 1]) meets: visit(triangle),
+// depth first with a fixed stack (build() refuses a tree deeper than kStackSize): no allocation.
+template <class Visit>
+void for_each_leaf_triangle(const std::vector<MeshHierarchy::Node>& nodes,
+                            const std::vector<HierarchyTriangle>& triangles, const Eigen::Vector3d& p,
+                            const Eigen::Vector3d& d, double grow, Visit&& visit) {
+    if (nodes.empty() || triangles.empty()) return;
+    Eigen::Vector3d inverse;
+    std::array<bool, 3> flat{};
+    for (int k = 0; k < 3; ++k) {
+        flat[k] = std::abs(d[k]) < 1e-300;
+        inverse[k] = flat[k] ? 0.0 : 1.0 / d[k];
+    }
+    std::array<std::uint32_t, MeshHierarchy::kStackSize> stack;
+    std::size_t top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const MeshHierarchy::Node& node = nodes[stack[--top]];
+        if (!segment_meets_box(p, inverse, flat, node, grow)) continue;
+        if (node.count > 0) {
+            for (std::uint32_t i = node.first; i < node.first + node.count; ++i) visit(triangles[i]);
+        } else if (top + 2 <= MeshHierarchy::kStackSize) {
+            stack[top++] = node.first + 1;
+            stack[top++] = node.first;
+        }
+    }
+}
+
 }  // namespace
 
 std::shared_ptr<const MeshHierarchy> MeshHierarchy::build(TriangleMesh mesh, MeshMode mode) {
@@ -168,33 +196,15 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
     const double length = d.norm();
     if (!(length > 0.0)) return best;
     const double grow = offset + kEdgeTolerance;
-    Eigen::Vector3d inverse;
-    std::array<bool, 3> flat{};
-    for (int k = 0; k < 3; ++k) {
-        flat[k] = std::abs(d[k]) < 1e-300;
-        inverse[k] = flat[k] ? 0.0 : 1.0 / d[k];
-    }
-    std::array<std::uint32_t, kStackSize> stack;
-    std::size_t top = 0;
-    stack[top++] = 0;
     double fraction = HUGE_VAL;
     const HierarchyTriangle* met = nullptr;
-    while (top > 0) {
-        const Node& node = nodes_[stack[--top]];
-        if (!segment_meets_box(p, inverse, flat, node, grow)) continue;
-        if (node.count > 0) {
-            for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
-                const double s = sweep_triangle(triangles_[i], p, d, length, offset);
-                if (s <= 1.0 && s < fraction) {
-                    fraction = s;
-                    met = &triangles_[i];
-                }
-            }
-        } else if (top + 2 <= kStackSize) {
-            stack[top++] = node.first + 1;
-            stack[top++] = node.first;
+    for_each_leaf_triangle(nodes_, triangles_, p, d, grow, [&](const HierarchyTriangle& t) noexcept {
+        const double s = sweep_triangle(t, p, d, length, offset);
+        if (s <= 1.0 && s < fraction) {
+            fraction = s;
+            met = &t;
         }
-    }
+    });
     if (met != nullptr) {
         best.fraction = fraction;
         best.triangle = met->index;
@@ -207,27 +217,7 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
 
 void MeshHierarchy::visit_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double grow,
                                   const std::function<void(const HierarchyTriangle&)>& visit) const {
-    if (nodes_.empty() || triangles_.empty()) return;
-    const Eigen::Vector3d d = q - p;
-    Eigen::Vector3d inverse;
-    std::array<bool, 3> flat{};
-    for (int k = 0; k < 3; ++k) {
-        flat[k] = std::abs(d[k]) < 1e-300;
-        inverse[k] = flat[k] ? 0.0 : 1.0 / d[k];
-    }
-    std::array<std::uint32_t, kStackSize> stack;
-    std::size_t top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        const Node& node = nodes_[stack[--top]];
-        if (!segment_meets_box(p, inverse, flat, node, grow)) continue;
-        if (node.count > 0) {
-            for (std::uint32_t i = node.first; i < node.first + node.count; ++i) visit(triangles_[i]);
-        } else if (top + 2 <= kStackSize) {
-            stack[top++] = node.first + 1;
-            stack[top++] = node.first;
-        }
-    }
+    for_each_leaf_triangle(nodes_, triangles_, p, q - p, grow, visit);
 }
 
 std::size_t MeshHierarchy::memory_bytes() const {

@@ -159,15 +159,19 @@ std::optional<cl::StateSample> wait_state(const cl::StateReader& r, Pred pred, d
     return std::nullopt;
 }
 
-// One hapticd --serve (step scenario, zero force) shared by every test of a suite; it must end with exit
-// code 0 on SIGTERM. Tag names its socket, shared memory and log files.
-template <const char* Tag>
+// The shared daemon's arguments: the step scenario with zero force.
+inline std::vector<std::string> step_daemon_args(const Names& n) {
+    return daemon_args(n, {"--scenario", "step", "--step-force", "0"});
+}
+
+// One hapticd --serve (Args: by default the step scenario, zero force) shared by every test of a suite; it must end
+// with exit code 0 on SIGTERM. Tag names its socket, shared memory and log files.
+template <const char* Tag, std::vector<std::string> (*Args)(const Names&) = step_daemon_args>
 class SharedDaemonTest : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
         n_ = new Names(names(Tag));
-        daemon_ = new Child(HAPTICD_BINARY, daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}),
-                            std::string(Tag) + "_daemon");
+        daemon_ = new Child(HAPTICD_BINARY, Args(*n_), std::string(Tag) + "_daemon");
         ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
     }
     static void TearDownTestSuite() {

@@ -130,24 +130,13 @@ json mesh_object(std::uint32_t id, const std::array<double, 3>& position, const 
     return json{{"kind", "mesh"}, {"mesh", id}, {"position", position}, {"orientation", q}, {"gains", gains}};
 }
 
+// The shared daemon without config walls (a mesh alone on the scene) and without the watchdog.
+std::vector<std::string> mesh_step_daemon_args(const Names& n) {
+    return mesh_daemon_args(n, {"--scenario", "step", "--step-force", "0"});
+}
+
 constexpr char kMeshTag[] = "meshes";
-class ServerMeshes : public ::testing::Test {
-  protected:
-    static void SetUpTestSuite() {
-        n_ = new Names(names(kMeshTag));
-        daemon_ = new Child(HAPTICD_BINARY, mesh_daemon_args(*n_, {"--scenario", "step", "--step-force", "0"}),
-                            std::string(kMeshTag) + "_daemon");
-        ASSERT_TRUE(wait_for_socket(n_->socket)) << daemon_->err();
-    }
-    static void TearDownTestSuite() {
-        daemon_->signal(SIGTERM);
-        EXPECT_EQ(daemon_->wait(), 0) << daemon_->err();
-        delete daemon_;
-        delete n_;
-    }
-    static inline Names* n_ = nullptr;
-    static inline Child* daemon_ = nullptr;
-};
+class ServerMeshes : public SharedDaemonTest<kMeshTag, mesh_step_daemon_args> {};
 
 TEST_F(ServerMeshes, ABoxUploadsBuildsAndIsAddedListedAndRemoved) {
     RawConnection c(n_->socket);
