@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // One run of the wall: per tick read the device position, compute the scene's force, delay it by the
 // delay buffer, apply passivity control, pass it through the force limiter (scene/force_limiter.hpp: saturation
-// and the rate limit against the force written the tick before), write it to the device, trace. Every path out
+// and the rate limit on the changes the scene makes to the law), write it to the device, trace. Every path out
 // of the loop ends with a tick that writes zero force:
 //  * a fault (device error, non-finite value, watchdog): zero at once in the tick of the fault, and the loop
 //    stops — the one step the rate limit does not bound;
@@ -97,7 +97,12 @@ class Daemon {
     TraceWriter* trace_;
     DaemonConfig config_;
     RealtimeLoop loop_;
-    DelayRing<AxisVector> delay_;
+    // The delay buffer holds each tick's force with what the scene changed in its law (the limiter's input).
+    struct LawForce {
+        AxisVector force{};
+        LawChange change{};
+    };
+    DelayRing<LawForce> delay_;
     ForceLimiter limiter_;
     Watchdog watchdog_;
     // The last tick of the run: max_ticks - 1, or S + R - 1 after a stop request seen at tick S.

@@ -8,8 +8,9 @@
 //  4. the force: the config walls (Scene::evaluate) plus the clients' objects (SceneObjects::add_forces), checked
 //     finite;
 //  5. the delay buffer, passivity control (propose);
-//  6. the force limiter (scene/force_limiter.hpp), the one stage that saturates and rate-limits the force written:
-//     a fault zeroes at once, a stop's target is zero;
+//  6. the force limiter (scene/force_limiter.hpp), the one stage that saturates and rate-limits the force written
+//     (the changes the scene makes to the law, carried through the delay buffer beside the force): a fault zeroes
+//     at once, a stop's target is zero;
 //  7. write_force, then the recording, the shared-memory state and contact events, the trace.
 // No allocation, lock, exception or I/O other than the device's (tests/daemon/test_tick_allocation.cpp counts
 // the allocations of a busy scene's ticks).
@@ -63,8 +64,12 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
             result_.fault_tick = in.tick;
         }
     }
-    // The delay buffer keeps its timing whatever happens; its output is applied only while all is well.
-    AxisVector delayed = delay_.push_pop(force);
+    // The delay buffer keeps its timing whatever happens; its output is applied only while all is well. The
+    // scene's change of the law travels with the force it belongs to; the config walls' law appears at tick 0.
+    LawForce law{force, hooks_.objects != nullptr ? hooks_.objects->law_change() : LawChange{}};
+    if (in.tick == 0) law.change.whole = true;
+    LawForce out = delay_.push_pop(law);
+    AxisVector& delayed = out.force;
     // Passivity control observes the port after the delay buffer and damps what it generated (same tick); it
     // books the force the limiter lets through (commit below).
     const bool passivity = config_.passivity != nullptr && result_.fault == StateFault::None;
@@ -74,7 +79,8 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
     if (result_.fault != StateFault::None) {
         limiter_.zero();
     } else {
-        applied = limiter_.step(stopping ? AxisVector{} : delayed);
+        applied =
+            stopping ? limiter_.step(AxisVector{}, LawChange::whole_change()) : limiter_.step(delayed, out.change);
         if (last) applied = AxisVector{};  // zero already: R steps of max_step reach it from any saturated force
     }
     if (passivity) config_.passivity->commit(applied);

@@ -57,21 +57,42 @@ ForceLimiter::ForceLimiter(double max_force, double max_force_rate, double perio
     stop_ticks_ = static_cast<std::uint64_t>(std::ceil(max_force / max_step_ - 1e-9)) + 1U;
 }
 
-AxisVector ForceLimiter::step(const AxisVector& target) noexcept {
-    double f[3] = {target[0], axes_ > 1 ? target[1] : 0.0, axes_ > 2 ? target[2] : 0.0};
+AxisVector ForceLimiter::step(const AxisVector& target, const LawChange& change) noexcept {
+    double g[3] = {target[0], axes_ > 1 ? target[1] : 0.0, axes_ > 2 ? target[2] : 0.0};
     const double m = max_force_;
-    const bool saturated = saturate(f[0], m) | saturate(f[1], m) | saturate(f[2], m);  // no short circuit
+    const bool saturated = saturate(g[0], m) | saturate(g[1], m) | saturate(g[2], m);  // no short circuit
     stats_.saturated_ticks += saturated ? 1U : 0U;
+    double o[3];
+    for (std::size_t a = 0; a < 3; ++a) {
+        o[a] = change.whole ? last_[a] - g[a] : offset_[a] - (a < axes_ ? change.shift[a] : 0.0);
+    }
+    // A non-finite shift (the scene's sums are checked finite, its change is not) counts as a whole change.
+    if (!std::isfinite(o[0]) || !std::isfinite(o[1]) || !std::isfinite(o[2])) {
+        for (std::size_t a = 0; a < 3; ++a) o[a] = last_[a] - g[a];
+    }
+    const double o0 = std::fabs(o[0]), o1 = std::fabs(o[1]), o2 = std::fabs(o[2]);
+    const double o01 = o0 > o1 ? o0 : o1;
+    const double held = o01 > o2 ? o01 : o2;
+    const double keep = held > max_step_ ? 1.0 - max_step_ / held : 0.0;  // shrink(o): ||o||_inf less max_step
+    double f[3];
+    const bool changed = change.whole || change.shift != AxisVector{};
+    for (std::size_t a = 0; a < 3; ++a) {
+        o[a] *= keep;
+        f[a] = g[a] + o[a];
+        if (changed) {  // between the force written last and the law's, per axis; o what that leaves
+            const double lo = last_[a] < g[a] ? last_[a] : g[a], hi = last_[a] < g[a] ? g[a] : last_[a];
+            f[a] = f[a] < lo ? lo : f[a] > hi ? hi : f[a];
+            o[a] = f[a] - g[a];
+        }
+    }
+    stats_.rate_limited_ticks += o[0] != 0.0 || o[1] != 0.0 || o[2] != 0.0 ? 1U : 0U;
+    // Without a change g + o may lie beyond the limit (g moved, o decays on its own).
+    (void)(saturate(f[0], m) | saturate(f[1], m) | saturate(f[2], m));
     const double c0 = std::fabs(f[0] - last_[0]), c1 = std::fabs(f[1] - last_[1]), c2 = std::fabs(f[2] - last_[2]);
     const double c01 = c0 > c1 ? c0 : c1;
-    double largest = c01 > c2 ? c01 : c2;
-    if (largest > max_step_) {
-        const double scale = max_step_ / largest;
-        for (std::size_t a = 0; a < 3; ++a) f[a] = last_[a] + scale * (f[a] - last_[a]);
-        largest = max_step_;
-        ++stats_.rate_limited_ticks;
-    }
+    const double largest = c01 > c2 ? c01 : c2;
     if (largest > stats_.largest_step) stats_.largest_step = largest;
+    offset_ = {o[0], o[1], o[2]};
     last_ = {f[0], f[1], f[2]};
     return last_;
 }

@@ -3,7 +3,8 @@
 // config walls' sum, checked finite) and what the tests observe (rendered_gains, the slots). The other concerns
 // are in files of their own: scene_objects_batches.cpp (batches, departures, ramps), scene_objects_affine.cpp (the
 // affine laws and their compensated sums), scene_objects_classify.cpp (classification, the safe radius, moves),
-// scene_objects_unilateral.cpp (the vectorised unilateral planes), scene_objects_glides.cpp (move holds, activation).
+// scene_objects_unilateral.cpp (the vectorised unilateral planes), scene_objects_glides.cpp (move holds, activation),
+// scene_objects_law_change.cpp (what the scene changed in the law, for the force limiter).
 #include "scene/scene_objects.hpp"
 
 #include <algorithm>
@@ -75,6 +76,8 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
 
     if ((activation_mask_ | gliding_mask_) != 0) [[unlikely]]
         glide_tick(x);
+    law_change_.whole = whole_change_pending_;
+    whole_change_pending_ = false;
     ++ticks_;
     const double d0 = x0 - reference_[0], d1 = x1 - reference_[1], d2 = x2 - reference_[2];
     const double moved2 = d0 * d0 + d1 * d1 + d2 * d2;
@@ -132,6 +135,9 @@ bool SceneObjects::add_forces(const AxisVector& position, AxisVector& force) noe
         f2 = fm[2];
     }
     contact_mask_ = mask;
+    law_change_.shift = AxisVector{};
+    if (shifted_mask_ != 0) [[unlikely]]
+        sum_pose_shifts(x, velocity_);
     if (ramping_ > 0) step_ramps();
 
     if (config_.axes < 2) f1 = 0.0;

@@ -81,7 +81,8 @@
 // The code, one concern per file: scene_objects.cpp (construction, add_forces, the observations),
 // scene_objects_batches.cpp (batches, departures, ramps), scene_objects_affine.cpp (the affine laws, compensated
 // sums), scene_objects_classify.cpp (classification, safe radius, moves), scene_objects_unilateral.cpp (the
-// vectorised unilateral planes), scene_objects_glides.cpp (move holds, activation).
+// vectorised unilateral planes), scene_objects_glides.cpp (move holds, activation), scene_objects_law_change.cpp
+// (what the scene changed in the law, for the force limiter).
 #pragma once
 
 #include <array>
@@ -95,6 +96,7 @@
 #include "common/velocity_estimator_spec.hpp"
 #include "mesh/god_object_proxy.hpp"
 #include "loop/spsc_ring.hpp"
+#include "scene/force_limiter.hpp"
 #include "scene/velocity_filter.hpp"
 
 namespace hapticd {
@@ -270,6 +272,12 @@ class SceneObjects {
     // Batches held now until the ramps in progress end (apply_commits).
     [[nodiscard]] std::size_t held() const noexcept { return held_count_; }
     [[nodiscard]] const AxisVector& velocity() const noexcept { return velocity_; }
+    // What the scene changed in the law the last add_forces() rendered, for the force limiter
+    // (scene/force_limiter.hpp): whole when a batch other than moves was applied for it (apply_commits), a
+    // departure, a ramp step, or a mesh moved; otherwise `shift`, the moves' change of the force at that tick's
+    // handle position and velocity estimate: for each object moved since the last add_forces(), its law there
+    // with its pose now less with its pose before the move (scene_objects_law_change.cpp).
+    [[nodiscard]] const LawChange& law_change() const noexcept { return law_change_; }
     // Slots whose rendered pose is still on its way to the commanded one (move interpolation, activation).
     [[nodiscard]] std::uint64_t gliding() const noexcept { return gliding_mask_; }
     // The linear gains of the scene the next add_forces() renders (call it after apply_commits()), every
@@ -463,9 +471,18 @@ class SceneObjects {
     std::array<Glide, kSceneObjectCapacity> glides_{};
     std::array<std::uint64_t, kSceneObjectCapacity> pose_tick_{};  // tick of the slot's last commanded pose
     std::array<double, kSceneObjectCapacity> pose_interval_{};     // its mean update interval (ticks), see begin_glide
-    std::uint64_t gliding_mask_ = 0;         // slots whose rendered pose is on its way to the commanded one
-    std::uint64_t activation_mask_ = 0;      // new unilateral planes, to be checked against the handle this tick
-    std::uint64_t ticks_ = 0;                // add_forces calls so far
+    std::uint64_t gliding_mask_ = 0;     // slots whose rendered pose is on its way to the commanded one
+    std::uint64_t activation_mask_ = 0;  // new unilateral planes, to be checked against the handle this tick
+    std::uint64_t ticks_ = 0;            // add_forces calls so far
+    // law_change() (scene_objects_law_change.cpp): a whole change pending for the next add_forces (a batch, a
+    // departure, a ramp step), the slots moved since the last add_forces with their objects as they were before
+    // the first of those moves, and what the last add_forces rendered.
+    bool whole_change_pending_ = true;  // the objects' law appears with the first tick
+    std::uint64_t shifted_mask_ = 0;
+    std::array<ObjectParams, kSceneObjectCapacity> before_move_{};
+    LawChange law_change_{};
+    void note_pose_change(std::size_t slot) noexcept;
+    void sum_pose_shifts(const AxisVector& x, const AxisVector& v) noexcept;
     std::uint32_t move_hold_max_ = 0;        // move_interval_max in ticks
     double activation_step_ = 0.0;           // activation_speed T, m per tick
     double activation_tail_fraction_ = 1.0;  // T / kActivationTailTime: the share of the gap taken per tick at the end

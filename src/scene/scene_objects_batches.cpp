@@ -128,6 +128,7 @@ void SceneObjects::finish_ramps() noexcept {
         }
     }
     if (changed) {
+        whole_change_pending_ = true;
         scene_changed_ = true;
         ++slot_table_version_;
         count_occupied();
@@ -193,6 +194,7 @@ void SceneObjects::apply(const ObjectCommit& commit, bool at_once) noexcept {
         }
     }
     if (!only_moves) {
+        whole_change_pending_ = true;
         scene_changed_ = true;
         ++slot_table_version_;
         count_occupied();
@@ -229,6 +231,7 @@ void SceneObjects::step_ramps() noexcept {
             slot.fading.active = r > 0.0;
         }
     }
+    whole_change_pending_ = true;
     scene_changed_ = true;
     ++slot_table_version_;
     count_occupied();

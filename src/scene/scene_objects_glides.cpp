@@ -39,6 +39,7 @@ void SceneObjects::begin_glide(std::size_t s, const ObjectParams& commanded) noe
         return;
     }
     if (move_hold_max_ == 0) {
+        note_pose_change(s);
         p.offset = commanded.offset;
         p.point = commanded.point;
         p.force = commanded.force;
@@ -176,6 +177,7 @@ void SceneObjects::advance_glides() noexcept {
         const std::uint64_t bit = std::uint64_t{1} << s;
         Glide& g = glides_[s];
         ObjectParams& p = slots_[s].current.params;
+        note_pose_change(s);
         bool done = false;
         if (g.approaching) {
             // v T per tick while the gap exceeds v tau, then the fraction T / tau of the gap (speed gap / tau,

@@ -369,11 +369,11 @@ TEST(ForceLimiter, ARateStepOfTheWholeForceLimitIsRefusedNamingTheRange) {
     ForceLimiter l(10.0, 1000.0, 1e-3, 3);
     EXPECT_EQ(l.stop_ticks(), 11U);
     // The change is scaled as a whole: direction kept, infinity norm 1 N.
-    const AxisVector f = l.step({4.0, -2.0, 0.0});
+    const AxisVector f = l.step({4.0, -2.0, 0.0}, LawChange::whole_change());
     EXPECT_DOUBLE_EQ(f[0], 1.0);
     EXPECT_DOUBLE_EQ(f[1], -0.5);
     // Saturation per axis first (40 N -> 10 N), then the rate limit.
-    const AxisVector g = l.step({40.0, -0.5, 0.0});
+    const AxisVector g = l.step({40.0, -0.5, 0.0}, LawChange::whole_change());
     EXPECT_DOUBLE_EQ(g[0], 2.0);
     EXPECT_DOUBLE_EQ(g[1], -0.5);
     EXPECT_EQ(l.stats().saturated_ticks, 1U);

@@ -340,8 +340,8 @@ TEST(SceneObjects, AUnilateralPlaneIsTheWallLawAlongItsNormal) {
 }
 
 // The objects' sum is their laws' sum, neither saturated nor rate-limited: the force limiter
-// (scene/force_limiter.hpp) does both on the force written, its change per tick limited to max_force_rate T
-// (scaled as a whole).
+// (scene/force_limiter.hpp) does both on the force written, the change a new object makes limited to
+// max_force_rate T per tick (scaled as a whole).
 TEST(SceneObjects, TheTotalIsTheLawsSumAndTheForceLimiterLimitsItsRate) {
     Rig rig(0.0);
     ForceLimiter limiter(1e6, 1000.0, kT, 3);  // 1 N per tick
@@ -353,10 +353,15 @@ TEST(SceneObjects, TheTotalIsTheLawsSumAndTheForceLimiterLimitsItsRate) {
     rig.commit({{0, SlotUpdate::Action::Set, field}});
     AxisVector total = rig.tick({0, 0, 0});
     EXPECT_EQ(total, (AxisVector{3.0, 4.0, 0.0}));
-    AxisVector f = limiter.step(total);
+    EXPECT_TRUE(rig.objects.law_change().whole);  // the field appeared
+    AxisVector f = limiter.step(total, rig.objects.law_change());
     EXPECT_NEAR(f[1], 1.0, 1e-12);  // the larger component moves by 1 N, the direction is kept
     EXPECT_NEAR(f[0], 0.75, 1e-12);
-    for (int k = 0; k < 5; ++k) f = limiter.step(rig.tick({0, 0, 0}));
+    for (int k = 0; k < 5; ++k) {
+        const AxisVector law = rig.tick({0, 0, 0});
+        EXPECT_FALSE(rig.objects.law_change().whole);
+        f = limiter.step(law, rig.objects.law_change());  // the offset decays by 1 N per tick
+    }
     EXPECT_NEAR(f[0], 3.0, 1e-12);
     EXPECT_NEAR(f[1], 4.0, 1e-12);
     EXPECT_GE(limiter.stats().rate_limited_ticks, 3U);

@@ -144,7 +144,7 @@ TEST(SceneProperty, ForceAlwaysFiniteAndSaturatedByTheLimiter) {
             AxisVector f{1.0, 1.0, 1.0};
             const SceneFault fault = scene.evaluate(p, f);
             for (double v : f) ASSERT_TRUE(std::isfinite(v));
-            for (double v : limiter.step(f)) ASSERT_LE(std::abs(v), fmax);
+            for (double v : limiter.step(f, LawChange{})) ASSERT_LE(std::abs(v), fmax);
             if (fault != SceneFault::None) {
                 for (double v : f) ASSERT_EQ(v, 0.0);
             }
@@ -188,8 +188,10 @@ TEST(SceneProperty, TheSceneDoesNotSaturateTheForceLimiterDoes) {
     AxisVector f{};
     scene.evaluate({0.01, 0.0, 0.0}, f);  // 100 N asked
     EXPECT_EQ(f[0], -100.0);
-    EXPECT_DOUBLE_EQ(limiter.step(f)[0], -4.999);  // saturated to 5 N, then one step of 4.999 N from zero
-    EXPECT_EQ(limiter.step(f)[0], -5.0);
+    // The wall appears (a whole change): saturated to 5 N, then one step of 4.999 N from zero; the offset left,
+    // 1 mN, decays at the next tick.
+    EXPECT_DOUBLE_EQ(limiter.step(f, LawChange::whole_change())[0], -4.999);
+    EXPECT_EQ(limiter.step(f, LawChange{})[0], -5.0);
     EXPECT_EQ(limiter.stats().saturated_ticks, 2U);
     EXPECT_EQ(limiter.stats().rate_limited_ticks, 1U);
 }
