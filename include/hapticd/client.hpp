@@ -182,6 +182,10 @@ struct DeviceInfo {
     // The plant set every check holds for (docs/robust-stability.md): the mass matrix scaled by mass_scale[0] ..
     // mass_scale[1]; plant_set_exact false when the checks sample the set (a profile with b or k > 0).
     std::array<double, 2> mass_scale{1.0, 1.0};
+    // With every mass, an arm of k_H / m up to arm_stiffness_per_mass (s^-2) and b_H / m up to arm_damping_per_mass
+    // (s^-1); 0 and 0: the device alone.
+    double arm_stiffness_per_mass = 0.0;
+    double arm_damping_per_mass = 0.0;
     bool plant_set_exact = true;
 };
 

@@ -2,7 +2,8 @@
 // Stability of fixed physical gains over an interval of moving masses: the hand gripping or letting go.
 // Beyond Hulin et al. 2011, whose objective 4 is robustness against the operator's parameters.
 //
-// Free-mass plant (b = k = 0, gamma = delta = 0): the normalised plant depends on the delay d alone, and
+// Free-mass plant (b = k = 0, gamma = delta = 0), or an arm given per unit mass (k/m and b/m fixed: ArmAlongRay::
+// per_mass): the normalised plant (gamma, delta, d) is the same at every mass, and
 // fixed physical gains (K, B) acting on mass m are alpha = K T^2 / m, beta = B T / m. With a reference mass
 // m_ref and (alpha, beta) its normalised gains, mass m gives s (alpha, beta), s = m_ref / m: the masses
 // [m_lo, m_hi] are the segment s in [m_ref / m_hi, m_ref / m_lo] of a ray through the origin. The
@@ -160,22 +161,33 @@ HAPTICOPT_FUNC std::vector<double> gain_ray_crossings(const AffineCharacteristic
     ;
 #endif
 
-/// The exact verdict of one loop and its affine characteristic polynomial, for the free-mass plant (gamma =
-/// delta = 0) with a velocity estimator; judges gains over scale intervals (header comment).
+/// How the plant's gamma and delta read along the mass ray. `fixed_physical` (the default): they come from a
+/// physical k and b, so gamma = k T^2 / m and delta = b T / m change with the mass and only gamma = delta = 0 (the
+/// free-mass plant) keeps the normalised plant the same at every mass: other values are refused. `per_mass`: they
+/// are k/m and b/m held fixed while the mass scales (an arm whose stiffness and damping per unit of the moving mass
+/// are given, the form in which Hulin et al. 2011, eq. 2, bound the human arm), so the normalised plant is the same
+/// at every mass and the test is exact for any gamma, delta >= 0.
+enum class ArmAlongRay { fixed_physical, per_mass };
+
+/// The exact verdict of one loop and its affine characteristic polynomial, for a plant whose normalised form is the
+/// same at every mass of the ray (ArmAlongRay) with a velocity estimator; judges gains over scale intervals (header
+/// comment).
 class MassScalingTest {
   public:
-    /// Throws InvalidParameter for gamma or delta != 0 (the plant then depends on the mass), an invalid plant
-    /// or estimator.
+    /// Throws InvalidParameter for gamma or delta != 0 with ArmAlongRay::fixed_physical (the plant then depends on
+    /// the mass), an invalid plant or estimator.
     HAPTICOPT_DEFERRED
-    MassScalingTest(const NormalizedPlant& plant, const VelocityEstimator& estimator = {})
+    MassScalingTest(const NormalizedPlant& plant, const VelocityEstimator& estimator = {},
+                    ArmAlongRay arm = ArmAlongRay::fixed_physical)
         : plant_(plant), estimator_(estimator), sampled_(plant) {
         const char* fn = "hapticopt::MassScalingTest";
         validate(plant, fn);
         validate(estimator, fn);
-        if (plant.gamma != 0.0 || plant.delta != 0.0) {
+        if (arm == ArmAlongRay::fixed_physical && (plant.gamma != 0.0 || plant.delta != 0.0)) {
             throw InvalidParameter(fn, plant.gamma != 0.0 ? "gamma" : "delta",
                                    plant.gamma != 0.0 ? plant.gamma : plant.delta,
-                                   "0 (the free-mass plant: with b or k the normalised plant depends on the mass)");
+                                   "0 (the free-mass plant: with b or k the normalised plant depends on the mass; "
+                                   "ArmAlongRay::per_mass reads them as k/m and b/m)");
         }
         if (is_backward()) {
             poly_ = characteristic_polynomial(sampled_);

@@ -78,6 +78,9 @@ def test_welcome_describes_the_device(daemon):
         # The default sim profile's plant set: mass_range [0.22, 0.30] kg widened by 10 % (0.200 .. 0.330 kg).
         assert c.device.mass_scale == pytest.approx((0.22 / 0.30 / 1.1, 1.1), rel=1e-12)
         assert w["device"]["plant_set"]["exact"] is True is c.device.plant_set_exact
+        # With every mass, the arm of the paper's eq. 2 (config/devices/sim.toml).
+        assert c.device.arm_stiffness_per_mass == 1000.0 == w["device"]["plant_set"]["arm_stiffness_per_mass"]
+        assert c.device.arm_damping_per_mass == 20.0 == w["device"]["plant_set"]["arm_damping_per_mass"]
         c.bye()
 
 

@@ -231,6 +231,10 @@ Client Client::connect(const ConnectOptions& options) {
         we.device.mass_scale = {scale[0].get<double>(), scale[1].get<double>()};
     }
     we.device.plant_set_exact = set.value("exact", true);
+    const json arm_k = set.value("arm_stiffness_per_mass", json(0.0)),
+               arm_b = set.value("arm_damping_per_mass", json(0.0));
+    if (arm_k.is_number()) we.device.arm_stiffness_per_mass = arm_k.get<double>();
+    if (arm_b.is_number()) we.device.arm_damping_per_mass = arm_b.get<double>();
     return c;
 }
 

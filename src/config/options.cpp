@@ -467,6 +467,8 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--fail_at_tick", p.fail_at_tick);
     app.add_option("--mass_range", p.mass_range);
     app.add_option("--mass_margin", p.mass_margin);
+    app.add_option("--arm_stiffness_per_mass", p.arm_stiffness_per_mass);
+    app.add_option("--arm_damping_per_mass", p.arm_damping_per_mass);
     app.add_option("--damping_range", p.damping_range);
     app.add_option("--stiffness_range", p.stiffness_range);
     app.add_option("--inherent_delay_range", p.inherent_delay_range);
@@ -617,6 +619,8 @@ DeviceProfile load_device_profile(const Options& o) {
         }
     }
     check_range(where, "mass_margin", p.mass_margin, 0.0, 1.0, false, "0 .. 1 (relative)");
+    check_range(where, "arm_stiffness_per_mass", p.arm_stiffness_per_mass, 0.0, 1e6, false, "0 .. 1e6 s^-2 (k_H / m)");
+    check_range(where, "arm_damping_per_mass", p.arm_damping_per_mass, 0.0, 1e4, false, "0 .. 1e4 s^-1 (b_H / m)");
     return p;
 }
 

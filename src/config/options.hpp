@@ -155,6 +155,10 @@ struct DeviceProfile {
     // Every scene is certified stable for the moving masses mass_range (or the mass alone) widened by this relative
     // margin: [min / (1 + margin), max (1 + margin)] (`mass_margin`, 0 .. 1; docs/robust-stability.md).
     double mass_margin = 0.1;
+    // The arm in the set (docs/robust-stability.md, "The arm"): k_H / m in [0, arm_stiffness_per_mass] (s^-2) and
+    // b_H / m in [0, arm_damping_per_mass] (s^-1) with every mass; 0 and 0: the device alone.
+    double arm_stiffness_per_mass = 0.0;
+    double arm_damping_per_mass = 0.0;
 };
 
 // Parses argv (and the config file it selects); --help ends with `help_footer` (the daemon's exit codes). Throws

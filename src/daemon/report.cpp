@@ -34,6 +34,11 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
         std::snprintf(buf, sizeof buf, ";%s stable for every mass %.4g .. %.4g kg (%s)", derated.c_str(), c.mass_min,
                       c.mass_max, c.exact ? "exact" : "sampled");
         line += buf;
+        if (c.arm_stiffness_per_mass > 0.0 || c.arm_damping_per_mass > 0.0) {
+            std::snprintf(buf, sizeof buf, " with every arm k_H / m <= %.4g s^-2, b_H / m <= %.4g s^-1 (sampled)",
+                          c.arm_stiffness_per_mass, c.arm_damping_per_mass);
+            line += buf;
+        }
     }
     if (t.robust) {
         const RobustSummary& r = *t.robust;
@@ -157,6 +162,8 @@ nlohmann::json tuning_json(const TuningResult& t) {
     j["stability_margin"] = t.stability_margin();
     if (t.plant_set) {
         j["plant_set"] = {{"mass", {t.plant_set->mass_min, t.plant_set->mass_max}},
+                          {"arm_stiffness_per_mass", t.plant_set->arm_stiffness_per_mass},
+                          {"arm_damping_per_mass", t.plant_set->arm_damping_per_mass},
                           {"derating", t.plant_set->derating},
                           {"exact", t.plant_set->exact}};
     } else {

@@ -28,23 +28,29 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     if (p.mass_range.size() == 2 && p.mass_model.isotropic)
         cp.mass_range = std::make_pair(std::min(p.mass_range[0], cp.mass), std::max(p.mass_range[1], cp.mass));
     cp.mass_margin = p.mass_margin;
+    cp.arm_stiffness_per_mass = p.arm_stiffness_per_mass;
+    cp.arm_damping_per_mass = p.arm_damping_per_mass;
     const GainChecker checker(cp);
     const auto [c_min, c_max] = checker.mass_scales();
     PlantSetCertificate c;
     c.mass_min = c_min * cp.mass;
     c.mass_max = c_max * cp.mass;
     c.exact = checker.certified();
+    c.arm_stiffness_per_mass = cp.arm_stiffness_per_mass;
+    c.arm_damping_per_mass = cp.arm_damping_per_mass;
     double failing_mass = 0.0;
     if (checker.pair_is_stable(t.K, t.B, cp.mass, failing_mass)) {
         t.plant_set = c;
         return;
     }
     if (allow_unstable) return;  // --passivity-control: the controller keeps the wall bounded (no certificate)
+    const PairVerdict v = checker.check_pair(t.K, t.B, cp.mass);
     std::ostringstream m;
     m << what << ": K = " << t.K << " N/m, B = " << t.B << " N s/m"
-      << (t.explicit_gains ? std::string() : " (the optimum of criterion " + t.criterion + ")")
-      << " are unstable with the mass " << failing_mass << " kg of " << checker.set_text() << " (device profile '"
-      << p.path << "': mass_range, mass_margin)";
+      << (t.explicit_gains ? std::string() : " (the optimum of criterion " + t.criterion + ")") << " are unstable with "
+      << GainChecker::plant_text(failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) << " of "
+      << checker.set_text() << " (device profile '" << p.path << "': mass_range, mass_margin, arm_stiffness_per_mass, "
+      << "arm_damping_per_mass)";
     if (t.explicit_gains)
         throw StartupError(ErrorKind::UnstableGains, m.str() + "; accepted: gains stable over the set");
     const double T = cp.period;

@@ -69,6 +69,8 @@ json device_json(const ServerConfig& config, const GainChecker& checker) {
                 {"velocity_estimator", to_string(checker.plant().velocity)},
                 {"plant_set",
                  {{"mass_scale", {checker.mass_scales().first, checker.mass_scales().second}},
+                  {"arm_stiffness_per_mass", checker.plant().arm_stiffness_per_mass},
+                  {"arm_damping_per_mass", checker.plant().arm_damping_per_mass},
                   {"exact", checker.certified()}}}};
 }
 

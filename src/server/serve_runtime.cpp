@@ -83,6 +83,8 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.max_stiffness = profile.max_stiffness;  // none: no limit
     if (profile.mass_range.size() == 2) plant.mass_range = std::make_pair(profile.mass_range[0], profile.mass_range[1]);
     plant.mass_margin = profile.mass_margin;  // every verdict holds over the set (docs/robust-stability.md)
+    plant.arm_stiffness_per_mass = profile.arm_stiffness_per_mass;
+    plant.arm_damping_per_mass = profile.arm_damping_per_mass;
     try {
         checker_ = std::make_unique<GainChecker>(plant);
     } catch (const std::invalid_argument& e) {

@@ -72,26 +72,66 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
         scale_min_ = lo / plant_.mass / (1.0 + margin);
         scale_max_ = hi / plant_.mass * (1.0 + margin);
     }
-    if (free_mass_plant_) scaling_.emplace(normalized_for(plant_.mass), estimator_);
+    const double k_arm = plant_.arm_stiffness_per_mass, b_arm = plant_.arm_damping_per_mass;
+    if (!(k_arm >= 0.0 && k_arm <= 1e6) || !(b_arm >= 0.0 && b_arm <= 1e4)) {
+        throw std::invalid_argument("GainChecker: arm_stiffness_per_mass = " + number_text(k_arm) +
+                                    " s^-2, arm_damping_per_mass = " + number_text(b_arm) +
+                                    " s^-1 are invalid; accepted: 0 .. 1e6 s^-2 and 0 .. 1e4 s^-1 (k_H / m, b_H / m)");
+    }
+    const double T = plant_.period;
+    std::vector<double> gammas{0.0}, deltas{0.0};
+    if (k_arm > 0.0) gammas = {0.0, 0.5 * k_arm * T * T, k_arm * T * T};
+    if (b_arm > 0.0) deltas = {0.0, 0.5 * b_arm * T, b_arm * T};
+    arm_points_.clear();
+    for (const double g : gammas) {
+        for (const double d : deltas) arm_points_.emplace_back(g, d);
+    }
+    if (free_mass_plant_) {
+        for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+            scalings_.emplace_back(normalized_for(plant_.mass, a), estimator_, hapticopt::ArmAlongRay::per_mass);
+        }
+    }
 }
 
 bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass) const {
+    std::size_t ignored = 0;
+    return stable_over_set(m, alpha, beta, failing_mass, ignored);
+}
+
+bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass,
+                                  std::size_t& failing_arm) const {
     failing_mass = 0.0;
-    if (scaling_) {
-        // Gains normalised with m act on c m as (alpha, beta) / c: the scales s = 1 / c.
-        const hapticopt::GainRayStability r = scaling_->over(alpha, beta, 1.0 / scale_max_, 1.0 / scale_min_);
-        if (!r.stable) failing_mass = m / r.failing_scale;
-        return r.stable;
-    }
-    const int count = scale_max_ > scale_min_ ? kSampledMasses : 1;
-    for (int i = 0; i < count; ++i) {
-        const double c = count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1);
-        if (!stable(normalized_for(c * m), alpha / c, beta / c)) {
-            failing_mass = c * m;
-            return false;
+    failing_arm = 0;
+    for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+        if (!scalings_.empty()) {
+            // Gains normalised with m act on c m as (alpha, beta) / c: the scales s = 1 / c.
+            const hapticopt::GainRayStability r = scalings_[a].over(alpha, beta, 1.0 / scale_max_, 1.0 / scale_min_);
+            if (!r.stable) {
+                failing_mass = m / r.failing_scale;
+                failing_arm = a;
+                return false;
+            }
+            continue;
+        }
+        const int count = scale_max_ > scale_min_ ? kSampledMasses : 1;
+        for (int i = 0; i < count; ++i) {
+            const double c = count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1);
+            if (!stable(normalized_for(c * m, a), alpha / c, beta / c)) {
+                failing_mass = c * m;
+                failing_arm = a;
+                return false;
+            }
         }
     }
     return true;
+}
+
+std::string GainChecker::plant_text(double mass, double arm_stiffness, double arm_damping) {
+    std::string s = "the mass " + number_text(mass) + " kg";
+    if (arm_stiffness > 0.0 || arm_damping > 0.0) {
+        s += " with an arm k_H = " + number_text(arm_stiffness) + " N/m, b_H = " + number_text(arm_damping) + " N s/m";
+    }
+    return s;
 }
 
 bool GainChecker::stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const {
@@ -106,10 +146,13 @@ std::shared_ptr<const hapticopt::EstimatorStabilityRegion> GainChecker::estimato
     return std::make_shared<const hapticopt::EstimatorStabilityRegion>(normalized_for(m), estimator_);
 }
 
-hapticopt::NormalizedPlant GainChecker::normalized_for(double m) const {
+hapticopt::NormalizedPlant GainChecker::normalized_for(double m, std::size_t arm) const {
     TuningPlant p = plant_;
     p.mass = m;
-    return hapticopt::normalize(to_hapticopt(p));
+    hapticopt::NormalizedPlant np = hapticopt::normalize(to_hapticopt(p));
+    np.gamma += arm_points_[arm].first;
+    np.delta += arm_points_[arm].second;
+    return np;
 }
 
 double GainChecker::alpha_max_for(double m) const {
@@ -141,7 +184,12 @@ PairVerdict GainChecker::check_pair(double K, double B, double m) const {
         double ignored = 0.0;
         return stable_over_set(m, alpha, beta, ignored);
     };
-    v.stable = stable_over_set(m, v.alpha, v.beta, v.failing_mass);
+    std::size_t failing_arm = 0;
+    v.stable = stable_over_set(m, v.alpha, v.beta, v.failing_mass, failing_arm);
+    if (!v.stable) {
+        v.failing_arm_stiffness = arm_points_[failing_arm].first * v.failing_mass / (T * T);
+        v.failing_arm_damping = arm_points_[failing_arm].second * v.failing_mass / T;
+    }
     // Largest alpha stable over the set at this beta: bisection on the set verdict over (0, alpha_max] (alpha_max of
     // the nominal mass's main region, unstable at c = 1 already: with an estimator, stable islands beyond it are not
     // searched).
@@ -268,14 +316,18 @@ PairVerdict GainChecker::check_object(double K, double B, const std::vector<doub
 double GainChecker::set_stable_factor(double m, double alpha, double beta) const {
     double failing_mass = 0.0;
     if (stable_over_set(m, alpha, beta, failing_mass)) return 1.0;
-    if (scaling_) {
+    if (!scalings_.empty()) {
         // f (alpha, beta) acts on the set as the scales f [s_lo, s_hi] of the ray through (alpha, beta): they must lie
         // in one gap (a, b) between consecutive crossings of the ray (a = 0 below the first), a stable one. The largest
         // f <= 1 of a gap is min(1, b / s_hi), moved inwards by amax's kAlphaMaxBackOff (0.1 %: the lightest mass then
-        // sees the gains as amax for it sees its tip), valid when above a / s_lo; gaps from the top down.
+        // sees the gains as amax for it sees its tip), valid when above a / s_lo; gaps from the top down. With an arm
+        // the crossings are those of every arm point's loop.
         const double s_lo = 1.0 / scale_max_, s_hi = 1.0 / scale_min_;
         std::vector<double> ends{0.0};
-        for (const double c : hapticopt::gain_ray_crossings(scaling_->polynomial(), alpha, beta)) ends.push_back(c);
+        for (const hapticopt::MassScalingTest& scaling : scalings_) {
+            for (const double c : hapticopt::gain_ray_crossings(scaling.polynomial(), alpha, beta)) ends.push_back(c);
+        }
+        std::sort(ends.begin(), ends.end());
         ends.push_back(HUGE_VAL);
         for (std::size_t k = ends.size() - 1; k >= 1; --k) {
             const double f = std::min(1.0, ends[k] / s_hi * (1.0 - kAlphaMaxBackOff));
@@ -350,24 +402,35 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
     const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
     const Eigen::MatrixXd A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
     const Eigen::MatrixXd Bn = T * (Mis * as_eigen(B_sum) * Mis);
-    // The mass matrix c M gives the unit-mass gains (A, B) / c: the scales s = 1 / c.
-    if (scaling_) return scaling_->matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
-    hapticopt::MatrixGainScaleStability r;  // b or k > 0 (one mass): the coupled verdict at each sampled mass
+    // The mass matrix c M gives the unit-mass gains (A, B) / c: the scales s = 1 / c. Every arm point in turn.
+    hapticopt::MatrixGainScaleStability r;
     r.stable = true;
-    const int count = scale_max_ > scale_min_ ? kSampledCoupledScales : 1;
-    std::vector<double> scales{1.0};  // the nominal mass, then the set's spread
-    for (int i = 0; i < count; ++i)
-        scales.push_back(count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1));
-    for (const double c : scales) {
-        const hapticopt::MatrixGainStability v =
-            hapticopt::general_matrix_gain_stability(normalized_for(c * plant_.mass), A / c, Bn / c, estimator_);
-        r.commuting = v.commuting;
-        r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
-        if (!v.stable) {
-            r.stable = false;
-            r.failing_scale = 1.0 / c;
-            r.spectral_radius = v.spectral_radius;
-            return r;
+    for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+        if (!scalings_.empty()) {
+            const hapticopt::MatrixGainScaleStability v =
+                scalings_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
+            r.commuting = v.commuting;
+            r.certified = v.certified;
+            r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
+            if (!v.stable) return v;
+            continue;
+        }
+        // b or k > 0 (one mass): the coupled verdict at each sampled mass
+        const int count = scale_max_ > scale_min_ ? kSampledCoupledScales : 1;
+        std::vector<double> scales{1.0};  // the nominal mass, then the set's spread
+        for (int i = 0; i < count; ++i)
+            scales.push_back(count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1));
+        for (const double c : scales) {
+            const hapticopt::MatrixGainStability v =
+                hapticopt::general_matrix_gain_stability(normalized_for(c * plant_.mass, a), A / c, Bn / c, estimator_);
+            r.commuting = v.commuting;
+            r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
+            if (!v.stable) {
+                r.stable = false;
+                r.failing_scale = 1.0 / c;
+                r.spectral_radius = v.spectral_radius;
+                return r;
+            }
         }
     }
     return r;
@@ -397,9 +460,9 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
         const PairVerdict v = check_pair(fs.max_stiffness, B, mass_.smallest());
         why = "field: stiffness " + number_text(fs.max_stiffness) +
               " N/m (largest eigenvalue of -J) with B = " + number_text(B) +
-              " N s/m is outside the stability region with the mass " + number_text(v.failing_mass) + " kg of " +
-              set_text() + "; the largest stable K over the set at that B is " + number_text(v.largest_stable_K) +
-              " N/m";
+              " N s/m is outside the stability region with " +
+              plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) + " of " + set_text() +
+              "; the largest stable K over the set at that B is " + number_text(v.largest_stable_K) + " N/m";
         largest_stable_K = v.largest_stable_K;
         return false;
     }
@@ -420,6 +483,10 @@ std::string GainChecker::set_text() const {
     std::ostringstream s;
     s.precision(4);
     s << "the profile's plant set: masses " << scale_min_ << " .. " << scale_max_ << " x " << mass_.describe();
+    if (plant_.arm_stiffness_per_mass > 0.0 || plant_.arm_damping_per_mass > 0.0) {
+        s << ", an arm with k_H / m in [0, " << plant_.arm_stiffness_per_mass << "] s^-2 and b_H / m in [0, "
+          << plant_.arm_damping_per_mass << "] s^-1";
+    }
     return s.str();
 }
 
@@ -466,9 +533,9 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
             s.precision(6);
             s << "summed gains along n = (" << n(0) << ", " << n(1) << ", " << n(2) << "): K = " << K_n
               << " N/m, B = " << B_n << " N s/m with the mass along n " << m_n << " kg (alpha = " << alpha
-              << ", beta = " << beta << ") are outside the stability region with the mass " << v.failing_mass
-              << " kg of " << set_text() << "; the largest stable K over the set at that B is " << v.largest_stable_K
-              << " N/m";
+              << ", beta = " << beta << ") are outside the stability region with "
+              << plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) << " of " << set_text()
+              << "; the largest stable K over the set at that B is " << v.largest_stable_K << " N/m";
             why = s.str();
             return false;
         }

@@ -97,12 +97,20 @@ struct GainCheckPlant : TuningPlant {
     // mass (the profile refuses it with a mass matrix) that lies inside it; mass_margin >= 0 is relative.
     std::optional<std::pair<double, double>> mass_range;
     double mass_margin = 0.0;
+    // The arm in the set (docs/robust-stability.md, "The arm"): with every mass of the set, an arm of stiffness
+    // k_H with k_H / m in [0, arm_stiffness_per_mass] (s^-2) and damping b_H with b_H / m in [0,
+    // arm_damping_per_mass] (s^-1), added to the plant's own k and b (on a mass matrix: k_H = that per-mass value
+    // times M). 0 and 0: the device alone.
+    double arm_stiffness_per_mass = 0.0;
+    double arm_damping_per_mass = 0.0;
 };
 
 struct PairVerdict {
     bool stable = false;
     double mass = 0.0;          // kg, the effective mass the pair was checked with (nominal: c = 1)
     double failing_mass = 0.0;  // kg, when not stable: a mass of the set (c mass) at which the pair is unstable
+    // With it, the arm of the set at which it fails (N/m, N s/m; 0: the device alone).
+    double failing_arm_stiffness = 0.0, failing_arm_damping = 0.0;
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
     double largest_stable_K = 0.0;  // N/m at this B, stable over the whole set (0: none)
@@ -128,10 +136,18 @@ class GainChecker {
     [[nodiscard]] std::optional<double> max_stiffness() const noexcept { return plant_.max_stiffness; }
 
     // The set's scale interval [c_min, c_max] of the mass (GainCheckPlant) and whether every verdict over it is
-    // exact (free-mass plant: hapticopt::MassScalingTest) rather than sampled at kSampledMasses masses (b or k > 0).
+    // exact along the mass (free-mass plant: hapticopt::MassScalingTest) rather than sampled at kSampledMasses masses
+    // (b or k > 0).
     [[nodiscard]] std::pair<double, double> mass_scales() const noexcept { return {scale_min_, scale_max_}; }
-    [[nodiscard]] bool certified() const noexcept { return scaling_.has_value(); }
+    [[nodiscard]] bool certified() const noexcept { return !scalings_.empty(); }
     static constexpr int kSampledMasses = 17;
+    // The arm's points of the set every verdict is taken at, normalised (gamma_H, delta_H) = (k_H T^2 / m, b_H T / m):
+    // the grid {0, 1/2, 1} x {0, 1/2, 1} of the box [0, arm_stiffness_per_mass T^2] x [0, arm_damping_per_mass T]
+    // (one point per zero side; (0, 0) alone without an arm). Sampled, not proven, between them
+    // (docs/robust-stability.md, "The arm").
+    [[nodiscard]] const std::vector<std::pair<double, double>>& arm_points() const noexcept { return arm_points_; }
+    // "the mass 0.2 kg" or "the mass 0.2 kg with an arm k_H = 200 N/m, b_H = 0 N s/m" (for refusals).
+    [[nodiscard]] static std::string plant_text(double mass, double arm_stiffness, double arm_damping);
     // Scales at which a coupled (non-commuting) sum is checked over the set, ends included, and the nominal mass
     // (each one block companion eigenproblem; docs/robust-stability.md).
     static constexpr int kSampledCoupledScales = 5;
@@ -222,12 +238,16 @@ class GainChecker {
     [[nodiscard]] const hapticopt::VelocityEstimator& estimator() const noexcept { return estimator_; }
 
   private:
-    [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m) const;
+    // The normalised plant with mass m and the arm point `arm` (index into arm_points_; 0: none).
+    [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m, std::size_t arm = 0) const;
     [[nodiscard]] double alpha_max_for(double m) const;
     // The scalar verdict with the estimator (hapticopt::is_stable for the backward difference).
     [[nodiscard]] bool stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const;
-    // The scalar verdict over the set for gains normalised with mass m: true, or false and the failing mass.
+    // The scalar verdict over the set for gains normalised with mass m: true, or false and the failing mass (and
+    // the failing arm point's index).
     [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass) const;
+    [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass,
+                                       std::size_t& failing_arm) const;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 
@@ -235,11 +255,13 @@ class GainChecker {
     hapticopt::VelocityEstimator estimator_;
     std::shared_ptr<const hapticopt::EstimatorStabilityRegion> region_;  // non-backward: for the profile's mass
     DeviceMass mass_;
-    MassMatrix mass_sqrt_{};                             // M^1/2
-    bool free_mass_plant_ = false;                       // b = k = 0: the normalised plant does not depend on the mass
-    double alpha_max_ = 0.0;                             // for the profile's mass (any mass when free_mass_plant_)
-    double scale_min_ = 1.0, scale_max_ = 1.0;           // the set's masses: c M, c in [scale_min_, scale_max_]
-    std::optional<hapticopt::MassScalingTest> scaling_;  // free_mass_plant_: the exact test along the mass
+    MassMatrix mass_sqrt_{};                    // M^1/2
+    bool free_mass_plant_ = false;              // b = k = 0: the normalised plant does not depend on the mass
+    double alpha_max_ = 0.0;                    // for the profile's mass (any mass when free_mass_plant_)
+    double scale_min_ = 1.0, scale_max_ = 1.0;  // the set's masses: c M, c in [scale_min_, scale_max_]
+    std::vector<std::pair<double, double>> arm_points_{{0.0, 0.0}};  // normalised (gamma_H, delta_H), (0, 0) first
+    std::vector<hapticopt::MassScalingTest>
+        scalings_;  // free_mass_plant_: the exact test along the mass, per arm point
     std::mutex cache_mutex_;
     std::map<std::pair<std::string, double>, CriterionGains> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
 };

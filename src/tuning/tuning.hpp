@@ -90,8 +90,10 @@ struct EncoderChatter {
 // optimum itself is stable over the set; less: the largest fraction of it that is, cost then not predicted).
 struct PlantSetCertificate {
     double mass_min = 0.0, mass_max = 0.0;  // kg
+    // With every mass, the arms k_H / m <= arm_stiffness_per_mass (s^-2), b_H / m <= arm_damping_per_mass (s^-1).
+    double arm_stiffness_per_mass = 0.0, arm_damping_per_mass = 0.0;
     double derating = 1.0;
-    bool exact = true;
+    bool exact = true;  // exact along the mass (the arm is sampled: docs/robust-stability.md, "The arm")
 };
 
 struct TuningResult {

@@ -7,6 +7,8 @@
 //    Schur-Cohn verdict.
 //  * BM_PairOverSet: the same over the Falcon's set (mass_range 0.22 .. 0.30 kg, mass_margin 0.1): the verdict at the
 //    lightest mass, the ray's unit-circle crossings (Chebyshev derivative cascade) and the verdict at the heaviest.
+//  * BM_PairOverSetWithArm: the same over the set with the arms of the paper's eq. 2 (k_H / m <= 1000 s^-2,
+//    b_H / m <= 20 s^-1): the mass verdict at each of the 9 arms of the grid.
 //  * BM_PlaneObjectOverSet: check_object of a plane with a criterion's gains (CE2 over the set).
 // Gains: CE2 for the nominal mass of each kind and delay, scaled by 0.5 (stable over the set in every case: checked).
 #include <benchmark/benchmark.h>
@@ -19,7 +21,7 @@ namespace {
 
 using namespace hapticd;
 
-GainCheckPlant set_bench_plant(int d, int kind, bool with_set) {
+GainCheckPlant set_bench_plant(int d, int kind, bool with_set, bool with_arm = false) {
     GainCheckPlant p;
     p.mass = 0.30;
     p.period = 1e-3;
@@ -35,12 +37,16 @@ GainCheckPlant set_bench_plant(int d, int kind, bool with_set) {
         p.mass_range = std::make_pair(0.22, 0.30);
         p.mass_margin = 0.1;
     }
+    if (with_arm) {
+        p.arm_stiffness_per_mass = 1000.0;
+        p.arm_damping_per_mass = 20.0;
+    }
     return p;
 }
 
-void run_pair(benchmark::State& state, bool with_set) {
+void run_pair(benchmark::State& state, bool with_set, bool with_arm = false) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
-    GainChecker checker(set_bench_plant(d, kind, with_set));
+    GainChecker checker(set_bench_plant(d, kind, with_set, with_arm));
     const std::optional<CriterionGains> g = checker.criterion_gains("CE2", 0.30);
     const double K = 0.5 * g->K, B = 0.5 * g->B;
     if (!checker.pair_is_stable(K, B, 0.30)) throw std::logic_error("benchmark gains not stable");
@@ -49,6 +55,7 @@ void run_pair(benchmark::State& state, bool with_set) {
 
 void BM_PairNominal(benchmark::State& state) { run_pair(state, false); }
 void BM_PairOverSet(benchmark::State& state) { run_pair(state, true); }
+void BM_PairOverSetWithArm(benchmark::State& state) { run_pair(state, true, true); }
 
 void BM_PlaneObjectOverSet(benchmark::State& state) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
@@ -71,4 +78,5 @@ void set_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_PairNominal)->Apply(set_args);
 BENCHMARK(BM_PairOverSet)->Apply(set_args);
+BENCHMARK(BM_PairOverSetWithArm)->Apply(set_args);
 BENCHMARK(BM_PlaneObjectOverSet)->Apply(set_args);

@@ -206,5 +206,85 @@ TEST(PlantSetChecks, SumsAreJudgedOverTheSetAndTheRefusalNamesTheMass) {
     }
 }
 
+// The arm (docs/robust-stability.md, "The arm"): Hulin et al. 2011, eq. 2, bound the human arm by k_H / m < 1000 s^-2
+// and b_H / m < 20 s^-1. A stiff arm with little damping shrinks the Falcon's region near its boundary, so pairs
+// stable over the masses for the device alone are refused once the arm is in the set, and the refusal names the arm.
+// The independent simulation with that mass and arm (RK4 on m x'' + b_H x' + k_H x = -f, tests/common/
+// loop_simulation.hpp) grows, and with the device alone decays. The criterion gains over the set with the arm decay
+// at the box's corners and inside it.
+TEST(PlantSetChecks, AStiffArmIsInTheSetAndTheRefusalNamesIt) {
+    const GainChecker alone(falcon(true));
+    GainCheckPlant with_arm_plant = falcon(true);
+    with_arm_plant.arm_stiffness_per_mass = 1000.0;
+    with_arm_plant.arm_damping_per_mass = 20.0;
+    const GainChecker with_arm(with_arm_plant);
+    ASSERT_EQ(with_arm.arm_points().size(), 9U);
+    EXPECT_TRUE(with_arm.certified());
+    EXPECT_NE(with_arm.set_text().find("an arm with k_H / m in [0, 1000] s^-2"), std::string::npos)
+        << with_arm.set_text();
+    // Pairs on a grid of the Falcon's (K, B) plane stable over the masses alone; the most unstable of those the arm
+    // refuses, by the simulation's growth at the plant the refusal names.
+    const double m = 0.30;
+    int refused = 0, accepted_alone = 0;
+    double worst_growth = 0.0;
+    PairVerdict worst;
+    double worst_K = 0.0, worst_B = 0.0;
+    for (int i = 1; i <= 40; ++i) {
+        const double K = 3000.0 * i / 40.0;
+        for (int j = 0; j <= 40; ++j) {
+            const double B = 1.5 * j / 40.0;
+            if (!alone.pair_is_stable(K, B, m)) continue;
+            ++accepted_alone;
+            if (with_arm.pair_is_stable(K, B, m)) continue;
+            const PairVerdict v = with_arm.check_pair(K, B, m);
+            EXPECT_FALSE(v.stable);
+            ++refused;
+            EXPECT_GT(v.failing_arm_stiffness, 0.0);
+            const double growth = loop_simulation::excursion_ratio_with_arm(
+                v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping, K, B, kPeriod, 6.0, kWindow15, 20000);
+            if (growth > worst_growth) {
+                worst_growth = growth;
+                worst = v;
+                worst_K = K;
+                worst_B = B;
+            }
+        }
+    }
+    // Near the boundary the growth is slow (|z| - 1 ~ 2e-5 per period): 60 s of it, the ratio of the last 6 s to
+    // the first 6 s.
+    const double growth = loop_simulation::excursion_ratio_with_arm(worst.failing_mass, worst.failing_arm_stiffness,
+                                                                    worst.failing_arm_damping, worst_K, worst_B,
+                                                                    kPeriod, 6.0, kWindow15, 60000);
+    std::printf(
+        "[ arm ] %d of %d pairs stable for the device alone are refused with the arm; the worst grows x%.3g "
+        "over 20 s, x%.3g over 60 s at %.4g kg, k_H %.4g N/m, b_H %.4g N s/m (K %.5g, B %.4g)\n",
+        refused, accepted_alone, worst_growth, growth, worst.failing_mass, worst.failing_arm_stiffness,
+        worst.failing_arm_damping, worst_K, worst_B);
+    ASSERT_GT(refused, 0);
+    EXPECT_GT(worst_growth, 1.0);
+    EXPECT_GT(growth, 2.0);
+    EXPECT_LT(loop_simulation::excursion_ratio_with_arm(worst.failing_mass, 0.0, 0.0, worst_K, worst_B, kPeriod, 6.0,
+                                                        kWindow15, 20000),
+              1.0);
+    EXPECT_EQ(GainChecker::plant_text(0.2, 200.0, 0.0), "the mass 0.2 kg with an arm k_H = 200 N/m, b_H = 0 N s/m");
+    // The criterion gains over the set with the arm: at 99 % of them the loop decays at the corners of the box
+    // (masses 0.2 and 0.33 kg, arms (0, 0), (1000 m, 0), (0, 20 m), (1000 m, 20 m)) and inside it.
+    GainChecker tuner(with_arm_plant);
+    for (const char* criterion : {"amax", "CE2"}) {
+        const std::optional<CriterionGains> g = tuner.criterion_gains(criterion, m);
+        ASSERT_TRUE(g.has_value());
+        EXPECT_TRUE(with_arm.pair_is_stable(g->K, g->B, m)) << criterion;
+        for (const double mass : {0.2, 0.26, 0.33}) {
+            for (const auto& [k, b] : {std::pair{0.0, 0.0}, std::pair{1000.0, 0.0}, std::pair{0.0, 20.0},
+                                       std::pair{1000.0, 20.0}, std::pair{370.0, 7.0}, std::pair{820.0, 2.5}}) {
+                EXPECT_LT(loop_simulation::excursion_ratio_with_arm(mass, k * mass, b * mass, 0.99 * g->K, 0.99 * g->B,
+                                                                    kPeriod, 6.0, kWindow15, 20000),
+                          1.0)
+                    << criterion << " m " << mass << " k/m " << k << " b/m " << b;
+            }
+        }
+    }
+}
+
 }  // namespace plant_set_checks_test
 }  // namespace hapticd

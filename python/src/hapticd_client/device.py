@@ -32,6 +32,8 @@ class DeviceInfo:
             "lowpass:<F>Hz" or "window:<N>" ("backward" when the welcome does not name one).
         mass_scale: the plant set every check holds for: the mass matrix scaled by mass_scale[0] .. mass_scale[1]
             (the profile's mass_range widened by its mass_margin; docs/robust-stability.md).
+        arm_stiffness_per_mass, arm_damping_per_mass: with every mass, an arm of k_H / m and b_H / m up to these
+            (s^-2, s^-1); 0 and 0: the device alone.
         plant_set_exact: False when the checks sample the set (a profile with damping or stiffness).
     """
 
@@ -46,6 +48,8 @@ class DeviceInfo:
     velocity_estimator: str = "backward"
     mass_scale: Tuple[float, float] = (1.0, 1.0)
     plant_set_exact: bool = True
+    arm_stiffness_per_mass: float = 0.0
+    arm_damping_per_mass: float = 0.0
 
     @classmethod
     def from_welcome(cls, welcome: dict) -> "DeviceInfo":
@@ -90,8 +94,11 @@ class DeviceInfo:
         exact = plant_set.get("exact", True)
         if not isinstance(exact, bool):
             raise bad("plant_set", 'an object {"mass_scale": [c_min, c_max], "exact": true | false}')
+        arm = [plant_set.get(k, 0.0) for k in ("arm_stiffness_per_mass", "arm_damping_per_mass")]
+        if not all(_is_number(v) and v >= 0 for v in arm):
+            raise bad("plant_set", 'an object whose "arm_stiffness_per_mass" and "arm_damping_per_mass" are numbers >= 0')
         return cls(name=name, axes=axes, period_s=number("period_s"), mass=tuple(float(v) for v in mass),
                    mass_matrix=tuple(tuple(float(v) for v in row) for row in matrix), delay_s=number("delay_s"),
                    max_force=number("max_force"), max_stiffness=None if limit is None else float(limit),
                    velocity_estimator=estimator, mass_scale=(float(scale[0]), float(scale[1])),
-                   plant_set_exact=exact)
+                   plant_set_exact=exact, arm_stiffness_per_mass=float(arm[0]), arm_damping_per_mass=float(arm[1]))
