@@ -9,6 +9,12 @@
 //    tick (0.5 m/s) along it, frictionless and with friction (mu 0.6/0.4), on the 100 000-triangle torus and on a
 //    12-triangle box (the baseline); each step timed (clock_gettime) for p50/p99/max counters.
 //  * BM_ProxyStepFast: 10 mm a tick (10 m/s) through the torus, in and out.
+//  * BM_TickMeshContact/0: the tick's compute path with the 100 000-triangle torus as a client's mesh object in
+//    contact (the contact path above, 0.5 m/s): SceneObjects::apply_commits and add_forces (the proxy, the wall law
+//    in the mesh frame, the finite check), the delay buffer with the law's change, the force limiter; each tick timed
+//    for p50/p99/max. /1, the baseline in the same run: the same path against one unilateral plane (a client's
+//    one-wall scene, the handle 2 mm in). The device's read and write and the state's publication (~30 ns,
+//    docs/clients.md) are not in either.
 #include <benchmark/benchmark.h>
 
 #include <time.h>
@@ -21,6 +27,9 @@
 
 #include "mesh/god_object_proxy.hpp"
 #include "mesh/procedural_meshes.hpp"
+#include "scene/delay_ring.hpp"
+#include "scene/force_limiter.hpp"
+#include "scene/scene_objects.hpp"
 
 #ifdef HAPTICD_BENCHMARK_EMBREE
 #include <embree3/rtcore.h>
@@ -265,5 +274,61 @@ void BM_ProxyStepFast(benchmark::State& state) {
     report_percentiles(state, ns);
 }
 BENCHMARK(BM_ProxyStepFast);
+
+void BM_TickMeshContact(benchmark::State& state) {
+    using namespace hapticd;
+    const bool with_mesh = state.range(0) == 0;
+    std::shared_ptr<const MeshHierarchy> h = big_hierarchy();
+    CommitRing ring(8);
+    SceneObjectsConfig config;
+    config.period = 1e-3;
+    config.ramp_time = 0.0;
+    config.axes = 3;
+    SceneObjects objects(config, ring);
+    ObjectParams p;
+    p.id = 1;
+    p.K = 2000.0;
+    p.B = 5.0;
+    const std::vector<Eigen::Vector3d> path = contact_path(20000, 5e-4);
+    if (with_mesh) {
+        p.kind = ObjectKind::Mesh;
+        p.mesh = h.get();
+    } else {  // the plane x = 0.078 with normal +x (solid for x < 0.078): 1 cm out for 20 ticks, then 2 mm in, along y, z
+        p.kind = ObjectKind::Plane;
+        p.direction = {1.0, 0.0, 0.0};
+        p.offset = 0.078;
+    }
+    ObjectCommit add;
+    add.seq = 1;
+    add.updates[add.count++] = SlotUpdate{0, SlotUpdate::Action::Set, p};
+    ring.try_push(add);
+    struct LawForce {
+        AxisVector force{};
+        LawChange change{};
+    };
+    DelayRing<LawForce> delay(6);
+    ForceLimiter limiter(10.0, default_max_force_rate(10.0, 1e-3), 1e-3, 3);
+    std::vector<std::int64_t> ns;
+    ns.reserve(1 << 22);
+    std::size_t i = 0, contacts = 0;
+    for (auto _ : state) {
+        const Eigen::Vector3d& e = path[i++ % path.size()];
+        const bool pressed = i % path.size() > 20;
+        const AxisVector x = with_mesh ? AxisVector{e.x(), e.y(), e.z()}
+                                       : AxisVector{pressed ? 0.076 : 0.088, e.y(), e.z()};
+        const std::int64_t t0 = now_ns();
+        objects.apply_commits();
+        AxisVector f{};
+        const bool finite = objects.add_forces(x, f);
+        const LawForce out = delay.push_pop(LawForce{finite ? f : AxisVector{}, objects.law_change()});
+        benchmark::DoNotOptimize(limiter.step(out.force, out.change));
+        const std::int64_t t1 = now_ns();
+        if (ns.size() < ns.capacity()) ns.push_back(t1 - t0);
+        contacts += objects.contact_mask() != 0 ? 1 : 0;
+    }
+    state.counters["contact_fraction"] = static_cast<double>(contacts) / static_cast<double>(state.iterations());
+    report_percentiles(state, ns);
+}
+BENCHMARK(BM_TickMeshContact)->Arg(0)->Arg(1);
 
 }  // namespace
