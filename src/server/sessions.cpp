@@ -143,11 +143,23 @@ bool peer_hung_up(int fd) noexcept {
     return r < 0 || (r > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0);
 }
 
+namespace {
+
+bool input_waiting(const Session& s) noexcept {
+    if (s.stream && s.framer.has_frame()) return true;
+    pollfd p{s.fd, POLLIN, 0};
+    return ::poll(&p, 1, 0) > 0 && (p.revents & POLLIN) != 0;
+}
+
+}  // namespace
+
 Silence silence_of(const Session& s, Clock::time_point now) {
     if (s.closed) return Silence::None;
-    if (!s.welcomed && now - s.last_rx > std::chrono::seconds(kHelloTimeoutS)) return Silence::NoHello;
-    if (s.lease_s > 0.0 && now - s.last_rx > std::chrono::duration<double>(s.lease_s)) return Silence::LeaseLost;
-    return Silence::None;
+    Silence silence = Silence::None;
+    if (!s.welcomed && now - s.last_rx > std::chrono::seconds(kHelloTimeoutS)) silence = Silence::NoHello;
+    if (silence == Silence::None && s.lease_s > 0.0 && now - s.last_rx > std::chrono::duration<double>(s.lease_s))
+        silence = Silence::LeaseLost;
+    return silence != Silence::None && input_waiting(s) ? Silence::None : silence;
 }
 
 void DepartureDetector::clear() {

@@ -89,6 +89,9 @@ struct Peer {
 
 // What ends a session that says nothing: no hello within kHelloTimeoutS, or no message within its lease.
 enum class Silence { None, NoHello, LeaseLost };
+// Silent for longer than the hello timeout or its lease, and nothing from it waiting to be read: a message waiting
+// in its socket (or a whole frame in a stream session's buffer) is the client speaking while the server thread was
+// busy with another session's request (a criterion's first tuning can take a second), so it is not silence.
 [[nodiscard]] Silence silence_of(const Session& s, Clock::time_point now);
 
 // Finds the sessions whose peer has gone (POLLRDHUP, POLLHUP or POLLERR) with one zero-timeout poll; keeps

@@ -293,7 +293,8 @@ void BM_TickMeshContact(benchmark::State& state) {
     if (with_mesh) {
         p.kind = ObjectKind::Mesh;
         p.mesh = h.get();
-    } else {  // the plane x = 0.078 with normal +x (solid for x < 0.078): 1 cm out for 20 ticks, then 2 mm in, along y, z
+    } else {  // the plane x = 0.078 with normal +x (solid for x < 0.078): 1 cm out for 20 ticks, then 2 mm in, along y,
+              // z
         p.kind = ObjectKind::Plane;
         p.direction = {1.0, 0.0, 0.0};
         p.offset = 0.078;
@@ -314,8 +315,8 @@ void BM_TickMeshContact(benchmark::State& state) {
     for (auto _ : state) {
         const Eigen::Vector3d& e = path[i++ % path.size()];
         const bool pressed = i % path.size() > 20;
-        const AxisVector x = with_mesh ? AxisVector{e.x(), e.y(), e.z()}
-                                       : AxisVector{pressed ? 0.076 : 0.088, e.y(), e.z()};
+        const AxisVector x =
+            with_mesh ? AxisVector{e.x(), e.y(), e.z()} : AxisVector{pressed ? 0.076 : 0.088, e.y(), e.z()};
         const std::int64_t t0 = now_ns();
         objects.apply_commits();
         AxisVector f{};
