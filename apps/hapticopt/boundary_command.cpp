@@ -10,6 +10,7 @@
 #include <memory>
 
 #include <hapticopt/estimator_passivity.hpp>
+#include <hapticopt/estimator_region.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/velocity_estimator.hpp>

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include <hapticopt/estimator_region.hpp>
 #include <hapticopt/parameters.hpp>
 #include <hapticopt/velocity_estimator.hpp>
 

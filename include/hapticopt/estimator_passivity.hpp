@@ -61,7 +61,9 @@
 #include <vector>
 
 #include "config.hpp"
+#include "estimator_costs.hpp"
 #include "estimator_impulse.hpp"
+#include "estimator_region.hpp"
 #include "passivity.hpp"
 #include "velocity_estimator.hpp"
 

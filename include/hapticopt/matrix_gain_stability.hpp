@@ -78,8 +78,9 @@
 #include <cmath>
 #include <vector>
 
-#include "config.hpp"
 #include "characteristic_polynomial.hpp"
+#include "config.hpp"
+#include "estimator_stability.hpp"
 #include "stability.hpp"
 #include "velocity_estimator.hpp"
 

@@ -27,6 +27,7 @@
 #include <memory>
 #include <sstream>
 
+#include <hapticopt/estimator_optimum.hpp>
 #include <hapticopt/optimum.hpp>
 #include <hapticopt/velocity_estimator.hpp>
 
