@@ -10,9 +10,10 @@
 #include <memory>
 
 #include <hapticopt/estimator_passivity.hpp>
+#include <hapticopt/estimator_region.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 #include "cli_output.hpp"
 #include "commands.hpp"

@@ -7,8 +7,9 @@
 #include <optional>
 #include <string>
 
+#include <hapticopt/estimator_region.hpp>
 #include <hapticopt/parameters.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 namespace hapticopt::cli {
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // hapticopt cost: stability and the criteria C_E0, C_E1, C_E2, C_OV at one gain pair; with --velocity the
-// estimator's loop (velocity_estimator.hpp: stability, C_E0..2 and C_OV; estimator_impulse.hpp: C_I0..2 and the
-// penetration; estimator_passivity.hpp: the passivity margin). Always the quantisation force-noise gain
+// estimator's loop (estimator_stability.hpp, estimator_costs.hpp: stability, C_E0..2 and C_OV; estimator_impulse.hpp:
+// C_I0..2 and the penetration; estimator_passivity.hpp: the passivity margin). Always the quantisation force-noise gain
 // g_F (sigma_F = (m q / T^2) g_F), and sigma_F in N with --mass, --period and --position-resolution.
 #include <cmath>
 #include <cstdio>
@@ -9,13 +9,16 @@
 #include <memory>
 
 #include <hapticopt/energy_costs.hpp>
+#include <hapticopt/estimator_costs.hpp>
 #include <hapticopt/estimator_impulse.hpp>
+#include <hapticopt/estimator_noise.hpp>
 #include <hapticopt/estimator_passivity.hpp>
+#include <hapticopt/estimator_stability.hpp>
 #include <hapticopt/impulse_costs.hpp>
-#include <hapticopt/passivity.hpp>
 #include <hapticopt/overshoot.hpp>
+#include <hapticopt/passivity.hpp>
 #include <hapticopt/stability.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 #include "cli_output.hpp"
 #include "commands.hpp"
@@ -76,7 +79,7 @@ CommandRunner add_cost_command(CLI::App& app) {
             detail::require_positive("hapticopt cost", "position_resolution", args->resolution);
         }
         const double noise_std = args->mass * args->resolution / (args->period * args->period) * noise_gain;
-        // The estimator's functions send the backward difference to the paper's loop (velocity_estimator.hpp,
+        // The estimator's functions send the backward difference to the paper's loop (estimator_costs.hpp,
         // estimator_impulse.hpp, estimator_passivity.hpp).
         const bool backward = estimator.kind == VelocityEstimatorKind::backward;
         const StabilityReport report = stability(plant, gains, estimator);

@@ -3,7 +3,7 @@
 // (gamma, delta) box (Fig. 3 of the paper), with each region's tip (alpha_max) marked, and optionally
 // the passive set of the Colgate-Schenkel condition with the loop delay (passivity.hpp) for comparison.
 // With --velocity other than backward: the main stable region of the estimator's loop per corner
-// (estimator_region_boundary, velocity_estimator.hpp; alpha_max is the main region's tip) and the bounding boxes
+// (estimator_region_boundary, estimator_region.hpp; alpha_max is the main region's tip) and the bounding boxes
 // of the stable islands not connected to it, drawn separately (class "island").
 #include <algorithm>
 #include <chrono>
@@ -11,9 +11,10 @@
 #include <memory>
 #include <string>
 
+#include <hapticopt/estimator_region.hpp>
 #include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 #include "cli_output.hpp"
 

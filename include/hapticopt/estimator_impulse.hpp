@@ -19,7 +19,7 @@
 // v_j = sum_i b_i y_{j-i} + a_1 v_{j-1} (velocity_estimator.hpp). z_0 = (0, 1, -1, ..., -Hy, [1], 0, ..., 0).
 // For the backward difference z_j is exactly make_impulse_loop's state and the matrices are the same.
 // M' realises the loop's transfer function with its own states, so its eigenvalues are the roots of p_est
-// (velocity_estimator.hpp) up to extra zeros; stability is tested by the spectral radius of M' (and, in the
+// (estimator_stability.hpp) up to extra zeros; stability is tested by the spectral radius of M' (and, in the
 // convenience functions, by EstimatorStabilityTest's Schur-Cohn verdict first).
 //
 // C_Ip: the Stein equations of energy_costs.hpp on the complex Schur form of M' (detail::energy_costs_from_schur,
@@ -40,11 +40,13 @@
 #include "config.hpp"
 #include "criterion.hpp"
 #include "energy_costs.hpp"
+#include "estimator_region.hpp"
+#include "estimator_stability.hpp"
 #include "impulse_costs.hpp"
 #include "impulse_optimum.hpp"
 #include "overshoot.hpp"
 #include "region_minimum.hpp"
-#include "velocity_estimator.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 

@@ -61,9 +61,11 @@
 #include <vector>
 
 #include "config.hpp"
+#include "estimator_costs.hpp"
 #include "estimator_impulse.hpp"
+#include "estimator_region.hpp"
 #include "passivity.hpp"
-#include "velocity_estimator.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 

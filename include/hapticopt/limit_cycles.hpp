@@ -63,7 +63,7 @@
 //      and the backward difference included, evaluated at z = e^{j theta}, theta = w T. With a low-pass or a
 //      window estimator the controller K + B D(z) replaces K + B (1 - z^-1) / T: G = (alpha P_alpha At +
 //      beta P_alpha Bt) / (P_0 At), the polynomial p_est of estimator_characteristic_polynomial
-//      (velocity_estimator.hpp; At, Bt the estimator's denominator and numerator in z). The backward
+//      (estimator_stability.hpp; At, Bt the estimator's denominator and numerator in z). The backward
 //      difference keeps the polynomial p itself (p_est = z p, the same G). The sampling of the
 //      quantiser's input is not modelled: N is the continuous-time DF, an average over the phase of the samples
 //      relative to the thresholds (poor when a cycle lasts only a few periods).
@@ -96,11 +96,12 @@
 #include "characteristic_polynomial.hpp"
 #include "config.hpp"
 #include "errors.hpp"
+#include "estimator_stability.hpp"
 #include "parameters.hpp"
 #include "sampled_plant.hpp"
 #include "scalar_search.hpp"
 #include "schur_cohn.hpp"
-#include "velocity_estimator.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 

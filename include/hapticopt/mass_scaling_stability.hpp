@@ -61,13 +61,14 @@
 #include <optional>
 #include <vector>
 
-#include "config.hpp"
 #include "characteristic_polynomial.hpp"
+#include "config.hpp"
 #include "errors.hpp"
+#include "estimator_stability.hpp"
 #include "matrix_gain_stability.hpp"
 #include "passivity.hpp"
 #include "stability.hpp"
-#include "velocity_estimator.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 

@@ -78,10 +78,11 @@
 #include <cmath>
 #include <vector>
 
-#include "config.hpp"
 #include "characteristic_polynomial.hpp"
+#include "config.hpp"
+#include "estimator_stability.hpp"
 #include "stability.hpp"
-#include "velocity_estimator.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 

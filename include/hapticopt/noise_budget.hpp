@@ -4,7 +4,7 @@
 //   minimise C_Ep(alpha, beta)  over the main stable region of the loop with the velocity estimator,
 //   subject to g_F(alpha, beta) <= g_max,
 //
-// g_F the quantisation force-noise gain of velocity_estimator.hpp (sigma_F = (m q / T^2) g_F, so a physical
+// g_F the quantisation force-noise gain of estimator_noise.hpp (sigma_F = (m q / T^2) g_F, so a physical
 // budget sigma_max [N] is g_max = sigma_max T^2 / (m q)), C_Ep (p = 0, 1, 2) the energy costs of the estimator's
 // loop (eqs. 6-8 of Hulin et al. 2011 on that loop).
 //
@@ -50,7 +50,11 @@
 #include <utility>
 #include <vector>
 
-#include "velocity_estimator.hpp"
+#include "estimator_costs.hpp"
+#include "estimator_noise.hpp"
+#include "estimator_optimum.hpp"
+#include "estimator_region.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 
@@ -424,7 +428,7 @@ NoiseBudgetOptimum estimator_overshoot_point(const NormalizedPlant& plant, const
     return out;
 }
 
-/// The optimum of every criterion with the estimator, as optimal_point (velocity_estimator.hpp) reports it: OV with
+/// The optimum of every criterion with the estimator, as optimal_point (estimator_optimum.hpp) reports it: OV with
 /// an estimator other than backward by estimator_overshoot_point (cost = C_OV there; beta_at_alpha_max from the main
 /// region), every other case by optimal_point. Throws what they throw.
 HAPTICOPT_DEFERRED

@@ -35,7 +35,7 @@
 //     polynomial is not affine in them): a dense check, not a proof. Limits: stated in the result
 //     (`mass_segments_certified`).
 // With a velocity estimator (RobustOptions::estimator): the same steps on the loop with it — the costs of
-// velocity_estimator.hpp, each grid plant's main region (EstimatorStabilityRegion on kFastOptimumRegionGrid, its
+// estimator_costs.hpp, each grid plant's main region (EstimatorStabilityRegion on kFastOptimumRegionGrid, its
 // beta interval to 1e-9), the crossing test of MassScalingTest with the estimator, the dense check by its Schur-Cohn
 // verdict. A force-noise budget (RobustOptions::force_noise_budget) makes W = +inf wherever sigma_F exceeds it at a
 // grid plant: the minimiser meets it on the optimisation grid (the region search treats +inf as infeasible), and
@@ -51,10 +51,15 @@
 #include <vector>
 
 #include "config.hpp"
+#include "estimator_costs.hpp"
+#include "estimator_noise.hpp"
+#include "estimator_optimum.hpp"
+#include "estimator_region.hpp"
+#include "estimator_stability.hpp"
 #include "impulse_optimum.hpp"
 #include "mass_scaling_stability.hpp"
 #include "optimum.hpp"
-#include "velocity_estimator.hpp"
+#include "estimator_types.hpp"
 
 namespace hapticopt {
 

@@ -543,7 +543,7 @@ double force_noise_gain_of(double gamma, double delta, double delay, double alph
                             estimator_of(kind, cutoff, window));
 }
 
-/// The optimum of every criterion with the estimator (velocity_estimator.hpp's optimal_point; OV by
+/// The optimum of every criterion with the estimator (estimator_optimum.hpp's optimal_point; OV by
 /// noise_budget.hpp's estimator_overshoot_point), g_F there and the stable islands of the gain plane (as
 /// `hapticopt optimum --velocity --json`).
 py::dict estimator_optimal_point_of(const std::string& criterion, double gamma, double delta, double delay,

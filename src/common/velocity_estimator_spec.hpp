@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // How the loop estimates the handle's velocity from the sampled position, in the device's physical terms (the
 // profile key `velocity_estimator`, docs/velocity-estimation.md). The same three estimators as
-// hapticopt::VelocityEstimator (include/hapticopt/velocity_estimator.hpp), which the tuning checks every scene
+// hapticopt::VelocityEstimator (include/hapticopt/estimator_types.hpp), which the tuning checks every scene
 // with:
 //   backward      v_j = (x_j - x_{j-1}) / T                                    (the paper's; the default)
 //   lowpass:F Hz  v_j = l v_{j-1} + (1 - l)(x_j - x_{j-1}) / T, l = exp(-2 pi F T)  (normalised cutoff nu = F T)

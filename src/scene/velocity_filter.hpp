@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The loop's velocity estimate of every axis (common/velocity_estimator_spec.hpp), computed once per tick from the
 // sampled position: the same difference equation that hapticopt::make_estimator_loop analyses
-// (include/hapticopt/velocity_estimator.hpp), in physical units:
+// (include/hapticopt/estimator_types.hpp), in physical units:
 //   backward  v_j = (x_j - x_{j-1}) / T
 //   lowpass   v_j = l v_{j-1} + (1 - l)(x_j - x_{j-1}) / T,  l = exp(-2 pi F T)
 //   window    v_j = (x_j - x_{j-N}) / (N T)

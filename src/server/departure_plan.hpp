@@ -20,7 +20,7 @@
 //   4. Otherwise every client object is cut at once (SlotUpdate::Action::Cut, no ramp): the loop jumps from
 //      the scene before (checked when it was committed) to the config walls alone (checked at start-up),
 //      and renders no scene in between.
-// The owners of objects removed in 2-4 get an event naming them and the reason (server.cpp).
+// The owners of objects removed in 2-4 get an event naming them and the reason (server_departures.cpp).
 #pragma once
 
 #include <cstddef>

@@ -2,7 +2,7 @@
 // Transport and sessions of the control server (docs/protocol.md, sections 2 to 4): the listening
 // SOCK_SEQPACKET socket (path, mode, group) and its wake-up eventfd, accepting a connection with its peer's
 // credentials (SO_PEERCRED), one Session per connection, non-blocking sends, the hello timeout and the lease,
-// and finding the sessions whose peer has gone. What a session's messages mean is the server's (server.cpp);
+// and finding the sessions whose peer has gone. What a session's messages mean is the server's (server_requests.cpp);
 // nothing here touches the scene.
 #pragma once
 

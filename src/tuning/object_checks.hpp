@@ -60,8 +60,11 @@
 #include <utility>
 #include <vector>
 
+#include <hapticopt/estimator_region.hpp>
+#include <hapticopt/estimator_stability.hpp>
 #include <hapticopt/mass_scaling_stability.hpp>
 #include <hapticopt/matrix_gain_stability.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 #include "tuning/device_mass.hpp"
 #include "tuning/tuning.hpp"

@@ -2,7 +2,7 @@
 // Stability over an interval of moving masses (mass_scaling_stability.hpp), checked against two independent
 // models of the loop:
 //  * the eigenvalues of the loop's transition matrix (hapticopt::stability's spectral radius: the state-space
-//    model of closed_loop.hpp / velocity_estimator.hpp, not the characteristic polynomial) on a dense grid of
+//    model of closed_loop.hpp / estimator_loop.hpp, not the characteristic polynomial) on a dense grid of
 //    masses: wherever the crossing test says "stable over the interval" every grid mass has radius < 1, and at
 //    every reported crossing the radius is 1;
 //  * a time-stepping simulation in physical units (tests/common/loop_simulation.hpp: a free mass moved by the wall
@@ -14,8 +14,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <hapticopt/estimator_region.hpp>
+#include <hapticopt/estimator_stability.hpp>
 #include <hapticopt/mass_scaling_stability.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 #include <random>
 #include <vector>
 

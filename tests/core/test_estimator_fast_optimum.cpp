@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// The fast CEx optimum with a velocity estimator (velocity_estimator.hpp: estimator_energy_cost_gradient, the
-// adjoint Stein equation, and OptimumMethod::newton in optimal_point), checked two ways:
+// The fast CEx optimum with a velocity estimator (estimator_gradient.hpp: estimator_energy_cost_gradient, the
+// adjoint Stein equation, and OptimumMethod::newton in optimal_point, estimator_optimum.hpp), checked two ways:
 // (1) the gradient against central differences of estimator_energy_costs in long double (only the forward cost
 //     is used there) and its Schur-form route against its shift-structured route;
 // (2) the fast optimum against the derivative-free nested Brent search (OptimumMethod::brent, region_minimum.hpp)

@@ -27,8 +27,9 @@
 #include <memory>
 #include <sstream>
 
+#include <hapticopt/estimator_optimum.hpp>
 #include <hapticopt/optimum.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 #include "paper_table.hpp"
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The velocity estimators in the exact model (include/hapticopt/velocity_estimator.hpp), checked against
+// The velocity estimators in the exact model (include/hapticopt/estimator_types.hpp), checked against
 // the backward-difference code, and against an independent time-stepping of the same difference equations
 // written here from their definitions (Eigen's matrix exponential for the plant, not the library's).
 #include <gtest/gtest.h>

@@ -299,7 +299,7 @@ TEST(DaemonMatchesAnalysis, PaperCE0PointCost) {
 }
 
 // The loop with each velocity estimator against the analysis of that loop: hapticopt::make_estimator_loop's state
-// (the plant's exact ZOH per delay segment, the estimator's difference equation; velocity_estimator.hpp) iterated
+// (the plant's exact ZOH per delay segment, the estimator's difference equation; estimator_loop.hpp) iterated
 // from the step's rest state, against hapticd in lockstep with velocity_estimator in the profile. The gains are
 // the estimator's CE2 optimum (optimal_point with the estimator), given explicitly. Both sides are exact
 // discretisations of the same loop and differ by rounding only: ~eps per operation, carried by a contracting loop

@@ -20,14 +20,19 @@
 #include <sys/wait.h>
 
 #include <hapticopt/energy_costs.hpp>
+#include <hapticopt/estimator_costs.hpp>
+#include <hapticopt/estimator_noise.hpp>
+#include <hapticopt/estimator_optimum.hpp>
+#include <hapticopt/estimator_region.hpp>
+#include <hapticopt/estimator_stability.hpp>
 #include <hapticopt/impulse_optimum.hpp>
 #include <hapticopt/noise_budget.hpp>
 #include <hapticopt/optimum.hpp>
-#include <hapticopt/passivity.hpp>
 #include <hapticopt/overshoot.hpp>
+#include <hapticopt/passivity.hpp>
 #include <hapticopt/stability_region.hpp>
 #include <hapticopt/step_response.hpp>
-#include <hapticopt/velocity_estimator.hpp>
+#include <hapticopt/estimator_types.hpp>
 
 #include "svg/svg_contour.hpp"
 #include "svg_reader.hpp"
@@ -436,7 +441,7 @@ TEST(PlotNoisePareto, CurvesAreTheConstrainedOptimaPerEstimator) {
             EXPECT_LE(g, budgets[static_cast<std::size_t>(i)] * (1 + 1e-12)) << label << " point " << i;
             // The cost at the point by energy_costs() (for the backward difference the paper's loop, not the
             // estimator loop the search used): two evaluations whose rounding grows like eps / (1 - rho^2)
-            // (velocity_estimator.hpp), allowed 1e3 eps / (1 - rho^2) relative for the three chained Stein solves.
+            // (estimator_costs.hpp), allowed 1e3 eps / (1 - rho^2) relative for the three chained Stein solves.
             const double rho = hapticopt::stability(plant, {p.alpha, p.beta}, e).spectral_radius;
             EXPECT_NEAR(hapticopt::energy_costs(plant, {p.alpha, p.beta}, e).ce2, p.cost,
                         1e3 * 2.2e-16 / (1 - rho * rho) * p.cost)

@@ -68,8 +68,8 @@ class Costs:
     """Every criterion at one gain pair (+inf where unstable); `no_overshoot` is C_OV <= tolerance
     with the proven stop reached; passivity_margin: the Colgate-Schenkel margin (passivity.hpp,
     with the loop delay), None for a fractional delay, which that condition does not cover.
-    force_noise_gain: g_F, sigma_F = (m q / T^2) g_F (quantisation force noise, velocity_estimator.hpp).
-    Every field is the loop's with its velocity estimator (velocity_estimator.hpp, estimator_impulse.hpp,
+    force_noise_gain: g_F, sigma_F = (m q / T^2) g_F (quantisation force noise, estimator_noise.hpp).
+    Every field is the loop's with its velocity estimator (estimator_costs.hpp, estimator_impulse.hpp,
     estimator_passivity.hpp)."""
 
     stable: bool
@@ -121,7 +121,7 @@ def stability(alpha: float, beta: float, plant: Optional[Plant] = None, *,
     """Stability of the loop at (alpha, beta): all characteristic roots strictly inside the unit
     circle (Schur-Cohn; refined in long double where the margin is below 1e-4). With a velocity
     estimator (hapticopt.VelocityEstimator or "lowpass:0.02", "window:15", ...): Schur-Cohn on the
-    estimator loop's polynomial p_est (velocity_estimator.hpp), spectral radius of its loop matrix."""
+    estimator loop's polynomial p_est (estimator_stability.hpp), spectral radius of its loop matrix."""
     e = velocity_estimator(estimator)
     if e.kind == "backward":
         return Stability(*_core.stability(*_plant_args(plant), float(alpha), float(beta)))
@@ -155,7 +155,7 @@ def force_noise_gain(alpha: float, beta: float, plant: Optional[Plant] = None, *
                      estimator: EstimatorLike = None) -> float:
     """g_F: the steady-state standard deviation of the commanded force per encoder step, normalised
     (sigma_F = (m q / T^2) g_F), for a white rounding error of variance q^2/12 on the measured position:
-    g_F^2 = c^T P c with P = M P M^T + g g^T / 12 (the Stein equation of velocity_estimator.hpp);
+    g_F^2 = c^T P c with P = M P M^T + g g^T / 12 (the Stein equation of estimator_noise.hpp);
     +inf when the loop is unstable."""
     e = velocity_estimator(estimator)
     return float(_core.force_noise_gain(*_plant_args(plant), float(alpha), float(beta), *e.args()))

@@ -169,7 +169,7 @@ def optimal_point(criterion: str, plant: Optional[Plant] = None, *, overshoot_to
 
     With a velocity estimator other than backward ("lowpass:0.02", "window:15" or a VelocityEstimator;
     `hapticopt optimum --velocity`): amax, CE0..2 and CE0+OV..CE2+OV over the estimator loop's main stable
-    region (velocity_estimator.hpp's optimal_point, its default search grids: the grid arguments here are
+    region (estimator_optimum.hpp's optimal_point, its default search grids: the grid arguments here are
     the backward optimiser's); the result carries g_F at the optimum and the stable islands (alpha_min,
     alpha_max, beta_min, beta_max) not connected to the main region. g_F is set for every estimator."""
     p = Plant() if plant is None else plant

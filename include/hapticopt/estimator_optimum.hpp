@@ -1,0 +1,227 @@
+// SPDX-License-Identifier: Apache-2.0
+// The optimal gains of amax, CE0..2 and CE0+OV..CE2+OV with the wall's velocity estimator
+// (velocity_estimator.hpp) over the main stable region of estimator_region.hpp (normalised units m = T = 1).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "config.hpp"
+#include "criterion.hpp"
+#include "energy_costs.hpp"
+#include "energy_gradient.hpp"
+#include "errors.hpp"
+#include "estimator_costs.hpp"
+#include "estimator_gradient.hpp"
+#include "estimator_region.hpp"
+#include "newton_search.hpp"
+#include "optimum.hpp"
+#include "overshoot.hpp"
+#include "parameters.hpp"
+#include "region_minimum.hpp"
+#include "sampled_plant.hpp"
+#include "scalar_search.hpp"
+#include "estimator_types.hpp"
+
+namespace hapticopt {
+
+/// An optimum with the estimator: the criterion's point, its cost (none for amax) and the main region's tip.
+struct EstimatorOptimum {
+    Criterion criterion = Criterion::CE2;
+    double alpha = 0;
+    double beta = 0;
+    std::optional<double> cost;
+    double alpha_max = 0;
+    double beta_at_alpha_max = 0;
+};
+
+/// Options of optimal_point with an estimator.
+struct EstimatorOptimumOptions {
+    RegionSearchOptions search;                    ///< grids of the CEx search (region_minimum.hpp)
+    double overshoot_tolerance = 1e-12;            ///< "no overshoot" means C_OV <= this (relative), (0, 1]
+    double alpha_tolerance = 1e-10;                ///< bisection tolerance of the CEx+OV points, relative to alpha_max
+    OptimumMethod method = OptimumMethod::newton;  ///< search of the CE0..2 points (optimal_point below); brent is
+                                                   ///< the slower independent one; CEx+OV always use brent's curve
+};
+
+/// Scan grid of the main region used by OptimumMethod::newton (optimal_point with an estimator): 16 x 16 cells,
+/// no islands (EstimatorStabilityRegion: a corner tip re-scanned at 40 x 40; nothing found, again at 40 x 40 and
+/// 160 x 160). The optimum needs only the main region's tip (the curve's maximum) and its stable beta intervals
+/// (the Schur-Cohn verdict marched and bisected), whatever the grid, once the grid resolves the region (the scan
+/// re-fits its box until the region fills at least 60 % of it, so 16 cells give it about 10 in each direction);
+/// the tests require alpha_max of this grid and the default one to agree to 1e-10 at smooth tips.
+inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{16, 16, false};
+
+/// OptimumMethod::newton with an estimator: a minimum found below this fraction of alpha_max is on the edge
+/// alpha -> 0+, and its beta is polished there by a 1-d Newton (optimal_point).
+inline constexpr double kAlphaEdge = 1e-9;
+
+/// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
+/// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
+/// EstimatorStabilityRegion; the CEx points by options.method:
+///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 4)
+///    alphas across (0, alpha_max) x max(4, beta_grid / 4) betas across the main region's beta interval
+///    (6 x 4 by default; the interval's ends to 1e-3); then damped Newton (newton_search.hpp, minimize_newton_2d)
+///    from the best start point on the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by
+///    alpha_max and that point's interval width, to a step below 1e-12 of them or the function's resolution. A
+///    minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma > 0): its beta is then minimised at
+///    that alpha by minimize_newton_1d. A point outside the main region's beta interval there, or a start grid
+///    without a finite cost, goes to brent's region search on the same region;
+///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
+///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
+/// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:
+/// docs/benchmarks.md. The CEx+OV points (either method) as in optimum.hpp:
+/// the optimal curve beta_opt(alpha) (grid + Brent over the main region's beta interval), a scan down from
+/// alpha_max in `search.alpha_grid` steps to the first alpha whose curve point has C_OV <= tolerance
+/// (estimator_overshoot), then bisection. Throws InvalidParameter for the OV criterion (its point is not
+/// searched with an estimator) and when no scanned curve point meets the tolerance. An empty main region
+/// (alpha_max = 0) gives cost +inf for the CEx criteria.
+HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const NormalizedPlant& plant,
+                                              const VelocityEstimator& estimator,
+                                              const EstimatorOptimumOptions& options = {})
+#if HAPTICOPT_DEFINITIONS
+{
+    const char* fn = "hapticopt::optimal_point";
+    validate(estimator, fn);
+    detail::require_in_range(fn, "overshoot_tolerance", options.overshoot_tolerance, 0.0, true, 1.0,
+                             "0 < tolerance <= 1");
+    detail::require_in_range(fn, "alpha_tolerance", options.alpha_tolerance, 0.0, true, 1e-2,
+                             "0 < alpha_tolerance <= 0.01");
+    EstimatorOptimum out;
+    out.criterion = criterion;
+    if (estimator.kind == VelocityEstimatorKind::backward) {
+        OptimumOptions o;
+        o.overshoot_tolerance = options.overshoot_tolerance;
+        o.method = options.method;
+        const Optimum b = optimal_point(criterion, plant, o);
+        out.alpha = b.alpha;
+        out.beta = b.beta;
+        out.cost = b.cost;
+        out.alpha_max = b.alpha_max;
+        out.beta_at_alpha_max = b.beta_at_alpha_max;
+        return out;
+    }
+    if (criterion == Criterion::Overshoot) {
+        throw InvalidParameter(fn, "criterion", static_cast<double>(criterion),
+                               "amax, CE0..2 or CE0+OV..CE2+OV with a velocity estimator other than backward");
+    }
+    // The fast method serves the CEx points; the CEx+OV points keep the nested Brent curve (their time goes to the
+    // overshoot scans, and their bisection needs beta_opt only to the overshoot's resolution).
+    const bool newton = options.method == OptimumMethod::newton && !requires_no_overshoot(criterion);
+    const EstimatorStabilityRegion region(plant, estimator, newton ? kFastOptimumRegionGrid : EstimatorRegionOptions{});
+    out.alpha_max = region.alpha_max();
+    out.beta_at_alpha_max = region.beta_at_alpha_max();
+    if (criterion == Criterion::AlphaMax) {
+        out.alpha = out.alpha_max;
+        out.beta = out.beta_at_alpha_max;
+        return out;
+    }
+    if (!(out.alpha_max > 0) && !requires_no_overshoot(criterion)) {  // no main region: no CEx point
+        out.cost = HUGE_VAL;
+        return out;
+    }
+    const int index = *energy_index(criterion);
+    const SampledPlant<double> sampled(plant);
+    auto cost = [&](double a, double b) {
+        const EnergyCosts c = estimator_energy_costs(sampled, estimator, a, b);
+        return index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+    };
+    auto interval = [&](double a) { return region.beta_interval(a); };
+    auto gradient = [&](double a, double b) { return estimator_energy_cost_gradient(sampled, estimator, a, b, index); };
+    const int fast_alphas = std::max(4, options.search.alpha_grid / 4);
+    const int fast_betas = std::max(4, options.search.beta_grid / 4);
+    if (!requires_no_overshoot(criterion) && newton) {
+        // Start grid of fast_alphas x fast_betas cell centres over the main region, then damped Newton
+        // (newton_search.hpp) in coordinates scaled by alpha_max and the best start's beta interval width.
+        // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-3 (the march
+        // brackets them to a quarter of a scan cell first).
+        double best_a = out.alpha_max / 2, best_b = 0, best_width = 1, best_value = HUGE_VAL;
+        for (int i = 0; i < fast_alphas; ++i) {
+            const double a = (i + 0.5) * out.alpha_max / fast_alphas;
+            const auto [lo, hi] = region.beta_interval(a, 1e-3);
+            if (!(hi > lo)) continue;
+            for (int j = 0; j < fast_betas; ++j) {
+                const double b = lo + (j + 0.5) * (hi - lo) / fast_betas;
+                const double v = cost(a, b);
+                if (v < best_value) {
+                    best_value = v;
+                    best_a = a;
+                    best_b = b;
+                    best_width = hi - lo;
+                }
+            }
+        }
+        // No finite start cost (a region thinner than the start grid resolves): the region search below.
+        if (std::isfinite(best_value)) {
+            auto fg = [&](double a, double b) {
+                if (!(a > 0 && a < out.alpha_max)) return detail::ValueAndGradient2{HUGE_VAL, 0, 0};
+                const EnergyCostGradient g = gradient(a, b);
+                return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
+            };
+            detail::NewtonMinimum2 m = detail::minimize_newton_2d(fg, best_a, best_b, out.alpha_max, best_width);
+            // The steps are bounded in alpha only; a point outside the main region's beta interval (another stable
+            // region, or within the ends' 1e-6 of them) leaves the answer to the region search below.
+            const auto [lo, hi] = region.beta_interval(m.x, 1e-6);
+            if (m.y > lo && m.y < hi) {
+                if (m.x < kAlphaEdge * out.alpha_max) {
+                    // The minimum lies on the edge alpha -> 0+ (with gamma > 0), where the damped 2-d steps move
+                    // along alpha only: beta's minimum at that alpha by the 1-d Newton.
+                    const double a = m.x;
+                    auto fd = [&](double b) {
+                        const EnergyCostGradient g = gradient(a, b);
+                        return detail::ValueAndDerivative{g.value, g.d_beta};
+                    };
+                    const detail::NewtonMinimum2 e = detail::minimize_newton_1d(fd, m.y, lo, hi);
+                    if (e.value < m.value) m.y = e.x;
+                }
+                out.alpha = m.x;
+                out.beta = m.y;
+                out.cost = cost(m.x, m.y);
+                return out;
+            }
+        }
+    }
+    if (!requires_no_overshoot(criterion)) {
+        const RegionMinimum m = minimize_on_region(cost, 0.0, out.alpha_max, interval, options.search);
+        out.alpha = m.alpha;
+        out.beta = m.beta;
+        out.cost = m.value;
+        return out;
+    }
+    OvershootOptions ov;
+    ov.tolerance = options.overshoot_tolerance;
+    auto curve = [&](double a) { return detail::minimize_over_beta(cost, interval, a, options.search.beta_grid); };
+    auto no_overshoot = [&](double a) {
+        const detail::ScalarMinimum m = curve(a);
+        return std::isfinite(m.value) && estimator_overshoot(sampled, estimator, a, m.x, ov).within_tolerance;
+    };
+    const int n = options.search.alpha_grid;
+    double without = -1, with = out.alpha_max;
+    for (int i = 1; i < n; ++i) {
+        const double a = out.alpha_max * (1 - static_cast<double>(i) / n);
+        if (no_overshoot(a)) {
+            without = a;
+            break;
+        }
+        with = a;
+    }
+    if (without < 0) {
+        throw InvalidParameter(fn, "overshoot_tolerance", options.overshoot_tolerance,
+                               "a tolerance met somewhere on the optimal curve (none found on the scan)");
+    }
+    while (with - without > options.alpha_tolerance * out.alpha_max) {
+        const double mid = (with + without) / 2;
+        (no_overshoot(mid) ? without : with) = mid;
+    }
+    const detail::ScalarMinimum m = curve(without);
+    out.alpha = without;
+    out.beta = m.x;
+    out.cost = m.value;
+    return out;
+}
+#else
+    ;
+#endif
+
+}  // namespace hapticopt
