@@ -242,6 +242,20 @@ TEST(SceneMotion, TheActivationRuleLeavesPlanesInFrontOfTheHandleAndReplacements
     EXPECT_NEAR(replaced.tick({-0.0005, 0, 0}), 2 * K * 0.0005, 1e-12);
 }
 
+// The simulated device of config/devices/sim.toml with its default hand at rest at x = 0: 0.30 kg, 10 N, b_H = 4 N s/m,
+// k_H = 200 N/m.
+SimDeviceConfig resting_hand(std::size_t axes) {
+    SimDeviceConfig dc;
+    dc.capabilities.axes = axes;
+    dc.capabilities.max_force = 10.0;
+    dc.plant = {0.30, 0.0, 0.0};
+    dc.period = kMotionT;
+    dc.scenario.kind = Scenario::Rest;
+    dc.scenario.hand.damping = 4.0;
+    dc.scenario.hand.stiffness = 200.0;
+    return dc;
+}
+
 // The 200 Hz moving wall in closed loop with the real simulated device and hand (0.30 kg, b_H = 4 N s/m,
 // k_H = 200 N/m, at rest at x = 0): the CE2 plane of the default profile (K = 74225.8, B = 223.336), normal -x,
 // offset 5 mm + 2 mm sin(2 pi t), added around the handle at tick 0 and moved with poses every 5 ticks,
@@ -255,15 +269,7 @@ TEST(SceneMotion, TheActivationRuleLeavesPlanesInFrontOfTheHandleAndReplacements
 // With moves applied at once the same run releases the contact again and again (the assertion's failure case).
 TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
     for (const bool hold : {true, false}) {
-        SimDeviceConfig dc;
-        dc.capabilities.axes = 3;
-        dc.capabilities.max_force = 10.0;
-        dc.plant = {0.30, 0.0, 0.0};
-        dc.period = kMotionT;
-        dc.scenario.kind = Scenario::Rest;
-        dc.scenario.hand.damping = 4.0;
-        dc.scenario.hand.stiffness = 200.0;
-        SimDevice dev(dc);
+        SimDevice dev(resting_hand(3));
         ASSERT_EQ(dev.open(), DeviceStatus::Ok);
         CommitRing ring{8};
         SceneObjectsConfig oc = MotionRig::config(0.03, hold ? 0.05 : 0.0, hold ? 0.01 : 0.0);
@@ -324,15 +330,7 @@ TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
 // them), so the handle is there to 1 um. A rate limit on the whole force sustained a bounce between -4.19 and
 // -2.82 mm here (docs/hapticd.md, "Force limits").
 TEST(SceneMotion, AMovedPlaneUnderTheRestingHandSettlesWithTheDefaultForceLimiter) {
-    SimDeviceConfig dc;
-    dc.capabilities.axes = 1;
-    dc.capabilities.max_force = 10.0;
-    dc.plant = {0.30, 0.0, 0.0};
-    dc.period = kMotionT;
-    dc.scenario.kind = Scenario::Rest;
-    dc.scenario.hand.damping = 4.0;
-    dc.scenario.hand.stiffness = 200.0;
-    SimDevice dev(dc);
+    SimDevice dev(resting_hand(1));
     ASSERT_EQ(dev.open(), DeviceStatus::Ok);
     CommitRing ring{8};
     SceneObjects objects(MotionRig::config(0.03, 0.05, 0.01), ring);
