@@ -242,19 +242,50 @@ TEST(SceneMotion, TheActivationRuleLeavesPlanesInFrontOfTheHandleAndReplacements
     EXPECT_NEAR(replaced.tick({-0.0005, 0, 0}), 2 * K * 0.0005, 1e-12);
 }
 
-// The simulated device of config/devices/sim.toml with its default hand at rest at x = 0: 0.30 kg, 10 N, b_H = 4 N s/m,
-// k_H = 200 N/m.
-SimDeviceConfig resting_hand(std::size_t axes) {
-    SimDeviceConfig dc;
-    dc.capabilities.axes = axes;
-    dc.capabilities.max_force = 10.0;
-    dc.plant = {0.30, 0.0, 0.0};
-    dc.period = kMotionT;
-    dc.scenario.kind = Scenario::Rest;
-    dc.scenario.hand.damping = 4.0;
-    dc.scenario.hand.stiffness = 200.0;
-    return dc;
-}
+// The README's CE2 plane (K = 74225.8 N/m, B = 223.336 N s/m, normal -x) in closed loop with the simulated device of
+// config/devices/sim.toml and its default hand at rest at x = 0 (0.30 kg, 10 N, b_H = 4 N s/m, k_H = 200 N/m), the
+// loop's objects (ramp 30 ms) and the force limiter with the given rate.
+struct HandLoop {
+    static constexpr double K = 74225.8, B = 223.336;
+    SimDevice dev;
+    CommitRing ring{8};
+    SceneObjects objects;
+    ForceLimiter limiter;
+    std::uint64_t seq = 0;
+    HandLoop(std::size_t axes, double hold_max, double activation_speed, double max_force_rate)
+        : dev(device(axes)),
+          objects(MotionRig::config(0.03, hold_max, activation_speed), ring),
+          limiter(10.0, max_force_rate, kMotionT, 3) {
+        EXPECT_EQ(dev.open(), DeviceStatus::Ok);
+    }
+    static SimDeviceConfig device(std::size_t axes) {
+        SimDeviceConfig dc;
+        dc.capabilities.axes = axes;
+        dc.capabilities.max_force = 10.0;
+        dc.plant = {0.30, 0.0, 0.0};
+        dc.period = kMotionT;
+        dc.scenario.kind = Scenario::Rest;
+        dc.scenario.hand.damping = 4.0;
+        dc.scenario.hand.stiffness = 200.0;
+        return dc;
+    }
+    void send(SlotUpdate::Action a, double offset) {
+        ObjectCommit c;
+        c.seq = ++seq;
+        c.updates[c.count++] = SlotUpdate{0, a, motion_plane(offset, K, B, false)};
+        EXPECT_TRUE(ring.try_push(c));
+    }
+    // One tick: the position read (into x) and the force written.
+    AxisVector tick(AxisVector& x) {
+        AxisVector f{};
+        EXPECT_EQ(dev.read_position(x), DeviceStatus::Ok);
+        objects.apply_commits();
+        EXPECT_TRUE(objects.add_forces(x, f));
+        f = limiter.step(f, objects.law_change());
+        EXPECT_EQ(dev.write_force(f), DeviceStatus::Ok);
+        return f;
+    }
+};
 
 // The 200 Hz moving wall in closed loop with the real simulated device and hand (0.30 kg, b_H = 4 N s/m,
 // k_H = 200 N/m, at rest at x = 0): the CE2 plane of the default profile (K = 74225.8, B = 223.336), normal -x,
@@ -269,36 +300,19 @@ SimDeviceConfig resting_hand(std::size_t axes) {
 // With moves applied at once the same run releases the contact again and again (the assertion's failure case).
 TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
     for (const bool hold : {true, false}) {
-        SimDevice dev(resting_hand(3));
-        ASSERT_EQ(dev.open(), DeviceStatus::Ok);
-        CommitRing ring{8};
-        SceneObjectsConfig oc = MotionRig::config(0.03, hold ? 0.05 : 0.0, hold ? 0.01 : 0.0);
-        SceneObjects objects(oc, ring);
         // The daemon's last stage (10 N per axis; its step, 9.999 N, binds on no change of a force within 0 .. 10 N).
-        ForceLimiter limiter(10.0, 9999.0, kMotionT, 3);
-        const double K = 74225.8, B = 223.336;
-        std::uint64_t seq = 0;
-        auto send = [&](SlotUpdate::Action a, double offset) {
-            ObjectCommit c;
-            c.seq = ++seq;
-            c.updates[c.count++] = SlotUpdate{0, a, motion_plane(offset, K, B, false)};
-            ASSERT_TRUE(ring.try_push(c));
-        };
-        send(SlotUpdate::Action::Set, 0.005);
+        HandLoop loop(3, hold ? 0.05 : 0.0, hold ? 0.01 : 0.0, 9999.0);
+        const double K = HandLoop::K, B = HandLoop::B;
+        loop.send(SlotUpdate::Action::Set, 0.005);
         int next_pose = 5, releases = 0, counted = 0;
         double f1 = 0.0, f2 = 0.0, sum2 = 0.0;
         for (int j = 0; j < 3000; ++j) {
             if (j == next_pose) {
-                send(SlotUpdate::Action::Move, 0.005 + 0.002 * std::sin(2.0 * std::numbers::pi * j * kMotionT));
+                loop.send(SlotUpdate::Action::Move, 0.005 + 0.002 * std::sin(2.0 * std::numbers::pi * j * kMotionT));
                 next_pose += j < 1000 ? 5 : (j / 5) % 2 == 0 ? 4 : 6;
             }
-            AxisVector x{}, f{};
-            ASSERT_EQ(dev.read_position(x), DeviceStatus::Ok);
-            objects.apply_commits();
-            ASSERT_TRUE(objects.add_forces(x, f));
-            f = limiter.step(f, objects.law_change());
-            ASSERT_EQ(dev.write_force(f), DeviceStatus::Ok);
-            const double fn = -f[0];
+            AxisVector x{};
+            const double fn = -loop.tick(x)[0];
             if (j >= 700) {
                 releases += fn == 0.0 && f1 > 0.0 ? 1 : 0;
                 const double d2 = fn - 2.0 * f1 + f2;
@@ -330,31 +344,16 @@ TEST(SceneMotion, TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand) {
 // them), so the handle is there to 1 um. A rate limit on the whole force sustained a bounce between -4.19 and
 // -2.82 mm here (docs/hapticd.md, "Force limits").
 TEST(SceneMotion, AMovedPlaneUnderTheRestingHandSettlesWithTheDefaultForceLimiter) {
-    SimDevice dev(resting_hand(1));
-    ASSERT_EQ(dev.open(), DeviceStatus::Ok);
-    CommitRing ring{8};
-    SceneObjects objects(MotionRig::config(0.03, 0.05, 0.01), ring);
-    ForceLimiter limiter(10.0, default_max_force_rate(10.0, kMotionT), kMotionT, 3);
-    const double K = 74225.8, B = 223.336;
-    std::uint64_t seq = 0;
-    auto send = [&](SlotUpdate::Action a, double offset) {
-        ObjectCommit c;
-        c.seq = ++seq;
-        c.updates[c.count++] = SlotUpdate{0, a, motion_plane(offset, K, B, false)};
-        ASSERT_TRUE(ring.try_push(c));
-    };
-    send(SlotUpdate::Action::Set, 0.005);
+    HandLoop loop(1, 0.05, 0.01, default_max_force_rate(10.0, kMotionT));
+    const double K = HandLoop::K;
+    loop.send(SlotUpdate::Action::Set, 0.005);
     double lo = 1.0, hi = -1.0;
     int releases = 0;
     double last = 0.0;
     for (int j = 0; j < 3000; ++j) {
-        if (j == 1000) send(SlotUpdate::Action::Move, 0.003);
-        AxisVector x{}, f{};
-        ASSERT_EQ(dev.read_position(x), DeviceStatus::Ok);
-        objects.apply_commits();
-        ASSERT_TRUE(objects.add_forces(x, f));
-        f = limiter.step(f, objects.law_change());
-        ASSERT_EQ(dev.write_force(f), DeviceStatus::Ok);
+        if (j == 1000) loop.send(SlotUpdate::Action::Move, 0.003);
+        AxisVector x{};
+        const AxisVector f = loop.tick(x);
         if (j >= 1000) releases += f[0] == 0.0 && last != 0.0 ? 1 : 0;
         last = f[0];
         if (j >= 2000) {
@@ -366,8 +365,8 @@ TEST(SceneMotion, AMovedPlaneUnderTheRestingHandSettlesWithTheDefaultForceLimite
     std::printf(
         "[ moved plane, default limiter ] x in [%.6f, %.6f] mm over the last second (rest %.6f mm); %d "
         "releases after the move; %llu rate-limited ticks, largest step %.4g N\n",
-        1e3 * lo, 1e3 * hi, 1e3 * rest, releases, static_cast<unsigned long long>(limiter.stats().rate_limited_ticks),
-        limiter.stats().largest_step);
+        1e3 * lo, 1e3 * hi, 1e3 * rest, releases,
+        static_cast<unsigned long long>(loop.limiter.stats().rate_limited_ticks), loop.limiter.stats().largest_step);
     EXPECT_NEAR(lo, rest, 1e-6);
     EXPECT_NEAR(hi, rest, 1e-6);
 }
