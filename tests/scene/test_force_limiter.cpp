@@ -18,7 +18,7 @@
 #include "scene/scene_objects.hpp"
 
 namespace hapticd {
-namespace {
+namespace force_limiter_test {
 
 constexpr double kT = 1e-3;
 
@@ -223,5 +223,5 @@ TEST(SceneObjectsLawChange, TheShiftOfMovesIsTheLawsChangeAtAStillHandle) {
     EXPECT_GT(opened, 10);
 }
 
-}  // namespace
+}  // namespace force_limiter_test
 }  // namespace hapticd
