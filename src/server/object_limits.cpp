@@ -2,16 +2,8 @@
 #include "server/object_limits.hpp"
 
 #include <algorithm>
-#include <sstream>
 
 namespace hapticd::server {
-
-std::string short_number(double v) {
-    std::ostringstream s;
-    s.precision(6);
-    s << v;
-    return s.str();
-}
 
 std::optional<LimitRefusal> check_in_workspace(const client::Vec3& v, const std::string& field,
                                                const WorkspaceBox& box) {

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "common/number_text.hpp"
 #include "hapticd/client.hpp"
 
 namespace hapticd::server {
@@ -30,8 +31,8 @@ struct LimitRefusal {
 inline constexpr double kMaxGainK = 1e12;  // N/m
 inline constexpr double kMaxGainB = 1e9;   // N s/m
 
-// "%g" with 6 significant digits, as every refusal prints numbers.
-[[nodiscard]] std::string short_number(double v);
+// Every refusal prints numbers with common/number_text.hpp's short_number (6 significant digits).
+using hapticd::short_number;
 
 // `field`[a] inside [min_a, max_a] on the device's axes (beyond_device_limits naming the field and the range).
 [[nodiscard]] std::optional<LimitRefusal> check_in_workspace(const client::Vec3& v, const std::string& field,

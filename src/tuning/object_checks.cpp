@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "tuning/object_checks.hpp"
 
+#include "common/number_text.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -22,13 +24,6 @@ Eigen::Matrix3d symmetric(const Matrix3& m) {
     return 0.5 * (e + e.transpose());
 }
 
-std::string number_text(double v, int precision = 6) {
-    std::ostringstream s;
-    s.precision(precision);
-    s << v;
-    return s.str();
-}
-
 }  // namespace
 
 GainChecker::GainChecker(const GainCheckPlant& plant)
@@ -37,8 +32,8 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
     free_mass_plant_ = plant_.damping == 0.0 && plant_.stiffness == 0.0;
     if (!mass_.isotropic && !free_mass_plant_) {
         throw std::invalid_argument(
-            "GainChecker: an anisotropic mass (" + mass_.describe() +
-            ") with damping = " + number_text(plant_.damping) + " N s/m, stiffness = " + number_text(plant_.stiffness) +
+            "GainChecker: an anisotropic mass (" + mass_.describe() + ") with damping = " +
+            short_number(plant_.damping) + " N s/m, stiffness = " + short_number(plant_.stiffness) +
             " N/m has no scalar loop per direction; accepted: damping = stiffness = 0, or one mass");
     }
     if (mass_.isotropic) plant_.mass = mass_.matrix[0][0];
@@ -57,7 +52,7 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
     }
     const double margin = plant_.mass_margin;
     if (!(margin >= 0.0 && margin <= 10.0)) {
-        throw std::invalid_argument("GainChecker: mass_margin = " + number_text(margin) +
+        throw std::invalid_argument("GainChecker: mass_margin = " + short_number(margin) +
                                     " is invalid; accepted: 0 .. 10 (relative)");
     }
     scale_min_ = 1.0 / (1.0 + margin);
@@ -65,7 +60,7 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
     if (plant_.mass_range) {
         const auto [lo, hi] = *plant_.mass_range;
         if (!mass_.isotropic || !(lo > 0.0 && lo <= plant_.mass && plant_.mass <= hi && std::isfinite(hi))) {
-            throw std::invalid_argument("GainChecker: mass_range = [" + number_text(lo) + ", " + number_text(hi) +
+            throw std::invalid_argument("GainChecker: mass_range = [" + short_number(lo) + ", " + short_number(hi) +
                                         "] kg is invalid for the mass " + mass_.describe() +
                                         "; accepted: one mass, 0 < min <= mass <= max, finite");
         }
@@ -74,8 +69,8 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
     }
     const double k_arm = plant_.arm_stiffness_per_mass, b_arm = plant_.arm_damping_per_mass;
     if (!(k_arm >= 0.0 && k_arm <= 1e6) || !(b_arm >= 0.0 && b_arm <= 1e4)) {
-        throw std::invalid_argument("GainChecker: arm_stiffness_per_mass = " + number_text(k_arm) +
-                                    " s^-2, arm_damping_per_mass = " + number_text(b_arm) +
+        throw std::invalid_argument("GainChecker: arm_stiffness_per_mass = " + short_number(k_arm) +
+                                    " s^-2, arm_damping_per_mass = " + short_number(b_arm) +
                                     " s^-1 are invalid; accepted: 0 .. 1e6 s^-2 and 0 .. 1e4 s^-1 (k_H / m, b_H / m)");
     }
     const double T = plant_.period;
@@ -127,9 +122,10 @@ bool GainChecker::stable_over_set(double m, double alpha, double beta, double& f
 }
 
 std::string GainChecker::plant_text(double mass, double arm_stiffness, double arm_damping) {
-    std::string s = "the mass " + number_text(mass) + " kg";
+    std::string s = "the mass " + short_number(mass) + " kg";
     if (arm_stiffness > 0.0 || arm_damping > 0.0) {
-        s += " with an arm k_H = " + number_text(arm_stiffness) + " N/m, b_H = " + number_text(arm_damping) + " N s/m";
+        s +=
+            " with an arm k_H = " + short_number(arm_stiffness) + " N/m, b_H = " + short_number(arm_damping) + " N s/m";
     }
     return s;
 }
@@ -458,11 +454,11 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
             return sum_is_stable(field_stiffness_matrix(J), B_field, why);  // the margin and the free directions
         }
         const PairVerdict v = check_pair(fs.max_stiffness, B, mass_.smallest());
-        why = "field: stiffness " + number_text(fs.max_stiffness) +
-              " N/m (largest eigenvalue of -J) with B = " + number_text(B) +
+        why = "field: stiffness " + short_number(fs.max_stiffness) +
+              " N/m (largest eigenvalue of -J) with B = " + short_number(B) +
               " N s/m is outside the stability region with " +
               plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) + " of " + set_text() +
-              "; the largest stable K over the set at that B is " + number_text(v.largest_stable_K) + " N/m";
+              "; the largest stable K over the set at that B is " + short_number(v.largest_stable_K) + " N/m";
         largest_stable_K = v.largest_stable_K;
         return false;
     }
