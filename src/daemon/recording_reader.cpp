@@ -107,6 +107,12 @@ Recording read_recording(const std::string& path) {
                 const std::size_t a_at = at + (1 + 2 * u) * kChunkSize;
                 const auto a = chunk_at<UpdateChunkA>(bytes, a_at);
                 const auto bb = chunk_at<UpdateChunkB>(bytes, a_at + kChunkSize);
+                if (a.kind == kUpdateA && a.object_kind == static_cast<std::uint8_t>(ObjectKind::Mesh)) {
+                    bad(path, "update " + std::to_string(u) + " of batch record " + std::to_string(i) +
+                                  " is a client's mesh, which a recording does not hold (its triangles came through "
+                                  "the mesh upload, not the batch); accepted: recordings of planes, springs and "
+                                  "fields (docs/recording.md, \"Limits\")");
+                }
                 if (a.kind != kUpdateA || bb.kind != kUpdateB || a.slot >= kSceneObjectCapacity || a.action > 3 ||
                     a.object_kind > 2 || a.constraint > 2) {
                     bad(path, "corrupt: update " + std::to_string(u) + " of batch record " + std::to_string(i) +

@@ -253,6 +253,17 @@ TEST(RecordReplay, BadRecordingsAreRefusedWithTheirDefect) {
     reseal(status);
     cases.push_back({"status", status,
                      "corrupt: tick 5 has device statuses 9, 0 and fault 0 (accepted: statuses 0 .. 7, fault 0 .. 3)"});
+    std::vector<char> mesh = good;  // intact (resealed), its first update a client's mesh: not replayable
+    for (std::size_t at = header_size_of(mesh); at + rec::kChunkSize <= mesh.size(); at += rec::kChunkSize) {
+        rec::UpdateChunkA a;
+        std::memcpy(&a, mesh.data() + at, sizeof a);
+        if (a.kind != rec::kUpdateA) continue;
+        a.object_kind = static_cast<std::uint8_t>(ObjectKind::Mesh);
+        std::memcpy(mesh.data() + at, &a, sizeof a);
+        break;
+    }
+    reseal(mesh);
+    cases.push_back({"mesh", mesh, "of batch record 0 is a client's mesh, which a recording does not hold"});
     for (const Case& c : cases) {
         const std::string file = (scratch() / ("bad_" + c.name + ".rec")).string();
         write_bytes(file, c.bytes);
