@@ -22,8 +22,9 @@
 //    handle does. It is an input to the loop, not feedback: after the scene's last change the device renders the
 //    law the checks certified (docs/protocol.md, section 5) plus an additive force that is zero after
 //    ceil(||o||_inf / s) ticks. A rate limit on the whole force (the law's own response included) is a nonlinearity
-//    inside the loop and can sustain a limit cycle the linear loop damps (tests/scene/test_scene_motion.cpp:
-//    the CE2 plane moved under the resting hand bounced between -4.19 and -2.82 mm for as long as it ran).
+//    inside the loop and can sustain a limit cycle the linear loop damps (tests/scene/test_scene_motion.cpp: with
+//    the default step on the whole force the CE2 plane moved under the resting hand bounces between -4.19 and
+//    -2.82 mm and does not stop).
 // The law's own response (an impact, the damping of a fast hand) is saturated, not rate-limited.
 // A fault (device error, non-finite value, watchdog, fatal signal): zero force at once (zero()).
 // A stop (SIGINT/SIGTERM, the end of --duration, of a replay) is not a fault: the loop runs stop_ticks() more
