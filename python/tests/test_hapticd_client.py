@@ -564,6 +564,30 @@ def falcon_daemon(tmp_path_factory):
                               base_args=["--config", ""])
 
 
+@pytest.fixture(scope="module")
+def fresh_falcon_daemon(tmp_path_factory):
+    """A Falcon daemon of its own: no criterion tuned yet."""
+    yield from _served_daemon(tmp_path_factory, "falcon-fresh", ["--device", "falcon", "--simulate", "--no-walls",
+                                                                 "--rt-priority", "0", "--mlock", "false"],
+                              base_args=["--config", ""])
+
+
+def test_a_session_waiting_for_its_own_slow_tuning_keeps_its_lease(fresh_falcon_daemon):
+    """A client that sends an object and waits for the reply says nothing meanwhile: its lease counts from the reply,
+    not from its request (docs/protocol.md, section 2). OV's first tuning on the Falcon profile (about a second)
+    takes longer than the 0.5 s lease (asserted), and the session goes on after it: its next request follows 0.1 s
+    after the reply (0.4 s of scheduling delay left on a loaded machine)."""
+    with connect(fresh_falcon_daemon, lease_s=0.5) as slow:
+        start = time.monotonic()
+        object_id = slow.add(hc.plane([0.0, 0.0, 1.0], offset=-0.05, criterion="OV"))
+        took = time.monotonic() - start
+        print(f"[ lease ] OV's first tuning took {took:.3f} s under a 0.5 s lease")
+        assert took > 0.5
+        time.sleep(0.1)  # silent after the reply, as a client holding its object is
+        assert slow.status()["type"] == "ok"
+        slow.remove(object_id)
+
+
 def test_a_slow_first_tuning_does_not_cost_another_session_its_lease(falcon_daemon):
     """On the shipped Falcon profile the first OV object tunes OV with the window:15 loop on the server thread (about a
     second on the 2-core VM, more under load); a session heartbeating every 50 ms under a 0.5 s lease meanwhile is not

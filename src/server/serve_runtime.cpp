@@ -3,6 +3,7 @@
 
 #include <grp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <stdexcept>
@@ -85,6 +86,13 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.mass_margin = profile.mass_margin;  // every verdict holds over the set (docs/robust-stability.md)
     plant.arm_stiffness_per_mass = profile.arm_stiffness_per_mass;
     plant.arm_damping_per_mass = profile.arm_damping_per_mass;
+    // Criterion gains keep the profile's force-noise budget, judged with the coarsest axis's encoder step: the step
+    // along any object's direction, sqrt(sum n_a^2 q_a^2), is at most that (GainChecker::criterion_gains).
+    if (profile.force_noise_budget) {
+        plant.force_noise_budget = profile.force_noise_budget;
+        for (std::size_t a = 0; a < axes && a < profile.position_resolution.size(); ++a)
+            plant.position_resolution = std::max(plant.position_resolution, profile.position_resolution[a]);
+    }
     try {
         checker_ = std::make_unique<GainChecker>(plant);
     } catch (const std::invalid_argument& e) {

@@ -235,6 +235,8 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
 
 // The last resort: whatever escapes a request's handling is answered `internal` and logged; the session
 // and the daemon go on.
+// The lease counts the client's silence from the reply too: a client waiting for its answer (a criterion's first
+// tuning can take seconds) need not send anything meanwhile.
 void Server::Impl::handle_guarded(Session& s, std::string_view bytes) {
     try {
         handle_message(s, bytes);
@@ -243,6 +245,7 @@ void Server::Impl::handle_guarded(Session& s, std::string_view bytes) {
     } catch (...) {
         internal_error(s, "an unknown exception");
     }
+    s.last_rx = Clock::now();
 }
 
 void Server::Impl::internal_error(Session& s, const char* what) noexcept {

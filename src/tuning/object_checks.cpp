@@ -348,14 +348,34 @@ std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& cr
     const std::pair<std::string, double> key{criterion, free_mass_plant_ ? 0.0 : m};
     auto it = cache_.find(key);
     if (it == cache_.end()) {
-        TuningPlant p = plant_;  // with the loop's velocity estimator: tune_wall's optimum is the estimator's
-        if (!free_mass_plant_) p.mass = m;
-        p.force_noise_budget.reset();  // the budget is the config walls' (one axis's encoder step), not the objects'
-        p.position_resolution = 0.0;
+        // With the loop's velocity estimator and the profile's force-noise budget (judged with the coarsest axis's
+        // encoder step, GainCheckPlant::position_resolution): tune_wall's optimum is the config walls'.
+        TuningPlant p = plant_;
+        if (!free_mass_plant_) {
+            p.mass = m;
+        } else if (p.force_noise_budget) {
+            // b = k = 0: one normalised optimum for every mass. The budget bounds sigma_F = (m q / T^2) g_F(alpha,
+            // beta) (estimator_noise.hpp), tightest at the heaviest mass an object can act with: tuned there, the
+            // gains (alpha m / T^2, beta m / T) meet it at every lighter mass.
+            p.mass = mass_.largest();
+        }
         const TuningResult r = tune_wall(criterion, p);
         // Stable over the set: the optimum, or the largest fraction f of it that is (0: none; check_object refuses).
         double f = set_stable_factor(p.mass, r.alpha, r.beta);
         if (!(f > 0.0)) f = 1.0;
+        if (p.force_noise_budget && f < 1.0) {
+            // sigma_F is the closed loop's (estimator_noise.hpp), not linear in the gains: the derated gains are
+            // judged again.
+            const double sigma =
+                hapticopt::force_noise_std(to_hapticopt(p), hapticopt::WallGains{f * r.K, f * r.B},
+                                           p.position_resolution, to_hapticopt_estimator(p.velocity, p.period));
+            if (!(sigma <= *p.force_noise_budget)) {
+                throw std::invalid_argument("the optimum derated to " + short_number(f) +
+                                            " x to be stable over the plant set has force noise " +
+                                            short_number(sigma) + " N above force_noise_budget = " +
+                                            short_number(*p.force_noise_budget) + " N; accepted: explicit gains");
+            }
+        }
         // Free mass: store the normalised gains (alpha, beta) in the K, B fields.
         it = cache_
                  .emplace(key,

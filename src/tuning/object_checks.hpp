@@ -106,6 +106,8 @@ struct GainCheckPlant : TuningPlant {
     // times M). 0 and 0: the device alone.
     double arm_stiffness_per_mass = 0.0;
     double arm_damping_per_mass = 0.0;
+    // TuningPlant::force_noise_budget and position_resolution: criterion_gains meets the budget with that encoder
+    // step (the caller gives the coarsest axis's, which bounds the step along every direction); none: no budget.
 };
 
 struct PairVerdict {

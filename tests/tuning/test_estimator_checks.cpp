@@ -397,13 +397,41 @@ TEST(EstimatorChecks, EveryCriterionMeetsTheForceNoiseBudget) {
         EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
         EXPECT_NE(std::string(e.what()).find("a larger force_noise_budget"), std::string::npos) << e.what();
     }
-    // The scene objects' criterion gains are not budgeted: the checker's optimum is the plain one.
+    // The scene objects' criterion gains keep the budget: at the profile's mass the config wall's optimum, and for a
+    // lighter mass the same normalised gains, whose sigma_F = (m q / T^2) g_F is then smaller.
     GainCheckPlant gp = plant_with(1.0, {});
-    gp.force_noise_budget = 1e-9;  // would be unmeetable
+    gp.position_resolution = 1e-5;
+    TuningResult plain = tune_wall("CE2", plant_with(1.0, {}));
+    predict_encoder_effects(plain, plant_with(1.0, {}), gp.position_resolution);
+    ASSERT_TRUE(plain.force_noise_std.has_value());
+    gp.force_noise_budget = 0.5 * *plain.force_noise_std;
     GainChecker checker(gp);
-    const auto gains = checker.criterion_gains("CE2", kMass);
-    ASSERT_TRUE(gains.has_value());
-    EXPECT_EQ(gains->K, tune_wall("CE2", plant_with(1.0, {})).K);
+    const TuningResult wall = tune_wall("CE2", gp);
+    EXPECT_TRUE(wall.force_noise_budget_active);
+    for (const double m : {kMass, 0.5 * kMass}) {
+        const auto gains = checker.criterion_gains("CE2", m);
+        ASSERT_TRUE(gains.has_value());
+        EXPECT_NEAR(gains->K, wall.K * m / kMass, 1e-12 * wall.K) << m;
+        EXPECT_NEAR(gains->B, wall.B * m / kMass, 1e-12 * wall.B) << m;
+        TuningPlant at = gp;
+        at.mass = m;
+        TuningResult judged;
+        judged.K = gains->K;
+        judged.B = gains->B;
+        predict_encoder_effects(judged, at, gp.position_resolution);
+        ASSERT_TRUE(judged.force_noise_std.has_value());
+        EXPECT_LE(*judged.force_noise_std, *gp.force_noise_budget * (m / kMass) * (1 + 1e-9)) << m;
+    }
+    EXPECT_LT(checker.criterion_gains("CE2", kMass)->K, plain.K);
+    // An unmeetable budget: an error naming the key (the server refuses the object with it).
+    gp.force_noise_budget = 1e-9;
+    GainChecker unmeetable(gp);
+    try {
+        (void)unmeetable.criterion_gains("CE2", kMass);
+        ADD_FAILURE() << "an unmeetable budget accepted for an object";
+    } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find("force_noise_budget"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace estimator_checks_test
