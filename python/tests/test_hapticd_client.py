@@ -36,7 +36,7 @@ def _served_daemon(tmp_path_factory, name, extra_args, base_args=DAEMON_ARGS):
     try:
         assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
         assert process.poll() is None, "hapticd ended at start-up"
-        yield {"socket": socket_path, "shm": shm, "process": process}
+        yield {"socket": socket_path, "shm": shm, "process": process, "log": str(directory / "hapticd.log")}
     finally:
         process.send_signal(signal.SIGTERM)
         code = process.wait(20)
@@ -564,9 +564,9 @@ def falcon_daemon(tmp_path_factory):
                               base_args=["--config", ""])
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def fresh_falcon_daemon(tmp_path_factory):
-    """A Falcon daemon of its own: no criterion tuned yet."""
+    """A Falcon daemon for one test: no criterion tuned yet."""
     yield from _served_daemon(tmp_path_factory, "falcon-fresh", ["--device", "falcon", "--simulate", "--no-walls",
                                                                  "--rt-priority", "0", "--mlock", "false"],
                               base_args=["--config", ""])
@@ -577,7 +577,7 @@ def test_a_session_waiting_for_its_own_slow_tuning_keeps_its_lease(fresh_falcon_
     not from its request (docs/protocol.md, section 2). OV's first tuning on the Falcon profile (about a second)
     takes longer than the 0.5 s lease (asserted), and the session goes on after it: its next request follows 0.1 s
     after the reply (0.4 s of scheduling delay left on a loaded machine)."""
-    with connect(fresh_falcon_daemon, lease_s=0.5) as slow:
+    with connect(fresh_falcon_daemon, lease_s=0.5, timeout_s=60.0) as slow:
         start = time.monotonic()
         object_id = slow.add(hc.plane([0.0, 0.0, 1.0], offset=-0.05, criterion="OV"))
         took = time.monotonic() - start
@@ -586,6 +586,34 @@ def test_a_session_waiting_for_its_own_slow_tuning_keeps_its_lease(fresh_falcon_
         time.sleep(0.1)  # silent after the reply, as a client holding its object is
         assert slow.status()["type"] == "ok"
         slow.remove(object_id)
+
+
+def test_other_sessions_are_answered_while_a_criterion_is_tuned(fresh_falcon_daemon):
+    """A criterion's first tuning runs on a worker thread (server/criterion_worker.hpp): while one session waits for
+    its OV object (a second or more), another session's status is answered. The status is sent once the daemon has logged that the
+    first session waits, and must come back before that session's object does."""
+    import threading
+
+    log_path = fresh_falcon_daemon["log"]
+    done = {}
+
+    def slow_add():
+        with connect(fresh_falcon_daemon, timeout_s=60.0) as slow:
+            slow.add(hc.plane([0.0, 0.0, 1.0], offset=-0.05, criterion="OV"))
+            done["at"] = time.monotonic()
+
+    with connect(fresh_falcon_daemon) as other:
+        adding = threading.Thread(target=slow_add)
+        adding.start()
+        try:
+            assert wait_until(lambda: "waits for the first tuning of criterion OV" in open(log_path).read(), 20.0)
+            start = time.monotonic()
+            assert other.status()["type"] == "ok"
+            answered = time.monotonic()
+        finally:
+            adding.join()
+    print(f"[ worker ] status answered in {answered - start:.4f} s; the OV object {done['at'] - answered:.3f} s later")
+    assert answered < done["at"]
 
 
 def test_a_slow_first_tuning_does_not_cost_another_session_its_lease(falcon_daemon):
@@ -611,7 +639,7 @@ def test_a_slow_first_tuning_does_not_cost_another_session_its_lease(falcon_daem
     beating = threading.Thread(target=beat)
     beating.start()
     try:
-        with connect(falcon_daemon) as slow:
+        with connect(falcon_daemon, timeout_s=60.0) as slow:  # a tuning takes seconds on a loaded machine
             start = time.monotonic()
             slow.add(hc.plane([0.0, 0.0, 1.0], offset=-0.05, criterion="OV"))
             took = time.monotonic() - start

@@ -81,9 +81,11 @@ void Server::Impl::run() {
         fds.push_back({stream_socket.listen_fd, POLLIN, 0});  // fd -1: ignored by poll
         bool framed_waiting = false;  // stream messages received in an earlier round and not handled yet
         for (auto& [sid, s] : sessions) {
-            fds.push_back({s.fd, static_cast<short>(s.outbox.idle() ? POLLIN : POLLIN | POLLOUT), 0});
+            // A parked session (waiting for a criterion's tuning) is not read: its messages wait in order.
+            const short in = s.parked ? 0 : POLLIN;
+            fds.push_back({s.fd, static_cast<short>(s.outbox.idle() ? in : in | POLLOUT), 0});
             ids.push_back(sid);
-            framed_waiting = framed_waiting || (s.stream && s.framer.has_frame());
+            framed_waiting = framed_waiting || (s.stream && !s.parked && s.framer.has_frame());
         }
         // 1 ms: leases, subscriptions, slot reclaim
         const int r = ::poll(fds.data(), fds.size(), framed_waiting ? 0 : 1);
@@ -100,10 +102,11 @@ void Server::Impl::run() {
                 const short ev = fds[i + 3].revents;
                 Session& s = sessions.at(ids[i]);
                 if (s.closed) continue;
-                if ((ev & POLLIN) != 0 || (s.stream && s.framer.has_frame())) read_session(s);
+                if (!s.parked && ((ev & POLLIN) != 0 || (s.stream && s.framer.has_frame()))) read_session(s);
                 if (!s.closed && (ev & (POLLHUP | POLLERR)) != 0 && (ev & POLLIN) == 0) close_session(s, "hung up");
             }
         }
+        resume_parked();
         flush_stream_outboxes();
         const auto now = Clock::now();
         close_silent_sessions(now);
@@ -127,7 +130,7 @@ void Server::Impl::read_session(Session& s) {
         read_stream_session(s);
         return;
     }
-    for (int i = 0; i < kMessagesPerRound && !s.closed; ++i) {
+    for (int i = 0; i < kMessagesPerRound && !s.closed && !s.parked; ++i) {
         const ssize_t n = ::recv(s.fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
         if (n < 0) {
             if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) return;
@@ -150,7 +153,7 @@ void Server::Impl::read_session(Session& s) {
 void Server::Impl::read_stream_session(Session& s) {
     int handled = 0;
     bool socket_empty = false;
-    while (handled < kMessagesPerRound && !s.closed) {
+    while (handled < kMessagesPerRound && !s.closed && !s.parked) {
         const server::LineFramer::Next next = s.framer.next();
         if (next.status == server::LineFramer::Status::Frame) {
             handle_guarded(s, next.frame);

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/criterion_worker.hpp"
 #include "server/mesh_store.hpp"
 #include "server/message_decoder.hpp"
 #include "server/object_limits.hpp"
@@ -138,6 +139,15 @@ struct Server::Impl {
     void subscribe_contacts(Session& s, std::uint64_t id, const server::SubscribeContactsRequest& req);
     void final_contacts();
     void flush_stream_outboxes();
+
+    // ---- criteria's first tunings (server_requests.cpp; server/criterion_worker.hpp) ---------------
+    // Parks the commit when a criterion it names is not tuned yet: true when parked (no reply yet).
+    bool park_for_criteria(Session& s, std::string_view bytes, const server::CommitRequest& req);
+    // Takes again each parked request whose criteria are ready.
+    void resume_parked();
+
+    // Last: destroyed first, so its thread ends while the checker it uses lives.
+    server::CriterionWorker criterion_worker{checker};
 };
 
 }  // namespace hapticd

@@ -5,6 +5,7 @@
 // server_impl.hpp).
 #include "server/server_impl.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string_view>
 #include <type_traits>
@@ -190,7 +191,7 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
                 ok["tick"] = snapshot.tick;
                 send_reply(s, ok);
             } else if constexpr (std::is_same_v<T, server::CommitRequest>) {
-                handle_commit(s, id, body);
+                if (!park_for_criteria(s, bytes, body)) handle_commit(s, id, body);
             } else if constexpr (std::is_same_v<T, server::ListRequest>) {
                 json ok = server::ok_reply(id);
                 ok["objects"] = server::list_json(config.config_walls, slots);
@@ -235,6 +236,44 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
 
 // The last resort: whatever escapes a request's handling is answered `internal` and logged; the session
 // and the daemon go on.
+bool Server::Impl::park_for_criteria(Session& s, std::string_view bytes, const server::CommitRequest& req) {
+    std::vector<std::string> missing;
+    for (const server::CommitOperation& op : req.ops) {
+        if (!op.object) continue;
+        std::visit(
+            [&](const auto& object) {
+                if constexpr (requires { object.gains.criterion; }) {
+                    const std::string& c = object.gains.criterion;
+                    if (!c.empty() && !checker.criterion_ready(c) &&
+                        std::find(missing.begin(), missing.end(), c) == missing.end())
+                        missing.push_back(c);
+                }
+            },
+            *op.object);
+    }
+    if (missing.empty()) return false;
+    for (const std::string& c : missing) criterion_worker.request(c);
+    log("session " + std::to_string(s.id) + " waits for the first tuning of criterion " + missing.front() +
+        (missing.size() > 1 ? " and " + std::to_string(missing.size() - 1) + " more" : std::string()));
+    s.parked.emplace(bytes);
+    s.awaiting = std::move(missing);
+    return true;
+}
+
+void Server::Impl::resume_parked() {
+    for (auto& [sid, s] : sessions) {
+        if (s.closed || !s.parked) continue;
+        if (!std::all_of(s.awaiting.begin(), s.awaiting.end(),
+                         [&](const std::string& c) { return checker.criterion_ready(c); }))
+            continue;
+        const std::string bytes = std::move(*s.parked);
+        s.parked.reset();
+        s.awaiting.clear();
+        handle_guarded(s, bytes);
+        close_departed_sessions();
+    }
+}
+
 // The lease counts the client's silence from the reply too: a client waiting for its answer (a criterion's first
 // tuning can take seconds) need not send anything meanwhile.
 void Server::Impl::handle_guarded(Session& s, std::string_view bytes) {

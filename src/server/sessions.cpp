@@ -154,7 +154,7 @@ bool input_waiting(const Session& s) noexcept {
 }  // namespace
 
 Silence silence_of(const Session& s, Clock::time_point now) {
-    if (s.closed) return Silence::None;
+    if (s.closed || s.parked) return Silence::None;
     Silence silence = Silence::None;
     if (!s.welcomed && now - s.last_rx > std::chrono::seconds(kHelloTimeoutS)) silence = Silence::NoHello;
     if (silence == Silence::None && s.lease_s > 0.0 && now - s.last_rx > std::chrono::duration<double>(s.lease_s))

@@ -52,6 +52,10 @@ struct Session {
     bool stream = false;                    // came through the stream socket: '\n'-framed (stream_framing.hpp)
     LineFramer framer{65536};               // stream: received bytes cut into messages
     StreamOutbox outbox;                    // stream: sent bytes the socket has not taken yet
+    // A request waiting for criteria's first tuning (server/criterion_worker.hpp): nothing more is read from the
+    // session until it is answered, and the session is not silent meanwhile (the server owes it a reply).
+    std::optional<std::string> parked;
+    std::vector<std::string> awaiting;  // the criteria it waits for
 };
 
 struct ListeningSocket {

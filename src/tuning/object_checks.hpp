@@ -200,7 +200,15 @@ class GainChecker {
     // the set: when the optimum (alpha*, beta*) is not, the gains f (alpha*, beta*) with the largest f < 1 that is,
     // less kAlphaMaxBackOff (the ray's stable interval through the optimum, from its unit-circle crossings; bisection
     // on the set verdict when the plant has b or k). std::nullopt for an unknown name.
+    // Thread-safe: the tuning runs outside the cache's lock (two threads may tune the same key once each; the first
+    // result is kept). A tuning that fails (a force-noise budget the criterion cannot meet) is cached as its error and
+    // thrown again (std::invalid_argument) on each call.
     std::optional<CriterionGains> criterion_gains(const std::string& criterion, double m);
+    // Whether criterion_gains for `criterion` answers without tuning: cached (gains or error), or not a criterion at
+    // all. The key's mass is the profile's: objects act with it unless b = k = 0, when the key holds for every mass.
+    [[nodiscard]] bool criterion_ready(const std::string& criterion) const;
+    // criterion_gains for the profile's mass, its error kept in the cache (for a worker thread: never throws).
+    void prepare_criterion(const std::string& criterion) noexcept;
 
     // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
     // and the spectral norm of J (for the force bound ||F0|| + ||J|| radius).
@@ -267,8 +275,17 @@ class GainChecker {
     std::vector<std::pair<double, double>> arm_points_{{0.0, 0.0}};  // normalised (gamma_H, delta_H), (0, 0) first
     std::vector<hapticopt::MassScalingTest>
         scalings_;  // free_mass_plant_: the exact test along the mass, per arm point
-    std::mutex cache_mutex_;
-    std::map<std::pair<std::string, double>, CriterionGains> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
+    // The criterion's gains, or the error its tuning threw.
+    struct CachedCriterion {
+        CriterionGains gains;
+        std::string error;  // empty: gains hold
+    };
+    [[nodiscard]] std::pair<std::string, double> cache_key(const std::string& criterion, double m) const {
+        return {criterion, free_mass_plant_ ? 0.0 : m};
+    }
+    CachedCriterion tune_criterion(const std::string& criterion, double m);
+    mutable std::mutex cache_mutex_;
+    std::map<std::pair<std::string, double>, CachedCriterion> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
 };
 
 }  // namespace hapticd
