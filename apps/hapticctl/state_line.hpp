@@ -15,7 +15,7 @@ namespace hapticctl {
 
 std::string state_line(const hapticd::client::StateSample& s, std::size_t axes, double period_s);
 
-// "none", "device", "non-finite", "watchdog" (docs/protocol.md, section 6), or the number.
+// "none", "device", "non_finite", "watchdog", "fatal_signal", "terminate" (docs/protocol.md, section 6), or the number.
 std::string fault_name(std::uint32_t fault);
 
 }  // namespace hapticctl

@@ -24,7 +24,7 @@ enum class StateFault : std::uint32_t {
     Terminate = 5,    // std::terminate ended the daemon
 };
 
-// The protocol's name of a fault: "none", "device", "non-finite", "watchdog", "fatal_signal", "terminate";
+// The protocol's name of a fault: "none", "device", "non_finite", "watchdog", "fatal_signal", "terminate";
 // "unknown" for a number beyond them.
 constexpr const char* to_string(StateFault fault) noexcept {
     switch (fault) {
@@ -33,7 +33,7 @@ constexpr const char* to_string(StateFault fault) noexcept {
         case StateFault::Device:
             return "device";
         case StateFault::NonFinite:
-            return "non-finite";
+            return "non_finite";
         case StateFault::Watchdog:
             return "watchdog";
         case StateFault::FatalSignal:

@@ -48,6 +48,17 @@ def test_state_faults_are_the_cpp_enum():
     assert hc.FAULT_FATAL_SIGNAL == values["FatalSignal"] and hc.FAULT_TERMINATE == values["Terminate"]
 
 
+def test_wire_names_have_one_style():
+    """Fault names and error codes on the wire are lower-case words joined by '_' (docs/architecture.md, glossary)."""
+    header = (REPOSITORY / "include/hapticd/state_layout.hpp").read_text()
+    faults = re.findall(r'case StateFault::\w+:\s*return "([^"]+)";', header)
+    codes = [code for _, code in re.findall(r'\{\s*ErrorCode::(\w+),\s*"([^"]+)"\}',
+                                             (REPOSITORY / "src/client/error_code.cpp").read_text())]
+    assert len(faults) == 6 and len(codes) >= 19
+    for wire in faults + codes:
+        assert re.fullmatch(r"[a-z]+(_[a-z]+)*", wire), wire
+
+
 def test_criterion_names_are_the_cpp_ones():
     text = (REPOSITORY / "include" / "hapticopt" / "criterion.hpp").read_text()
     step = dict(re.findall(r'case Criterion::(\w+):\s*return "([^"]+)";', text))

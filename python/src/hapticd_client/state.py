@@ -97,7 +97,7 @@ class StateFault(enum.IntEnum):
 
 
 #: The protocol's name of each fault (``to_string(StateFault)``), as the state and status messages carry it.
-FAULT_NAMES = {StateFault.NONE: "none", StateFault.DEVICE: "device", StateFault.NON_FINITE: "non-finite",
+FAULT_NAMES = {StateFault.NONE: "none", StateFault.DEVICE: "device", StateFault.NON_FINITE: "non_finite",
                StateFault.WATCHDOG: "watchdog", StateFault.FATAL_SIGNAL: "fatal_signal", StateFault.TERMINATE: "terminate"}
 FAULT_FATAL_SIGNAL = StateFault.FATAL_SIGNAL
 FAULT_TERMINATE = StateFault.TERMINATE
