@@ -303,9 +303,9 @@ std::optional<Refusal> ObjectResolver::resolve_field(const cl::Field& field, Res
     }
     const GainChecker::FieldStiffness fs = GainChecker::field_stiffness(J);
     const double scale = 1e-12 * (1.0 + fs.jacobian_norm);
-    if (fs.min_stiffness < -scale) {
+    if (fs.stiffness_min < -scale) {
         return Refusal{ErrorCode::UnstableGains,
-                       "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.min_stiffness) +
+                       "field.jacobian: its symmetric part has the eigenvalue " + g(-fs.stiffness_min) +
                            " N/m > 0 (a negative stiffness, unstable); accepted: sym(J) negative semi-definite",
                        std::nullopt};
     }
@@ -323,7 +323,7 @@ std::optional<Refusal> ObjectResolver::resolve_field(const cl::Field& field, Res
                        "field.damping = " + g(field.damping) + " is invalid; accepted range: finite, >= 0 N s/m",
                        std::nullopt};
     }
-    if (auto r = check_stiffness_limit(fs.max_stiffness,
+    if (auto r = check_stiffness_limit(fs.stiffness_max,
                                        "field: the stiffness of its Jacobian (largest eigenvalue of -sym(J))"))
         return r;
     Matrix3 B_field{};

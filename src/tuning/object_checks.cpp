@@ -419,8 +419,8 @@ GainChecker::FieldStiffness GainChecker::field_stiffness(const Matrix3& J) {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s, Eigen::EigenvaluesOnly);
     const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m);
     FieldStiffness f;
-    f.min_stiffness = es.eigenvalues().minCoeff();
-    f.max_stiffness = es.eigenvalues().maxCoeff();
+    f.stiffness_min = es.eigenvalues().minCoeff();
+    f.stiffness_max = es.eigenvalues().maxCoeff();
     f.jacobian_norm = svd.singularValues()(0);
     return f;
 }
@@ -496,12 +496,12 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
     if (!curl && mass_.isotropic) {
         // One mass, J symmetric: -J and B I commute; the stiffest eigen-direction with B is the verdict.
         const double B = B_field[0][0];
-        if (fs.max_stiffness <= 1e-12 * (1.0 + fs.jacobian_norm) ||
-            pair_is_stable(fs.max_stiffness, B, mass_.smallest())) {
+        if (fs.stiffness_max <= 1e-12 * (1.0 + fs.jacobian_norm) ||
+            pair_is_stable(fs.stiffness_max, B, mass_.smallest())) {
             return sum_is_stable(field_stiffness_matrix(J), B_field, why);  // the margin and the free directions
         }
-        const PairVerdict v = check_pair(fs.max_stiffness, B, mass_.smallest());
-        why = "field: stiffness " + short_number(fs.max_stiffness) +
+        const PairVerdict v = check_pair(fs.stiffness_max, B, mass_.smallest());
+        why = "field: stiffness " + short_number(fs.stiffness_max) +
               " N/m (largest eigenvalue of -J) with B = " + short_number(B) +
               " N s/m is outside the stability region with " +
               plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) + " of " + set_text() +
@@ -513,8 +513,8 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
     if (sum_is_stable(field_stiffness_matrix(J), B_field, reason)) return true;
     std::ostringstream s;
     s.precision(6);
-    s << "field: the loop it renders, stiffness -J (symmetric part with eigenvalues " << fs.min_stiffness << " .. "
-      << fs.max_stiffness << " N/m";
+    s << "field: the loop it renders, stiffness -J (symmetric part with eigenvalues " << fs.stiffness_min << " .. "
+      << fs.stiffness_max << " N/m";
     if (curl) s << ", and a curl (antisymmetric part) of norm " << 0.5 * (j - j.transpose()).norm() << " N/m";
     s << ") with B = " << B_field[0][0] << " N s/m, is unstable for the device mass " << mass_.describe() << ": "
       << reason;

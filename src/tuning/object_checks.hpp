@@ -213,7 +213,7 @@ class GainChecker {
     // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
     // and the spectral norm of J (for the force bound ||F0|| + ||J|| radius).
     struct FieldStiffness {
-        double min_stiffness = 0.0, max_stiffness = 0.0, jacobian_norm = 0.0;
+        double stiffness_min = 0.0, stiffness_max = 0.0, jacobian_norm = 0.0;
     };
     [[nodiscard]] static FieldStiffness field_stiffness(const Matrix3& J);
     // The largest eigenvalue of sym(K) (N/m): the stiffness along the stiffest direction.

@@ -481,8 +481,8 @@ TEST(GainChecker, SummedGainsOfParallelPlanesAreCheckedAsTheirSum) {
 TEST(GainChecker, FieldStiffnessIsMinusTheSymmetricPartOfTheJacobian) {
     const auto fs = GainChecker::field_stiffness({std::array<double, 3>{-100, 20, 0}, {0, -50, 0}, {0, 0, 10}});
     // -sym(J) = [[100, -10, 0], [-10, 50, 0], [0, 0, -10]]: eigenvalues -10 and 75 +- sqrt(25^2 + 10^2).
-    EXPECT_NEAR(fs.min_stiffness, -10.0, 1e-9);
-    EXPECT_NEAR(fs.max_stiffness, 75.0 + std::sqrt(725.0), 1e-9);
+    EXPECT_NEAR(fs.stiffness_min, -10.0, 1e-9);
+    EXPECT_NEAR(fs.stiffness_max, 75.0 + std::sqrt(725.0), 1e-9);
     EXPECT_GT(fs.jacobian_norm, 100.0);
 }
 
