@@ -16,6 +16,7 @@
 #include "errors.hpp"
 #include "estimator_stability.hpp"
 #include "parameters.hpp"
+#include "region_tip.hpp"
 #include "scalar_search.hpp"
 #include "estimator_types.hpp"
 
@@ -48,10 +49,13 @@ struct EstimatorRegionOptions {
 /// local maximum of the D-decomposition curve (alpha(theta), beta(theta)) solving p(e^{i theta}) = 0
 /// (stability_region.hpp; sampled at max(64, 16 degree) frequencies in (0, pi), refined by Brent) inside the
 /// scan's tip cells, taken (as the edge there) when the edge at its beta agrees with it to 1e-12 alpha; else (a corner
-/// tip, where two branches cross) the maximum of the edge over beta (Brent, scalar_search.hpp). Stable components of
-/// the first (wide) scan that are not connected to the main one are reported as islands. Accuracy: alpha_max
-/// to ~1e-12 where the maximum is a smooth tip (checked against the exact d = 0 value 12 - 8 sqrt(2) for
-/// window 1, tests/core/test_velocity_estimator.cpp).
+/// tip, where two branches cross, or a cusp) the largest candidate of region_tip_candidates (region_tip.hpp: the
+/// curve's arcs bounding a stable set, their ends bisected and their maxima refined) at or above the edge's maximum
+/// over beta (Brent, scalar_search.hpp; a main-region point) and joined to it by stable points (corner_tip), or
+/// that edge maximum where no candidate is. Stable components of the first (wide) scan that are not connected to
+/// the main one are reported as islands. Accuracy: alpha_max to ~1e-12 where the maximum is a smooth tip (checked
+/// against the exact d = 0 value 12 - 8 sqrt(2) for window 1) and to 1e-10 at a corner (checked against the two
+/// branches' crossing solved by Newton, tests/core/test_velocity_estimator.cpp).
 class EstimatorStabilityRegion {
   public:
     HAPTICOPT_DEFERRED
@@ -326,7 +330,41 @@ class EstimatorStabilityRegion {
             detail::minimize_scalar([&](double b) { return -edge_at(b); }, centre - half, centre + half, 1e-13);
         beta_at_alpha_max_ = m.x;
         alpha_max_ = -m.value;
+        corner_tip(centre - half, centre + half);
         return false;
+    }
+
+    /// A corner or cusp tip exactly: from alpha_max_, beta_at_alpha_max_ (the edge's maximum, a main-region point and
+    /// a lower bound of the tip), the largest candidate of region_tip_candidates (region_tip.hpp) with beta in
+    /// [beta_lo, beta_hi] and alpha at or above that bound that is joined to it by stable points: the segment from the
+    /// candidate to the middle of the stable alpha interval at beta_at_alpha_max_ (marched down from the edge in steps
+    /// of alpha_max_ / 1024) stable at 64 equally spaced points and at 1e-9, 1e-6 and 1e-3 of its length from the
+    /// candidate. Nothing changes where no candidate passes.
+    void corner_tip(double beta_lo, double beta_hi) {
+        const double bound = alpha_max_, beta = beta_at_alpha_max_;
+        if (!(bound > 0)) return;
+        std::vector<RegionTipCandidate> candidates =
+            region_tip_candidates(test_.polynomial(), std::max(64, 16 * test_.polynomial().degree()));
+        std::sort(candidates.begin(), candidates.end(),
+                  [](const RegionTipCandidate& a, const RegionTipCandidate& b) { return a.alpha > b.alpha; });
+        double lower = bound;
+        const double step = bound / 1024;
+        for (int k = 1; k < 1024 && test_.stable(bound - k * step, beta); ++k) lower = bound - k * step;
+        const double anchor_alpha = (lower + bound) / 2;
+        for (const RegionTipCandidate& c : candidates) {
+            if (c.alpha < bound * (1 - 1e-12)) break;
+            if (!(c.beta >= beta_lo && c.beta <= beta_hi)) continue;
+            bool joined = true;
+            auto joined_at = [&](double s) {
+                joined = joined && test_.stable(c.alpha + s * (anchor_alpha - c.alpha), c.beta + s * (beta - c.beta));
+            };
+            for (const double s : {1e-9, 1e-6, 1e-3}) joined_at(s);
+            for (int k = 1; k <= 64 && joined; ++k) joined_at(k / 64.0);
+            if (!joined) continue;
+            alpha_max_ = c.alpha;
+            beta_at_alpha_max_ = c.beta;
+            return;
+        }
     }
 
     /// The tip as a smooth maximum of the D-decomposition curve (header comment), when the region's own edge

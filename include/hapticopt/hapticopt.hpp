@@ -34,6 +34,7 @@
 #include "parameters.hpp"
 #include "passivity.hpp"
 #include "region_minimum.hpp"
+#include "region_tip.hpp"
 #include "robust_optimum.hpp"
 #include "sampled_plant.hpp"
 #include "scalar_search.hpp"

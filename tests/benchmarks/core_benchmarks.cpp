@@ -172,6 +172,36 @@ void BM_EstimatorOptimum(benchmark::State& state) {
 }
 BENCHMARK(BM_EstimatorOptimum)->ArgsProduct({{0, 1, 2}, {1, 6}, {0, 1}})->Unit(benchmark::kMillisecond);
 
+// The estimator optimum at the Falcon's d = 6 (issue 39: the goal is at most 1 ms) for each energy criterion:
+// range(0) the estimator (estimator_for: 0 backward through the estimator's optimiser, 1 low-pass nu = 0.02,
+// 2 window 15), range(1) the criterion (0 CE0, 1 CE1, 2 CE2); OptimumMethod::newton (the default).
+void BM_EstimatorOptimumD6(benchmark::State& state) {
+    const VelocityEstimator e = estimator_for(state.range(0));
+    const Criterion c = state.range(1) == 0 ? Criterion::CE0 : state.range(1) == 1 ? Criterion::CE1 : Criterion::CE2;
+    for (auto _ : state) benchmark::DoNotOptimize(optimal_point(c, NormalizedPlant{0, 0, 6}, e));
+}
+BENCHMARK(BM_EstimatorOptimumD6)
+    ->ArgNames({"estimator", "CE"})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}})
+    ->Unit(benchmark::kMillisecond);
+
+// The main region at a corner tip (issue 39's case: window 20, d = 0, gamma = 0.001, delta = 0.02; the tip is the
+// crossing of two branches, region_tip.hpp): range(0) 0 = the default 160 x 160 scan, 1 = the fast optimum's
+// 16 x 16 (kFastOptimumRegionGrid); range(1) 1 = the region and its exact tip, 0 = region_tip_candidates alone.
+void BM_RegionCornerTip(benchmark::State& state) {
+    const NormalizedPlant plant{0.001, 0.02, 0};
+    const VelocityEstimator e = VelocityEstimator::moving_window(20);
+    const EstimatorRegionOptions grid = state.range(0) == 0 ? EstimatorRegionOptions{} : kFastOptimumRegionGrid;
+    const EstimatorStabilityTest test(plant, e);
+    for (auto _ : state) {
+        if (state.range(1) == 1) benchmark::DoNotOptimize(EstimatorStabilityRegion(plant, e, grid).alpha_max());
+        if (state.range(1) == 0) {
+            benchmark::DoNotOptimize(region_tip_candidates(test.polynomial(), 16 * test.polynomial().degree()));
+        }
+    }
+}
+BENCHMARK(BM_RegionCornerTip)->Args({0, 1})->Args({1, 1})->Args({1, 0})->Unit(benchmark::kMicrosecond);
+
 // The parts of the fast CE2 optimum with the estimator (d = range(1)): 0 = the main region on the fast
 // method's 16 x 16 scan (EstimatorStabilityRegion with kFastOptimumRegionGrid), 1 = one gradient
 // (estimator_energy_cost_gradient) at the optimum's neighbourhood, 2 = one cost (estimator_energy_costs) there.

@@ -5,8 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <algorithm>
 #include <cmath>
+#include <complex>
 #include <functional>
 #include <random>
 #include <string>
@@ -528,6 +531,80 @@ TEST(VelocityEstimator, InvalidParametersNameTheFunctionAndRange) {
     // sigma_F = (m q / T^2) g_F with alpha = K T^2 / m, beta = B T / m.
     EXPECT_NEAR(force_noise_std({0.3, 0, 0, 1e-3, 0}, {1000, 10}, 2e-5),
                 0.3 * 2e-5 / 1e-6 * force_noise_gain({0, 0, 0}, {1000 * 1e-6 / 0.3, 10 * 1e-3 / 0.3}), 1e-12);
+}
+
+// A cusp-shaped (corner) tip: window 20 at d = 0, gamma = 0.001, delta = 0.02, where two branches of the
+// D-decomposition curve cross (region_tip.hpp). Checked by an independent method: the crossing solved as
+// C(theta_1) = C(theta_2) by Newton in long double (the curve by complex Horner and Cramer's rule, the Jacobian by
+// central differences), started from the angles of the loop matrix's eigenvalues nearest the unit circle at the
+// region's tip (complex Eigen solver: independent of Schur-Cohn, of the deflation and of the arc bisection). The
+// vertex agrees to 1e-10 relative whatever the scan's grid (the grid's edge maximum was 0.0917216, 7.9e-4 below), and
+// the tip is confirmed by the loop matrix's spectral radius: below 1 at alpha_max (1 - 1e-9) just inside the wedge,
+// four eigenvalues within 1e-6 of the unit circle at the tip (two crossing pairs), and above 1 at alpha_max (1 + 1e-9)
+// at 201 betas across +-1e-3 around it.
+TEST(VelocityEstimator, CornerTipIsTheBranchCrossing) {
+    const NormalizedPlant plant{0.001, 0.02, 0};
+    const VelocityEstimator e = VelocityEstimator::moving_window(20);
+    using LD = long double;
+    const SampledPlant<double> sampled(plant);
+    auto loop_eigenvalues = [&](double alpha, double beta) {
+        const Eigen::MatrixXd m = make_estimator_loop(sampled, e, alpha, beta, false).loop.transition;
+        return Eigen::ComplexEigenSolver<Eigen::MatrixXd>(m).eigenvalues();
+    };
+    auto radius = [&](double alpha, double beta) { return loop_eigenvalues(alpha, beta).cwiseAbs().maxCoeff(); };
+    const AffineCharacteristicPolynomial<LD> p =
+        estimator_characteristic_polynomial(characteristic_polynomial(plant_transitions<LD>(plant)), e);
+    auto curve = [&](LD t) {
+        const std::complex<LD> z = std::polar(LD(1), t);
+        std::complex<LD> c0 = 0, ca = 0, cb = 0;
+        for (int k = p.degree(); k >= 0; --k) {
+            c0 = c0 * z + p.base(k);
+            ca = ca * z + p.alpha(k);
+            cb = cb * z + p.beta(k);
+        }
+        const LD det = ca.real() * cb.imag() - ca.imag() * cb.real();
+        return Eigen::Matrix<LD, 2, 1>((c0.imag() * cb.real() - c0.real() * cb.imag()) / det,
+                                       (c0.real() * ca.imag() - c0.imag() * ca.real()) / det);
+    };
+    for (const EstimatorRegionOptions& grid :
+         {EstimatorRegionOptions{}, kFastOptimumRegionGrid, EstimatorRegionOptions{40, 40, false}}) {
+        const EstimatorStabilityRegion region(plant, e, grid);
+        const double a = region.alpha_max(), b = region.beta_at_alpha_max();
+        EXPECT_GT(a, 0.0917216);  // above the grid edge's maximum
+        // The start: the two distinct angles in (0, pi) of the eigenvalues nearest the unit circle.
+        const Eigen::VectorXcd ev = loop_eigenvalues(a, b);
+        std::vector<std::pair<double, double>> near;  // (| |lambda| - 1 |, angle)
+        for (Eigen::Index k = 0; k < ev.size(); ++k) {
+            if (ev(k).imag() > 0) near.emplace_back(std::abs(std::abs(ev(k)) - 1), std::arg(ev(k)));
+        }
+        std::sort(near.begin(), near.end());
+        ASSERT_GE(near.size(), 2u);
+        EXPECT_LT(near[1].first, 1e-6);  // two pairs on the circle: a crossing of two branches
+        Eigen::Matrix<LD, 2, 1> t(near[0].second, near[1].second);
+        for (int it = 0; it < 40; ++it) {
+            const Eigen::Matrix<LD, 2, 1> f = curve(t(0)) - curve(t(1));
+            const LD h = 1e-9L;
+            Eigen::Matrix<LD, 2, 2> jac;
+            jac.col(0) = (curve(t(0) + h) - curve(t(0) - h)) / (2 * h);
+            jac.col(1) = -(curve(t(1) + h) - curve(t(1) - h)) / (2 * h);
+            t -= jac.inverse() * f;
+        }
+        const Eigen::Matrix<LD, 2, 1> vertex = curve(t(0));
+        EXPECT_LT((curve(t(0)) - curve(t(1))).norm(), 1e-14L);
+        EXPECT_NEAR(a, static_cast<double>(vertex(0)), 1e-10 * a) << grid.alpha_grid;
+        EXPECT_NEAR(b, static_cast<double>(vertex(1)), 1e-8) << grid.alpha_grid;
+        // Just inside: from the tip along the sum of the two branches' unit tangents that point to smaller alpha.
+        Eigen::Matrix<LD, 2, 1> inward = Eigen::Matrix<LD, 2, 1>::Zero();
+        for (int k = 0; k < 2; ++k) {
+            Eigen::Matrix<LD, 2, 1> tangent = curve(t(k) + 1e-7L) - curve(t(k) - 1e-7L);
+            tangent /= tangent.norm();
+            inward += tangent(0) < 0 ? tangent : Eigen::Matrix<LD, 2, 1>(-tangent);
+        }
+        inward *= static_cast<LD>(1e-9 * a) / inward.norm();
+        EXPECT_LT(radius(static_cast<double>(vertex(0) + inward(0)), static_cast<double>(vertex(1) + inward(1))), 1);
+        EXPECT_GT(radius(static_cast<double>(vertex(0) - inward(0)), static_cast<double>(vertex(1) - inward(1))), 1);
+        for (int k = -100; k <= 100; ++k) EXPECT_GT(radius(a * (1 + 1e-9), b + 1e-5 * k), 1) << k;
+    }
 }
 
 }  // namespace
