@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // alpha_max of the main stable region with the estimator (EstimatorStabilityRegion) on three scan grids, 16 x 16
 // (kFastOptimumRegionGrid), 40 x 40 and the default 160 x 160, over the 180 cases of estimator_optimum_sweep.cpp
-// (low-pass nu = 0.002 .. 0.5 and windows 1 .. 60, d = 0 .. 10, (gamma, delta) = (0, 0), (0.01, 0), (0, 0.05)); not a
-// CMake target. One line per case (kind 1 low-pass, 2 window; its parameter; d, gamma, delta; the three alpha_max),
+// (low-pass nu = 0.002 .. 0.5 and windows 1 .. 60, d = 0 .. 10, (gamma, delta) = (0, 0), (0.01, 0), (0, 0.05)).
+// One line per case (kind 1 low-pass, 2 window; its parameter; d, gamma, delta; the three alpha_max),
 // then a summary line: the cases where the grids differ by more than 1e-10 relative and the largest difference.
-// Build and run against a tree's headers (and a revision's: git archive REV include | tar -x -C /tmp/base):
-//   g++ -std=c++20 -O2 -DNDEBUG -Iinclude -isystem /usr/include/eigen3 tests/benchmarks/region_tip_sweep.cpp \
-//     -o /tmp/region_tip_sweep && /tmp/region_tip_sweep
+// Built as hapticopt_region_tip_sweep (not run by the build); against another revision's headers:
+//   git archive REV include | tar -x -C /tmp/base && g++ -std=c++20 -O2 -DNDEBUG -I/tmp/base/include \
+//     -isystem /usr/include/eigen3 tests/benchmarks/region_tip_sweep.cpp -o /tmp/region_tip_sweep && /tmp/region_tip_sweep
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
