@@ -1,0 +1,183 @@
+// SPDX-License-Identifier: Apache-2.0
+// A minimum dwell time for switching among stable loops: how often the wall's gains (and the plant) may change
+// with every switching sequence still exponentially stable.
+//
+// Modes: Schur-stable matrices A_1 .. A_m acting on one state (switching_loop.hpp builds them for the rendered
+// loop: each pair of gains with each plant of a set).
+//
+// Power bound (Lyapunov, for one mode). For a rate lambda with rho(A_i) < lambda < 1, P_i solves the Stein equation
+//   B^T P_i B - P_i = -I,   B = A_i / lambda.
+// Then V(x) = x^T P_i x satisfies V(B x) = V(x) - |x|^2 <= V(x), so V(A_i^n x) <= lambda^(2n) V(x) and
+//   ||A_i^n||_2 <= M_i lambda^n  for every n >= 0,   M_i = sqrt(cond(P_i)) = sqrt(lambda_max(P_i) / lambda_min(P_i)).
+// The computed P_i is verified a posteriori: the smallest eigenvalue of P_i - B^T P_i B must exceed the rounding
+// allowance 8 N eps (1 + ||B||^2) ||P_i|| of forming it, and lambda_min(P_i) must be > 0; only then is M_i used.
+//
+// Theorem (average dwell time; Hespanha & Morse, CDC 1999, Theorem 1, in discrete time as in Zhai, Hu, Yasuda &
+// Michel, Int. J. Systems Science 32(8), 2001). Let ||A_i^n|| <= M lambda^n for every mode i and n >= 0 (M >= 1,
+// lambda < 1), and let the switching signal have at most N_0 + t / tau_a switches in any t ticks. Then every
+// trajectory of x_{t+1} = A_{sigma(t)} x_t obeys
+//   ||x_t|| <= M^(1 + N_0) (M^(1 / tau_a) lambda)^t ||x_0||,
+// exponentially stable whenever tau_a > ln M / (-ln lambda). (Proof: t ticks with k switches are k + 1 blocks of
+// one mode each; the product of the blocks' norms is at most M^(k + 1) lambda^t.) The dwell-time case (Morse, IEEE
+// TAC 41(10), 1996): consecutive switches at least N_d ticks apart give k <= 1 + t / N_d; N_d is the smallest
+// integer with M lambda^(N_d) < 1, i.e. N_d > ln M / (-ln lambda).
+//
+// minimum_dwell() takes M(lambda) = max_i M_i(lambda) on a grid of rates between the largest spectral radius and 1
+// and returns the smallest N_d over the grid with its rate and constant. The bound M_i is conservative (the true
+// sup_n ||A_i^n|| lambda^-n is smaller; tests/beyond/test_switching_dwell.cpp computes it from the powers), so N_d
+// is sufficient, not necessary. What is proven is exactly the family given: a plant or gain outside it is not
+// covered, and a continuous drift of the plant between the listed ones is not a switch among them.
+// Cost: one complex Schur form per mode (~25 N^3) and per rate one triangular Stein solve and two symmetric
+// eigenproblems per mode (~15 N^3). Not for the real-time loop (allocates).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "closed_loop.hpp"
+#include "errors.hpp"
+#include "stein_equation.hpp"
+
+namespace hapticopt {
+
+/// ||A^n||_2 <= constant * rate^n for every n >= 0, when `valid`.
+struct PowerBound {
+    bool valid = false;
+    double rate = 1;
+    double constant = HUGE_VAL;
+};
+
+/// The complex Schur form A = U T U^H of one mode, computed once for every rate.
+struct ModeSchurForm {
+    ComplexMatrix<double> unitary;
+    ComplexMatrix<double> triangular;
+    DynamicMatrix<double> matrix;
+    double spectral_radius = 0;
+};
+
+inline ModeSchurForm mode_schur_form(const DynamicMatrix<double>& a) {
+    constexpr const char* kFunction = "hapticopt::mode_schur_form";
+    if (a.rows() != a.cols() || a.rows() == 0) {
+        throw InvalidParameter(kFunction, "rows", static_cast<double>(a.rows()),
+                               "a square, non-empty matrix (rows = columns >= 1)");
+    }
+    for (Eigen::Index i = 0; i < a.size(); ++i) detail::require_finite(kFunction, "matrix entry", a.data()[i]);
+    const Eigen::ComplexSchur<ComplexMatrix<double>> schur(a.cast<std::complex<double>>());
+    ModeSchurForm f;
+    f.unitary = schur.matrixU();
+    f.triangular = schur.matrixT();
+    f.matrix = a;
+    for (Eigen::Index i = 0; i < a.rows(); ++i) f.spectral_radius = std::max(f.spectral_radius, std::abs(f.triangular(i, i)));
+    return f;
+}
+
+/// The Lyapunov power bound of the header comment at `rate`: invalid unless the mode's spectral radius is below
+/// the rate and the computed P passes the a-posteriori check.
+inline PowerBound lyapunov_power_bound(const ModeSchurForm& mode, double rate) {
+    PowerBound bound;
+    bound.rate = rate;
+    if (!(rate > mode.spectral_radius) || !(rate <= 1.0)) return bound;
+    const Eigen::Index n = mode.matrix.rows();
+    // Y = S^H Y S + I with S = T / rate; X = J Y J solves X = T' X T'^H + I with T' = J S^H J (upper triangular).
+    const ComplexMatrix<double> s = mode.triangular / rate;
+    const ComplexMatrix<double> t_flipped = flip<double>(ComplexMatrix<double>(s.adjoint()));
+    const ComplexMatrix<double> x =
+        solve_triangular_stein<double>(t_flipped, ComplexMatrix<double>::Identity(n, n));
+    const ComplexMatrix<double> y = flip<double>(x);
+    DynamicMatrix<double> p = (mode.unitary * y * mode.unitary.adjoint()).real();
+    p = (0.5 * (p + p.transpose())).eval();
+    if (!p.allFinite()) return bound;
+    const DynamicMatrix<double> b = mode.matrix / rate;
+    DynamicMatrix<double> residual = p - b.transpose() * p * b;
+    residual = (0.5 * (residual + residual.transpose())).eval();
+    const Eigen::SelfAdjointEigenSolver<DynamicMatrix<double>> ep(p, Eigen::EigenvaluesOnly);
+    const Eigen::SelfAdjointEigenSolver<DynamicMatrix<double>> er(residual, Eigen::EigenvaluesOnly);
+    if (ep.info() != Eigen::Success || er.info() != Eigen::Success) return bound;
+    const double p_min = ep.eigenvalues().minCoeff();
+    const double p_max = ep.eigenvalues().maxCoeff();
+    const double b_norm = b.operatorNorm();
+    const double allowance =
+        8.0 * static_cast<double>(n) * std::numeric_limits<double>::epsilon() * (1.0 + b_norm * b_norm) * p_max;
+    if (!(p_min > 0.0) || !(er.eigenvalues().minCoeff() > allowance)) return bound;
+    bound.valid = true;
+    bound.constant = std::sqrt(p_max / p_min);
+    return bound;
+}
+
+/// The dwell certificate of the header comment for a family of modes.
+struct DwellCertificate {
+    bool certified = false;          ///< every mode Schur-stable and a finite dwell found
+    int dwell_ticks = 0;             ///< N_d: switches at least this many ticks apart are exponentially stable
+    double rate = 1;                 ///< lambda: ||A_i^n|| <= constant lambda^n for every mode
+    double constant = HUGE_VAL;      ///< M
+    double switched_rate = 1;        ///< M^(1 / N_d) lambda < 1: the decay per tick under the dwell
+    double largest_spectral_radius = 0;
+    int unstable_mode = -1;          ///< a mode with spectral radius >= 1, when not certified for that reason
+};
+
+/// ||x_t|| / ||x_0|| <= M^(1 + N_0) (M^(1/tau_a) lambda)^t, written for t ticks with `switches` switches:
+/// M^(switches + 1) lambda^t (the proof's product of block norms).
+inline double switched_norm_bound(const DwellCertificate& c, int ticks, int switches) {
+    return std::pow(c.constant, switches + 1) * std::pow(c.rate, ticks);
+}
+
+/// The smallest dwell over `rate_samples` rates spread between the largest spectral radius and 1 (header comment).
+/// Throws InvalidParameter for an empty family, matrices of different sizes or non-finite entries, or fewer than 2
+/// rate samples.
+inline DwellCertificate minimum_dwell(const std::vector<DynamicMatrix<double>>& modes, int rate_samples = 48) {
+    constexpr const char* kFunction = "hapticopt::minimum_dwell";
+    if (modes.empty()) throw InvalidParameter(kFunction, "modes", 0.0, "at least one matrix");
+    detail::require_in_range(kFunction, "rate_samples", rate_samples, 2.0, false, 1e6, "2 <= rate_samples <= 1e6");
+    std::vector<ModeSchurForm> forms;
+    forms.reserve(modes.size());
+    DwellCertificate best;
+    for (std::size_t i = 0; i < modes.size(); ++i) {
+        if (modes[i].rows() != modes.front().rows() || modes[i].cols() != modes.front().cols()) {
+            throw InvalidParameter(kFunction, "mode size", static_cast<double>(modes[i].rows()),
+                                   "every mode of the first mode's size (" + std::to_string(modes.front().rows()) +
+                                       "): the modes act on one state");
+        }
+        forms.push_back(mode_schur_form(modes[i]));
+        if (forms.back().spectral_radius >= best.largest_spectral_radius) {
+            best.largest_spectral_radius = forms.back().spectral_radius;
+            if (!(forms.back().spectral_radius < 1.0)) best.unstable_mode = static_cast<int>(i);
+        }
+    }
+    if (best.unstable_mode >= 0) return best;
+    const double rho = best.largest_spectral_radius;
+    for (int k = 1; k < rate_samples; ++k) {
+        // Rates spread geometrically in the gap 1 - lambda: the best one lies close to rho when M grows slowly.
+        const double gap = (1.0 - rho) * std::pow(1e-3, 1.0 - static_cast<double>(k) / rate_samples);
+        const double rate = 1.0 - gap;
+        if (!(rate > rho)) continue;
+        double constant = 1.0;
+        bool valid = true;
+        for (const ModeSchurForm& f : forms) {
+            const PowerBound b = lyapunov_power_bound(f, rate);
+            if (!b.valid) {
+                valid = false;
+                break;
+            }
+            constant = std::max(constant, b.constant);
+        }
+        if (!valid) continue;
+        const double ticks = std::floor(std::log(constant) / -std::log(rate)) + 1.0;
+        if (!(ticks < 1e9)) continue;
+        if (!best.certified || ticks < best.dwell_ticks) {
+            best.certified = true;
+            best.dwell_ticks = static_cast<int>(ticks);
+            best.rate = rate;
+            best.constant = constant;
+            best.switched_rate = std::pow(constant, 1.0 / ticks) * rate;
+        }
+    }
+    return best;
+}
+
+}  // namespace hapticopt
