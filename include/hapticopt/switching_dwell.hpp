@@ -73,7 +73,8 @@ inline ModeSchurForm mode_schur_form(const DynamicMatrix<double>& a) {
     f.unitary = schur.matrixU();
     f.triangular = schur.matrixT();
     f.matrix = a;
-    for (Eigen::Index i = 0; i < a.rows(); ++i) f.spectral_radius = std::max(f.spectral_radius, std::abs(f.triangular(i, i)));
+    for (Eigen::Index i = 0; i < a.rows(); ++i)
+        f.spectral_radius = std::max(f.spectral_radius, std::abs(f.triangular(i, i)));
     return f;
 }
 
@@ -87,8 +88,7 @@ inline PowerBound lyapunov_power_bound(const ModeSchurForm& mode, double rate) {
     // Y = S^H Y S + I with S = T / rate; X = J Y J solves X = T' X T'^H + I with T' = J S^H J (upper triangular).
     const ComplexMatrix<double> s = mode.triangular / rate;
     const ComplexMatrix<double> t_flipped = flip<double>(ComplexMatrix<double>(s.adjoint()));
-    const ComplexMatrix<double> x =
-        solve_triangular_stein<double>(t_flipped, ComplexMatrix<double>::Identity(n, n));
+    const ComplexMatrix<double> x = solve_triangular_stein<double>(t_flipped, ComplexMatrix<double>::Identity(n, n));
     const ComplexMatrix<double> y = flip<double>(x);
     DynamicMatrix<double> p = (mode.unitary * y * mode.unitary.adjoint()).real();
     p = (0.5 * (p + p.transpose())).eval();
@@ -112,13 +112,13 @@ inline PowerBound lyapunov_power_bound(const ModeSchurForm& mode, double rate) {
 
 /// The dwell certificate of the header comment for a family of modes.
 struct DwellCertificate {
-    bool certified = false;          ///< every mode Schur-stable and a finite dwell found
-    int dwell_ticks = 0;             ///< N_d: switches at least this many ticks apart are exponentially stable
-    double rate = 1;                 ///< lambda: ||A_i^n|| <= constant lambda^n for every mode
-    double constant = HUGE_VAL;      ///< M
-    double switched_rate = 1;        ///< M^(1 / N_d) lambda < 1: the decay per tick under the dwell
+    bool certified = false;      ///< every mode Schur-stable and a finite dwell found
+    int dwell_ticks = 0;         ///< N_d: switches at least this many ticks apart are exponentially stable
+    double rate = 1;             ///< lambda: ||A_i^n|| <= constant lambda^n for every mode
+    double constant = HUGE_VAL;  ///< M
+    double switched_rate = 1;    ///< M^(1 / N_d) lambda < 1: the decay per tick under the dwell
     double largest_spectral_radius = 0;
-    int unstable_mode = -1;          ///< a mode with spectral radius >= 1, when not certified for that reason
+    int unstable_mode = -1;  ///< a mode with spectral radius >= 1, when not certified for that reason
 };
 
 /// ||x_t|| / ||x_0|| <= M^(1 + N_0) (M^(1/tau_a) lambda)^t, written for t ticks with `switches` switches:

@@ -39,9 +39,8 @@ namespace hapticopt {
 /// The mode's transition A(K, B, m) of the header comment for the plant `plant` (normalised by the mode's mass),
 /// gains (a_ref, b_ref) normalised by the reference mass and mass_ratio r = m_ref / m. Throws InvalidParameter for a
 /// non-finite gain or a ratio that is not finite and > 0. Cost O(N^2), N = 2 + Hy + Hv + A.
-inline DynamicMatrix<double> make_switching_loop(const SampledPlant<double>& plant,
-                                                 const VelocityEstimator& estimator, double a_ref, double b_ref,
-                                                 double mass_ratio) {
+inline DynamicMatrix<double> make_switching_loop(const SampledPlant<double>& plant, const VelocityEstimator& estimator,
+                                                 double a_ref, double b_ref, double mass_ratio) {
     constexpr const char* kFunction = "hapticopt::make_switching_loop";
     detail::require_finite(kFunction, "a_ref", a_ref);
     detail::require_finite(kFunction, "b_ref", b_ref);
@@ -54,8 +53,8 @@ inline DynamicMatrix<double> make_switching_loop(const SampledPlant<double>& pla
     const int hv = na == 0 ? 0 : std::max(1, na);
     const int ages = plant.segment(0).force_age;
     const int n = 2 + hy + hv + ages;
-    const int v0 = 2 + hy;         // index of v_{j-1}
-    const int f0 = 2 + hy + hv;    // index of w_{j-1}
+    const int v0 = 2 + hy;       // index of v_{j-1}
+    const int f0 = 2 + hy + hv;  // index of w_{j-1}
     using Row = DynamicVector<double>;
     auto unit = [n](int i) {
         Row v = Row::Zero(n);

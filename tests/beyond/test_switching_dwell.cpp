@@ -42,7 +42,8 @@ struct Family {
 
 DynamicMatrix<double> matrix_of(const Tick& t, const VelocityEstimator& e, double delay) {
     const NormalizedPlant plant{t.arm_stiffness * kPeriod * kPeriod / t.mass, t.arm_damping * kPeriod / t.mass, delay};
-    return hapticopt::make_switching_loop(SampledPlant<double>(plant), e, t.stiffness * kPeriod * kPeriod / kReferenceMass,
+    return hapticopt::make_switching_loop(SampledPlant<double>(plant), e,
+                                          t.stiffness * kPeriod * kPeriod / kReferenceMass,
                                           t.damping * kPeriod / kReferenceMass, kReferenceMass / t.mass);
 }
 
@@ -86,17 +87,18 @@ TEST(SwitchingDwell, TheSwitchingLoopHasTheRenderedLoopsSpectralRadius) {
         VelocityEstimator e;
         double delay;
     };
-    for (const Case& c : {Case{VelocityEstimator::backward_difference(), 0.0},
-                          Case{VelocityEstimator::backward_difference(), 1.5},
-                          Case{VelocityEstimator::low_pass(0.05), 2.0}, Case{VelocityEstimator::moving_window(15), 6.0},
-                          Case{VelocityEstimator::moving_window(4), 3.25}}) {
+    for (const Case& c :
+         {Case{VelocityEstimator::backward_difference(), 0.0}, Case{VelocityEstimator::backward_difference(), 1.5},
+          Case{VelocityEstimator::low_pass(0.05), 2.0}, Case{VelocityEstimator::moving_window(15), 6.0},
+          Case{VelocityEstimator::moving_window(4), 3.25}}) {
         for (double m : {0.2, 0.3}) {
             for (double k_per_m : {0.0, 1000.0}) {
                 const double K = 0.02 * kReferenceMass / (kPeriod * kPeriod), B = 0.3 * kReferenceMass / kPeriod;
                 const Tick t{K, B, m, k_per_m * m, 0.0};
                 const NormalizedPlant plant{k_per_m * kPeriod * kPeriod, 0.0, c.delay};
                 const double expected =
-                    hapticopt::stability(plant, hapticopt::NormalizedGains{K * kPeriod * kPeriod / m, B * kPeriod / m}, c.e)
+                    hapticopt::stability(plant, hapticopt::NormalizedGains{K * kPeriod * kPeriod / m, B * kPeriod / m},
+                                         c.e)
                         .spectral_radius;
                 const double radius = hapticopt::mode_schur_form(matrix_of(t, c.e, c.delay)).spectral_radius;
                 EXPECT_NEAR(radius, expected, 1e-9) << "delay " << c.delay << " mass " << m;
@@ -154,9 +156,10 @@ TEST(SwitchingDwell, ThePowerBoundHoldsForEveryComputedPower) {
             scale *= c.rate;
         }
     }
-    std::printf("computed: sup_n ||A^n|| / lambda^n = %.1f (bound M = %.1f); ||A^n|| < 1 for every mode from n = %d "
-                "to %d\n",
-                sup_ratio, c.constant, last_above_one + 1, horizon);
+    std::printf(
+        "computed: sup_n ||A^n|| / lambda^n = %.1f (bound M = %.1f); ||A^n|| < 1 for every mode from n = %d "
+        "to %d\n",
+        sup_ratio, c.constant, last_above_one + 1, horizon);
     EXPECT_LE(last_above_one + 1, c.dwell_ticks);
 }
 
@@ -178,7 +181,9 @@ TEST(SwitchingDwell, ASubFamilyNeedsNoLongerDwell) {
              return t.arm_stiffness == 0 && t.arm_damping == 0 && (t.mass == 0.22 || t.mass == 0.30);
          }},
         {"both gains x {0.30 kg with the arm's corners, 0.22 kg}",
-         [](const Tick& t) { return t.mass == 0.30 || (t.mass == 0.22 && t.arm_stiffness == 0 && t.arm_damping == 0); }},
+         [](const Tick& t) {
+             return t.mass == 0.30 || (t.mass == 0.22 && t.arm_stiffness == 0 && t.arm_damping == 0);
+         }},
     };
     std::printf("%s: %zu modes, radius %.6f, lambda %.6f, M %.0f, N_d %d\n", "both gains x the set", f.matrices.size(),
                 whole.largest_spectral_radius, whole.rate, whole.constant, whole.dwell_ticks);
@@ -256,7 +261,8 @@ TEST(SwitchingDwell, TwoStableWallsSwitchedFastDivergeAndTheDwellIsNeeded) {
 TEST(SwitchingDwell, AnUnstableModeOrMalformedFamilyIsRefused) {
     const VelocityEstimator e = VelocityEstimator::backward_difference();
     const Tick stable{3e3, 90.0, 0.3}, unstable{3e3, -10.0, 0.3};
-    const hapticopt::DwellCertificate c = hapticopt::minimum_dwell({matrix_of(stable, e, 0.0), matrix_of(unstable, e, 0.0)});
+    const hapticopt::DwellCertificate c =
+        hapticopt::minimum_dwell({matrix_of(stable, e, 0.0), matrix_of(unstable, e, 0.0)});
     EXPECT_FALSE(c.certified);
     EXPECT_EQ(c.unstable_mode, 1);
     EXPECT_GE(c.largest_spectral_radius, 1.0);
