@@ -27,6 +27,13 @@
 // sup_n ||A_i^n|| lambda^-n is smaller; tests/beyond/test_switching_dwell.cpp computes it from the powers), so N_d
 // is sufficient, not necessary. What is proven is exactly the family given: a plant or gain outside it is not
 // covered, and a continuous drift of the plant between the listed ones is not a switch among them.
+// A tighter certificate from the powers themselves (power_dwell): if ||A_i^n||_2 <= q < 1 for every mode and every
+// n in [N, 2N), then every n >= N is a sum of lengths in [N, 2N) (floor(n / N) - 1 of N and one of N + (n mod N)),
+// so ||A_i^n|| <= q^floor(n / N) <= q^(n / 2N) for every n >= N: each block of a switching sequence whose switches are
+// at least N ticks apart contracts by at least q, and ||x_t|| <= M_s^2 q^(t / 2N - 2) ||x_0|| with
+// M_s = max over modes and n < N of ||A_i^n|| (the first and the last block may be shorter). Finite: only the
+// powers up to 2N - 1 are computed, each bounded by its Frobenius norm (>= the 2-norm) plus the rounding of the
+// product A P_{n-1} accumulated over n steps, n N eps ||A||_F max_k ||A^k||_F^2.
 // Cost: one complex Schur form per mode (~25 N^3) and per rate one triangular Stein solve and two symmetric
 // eigenproblems per mode (~15 N^3). Not for the real-time loop (allocates).
 #pragma once
@@ -178,6 +185,72 @@ inline DwellCertificate minimum_dwell(const std::vector<DynamicMatrix<double>>& 
         }
     }
     return best;
+}
+
+/// The power certificate of the header comment.
+struct PowerDwellCertificate {
+    bool certified = false;
+    int dwell_ticks = 0;     ///< N: ||A_i^n|| <= contraction for every mode and n in [N, 2N)
+    double contraction = 1;  ///< q < 1
+    double short_block = 1;  ///< M_s: max ||A_i^n|| over n < N (n = 0 gives 1)
+    int horizon = 0;         ///< the largest power computed
+};
+
+/// The smallest N <= max_ticks / 2 with every mode's ||A^n||_2 below 1 over [N, 2N) (header comment), from the
+/// powers up to `max_ticks`. Not certified when no such N is found within the horizon. Throws InvalidParameter as
+/// minimum_dwell, or for max_ticks outside 2 .. 1e7.
+inline PowerDwellCertificate power_dwell(const std::vector<DynamicMatrix<double>>& modes, int max_ticks) {
+    constexpr const char* kFunction = "hapticopt::power_dwell";
+    if (modes.empty()) throw InvalidParameter(kFunction, "modes", 0.0, "at least one matrix");
+    detail::require_in_range(kFunction, "max_ticks", max_ticks, 2.0, false, 1e7, "2 <= max_ticks <= 1e7");
+    const Eigen::Index size = modes.front().rows();
+    std::vector<double> largest(static_cast<std::size_t>(max_ticks) + 1, 0.0);  // max over modes of the bound
+    largest[0] = 1.0;
+    for (const DynamicMatrix<double>& a : modes) {
+        if (a.rows() != size || a.cols() != size || size == 0) {
+            throw InvalidParameter(kFunction, "mode size", static_cast<double>(a.rows()),
+                                   "every mode square and of the first mode's size (" + std::to_string(size) + ")");
+        }
+        for (Eigen::Index i = 0; i < a.size(); ++i) detail::require_finite(kFunction, "matrix entry", a.data()[i]);
+        const double a_norm = a.norm();
+        const double unit = std::numeric_limits<double>::epsilon() * static_cast<double>(size) * a_norm;
+        DynamicMatrix<double> power = a;
+        double seen = 1.0;  // max_k ||A^k||_F so far (k = 0: ||I||_2 = 1)
+        double rounding = 0.0;
+        for (int n = 1; n <= max_ticks; ++n) {
+            const double f = power.norm();
+            if (!std::isfinite(f)) {
+                largest[static_cast<std::size_t>(n)] = HUGE_VAL;
+                break;
+            }
+            seen = std::max(seen, f);
+            rounding += unit * seen * seen;
+            largest[static_cast<std::size_t>(n)] = std::max(largest[static_cast<std::size_t>(n)], f + rounding);
+            if (n < max_ticks) power = (a * power).eval();
+        }
+    }
+    PowerDwellCertificate c;
+    c.horizon = max_ticks;
+    // next_bad[n]: the smallest k >= n with a bound >= 1 (max_ticks + 1 when none).
+    std::vector<int> next_bad(static_cast<std::size_t>(max_ticks) + 2, max_ticks + 1);
+    for (int n = max_ticks; n >= 0; --n) {
+        next_bad[static_cast<std::size_t>(n)] =
+            largest[static_cast<std::size_t>(n)] >= 1.0 ? n : next_bad[static_cast<std::size_t>(n) + 1];
+    }
+    double short_block = 1.0;
+    for (int n = 1; 2 * n - 1 <= max_ticks; ++n) {
+        if (next_bad[static_cast<std::size_t>(n)] > 2 * n - 1) {
+            c.certified = true;
+            c.dwell_ticks = n;
+            c.short_block = short_block;
+            c.contraction = 0.0;
+            for (int k = n; k <= 2 * n - 1; ++k)
+                c.contraction = std::max(c.contraction, largest[static_cast<std::size_t>(k)]);
+            return c;
+        }
+        short_block = std::max(short_block, largest[static_cast<std::size_t>(n)]);
+    }
+    return c;
 }
 
 }  // namespace hapticopt

@@ -21,7 +21,8 @@ OnlineMassIdentifier::OnlineMassIdentifier(const OnlineMassSettings& s) : settin
     require(std::isfinite(s.period) && s.period > 0, "period", s.period, "finite and > 0 s");
     require(s.delay_ticks >= 0 && s.delay_ticks <= kMaxDelayTicks, "delay_ticks", s.delay_ticks, "0 .. 64 periods");
     require(s.half_width >= 1 && s.half_width <= kMaxHalfWidth, "half_width", s.half_width, "1 .. 200 periods");
-    require(std::isfinite(s.time_constant) && s.time_constant > 0, "time_constant", s.time_constant, "finite and > 0 s");
+    require(std::isfinite(s.time_constant) && s.time_constant > 0, "time_constant", s.time_constant,
+            "finite and > 0 s");
     require(std::isfinite(s.min_excitation) && s.min_excitation >= 0, "min_excitation", s.min_excitation,
             "finite and >= 0 N");
     require(std::isfinite(s.released_mass) && s.released_mass > 0, "released_mass", s.released_mass,

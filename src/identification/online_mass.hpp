@@ -33,13 +33,13 @@
 namespace hapticd {
 
 struct OnlineMassSettings {
-    double period = 1e-3;          // T, s (> 0)
-    int delay_ticks = 0;           // n, the device's whole delay in periods (0 .. kMaxDelayTicks)
-    int half_width = 10;           // h, periods (1 .. kMaxHalfWidth)
-    double time_constant = 0.05;   // tau of the forgetting, s (> 0)
-    double min_excitation = 0.1;    // N: sqrt(var U) / (h T)^2 needed for a mass estimate
-    double released_mass = 0.22;    // m_r, kg (> 0)
-    double mass_tolerance = 0.1;    // eps, relative (0 .. 0.5)
+    double period = 1e-3;            // T, s (> 0)
+    int delay_ticks = 0;             // n, the device's whole delay in periods (0 .. kMaxDelayTicks)
+    int half_width = 10;             // h, periods (1 .. kMaxHalfWidth)
+    double time_constant = 0.05;     // tau of the forgetting, s (> 0)
+    double min_excitation = 0.1;     // N: sqrt(var U) / (h T)^2 needed for a mass estimate
+    double released_mass = 0.22;     // m_r, kg (> 0)
+    double mass_tolerance = 0.1;     // eps, relative (0 .. 0.5)
     double position_step = 4.85e-5;  // q, the encoder's step, m (>= 0)
     int confirm_release = 20;        // ticks (1 .. 100000)
     int confirm_grip = 3;            // ticks (1 .. 100000)

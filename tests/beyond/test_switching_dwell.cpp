@@ -201,6 +201,43 @@ TEST(SwitchingDwell, ASubFamilyNeedsNoLongerDwell) {
     }
 }
 
+// The power certificate: a shorter dwell than the Lyapunov bound's on the Falcon's family, its contraction checked
+// against the SVD of the powers over [N, 2N) (the Frobenius bound it uses is >= the 2-norm), and random sequences
+// that respect it decay in the independent simulation.
+TEST(SwitchingDwell, ThePowerCertificateIsShorterAndHolds) {
+    const Family f = falcon_family();
+    const hapticopt::DwellCertificate lyapunov = hapticopt::minimum_dwell(f.matrices);
+    const hapticopt::PowerDwellCertificate c = hapticopt::power_dwell(f.matrices, 2 * lyapunov.dwell_ticks);
+    ASSERT_TRUE(c.certified);
+    std::printf("power certificate: N = %d ticks (Lyapunov %d), q = %.4f, M_s = %.1f\n", c.dwell_ticks,
+                lyapunov.dwell_ticks, c.contraction, c.short_block);
+    EXPECT_LE(c.dwell_ticks, lyapunov.dwell_ticks);
+    EXPECT_LT(c.contraction, 1.0);
+    for (std::size_t i = 0; i < f.matrices.size(); i += 7) {  // every 7th mode: the SVD is the slow method
+        const DynamicMatrix<double>& a = f.matrices[i];
+        DynamicMatrix<double> power = DynamicMatrix<double>::Identity(a.rows(), a.cols());
+        for (int n = 1; n < 2 * c.dwell_ticks; ++n) {
+            power = (a * power).eval();
+            if (n < c.dwell_ticks) continue;
+            ASSERT_LE(Eigen::JacobiSVD<DynamicMatrix<double>>(power).singularValues()(0), c.contraction)
+                << "mode " << i << ", n = " << n;
+        }
+    }
+    // Not certified when the horizon is too short to hold [N, 2N).
+    EXPECT_FALSE(hapticopt::power_dwell(f.matrices, c.dwell_ticks).certified);
+    std::mt19937 rng(5);
+    for (int run = 0; run < 4; ++run) {
+        const std::vector<int> schedule =
+            random_schedule(rng, static_cast<int>(f.modes.size()), 10, c.dwell_ticks, c.dwell_ticks + 200);
+        std::vector<Tick> ticks;
+        for (int i : schedule) ticks.push_back(f.modes[static_cast<std::size_t>(i)]);
+        const std::vector<double> x = switched_loop_simulation::positions(ticks, kPeriod, 6.0, 15, 1e-3);
+        double last = 0;
+        for (std::size_t j = x.size() - 500; j < x.size(); ++j) last = std::max(last, std::abs(x[j]));
+        EXPECT_LT(last, 1e-6 * 1e-3) << "run " << run;
+    }
+}
+
 TEST(SwitchingDwell, RandomSwitchingThatRespectsTheDwellDecaysWithinTheBound) {
     const Family f = falcon_family();
     const hapticopt::DwellCertificate c = hapticopt::minimum_dwell(f.matrices);

@@ -27,8 +27,8 @@ struct FalconRun {
     std::vector<bool> gripped;
 };
 
-FalconRun run_falcon(const OnlineMassSettings& settings, const char* schedule, double seconds, double wall_k, double wall_b,
-                     Scenario scenario = Scenario::Step) {
+FalconRun run_falcon(const OnlineMassSettings& settings, const char* schedule, double seconds, double wall_k,
+                     double wall_b, Scenario scenario = Scenario::Step) {
     SimDeviceConfig c;
     c.capabilities.axes = 1;
     c.capabilities.max_force = 9.0;
@@ -100,18 +100,20 @@ TEST(OnlineMass, TheFalconsReleaseAndGripAreDetected) {
         ++n;
     }
     const double held = r.mass[1999];
-    std::printf("release decided %d ms after it, grip %d ms after it; released estimate 0.22 kg %+.4f kg at 2 s, worst "
-                "%.4f kg over the %d ticks it estimated\n",
-                release - 1000, grip - 2000, held - 0.22, worst, n);
+    std::printf(
+        "release decided %d ms after it, grip %d ms after it; released estimate 0.22 kg %+.4f kg at 2 s, worst "
+        "%.4f kg over the %d ticks it estimated\n",
+        release - 1000, grip - 2000, held - 0.22, worst, n);
     double held_min = 1e9, held_max = 0;
     for (int j = grip; j < 3000; ++j) {
         if (r.excitation[static_cast<std::size_t>(j)] < min_excitation) continue;
         held_min = std::min(held_min, r.mass[static_cast<std::size_t>(j)]);
         held_max = std::max(held_max, r.mass[static_cast<std::size_t>(j)]);
     }
-    std::printf("held again (0.30 kg with the arm k_H 300 N/m, b_H 6 N s/m): the regression reads %.4f .. %.4f kg (biased "
-                "by the arm)\n",
-                held_min, held_max);
+    std::printf(
+        "held again (0.30 kg with the arm k_H 300 N/m, b_H 6 N s/m): the regression reads %.4f .. %.4f kg (biased "
+        "by the arm)\n",
+        held_min, held_max);
     ASSERT_GT(n, 0);
     // Within half the set's 10 % mass margin: a re-tuned wall for this estimate stays inside the certified set.
     EXPECT_LT(std::abs(held - 0.22), 0.05 * 0.22);
