@@ -35,7 +35,8 @@
 // powers up to 2N - 1 are computed, each bounded by its Frobenius norm (>= the 2-norm) plus the rounding of the
 // product A P_{n-1} accumulated over n steps, n N eps ||A||_F max_k ||A^k||_F^2.
 // Cost: one complex Schur form per mode (~25 N^3) and per rate one triangular Stein solve and two symmetric
-// eigenproblems per mode (~15 N^3). Not for the real-time loop (allocates).
+// eigenproblems per mode (~15 N^3). Not for the real-time loop (allocates). The functions are HAPTICOPT_DEFERRED
+// (config.hpp): their Eigen decompositions are instantiated only where they are called.
 #pragma once
 
 #include <Eigen/Core>
@@ -48,6 +49,7 @@
 #include <vector>
 
 #include "closed_loop.hpp"
+#include "config.hpp"
 #include "errors.hpp"
 #include "stein_equation.hpp"
 
@@ -68,7 +70,7 @@ struct ModeSchurForm {
     double spectral_radius = 0;
 };
 
-inline ModeSchurForm mode_schur_form(const DynamicMatrix<double>& a) {
+HAPTICOPT_DEFERRED inline ModeSchurForm mode_schur_form(const DynamicMatrix<double>& a) {
     constexpr const char* kFunction = "hapticopt::mode_schur_form";
     if (a.rows() != a.cols() || a.rows() == 0) {
         throw InvalidParameter(kFunction, "rows", static_cast<double>(a.rows()),
@@ -87,7 +89,7 @@ inline ModeSchurForm mode_schur_form(const DynamicMatrix<double>& a) {
 
 /// The Lyapunov power bound of the header comment at `rate`: invalid unless the mode's spectral radius is below
 /// the rate and the computed P passes the a-posteriori check.
-inline PowerBound lyapunov_power_bound(const ModeSchurForm& mode, double rate) {
+HAPTICOPT_DEFERRED inline PowerBound lyapunov_power_bound(const ModeSchurForm& mode, double rate) {
     PowerBound bound;
     bound.rate = rate;
     if (!(rate > mode.spectral_radius) || !(rate <= 1.0)) return bound;
@@ -137,7 +139,8 @@ inline double switched_norm_bound(const DwellCertificate& c, int ticks, int swit
 /// The smallest dwell over `rate_samples` rates spread between the largest spectral radius and 1 (header comment).
 /// Throws InvalidParameter for an empty family, matrices of different sizes or non-finite entries, or fewer than 2
 /// rate samples.
-inline DwellCertificate minimum_dwell(const std::vector<DynamicMatrix<double>>& modes, int rate_samples = 48) {
+HAPTICOPT_DEFERRED inline DwellCertificate minimum_dwell(const std::vector<DynamicMatrix<double>>& modes,
+                                                         int rate_samples = 48) {
     constexpr const char* kFunction = "hapticopt::minimum_dwell";
     if (modes.empty()) throw InvalidParameter(kFunction, "modes", 0.0, "at least one matrix");
     detail::require_in_range(kFunction, "rate_samples", rate_samples, 2.0, false, 1e6, "2 <= rate_samples <= 1e6");
@@ -199,7 +202,8 @@ struct PowerDwellCertificate {
 /// The smallest N <= max_ticks / 2 with every mode's ||A^n||_2 below 1 over [N, 2N) (header comment), from the
 /// powers up to `max_ticks`. Not certified when no such N is found within the horizon. Throws InvalidParameter as
 /// minimum_dwell, or for max_ticks outside 2 .. 1e7.
-inline PowerDwellCertificate power_dwell(const std::vector<DynamicMatrix<double>>& modes, int max_ticks) {
+HAPTICOPT_DEFERRED inline PowerDwellCertificate power_dwell(const std::vector<DynamicMatrix<double>>& modes,
+                                                            int max_ticks) {
     constexpr const char* kFunction = "hapticopt::power_dwell";
     if (modes.empty()) throw InvalidParameter(kFunction, "modes", 0.0, "at least one matrix");
     detail::require_in_range(kFunction, "max_ticks", max_ticks, 2.0, false, 1e7, "2 <= max_ticks <= 1e7");

@@ -30,6 +30,7 @@
 #include <cstddef>
 
 #include "closed_loop.hpp"
+#include "config.hpp"
 #include "errors.hpp"
 #include "estimator_types.hpp"
 #include "sampled_plant.hpp"
@@ -39,8 +40,9 @@ namespace hapticopt {
 /// The mode's transition A(K, B, m) of the header comment for the plant `plant` (normalised by the mode's mass),
 /// gains (a_ref, b_ref) normalised by the reference mass and mass_ratio r = m_ref / m. Throws InvalidParameter for a
 /// non-finite gain or a ratio that is not finite and > 0. Cost O(N^2), N = 2 + Hy + Hv + A.
-inline DynamicMatrix<double> make_switching_loop(const SampledPlant<double>& plant, const VelocityEstimator& estimator,
-                                                 double a_ref, double b_ref, double mass_ratio) {
+HAPTICOPT_DEFERRED inline DynamicMatrix<double> make_switching_loop(const SampledPlant<double>& plant,
+                                                                    const VelocityEstimator& estimator, double a_ref,
+                                                                    double b_ref, double mass_ratio) {
     constexpr const char* kFunction = "hapticopt::make_switching_loop";
     detail::require_finite(kFunction, "a_ref", a_ref);
     detail::require_finite(kFunction, "b_ref", b_ref);
