@@ -43,5 +43,7 @@
 #include "stability_region.hpp"
 #include "stein_equation.hpp"
 #include "step_response.hpp"
+#include "switching_dwell.hpp"
+#include "switching_loop.hpp"
 #include "velocity_estimator.hpp"
 #include "version.hpp"
