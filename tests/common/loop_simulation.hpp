@@ -26,6 +26,22 @@ struct Velocity {
     int window = 1;       // window: N periods (<= 1000)
 };
 
+// The mass m held by the arm (k_arm, b_arm), m x'' + b_arm x' + k_arm x = -u, moved over tau by classical Runge-Kutta
+// with 16 steps (header comment: its error).
+inline void move_with_arm(double& x, double& v, double u, double tau, double m, double k_arm, double b_arm) {
+    auto acceleration = [&](double xx, double vv) { return (-u - k_arm * xx - b_arm * vv) / m; };
+    constexpr int kSteps = 16;
+    const double h = tau / kSteps;
+    for (int i = 0; i < kSteps; ++i) {
+        const double a1 = acceleration(x, v);
+        const double x2 = x + 0.5 * h * v, v2 = v + 0.5 * h * a1, a2 = acceleration(x2, v2);
+        const double x3 = x + 0.5 * h * v2, v3 = v + 0.5 * h * a2, a3 = acceleration(x3, v3);
+        const double x4 = x + h * v3, v4 = v + h * a3, a4 = acceleration(x4, v4);
+        x += h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4);
+        v += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+    }
+}
+
 // The loop's ticks with the plant's motion under a force u held for tau given by move(x, v, u, tau): max |x| over the
 // last tenth of `ticks` periods divided by max |x| over the first tenth; HUGE_VAL once |x| passes 1 m (a million
 // times the start: grown).
@@ -80,17 +96,7 @@ inline double excursion_ratio(double m, double K, double B, double T, double del
 inline double excursion_ratio_with_arm(double m, double k_arm, double b_arm, double K, double B, double T,
                                        double delay_periods, const Velocity& e, int ticks) {
     return excursion_ratio_of(K, B, T, delay_periods, e, ticks, [=](double& x, double& v, double u, double tau) {
-        auto acceleration = [&](double xx, double vv) { return (-u - k_arm * xx - b_arm * vv) / m; };
-        constexpr int kSteps = 16;
-        const double h = tau / kSteps;
-        for (int i = 0; i < kSteps; ++i) {
-            const double a1 = acceleration(x, v);
-            const double x2 = x + 0.5 * h * v, v2 = v + 0.5 * h * a1, a2 = acceleration(x2, v2);
-            const double x3 = x + 0.5 * h * v2, v3 = v + 0.5 * h * a2, a3 = acceleration(x3, v3);
-            const double x4 = x + h * v3, v4 = v + h * a3, a4 = acceleration(x4, v4);
-            x += h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4);
-            v += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
-        }
+        move_with_arm(x, v, u, tau, m, k_arm, b_arm);
     });
 }
 

@@ -15,6 +15,8 @@
 #include <deque>
 #include <vector>
 
+#include "common/loop_simulation.hpp"
+
 namespace switched_loop_simulation {
 
 struct Tick {
@@ -47,19 +49,7 @@ inline std::vector<double> positions(const std::vector<Tick>& schedule, double T
                 v -= u * tau / t.mass;
                 return;
             }
-            auto acceleration = [&](double xx, double vv) {
-                return (-u - t.arm_stiffness * xx - t.arm_damping * vv) / t.mass;
-            };
-            constexpr int kSteps = 16;
-            const double h = tau / kSteps;
-            for (int i = 0; i < kSteps; ++i) {
-                const double a1 = acceleration(x, v);
-                const double x2 = x + 0.5 * h * v, v2 = v + 0.5 * h * a1, a2 = acceleration(x2, v2);
-                const double x3 = x + 0.5 * h * v2, v3 = v + 0.5 * h * a2, a3 = acceleration(x3, v3);
-                const double x4 = x + h * v3, v4 = v + h * a3, a4 = acceleration(x4, v4);
-                x += h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4);
-                v += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
-            }
+            loop_simulation::move_with_arm(x, v, u, tau, t.mass, t.arm_stiffness, t.arm_damping);
         };
         if (phi > 0.0) move(forces[static_cast<std::size_t>(n + 1)], phi * T);
         move(forces[static_cast<std::size_t>(n)], (1.0 - phi) * T);
