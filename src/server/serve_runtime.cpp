@@ -85,6 +85,12 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
     plant.mass_margin = profile.mass_margin;  // every verdict holds over the set (docs/robust-stability.md)
     plant.arm_stiffness_per_mass = profile.arm_stiffness_per_mass;
     plant.arm_damping_per_mass = profile.arm_damping_per_mass;
+    // The set's total delays: inherent_delay_range plus the delay buffer (delay - inherent_delay), holding delay.
+    if (profile.inherent_delay_range.size() == 2) {
+        const double buffer = delay - profile.inherent_delay;
+        plant.delay_range = std::make_pair(std::min(profile.inherent_delay_range[0] + buffer, delay),
+                                           std::max(profile.inherent_delay_range[1] + buffer, delay));
+    }
     try {
         checker_ = std::make_unique<GainChecker>(plant);
     } catch (const std::invalid_argument& e) {
