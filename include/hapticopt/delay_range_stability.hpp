@@ -97,17 +97,6 @@ inline Eigen::VectorXd series_at(const std::vector<Eigen::VectorXd>& c, double t
     return v;
 }
 
-/// Per k: a bound on |d c_k / dphi| for phi with |t| <= tau (t = 2 phi - 1, dt/dphi = 2).
-inline Eigen::VectorXd series_derivative_bound(const std::vector<Eigen::VectorXd>& c, double tau) {
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(c[0].size());
-    double power = 1;
-    for (std::size_t j = 1; j < c.size(); ++j) {
-        b += (2.0 * static_cast<double>(j) * power) * c[j].cwiseAbs();
-        power *= tau;
-    }
-    return b;
-}
-
 }  // namespace detail
 
 /// The exact polynomial family over a delay interval for one plant (gamma, delta per unit mass: ArmAlongRay::
@@ -159,7 +148,15 @@ class DelayRangeTest {
     DelayBoxStability over(double alpha, double beta, double s_lo, double s_hi) const {
         DelayBoxStability r;
         r.certified = certified_;
-        const GainRayStability first = sample_tests_.front().over(alpha, beta, s_lo, s_hi);
+        // The one point: (d_lo, s_lo) by the exact verdict (the slabs below cover the rest of the box, its edges
+        // included); without a range the exact test along s at the one delay.
+        GainRayStability first;
+        if (families_.empty()) {
+            first = sample_tests_.front().over(alpha, beta, s_lo, s_hi);
+        } else {
+            first.stable = sample_tests_.front().stable(s_lo * alpha, s_lo * beta);
+            first.failing_scale = s_lo;
+        }
         if (!first.stable) {
             r.failing_scale = unstable_scale_near(d_lo_, alpha, beta, first.failing_scale, s_lo, s_hi);
             r.failing_delay = d_lo_;
@@ -190,7 +187,8 @@ class DelayRangeTest {
 
     /// Matrix gains A, B (normalised for the reference mass matrix, as MassScalingTest::matrix_over) over the scales
     /// and every delay: symmetric commuting gains exactly per common direction (over); otherwise sampled, with
-    /// MassScalingTest::matrix_over at each of sampled_delays (`certified` false); failing_delay with the failing scale.
+    /// MassScalingTest::matrix_over at each of sampled_delays (`certified` false); failing_delay with the failing
+    /// scale.
     MatrixGainScaleStability matrix_over(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double s_lo, double s_hi,
                                          int samples) const {
         MatrixGainScaleStability first = sample_tests_.front().matrix_over(A, B, s_lo, s_hi, samples);
@@ -301,44 +299,74 @@ class DelayRangeTest {
     }
 
     struct Evaluation {
-        double theta, F, slope, s_at;  // slope: |P'(z)| + s_hi |Q'(z)|
+        double theta, H, slope, s_at;  // H = F - w G; slope: |P'(z)| + s_hi |Q'(z)|
     };
 
-    static Evaluation evaluate(const Eigen::VectorXd& P, const Eigen::VectorXd& Q, double theta, double s_lo,
-                               double s_hi) {
+    // The slab's data: P, Q at phi_c, and the phi-series terms j >= 1 of P_0 and Q (for G, header comment).
+    struct Slab {
+        Eigen::VectorXd P, Q;
+        std::vector<Eigen::VectorXd> base_terms, q_terms;  // j = 1 .. D
+        std::vector<double> weights;                       // 2 j tau^(j-1)
+        // Terms below 1e-9 of the largest (the rounding of the free-mass plant's fit) enter G by sum |c_k| instead
+        // of their value at z (|sum c_k z^k| <= sum |c_k|): g_constant.
+        std::vector<bool> base_evaluated, q_evaluated;
+        double g_constant = 0;
+        double s_lo, s_hi, w;
+    };
+
+    static std::complex<double> horner(const Eigen::VectorXd& c, std::complex<double> z) {
+        std::complex<double> v = 0;
+        for (Eigen::Index k = c.size() - 1; k >= 0; --k) v = v * z + c(k);
+        return v;
+    }
+
+    static Evaluation evaluate(const Slab& slab, double theta) {
         const std::complex<double> z = std::polar(1.0, theta);
         std::complex<double> p = 0, dp = 0, q = 0, dq = 0;
-        for (Eigen::Index k = P.size() - 1; k >= 0; --k) {
+        for (Eigen::Index k = slab.P.size() - 1; k >= 0; --k) {
             dp = dp * z + p;
-            p = p * z + P(k);
+            p = p * z + slab.P(k);
             dq = dq * z + q;
-            q = q * z + Q(k);
+            q = q * z + slab.Q(k);
+        }
+        double g = slab.g_constant;  // G(theta) >= max over the slab of |dp / dphi| at this z
+        for (std::size_t j = 0; j < slab.weights.size(); ++j) {
+            if (slab.base_evaluated[j]) g += slab.weights[j] * std::abs(horner(slab.base_terms[j], z));
+            if (slab.q_evaluated[j]) g += slab.weights[j] * slab.s_hi * std::abs(horner(slab.q_terms[j], z));
         }
         Evaluation e;
         e.theta = theta;
-        e.F = segment_distance(p, q, s_lo, s_hi, e.s_at);
-        e.slope = std::abs(dp) + s_hi * std::abs(dq);
+        e.H = segment_distance(p, q, slab.s_lo, slab.s_hi, e.s_at) - slab.w * g;
+        e.slope = std::abs(dp) + slab.s_hi * std::abs(dq);
         return e;
     }
 
-    // Whether min over theta in [0, pi], s in [s_lo, s_hi] of |P + s Q| > threshold (certified, header comment);
-    // `worst`: the evaluation with the smallest F seen.
-    static bool distance_exceeds(const Eigen::VectorXd& P, const Eigen::VectorXd& Q, double s_lo, double s_hi,
-                                 double threshold, Evaluation& worst) {
-        double second = 0, absolute = 0;
+    // Whether min over theta in [0, pi] of H(theta) = F(theta) - w G(theta) exceeds `threshold` (certified, header
+    // comment); `worst`: the evaluation with the smallest H seen.
+    static bool distance_exceeds(const Slab& slab, double threshold, Evaluation& worst) {
+        const Eigen::VectorXd& P = slab.P;
+        const Eigen::VectorXd& Q = slab.Q;
+        const double s_hi = slab.s_hi;
+        double second = 0, absolute = 0, g_slope = 0;
         for (Eigen::Index k = 0; k < P.size(); ++k) {
             const double kk = static_cast<double>(k) * static_cast<double>(k);
             second += kk * (std::abs(P(k)) + s_hi * std::abs(Q(k)));
             absolute += std::abs(P(k)) + s_hi * std::abs(Q(k));
         }
+        for (std::size_t j = 0; j < slab.weights.size(); ++j) {
+            for (Eigen::Index k = 0; k < slab.base_terms[j].size(); ++k) {
+                g_slope += slab.weights[j] * static_cast<double>(k) *
+                           (std::abs(slab.base_terms[j](k)) + s_hi * std::abs(slab.q_terms[j](k)));
+            }
+        }
         threshold += 4.0 * static_cast<double>(P.size() + 1) * std::numeric_limits<double>::epsilon() * absolute;
         constexpr int kCells = 64;
         constexpr int kMaxEvaluations = 20000;
         std::vector<std::pair<Evaluation, Evaluation>> stack;
-        Evaluation previous = evaluate(P, Q, 0.0, s_lo, s_hi);
+        Evaluation previous = evaluate(slab, 0.0);
         worst = previous;
         for (int i = 1; i <= kCells; ++i) {
-            const Evaluation e = evaluate(P, Q, 3.14159265358979323846 * i / kCells, s_lo, s_hi);
+            const Evaluation e = evaluate(slab, 3.14159265358979323846 * i / kCells);
             stack.emplace_back(previous, e);
             previous = e;
         }
@@ -346,14 +374,14 @@ class DelayRangeTest {
         while (!stack.empty()) {
             const auto [a, b] = stack.back();
             stack.pop_back();
-            if (a.F < worst.F) worst = a;
-            if (b.F < worst.F) worst = b;
-            if (!(std::min(a.F, b.F) > threshold)) return false;
+            if (a.H < worst.H) worst = a;
+            if (b.H < worst.H) worst = b;
+            if (!(std::min(a.H, b.H) > threshold)) return false;
             const double h = b.theta - a.theta;
-            const double lipschitz = std::min(a.slope, b.slope) + h * second;
-            if ((a.F + b.F) / 2 - lipschitz * h / 2 > threshold) continue;
+            const double lipschitz = std::min(a.slope, b.slope) + h * second + slab.w * g_slope;
+            if ((a.H + b.H) / 2 - lipschitz * h / 2 > threshold) continue;
             if (++evaluations > kMaxEvaluations || h < 1e-12) return false;
-            const Evaluation m = evaluate(P, Q, (a.theta + b.theta) / 2, s_lo, s_hi);
+            const Evaluation m = evaluate(slab, (a.theta + b.theta) / 2);
             stack.emplace_back(a, m);
             stack.emplace_back(m, b);
         }
@@ -373,12 +401,34 @@ class DelayRangeTest {
             slabs.pop_back();
             const double phi = (lo + hi) / 2, w = (hi - lo) / 2;
             const double tau = std::max(std::abs(2 * lo - 1), std::abs(2 * hi - 1));
-            const double slope = detail::series_derivative_bound(f.base, tau).sum() +
-                                 s_hi * detail::series_derivative_bound(q_series, tau).sum();
             const double t = 2 * phi - 1;
-            const Eigen::VectorXd P = detail::series_at(f.base, t), Q = detail::series_at(q_series, t);
+            Slab slab;
+            slab.P = detail::series_at(f.base, t);
+            slab.Q = detail::series_at(q_series, t);
+            slab.s_lo = s_lo;
+            slab.s_hi = s_hi;
+            slab.w = w;
+            double power = 1;
+            double largest_base = 0, largest_q = 0;
+            for (std::size_t j = 1; j < f.base.size(); ++j) {
+                largest_base = std::max(largest_base, f.base[j].cwiseAbs().sum());
+                largest_q = std::max(largest_q, q_series[j].cwiseAbs().sum());
+            }
+            for (std::size_t j = 1; j < f.base.size(); ++j) {
+                slab.base_terms.push_back(f.base[j]);
+                slab.q_terms.push_back(q_series[j]);
+                const double weight = 2.0 * static_cast<double>(j) * power;
+                slab.weights.push_back(weight);
+                const double base_sum = f.base[j].cwiseAbs().sum(), q_sum = q_series[j].cwiseAbs().sum();
+                slab.base_evaluated.push_back(base_sum > 1e-9 * largest_base);
+                slab.q_evaluated.push_back(q_sum > 1e-9 * largest_q);
+                if (!slab.base_evaluated.back()) slab.g_constant += weight * base_sum;
+                if (!slab.q_evaluated.back()) slab.g_constant += weight * s_hi * q_sum;
+                power *= tau;
+            }
+            const Eigen::VectorXd& P = slab.P;
             Evaluation worst{};
-            if (distance_exceeds(P, Q, s_lo, s_hi, w * slope + 2 * residual, worst)) continue;
+            if (distance_exceeds(slab, 2 * residual, worst)) continue;
             // Exact along s at phi: a crossing inside [s_lo, s_hi] is a failing plant.
             AffineCharacteristicPolynomial<double> at;
             at.base = P;
