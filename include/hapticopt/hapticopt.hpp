@@ -25,6 +25,7 @@
 #include "limit_cycles.hpp"
 #include "loop_schur_form.hpp"
 #include "mass_scaling_stability.hpp"
+#include "delay_range_stability.hpp"
 #include "matrix_gain_stability.hpp"
 #include "newton_search.hpp"
 #include "noise_budget.hpp"

@@ -86,6 +86,7 @@ struct MatrixGainScaleStability {
     bool commuting = false;
     double failing_scale = 0;
     double spectral_radius = 0;  ///< at failing_scale when not stable, else the largest over the scales checked
+    double failing_delay = -1;   ///< periods, with failing_scale, when a delay range was judged (DelayRangeTest)
 };
 
 namespace detail {

@@ -39,6 +39,11 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                           c.arm_stiffness_per_mass, c.arm_damping_per_mass);
             line += buf;
         }
+        if (c.delay_max > c.delay_min) {
+            std::snprintf(buf, sizeof buf, " at every total delay %.4g .. %.4g ms (%s)", c.delay_min * 1e3,
+                          c.delay_max * 1e3, c.delay_exact ? "certified" : "estimated");
+            line += buf;
+        }
     }
     if (t.robust) {
         const RobustSummary& r = *t.robust;
@@ -164,6 +169,8 @@ nlohmann::json tuning_json(const TuningResult& t) {
         j["plant_set"] = {{"mass", {t.plant_set->mass_min, t.plant_set->mass_max}},
                           {"arm_stiffness_per_mass", t.plant_set->arm_stiffness_per_mass},
                           {"arm_damping_per_mass", t.plant_set->arm_damping_per_mass},
+                          {"delay_s", {t.plant_set->delay_min, t.plant_set->delay_max}},
+                          {"delay_exact", t.plant_set->delay_exact},
                           {"derating", t.plant_set->derating},
                           {"exact", t.plant_set->exact}};
     } else {

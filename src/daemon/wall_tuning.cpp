@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <tuple>
 
 #include "common/startup_error.hpp"
 #include "tuning/object_checks.hpp"
@@ -30,7 +32,20 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     cp.mass_margin = p.mass_margin;
     cp.arm_stiffness_per_mass = p.arm_stiffness_per_mass;
     cp.arm_damping_per_mass = p.arm_damping_per_mass;
-    const GainChecker checker(cp);
+    // The set's total delays: inherent_delay_range plus the buffer's whole periods (what the wall's delay adds to the
+    // device's), holding the wall's own delay.
+    if (p.inherent_delay_range.size() == 2) {
+        const double buffer = cp.time_delay - p.inherent_delay;
+        cp.delay_range = std::make_pair(std::min(p.inherent_delay_range[0] + buffer, cp.time_delay),
+                                        std::max(p.inherent_delay_range[1] + buffer, cp.time_delay));
+    }
+    const GainChecker checker = [&] {
+        try {
+            return GainChecker(cp);
+        } catch (const std::invalid_argument& e) {
+            throw StartupError(ErrorKind::BadConfig, "device profile '" + p.path + "': " + e.what());
+        }
+    }();
     const auto [c_min, c_max] = checker.mass_scales();
     PlantSetCertificate c;
     c.mass_min = c_min * cp.mass;
@@ -38,6 +53,8 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     c.exact = checker.certified();
     c.arm_stiffness_per_mass = cp.arm_stiffness_per_mass;
     c.arm_damping_per_mass = cp.arm_damping_per_mass;
+    std::tie(c.delay_min, c.delay_max) = checker.delay_range();
+    c.delay_exact = checker.delay_certified();
     double failing_mass = 0.0;
     if (checker.pair_is_stable(t.K, t.B, cp.mass, failing_mass)) {
         t.plant_set = c;
@@ -48,9 +65,8 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     std::ostringstream m;
     m << what << ": K = " << t.K << " N/m, B = " << t.B << " N s/m"
       << (t.explicit_gains ? std::string() : " (the optimum of criterion " + t.criterion + ")") << " are unstable with "
-      << GainChecker::plant_text(failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) << " of "
-      << checker.set_text() << " (device profile '" << p.path << "': mass_range, mass_margin, arm_stiffness_per_mass, "
-      << "arm_damping_per_mass)";
+      << checker.plant_text(v) << " of " << checker.set_text() << " (device profile '" << p.path
+      << "': mass_range, mass_margin, arm_stiffness_per_mass, arm_damping_per_mass, inherent_delay_range)";
     if (t.explicit_gains)
         throw StartupError(ErrorKind::UnstableGains, m.str() + "; accepted: gains stable over the set");
     const double T = cp.period;

@@ -195,10 +195,9 @@ std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, con
         return Refusal{
             ErrorCode::UnstableGains,
             kind + ": K = " + g(K) + " N/m, B = " + g(B) + " N s/m (alpha = " + g(v.alpha) + ", beta = " + g(v.beta) +
-                ") are outside the stability region with " +
-                GainChecker::plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) + " of " +
-                checker_.set_text() + ", for " + along + ", " + g(v.mass) + " kg (device mass " +
-                checker_.mass().describe() + "), period " + g(config_.period) + " s, delay " + g(config_.delay) +
+                ") are outside the stability region with " + checker_.plant_text(v) + " of " + checker_.set_text() +
+                ", for " + along + ", " + g(v.mass) + " kg (device mass " + checker_.mass().describe() + "), period " +
+                g(config_.period) + " s, delay " + g(config_.delay) +
                 " s; the largest stable K over the set at B = " + g(B) + " N s/m is " + g(v.largest_stable_K) +
                 " N/m (alpha_max = " + g(v.alpha_max) + " at the nominal mass); " +
                 (v.damping_stable

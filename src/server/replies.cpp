@@ -71,6 +71,8 @@ json device_json(const ServerConfig& config, const GainChecker& checker) {
                  {{"mass_scale", {checker.mass_scales().first, checker.mass_scales().second}},
                   {"arm_stiffness_per_mass", checker.plant().arm_stiffness_per_mass},
                   {"arm_damping_per_mass", checker.plant().arm_damping_per_mass},
+                  {"delay_s", {checker.delay_range().first, checker.delay_range().second}},
+                  {"delay_exact", checker.delay_certified()},
                   {"exact", checker.certified()}}}};
 }
 

@@ -93,6 +93,12 @@ ServeRuntime::ServeRuntime(const Options& o, const DeviceProfile& profile, doubl
         for (std::size_t a = 0; a < axes && a < profile.position_resolution.size(); ++a)
             plant.position_resolution = std::max(plant.position_resolution, profile.position_resolution[a]);
     }
+    // The set's total delays: inherent_delay_range plus the delay buffer (delay - inherent_delay), holding delay.
+    if (profile.inherent_delay_range.size() == 2) {
+        const double buffer = delay - profile.inherent_delay;
+        plant.delay_range = std::make_pair(std::min(profile.inherent_delay_range[0] + buffer, delay),
+                                           std::max(profile.inherent_delay_range[1] + buffer, delay));
+    }
     try {
         checker_ = std::make_unique<GainChecker>(plant);
     } catch (const std::invalid_argument& e) {

@@ -86,17 +86,45 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
             scalings_.emplace_back(normalized_for(plant_.mass, a), estimator_, hapticopt::ArmAlongRay::per_mass);
         }
     }
+    const double nominal_delay = plant_.time_delay / T;
+    delay_lo_ = delay_hi_ = nominal_delay;
+    if (plant_.delay_range) {
+        const auto [lo, hi] = *plant_.delay_range;
+        if (!(lo >= 0.0 && lo <= plant_.time_delay * (1 + 1e-12) && plant_.time_delay <= hi * (1 + 1e-12) &&
+              hi - lo <= 64 * T && hi <= 1000 * T)) {
+            throw std::invalid_argument(
+                "GainChecker: delay_range = [" + short_number(lo) + ", " + short_number(hi) +
+                "] s (total: inherent_delay_range plus the delay buffer) is invalid for the total delay " +
+                short_number(plant_.time_delay) +
+                " s; accepted: 0 <= min <= delay <= max, at most 64 periods wide and 1000 periods long");
+        }
+        delay_lo_ = std::min(lo / T, nominal_delay);
+        delay_hi_ = std::max(hi / T, nominal_delay);
+    }
+    if (delay_hi_ > delay_lo_) {
+        if (free_mass_plant_) {
+            for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+                delay_tests_.emplace_back(normalized_for(plant_.mass, a), estimator_, delay_lo_, delay_hi_);
+                delay_certified_ = delay_certified_ && delay_tests_.back().certified();
+            }
+        } else {
+            sampled_delays_ = hapticopt::DelayRangeTest::sampled_delays(delay_lo_, delay_hi_);
+            delay_certified_ = false;
+        }
+    }
 }
 
 bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass) const {
     std::size_t ignored = 0;
-    return stable_over_set(m, alpha, beta, failing_mass, ignored);
+    double ignored_delay = 0.0;
+    return stable_over_set(m, alpha, beta, failing_mass, ignored, ignored_delay);
 }
 
-bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass,
-                                  std::size_t& failing_arm) const {
+bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass, std::size_t& failing_arm,
+                                  double& failing_delay) const {
     failing_mass = 0.0;
     failing_arm = 0;
+    failing_delay = plant_.time_delay;
     for (std::size_t a = 0; a < arm_points_.size(); ++a) {
         if (!scalings_.empty()) {
             // Gains normalised with m act on c m as (alpha, beta) / c: the scales s = 1 / c.
@@ -106,28 +134,49 @@ bool GainChecker::stable_over_set(double m, double alpha, double beta, double& f
                 failing_arm = a;
                 return false;
             }
+            if (!delay_tests_.empty()) {
+                // Every delay of the range with every mass (delay_range_stability.hpp: zero exclusion in the delay).
+                const hapticopt::DelayBoxStability d =
+                    delay_tests_[a].over(alpha, beta, 1.0 / scale_max_, 1.0 / scale_min_);
+                if (!d.stable) {
+                    failing_mass = m / d.failing_scale;
+                    failing_arm = a;
+                    failing_delay = d.failing_delay * plant_.period;
+                    return false;
+                }
+            }
             continue;
         }
         const int count = scale_max_ > scale_min_ ? kSampledMasses : 1;
-        for (int i = 0; i < count; ++i) {
-            const double c = count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1);
-            if (!stable(normalized_for(c * m, a), alpha / c, beta / c)) {
-                failing_mass = c * m;
-                failing_arm = a;
-                return false;
+        const std::vector<double> delays = sampled_delays_.empty() ? std::vector<double>{-1.0} : sampled_delays_;
+        for (const double d : delays) {
+            for (int i = 0; i < count; ++i) {
+                const double c = count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1);
+                if (!stable(normalized_for(c * m, a, d), alpha / c, beta / c)) {
+                    failing_mass = c * m;
+                    failing_arm = a;
+                    if (d >= 0.0) failing_delay = d * plant_.period;
+                    return false;
+                }
             }
         }
     }
     return true;
 }
 
-std::string GainChecker::plant_text(double mass, double arm_stiffness, double arm_damping) {
+std::string GainChecker::plant_text(double mass, double arm_stiffness, double arm_damping, double delay_s) {
     std::string s = "the mass " + short_number(mass) + " kg";
     if (arm_stiffness > 0.0 || arm_damping > 0.0) {
         s +=
             " with an arm k_H = " + short_number(arm_stiffness) + " N/m, b_H = " + short_number(arm_damping) + " N s/m";
     }
+    if (delay_s >= 0.0) s += " at the total delay " + short_number(delay_s * 1e3) + " ms";
     return s;
+}
+
+std::string GainChecker::plant_text(const PairVerdict& v) const {
+    return plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping,
+                      delay_hi_ > delay_lo_ ? v.failing_delay : -1.0);
 }
 
 bool GainChecker::stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const {
@@ -142,10 +191,11 @@ std::shared_ptr<const hapticopt::EstimatorStabilityRegion> GainChecker::estimato
     return std::make_shared<const hapticopt::EstimatorStabilityRegion>(normalized_for(m), estimator_);
 }
 
-hapticopt::NormalizedPlant GainChecker::normalized_for(double m, std::size_t arm) const {
+hapticopt::NormalizedPlant GainChecker::normalized_for(double m, std::size_t arm, double delay) const {
     TuningPlant p = plant_;
     p.mass = m;
     hapticopt::NormalizedPlant np = hapticopt::normalize(to_hapticopt(p));
+    if (delay >= 0.0) np.delay = delay;
     np.gamma += arm_points_[arm].first;
     np.delta += arm_points_[arm].second;
     return np;
@@ -181,7 +231,7 @@ PairVerdict GainChecker::check_pair(double K, double B, double m) const {
         return stable_over_set(m, alpha, beta, ignored);
     };
     std::size_t failing_arm = 0;
-    v.stable = stable_over_set(m, v.alpha, v.beta, v.failing_mass, failing_arm);
+    v.stable = stable_over_set(m, v.alpha, v.beta, v.failing_mass, failing_arm, v.failing_delay);
     if (!v.stable) {
         v.failing_arm_stiffness = arm_points_[failing_arm].first * v.failing_mass / (T * T);
         v.failing_arm_damping = arm_points_[failing_arm].second * v.failing_mass / T;
@@ -312,7 +362,7 @@ PairVerdict GainChecker::check_object(double K, double B, const std::vector<doub
 double GainChecker::set_stable_factor(double m, double alpha, double beta) const {
     double failing_mass = 0.0;
     if (stable_over_set(m, alpha, beta, failing_mass)) return 1.0;
-    if (!scalings_.empty()) {
+    if (!scalings_.empty() && delay_tests_.empty()) {
         // f (alpha, beta) acts on the set as the scales f [s_lo, s_hi] of the ray through (alpha, beta): they must lie
         // in one gap (a, b) between consecutive crossings of the ray (a = 0 below the first), a stable one. The largest
         // f <= 1 of a gap is min(1, b / s_hi), moved inwards by amax's kAlphaMaxBackOff (0.1 %: the lightest mass then
@@ -332,13 +382,17 @@ double GainChecker::set_stable_factor(double m, double alpha, double beta) const
         }
         return 0.0;
     }
-    // b or k > 0: bisection on the (sampled) set verdict.
+    // b or k > 0, or a delay range: bisection on the set verdict (certified with the free-mass plant, sampled
+    // otherwise) to 2^-40, then kAlphaMaxBackOff below the boundary when that is stable over the set too.
     double lo = 0.0, hi = 1.0;
-    for (int i = 0; i < 60; ++i) {
+    for (int i = 0; i < (delay_tests_.empty() ? 60 : 40); ++i) {
         const double mid = 0.5 * (lo + hi);
         (stable_over_set(m, mid * alpha, mid * beta, failing_mass) ? lo : hi) = mid;
     }
-    return lo;
+    if (delay_tests_.empty()) return lo;
+    if (!(lo > 1e-9)) return 0.0;
+    const double backed_off = lo * (1.0 - kAlphaMaxBackOff);
+    return stable_over_set(m, backed_off * alpha, backed_off * beta, failing_mass) ? backed_off : lo;
 }
 
 GainChecker::CachedCriterion GainChecker::tune_criterion(const std::string& criterion, double m) {
@@ -451,7 +505,9 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
     for (std::size_t a = 0; a < arm_points_.size(); ++a) {
         if (!scalings_.empty()) {
             const hapticopt::MatrixGainScaleStability v =
-                scalings_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
+                delay_tests_.empty()
+                    ? scalings_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales)
+                    : delay_tests_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
             r.commuting = v.commuting;
             r.certified = v.certified;
             r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
@@ -463,16 +519,20 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
         std::vector<double> scales{1.0};  // the nominal mass, then the set's spread
         for (int i = 0; i < count; ++i)
             scales.push_back(count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1));
-        for (const double c : scales) {
-            const hapticopt::MatrixGainStability v =
-                hapticopt::general_matrix_gain_stability(normalized_for(c * plant_.mass, a), A / c, Bn / c, estimator_);
-            r.commuting = v.commuting;
-            r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
-            if (!v.stable) {
-                r.stable = false;
-                r.failing_scale = 1.0 / c;
-                r.spectral_radius = v.spectral_radius;
-                return r;
+        const std::vector<double> delays = sampled_delays_.empty() ? std::vector<double>{-1.0} : sampled_delays_;
+        for (const double d : delays) {
+            for (const double c : scales) {
+                const hapticopt::MatrixGainStability v = hapticopt::general_matrix_gain_stability(
+                    normalized_for(c * plant_.mass, a, d), A / c, Bn / c, estimator_);
+                r.commuting = v.commuting;
+                r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
+                if (!v.stable) {
+                    r.stable = false;
+                    r.failing_scale = 1.0 / c;
+                    r.spectral_radius = v.spectral_radius;
+                    r.failing_delay = d;
+                    return r;
+                }
             }
         }
     }
@@ -503,8 +563,7 @@ bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std:
         const PairVerdict v = check_pair(fs.stiffness_max, B, mass_.smallest());
         why = "field: stiffness " + short_number(fs.stiffness_max) +
               " N/m (largest eigenvalue of -J) with B = " + short_number(B) +
-              " N s/m is outside the stability region with " +
-              plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) + " of " + set_text() +
+              " N s/m is outside the stability region with " + plant_text(v) + " of " + set_text() +
               "; the largest stable K over the set at that B is " + short_number(v.largest_stable_K) + " N/m";
         largest_stable_K = v.largest_stable_K;
         return false;
@@ -530,6 +589,9 @@ std::string GainChecker::set_text() const {
         s << ", an arm with k_H / m in [0, " << plant_.arm_stiffness_per_mass << "] s^-2 and b_H / m in [0, "
           << plant_.arm_damping_per_mass << "] s^-1";
     }
+    if (delay_hi_ > delay_lo_) {
+        s << ", total delays " << delay_lo_ * plant_.period * 1e3 << " .. " << delay_hi_ * plant_.period * 1e3 << " ms";
+    }
     return s.str();
 }
 
@@ -540,6 +602,9 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     const hapticopt::MatrixGainScaleStability verdict = coupled_over_set(K_sum, B_sum);
     if (verdict.stable) return true;
     const double failing_scale_of_mass = 1.0 / verdict.failing_scale;  // c: the mass matrix c M fails
+    std::string at_delay;  // with a delay range: the total delay it fails at
+    if (delay_hi_ > delay_lo_ && verdict.failing_delay >= 0.0)
+        at_delay = " at the total delay " + short_number(verdict.failing_delay * plant_.period * 1e3) + " ms";
     const Eigen::Matrix3d Kr = as_eigen(K_sum);
     const double curl = 0.5 * (Kr - Kr.transpose()).norm();
     if (curl > hapticopt::kMatrixGainRoundingLevel * Kr.norm()) {
@@ -547,8 +612,8 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
         std::ostringstream s;
         s.precision(10);
         s << "summed gains with a curl (antisymmetric part of the summed stiffness, from force fields' Jacobians, norm "
-          << curl << " N/m): the coupled loop as rendered with the mass scaled by " << failing_scale_of_mass << " ("
-          << set_text() << ") has spectral radius " << verdict.spectral_radius << " (stable needs < 1 - "
+          << curl << " N/m): the coupled loop as rendered with the mass scaled by " << failing_scale_of_mass << at_delay
+          << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius << " (stable needs < 1 - "
           << hapticopt::kMatrixGainRadiusMargin << ")";
         why = s.str();
         return false;
@@ -576,9 +641,8 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
             s.precision(6);
             s << "summed gains along n = (" << n(0) << ", " << n(1) << ", " << n(2) << "): K = " << K_n
               << " N/m, B = " << B_n << " N s/m with the mass along n " << m_n << " kg (alpha = " << alpha
-              << ", beta = " << beta << ") are outside the stability region with "
-              << plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping) << " of " << set_text()
-              << "; the largest stable K over the set at that B is " << v.largest_stable_K << " N/m";
+              << ", beta = " << beta << ") are outside the stability region with " << plant_text(v) << " of "
+              << set_text() << "; the largest stable K over the set at that B is " << v.largest_stable_K << " N/m";
             why = s.str();
             return false;
         }
@@ -587,7 +651,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     s.precision(10);
     s << "summed gains: each direction is stable over the set on its own, but the coupled loop of K_sum and B_sum "
          "with the mass scaled by "
-      << failing_scale_of_mass << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius
+      << failing_scale_of_mass << at_delay << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius
       << (verdict.commuting ? "" : " (the coupled check needs < 1 - 1e-6: docs/robust-stability.md)");
     why = s.str();
     return false;

@@ -60,6 +60,7 @@
 #include <utility>
 #include <vector>
 
+#include <hapticopt/delay_range_stability.hpp>
 #include <hapticopt/estimator_region.hpp>
 #include <hapticopt/estimator_stability.hpp>
 #include <hapticopt/mass_scaling_stability.hpp>
@@ -108,6 +109,10 @@ struct GainCheckPlant : TuningPlant {
     double arm_damping_per_mass = 0.0;
     // TuningPlant::force_noise_budget and position_resolution: criterion_gains meets the budget with that encoder
     // step (the caller gives the coarsest axis's, which bounds the step along every direction); none: no budget.
+    // The total delays of the set (docs/robust-stability.md, "The delay"): [min, max] s, the profile's
+    // inherent_delay_range plus the delay buffer; it holds time_delay. None: time_delay alone. Every verdict holds for
+    // every delay of it, whole and fractional periods, with every mass and arm of the set.
+    std::optional<std::pair<double, double>> delay_range;
 };
 
 struct PairVerdict {
@@ -116,6 +121,7 @@ struct PairVerdict {
     double failing_mass = 0.0;  // kg, when not stable: a mass of the set (c mass) at which the pair is unstable
     // With it, the arm of the set at which it fails (N/m, N s/m; 0: the device alone).
     double failing_arm_stiffness = 0.0, failing_arm_damping = 0.0;
+    double failing_delay = 0.0;  // s, the total delay of the set at which it fails (time_delay without a range)
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
     double largest_stable_K = 0.0;  // N/m at this B, stable over the whole set (0: none)
@@ -151,8 +157,19 @@ class GainChecker {
     // (one point per zero side; (0, 0) alone without an arm). Sampled, not proven, between them
     // (docs/robust-stability.md, "The arm").
     [[nodiscard]] const std::vector<std::pair<double, double>>& arm_points() const noexcept { return arm_points_; }
-    // "the mass 0.2 kg" or "the mass 0.2 kg with an arm k_H = 200 N/m, b_H = 0 N s/m" (for refusals).
-    [[nodiscard]] static std::string plant_text(double mass, double arm_stiffness, double arm_damping);
+    // "the mass 0.2 kg" or "the mass 0.2 kg with an arm k_H = 200 N/m, b_H = 0 N s/m", and " at the total delay
+    // 6.5 ms" when delay_s >= 0 (for refusals).
+    [[nodiscard]] static std::string plant_text(double mass, double arm_stiffness, double arm_damping,
+                                                double delay_s = -1.0);
+    // The same for a verdict: the delay named when the set has a delay range.
+    [[nodiscard]] std::string plant_text(const PairVerdict& v) const;
+    // The set's total delays [min, max] (s; time_delay twice without a range) and whether every verdict over them is
+    // certified (the free-mass plant: hapticopt::DelayRangeTest; with an arm its fit is estimated, with b or k > 0
+    // and for coupled sums the delays are sampled at DelayRangeTest::sampled_delays).
+    [[nodiscard]] std::pair<double, double> delay_range() const noexcept {
+        return {delay_lo_ * plant_.period, delay_hi_ * plant_.period};
+    }
+    [[nodiscard]] bool delay_certified() const noexcept { return delay_certified_; }
     // Scales at which a coupled (non-commuting) sum is checked over the set, ends included, and the nominal mass
     // (each one block companion eigenproblem; docs/robust-stability.md).
     static constexpr int kSampledCoupledScales = 5;
@@ -252,7 +269,8 @@ class GainChecker {
 
   private:
     // The normalised plant with mass m and the arm point `arm` (index into arm_points_; 0: none).
-    [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m, std::size_t arm = 0) const;
+    // delay: periods (< 0: the nominal time_delay).
+    [[nodiscard]] hapticopt::NormalizedPlant normalized_for(double m, std::size_t arm = 0, double delay = -1.0) const;
     [[nodiscard]] double alpha_max_for(double m) const;
     // The scalar verdict with the estimator (hapticopt::is_stable for the backward difference).
     [[nodiscard]] bool stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const;
@@ -260,7 +278,7 @@ class GainChecker {
     // the failing arm point's index).
     [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass) const;
     [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass,
-                                       std::size_t& failing_arm) const;
+                                       std::size_t& failing_arm, double& failing_delay) const;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 
@@ -274,7 +292,11 @@ class GainChecker {
     double scale_min_ = 1.0, scale_max_ = 1.0;  // the set's masses: c M, c in [scale_min_, scale_max_]
     std::vector<std::pair<double, double>> arm_points_{{0.0, 0.0}};  // normalised (gamma_H, delta_H), (0, 0) first
     std::vector<hapticopt::MassScalingTest>
-        scalings_;  // free_mass_plant_: the exact test along the mass, per arm point
+        scalings_;                            // free_mass_plant_: the exact test along the mass, per arm point
+    double delay_lo_ = 0.0, delay_hi_ = 0.0;  // periods: the set's total delays
+    bool delay_certified_ = true;
+    std::vector<double> sampled_delays_;  // periods: b or k > 0 (DelayRangeTest::sampled_delays), else empty
+    std::vector<hapticopt::DelayRangeTest> delay_tests_;  // free_mass_plant_ with a delay range: per arm point
     // The criterion's gains, or the error its tuning threw.
     struct CachedCriterion {
         CriterionGains gains;

@@ -94,6 +94,10 @@ struct PlantSetCertificate {
     double arm_stiffness_per_mass = 0.0, arm_damping_per_mass = 0.0;
     double derating = 1.0;
     bool exact = true;  // exact along the mass (the arm is sampled: docs/robust-stability.md, "The arm")
+    // With every mass and arm, every total delay in [delay_min, delay_max] (s; the wall's delay twice without
+    // inherent_delay_range); delay_exact: certified (docs/robust-stability.md, "The delay").
+    double delay_min = 0.0, delay_max = 0.0;
+    bool delay_exact = true;
 };
 
 struct TuningResult {

@@ -10,10 +10,16 @@
 //  * BM_PairOverSetWithArm: the same over the set with the arms of the paper's eq. 2 (k_H / m <= 1000 s^-2,
 //    b_H / m <= 20 s^-1): the mass verdict at each of the 9 arms of the grid.
 //  * BM_PlaneObjectOverSet: check_object of a plane with a criterion's gains (CE2 over the set).
+//  * BM_PairOverSetWithDelays: BM_PairOverSet with the total delays [d - 1, d + 2] periods in the set (the shipped
+//    Falcon's 5 .. 8 ms at d = 6; delay_range_stability.hpp), arm 0: without, 1: with the arms of the paper's eq. 2.
+//  * BM_PlaneCommitOverSet: what the server checks when a client commits one plane on the Falcon's loop (window 15,
+//    d = 6): the plane's ramp over 30 ticks (ramp_is_stable: 29 scenes) and the final scene (sum_is_stable), gains
+//    half the CE2 optimum; arm 0/1 as above, delays 0: the nominal delay alone, 1: 5 .. 8 ms.
 // Gains: CE2 for the nominal mass of each kind and delay, scaled by 0.5 (stable over the set in every case: checked).
 #include <benchmark/benchmark.h>
 
 #include <stdexcept>
+#include <string>
 
 #include "tuning/object_checks.hpp"
 
@@ -21,7 +27,7 @@ namespace {
 
 using namespace hapticd;
 
-GainCheckPlant set_bench_plant(int d, int kind, bool with_set, bool with_arm = false) {
+GainCheckPlant set_bench_plant(int d, int kind, bool with_set, bool with_arm = false, bool with_delays = false) {
     GainCheckPlant p;
     p.mass = 0.30;
     p.period = 1e-3;
@@ -41,12 +47,13 @@ GainCheckPlant set_bench_plant(int d, int kind, bool with_set, bool with_arm = f
         p.arm_stiffness_per_mass = 1000.0;
         p.arm_damping_per_mass = 20.0;
     }
+    if (with_delays) p.delay_range = std::make_pair((d - 1) * 1e-3, (d + 2) * 1e-3);
     return p;
 }
 
-void run_pair(benchmark::State& state, bool with_set, bool with_arm = false) {
+void run_pair(benchmark::State& state, bool with_set, bool with_arm = false, bool with_delays = false) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
-    GainChecker checker(set_bench_plant(d, kind, with_set, with_arm));
+    GainChecker checker(set_bench_plant(d, kind, with_set, with_arm, with_delays));
     const std::optional<CriterionGains> g = checker.criterion_gains("CE2", 0.30);
     const double K = 0.5 * g->K, B = 0.5 * g->B;
     if (!checker.pair_is_stable(K, B, 0.30)) throw std::logic_error("benchmark gains not stable");
@@ -56,6 +63,24 @@ void run_pair(benchmark::State& state, bool with_set, bool with_arm = false) {
 void BM_PairNominal(benchmark::State& state) { run_pair(state, false); }
 void BM_PairOverSet(benchmark::State& state) { run_pair(state, true); }
 void BM_PairOverSetWithArm(benchmark::State& state) { run_pair(state, true, true); }
+
+void BM_PairOverSetWithDelays(benchmark::State& state) { run_pair(state, true, state.range(2) != 0, true); }
+
+void BM_PlaneCommitOverSet(benchmark::State& state) {
+    const bool with_arm = state.range(0) != 0, with_delays = state.range(1) != 0;
+    GainChecker checker(set_bench_plant(6, 2, true, with_arm, with_delays));
+    const std::optional<CriterionGains> g = checker.criterion_gains("CE2", 0.30);
+    Matrix3 K{}, B{}, zero{};
+    K[2][2] = 0.5 * g->K;
+    B[2][2] = 0.5 * g->B;
+    std::string why;
+    for (auto _ : state) {
+        const bool ok =
+            checker.ramp_is_stable(zero, zero, K, B, zero, zero, 1.0 / 30.0, why) && checker.sum_is_stable(K, B, why);
+        if (!ok) throw std::logic_error("benchmark plane not stable: " + why);
+        benchmark::DoNotOptimize(ok);
+    }
+}
 
 void BM_PlaneObjectOverSet(benchmark::State& state) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
@@ -80,3 +105,18 @@ BENCHMARK(BM_PairNominal)->Apply(set_args);
 BENCHMARK(BM_PairOverSet)->Apply(set_args);
 BENCHMARK(BM_PairOverSetWithArm)->Apply(set_args);
 BENCHMARK(BM_PlaneObjectOverSet)->Apply(set_args);
+BENCHMARK(BM_PairOverSetWithDelays)
+    ->ArgNames({"d", "kind", "arm"})
+    ->Args({1, 0, 0})
+    ->Args({6, 0, 0})
+    ->Args({6, 2, 0})
+    ->Args({6, 0, 1})
+    ->Args({6, 2, 1})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PlaneCommitOverSet)
+    ->ArgNames({"arm", "delays"})
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond);

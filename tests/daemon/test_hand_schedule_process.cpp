@@ -126,6 +126,9 @@ TEST(HandScheduleProcess, TheAmaxWallIsDeratedToStayStableThroughTheRelease) {
     // With every mass, the arms of the paper's eq. 2 (config/devices/falcon.toml).
     EXPECT_EQ(r.summary["plant_set"]["arm_stiffness_per_mass"].get<double>(), 1000.0);
     EXPECT_EQ(r.summary["plant_set"]["arm_damping_per_mass"].get<double>(), 20.0);
+    // And every total delay of inherent_delay_range (docs/robust-stability.md, "The delay").
+    EXPECT_NEAR(r.summary["plant_set"]["delay_s"][0].get<double>(), 0.005, 1e-12);
+    EXPECT_NEAR(r.summary["plant_set"]["delay_s"][1].get<double>(), 0.007, 1e-12);
     ASSERT_EQ(r.rows.size(), 3000U);
     const double at_release = max_abs_force(r.rows, 995, 1005);
     const double released_late = max_abs_force(r.rows, 1500, 2000);

@@ -286,5 +286,90 @@ TEST(PlantSetChecks, AStiffArmIsInTheSetAndTheRefusalNamesIt) {
     }
 }
 
+// The delay's range in the set (docs/robust-stability.md, "The delay"): the Falcon's loop with total delays 5 .. 8 ms
+// (nominal 6 ms). The amax gains certified over the masses at the nominal delay alone are refused over the range,
+// naming a delay (not the nominal one) at which the independent simulation grows; the amax gains over the whole set
+// decay in the simulation at the range's ends and at interior fractional delays (off any slab of the test: 5.37,
+// 6.71, 7.29 ms), with the set's lightest, heaviest and interior masses, with and without the arm's corners; a sum of
+// two orthogonal planes is refused naming the delay.
+TEST(PlantSetChecks, TheDelayRangeIsInTheSetAndTheRefusalNamesTheDelay) {
+    GainCheckPlant ranged_plant = falcon(true);
+    ranged_plant.delay_range = std::make_pair(0.005, 0.008);
+    GainChecker nominal_delay(falcon(true));
+    GainChecker ranged(ranged_plant);
+    EXPECT_TRUE(ranged.delay_certified());
+    EXPECT_NEAR(ranged.delay_range().first, 0.005, 1e-15);
+    EXPECT_NEAR(ranged.delay_range().second, 0.008, 1e-15);
+    EXPECT_NE(ranged.set_text().find("total delays 5 .. 8 ms"), std::string::npos) << ranged.set_text();
+    const double m = 0.30;
+    const std::optional<CriterionGains> at_nominal = nominal_delay.criterion_gains("amax", m);
+    ASSERT_TRUE(at_nominal);
+    EXPECT_TRUE(nominal_delay.pair_is_stable(at_nominal->K, at_nominal->B, m));
+    const PairVerdict v = ranged.check_object(at_nominal->K, at_nominal->B, {m});
+    ASSERT_FALSE(v.stable);
+    EXPECT_GT(v.failing_delay, 0.006);
+    EXPECT_LE(v.failing_delay, 0.008);
+    EXPECT_NE(ranged.plant_text(v).find("at the total delay"), std::string::npos) << ranged.plant_text(v);
+    const double growth = loop_simulation::excursion_ratio(v.failing_mass, at_nominal->K, at_nominal->B, kPeriod,
+                                                           v.failing_delay / kPeriod, kWindow15, 60000);
+    EXPECT_GT(growth, 1.0) << ranged.plant_text(v);
+    std::printf("[ delay ] amax over the masses at 6 ms (K %.5g, B %.4g) refused with %s; growth x%.3g over 60 s\n",
+                at_nominal->K, at_nominal->B, ranged.plant_text(v).c_str(), growth);
+    // Over the whole set: decays everywhere drawn.
+    const std::optional<CriterionGains> over_range = ranged.criterion_gains("amax", m);
+    ASSERT_TRUE(over_range);
+    EXPECT_LT(over_range->K, at_nominal->K);
+    EXPECT_TRUE(ranged.pair_is_stable(over_range->K, over_range->B, m));
+    std::printf("[ delay ] amax over the set with the delays 5 .. 8 ms: K %.5g, B %.4g (at 6 ms alone: K %.5g)\n",
+                over_range->K, over_range->B, at_nominal->K);
+    for (const double d : {5.0, 5.37, 6.0, 6.71, 7.29, 8.0}) {
+        for (const double mass : {0.2, 0.25, 0.33}) {
+            EXPECT_LT(
+                loop_simulation::excursion_ratio(mass, over_range->K, over_range->B, kPeriod, d, kWindow15, 60000), 1.0)
+                << "d " << d << " mass " << mass;
+        }
+    }
+    // Two orthogonal planes with the nominal-delay amax gains: the sum is refused naming the delay.
+    Matrix3 K{}, B{};
+    K[0][0] = K[1][1] = at_nominal->K;
+    B[0][0] = B[1][1] = at_nominal->B;
+    std::string why;
+    EXPECT_TRUE(nominal_delay.sum_is_stable(K, B, why)) << why;
+    EXPECT_FALSE(ranged.sum_is_stable(K, B, why));
+    EXPECT_NE(why.find("at the total delay"), std::string::npos) << why;
+    // The range must hold the nominal delay and be at most 64 periods wide.
+    GainCheckPlant bad = falcon(true);
+    bad.delay_range = std::make_pair(0.007, 0.008);
+    EXPECT_THROW(GainChecker{bad}, std::invalid_argument);
+    bad.delay_range = std::make_pair(0.0, 0.1);
+    EXPECT_THROW(GainChecker{bad}, std::invalid_argument);
+    bad.delay_range = std::make_pair(std::nan(""), 0.008);
+    EXPECT_THROW(GainChecker{bad}, std::invalid_argument);
+}
+
+// With the arm of the paper's eq. 2 and the delays 5 .. 8 ms: the amax gains over that set decay at the box's
+// corners and an interior point of arm, mass and delay (the arm's delay family is a fit whose residual is measured,
+// not bounded: delay_certified() says so).
+TEST(PlantSetChecks, TheDelayRangeWithTheArmDecaysAtTheCorners) {
+    GainCheckPlant p = falcon(true);
+    p.delay_range = std::make_pair(0.005, 0.008);
+    p.arm_stiffness_per_mass = 1000.0;
+    p.arm_damping_per_mass = 20.0;
+    GainChecker checker(p);
+    const double m = 0.30;
+    const std::optional<CriterionGains> g = checker.criterion_gains("amax", m);
+    ASSERT_TRUE(g);
+    for (const double d : {5.0, 6.43, 8.0}) {
+        for (const double mass : {0.2, 0.33}) {
+            for (const auto& [k, b] : std::vector<std::pair<double, double>>{{0, 0}, {1000, 0}, {1000, 20}, {370, 7}}) {
+                EXPECT_LT(loop_simulation::excursion_ratio_with_arm(mass, k * mass, b * mass, g->K, g->B, kPeriod, d,
+                                                                    kWindow15, 60000),
+                          1.0)
+                    << "d " << d << " mass " << mass << " k/m " << k << " b/m " << b;
+            }
+        }
+    }
+}
+
 }  // namespace plant_set_checks_test
 }  // namespace hapticd
