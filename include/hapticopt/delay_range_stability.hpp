@@ -26,18 +26,20 @@
 // box (leading coefficient 1), and the number of roots outside the unit circle agrees at the junction of n and
 // n + 1 (z p_{n+1} has the roots of p_{n+1} and 0). So the loop is stable on the whole box iff it is stable at
 // one point of it and p_n(e^{i theta}; s, phi) != 0 for every theta, s in [s_lo, s_hi] and phi of every
-// segment. The exact verdict at one point is the library's (MassScalingTest::over at d_lo: Schur-Cohn at s_lo and
-// the exact crossings along s). Zero exclusion on a slab phi in [phi_c - w, phi_c + w] is certified by
+// segment. The exact verdict at one point is the library's (Schur-Cohn at (d_lo, s_lo); the slabs cover the rest of
+// the box, its edges included). Zero exclusion on a slab phi in [phi_c - w, phi_c + w] is certified by
 //
-//   F(phi_c) = min_{theta, s} |P_0(z) + s Q(z; phi_c)| > w D_slab + r,
-//   D_slab = sum_k max_slab |dP_0,k / dphi| + s_hi sum_k max_slab |dQ_k / dphi|   (|z| = 1: |sum c_k z^k| <=
-//   sum |c_k|; the derivative of the fitted polynomial bounded term by term over the slab), r the fit residual,
+//   H(theta) = min_s |P_0(z) + s Q(z; phi_c)| - w G(theta) > r   for every theta,
+//   G(theta) = sum_{j >= 1} 2 j tau^(j-1) (|P_0,j(z)| + s_hi |Q_j(z)|)   (P_0,j, Q_j the t^j terms of the fit,
+//   t = 2 phi - 1, tau the largest |t| of the slab; terms at rounding level enter by sum |c_k|), r the fit residual,
 //
-// since |p(phi) - p(phi_c)| <= |phi - phi_c| D_slab. For each theta the min over s is closed-form (the distance of
-// the segment P_0 + [s_lo, s_hi] Q from 0). The min over theta in [0, pi] (real coefficients: the lower half
-// circle mirrors it) is bounded from below cell by cell: on a cell of width h with end values F_1, F_2,
-// F >= (F_1 + F_2) / 2 - L h / 2 with L = min over the ends of (|P_0'(z)| + s_hi |Q'(z)|) + h (sum k^2 |P_0,k|
-// + s_hi sum k^2 |Q_k|) (|d/dtheta p| = |p'(z)|; the second derivative bounds its change over the cell), and
+// since |p(phi) - p(phi_c)| <= |phi - phi_c| G(theta) at each z = e^{i theta}. For each theta the min over s is
+// closed-form (the distance of the segment P_0 + [s_lo, s_hi] Q from 0). The min over theta in [0, pi] (real
+// coefficients: the lower half circle mirrors it) is bounded from below cell by cell: on a cell of width h with end
+// values H_1, H_2, H >= (H_1 + H_2) / 2 - L h / 2 with L = min over the ends of (|P_0'(z)| + s_hi |Q'(z)|) + h (sum k^2
+// |P_0,k|
+// + s_hi sum k^2 |Q_k|) + w sum_j 2 j tau^(j-1) sum_k k (|P_0,jk| + s_hi |Q_jk|) (|d/dtheta p| = |p'(z)|; the
+// second derivative bounds its change over the cell), and
 // Horner's rounding 4 (N + 1) eps sum |c_k| is added to the threshold. A cell that fails is halved; a slab that
 // fails is checked exactly at phi_c (gain_ray_crossings of p_n(z; ., phi_c): a crossing in [s_lo, s_hi] is the
 // failing plant, with its delay and scale), then halved. A slab narrower than 1e-7 or more than kMaxSlabs slabs

@@ -168,7 +168,7 @@ TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
         EXPECT_EQ(stepping.wait(), 0) << stepping.err();
         return read_hand_trace(trace);
     };
-    // The shipped profile with its encoder step set to 0.
+    // The shipped profile with its encoder step set to 0 and the 6 ms alone.
     const std::string unrounded = (scratch() / "falcon_unrounded.toml").string();
     {
         std::ifstream in(falcon);
@@ -181,6 +181,9 @@ TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
                 replaced = true;
             }
             if (line.rfind("force_noise_budget", 0) == 0) continue;  // a budget needs an encoder step
+            // The 6 ms alone: the wall is then the CE2 optimum below (over the delays 5 .. 7 ms it is derated,
+            // docs/robust-stability.md, "The delay").
+            if (line.rfind("inherent_delay_range", 0) == 0) continue;
             out << line << "\n";
         }
         ASSERT_TRUE(replaced) << falcon << " has no position_resolution";
