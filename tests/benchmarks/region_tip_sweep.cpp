@@ -5,9 +5,10 @@
 // One line per case (kind 1 low-pass, 2 window; its parameter; d, gamma, delta; the three alpha_max),
 // then a summary line: the cases where the grids differ by more than 1e-10 relative and the largest difference.
 // Built as hapticopt_region_tip_sweep (not run by the build); against another revision's headers:
-//   git archive REV include | tar -x -C /tmp/base && g++ -std=c++20 -O2 -DNDEBUG -I/tmp/base/include \
-//     -isystem /usr/include/eigen3 tests/benchmarks/region_tip_sweep.cpp -o /tmp/region_tip_sweep &&
-//     /tmp/region_tip_sweep
+//   git archive REV include | tar -x -C /tmp/base
+//   g++ -std=c++20 -O2 -DNDEBUG -I/tmp/base/include -isystem /usr/include/eigen3
+//       tests/benchmarks/region_tip_sweep.cpp -o /tmp/region_tip_sweep
+//   /tmp/region_tip_sweep
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
