@@ -109,6 +109,7 @@ class DelayRangeTest {
 
     /// plant.delay is ignored: the delays are [d_lo, d_hi] periods (0 <= d_lo <= d_hi <= d_lo + 64, d_hi <= 1000).
     /// Throws InvalidParameter for an invalid plant, estimator or interval.
+    HAPTICOPT_DEFERRED
     DelayRangeTest(const NormalizedPlant& plant, const VelocityEstimator& estimator, double d_lo, double d_hi)
         : plant_(plant), estimator_(estimator), d_lo_(d_lo), d_hi_(d_hi) {
         const char* fn = "hapticopt::DelayRangeTest";
@@ -147,7 +148,7 @@ class DelayRangeTest {
     }
 
     /// Stability of s (alpha, beta) for every s in [s_lo, s_hi] (0 < s_lo <= s_hi, finite) and every delay.
-    DelayBoxStability over(double alpha, double beta, double s_lo, double s_hi) const {
+    HAPTICOPT_DEFERRED DelayBoxStability over(double alpha, double beta, double s_lo, double s_hi) const {
         DelayBoxStability r;
         r.certified = certified_;
         // The one point: (d_lo, s_lo) by the exact verdict (the slabs below cover the rest of the box, its edges
@@ -191,8 +192,8 @@ class DelayRangeTest {
     /// and every delay: symmetric commuting gains exactly per common direction (over); otherwise sampled, with
     /// MassScalingTest::matrix_over at each of sampled_delays (`certified` false); failing_delay with the failing
     /// scale.
-    MatrixGainScaleStability matrix_over(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double s_lo, double s_hi,
-                                         int samples) const {
+    HAPTICOPT_DEFERRED MatrixGainScaleStability matrix_over(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                                            double s_lo, double s_hi, int samples) const {
         MatrixGainScaleStability first = sample_tests_.front().matrix_over(A, B, s_lo, s_hi, samples);
         first.failing_delay = d_lo_;
         if (!first.stable) return first;
@@ -227,7 +228,7 @@ class DelayRangeTest {
     }
 
   private:
-    DelaySegmentFamily fit(int n) const {
+    HAPTICOPT_DEFERRED DelaySegmentFamily fit(int n) const {
         DelaySegmentFamily f;
         f.whole_delay = n;
         const double scale_gain = 1.0;
@@ -268,7 +269,7 @@ class DelayRangeTest {
         return f;
     }
 
-    AffineCharacteristicPolynomial<double> exact(int n, double phi) const {
+    HAPTICOPT_DEFERRED AffineCharacteristicPolynomial<double> exact(int n, double phi) const {
         NormalizedPlant p = plant_;
         p.delay = n + phi;
         return MassScalingTest(p, estimator_, ArmAlongRay::per_mass).polynomial();
@@ -277,7 +278,8 @@ class DelayRangeTest {
     // A scale of [s_lo, s_hi] at delay d whose loop the exact verdict finds unstable, given a crossing s there (a
     // root on the circle): the ends of the interval (the farthest from the crossing), then s (1 -+ 1e-2 .. 1e-4);
     // the crossing itself when none is.
-    double unstable_scale_near(double d, double alpha, double beta, double s, double s_lo, double s_hi) const {
+    HAPTICOPT_DEFERRED double unstable_scale_near(double d, double alpha, double beta, double s, double s_lo,
+                                                  double s_hi) const {
         NormalizedPlant p = plant_;
         p.delay = d;
         const MassScalingTest test(p, estimator_, ArmAlongRay::per_mass);
@@ -345,7 +347,7 @@ class DelayRangeTest {
 
     // Whether min over theta in [0, pi] of H(theta) = F(theta) - w G(theta) exceeds `threshold` (certified, header
     // comment); `worst`: the evaluation with the smallest H seen.
-    static bool distance_exceeds(const Slab& slab, double threshold, Evaluation& worst) {
+    HAPTICOPT_DEFERRED static bool distance_exceeds(const Slab& slab, double threshold, Evaluation& worst) {
         const Eigen::VectorXd& P = slab.P;
         const Eigen::VectorXd& Q = slab.Q;
         const double s_hi = slab.s_hi;
@@ -391,8 +393,8 @@ class DelayRangeTest {
     }
 
     // Zero exclusion on phi in [a, b] of family f (header comment); on failure fills r.
-    bool segment_clear(const DelaySegmentFamily& f, double a, double b, double alpha, double beta, double s_lo,
-                       double s_hi, DelayBoxStability& r) const {
+    HAPTICOPT_DEFERRED bool segment_clear(const DelaySegmentFamily& f, double a, double b, double alpha, double beta,
+                                          double s_lo, double s_hi, DelayBoxStability& r) const {
         std::vector<std::pair<double, double>> slabs{{a, b}};
         int count = 0;
         std::vector<Eigen::VectorXd> q_series;
