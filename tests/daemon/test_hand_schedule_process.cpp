@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -60,7 +61,11 @@ HandRun falcon_run(const std::string& tag, const std::vector<std::string>& extra
                                "--summary-json",
                                summary};
     a.insert(a.end(), extra.begin(), extra.end());
-    HandRun r{run(a, tag), {}, {}};
+    // A guard against a hang, not a timing bound: --robust tunes over the profile's mass and delay box at start-up
+    // (about 3 s of the release build, over 30 s under TSan).
+    test::Process p(HAPTICD_BINARY, a, tag);
+    const int code = p.wait(std::chrono::seconds(300));
+    HandRun r{{code, p.out(), p.err()}, {}, {}};
     r.rows = read_trace(trace);
     if (std::ifstream(summary)) r.summary = nlohmann::json::parse(test::read_file(summary));
     return r;
