@@ -21,6 +21,7 @@
 #include <random>
 #include <vector>
 
+#include "common/estimator_loop_checks.hpp"
 #include "common/loop_simulation.hpp"
 
 namespace mass_scaling_test {
@@ -43,20 +44,8 @@ double closest_root_distance(const hapticopt::AffineCharacteristicPolynomial<dou
     return (es.eigenvalues().cwiseAbs().array() - 1.0).abs().minCoeff();
 }
 
-double radius(const NormalizedPlant& plant, const VelocityEstimator& e, double alpha, double beta) {
-    const NormalizedGains g{alpha, beta};
-    return e.kind == VelocityEstimatorKind::backward ? hapticopt::stability(plant, g).spectral_radius
-                                                     : hapticopt::stability(plant, g, e).spectral_radius;
-}
-
-// The independent simulation (tests/common/loop_simulation.hpp) with the library's estimator.
-double excursion_ratio(double m, double K, double B, double T, double delay_periods, const VelocityEstimator& e,
-                       int ticks) {
-    loop_simulation::Velocity v;
-    if (e.kind == VelocityEstimatorKind::lowpass) v = {loop_simulation::Estimator::LowPass, e.cutoff, 1};
-    if (e.kind == VelocityEstimatorKind::window) v = {loop_simulation::Estimator::Window, 0.0, e.window};
-    return loop_simulation::excursion_ratio(m, K, B, T, delay_periods, v, ticks);
-}
+using estimator_loop_checks::excursion_ratio;
+using estimator_loop_checks::radius;
 
 struct Case {
     double delay;
