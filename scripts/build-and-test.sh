@@ -10,16 +10,17 @@
 #   2c. the ROS 2 node: pip install "./python[ros]" into build/ros-venv, pytest python/ros_tests (scripts/test-ros.sh);
 #   3. the same tests under ASan + UBSan, and the daemon's threaded tests under TSan (scripts/sanitize.sh);
 #   4. each libFuzzer target for a bounded time over its corpus (scripts/fuzz.sh, clang).
-# `--quick` stops after step 2c. Exit status: non-zero as soon as a step fails.
+# `--quick` stops after step 2c. Exit status: non-zero as soon as a step fails. At the end, passed or not, a table
+# of each stage's wall and CPU seconds (scripts/stage-times.sh; sanitize.sh adds its build and test stages).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 quick=0
 [[ "${1:-}" == --quick ]] && quick=1
+# shellcheck source=scripts/stage-times.sh
+source scripts/stage-times.sh
+stage_times_owner
 
-step() { printf '\n=== build-and-test: %s (%s) ===\n' "$1" "$(date +%H:%M:%S)"; }
-
-step "dependencies"
-scripts/install-deps.sh
+stage "dependencies" scripts/install-deps.sh
 
 # A compiler cache outside the checkout (ccache's own directory, ~/.cache/ccache): a later run on the same machine
 # compiles only what changed, in any clone (paths below the checkout are hashed relative to it; the build directory
@@ -33,40 +34,30 @@ fi
 
 # Lint first, so a style, layout or citation slip fails in seconds, before any compilation (the same checks run again
 # as ctest's layout.* tests).
-step "lint (format, include graph, cited paths)"
-scripts/check-format.sh
-python3 scripts/check-include-graph.py --root .
-python3 scripts/check-cited-paths.py .
+# A stage's commands are chained with && (bash ignores set -e inside a command whose status is tested).
+lint() {
+  scripts/check-format.sh && python3 scripts/check-include-graph.py --root . && python3 scripts/check-cited-paths.py .
+}
+stage "lint (format, include graph, cited paths)" lint
 
-step "release build"
-cmake --preset release
-cmake --build --preset release -j"$(nproc)"
+stage "release: configure" cmake --preset release
+stage "release: build" cmake --build --preset release -j"$(nproc)"
+stage "release: ctest" ctest --preset release --output-on-failure -j2
 
-step "ctest (release)"
-ctest --preset release --output-on-failure -j2
+sudo_unless_root=()
+[[ $(id -u) -eq 0 ]] || sudo_unless_root=(sudo)
+stage "Debian packages (cpack, lintian, install, run, purge)" \
+  "${sudo_unless_root[@]}" scripts/test-debian-packages.sh build/release
 
-step "Debian packages (cpack, lintian, install, run with the checkout hidden, purge)"
-if [[ $(id -u) -eq 0 ]]; then
-  scripts/test-debian-packages.sh build/release
-else
-  sudo scripts/test-debian-packages.sh build/release
+stage "Python package (pip install ./python, pytest)" \
+  env HAPTICOPT_CLI="$PWD/build/release/apps/hapticopt/hapticopt" scripts/test-python.sh
+
+stage "ROS 2 node (pip install ./python[ros], pytest)" scripts/test-ros.sh
+
+if [[ $quick -eq 0 ]]; then
+  scripts/sanitize.sh all
+  stage "fuzzing (bounded)" scripts/fuzz.sh "${HAPTICOPT_FUZZ_SECONDS:-15}"
 fi
-
-step "python package (pip install ./python, pytest python/tests)"
-HAPTICOPT_CLI="$PWD/build/release/apps/hapticopt/hapticopt" scripts/test-python.sh
-
-step "ROS 2 node (pip install ./python[ros] into its own venv, pytest python/ros_tests)"
-scripts/test-ros.sh
-
-if [[ $quick -eq 1 ]]; then
-  exit 0
-fi
-
-step "sanitizers"
-scripts/sanitize.sh all
-
-step "fuzzing (bounded)"
-scripts/fuzz.sh "${HAPTICOPT_FUZZ_SECONDS:-15}"
 
 if command -v ccache >/dev/null 2>&1; then ccache --show-stats | grep -E 'Hits|Misses|Cache size' || true; fi
-step "all passed"
+printf '\n=== build-and-test: all passed (%s) ===\n' "$(date +%H:%M:%S)"

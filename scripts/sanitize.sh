@@ -6,8 +6,13 @@
 # Any sanitizer report aborts the test that triggered it (-fno-sanitize-recover=all), so ctest fails.
 # The packaging tests (compile-only) and the benchmarks are left out: they run nothing a sanitizer sees.
 # Usage: scripts/sanitize.sh [asan|tsan|all]   (default all; dependencies are assumed installed)
+# Each configure, build and ctest is a stage of scripts/stage-times.sh: the table of wall and CPU seconds is printed
+# at the end (by build-and-test.sh when it runs this script).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
+# shellcheck source=scripts/stage-times.sh
+source scripts/stage-times.sh
+stage_times_owner
 what="${1:-all}"
 jobs="$(nproc)"
 # Warnings stay on but are not errors here: the instrumented -O1 code makes GCC 12 report false
@@ -26,23 +31,23 @@ jobs="$(nproc)"
 norandom=(setarch "$(uname -m)" -R)
 
 if [[ "$what" == asan || "$what" == all ]]; then
-  cmake --preset asan
-  cmake --build build/asan -j"$jobs"
+  stage "ASan + UBSan: configure" cmake --preset asan
+  stage "ASan + UBSan: build" cmake --build build/asan -j"$jobs"
   # One test is left to the release stage: the moving-wall example against the real-time daemon judges the
   # contact chatter of poses sent on time, which the instrumented loop and client (several times slower, on
   # a machine running two tests) do not deliver; its deterministic counterpart,
   # SceneMotion.TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand, runs here.
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
-  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  stage "ASan + UBSan: ctest" env ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2 \
       -E '^Examples\.MovingWallRendersWithoutChatterAgainstTheReadmeDaemon$'
 fi
 if [[ "$what" == tsan || "$what" == all ]]; then
-  cmake --preset tsan
-  cmake --build build/tsan -j"$jobs" --target hapticd hapticd_loop_tests hapticd_scene_tests hapticd_tick_tests hapticd_config_tests \
+  stage "TSan: configure" cmake --preset tsan
+  stage "TSan: build" cmake --build build/tsan -j"$jobs" --target hapticd hapticd_loop_tests hapticd_scene_tests hapticd_tick_tests hapticd_config_tests \
     hapticd_sim_device_tests hapticd_analysis_tests hapticd_process_tests hapticd_experiment_tests \
     hapticd_systemd_tests hapticd_server_tests hapticd_server_unit_tests hapticd_server_stability_tests hapticd_rendered_scene_tests \
     hapticd_record_replay_tests hapticd_test_client
-  TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
+  stage "TSan: ctest (-L daemon)" env TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
     "${norandom[@]}" ctest --test-dir build/tsan --output-on-failure -j2 -L daemon
 fi
