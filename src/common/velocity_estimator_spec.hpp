@@ -13,7 +13,7 @@
 #include <string>
 #include <string_view>
 
-#include "hapticopt/estimator_types.hpp"
+#include <hapticopt/estimator_types.hpp>
 
 namespace hapticd {
 
