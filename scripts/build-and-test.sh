@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # The whole test suite (what CI runs through .ci/run):
-#   1. install what is missing (scripts/install-deps.sh); lint (format, include graph, cited paths) in seconds;
+#   1. install what is missing (scripts/install-deps.sh); lint (format, include graph, cited paths, file sizes) in seconds;
 #   2. configure + build the `release` preset (build/release) and run ctest: every label
 #      (core, paper, packaging, daemon, devices, identification, beyond, plots, stress, fuzz);
 #   2a. the Debian packages from that tree: lintian, installed and run with the checkout hidden, purged
@@ -36,9 +36,10 @@ fi
 # as ctest's layout.* tests).
 # A stage's commands are chained with && (bash ignores set -e inside a command whose status is tested).
 lint() {
-  scripts/check-format.sh && python3 scripts/check-include-graph.py --root . && python3 scripts/check-cited-paths.py .
+  scripts/check-format.sh && python3 scripts/check-include-graph.py --root . && python3 scripts/check-file-sizes.py --root . &&
+    python3 scripts/check-cited-paths.py .
 }
-stage "lint (format, include graph, cited paths)" lint
+stage "lint (format, include graph, file sizes, cited paths)" lint
 
 stage "release: configure" cmake --preset release
 stage "release: build" cmake --build --preset release -j"$(nproc)"

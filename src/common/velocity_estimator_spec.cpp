@@ -27,7 +27,7 @@ std::optional<VelocityEstimatorSpec> parse_velocity_estimator(std::string_view t
         double f = 0.0;
         const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), f);
         if (ec != std::errc{} || end != value.data() + value.size() || !std::isfinite(f) || !(f > 0.0)) return fail();
-        spec.kind = LoopVelocityKind::LowPass;
+        spec.kind = hapticopt::VelocityEstimatorKind::lowpass;
         spec.cutoff_hz = f;
         return spec;
     }
@@ -38,7 +38,7 @@ std::optional<VelocityEstimatorSpec> parse_velocity_estimator(std::string_view t
         if (ec != std::errc{} || end != value.data() + value.size() || n < 1 || n > kMaxLoopVelocityWindow) {
             return fail();
         }
-        spec.kind = LoopVelocityKind::Window;
+        spec.kind = hapticopt::VelocityEstimatorKind::window;
         spec.window = n;
         return spec;
     }
@@ -47,14 +47,14 @@ std::optional<VelocityEstimatorSpec> parse_velocity_estimator(std::string_view t
 
 std::string to_string(const VelocityEstimatorSpec& spec) {
     switch (spec.kind) {
-        case LoopVelocityKind::Backward:
+        case hapticopt::VelocityEstimatorKind::backward:
             return "backward";
-        case LoopVelocityKind::LowPass: {
+        case hapticopt::VelocityEstimatorKind::lowpass: {
             char buffer[64];
             std::snprintf(buffer, sizeof buffer, "lowpass:%.17gHz", spec.cutoff_hz);
             return buffer;
         }
-        case LoopVelocityKind::Window:
+        case hapticopt::VelocityEstimatorKind::window:
             return "window:" + std::to_string(spec.window);
     }
     return "backward";

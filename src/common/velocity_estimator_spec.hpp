@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // How the loop estimates the handle's velocity from the sampled position, in the device's physical terms (the
 // profile key `velocity_estimator`, docs/velocity-estimation.md). The same three estimators as
-// hapticopt::VelocityEstimator (include/hapticopt/estimator_types.hpp), which the tuning checks every scene
-// with:
+// hapticopt::VelocityEstimator (include/hapticopt/estimator_types.hpp), whose kind it uses; the tuning checks
+// every scene with them:
 //   backward      v_j = (x_j - x_{j-1}) / T                                    (the paper's; the default)
 //   lowpass:F Hz  v_j = l v_{j-1} + (1 - l)(x_j - x_{j-1}) / T, l = exp(-2 pi F T)  (normalised cutoff nu = F T)
 //   window:N      v_j = (x_j - x_{j-N}) / (N T), 1 <= N <= kMaxLoopVelocityWindow
@@ -13,19 +13,19 @@
 #include <string>
 #include <string_view>
 
-namespace hapticd {
+#include <hapticopt/estimator_types.hpp>
 
-enum class LoopVelocityKind : unsigned char { Backward, LowPass, Window };
+namespace hapticd {
 
 // Longest window the loop accepts, periods: each object check solves an eigenproblem of size ~3 (d + 3 + N).
 inline constexpr int kMaxLoopVelocityWindow = 50;
 
 struct VelocityEstimatorSpec {
-    LoopVelocityKind kind = LoopVelocityKind::Backward;
+    hapticopt::VelocityEstimatorKind kind = hapticopt::VelocityEstimatorKind::backward;
     double cutoff_hz = 0.0;  // LowPass: F, Hz, finite and > 0 (at most the Nyquist frequency 1 / (2 T): options check)
     int window = 1;          // Window: N
 
-    [[nodiscard]] bool is_backward() const noexcept { return kind == LoopVelocityKind::Backward; }
+    [[nodiscard]] bool is_backward() const noexcept { return kind == hapticopt::VelocityEstimatorKind::backward; }
     friend bool operator==(const VelocityEstimatorSpec&, const VelocityEstimatorSpec&) = default;
 };
 

@@ -187,7 +187,7 @@ DeviceProfile load_device_profile(const Options& o) {
                                                                         : where.prefix("velocity_estimator") + error);
         }
         const double nyquist = o.rate / 2.0;
-        if (estimator->kind == LoopVelocityKind::LowPass && estimator->cutoff_hz > nyquist) {
+        if (estimator->kind == hapticopt::VelocityEstimatorKind::lowpass && estimator->cutoff_hz > nyquist) {
             invalid(where, "velocity_estimator", velocity_estimator,
                     "lowpass:<F>Hz with F <= " + std::to_string(nyquist) + " Hz (the Nyquist frequency of --rate)");
         }

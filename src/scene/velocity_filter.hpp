@@ -31,17 +31,21 @@ class VelocityFilter {
             throw std::invalid_argument("VelocityFilter: period = " + std::to_string(period) +
                                         " is invalid; accepted range: finite, > 0 s");
         }
-        if (spec.kind == LoopVelocityKind::LowPass && (!std::isfinite(spec.cutoff_hz) || !(spec.cutoff_hz > 0.0))) {
+        if (spec.kind == hapticopt::VelocityEstimatorKind::lowpass &&
+            (!std::isfinite(spec.cutoff_hz) || !(spec.cutoff_hz > 0.0))) {
             throw std::invalid_argument("VelocityFilter: cutoff = " + std::to_string(spec.cutoff_hz) +
                                         " Hz is invalid; accepted range: finite, > 0 Hz");
         }
-        if (spec.kind == LoopVelocityKind::Window && (spec.window < 1 || spec.window > kMaxLoopVelocityWindow)) {
+        if (spec.kind == hapticopt::VelocityEstimatorKind::window &&
+            (spec.window < 1 || spec.window > kMaxLoopVelocityWindow)) {
             throw std::invalid_argument("VelocityFilter: window = " + std::to_string(spec.window) +
                                         " is invalid; accepted range: 1 .. " + std::to_string(kMaxLoopVelocityWindow));
         }
-        lambda_ =
-            spec.kind == LoopVelocityKind::LowPass ? std::exp(-2.0 * std::numbers::pi * spec.cutoff_hz * period) : 0.0;
-        const std::size_t n = spec.kind == LoopVelocityKind::Window ? static_cast<std::size_t>(spec.window) : 1;
+        lambda_ = spec.kind == hapticopt::VelocityEstimatorKind::lowpass
+                      ? std::exp(-2.0 * std::numbers::pi * spec.cutoff_hz * period)
+                      : 0.0;
+        const std::size_t n =
+            spec.kind == hapticopt::VelocityEstimatorKind::window ? static_cast<std::size_t>(spec.window) : 1;
         history_.assign(n, AxisVector{});
         window_scale_ = inverse_period_ / static_cast<double>(n);
     }
@@ -56,15 +60,15 @@ class VelocityFilter {
         }
         AxisVector& oldest = history_[head_];  // x_{j-1} (backward, lowpass) or x_{j-N} (window)
         switch (spec_.kind) {
-            case LoopVelocityKind::Backward:
+            case hapticopt::VelocityEstimatorKind::backward:
                 for (std::size_t a = 0; a < kMaxAxes; ++a) velocity_[a] = (x[a] - oldest[a]) * inverse_period_;
                 break;
-            case LoopVelocityKind::LowPass:
+            case hapticopt::VelocityEstimatorKind::lowpass:
                 for (std::size_t a = 0; a < kMaxAxes; ++a) {
                     velocity_[a] = lambda_ * velocity_[a] + (1.0 - lambda_) * ((x[a] - oldest[a]) * inverse_period_);
                 }
                 break;
-            case LoopVelocityKind::Window:
+            case hapticopt::VelocityEstimatorKind::window:
                 for (std::size_t a = 0; a < kMaxAxes; ++a) velocity_[a] = (x[a] - oldest[a]) * window_scale_;
                 break;
         }

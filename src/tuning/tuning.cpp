@@ -24,11 +24,11 @@ hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& p) {
 hapticopt::VelocityEstimator to_hapticopt_estimator(const VelocityEstimatorSpec& velocity, double period) {
     try {
         switch (velocity.kind) {
-            case LoopVelocityKind::LowPass:
+            case hapticopt::VelocityEstimatorKind::lowpass:
                 return hapticopt::VelocityEstimator::low_pass(velocity.cutoff_hz * period);
-            case LoopVelocityKind::Window:
+            case hapticopt::VelocityEstimatorKind::window:
                 return hapticopt::VelocityEstimator::moving_window(velocity.window);
-            case LoopVelocityKind::Backward:
+            case hapticopt::VelocityEstimatorKind::backward:
                 break;
         }
     } catch (const hapticopt::InvalidParameter& e) {

@@ -30,10 +30,10 @@ GainCheckPlant estimator_bench_plant(int d, int kind) {
     p.period = kEstBenchPeriod;
     p.time_delay = d * kEstBenchPeriod;
     if (kind == 1) {
-        p.velocity.kind = LoopVelocityKind::LowPass;
+        p.velocity.kind = hapticopt::VelocityEstimatorKind::lowpass;
         p.velocity.cutoff_hz = 20.0;
     } else if (kind == 2) {
-        p.velocity.kind = LoopVelocityKind::Window;
+        p.velocity.kind = hapticopt::VelocityEstimatorKind::window;
         p.velocity.window = 5;
     }
     return p;

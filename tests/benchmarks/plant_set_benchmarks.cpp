@@ -33,10 +33,10 @@ GainCheckPlant set_bench_plant(int d, int kind, bool with_set, bool with_arm = f
     p.period = 1e-3;
     p.time_delay = d * 1e-3;
     if (kind == 1) {
-        p.velocity.kind = LoopVelocityKind::LowPass;
+        p.velocity.kind = hapticopt::VelocityEstimatorKind::lowpass;
         p.velocity.cutoff_hz = 20.0;
     } else if (kind == 2) {
-        p.velocity.kind = LoopVelocityKind::Window;
+        p.velocity.kind = hapticopt::VelocityEstimatorKind::window;
         p.velocity.window = 15;
     }
     if (with_set) {

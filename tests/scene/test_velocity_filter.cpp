@@ -98,10 +98,10 @@ TEST(VelocityFilter, ResetStartsFromRestAgain) {
 
 TEST(VelocityFilter, RefusesAnInvalidPeriodCutoffOrWindowNamingIt) {
     VelocityEstimatorSpec bad_cutoff;
-    bad_cutoff.kind = LoopVelocityKind::LowPass;
+    bad_cutoff.kind = hapticopt::VelocityEstimatorKind::lowpass;
     bad_cutoff.cutoff_hz = -1.0;
     VelocityEstimatorSpec bad_window;
-    bad_window.kind = LoopVelocityKind::Window;
+    bad_window.kind = hapticopt::VelocityEstimatorKind::window;
     bad_window.window = kMaxLoopVelocityWindow + 1;
     auto message = [](auto make) {
         try {

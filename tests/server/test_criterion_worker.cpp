@@ -21,7 +21,7 @@ GainCheckPlant falcon() {
     p.mass = 0.30;
     p.period = 1e-3;
     p.time_delay = 0.006;
-    p.velocity.kind = LoopVelocityKind::Window;
+    p.velocity.kind = hapticopt::VelocityEstimatorKind::window;
     p.velocity.window = 15;
     p.mass_range = std::make_pair(0.22, 0.30);
     p.mass_margin = 0.1;

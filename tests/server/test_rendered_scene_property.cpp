@@ -103,8 +103,8 @@ struct ReferenceEstimator {
 
 ReferenceEstimator reference_estimator(const VelocityEstimatorSpec& spec) {
     ReferenceEstimator e;
-    if (spec.kind == LoopVelocityKind::Window) e.window = spec.window;
-    if (spec.kind == LoopVelocityKind::LowPass) {
+    if (spec.kind == hapticopt::VelocityEstimatorKind::window) e.window = spec.window;
+    if (spec.kind == hapticopt::VelocityEstimatorKind::lowpass) {
         e.lowpass = true;
         e.lambda = std::exp(-2.0 * 3.141592653589793 * spec.cutoff_hz * kT);
     }

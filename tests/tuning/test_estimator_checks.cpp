@@ -25,14 +25,14 @@ constexpr double kMass = 0.3;
 
 VelocityEstimatorSpec low_pass_hz(double hz) {
     VelocityEstimatorSpec s;
-    s.kind = LoopVelocityKind::LowPass;
+    s.kind = hapticopt::VelocityEstimatorKind::lowpass;
     s.cutoff_hz = hz;
     return s;
 }
 
 VelocityEstimatorSpec window_of(int n) {
     VelocityEstimatorSpec s;
-    s.kind = LoopVelocityKind::Window;
+    s.kind = hapticopt::VelocityEstimatorKind::window;
     s.window = n;
     return s;
 }

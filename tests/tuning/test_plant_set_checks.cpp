@@ -26,7 +26,7 @@ GainCheckPlant falcon(bool with_set) {
     p.mass = 0.30;
     p.period = kPeriod;
     p.time_delay = 0.006;
-    p.velocity.kind = LoopVelocityKind::Window;
+    p.velocity.kind = hapticopt::VelocityEstimatorKind::window;
     p.velocity.window = 15;
     if (with_set) {
         p.mass_range = std::make_pair(0.22, 0.30);
