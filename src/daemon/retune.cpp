@@ -25,9 +25,7 @@ constexpr const char* kAccepted =
     "--identify, --identification-file, --passivity-control or --serve) on a profile with one mass and "
     "mass_range";
 
-void refuse(ErrorKind kind, const std::string& why) {
-    throw StartupError(kind, "--retune: " + why + "; " + kAccepted);
-}
+void refuse(ErrorKind kind, const std::string& why) { throw StartupError(kind, "--retune: " + why + "; " + kAccepted); }
 
 }  // namespace
 
@@ -43,7 +41,8 @@ RetuneTable make_retune_table(const Options& o, const DeviceProfile& p, const Tu
     if (o.passivity_control) refuse(ErrorKind::Usage, "--passivity-control changes the law outside the certificate");
     if (walls.empty()) refuse(ErrorKind::Usage, "no config wall to re-tune");
     if (!p.mass_model.isotropic) {
-        refuse(ErrorKind::BadConfig, "device profile '" + p.path + "': the mass is anisotropic (one mass is identified)");
+        refuse(ErrorKind::BadConfig,
+               "device profile '" + p.path + "': the mass is anisotropic (one mass is identified)");
     }
     if (p.mass_range.size() != 2) {
         refuse(ErrorKind::BadConfig, "device profile '" + p.path +
@@ -133,8 +132,9 @@ RetuneTable make_retune_table(const Options& o, const DeviceProfile& p, const Tu
     s.mass_tolerance = std::min(0.5, p.mass_margin);
     s.position_step = p.position_resolution[t.axis];
     if (s.delay_ticks > OnlineMassIdentifier::kMaxDelayTicks) {
-        refuse(ErrorKind::InvalidParameter, "the loop's delay of " + std::to_string(s.delay_ticks) +
-                                                " periods exceeds the identifier's 64 (inherent_delay, --delay-buffer)");
+        refuse(ErrorKind::InvalidParameter,
+               "the loop's delay of " + std::to_string(s.delay_ticks) +
+                   " periods exceeds the identifier's 64 (inherent_delay, --delay-buffer)");
     }
     return t;
 }
@@ -206,7 +206,8 @@ nlohmann::json retune_json(const RetuneTable& t, const std::vector<ResolvedWall>
     }
     j["rows"] = rows;
     j["dwell_ticks"] = t.dwell_ticks;
-    j["dwell_method"] = "average dwell time (Hespanha & Morse 1999), Lyapunov bound per mode (hapticopt::minimum_dwell)";
+    j["dwell_method"] =
+        "average dwell time (Hespanha & Morse 1999), Lyapunov bound per mode (hapticopt::minimum_dwell)";
     j["rate"] = t.rate;
     j["constant"] = t.constant;
     j["modes"] = t.modes;

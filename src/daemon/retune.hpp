@@ -7,7 +7,8 @@
 // rows x the set's masses (its ends, the released and held masses, their mean) x the arm's corners, at the loop's
 // total delay; the daemon's own switches at least 2 N_d apart; the identifier's settings. Refused (StartupError
 // naming what is missing) where it cannot apply: no config wall, no mass_range, an anisotropic mass, explicit gains,
-// --robust, --identify, --passivity-control, --serve (the client objects' gains are not in the certificate). A --replay of a
+// --robust, --identify, --passivity-control, --serve (the client objects' gains are not in the certificate). A --replay
+// of a
 // --retune recording re-tunes as the run did (the identifier sees the recorded positions and the same forces).
 #pragma once
 
@@ -27,8 +28,8 @@
 namespace hapticd {
 
 struct RetuneTable {
-    double held_mass = 0.0;      // kg: the walls' tuning mass (the profile's)
-    double released_mass = 0.0;  // kg: mass_range[0]
+    double held_mass = 0.0;              // kg: the walls' tuning mass (the profile's)
+    double released_mass = 0.0;          // kg: mass_range[0]
     std::vector<ResolvedWall> released;  // the walls tuned for the released mass, certified over the set
     // The switch certificate (hapticopt::DwellCertificate) over `modes` matrices: `masses` x `arms` plants x 2 rows
     // per wall with distinct gains.

@@ -17,8 +17,9 @@ WallRetuner::WallRetuner(const OnlineMassSettings& identifier, std::size_t axis,
     if (min_gap_ == 0) throw std::invalid_argument("re-tuning: min_gap = 0 is invalid; accepted: >= 1 tick");
     for (const GainRow& r : rows_) {
         if (r.stiffness.size() != rows_[0].stiffness.size() || r.damping.size() != rows_[0].stiffness.size()) {
-            throw std::invalid_argument("re-tuning: the rows' gains are invalid; accepted: one K and one B per wall "
-                                        "in each row");
+            throw std::invalid_argument(
+                "re-tuning: the rows' gains are invalid; accepted: one K and one B per wall "
+                "in each row");
         }
     }
 }

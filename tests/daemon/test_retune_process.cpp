@@ -21,14 +21,15 @@
 #include "common/process.hpp"
 #include "common/trace_rows.hpp"
 #include "daemon/exit_codes.hpp"
+#include "daemon/recording_reader.hpp"
 
 namespace hapticd {
 namespace {
 
 using Row = test::TraceRow;
 constexpr double kPeriod = 1e-3;
-constexpr int kWindow = 15;      // the Falcon profile's window:15
-constexpr int kDelayTicks = 6;   // its inherent_delay, 6 ms
+constexpr int kWindow = 15;     // the Falcon profile's window:15
+constexpr int kDelayTicks = 6;  // its inherent_delay, 6 ms
 constexpr double kReleasedMass = 0.22;
 
 struct RetuneRun {
@@ -41,9 +42,14 @@ RetuneRun falcon_run(const std::string& tag, const std::string& schedule, const 
                      const std::vector<std::string>& extra, const std::string& device = "falcon") {
     const std::string trace = (test::scratch_dir() / (tag + ".csv")).string();
     const std::string summary = (test::scratch_dir() / (tag + ".json")).string();
-    std::vector<std::string> a{"--config", "",         "--device", device,     "--simulate", "--lockstep",
-                               "--bilateral", "--hand-schedule", schedule, "--duration", duration, "--trace",
-                               trace,      "--summary-json", summary};
+    std::vector<std::string> a{"--config",    "",
+                               "--device",    device,
+                               "--simulate",  "--lockstep",
+                               "--bilateral", "--hand-schedule",
+                               schedule,      "--duration",
+                               duration,      "--trace",
+                               trace,         "--summary-json",
+                               summary};
     a.insert(a.end(), extra.begin(), extra.end());
     test::Process p(HAPTICD_BINARY, a, tag);
     const int code = p.wait(std::chrono::seconds(300));  // a hang guard, not a timing bound
@@ -154,8 +160,9 @@ TEST(RetuneProcess, TheWallReTunesAfterTheReleaseAndBackAfterTheGripAsTheSwitche
     const double scale = std::abs(r.rows[1000].position);
     double worst = 0.0;
     for (std::size_t j = a; j <= end; ++j) worst = std::max(worst, std::abs(sim[j - a] - r.rows[j].position));
-    std::printf("[ retune ] trace against the independent switched loop, ticks %zu .. %zu: %.3g m (x at release %.3g m)\n",
-                a, end, worst, scale);
+    std::printf(
+        "[ retune ] trace against the independent switched loop, ticks %zu .. %zu: %.3g m (x at release %.3g m)\n", a,
+        end, worst, scale);
     EXPECT_GT(scale, 1e-4);
     EXPECT_LT(worst, 1e-9 * scale);
     // Energy decays after the release: the force over the last second before the grip is below 1e-6 of its value at
@@ -213,22 +220,42 @@ TEST(RetuneProcess, SwitchesStayTwoDwellsApartWhenTheHandFlipsFast) {
     EXPECT_EQ(rt["switch_count"].get<std::size_t>(), sw.size());
 }
 
+// The state stream: --record's tick chunks carry the active row (gain_row) from each switch's tick on, and the
+// replay re-tunes as the run did (the identifier sees the recorded positions and the same forces): bit for bit.
+TEST(RetuneProcess, TheRecordingCarriesTheRowAndTheReplayReTunesTheSame) {
+    const std::string rec = (test::scratch_dir() / "retune.hrec").string();
+    const RetuneRun r = falcon_run("retune_record", "release@1.0,grip@10.0", "11", {"--retune", "--record", rec},
+                                   exact_falcon_profile());
+    ASSERT_EQ(r.result.code, 0) << r.result.err;
+    const auto& sw = r.summary["retune"]["switches"];
+    ASSERT_EQ(sw.size(), 2U);
+    const Recording recording = read_recording(rec);
+    ASSERT_EQ(recording.ticks.size(), 11000U);
+    for (std::size_t j = 0; j < recording.ticks.size(); ++j) {
+        // The row recorded at tick j is the one after tick j's update: the switch's tick carries the new row.
+        ASSERT_EQ(static_cast<int>(recording.ticks[j].gain_row), row_at(sw, j + 1)) << j;
+    }
+    const test::Result replay = test::run({"--replay", rec}, "retune_replay");
+    EXPECT_EQ(replay.code, kExitOk) << replay.err;
+    EXPECT_NE(replay.out.find("every force identical to the recording"), std::string::npos) << replay.out;
+}
+
 // Bad input: --retune on a profile without mass_range (exit 3, naming the key), with --serve (exit 2, naming it),
 // and with explicit gains (exit 2).
 TEST(RetuneProcess, RefusesWhereItCannotApply) {
     const std::string no_range = test::write_file(
         "falcon_no_range.toml",
         "mass = 0.30\ninherent_delay = 0.006\nmax_force = 9.0\naxes = 3\nvelocity_estimator = \"window:15\"\n");
-    const test::Result a = test::run({"--config", "", "--device", no_range, "--simulate", "--lockstep", "--duration",
-                                      "0.1", "--retune"},
-                                     "retune_no_range");
+    const test::Result a =
+        test::run({"--config", "", "--device", no_range, "--simulate", "--lockstep", "--duration", "0.1", "--retune"},
+                  "retune_no_range");
     EXPECT_EQ(a.code, kExitBadConfig) << a.err;
     EXPECT_NE(a.err.find("--retune"), std::string::npos) << a.err;
     EXPECT_NE(a.err.find("no mass_range"), std::string::npos) << a.err;
-    const test::Result b = test::run({"--config", "", "--device", "falcon", "--simulate", "--lockstep", "--duration",
-                                      "0.1", "--retune", "--serve", "--serve-socket",
-                                      (test::scratch_dir() / "retune.sock").string()},
-                                     "retune_serve");
+    const test::Result b =
+        test::run({"--config", "", "--device", "falcon", "--simulate", "--lockstep", "--duration", "0.1", "--retune",
+                   "--serve", "--serve-socket", (test::scratch_dir() / "retune.sock").string()},
+                  "retune_serve");
     EXPECT_EQ(b.code, kExitUsage) << b.err;
     EXPECT_NE(b.err.find("--serve"), std::string::npos) << b.err;
     const test::Result c = test::run({"--config", "", "--device", "falcon", "--simulate", "--lockstep", "--duration",
@@ -238,10 +265,9 @@ TEST(RetuneProcess, RefusesWhereItCannotApply) {
     EXPECT_NE(c.err.find("--stiffness"), std::string::npos) << c.err;
     // The profile's key turns it on as the flag does (and so is refused there too).
     const std::string keyed = test::write_file(
-        "falcon_retune_key.toml",
-        "mass = 0.30\ninherent_delay = 0.006\nmax_force = 9.0\naxes = 3\nretune = true\n");
-    const test::Result d = test::run({"--config", "", "--device", keyed, "--simulate", "--lockstep", "--duration", "0.1"},
-                                     "retune_key");
+        "falcon_retune_key.toml", "mass = 0.30\ninherent_delay = 0.006\nmax_force = 9.0\naxes = 3\nretune = true\n");
+    const test::Result d =
+        test::run({"--config", "", "--device", keyed, "--simulate", "--lockstep", "--duration", "0.1"}, "retune_key");
     EXPECT_EQ(d.code, kExitBadConfig) << d.err;
     EXPECT_NE(d.err.find("no mass_range"), std::string::npos) << d.err;
 }
