@@ -45,7 +45,7 @@ fi
 if [[ "$what" == tsan || "$what" == all ]]; then
   stage "TSan: configure" cmake --preset tsan
   stage "TSan: build" cmake --build build/tsan -j"$jobs" --target hapticd hapticd_loop_tests hapticd_scene_tests hapticd_tick_tests hapticd_config_tests \
-    hapticd_sim_device_tests hapticd_analysis_tests hapticd_process_tests hapticd_experiment_tests \
+    hapticd_sim_device_tests hapticd_analysis_tests hapticd_process_tests hapticd_retune_tests hapticd_experiment_tests \
     hapticd_systemd_tests hapticd_server_tests hapticd_server_unit_tests hapticd_server_stability_tests hapticd_rendered_scene_tests \
     hapticd_record_replay_tests hapticd_test_client
   stage "TSan: ctest (-L daemon)" env TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \

@@ -10,6 +10,7 @@ the recording headless. Bad files raise RecordingError naming the defect.
 """
 from __future__ import annotations
 
+import json
 import os
 import pathlib
 import re
@@ -109,6 +110,28 @@ def test_the_scope_plots_a_recording_headless(recorded, tmp_path):
     data = np.load(npz)
     rec = recording.load(recorded["path"])
     assert np.array_equal(data["force"], rec.ticks["force"]) and np.array_equal(data["tick"], rec.ticks["tick"])
+
+
+@needs_daemon
+def test_a_layout_without_the_gain_row_reads_with_the_row_zero(recorded, tmp_path):
+    # A recording made before the tick's gain_row byte was declared (--retune's row, docs/recording.md): its header
+    # lists the tick fields without it and the byte is 0; the reader accepts it with the same dtype.
+    good = pathlib.Path(recorded["path"]).read_bytes()
+    size = struct.unpack("<I", good[12:16])[0]
+    header = json.loads(good[16:size].decode("utf-8"))
+    assert header["layout"] == recording.EXPECTED_LAYOUT
+    header["layout"]["tick"] = [f for f in header["layout"]["tick"] if f[0] != "gain_row"]
+    text = json.dumps(header, separators=(",", ":")).encode("utf-8")
+    assert len(text) <= size - 16
+    f = tmp_path / "old_layout.rec"
+    f.write_bytes(good[:16] + text + b" " * (size - 16 - len(text)) + good[size:])
+    old, new = recording.load(f), recording.load(recorded["path"])
+    assert np.array_equal(old.ticks, new.ticks) and not old.ticks["gain_row"].any()
+    header["layout"]["tick"][4] = ["renamed", "<u8", 8, 1]
+    text = json.dumps(header, separators=(",", ":")).encode("utf-8")
+    f.write_bytes(good[:16] + text + b" " * (size - 16 - len(text)) + good[size:])
+    with pytest.raises(recording.RecordingError, match="record layout"):
+        recording.load(f)
 
 
 @needs_daemon

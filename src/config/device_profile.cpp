@@ -87,6 +87,7 @@ DeviceProfile load_device_profile(const Options& o) {
     app.add_option("--arm_stiffness_per_mass", p.arm_stiffness_per_mass);
     app.add_option("--arm_damping_per_mass", p.arm_damping_per_mass);
     app.add_option("--damping_range", p.damping_range);
+    app.add_option("--retune", p.retune);
     app.add_option("--stiffness_range", p.stiffness_range);
     app.add_option("--inherent_delay_range", p.inherent_delay_range);
     add_real_device_keys(app, p.real);

@@ -140,6 +140,11 @@ void define_common(CLI::App& app, Options& o, Handles& h) {
     app.add_flag("--robust", o.robust,
                  "Tune CE0/CE1/CE2 for the worst case over the profile's mass_range, damping_range, stiffness_range "
                  "and inherent_delay_range (with --identify: the identified values +- 3 standard errors)");
+    app.add_flag("--retune", o.retune,
+                 "Re-tune the config walls online: identify grip and release from the position and the force, switch "
+                 "between the criterion's optimum for the held mass and for the released one (the lower end of the "
+                 "profile's mass_range), both certified over the plant set, switches at least twice the certified "
+                 "dwell apart (docs/robust-stability.md, \"Online re-tuning\"); config walls only, not with --serve");
     app.add_flag("--serve", o.serve, "Serve client applications on a control socket (docs/protocol.md)");
     app.add_option("--instance", o.instance,
                    "Instance name, one per device on the machine: socket hapticd-NAME.sock, state /hapticd-NAME-state, "

@@ -76,6 +76,9 @@ struct Options {
         velocity_estimator;  // --velocity-estimator: overrides the profile's velocity_estimator ("": the profile's)
     std::optional<double> force_noise_budget;  // --force-noise-budget: overrides the profile's (0: none)
     bool robust = false;  // tune for the worst case over the profile's parameter ranges (tuning.hpp)
+    // Re-tune the config walls online between the optimum for the held and the released mass (daemon/retune.hpp;
+    // also the profile's `retune = true`).
+    bool retune = false;
     bool passivity_control =
         false;  // Hannaford-Ryu observer + variable damper after the delay (scene/passivity_controller.hpp)
     double passivity_damping_cap = 0.0;      // N s/m; 0: 2 m / ((N + 1) T), N the delay buffer (beta <= 2 / (N + 1))
@@ -159,6 +162,9 @@ struct DeviceProfile {
     // b_H / m in [0, arm_damping_per_mass] (s^-1) with every mass; 0 and 0: the device alone.
     double arm_stiffness_per_mass = 0.0;
     double arm_damping_per_mass = 0.0;
+    // `retune = true`: re-tune the config walls online as --retune does (docs/robust-stability.md, "Online
+    // re-tuning"); default false.
+    bool retune = false;
 };
 
 // Parses argv (and the config file it selects); --help ends with `help_footer` (the daemon's exit codes). Throws

@@ -25,6 +25,7 @@
 #include "server/server_hooks.hpp"
 #include "server/state_publisher.hpp"
 #include "daemon/recorder.hpp"
+#include "daemon/wall_retuner.hpp"
 #include "loop/trace.hpp"
 
 namespace hapticd {
@@ -63,6 +64,9 @@ struct DaemonConfig {
     // The force limiter (scene/force_limiter.hpp): 0 takes the scene's max_force and default_max_force_rate.
     double max_force = 0.0;       // N per axis
     double max_force_rate = 0.0;  // N/s
+    // --retune (daemon/wall_retuner.hpp): updated after each tick's write, switches the config walls' gains for the
+    // next ticks. May be null. Must outlive the daemon.
+    WallRetuner* retune = nullptr;
 };
 
 struct RunResult {

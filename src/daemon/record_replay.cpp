@@ -29,8 +29,8 @@ json layout() {
     l["tick"] = json::array(
         {field("kind", "<u4", offsetof(TickChunk, kind)), field("read_status", "u1", offsetof(TickChunk, read_status)),
          field("write_status", "u1", offsetof(TickChunk, write_status)),
-         field("fault", "u1", offsetof(TickChunk, fault)), field("tick", "<u8", offsetof(TickChunk, tick)),
-         field("time_s", "<f8", offsetof(TickChunk, time_s)),
+         field("fault", "u1", offsetof(TickChunk, fault)), field("gain_row", "u1", offsetof(TickChunk, gain_row)),
+         field("tick", "<u8", offsetof(TickChunk, tick)), field("time_s", "<f8", offsetof(TickChunk, time_s)),
          field("position", "<f8", offsetof(TickChunk, position), 3),
          field("velocity", "<f8", offsetof(TickChunk, velocity), 3),
          field("force", "<f8", offsetof(TickChunk, force), 3),

@@ -34,7 +34,7 @@ struct TickChunk {
     std::uint8_t read_status = 0;   // DeviceStatus of read_position (0 Ok)
     std::uint8_t write_status = 0;  // DeviceStatus of write_force (0 Ok)
     std::uint8_t fault = 0;         // the protocol's fault numbers: 0 none, 1 device, 2 non-finite, 3 watchdog
-    std::uint8_t reserved0 = 0;
+    std::uint8_t gain_row = 0;      // --retune: the config walls' row from the next tick on (0 held, 1 released)
     std::uint64_t tick = 0;
     double time_s = 0.0;  // the tick's scheduled time since the loop started, s (period x slot: skipped periods count)
     double position[3] = {};                // m (rad), as read from the device

@@ -3,6 +3,7 @@
 //   replay          replay_main.cpp    (the options a replay overrides, its object slots, the verdict)
 //   identification  identification/identification_run.hpp (run_identification_stage)
 //   tuning          wall_tuning.cpp    (resolve_walls, robust_box) and the block below that calls tune_wall
+//   re-tuning       retune.cpp         (--retune's table and dwell), wall_retuner.hpp (its part of the tick)
 //   simulated hand  hand_scenario.cpp  (make_scenario, the hand's events)
 //   device          below (make_device, open_and_home) and devices/
 //   record          run_outputs.cpp    (trace, recording, summary file)
@@ -33,6 +34,7 @@
 #include "daemon/fatal_signal.hpp"
 #include "daemon/hand_scenario.hpp"
 #include "daemon/replay_main.hpp"
+#include "daemon/retune.hpp"
 #include "daemon/report.hpp"
 #include "daemon/run_messages.hpp"
 #include "daemon/run_outputs.hpp"
@@ -225,6 +227,11 @@ int run_main(int argc, const char* const* argv, const Recording* replay) {
     const std::optional<TuningBox> box =
         o.robust && !o.gains_set ? std::optional<TuningBox>(robust_box(o, profile, ident, period)) : std::nullopt;
     const std::vector<ResolvedWall> walls = resolve_walls(o, profile, plant, box);
+    // --retune: the table of the held and released optima, each certified over the set, and the dwell.
+    const std::optional<RetuneTable> retune_table =
+        retune_requested(o, profile)
+            ? std::optional<RetuneTable>(make_retune_table(o, profile, plant, walls, ident.has_value()))
+            : std::nullopt;
 
     const std::int64_t period_ns = std::llround(1e9 / o.rate);
     const std::uint64_t max_ticks = run_ticks(o, replay);
@@ -233,12 +240,14 @@ int run_main(int argc, const char* const* argv, const Recording* replay) {
 
     if (!o.quiet) {
         print_startup(out, o, profile, period, delay, period_ns, walls, report, ident, configured_tuning, ident_tuning);
+        if (retune_table) out << retune_text(*retune_table, walls, period);
     }
 
     SimScenario scenario = make_scenario(o, profile, walls, report, period, delay);
 
     std::ofstream summary = open_summary(o);
     const std::vector<HandEventRecord>* hand_events = nullptr;  // the simulated hand's schedule, once run
+    std::optional<WallRetuner> retuner;                         // --retune: the tick's part
     auto write_summary = [&](int code) {
         report.exit_code = code;
         if (summary.is_open()) {
@@ -249,6 +258,9 @@ int run_main(int argc, const char* const* argv, const Recording* replay) {
                                                               ident_tuning ? &*ident_tuning : nullptr);
             }
             if (hand_events != nullptr) j["hand_events"] = hand_events_json(*hand_events, period);
+            if (retune_table) {
+                j["retune"] = retune_json(*retune_table, walls, retuner && report.ran ? &*retuner : nullptr, period);
+            }
             summary << j.dump(2) << "\n";
             summary.close();
             if (!summary) std::cerr << "hapticd: error: writing summary-json '" << o.summary_json << "' failed\n";
@@ -276,6 +288,14 @@ int run_main(int argc, const char* const* argv, const Recording* replay) {
     std::optional<PassivityController> passivity;
     make_passivity(passivity, o, profile, period, out);
     if (passivity) cfg.passivity = &*passivity;
+    if (retune_table) {
+        try {
+            retuner.emplace(make_wall_retuner(*retune_table, walls));
+        } catch (const std::invalid_argument& e) {
+            throw StartupError(ErrorKind::InvalidParameter, std::string("--retune: ") + e.what());
+        }
+        cfg.retune = &*retuner;
+    }
     cfg.recorder = recorder.get();
     ReplayObjects replay_objects = make_replay_objects(replay, o, profile, period, cfg);
     auto daemon = std::make_unique<Daemon>(*device, scene, trace.get(), cfg);
@@ -325,6 +345,7 @@ int run_main(int argc, const char* const* argv, const Recording* replay) {
         report.passivity = passivity->stats();
     }
     warn_device_counters(*device, profile, o);
+    if (retuner && !o.quiet) out << retune_switches_text(*retuner, period);
 
     const int code = fault_exit_code(report, o, profile);
     if (!o.quiet) {

@@ -11,7 +11,8 @@
 //  6. the force limiter (scene/force_limiter.hpp), the one stage that saturates and rate-limits the force written
 //     (the changes the scene makes to the law, carried through the delay buffer beside the force): a fault zeroes
 //     at once, a stop's target is zero;
-//  7. write_force, then the recording, the shared-memory state and contact events, the trace.
+//  7. write_force, --retune's identifier and gain switch (wall_retuner.hpp: the gains of the forces from the next
+//     tick on), then the recording, the shared-memory state and contact events, the trace.
 // No allocation, lock, exception or I/O other than the device's (tests/daemon/test_tick_allocation.cpp counts
 // the allocations of a busy scene's ticks).
 #include "daemon/daemon.hpp"
@@ -91,6 +92,10 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         result_.device_status = status;
         result_.fault_tick = in.tick;
     }
+    // --retune: the identifier sees the force written; a switch changes the walls' gains from the next tick on (the
+    // forces in the delay buffer keep theirs). Not in the stop window or after a fault (the force is not the law's).
+    if (config_.retune != nullptr && result_.fault == StateFault::None && !stopping)
+        config_.retune->update(in.tick, position, applied, scene_);
     // The protocol's fault number (docs/protocol.md, section 6): None, Device, NonFinite or Watchdog here.
     const auto fault_number = static_cast<std::uint8_t>(result_.fault);
 
@@ -99,6 +104,7 @@ TickOutput Daemon::tick(const TickInput& in) noexcept {
         r.read_status = static_cast<std::uint8_t>(read_status);
         r.write_status = static_cast<std::uint8_t>(status);
         r.fault = fault_number;
+        r.gain_row = config_.retune != nullptr ? config_.retune->row() : 0U;
         r.tick = in.tick;
         r.time_s = in.time_s;
         const AxisVector v = hooks_.objects != nullptr ? hooks_.objects->velocity() : AxisVector{};

@@ -55,6 +55,11 @@ class Scene {
     // Zero after a fault.
     [[nodiscard]] std::uint64_t contact_mask() const noexcept { return contact_mask_; }
     [[nodiscard]] const std::vector<VirtualWall>& walls() const noexcept { return walls_; }
+    // Wall i's gains from the next evaluate() on (--retune, daemon/wall_retuner.hpp): gains the caller validated
+    // (each a VirtualWall's at start-up); i < walls().size(). Real-time safe.
+    void set_wall_gains(std::size_t i, double stiffness, double damping) noexcept {
+        walls_[i].set_gains(stiffness, damping);
+    }
     // The device's limit per axis, for the force limiter (Daemon takes it when DaemonConfig::max_force is 0).
     [[nodiscard]] double max_force() const noexcept { return max_force_; }
     void reset() noexcept;

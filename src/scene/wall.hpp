@@ -72,6 +72,13 @@ class VirtualWall {
         return -geometry_.direction * normal_force(penetration(position));
     }
 
+    // New gains from the next normal_force on (daemon/wall_retuner.hpp): the caller passes gains it validated at
+    // start-up (finite, >= 0: a VirtualWall was constructed with them); the difference history is kept.
+    void set_gains(double stiffness, double damping) noexcept {
+        stiffness_ = stiffness;
+        damping_ = damping;
+    }
+
     void reset() noexcept {
         primed_ = false;
         x_prev_ = 0.0;

@@ -35,7 +35,8 @@ OBJECT_KINDS = {0: "plane", 1: "spring", 2: "field"}
 # The layout of format version 1 (src/daemon/recording_format.hpp): [name, numpy type, offset, count].
 EXPECTED_LAYOUT: Dict[str, List[list]] = {
     "tick": [["kind", "<u4", 0, 1], ["read_status", "u1", 4, 1], ["write_status", "u1", 5, 1], ["fault", "u1", 6, 1],
-             ["tick", "<u8", 8, 1], ["time_s", "<f8", 16, 1], ["position", "<f8", 24, 3], ["velocity", "<f8", 48, 3],
+             ["gain_row", "u1", 7, 1], ["tick", "<u8", 8, 1], ["time_s", "<f8", 16, 1], ["position", "<f8", 24, 3],
+             ["velocity", "<f8", 48, 3],
              ["force", "<f8", 72, 3], ["contact_mask", "<u8", 96, 1], ["config_contact_mask", "<u8", 104, 1],
              ["wake_latency_ns", "<i8", 112, 1], ["batches", "<u4", 120, 1]],
     "batch": [["kind", "<u4", 0, 1], ["source", "u1", 4, 1], ["tick", "<u8", 8, 1], ["seq", "<u8", 16, 1],
@@ -49,6 +50,10 @@ EXPECTED_LAYOUT: Dict[str, List[list]] = {
             ["updates", "<u8", 24, 1], ["dropped_ticks", "<u8", 32, 1], ["dropped_batches", "<u8", 40, 1],
             ["checksum", "<u8", 48, 1]],
 }
+
+# The same layout as recorded before the tick's gain_row was declared (the byte was 0 then): read with the dtype above.
+LAYOUT_WITHOUT_GAIN_ROW: Dict[str, List[list]] = dict(
+    EXPECTED_LAYOUT, tick=[f for f in EXPECTED_LAYOUT["tick"] if f[0] != "gain_row"])
 
 
 class RecordingError(ValueError):
@@ -134,7 +139,8 @@ def load(path: Union[str, pathlib.Path], verify_checksum: bool = False) -> Recor
         header = None
     if not isinstance(header, dict):
         raise bad("the header is not a JSON object: corrupt")
-    if header.get("layout") != EXPECTED_LAYOUT or header.get("chunk_size") != CHUNK_SIZE:
+    layout = header.get("layout")
+    if layout not in (EXPECTED_LAYOUT, LAYOUT_WITHOUT_GAIN_ROW) or header.get("chunk_size") != CHUNK_SIZE:
         raise bad("the header's record layout is not that of format version 1")
     body = data[header_size:]
     if len(body) % CHUNK_SIZE:
