@@ -216,7 +216,7 @@ class RowShiftSteinSolver {
 
     /// M X M^T using the row structure: O(r N^2).
     Square propagate(const Square& x) const {
-        const Square y = rows_times(x);                      // M X
+        const Square y = rows_times(x);                        // M X
         return rows_times(Square(y.transpose())).transpose();  // (M (M X)^T)^T = M X M^T
     }
 
