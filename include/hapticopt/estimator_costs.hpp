@@ -5,11 +5,14 @@
 // Energy costs C_E0..2: the same integrals and Stein equations as energy_costs.hpp (E is a quadratic form
 // of s_j on each segment; G_p = sum_j j^p s_j s_j^T from three Stein equations). A window is FIR, so its loop
 // keeps the shift structure (a longer position history) and ShiftSteinSolver (stein_equation.hpp) solves
-// them; the low-pass's v states break it, so they are solved on the complex Schur form of the dense loop
-// matrix (detail::energy_costs_from_schur). Exact up to rounding; the error grows like eps / (1 - rho^2) as
+// them; the low-pass's loop has one more dense row (v_j) and a second shift chain (the past v's), which
+// RowShiftSteinSolver (shift_rows_stein.hpp) solves the same way. Both after Schur-Cohn on p_est; within its
+// margin 1e-4 of the boundary, and with `dense` = true, on the complex Schur form of the dense loop matrix
+// (detail::energy_costs_from_schur). Exact up to rounding; the error grows like eps / (1 - rho^2) as
 // for the backward loop. C_OV: the exact continuous maximum of overshoot.hpp on this loop.
-// Costs: N = 2 + Hy + Hv [+ 1] states; the window's energy costs one (2N - 1)-square LU, everything else
-// O(N^3) per evaluation (complex Schur form of the N-square loop matrix). Measured: docs/benchmarks.md.
+// Costs: N = 2 + Hy + Hv [+ 1] states; the window's energy costs one (2N - 1)-square LU, the low-pass's one
+// (3N - 3)-square LU (O(N^3) with a small constant, no eigen-decomposition), C_OV and the dense route
+// O(N^3) per evaluation with the complex Schur form (~25 N^3). Measured: docs/benchmarks.md.
 #pragma once
 
 #include <array>
@@ -26,6 +29,7 @@
 #include "overshoot.hpp"
 #include "parameters.hpp"
 #include "schur_cohn.hpp"
+#include "shift_rows_stein.hpp"
 #include "stein_equation.hpp"
 #include "estimator_types.hpp"
 
@@ -33,16 +37,15 @@ namespace hapticopt {
 
 namespace detail {
 
-/// C_E0..2 of a loop whose rows >= 2 are the shift rows of closed_loop.hpp (an FIR estimator without the
-/// noise state: its state is the plant's plus a longer position history): the three Stein equations by
-/// ShiftSteinSolver (one (2N - 1)-square LU), the traces as in energy_costs_structured. +inf if a pivot
-/// vanishes or a cost is not positive and finite (rounding at the boundary).
-template <typename Scalar>
-EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop) {
+/// C_E0..2 of the loop `loop` given a factorised Stein solver of its M (ShiftSteinSolver, stein_equation.hpp, or
+/// RowShiftSteinSolver, shift_rows_stein.hpp; only valid when ok()): the three Stein equations
+/// G_0 = M G_0 M^T + s_0 s_0^T, G_1 = M G_1 M^T + M G_0 M^T, G_2 = M G_2 M^T + 2 G_1 - M G_0 M^T on the one
+/// factorisation, the traces as in energy_costs_structured. +inf if a cost is not positive and finite (rounding
+/// at the boundary).
+template <typename Scalar, typename Solver>
+EnergyCostsT<Scalar> energy_costs_from_stein_solver(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop,
+                                                    const Solver& stein) {
     const Scalar inf = std::numeric_limits<Scalar>::infinity();
-    using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
-    const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
-    if (!stein.ok()) return {inf, inf, inf};
     using Square = typename Solver::Square;
     std::array<Square, 3> g;
     g[0] = stein.solve(Square(loop.initial_state * loop.initial_state.transpose()));
@@ -68,13 +71,25 @@ EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& p
     return out;
 }
 
+/// C_E0..2 of a loop whose rows >= 2 are the shift rows of closed_loop.hpp (an FIR estimator without the
+/// noise state: its state is the plant's plus a longer position history): energy_costs_from_stein_solver with
+/// ShiftSteinSolver (one (2N - 1)-square LU). +inf if a pivot vanishes.
+template <typename Scalar>
+EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& plant, const ClosedLoop<Scalar>& loop) {
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
+    const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
+    if (!stein.ok()) return {inf, inf, inf};
+    return energy_costs_from_stein_solver(plant, loop, stein);
+}
+
 }  // namespace detail
 
 /// C_E0..2 with the estimator for a precomputed plant, +inf when unstable (M's spectral radius >= 1, or the
 /// solver's pivots). Every kind, including the backward difference, goes through the estimator's loop here
 /// (energy_costs() with an estimator sends the backward difference to the fast backward path instead):
-/// the window through ShiftSteinSolver (its loop has the shift structure; `dense` = true forces the
-/// complex-Schur method instead, for the cross-check in the tests), the low-pass on the complex Schur form.
+/// the window through ShiftSteinSolver, the low-pass through RowShiftSteinSolver (header comment); `dense` = true
+/// forces the complex-Schur method instead, for the cross-check in the tests.
 template <typename Scalar>
 EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, const VelocityEstimator& estimator,
                                             Scalar alpha, Scalar beta, bool dense = false) {
@@ -82,15 +97,18 @@ EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, c
     if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return {inf, inf, inf};
     const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
     const bool fir = estimator.kind != VelocityEstimatorKind::lowpass;
-    if (fir && !dense) {
-        // The shift solver does not see instability by itself: Schur-Cohn on p_est first; near the boundary
-        // (|margin| < 1e-4) the complex-Schur path below decides by the spectral radius.
+    if (!dense) {
+        // The structured solvers do not see instability by themselves: Schur-Cohn on p_est first; near the
+        // boundary (|margin| < 1e-4) the complex-Schur path below decides by the spectral radius.
         const SchurCohnResult<Scalar> sc = schur_cohn<Scalar>(
             estimator_characteristic_polynomial(characteristic_polynomial(plant), estimator).at(alpha, beta));
         using std::abs;
         if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
             if (!sc.stable) return {inf, inf, inf};
-            return detail::shift_structured_energy_costs(plant, el.loop);
+            if (fir) return detail::shift_structured_energy_costs(plant, el.loop);
+            const RowShiftSteinSolver<Scalar> stein(el.loop.transition);
+            if (!stein.ok()) return {inf, inf, inf};
+            return detail::energy_costs_from_stein_solver(plant, el.loop, stein);
         }
     }
     const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);

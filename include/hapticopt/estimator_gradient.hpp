@@ -21,6 +21,7 @@
 #include "estimator_stability.hpp"
 #include "loop_schur_form.hpp"
 #include "schur_cohn.hpp"
+#include "shift_rows_stein.hpp"
 #include "stein_equation.hpp"
 #include "estimator_types.hpp"
 
@@ -142,12 +143,13 @@ EnergyCostGradientT<Scalar> estimator_gradient_from_solver(const SampledPlant<Sc
 /// (alpha, beta) and dM, dR_s along alpha or beta are the same construction without its constant part
 /// (make_estimator_loop with `derivative`); de_0/dalpha = -e_0 / k; dw/dalpha = the position Gramians' part of w
 /// (dw/dbeta = 0). The Stein equations are solved as estimator_energy_costs solves them: the window by
-/// ShiftSteinSolver (its adjoint_solve gives S*), the low-pass (or `dense` = true, or a window within the
-/// Schur-Cohn margin 1e-4 of the boundary) on the complex Schur form (detail::SchurSteinSolver). A solution
+/// ShiftSteinSolver, the low-pass by RowShiftSteinSolver (shift_rows_stein.hpp; their adjoint_solve gives S*, on
+/// the same LU as the forward solves), and with `dense` = true or within the Schur-Cohn margin 1e-4 of the
+/// boundary on the complex Schur form (detail::SchurSteinSolver). A solution
 /// exists wherever the cost does (a Schur-stable loop); unstable gains give value +inf and NaN derivatives.
 /// Checked against central differences of estimator_energy_costs in long double
-/// (tests/core/test_estimator_fast_optimum.cpp). Cost: about twice the costs' own evaluation (p + 1 adjoint solves
-/// and O(N^3) products). Throws InvalidParameter for an index outside 0..2.
+/// (tests/core/test_estimator_fast_optimum.cpp). Cost: about twice the costs' own evaluation (one LU, p + 1 forward
+/// and p + 1 adjoint solves, O(N^3) products with small constants). Throws InvalidParameter for an index outside 0..2.
 template <typename Scalar>
 EnergyCostGradientT<Scalar> estimator_energy_cost_gradient(const SampledPlant<Scalar>& plant,
                                                            const VelocityEstimator& estimator, Scalar alpha,
@@ -161,14 +163,19 @@ EnergyCostGradientT<Scalar> estimator_energy_cost_gradient(const SampledPlant<Sc
     const std::array<ClosedLoop<Scalar>, 2> dloop{
         make_estimator_loop(plant, estimator, Scalar(1), Scalar(0), false, true).loop,
         make_estimator_loop(plant, estimator, Scalar(0), Scalar(1), false, true).loop};
-    if (estimator.kind != VelocityEstimatorKind::lowpass && !dense) {
+    if (!dense) {
         const SchurCohnResult<Scalar> sc = schur_cohn<Scalar>(
             estimator_characteristic_polynomial(characteristic_polynomial(plant), estimator).at(alpha, beta));
         using std::abs;
         if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
             if (!sc.stable) return unstable;
-            using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
-            const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
+            if (estimator.kind != VelocityEstimatorKind::lowpass) {
+                using Solver = ShiftSteinSolver<Scalar, Eigen::Dynamic>;
+                const Solver stein(typename Solver::Top(loop.transition.topRows(2)));
+                if (!stein.ok()) return unstable;
+                return detail::estimator_gradient_from_solver(plant, loop, stein, dloop, index);
+            }
+            const RowShiftSteinSolver<Scalar> stein(loop.transition);
             if (!stein.ok()) return unstable;
             return detail::estimator_gradient_from_solver(plant, loop, stein, dloop, index);
         }

@@ -8,7 +8,9 @@
 //     stiffness (gamma > 0), where the minimum can lie on the main region's edge alpha -> 0+.
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -56,11 +58,103 @@ TEST(EstimatorEnergyCostGradient, MatchesCentralDifferencesInLongDouble) {
                 const LD fd_beta = (fc(a, b + hb) - fc(a, b - hb)) / (2 * hb);
                 EXPECT_NEAR(g.d_alpha, static_cast<double>(fd_alpha), 1e-8 * cost / a) << where;
                 EXPECT_NEAR(g.d_beta, static_cast<double>(fd_beta), 1e-8 * cost / b) << where;
-                // The window's two routes (shift-structured and complex Schur) differ by rounding only: the
-                // Stein solutions' relative error is ~1e-13 / (1 - rho)^2 (energy_costs.hpp), below 1e-10 here.
+                // The two routes (shift-structured: ShiftSteinSolver for the window, RowShiftSteinSolver for the
+                // low-pass; and complex Schur) differ by rounding only: the Stein solutions' relative error is
+                // ~1e-13 / (1 - rho)^2 (energy_costs.hpp), below 1e-10 here.
                 const EnergyCostGradient dense = estimator_energy_cost_gradient(plant, e, a, b, p, true);
                 EXPECT_NEAR(dense.d_alpha, g.d_alpha, 1e-10 * cost / a) << where;
                 EXPECT_NEAR(dense.d_beta, g.d_beta, 1e-10 * cost / b) << where;
+            }
+        }
+    }
+}
+
+TEST(RowShiftSteinSolver, MatchesTheKroneckerSolve) {
+    // Independent method: vec(X) = (I - M (x) M)^-1 vec(C) and vec(L) = (I - M^T (x) M^T)^-1 vec(H) by a full-pivot
+    // LU of the N^2-square Kronecker system. Loop matrices with dense rows {0, 1, 5} (the low-pass loop's pattern:
+    // x, x' and v_j) and shift rows 2 <- 0, 3 <- 2, 4 <- 3, 6 <- 5, 7 <- 6, random dense rows drawn until the
+    // spectral radius is at most 0.95. Both methods are backward stable with errors ~ eps cond, cond of the Stein
+    // operator <= 1 / (1 - rho^2) ~ 10 here, times the Kronecker LU's growth: 1e-11 relative is 100x above.
+    const int n = 8;
+    const std::vector<int> dense = {0, 1, 5};
+    const std::vector<int> source = {-1, -1, 0, 2, 3, -1, 5, 6};
+    std::mt19937 rng(39);
+    std::uniform_real_distribution<double> uniform(-0.6, 0.6);
+    int checked = 0;
+    for (int attempt = 0; attempt < 1000 && checked < 5; ++attempt) {
+        Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n, n);
+        for (int k = 0; k < n; ++k) {
+            if (source[static_cast<std::size_t>(k)] >= 0) {
+                m(k, source[static_cast<std::size_t>(k)]) = 1;
+            } else {
+                for (int l = 0; l < n; ++l) m(k, l) = uniform(rng);
+            }
+        }
+        const double rho = Eigen::EigenSolver<Eigen::MatrixXd>(m).eigenvalues().cwiseAbs().maxCoeff();
+        if (!(rho <= 0.95)) continue;
+        ++checked;
+        const RowShiftSteinSolver<double> stein(m);
+        ASSERT_TRUE(stein.ok());
+        EXPECT_EQ(stein.dense_rows(), 3);
+        EXPECT_EQ(stein.unknowns(), 3 * n - 3);
+        Eigen::MatrixXd a = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return uniform(rng); });
+        const Eigen::MatrixXd c = a * a.transpose();
+        a = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return uniform(rng); });
+        const Eigen::MatrixXd h = a + a.transpose();
+        const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(n * n, n * n);
+        Eigen::MatrixXd kron(n * n, n * n), kron_t(n * n, n * n);
+        for (int i = 0; i < n; ++i) {
+            for (int j = 0; j < n; ++j) {
+                kron.block(i * n, j * n, n, n) = m(i, j) * m;
+                kron_t.block(i * n, j * n, n, n) = m(j, i) * m.transpose();
+            }
+        }
+        const Eigen::VectorXd x_ref =
+            (identity - kron).fullPivLu().solve(Eigen::Map<const Eigen::VectorXd>(c.data(), n * n));
+        const Eigen::VectorXd l_ref =
+            (identity - kron_t).fullPivLu().solve(Eigen::Map<const Eigen::VectorXd>(h.data(), n * n));
+        const Eigen::MatrixXd x = stein.solve(c);
+        const Eigen::MatrixXd l = stein.adjoint_solve(h);
+        EXPECT_LE((x - Eigen::Map<const Eigen::MatrixXd>(x_ref.data(), n, n)).norm(), 1e-11 * x.norm());
+        EXPECT_LE((l - Eigen::Map<const Eigen::MatrixXd>(l_ref.data(), n, n)).norm(), 1e-11 * l.norm());
+        // The residuals of the equations themselves, and the structured products against dense ones.
+        EXPECT_LE((x - m * x * m.transpose() - c).norm(), 1e-11 * x.norm());
+        EXPECT_LE((l - m.transpose() * l * m - h).norm(), 1e-11 * l.norm());
+        EXPECT_LE((stein.propagate(c) - m * c * m.transpose()).norm(), 1e-13 * c.norm());
+        EXPECT_LE((stein.transpose_congruence(h) - m.transpose() * h * m).norm(), 1e-13 * h.norm() * m.squaredNorm());
+    }
+    EXPECT_EQ(checked, 5);
+    // A unit row whose one entry points at or above itself is not a shift row: treated as dense.
+    Eigen::MatrixXd up = Eigen::MatrixXd::Zero(3, 3);
+    up(0, 1) = 1;
+    up(1, 0) = 0.5;
+    up(2, 1) = 1;
+    EXPECT_EQ(RowShiftSteinSolver<double>(up).dense_rows(), 2);
+}
+
+TEST(EstimatorEnergyCosts, LowPassStructuredRouteMatchesComplexSchur) {
+    // RowShiftSteinSolver (three dense rows) against the complex Schur form of the dense loop matrix, over the
+    // low-pass cutoffs and delays of the optimum tests at points inside their main regions: rounding only, the
+    // Stein solutions' relative error ~1e-13 / (1 - rho)^2 (energy_costs.hpp), below 1e-10 here.
+    for (double nu : {0.005, 0.02, 0.2}) {
+        for (double d : {0.0, 1.0, 2.5, 6.0}) {
+            const NormalizedPlant np{0.001, 0.02, d};
+            const SampledPlant<double> plant(np);
+            const VelocityEstimator e = VelocityEstimator::low_pass(nu);
+            const EstimatorStabilityRegion region(np, e);
+            for (double f : {0.2, 0.5, 0.8}) {
+                const double a = f * region.alpha_max();
+                const auto [lo, hi] = region.beta_interval(a);
+                ASSERT_LT(lo, hi) << describe(e, d);
+                for (double g : {0.25, 0.5, 0.75}) {
+                    const double b = lo + g * (hi - lo);
+                    const EnergyCosts fast = estimator_energy_costs(plant, e, a, b);
+                    const EnergyCosts dense = estimator_energy_costs(plant, e, a, b, true);
+                    ASSERT_TRUE(std::isfinite(dense.ce2)) << describe(e, d);
+                    EXPECT_NEAR(fast.ce0 / dense.ce0, 1.0, 1e-10) << describe(e, d) << " " << a << " " << b;
+                    EXPECT_NEAR(fast.ce1 / dense.ce1, 1.0, 1e-10) << describe(e, d) << " " << a << " " << b;
+                    EXPECT_NEAR(fast.ce2 / dense.ce2, 1.0, 1e-10) << describe(e, d) << " " << a << " " << b;
+                }
             }
         }
     }
