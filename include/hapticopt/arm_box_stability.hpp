@@ -87,8 +87,8 @@ struct ArmBoxStability {
 /// Sub-boxes judged at most per verdict; the narrowest theta cell.
 inline constexpr int kArmBoxMaxBoxes = 4096;
 inline constexpr double kArmBoxMinCell = 1e-9;
-/// A failing sub-box is judged exactly along the mass at its centre at depths 0, kArmBoxExactEvery, ... (between: halved
-/// without it; the exact verdict costs a crossing computation, O(N^3)).
+/// A failing sub-box is judged exactly along the mass at its centre at depths 0, kArmBoxExactEvery, ... (between:
+/// halved without it; the exact verdict costs a crossing computation, O(N^3)).
 inline constexpr int kArmBoxExactEvery = 3;
 
 namespace detail {
@@ -167,8 +167,8 @@ inline IntervalMatrix3 interval_exponential(Interval gamma, Interval delta, Inte
     for (const auto& row : result) {
         for (const auto& e : row) largest = std::max(largest, e.magnitude());
     }
-    const double rounding = 64.0 * (kDegree + std::ldexp(1.0, squarings)) * std::numeric_limits<double>::epsilon() *
-                            std::max(largest, 1.0);
+    const double rounding =
+        64.0 * (kDegree + std::ldexp(1.0, squarings)) * std::numeric_limits<double>::epsilon() * std::max(largest, 1.0);
     for (auto& row : result) {
         for (auto& e : row) e = widened(e, rounding);
     }
@@ -239,8 +239,8 @@ class ArmBoxTest {
         unit.base = unit.alpha = unit.beta = Eigen::VectorXd::Ones(1);
         if (estimator.kind == VelocityEstimatorKind::backward) {
             at_ = Eigen::VectorXd::Ones(1);
-            k_alpha_ = Eigen::Vector2d(0, 1);   // z
-            k_beta_ = Eigen::Vector2d(-1, 1);   // z - 1
+            k_alpha_ = Eigen::Vector2d(0, 1);  // z
+            k_beta_ = Eigen::Vector2d(-1, 1);  // z - 1
         } else {
             const AffineCharacteristicPolynomial<double> e = estimator_characteristic_polynomial(unit, estimator);
             at_ = e.base;
@@ -313,7 +313,8 @@ class ArmBoxTest {
     /// intervals with whole delay n ignored (it does not enter them): for the tests.
     std::array<detail::Interval, 5> coefficient_enclosure(detail::Interval gamma_h, detail::Interval delta_h,
                                                           detail::Interval phi) const {
-        const detail::Interval g = gamma_h + detail::Interval(plant_.gamma), d = delta_h + detail::Interval(plant_.delta);
+        const detail::Interval g = gamma_h + detail::Interval(plant_.gamma),
+                               d = delta_h + detail::Interval(plant_.delta);
         const detail::IntervalMatrix3 w = detail::interval_exponential(g, d, detail::Interval(1.0));
         const detail::IntervalMatrix3 a = detail::interval_exponential(g, d, phi);
         const detail::IntervalMatrix3 b = detail::interval_exponential(g, d, detail::Interval(1.0) - phi);
@@ -397,8 +398,8 @@ class ArmBoxTest {
     Centre centre(const Box& b) const {
         Centre c;
         c.c = coefficients(b.gamma.mid(), b.delta.mid(), b.phi.mid());
-        const std::array<Interval, 5> e = coefficient_enclosure({b.gamma.lo, b.gamma.hi}, {b.delta.lo, b.delta.hi},
-                                                                {b.phi.lo, b.phi.hi});
+        const std::array<Interval, 5> e =
+            coefficient_enclosure({b.gamma.lo, b.gamma.hi}, {b.delta.lo, b.delta.hi}, {b.phi.lo, b.phi.hi});
         for (std::size_t i = 0; i < 5; ++i) c.radius[i] = std::max(e[i].hi - c.c[i], c.c[i] - e[i].lo);
         return c;
     }
@@ -487,7 +488,7 @@ class ArmBoxTest {
         const double a1 = detail::weighted_sum(at_, 1), a2 = detail::weighted_sum(at_, 2);
         const double k1 = detail::weighted_sum(k, 1), k2 = detail::weighted_sum(k, 2);
         struct Point {
-            double h;  // H(theta)
+            double h;                            // H(theta)
             double p_d, q_d, a, a_d, k, k_d, w;  // |P'|, |Q'|, |At|, |At'|, |K|, |K'|, |z - 1|
         };
         auto at = [&](double theta) {

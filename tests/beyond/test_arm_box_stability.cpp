@@ -71,8 +71,8 @@ constexpr double kSlo = 0.30 / 0.33, kShi = 0.30 / 0.20;
 TEST(ArmBox, ThePolynomialIsTheLibrarys) {
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (const VelocityEstimator& e : {VelocityEstimator{}, VelocityEstimator::low_pass(0.02),
-                                       VelocityEstimator::moving_window(15)}) {
+    for (const VelocityEstimator& e :
+         {VelocityEstimator{}, VelocityEstimator::low_pass(0.02), VelocityEstimator::moving_window(15)}) {
         for (int trial = 0; trial < 40; ++trial) {
             const double gamma = 0.5 * u(rng) * u(rng), delta = 2.0 * u(rng) * u(rng);
             const int n = static_cast<int>(8 * u(rng));
@@ -80,7 +80,8 @@ TEST(ArmBox, ThePolynomialIsTheLibrarys) {
             const double alpha = 0.01 * u(rng), beta = 0.2 * u(rng);
             const ArmBoxTest test(NormalizedPlant{0, 0, 0}, e, 1.0, 10.0, 0.0, 10.0);
             const Eigen::VectorXd mine = test.polynomial(gamma, delta, n, phi, s, alpha, beta);
-            const Eigen::VectorXd lib = library_polynomial(NormalizedPlant{gamma, delta, n + phi}, e, s * alpha, s * beta);
+            const Eigen::VectorXd lib =
+                library_polynomial(NormalizedPlant{gamma, delta, n + phi}, e, s * alpha, s * beta);
             ASSERT_EQ(mine.size(), lib.size());
             // Both are sums of O(1) products of the same exponentials: rounding ~1e-15 of the largest coefficient.
             EXPECT_LT((mine - lib).cwiseAbs().maxCoeff(), 1e-13 * (1.0 + lib.cwiseAbs().maxCoeff()));
@@ -100,7 +101,8 @@ TEST(ArmBox, TheEnclosureHoldsTheCoefficientsOfEveryPlantInside) {
                      f1 = std::min(1.0, f0 + scale * u(rng));
         const auto enclosure = test.coefficient_enclosure({g0, g1}, {d0, d1}, {f0, f1});
         for (int k = 0; k < 20; ++k) {
-            const double g = g0 + (g1 - g0) * (k < 8 ? (k & 1) : u(rng)), d = d0 + (d1 - d0) * (k < 8 ? ((k >> 1) & 1) : u(rng)),
+            const double g = g0 + (g1 - g0) * (k < 8 ? (k & 1) : u(rng)),
+                         d = d0 + (d1 - d0) * (k < 8 ? ((k >> 1) & 1) : u(rng)),
                          f = f0 + (f1 - f0) * (k < 8 ? ((k >> 2) & 1) : u(rng));
             const auto c = test.coefficients(g, d, f);
             for (std::size_t i = 0; i < 5; ++i) {
@@ -111,7 +113,8 @@ TEST(ArmBox, TheEnclosureHoldsTheCoefficientsOfEveryPlantInside) {
         // The enclosure shrinks with the box (first order): no wider than 50 times the box's extent in each
         // coefficient plus the rounding allowance.
         for (std::size_t i = 0; i < 5; ++i) {
-            EXPECT_LT(enclosure[i].hi - enclosure[i].lo, 50.0 * ((g1 - g0) + (d1 - d0) + (f1 - f0)) * std::exp(11.0) + 1e-9);
+            EXPECT_LT(enclosure[i].hi - enclosure[i].lo,
+                      50.0 * ((g1 - g0) + (d1 - d0) + (f1 - f0)) * std::exp(11.0) + 1e-9);
         }
     }
 }
@@ -122,8 +125,7 @@ struct Family {
 };
 
 // A dense grid of the box (gamma, delta, delay, s) judged by root finding: the largest root modulus over it.
-double grid_largest_root(const ArmBoxTest& test, const Family& f, double alpha, double beta, double s_lo,
-                         double s_hi) {
+double grid_largest_root(const ArmBoxTest& test, const Family& f, double alpha, double beta, double s_lo, double s_hi) {
     double largest = 0.0;
     constexpr int kArm = 5, kDelay = 9, kScale = 5;
     for (int i = 0; i <= kArm; ++i) {
@@ -134,9 +136,9 @@ double grid_largest_root(const ArmBoxTest& test, const Family& f, double alpha, 
                 const double phi = std::min(1.0, d - n);
                 for (int l = 0; l <= kScale; ++l) {
                     const double s = s_lo + (s_hi - s_lo) * l / kScale;
-                    largest = std::max(largest, largest_root(test.polynomial(f.gamma_max * i / kArm,
-                                                                             f.delta_max * j / kArm, n, phi, s, alpha,
-                                                                             beta)));
+                    largest =
+                        std::max(largest, largest_root(test.polynomial(f.gamma_max * i / kArm, f.delta_max * j / kArm,
+                                                                       n, phi, s, alpha, beta)));
                 }
             }
         }
@@ -148,8 +150,10 @@ TEST(ArmBox, TheVerdictAgreesWithRootFindingOnDenseGrids) {
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     const std::vector<Family> families = {
-        {VelocityEstimator{}, 1.0, 1.0, 0.001, 0.02},  {VelocityEstimator{}, 0.0, 1.5, 0.001, 0.02},
-        {VelocityEstimator{}, 2.0, 3.0, 0.01, 0.1},    {VelocityEstimator::low_pass(0.05), 2.0, 2.5, 0.001, 0.02},
+        {VelocityEstimator{}, 1.0, 1.0, 0.001, 0.02},
+        {VelocityEstimator{}, 0.0, 1.5, 0.001, 0.02},
+        {VelocityEstimator{}, 2.0, 3.0, 0.01, 0.1},
+        {VelocityEstimator::low_pass(0.05), 2.0, 2.5, 0.001, 0.02},
         {VelocityEstimator::moving_window(4), 3.0, 3.5, 0.001, 0.02},
     };
     int accepted = 0, refused = 0;
@@ -157,25 +161,27 @@ TEST(ArmBox, TheVerdictAgreesWithRootFindingOnDenseGrids) {
         const ArmBoxTest test(NormalizedPlant{0, 0, 0}, f.e, f.gamma_max, f.delta_max, f.d_lo, f.d_hi);
         const hapticopt::MassScalingTest nominal(NormalizedPlant{0, 0, f.d_lo}, f.e, hapticopt::ArmAlongRay::per_mass);
         for (int trial = 0; trial < 14; ++trial) {
-            // A direction of the (alpha, beta) plane scaled to the nominal plant's boundary along it, then by 0.3 .. 1.3:
-            // inside, near and beyond the box's boundary.
+            // A direction of the (alpha, beta) plane scaled to the nominal plant's boundary along it, then by 0.3
+            // .. 1.3: inside, near and beyond the box's boundary.
             const double angle = 1.5 * u(rng) + 0.03;
             const double da = 0.02 * std::cos(angle), db = std::sin(angle);
             double lo = 0.0, hi = 4.0;
-            for (int i = 0; i < 40; ++i) (nominal.stable(0.5 * (lo + hi) * da, 0.5 * (lo + hi) * db) ? lo : hi) = 0.5 * (lo + hi);
+            for (int i = 0; i < 40; ++i)
+                (nominal.stable(0.5 * (lo + hi) * da, 0.5 * (lo + hi) * db) ? lo : hi) = 0.5 * (lo + hi);
             const double factor = lo * (0.3 + 1.0 * u(rng));
             const double alpha = factor * da, beta = factor * db;
             const ArmBoxStability v = test.over(alpha, beta, kSlo, kShi);
             const double root = grid_largest_root(test, f, alpha, beta, kSlo, kShi);
             if (v.stable) {
                 ++accepted;
-                EXPECT_LT(root, 1.0) << "accepted but a grid plant has a root outside: alpha " << alpha << " beta " << beta;
+                EXPECT_LT(root, 1.0) << "accepted but a grid plant has a root outside: alpha " << alpha << " beta "
+                                     << beta;
             } else {
                 ++refused;
                 ASSERT_TRUE(v.proven_unstable) << "no proof either way at alpha " << alpha << " beta " << beta;
                 const int n = static_cast<int>(std::floor(v.failing_delay));
-                const double named = largest_root(
-                    test.polynomial(v.failing_gamma, v.failing_delta, n, v.failing_delay - n, v.failing_scale, alpha, beta));
+                const double named = largest_root(test.polynomial(v.failing_gamma, v.failing_delta, n,
+                                                                  v.failing_delay - n, v.failing_scale, alpha, beta));
                 // The exact verdict along the mass named it: a root on (crossing, to the crossing's 1e-9) or outside.
                 EXPECT_GT(named, 1.0 - 1e-7) << "the named plant is stable: alpha " << alpha << " beta " << beta;
             }
@@ -195,7 +201,8 @@ TEST(ArmBox, PlantsOfTheFalconsCertifiedBoxDecayInTheSimulation) {
     ASSERT_TRUE(test.over(alpha0, beta0, kSlo, kShi).stable);
     double lo = 1.0, hi = 1.5;
     ASSERT_FALSE(test.over(hi * alpha0, hi * beta0, kSlo, kShi).stable);
-    for (int i = 0; i < 8; ++i) (test.over(0.5 * (lo + hi) * alpha0, 0.5 * (lo + hi) * beta0, kSlo, kShi).stable ? lo : hi) = 0.5 * (lo + hi);
+    for (int i = 0; i < 8; ++i)
+        (test.over(0.5 * (lo + hi) * alpha0, 0.5 * (lo + hi) * beta0, kSlo, kShi).stable ? lo : hi) = 0.5 * (lo + hi);
     std::mt19937 rng(3);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (const double f : {1.0, lo}) {
@@ -206,13 +213,14 @@ TEST(ArmBox, PlantsOfTheFalconsCertifiedBoxDecayInTheSimulation) {
                               (c >> 3) & 1 ? 0.33 : 0.20});
         }
         plants.push_back({gamma_max / 2, delta_max / 2, 6.0, 0.26});
-        for (int r = 0; r < 6; ++r) plants.push_back({gamma_max * u(rng), delta_max * u(rng), 5.0 + 2.0 * u(rng), 0.20 + 0.13 * u(rng)});
+        for (int r = 0; r < 6; ++r)
+            plants.push_back({gamma_max * u(rng), delta_max * u(rng), 5.0 + 2.0 * u(rng), 0.20 + 0.13 * u(rng)});
         for (const auto& p : plants) {
             const double m = p[3];
             // 40 s: a decaying loop's excursion over the last tenth is below the first tenth's (the slowest, at the
             // certified boundary, decays by a few 1e-5 per tick: 0.77 over the 36 s between the tenths).
-            const double ratio = loop_simulation::excursion_ratio_with_arm(m, p[0] * m / (kT * kT), p[1] * m / kT, K, B, kT,
-                                                                           p[2], velocity_of(e), 40000);
+            const double ratio = loop_simulation::excursion_ratio_with_arm(m, p[0] * m / (kT * kT), p[1] * m / kT, K, B,
+                                                                           kT, p[2], velocity_of(e), 40000);
             EXPECT_LT(ratio, 1.0) << "f " << f << " arm " << p[0] << ", " << p[1] << " delay " << p[2] << " mass " << m;
         }
     }

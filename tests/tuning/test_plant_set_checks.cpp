@@ -371,9 +371,6 @@ TEST(PlantSetChecks, TheDelayRangeWithTheArmDecaysAtTheCorners) {
     }
 }
 
-}  // namespace plant_set_checks_test
-}  // namespace hapticd
-
 // The grid {0, 1/2, 1}^2 of the arm box is a sample: a stiff arm range (k_H / m up to 10^6 s^-2, the largest a profile
 // accepts; b_H / m up to 100 s^-1) on the backward difference with 6 ms of delay has a pair stable along the mass at
 // all 9 grid arms that an interior arm (k_H / m ~ 4e4 s^-2) breaks (docs/robust-stability.md, "The arm"). The checker's
@@ -408,8 +405,15 @@ TEST(PlantSetChecks, AnInteriorArmTheGridMissesIsRefused) {
     const double growth = loop_simulation::excursion_ratio_with_arm(
         v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping, K, B, kPeriod, 6.0, {}, 200000);
     EXPECT_GT(growth, 1.0) << checker.plant_text(v);
-    // The largest stable K at that B is certified over the whole box.
-    ASSERT_GT(v.largest_stable_K, 0.0);
-    EXPECT_LT(v.largest_stable_K, K);
-    EXPECT_TRUE(checker.pair_is_stable(v.largest_stable_K, B, p.mass));
+    // The largest stable K at that B is certified over the whole box; 0 (none) when even a near-free K is not (the
+    // stiff arm's own resonance with this damping and delay).
+    if (v.largest_stable_K > 0.0) {
+        EXPECT_LT(v.largest_stable_K, K);
+        EXPECT_TRUE(checker.pair_is_stable(v.largest_stable_K, B, p.mass));
+    } else {
+        EXPECT_FALSE(checker.pair_is_stable(1e-6 * K, B, p.mass));
+    }
 }
+
+}  // namespace plant_set_checks_test
+}  // namespace hapticd
