@@ -26,6 +26,7 @@
 #include "loop_schur_form.hpp"
 #include "mass_scaling_stability.hpp"
 #include "delay_range_stability.hpp"
+#include "arm_box_stability.hpp"
 #include "matrix_gain_stability.hpp"
 #include "newton_search.hpp"
 #include "noise_budget.hpp"

@@ -101,12 +101,17 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
         delay_lo_ = std::min(lo / T, nominal_delay);
         delay_hi_ = std::max(hi / T, nominal_delay);
     }
+    if (free_mass_plant_ && (k_arm > 0.0 || b_arm > 0.0)) {
+        // The whole arm box with every mass and delay: certified (arm_box_stability.hpp).
+        arm_box_.emplace(normalized_for(plant_.mass), estimator_, k_arm * T * T, b_arm * T, delay_lo_, delay_hi_);
+    }
     if (delay_hi_ > delay_lo_) {
         if (free_mass_plant_) {
             for (std::size_t a = 0; a < arm_points_.size(); ++a) {
                 delay_tests_.emplace_back(normalized_for(plant_.mass, a), estimator_, delay_lo_, delay_hi_);
                 delay_certified_ = delay_certified_ && delay_tests_.back().certified();
             }
+            if (arm_box_) delay_certified_ = true;  // the arm box holds the delays too, certified
         } else {
             sampled_delays_ = hapticopt::DelayRangeTest::sampled_delays(delay_lo_, delay_hi_);
             delay_certified_ = false;
@@ -115,33 +120,34 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
 }
 
 bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass) const {
-    std::size_t ignored = 0;
-    double ignored_delay = 0.0;
-    return stable_over_set(m, alpha, beta, failing_mass, ignored, ignored_delay);
+    SetFailure ignored;
+    const bool stable = stable_over_set(m, alpha, beta, ignored);
+    failing_mass = ignored.mass;
+    return stable;
 }
 
-bool GainChecker::stable_over_set(double m, double alpha, double beta, double& failing_mass, std::size_t& failing_arm,
-                                  double& failing_delay) const {
-    failing_mass = 0.0;
-    failing_arm = 0;
-    failing_delay = plant_.time_delay;
+bool GainChecker::stable_over_set(double m, double alpha, double beta, SetFailure& failure, bool certify) const {
+    failure = SetFailure{};
+    failure.delay = plant_.time_delay;
     for (std::size_t a = 0; a < arm_points_.size(); ++a) {
         if (!scalings_.empty()) {
             // Gains normalised with m act on c m as (alpha, beta) / c: the scales s = 1 / c.
             const hapticopt::GainRayStability r = scalings_[a].over(alpha, beta, 1.0 / scale_max_, 1.0 / scale_min_);
             if (!r.stable) {
-                failing_mass = m / r.failing_scale;
-                failing_arm = a;
+                failure.mass = m / r.failing_scale;
+                failure.arm = arm_points_[a];
                 return false;
             }
-            if (!delay_tests_.empty()) {
-                // Every delay of the range with every mass (delay_range_stability.hpp: zero exclusion in the delay).
+            // Every delay of the range with every mass (delay_range_stability.hpp: zero exclusion in the delay), exact
+            // without an arm; with one the arm box below holds the delays (certified), and the grid's arms are not
+            // judged over the delays again.
+            if (!delay_tests_.empty() && (!arm_box_ || a == 0)) {
                 const hapticopt::DelayBoxStability d =
                     delay_tests_[a].over(alpha, beta, 1.0 / scale_max_, 1.0 / scale_min_);
                 if (!d.stable) {
-                    failing_mass = m / d.failing_scale;
-                    failing_arm = a;
-                    failing_delay = d.failing_delay * plant_.period;
+                    failure.mass = m / d.failing_scale;
+                    failure.arm = arm_points_[a];
+                    failure.delay = d.failing_delay * plant_.period;
                     return false;
                 }
             }
@@ -153,15 +159,37 @@ bool GainChecker::stable_over_set(double m, double alpha, double beta, double& f
             for (int i = 0; i < count; ++i) {
                 const double c = count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1);
                 if (!stable(normalized_for(c * m, a, d), alpha / c, beta / c)) {
-                    failing_mass = c * m;
-                    failing_arm = a;
-                    if (d >= 0.0) failing_delay = d * plant_.period;
+                    failure.mass = c * m;
+                    failure.arm = arm_points_[a];
+                    if (d >= 0.0) failure.delay = d * plant_.period;
                     return false;
                 }
             }
         }
     }
-    return true;
+    if (!arm_box_ || !certify) return true;
+    // The grid's arms are stable: the whole box, every arm, mass and delay (a proof, or the plant that breaks it).
+    const hapticopt::ArmBoxStability box = arm_box_->over(alpha, beta, 1.0 / scale_max_, 1.0 / scale_min_);
+    if (box.stable) return true;
+    failure.mass = m / box.failing_scale;
+    failure.arm = {box.failing_gamma, box.failing_delta};
+    failure.delay = box.failing_delay * plant_.period;
+    failure.proven = box.proven_unstable;
+    return false;
+}
+
+double GainChecker::certified_factor_below(double m, double alpha, double beta, double f) const {
+    double ignored = 0.0;
+    if (!(f > 0.0) || stable_over_set(m, f * alpha, f * beta, ignored)) return f;
+    // Bisection on the certified verdict in (0, f) to 2^-30 f, then kAlphaMaxBackOff below when that is certified too.
+    double lo = 0.0, hi = f;
+    for (int i = 0; i < 30; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (stable_over_set(m, mid * alpha, mid * beta, ignored) ? lo : hi) = mid;
+    }
+    if (!(lo > 0.0)) return 0.0;
+    const double backed_off = lo * (1.0 - kAlphaMaxBackOff);
+    return stable_over_set(m, backed_off * alpha, backed_off * beta, ignored) ? backed_off : lo;
 }
 
 std::string GainChecker::plant_text(double mass, double arm_stiffness, double arm_damping, double delay_s) {
@@ -175,8 +203,10 @@ std::string GainChecker::plant_text(double mass, double arm_stiffness, double ar
 }
 
 std::string GainChecker::plant_text(const PairVerdict& v) const {
-    return plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping,
-                      delay_hi_ > delay_lo_ ? v.failing_delay : -1.0);
+    std::string s = plant_text(v.failing_mass, v.failing_arm_stiffness, v.failing_arm_damping,
+                               delay_hi_ > delay_lo_ ? v.failing_delay : -1.0);
+    if (!v.failing_proven) s += " (not proven stable there: the certified verdict's subdivision limit)";
+    return s;
 }
 
 bool GainChecker::stable(const hapticopt::NormalizedPlant& np, double alpha, double beta) const {
@@ -225,16 +255,21 @@ PairVerdict GainChecker::check_pair(double K, double B, double m) const {
     v.alpha = K * T * T / m;
     v.beta = B * T / m;
     v.alpha_max = alpha_max;
+    // The bisection below judges the grid's arms (exact along the mass at each); its end is then certified over the
+    // whole arm box (certified_factor_below).
     auto is_stable = [&](double alpha, double beta) {
         hapticopt::validate(hapticopt::NormalizedGains{alpha, beta}, "hapticopt::is_stable");
-        double ignored = 0.0;
-        return stable_over_set(m, alpha, beta, ignored);
+        SetFailure ignored;
+        return stable_over_set(m, alpha, beta, ignored, false);
     };
-    std::size_t failing_arm = 0;
-    v.stable = stable_over_set(m, v.alpha, v.beta, v.failing_mass, failing_arm, v.failing_delay);
+    SetFailure failure;
+    v.stable = stable_over_set(m, v.alpha, v.beta, failure);
+    v.failing_mass = failure.mass;
+    v.failing_delay = failure.delay;
+    v.failing_proven = failure.proven;
     if (!v.stable) {
-        v.failing_arm_stiffness = arm_points_[failing_arm].first * v.failing_mass / (T * T);
-        v.failing_arm_damping = arm_points_[failing_arm].second * v.failing_mass / T;
+        v.failing_arm_stiffness = failure.arm.first * v.failing_mass / (T * T);
+        v.failing_arm_damping = failure.arm.second * v.failing_mass / T;
     }
     // Largest alpha stable over the set at this beta: bisection on the set verdict over (0, alpha_max] (alpha_max of
     // the nominal mass's main region, unstable at c = 1 already: with an estimator, stable islands beyond it are not
@@ -255,6 +290,26 @@ PairVerdict GainChecker::check_pair(double K, double B, double m) const {
             } else {
                 hi = mid;
             }
+        }
+    }
+    if (arm_box_) {
+        // The grid's boundary, kAlphaMaxBackOff inside, certified over the whole arm box; else bisection (30 steps) on
+        // the certified verdict below it.
+        auto certified = [&](double alpha) {
+            double ignored = 0.0;
+            return stable_over_set(m, alpha, v.beta, ignored);
+        };
+        const double backed_off = lo * (1.0 - kAlphaMaxBackOff);
+        if (certified(backed_off)) {
+            lo = backed_off;
+        } else {
+            double a = alpha_max * 1e-9, b = backed_off;
+            if (!certified(a)) {
+                v.largest_stable_K = 0.0;
+                return v;
+            }
+            for (int i = 0; i < 30; ++i) (certified(0.5 * (a + b)) ? a : b) = 0.5 * (a + b);
+            lo = a;
         }
     }
     v.largest_stable_K = lo * m / (T * T);
@@ -377,22 +432,26 @@ double GainChecker::set_stable_factor(double m, double alpha, double beta) const
         ends.push_back(HUGE_VAL);
         for (std::size_t k = ends.size() - 1; k >= 1; --k) {
             const double f = std::min(1.0, ends[k] / s_hi * (1.0 - kAlphaMaxBackOff));
-            if (f > ends[k - 1] / s_lo * (1.0 + 1e-6) && stable_over_set(m, f * alpha, f * beta, failing_mass))
-                return f;
+            SetFailure ignored;
+            if (f > ends[k - 1] / s_lo * (1.0 + 1e-6) && stable_over_set(m, f * alpha, f * beta, ignored, false))
+                return certified_factor_below(m, alpha, beta, f);
         }
         return 0.0;
     }
     // b or k > 0, or a delay range: bisection on the set verdict (certified with the free-mass plant, sampled
     // otherwise) to 2^-40, then kAlphaMaxBackOff below the boundary when that is stable over the set too.
+    // With an arm the bisection judges the grid's arms and its end is then certified over the whole box.
     double lo = 0.0, hi = 1.0;
+    SetFailure ignored;
     for (int i = 0; i < (delay_tests_.empty() ? 60 : 40); ++i) {
         const double mid = 0.5 * (lo + hi);
-        (stable_over_set(m, mid * alpha, mid * beta, failing_mass) ? lo : hi) = mid;
+        (stable_over_set(m, mid * alpha, mid * beta, ignored, false) ? lo : hi) = mid;
     }
-    if (delay_tests_.empty()) return lo;
+    if (delay_tests_.empty()) return certified_factor_below(m, alpha, beta, lo);
     if (!(lo > 1e-9)) return 0.0;
     const double backed_off = lo * (1.0 - kAlphaMaxBackOff);
-    return stable_over_set(m, backed_off * alpha, backed_off * beta, failing_mass) ? backed_off : lo;
+    return certified_factor_below(
+        m, alpha, beta, stable_over_set(m, backed_off * alpha, backed_off * beta, ignored, false) ? backed_off : lo);
 }
 
 GainChecker::CachedCriterion GainChecker::tune_criterion(const std::string& criterion, double m) {
@@ -509,7 +568,7 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
                     ? scalings_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales)
                     : delay_tests_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
             r.commuting = v.commuting;
-            r.certified = v.certified;
+            r.certified = v.certified && !arm_box_;  // with an arm: certified below, per direction
             r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
             if (!v.stable) return v;
             continue;
@@ -535,6 +594,27 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
                 }
             }
         }
+    }
+    if (arm_box_ && r.commuting) {
+        // Symmetric commuting gains decouple into scalar loops along their common eigen-directions
+        // (matrix_gain_stability.hpp): each direction's pair over the whole arm box, mass and delay range, certified.
+        const Eigen::MatrixXd As = 0.5 * (A + A.transpose()), Bs = 0.5 * (Bn + Bn.transpose());
+        const Eigen::MatrixXd Q = hapticopt::detail::acting_basis(As, Bs);
+        if (Q.cols() > 0) {
+            const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
+            for (const hapticopt::NormalizedGains& g : hapticopt::detail::common_direction_gains(Ar, Br)) {
+                const hapticopt::ArmBoxStability box =
+                    arm_box_->over(g.alpha, g.beta, 1.0 / scale_max_, 1.0 / scale_min_);
+                if (!box.stable) {
+                    r.stable = false;
+                    r.failing_scale = box.failing_scale;
+                    r.failing_delay = box.failing_delay;
+                    r.certified = true;
+                    return r;
+                }
+            }
+        }
+        r.certified = true;
     }
     return r;
 }

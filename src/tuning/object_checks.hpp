@@ -60,6 +60,7 @@
 #include <utility>
 #include <vector>
 
+#include <hapticopt/arm_box_stability.hpp>
 #include <hapticopt/delay_range_stability.hpp>
 #include <hapticopt/estimator_region.hpp>
 #include <hapticopt/estimator_stability.hpp>
@@ -122,6 +123,9 @@ struct PairVerdict {
     // With it, the arm of the set at which it fails (N/m, N s/m; 0: the device alone).
     double failing_arm_stiffness = 0.0, failing_arm_damping = 0.0;
     double failing_delay = 0.0;  // s, the total delay of the set at which it fails (time_delay without a range)
+    // false: refused because the certified arm verdict reached its subdivision limit at that plant (no proof either
+    // way; hapticopt::kArmBoxMaxBoxes), not because the plant was found unstable.
+    bool failing_proven = true;
     double alpha = 0.0, beta = 0.0;
     double alpha_max = 0.0;         // largest stable alpha of the plant (any beta)
     double largest_stable_K = 0.0;  // N/m at this B, stable over the whole set (0: none)
@@ -277,8 +281,21 @@ class GainChecker {
     // The scalar verdict over the set for gains normalised with mass m: true, or false and the failing mass (and
     // the failing arm point's index).
     [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass) const;
-    [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, double& failing_mass,
-                                       std::size_t& failing_arm, double& failing_delay) const;
+    // The plant a verdict over the set fails at: its mass (kg), arm (gamma_H, delta_H normalised with that mass), total
+    // delay (s), and whether it was found unstable (false: the certified verdict's subdivision limit).
+    struct SetFailure {
+        double mass = 0.0;
+        std::pair<double, double> arm{0.0, 0.0};
+        double delay = 0.0;
+        bool proven = true;
+    };
+    // certify: with an arm, the whole arm box too (hapticopt::ArmBoxTest); false: the grid's arms alone (exact along
+    // the mass at each: a bisection's inner steps, whose end is then certified).
+    [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, SetFailure& failure,
+                                       bool certify = true) const;
+    // f if f (alpha, beta) is stable over the whole set (certified), else the largest stable f' < f found by 30
+    // bisection steps on the certified verdict, kAlphaMaxBackOff inside when that is stable too (0: none).
+    [[nodiscard]] double certified_factor_below(double m, double alpha, double beta, double f) const;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 
@@ -297,6 +314,8 @@ class GainChecker {
     bool delay_certified_ = true;
     std::vector<double> sampled_delays_;  // periods: b or k > 0 (DelayRangeTest::sampled_delays), else empty
     std::vector<hapticopt::DelayRangeTest> delay_tests_;  // free_mass_plant_ with a delay range: per arm point
+    // free_mass_plant_ with an arm: the certified verdict over the whole arm box, every mass and delay of the set.
+    std::optional<hapticopt::ArmBoxTest> arm_box_;
     // The criterion's gains, or the error its tuning threw.
     struct CachedCriterion {
         CriterionGains gains;
