@@ -84,6 +84,12 @@ inline Eigen::Matrix3d as_eigen(const Matrix3& m) {
     return e;
 }
 
+// Its symmetric part (m + m^T) / 2.
+inline Eigen::Matrix3d symmetric_part(const Matrix3& m) {
+    const Eigen::Matrix3d e = as_eigen(m);
+    return 0.5 * (e + e.transpose());
+}
+
 // a += b, entry by entry: gain matrices sum as the loop sums the objects' forces.
 inline void add_to(Matrix3& a, const Matrix3& b) {
     for (std::size_t i = 0; i < 3; ++i) {

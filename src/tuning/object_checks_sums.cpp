@@ -1,0 +1,258 @@
+// SPDX-License-Identifier: Apache-2.0
+// GainChecker's matrix verdicts: a force field's stiffness, the coupled loop of a scene's summed gain matrices over
+// the plant set, and the ramps between two scenes (object_checks.hpp, "The sum").
+#include "tuning/object_checks.hpp"
+
+#include "common/number_text.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <hapticopt/hapticopt.hpp>
+
+#include "tuning/tuning.hpp"
+
+namespace hapticd {
+
+GainChecker::FieldStiffness GainChecker::field_stiffness(const Matrix3& J) {
+    const Eigen::Matrix3d m = as_eigen(J);
+    const Eigen::Matrix3d s = -0.5 * (m + m.transpose());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s, Eigen::EigenvaluesOnly);
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m);
+    FieldStiffness f;
+    f.stiffness_min = es.eigenvalues().minCoeff();
+    f.stiffness_max = es.eigenvalues().maxCoeff();
+    f.jacobian_norm = svd.singularValues()(0);
+    return f;
+}
+
+double GainChecker::largest_stiffness(const Matrix3& K) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(symmetric_part(K), Eigen::EigenvaluesOnly);
+    return es.eigenvalues().maxCoeff();
+}
+
+hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const Matrix3& B_sum) const {
+    // The gains as rendered: K_sum may carry a field's curl (antisymmetric part), kept as it is.
+    const double T = plant_.period;
+    const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
+    const Eigen::Matrix3d A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
+    const Eigen::Matrix3d Bn = T * (Mis * as_eigen(B_sum) * Mis);
+    return hapticopt::general_matrix_gain_stability(normalized_for(plant_.mass), Eigen::MatrixXd(A),
+                                                    Eigen::MatrixXd(Bn), estimator_);
+}
+
+hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum) const {
+    const double T = plant_.period;
+    const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
+    const Eigen::MatrixXd A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
+    const Eigen::MatrixXd Bn = T * (Mis * as_eigen(B_sum) * Mis);
+    // The mass matrix c M gives the unit-mass gains (A, B) / c: the scales s = 1 / c. Every arm point in turn.
+    hapticopt::MatrixGainScaleStability r;
+    r.stable = true;
+    for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+        if (!scalings_.empty()) {
+            const hapticopt::MatrixGainScaleStability v =
+                delay_tests_.empty()
+                    ? scalings_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales)
+                    : delay_tests_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
+            r.commuting = v.commuting;
+            r.certified = v.certified && !arm_box_;  // with an arm: certified below, per direction
+            r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
+            if (!v.stable) return v;
+            continue;
+        }
+        // b or k > 0 (one mass): the coupled verdict at each sampled mass
+        const int count = scale_max_ > scale_min_ ? kSampledCoupledScales : 1;
+        std::vector<double> scales{1.0};  // the nominal mass, then the set's spread
+        for (int i = 0; i < count; ++i)
+            scales.push_back(count == 1 ? scale_min_ : scale_min_ + (scale_max_ - scale_min_) * i / (count - 1));
+        const std::vector<double> delays = sampled_delays_.empty() ? std::vector<double>{-1.0} : sampled_delays_;
+        for (const double d : delays) {
+            for (const double c : scales) {
+                const hapticopt::MatrixGainStability v = hapticopt::general_matrix_gain_stability(
+                    normalized_for(c * plant_.mass, a, d), A / c, Bn / c, estimator_);
+                r.commuting = v.commuting;
+                r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
+                if (!v.stable) {
+                    r.stable = false;
+                    r.failing_scale = 1.0 / c;
+                    r.spectral_radius = v.spectral_radius;
+                    r.failing_delay = d;
+                    return r;
+                }
+            }
+        }
+    }
+    if (arm_box_ && r.commuting) {
+        // Symmetric commuting gains decouple into scalar loops along their common eigen-directions
+        // (matrix_gain_stability.hpp): each direction's pair over the whole arm box, mass and delay range, certified.
+        const Eigen::MatrixXd As = 0.5 * (A + A.transpose()), Bs = 0.5 * (Bn + Bn.transpose());
+        const Eigen::MatrixXd Q = hapticopt::detail::acting_basis(As, Bs);
+        if (Q.cols() > 0) {
+            const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
+            for (const hapticopt::NormalizedGains& g : hapticopt::detail::common_direction_gains(Ar, Br)) {
+                const hapticopt::ArmBoxStability box =
+                    arm_box_->over(g.alpha, g.beta, 1.0 / scale_max_, 1.0 / scale_min_);
+                if (!box.stable) {
+                    r.stable = false;
+                    r.failing_scale = box.failing_scale;
+                    r.failing_delay = box.failing_delay;
+                    r.certified = true;
+                    return r;
+                }
+            }
+        }
+        r.certified = true;
+    }
+    return r;
+}
+
+Matrix3 GainChecker::field_stiffness_matrix(const Matrix3& J) {
+    Matrix3 K{};
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) K[i][j] = -J[i][j];
+    }
+    return K;
+}
+
+bool GainChecker::field_is_stable(const Matrix3& J, const Matrix3& B_field, std::string& why,
+                                  std::optional<double>& largest_stable_K) const {
+    largest_stable_K.reset();
+    const FieldStiffness fs = field_stiffness(J);
+    const Eigen::Matrix3d j = as_eigen(J);
+    const bool curl = (j - j.transpose()).norm() > hapticopt::kMatrixGainRoundingLevel * j.norm();
+    if (!curl && mass_.isotropic) {
+        // One mass, J symmetric: -J and B I commute; the stiffest eigen-direction with B is the verdict.
+        const double B = B_field[0][0];
+        if (fs.stiffness_max <= 1e-12 * (1.0 + fs.jacobian_norm) ||
+            pair_is_stable(fs.stiffness_max, B, mass_.smallest())) {
+            return sum_is_stable(field_stiffness_matrix(J), B_field, why);  // the margin and the free directions
+        }
+        const PairVerdict v = check_pair(fs.stiffness_max, B, mass_.smallest());
+        why = "field: stiffness " + short_number(fs.stiffness_max) +
+              " N/m (largest eigenvalue of -J) with B = " + short_number(B) +
+              " N s/m is outside the stability region with " + plant_text(v) + " of " + set_text() +
+              "; the largest stable K over the set at that B is " + short_number(v.largest_stable_K) + " N/m";
+        largest_stable_K = v.largest_stable_K;
+        return false;
+    }
+    std::string reason;
+    if (sum_is_stable(field_stiffness_matrix(J), B_field, reason)) return true;
+    std::ostringstream s;
+    s.precision(6);
+    s << "field: the loop it renders, stiffness -J (symmetric part with eigenvalues " << fs.stiffness_min << " .. "
+      << fs.stiffness_max << " N/m";
+    if (curl) s << ", and a curl (antisymmetric part) of norm " << 0.5 * (j - j.transpose()).norm() << " N/m";
+    s << ") with B = " << B_field[0][0] << " N s/m, is unstable for the device mass " << mass_.describe() << ": "
+      << reason;
+    why = s.str();
+    return false;
+}
+
+std::string GainChecker::set_text() const {
+    std::ostringstream s;
+    s.precision(4);
+    s << "the profile's plant set: masses " << scale_min_ << " .. " << scale_max_ << " x " << mass_.describe();
+    if (plant_.arm_stiffness_per_mass > 0.0 || plant_.arm_damping_per_mass > 0.0) {
+        s << ", an arm with k_H / m in [0, " << plant_.arm_stiffness_per_mass << "] s^-2 and b_H / m in [0, "
+          << plant_.arm_damping_per_mass << "] s^-1";
+    }
+    if (delay_hi_ > delay_lo_) {
+        s << ", total delays " << delay_lo_ * plant_.period * 1e3 << " .. " << delay_hi_ * plant_.period * 1e3 << " ms";
+    }
+    return s.str();
+}
+
+bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const {
+    const Eigen::Matrix3d K = symmetric_part(K_sum), B = symmetric_part(B_sum);
+    if (as_eigen(K_sum).isZero(0.0) && as_eigen(B_sum).isZero(0.0)) return true;
+    // The decision: the coupled loop's verdict over the set (exact per direction when the gains commute).
+    const hapticopt::MatrixGainScaleStability verdict = coupled_over_set(K_sum, B_sum);
+    if (verdict.stable) return true;
+    const double failing_scale_of_mass = 1.0 / verdict.failing_scale;  // c: the mass matrix c M fails
+    std::string at_delay;  // with a delay range: the total delay it fails at
+    if (delay_hi_ > delay_lo_ && verdict.failing_delay >= 0.0)
+        at_delay = " at the total delay " + short_number(verdict.failing_delay * plant_.period * 1e3) + " ms";
+    const Eigen::Matrix3d Kr = as_eigen(K_sum);
+    const double curl = 0.5 * (Kr - Kr.transpose()).norm();
+    if (curl > hapticopt::kMatrixGainRoundingLevel * Kr.norm()) {
+        // A curl couples the directions: no direction alone explains the verdict.
+        std::ostringstream s;
+        s.precision(10);
+        s << "summed gains with a curl (antisymmetric part of the summed stiffness, from force fields' Jacobians, norm "
+          << curl << " N/m): the coupled loop as rendered with the mass scaled by " << failing_scale_of_mass << at_delay
+          << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius << " (stable needs < 1 - "
+          << hapticopt::kMatrixGainRadiusMargin << ")";
+        why = s.str();
+        return false;
+    }
+    // The explanation: a direction along which the pair alone is already unstable over the set, if there is one; in
+    // the unit-mass coordinates y = M^1/2 x the term alpha u u^T is rendered by a plane along n ~ M^1/2 u with
+    // K = alpha m_n / T^2 (m_n = 1 / (n^T M^-1 n)).
+    const double T = plant_.period;
+    const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt), Ms = as_eigen(mass_sqrt_);
+    const Eigen::Matrix3d A = (T * T) * (Mis * K * Mis), Bn = T * (Mis * B * Mis);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ea(0.5 * (A + A.transpose())), eb(0.5 * (Bn + Bn.transpose()));
+    for (const auto* solver : {&ea, &eb}) {
+        for (int c = 0; c < 3; ++c) {
+            const Eigen::Vector3d u = solver->eigenvectors().col(c);
+            const double alpha = u.dot(A * u), beta = u.dot(Bn * u);
+            if (alpha <= 1e-12 * (1.0 + A.norm()) && beta <= 1e-12 * (1.0 + Bn.norm()))
+                continue;  // nothing acts along u
+            const Eigen::Vector3d n = (Ms * u).normalized();
+            const double m_n = mass_.along({n(0), n(1), n(2)});
+            // alpha, beta are normalised with unit mass in y; along n they are the plane's with mass m_n.
+            const double K_n = alpha * m_n / (T * T), B_n = beta * m_n / T;
+            if (pair_is_stable(K_n, B_n, m_n)) continue;
+            const PairVerdict v = check_pair(K_n, B_n, m_n);
+            std::ostringstream s;
+            s.precision(6);
+            s << "summed gains along n = (" << n(0) << ", " << n(1) << ", " << n(2) << "): K = " << K_n
+              << " N/m, B = " << B_n << " N s/m with the mass along n " << m_n << " kg (alpha = " << alpha
+              << ", beta = " << beta << ") are outside the stability region with " << plant_text(v) << " of "
+              << set_text() << "; the largest stable K over the set at that B is " << v.largest_stable_K << " N/m";
+            why = s.str();
+            return false;
+        }
+    }
+    std::ostringstream s;
+    s.precision(10);
+    s << "summed gains: each direction is stable over the set on its own, but the coupled loop of K_sum and B_sum "
+         "with the mass scaled by "
+      << failing_scale_of_mass << at_delay << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius
+      << (verdict.commuting ? "" : " (the coupled check needs < 1 - 1e-6: docs/robust-stability.md)");
+    why = s.str();
+    return false;
+}
+
+bool GainChecker::ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in, const Matrix3& B_in,
+                                 const Matrix3& K_out, const Matrix3& B_out, double step, std::string& why) const {
+    if (!(step > 0.0) || step >= 1.0) return true;  // no ramp: the scene jumps from before to after
+    for (int j = 1;; ++j) {
+        const double s = static_cast<double>(j) * step;
+        if (s >= 1.0) return true;
+        Matrix3 K{}, B{};
+        for (std::size_t r = 0; r < 3; ++r) {
+            for (std::size_t c = 0; c < 3; ++c) {
+                K[r][c] = K_base[r][c] + s * s * K_in[r][c] + (1.0 - s) * (1.0 - s) * K_out[r][c];
+                B[r][c] = B_base[r][c] + s * B_in[r][c] + (1.0 - s) * B_out[r][c];
+            }
+        }
+        std::string reason;
+        if (!sum_is_stable(K, B, reason)) {
+            std::ostringstream o;
+            o.precision(4);
+            o << "during the ramp, " << j << " ticks after the batch (new or changed objects at weight s = " << s
+              << ", the ones they replace or remove at 1 - s): " << reason;
+            why = o.str();
+            return false;
+        }
+    }
+}
+
+}  // namespace hapticd
