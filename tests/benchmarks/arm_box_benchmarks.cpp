@@ -86,3 +86,4 @@ void arm_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_ArmGridSampled)->Apply(arm_args);
 BENCHMARK(BM_ArmBoxCertified)->Apply(arm_args);
+BENCHMARK_MAIN();
