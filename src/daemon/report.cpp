@@ -35,8 +35,8 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                       c.mass_max, c.exact ? "exact" : "sampled");
         line += buf;
         if (c.arm_stiffness_per_mass > 0.0 || c.arm_damping_per_mass > 0.0) {
-            std::snprintf(buf, sizeof buf, " with every arm k_H / m <= %.4g s^-2, b_H / m <= %.4g s^-1 (sampled)",
-                          c.arm_stiffness_per_mass, c.arm_damping_per_mass);
+            std::snprintf(buf, sizeof buf, " with every arm k_H / m <= %.4g s^-2, b_H / m <= %.4g s^-1 (%s)",
+                          c.arm_stiffness_per_mass, c.arm_damping_per_mass, c.arm_certified ? "certified" : "sampled");
             line += buf;
         }
         if (c.delay_max > c.delay_min) {

@@ -53,6 +53,7 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     c.exact = checker.certified();
     c.arm_stiffness_per_mass = cp.arm_stiffness_per_mass;
     c.arm_damping_per_mass = cp.arm_damping_per_mass;
+    c.arm_certified = checker.arm_certified();
     std::tie(c.delay_min, c.delay_max) = checker.delay_range();
     c.delay_exact = checker.delay_certified();
     double failing_mass = 0.0;

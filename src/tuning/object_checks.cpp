@@ -338,20 +338,39 @@ std::optional<std::pair<double, double>> GainChecker::damping_range(double K, co
     }
     if (!(lo < hi)) return std::nullopt;
     if (!accepted) return std::make_pair(lo, hi);
-    // The set's own interval lies inside the sampled one: its ends by 60 bisection steps on the set verdict between
-    // each sampled end and the middle (none when the middle is not stable over the set).
-    auto stable_for_all = [&](double B) {
-        return std::all_of(masses.begin(), masses.end(), [&](double m) { return pair_is_stable(K, B, m); });
+    // The set's own interval lies inside the sampled one: its ends by 60 bisection steps on the grid arms' verdict
+    // (exact along the mass at each) between each sampled end and the middle (none when the middle is not stable over
+    // the set), then each end certified over the whole arm box: kAlphaMaxBackOff of the interval inwards, or else 30
+    // bisection steps on the certified verdict towards the middle (near the boundary the certified verdict subdivides
+    // up to its limit, so it is not the bisection's verdict).
+    auto stable_for_all = [&](double B, bool certify) {
+        return std::all_of(masses.begin(), masses.end(), [&](double m) {
+            SetFailure ignored;
+            return stable_over_set(m, K * T * T / m, B * T / m, ignored, certify);
+        });
     };
     const double mid = 0.5 * (lo + hi);
-    if (!stable_for_all(mid)) return std::nullopt;
+    if (!stable_for_all(mid, true)) return std::nullopt;
     double a = lo, b = mid;  // a not stable (or the sampled end), b stable
-    for (int i = 0; i < 60; ++i) (stable_for_all(0.5 * (a + b)) ? b : a) = 0.5 * (a + b);
-    const double accepted_lo = b;
+    for (int i = 0; i < 60; ++i) (stable_for_all(0.5 * (a + b), false) ? b : a) = 0.5 * (a + b);
+    double accepted_lo = b;
     a = mid;
     b = hi;
-    for (int i = 0; i < 60; ++i) (stable_for_all(0.5 * (a + b)) ? a : b) = 0.5 * (a + b);
-    return std::make_pair(accepted_lo, a);
+    for (int i = 0; i < 60; ++i) (stable_for_all(0.5 * (a + b), false) ? a : b) = 0.5 * (a + b);
+    double accepted_hi = a;
+    if (arm_box_) {
+        // end: the grid's end; inner: certified (the middle). Returns a certified B between them.
+        auto certified_end = [&](double end, double inner) {
+            const double backed_off = end + kAlphaMaxBackOff * (inner - end);
+            if (stable_for_all(backed_off, true)) return backed_off;
+            double out = backed_off, in = inner;
+            for (int i = 0; i < 30; ++i) (stable_for_all(0.5 * (out + in), true) ? in : out) = 0.5 * (out + in);
+            return in;
+        };
+        accepted_lo = certified_end(accepted_lo, mid);
+        accepted_hi = certified_end(accepted_hi, mid);
+    }
+    return std::make_pair(accepted_lo, accepted_hi);
 }
 
 std::vector<double> GainChecker::masses_of(const Matrix3& P) const {

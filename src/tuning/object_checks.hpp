@@ -180,6 +180,8 @@ class GainChecker {
         return {delay_lo_ * plant_.period, delay_hi_ * plant_.period};
     }
     [[nodiscard]] bool delay_certified() const noexcept { return delay_certified_; }
+    // A scalar verdict holds for the whole arm box, certified (hapticopt::ArmBoxTest), not only the grid's arms.
+    [[nodiscard]] bool arm_certified() const noexcept { return arm_box_.has_value(); }
     // Scales at which a coupled (non-commuting) sum is checked over the set, ends included, and the nominal mass
     // (each one block companion eigenproblem; docs/robust-stability.md).
     static constexpr int kSampledCoupledScales = 5;

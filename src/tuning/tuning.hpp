@@ -93,7 +93,9 @@ struct PlantSetCertificate {
     // With every mass, the arms k_H / m <= arm_stiffness_per_mass (s^-2), b_H / m <= arm_damping_per_mass (s^-1).
     double arm_stiffness_per_mass = 0.0, arm_damping_per_mass = 0.0;
     double derating = 1.0;
-    bool exact = true;  // exact along the mass (the arm is sampled: docs/robust-stability.md, "The arm")
+    bool exact = true;  // exact along the mass
+    bool arm_certified =
+        false;  // the arm box certified, else sampled at its grid (docs/robust-stability.md, "The arm")
     // With every mass and arm, every total delay in [delay_min, delay_max] (s; the wall's delay twice without
     // inherent_delay_range); delay_exact: certified (docs/robust-stability.md, "The delay").
     double delay_min = 0.0, delay_max = 0.0;

@@ -276,7 +276,7 @@ TEST_F(Hapticctl, EveryHapticoptCriterionIsAcceptedByName) {
     const double derating = std::stod(text.substr(at + 11));
     EXPECT_LT(derating, 0.66666);
     EXPECT_GT(derating, 0.9 * 0.66666);
-    EXPECT_NE(text.find("with every arm k_H / m <= 1000 s^-2, b_H / m <= 20 s^-1 (sampled)"), std::string::npos)
+    EXPECT_NE(text.find("with every arm k_H / m <= 1000 s^-2, b_H / m <= 20 s^-1 (certified)"), std::string::npos)
         << text;
     const Result bad = clients_test::run(
         HAPTICD_BINARY, {"--config", "", "--lockstep", "--duration", "0.01", "--criterion", "CE9"}, "hapticd_ce9");
