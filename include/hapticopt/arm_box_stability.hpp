@@ -252,8 +252,10 @@ class ArmBoxTest {
     }
 
     /// Stability of s (alpha, beta) for every s in [s_lo, s_hi] (0 < s_lo <= s_hi, finite), every arm of the box and
-    /// every delay of the interval.
-    HAPTICOPT_DEFERRED ArmBoxStability over(double alpha, double beta, double s_lo, double s_hi) const {
+    /// every delay of the interval. max_boxes (>= 1) bounds the subdivision: beyond it the verdict is "not proven"
+    /// (stable false, proven_unstable false), so a smaller budget only refuses more, never accepts more.
+    HAPTICOPT_DEFERRED ArmBoxStability over(double alpha, double beta, double s_lo, double s_hi,
+                                            int max_boxes = kArmBoxMaxBoxes) const {
         if (!(s_lo > 0 && s_lo <= s_hi && std::isfinite(s_hi))) {
             throw InvalidParameter("hapticopt::ArmBoxTest::over", "scale interval", s_lo, "0 < s_lo <= s_hi, finite");
         }
@@ -293,7 +295,8 @@ class ArmBoxTest {
                 const GainRayStability ray = exact.over(alpha, beta, s_lo, s_hi);
                 if (!ray.stable) return failing(r, b, ray.failing_scale, true);
             }
-            if (r.boxes + static_cast<int>(stack.size()) + 2 > kArmBoxMaxBoxes) return failing(r, b, s_lo, false);
+            if (r.boxes + static_cast<int>(stack.size()) + 2 > std::max(max_boxes, 1))
+                return failing(r, b, s_lo, false);
             const int axis = split_axis(b, c, k_gain, s_hi, theta);
             Box lo = b, hi = b;
             Interval1& l = lo.axis(axis);

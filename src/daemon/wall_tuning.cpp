@@ -53,11 +53,11 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     c.exact = checker.certified();
     c.arm_stiffness_per_mass = cp.arm_stiffness_per_mass;
     c.arm_damping_per_mass = cp.arm_damping_per_mass;
-    c.arm_certified = checker.arm_certified();
     std::tie(c.delay_min, c.delay_max) = checker.delay_range();
     c.delay_exact = checker.delay_certified();
     double failing_mass = 0.0;
     if (checker.pair_is_stable(t.K, t.B, cp.mass, failing_mass)) {
+        c.arm_certified = checker.pair_certified(t.K, t.B, cp.mass);
         t.plant_set = c;
         return;
     }
@@ -80,6 +80,7 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     t.beta *= f;
     t.cost.reset();  // the criterion's cost is predicted at its optimum only
     c.derating = f;
+    c.arm_certified = checker.pair_certified(t.K, t.B, cp.mass);
     t.plant_set = c;
 }
 

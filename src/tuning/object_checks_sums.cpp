@@ -93,11 +93,17 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
         // (matrix_gain_stability.hpp): each direction's pair over the whole arm box, mass and delay range, certified.
         const Eigen::MatrixXd As = 0.5 * (A + A.transpose()), Bs = 0.5 * (Bn + Bn.transpose());
         const Eigen::MatrixXd Q = hapticopt::detail::acting_basis(As, Bs);
+        bool unproven = false;
         if (Q.cols() > 0) {
             const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
             for (const hapticopt::NormalizedGains& g : hapticopt::detail::common_direction_gains(Ar, Br)) {
                 const hapticopt::ArmBoxStability box =
-                    arm_box_->over(g.alpha, g.beta, 1.0 / scale_max_, 1.0 / scale_min_);
+                    arm_box_->over(g.alpha, g.beta, 1.0 / scale_max_, 1.0 / scale_min_, kAcceptArmBoxes);
+                // Neither proven nor refuted within the subdivision limit: the grid's verdict above stands, sampled.
+                if (!box.stable && !box.proven_unstable) {
+                    unproven = true;
+                    continue;
+                }
                 if (!box.stable) {
                     r.stable = false;
                     r.failing_scale = box.failing_scale;
@@ -107,7 +113,7 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
                 }
             }
         }
-        r.certified = true;
+        r.certified = !unproven;
     }
     return r;
 }

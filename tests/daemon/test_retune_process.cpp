@@ -24,7 +24,7 @@
 #include "daemon/recording_reader.hpp"
 
 namespace hapticd {
-namespace {
+namespace retune_process_test {  // named: the sanitizer trees' unity build joins this file with test_wall_retuner.cpp
 
 using Row = test::TraceRow;
 constexpr double kPeriod = 1e-3;
@@ -272,5 +272,5 @@ TEST(RetuneProcess, RefusesWhereItCannotApply) {
     EXPECT_NE(d.err.find("no mass_range"), std::string::npos) << d.err;
 }
 
-}  // namespace
+}  // namespace retune_process_test
 }  // namespace hapticd
