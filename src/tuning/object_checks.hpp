@@ -180,8 +180,6 @@ class GainChecker {
         return {delay_lo_ * plant_.period, delay_hi_ * plant_.period};
     }
     [[nodiscard]] bool delay_certified() const noexcept { return delay_certified_; }
-    // A scalar verdict holds for the whole arm box, certified (hapticopt::ArmBoxTest), not only the grid's arms.
-    [[nodiscard]] bool arm_certified() const noexcept { return arm_box_.has_value(); }
     // (K, B) with mass m proven stable over the whole arm box (with the set's masses and delays): the verdicts accept
     // a pair the box neither proves nor refutes within its subdivision limit when the grid's arms are stable.
     [[nodiscard]] bool pair_certified(double K, double B, double m) const;
