@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/criterion_names.hpp"
 #include "config/apply_config_file.hpp"
 #include "config/config_locations.hpp"
 #include "config/hand_schedule.hpp"
@@ -46,10 +47,28 @@ struct Given {
     }
 };
 
+// --criterion (and the config file's criterion key): the name parsed into hapticopt::Criterion here, where it enters,
+// and stored in Options::criterion; a name that is not a criterion is "--criterion: <name> not in {amax,OV,...}"
+// (CLI11's wording for a set of choices). Help shows "TEXT:{amax,OV,...}": the config file reads the key as a string
+// (takes_of in config/apply_config_file.cpp), and the names it accepts.
+void add_criterion_option(CLI::App& app, Options& o) {
+    std::string choices;
+    for (const std::string& name : accepted_criteria()) choices += (choices.empty() ? "{" : ",") + name;
+    choices += "}";
+    app.add_option_function<std::string>(
+           "--criterion",
+           [&o, choices](const std::string& name) {
+               const std::optional<hapticopt::Criterion> c = hapticopt::parse_criterion(name);
+               if (!c) throw CLI::ValidationError("--criterion", name + " not in " + choices);
+               o.criterion = *c;
+           },
+           "Tuning criterion of the wall (default CE2)")
+        ->type_name("TEXT:" + choices);
+}
+
 // The options that may appear both on the command line and in the config file (key = long name).
 void define_common(CLI::App& app, Options& o, Handles& h) {
-    app.add_option("--criterion", o.criterion, "Tuning criterion of the wall (default CE2)")
-        ->check(CLI::IsMember(accepted_criteria()));
+    add_criterion_option(app, o);
     app.add_option(
         "--device", o.device,
         "Device profile: a name in <config dir>/devices/<name>.toml, or a path to a .toml file (default sim)");

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <hapticopt/criterion.hpp>
+
 #include "common/axis_vector.hpp"
 #include "common/startup_error.hpp"
 #include "common/velocity_estimator_spec.hpp"
@@ -19,8 +21,8 @@
 namespace hapticd {
 
 struct Options {
-    std::string criterion = "CE2";
-    std::string config_path;  // the config file actually used ("" when none)
+    hapticopt::Criterion criterion = hapticopt::Criterion::CE2;  // --criterion, parsed by its option
+    std::string config_path;                                     // the config file actually used ("" when none)
     std::string device = "sim";
     double rate = 1000.0;        // Hz
     long long delay_buffer = 0;  // samples

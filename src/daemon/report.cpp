@@ -18,17 +18,18 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
         std::snprintf(c, sizeof c, "%.6g", *t.cost);
         cost = c;
     }
+    const std::string criterion(hapticopt::to_string(t.criterion));
     std::snprintf(buf, sizeof buf,
                   "%s: K = %.6g %s, B = %.6g %s, alpha = %.6g, beta = %.6g, predicted %s = %s, "
                   "alpha/alpha_max = %.4f (alpha_max = %.6g)",
-                  t.explicit_gains ? "explicit gains" : ("tuned for " + t.criterion).c_str(), t.K, ku, t.B, bu, t.alpha,
-                  t.beta, t.criterion.c_str(), cost.c_str(), t.stability_margin(), t.alpha_max);
+                  t.explicit_gains ? "explicit gains" : ("tuned for " + criterion).c_str(), t.K, ku, t.B, bu, t.alpha,
+                  t.beta, criterion.c_str(), cost.c_str(), t.stability_margin(), t.alpha_max);
     std::string line = buf;
     if (t.plant_set) {
         const PlantSetCertificate& c = *t.plant_set;
         std::string derated;
         if (c.derating < 1.0) {
-            std::snprintf(buf, sizeof buf, " derated to %.6g x the %s optimum to be", c.derating, t.criterion.c_str());
+            std::snprintf(buf, sizeof buf, " derated to %.6g x the %s optimum to be", c.derating, criterion.c_str());
             derated = buf;
         }
         std::snprintf(buf, sizeof buf, ";%s stable for every mass %.4g .. %.4g kg (%s)", derated.c_str(), c.mass_min,
@@ -53,7 +54,7 @@ std::string tuning_line(const TuningResult& t, bool rotary) {
                       "optimum's worst case: %.6g); stability over the mass range %s; alpha, beta, alpha_max of the "
                       "box centre",
                       r.box.mass_min, r.box.mass_max, r.box.damping_min, r.box.damping_max, r.box.stiffness_min,
-                      r.box.stiffness_max, r.box.delay_min * 1e3, r.box.delay_max * 1e3, t.criterion.c_str(),
+                      r.box.stiffness_max, r.box.delay_min * 1e3, r.box.delay_max * 1e3, criterion.c_str(),
                       r.worst_case, r.worst_mass, r.worst_damping, r.worst_stiffness, r.worst_delay * 1e3,
                       r.nominal_worst_case, r.mass_certified ? "proven" : "checked on a grid");
         line += buf;
@@ -156,7 +157,7 @@ namespace {
 // The keys of one wall's tuning (shared by the headline and the per-wall list).
 nlohmann::json tuning_json(const TuningResult& t) {
     nlohmann::json j;
-    j["criterion"] = t.criterion;
+    j["criterion"] = std::string(hapticopt::to_string(t.criterion));
     j["explicit_gains"] = t.explicit_gains;
     j["K"] = t.K;
     j["B"] = t.B;
@@ -226,7 +227,7 @@ nlohmann::json summary_json(const RunReport& r) {
     // The first wall's tuning is the headline (the one --criterion chose for walls without their own);
     // with no walls the tuning keys are null.
     if (r.walls.empty()) {
-        j["criterion"] = o.criterion;
+        j["criterion"] = std::string(hapticopt::to_string(o.criterion));
         j["explicit_gains"] = false;
         for (const char* key : {"K", "B", "alpha", "beta", "predicted_cost", "alpha_max", "stability_margin",
                                 "force_noise_std", "encoder_chatter"}) {

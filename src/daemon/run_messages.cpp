@@ -49,7 +49,8 @@ void print_startup(std::ostream& out, const Options& o, const DeviceProfile& pro
     if (o.gains_set) {
         for (const auto& w : walls) {
             if (w.spec.criterion)
-                out << "hapticd: note: explicit gains override the wall's criterion=" << *w.spec.criterion << "\n";
+                out << "hapticd: note: explicit gains override the wall's criterion="
+                    << hapticopt::to_string(*w.spec.criterion) << "\n";
         }
     }
 }

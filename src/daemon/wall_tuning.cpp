@@ -65,9 +65,10 @@ void certify_over_plant_set(TuningResult& t, const TuningPlant& wall_plant, cons
     const PairVerdict v = checker.check_pair(t.K, t.B, cp.mass);
     std::ostringstream m;
     m << what << ": K = " << t.K << " N/m, B = " << t.B << " N s/m"
-      << (t.explicit_gains ? std::string() : " (the optimum of criterion " + t.criterion + ")") << " are unstable with "
-      << checker.plant_text(v) << " of " << checker.set_text() << " (device profile '" << p.path
-      << "': mass_range, mass_margin, arm_stiffness_per_mass, arm_damping_per_mass, inherent_delay_range)";
+      << (t.explicit_gains ? std::string()
+                           : " (the optimum of criterion " + std::string(hapticopt::to_string(t.criterion)) + ")")
+      << " are unstable with " << checker.plant_text(v) << " of " << checker.set_text() << " (device profile '"
+      << p.path << "': mass_range, mass_margin, arm_stiffness_per_mass, arm_damping_per_mass, inherent_delay_range)";
     if (t.explicit_gains)
         throw StartupError(ErrorKind::UnstableGains, m.str() + "; accepted: gains stable over the set");
     const double T = cp.period;
@@ -107,11 +108,8 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
         w.geometry.position = spec->position;
         w.geometry.direction = spec->direction;
         w.geometry.mode = spec->mode.value_or(o.bilateral ? WallMode::Bilateral : WallMode::Unilateral);
-        const std::string criterion = spec->criterion.value_or(o.criterion);
-        if (!is_accepted_criterion(criterion)) {
-            throw StartupError(code, origin + " '" + text + "': criterion = " + criterion +
-                                         " is invalid; accepted: " + accepted_criteria_text());
-        }
+        const hapticopt::Criterion criterion = spec->criterion.value_or(o.criterion);
+        const std::string criterion_name(hapticopt::to_string(criterion));
         // An axis-aligned wall acts with the mass along its axis, 1 / (M^-1)_aa (config/profile_keys.hpp).
         TuningPlant wall_plant = plant;
         std::string axis_key;
@@ -133,10 +131,10 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
             }
             w.tuning = it->second;
         } else {
-            auto it = tuned.find(criterion + axis_key);
+            auto it = tuned.find(criterion_name + axis_key);
             if (it == tuned.end()) {
                 it = tuned
-                         .emplace(criterion + axis_key,
+                         .emplace(criterion_name + axis_key,
                                   box ? tune_wall_robust(criterion, *box) : tune_wall(criterion, wall_plant))
                          .first;
             }
@@ -148,7 +146,7 @@ std::vector<ResolvedWall> resolve_walls(const Options& o, const DeviceProfile& p
         if (p.max_stiffness && w.tuning.K > *p.max_stiffness) {
             std::ostringstream m;
             m << origin << " '" << text << "': K = " << w.tuning.K << " N/m"
-              << (o.gains_set ? std::string() : " (the optimum of criterion " + criterion + ")")
+              << (o.gains_set ? std::string() : " (the optimum of criterion " + criterion_name + ")")
               << " exceeds the device's stiffness limit (device profile '" << p.path
               << "': max_stiffness = " << *p.max_stiffness << " N/m); accepted range: K <= " << *p.max_stiffness
               << " N/m";

@@ -161,7 +161,7 @@ std::vector<std::string> write_optimal_outputs(const std::string& dir, const Opt
         "K_N_per_m,criterion,B_grid_Ns_per_m,cost_grid,B_refined_Ns_per_m,B_theory_Ns_per_m,B_step_Ns_per_m,on_edge",
         [&](std::ofstream& out) {
             for (const auto& p : result.points) {
-                out << num(p.K) << ",CE" << p.criterion << "," << num(p.B_grid) << "," << num(p.cost_grid) << ","
+                out << num(p.K) << "," << p.criterion_name() << "," << num(p.B_grid) << "," << num(p.cost_grid) << ","
                     << num(p.B_refined) << "," << num(p.B_theory) << "," << num(p.b_step) << "," << (p.on_edge ? 1 : 0)
                     << "\n";
             }

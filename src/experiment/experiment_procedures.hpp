@@ -16,7 +16,10 @@
 
 #include <cstddef>
 #include <string>
+#include <string_view>
 #include <vector>
+
+#include <hapticopt/criterion.hpp>
 
 #include "experiment/experiment_measure.hpp"
 #include "experiment/experiment_progress.hpp"
@@ -74,9 +77,13 @@ struct OptimalSettings {
 
 struct OptimalPointRow {
     double K = 0.0;
-    int criterion = 0;  // 0, 1, 2: C_E0, C_E1, C_E2
+    int criterion = 0;  // 0, 1, 2: C_E0, C_E1, C_E2 (hapticopt::kEnergyCriteria's index)
     double B_grid = 0.0, cost_grid = 0.0, B_refined = 0.0, B_theory = 0.0, b_step = 0.0;
     bool on_edge = false;  // the grid minimum is at the grid's end: not refined
+    // "CE0", "CE1", "CE2": the criterion's name (hapticopt::to_string).
+    [[nodiscard]] std::string_view criterion_name() const {
+        return hapticopt::to_string(hapticopt::kEnergyCriteria.at(static_cast<std::size_t>(criterion)));
+    }
 };
 
 struct OptimalResult {

@@ -215,8 +215,8 @@ ErrorKind run_experiment(const ExperimentOptions& o, bool boundary, BoundarySett
             closer.device = nullptr;
             files = write_optimal_outputs(o.out_dir, r, os, *theory, caption);
             for (const auto& p : r.points) {
-                summary << "K = " << g(p.K) << " N/m, CE" << p.criterion << ": optimal B measured " << g(p.B_refined)
-                        << (p.on_edge ? " (grid edge)" : "") << " N s/m, analysis " << g(p.B_theory)
+                summary << "K = " << g(p.K) << " N/m, " << p.criterion_name() << ": optimal B measured "
+                        << g(p.B_refined) << (p.on_edge ? " (grid edge)" : "") << " N s/m, analysis " << g(p.B_theory)
                         << " N s/m (grid step " << g(p.b_step) << ")\n";
             }
         }

@@ -235,7 +235,7 @@ ExcitationRecord run_excitation(Device& device, const ExcitationSettings& s) {
     return rec;
 }
 
-IdentifiedTuning tune_identified(const std::string& criterion, const IdentificationResult& r, double period,
+IdentifiedTuning tune_identified(hapticopt::Criterion criterion, const IdentificationResult& r, double period,
                                  double extra_delay, const VelocityEstimatorSpec& velocity) {
     auto plant_of = [&](double m, double b, double k, double d) {
         return TuningPlant{m,       std::max(0.0, b), std::max(0.0, k), period, std::max(0.0, d) * period + extra_delay,

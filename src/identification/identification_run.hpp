@@ -87,7 +87,7 @@ struct IdentifiedTuning {
     double B_stderr = 0.0;
 };
 // `velocity`: the loop's velocity estimator, which the tuning analyses with (TuningPlant::velocity).
-IdentifiedTuning tune_identified(const std::string& criterion, const IdentificationResult& result, double period,
+IdentifiedTuning tune_identified(hapticopt::Criterion criterion, const IdentificationResult& result, double period,
                                  double extra_delay, const VelocityEstimatorSpec& velocity = {});
 
 // The identification file (JSON).

@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "common/criterion_names.hpp"
+
 namespace hapticd {
 
 std::string_view to_string(SceneFault fault) noexcept {
@@ -81,7 +83,11 @@ std::optional<WallSpec> parse_wall_spec(const std::string& text, std::string& er
                 return std::nullopt;
             }
         } else if (key == "criterion") {
-            spec.criterion = value;
+            spec.criterion = hapticopt::parse_criterion(value);
+            if (!spec.criterion) {
+                error = "wall '" + text + "': criterion = " + invalid_criterion_text(value);
+                return std::nullopt;
+            }
         } else {
             error = "wall '" + text + "': unknown key '" + key + "'; keys: axis, position, direction, mode, criterion";
             return std::nullopt;
@@ -99,7 +105,7 @@ std::string to_string(const WallSpec& spec) {
     out.precision(17);
     out << "axis=" << spec.axis << " position=" << spec.position << " direction=" << (spec.direction > 0 ? "+1" : "-1");
     if (spec.mode) out << " mode=" << to_string(*spec.mode);
-    if (spec.criterion) out << " criterion=" << *spec.criterion;
+    if (spec.criterion) out << " criterion=" << hapticopt::to_string(*spec.criterion);
     return out.str();
 }
 

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <hapticopt/criterion.hpp>
+
 #include "common/axis_vector.hpp"
 #include "common/velocity_estimator_spec.hpp"
 #include "scene/velocity_filter.hpp"
@@ -21,13 +23,14 @@ namespace hapticd {
 
 // One wall as written in the configuration, e.g. "axis=0 position=0.0 direction=+1 mode=bilateral
 // criterion=CE1". Keys: axis (0..2), position (m), direction (+1|-1), mode (unilateral|bilateral;
-// unset: the global --bilateral), criterion (unset: the global --criterion).
+// unset: the global --bilateral), criterion (a name of hapticopt::Criterion, parsed here; unset: the global
+// --criterion).
 struct WallSpec {
     std::size_t axis = 0;
     double position = 0.0;
     double direction = 1.0;
     std::optional<WallMode> mode;
-    std::optional<std::string> criterion;  // validated by the tuning (names of hapticopt::Criterion)
+    std::optional<hapticopt::Criterion> criterion;
 };
 
 // Parses one wall specification. On error returns std::nullopt and sets `error` to a message naming the

@@ -16,7 +16,7 @@ CriterionWorker::~CriterionWorker() {
     thread_.join();
 }
 
-void CriterionWorker::request(const std::string& criterion) {
+void CriterionWorker::request(hapticopt::Criterion criterion) {
     if (checker_.criterion_ready(criterion)) return;
     {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -31,7 +31,7 @@ void CriterionWorker::run() {
     for (;;) {
         wake_.wait(lock, [this] { return stop_ || !queue_.empty(); });
         if (stop_) return;
-        const std::string criterion = queue_.front();
+        const hapticopt::Criterion criterion = queue_.front();
         lock.unlock();
         checker_.prepare_criterion(criterion);  // noexcept: an error is cached for the request to report
         lock.lock();

@@ -8,7 +8,6 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
-#include <string>
 #include <thread>
 
 #include "tuning/object_checks.hpp"
@@ -23,7 +22,7 @@ class CriterionWorker {
     CriterionWorker& operator=(const CriterionWorker&) = delete;
 
     // Queues the criterion's tuning unless it is ready or already queued. Server thread; never blocks on a tuning.
-    void request(const std::string& criterion);
+    void request(hapticopt::Criterion criterion);
 
   private:
     void run();
@@ -31,7 +30,7 @@ class CriterionWorker {
     GainChecker& checker_;
     std::mutex mutex_;
     std::condition_variable wake_;
-    std::deque<std::string> queue_;  // at most one entry per accepted criterion
+    std::deque<hapticopt::Criterion> queue_;  // at most one entry per criterion
     bool stop_ = false;
     std::thread thread_;
 };

@@ -156,6 +156,11 @@ std::optional<Refusal> ObjectResolver::check_stiffness_limit(double K, const std
                    std::nullopt};
 }
 
+std::optional<hapticopt::Criterion> named_criterion(const cl::Gains& gains) {
+    if (gains.criterion.empty()) return std::nullopt;
+    return hapticopt::parse_criterion(gains.criterion);
+}
+
 // Gains of an object acting with gains (K P, B P) and the masses `masses` (GainChecker::masses_of):
 // explicit or the cached optimum of the criterion for the lightest of them; then the stiffness limit
 // and the exact verdict for every mass.
@@ -164,23 +169,23 @@ std::optional<Refusal> ObjectResolver::resolve_gains(const cl::Gains& gains, con
     const double lightest =
         masses.empty() ? checker_.mass().smallest() : *std::min_element(masses.begin(), masses.end());
     if (!gains.criterion.empty()) {
-        std::optional<CriterionGains> c;
-        try {
-            c = checker_.criterion_gains(gains.criterion, lightest);
-        } catch (const std::exception& e) {
-            return Refusal{ErrorCode::BadMessage,
-                           kind + ".gains.criterion = " + cl::truncate_utf8(gains.criterion, 40) + ": " + e.what(),
-                           std::nullopt};
-        }
-        if (!c) {
+        const std::optional<hapticopt::Criterion> criterion = named_criterion(gains);
+        if (!criterion) {
             return Refusal{ErrorCode::UnknownCriterion,
-                           kind + ".gains.criterion = \"" + cl::truncate_utf8(gains.criterion, 40) +
-                               "\" is invalid; accepted: " + accepted_criteria_text(),
+                           kind + ".gains.criterion = " +
+                               invalid_criterion_text("\"" + cl::truncate_utf8(gains.criterion, 40) + "\""),
                            std::nullopt};
         }
-        K = c->K;
-        B = c->B;
-        if (auto r = check_stiffness_limit(K, kind + ": the optimal K of criterion " + gains.criterion)) return r;
+        const std::string name(hapticopt::to_string(*criterion));
+        CriterionGains c;
+        try {
+            c = checker_.criterion_gains(*criterion, lightest);
+        } catch (const std::exception& e) {
+            return Refusal{ErrorCode::BadMessage, kind + ".gains.criterion = " + name + ": " + e.what(), std::nullopt};
+        }
+        K = c.K;
+        B = c.B;
+        if (auto r = check_stiffness_limit(K, kind + ": the optimal K of criterion " + name)) return r;
     } else {
         K = gains.K.value_or(0.0);
         B = gains.B.value_or(0.0);

@@ -100,6 +100,12 @@ using MeshLookup = std::function<MeshLookupResult(std::uint32_t mesh)>;
 [[nodiscard]] std::vector<double> mesh_masses(const std::vector<double>& eigen_masses, double scale_min,
                                               double scale_max);
 
+// The criterion a client's gains name: gains.criterion parsed into hapticopt::Criterion (hapticopt::parse_criterion:
+// exact, case-sensitive), the one place the server turns the wire's name into the type the checker takes;
+// std::nullopt for explicit gains (no name) and for a name that is not a criterion (resolution refuses it:
+// unknown_criterion).
+[[nodiscard]] std::optional<hapticopt::Criterion> named_criterion(const client::Gains& gains);
+
 // Checks and resolves object descriptions against the device of `config` (axes, workspace, period, delay,
 // max_force) with `checker` (masses, stiffness limit, stability verdicts, the criteria's cached optima).
 // Both must outlive the resolver.

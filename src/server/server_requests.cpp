@@ -237,23 +237,25 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
 // The last resort: whatever escapes a request's handling is answered `internal` and logged; the session
 // and the daemon go on.
 bool Server::Impl::park_for_criteria(Session& s, std::string_view bytes, const server::CommitRequest& req) {
-    std::vector<std::string> missing;
+    std::vector<hapticopt::Criterion> missing;
     for (const server::CommitOperation& op : req.ops) {
         if (!op.object) continue;
         std::visit(
             [&](const auto& object) {
                 if constexpr (requires { object.gains.criterion; }) {
-                    const std::string& c = object.gains.criterion;
-                    if (!c.empty() && !checker.criterion_ready(c) &&
-                        std::find(missing.begin(), missing.end(), c) == missing.end())
-                        missing.push_back(c);
+                    // A name that is not a criterion waits for nothing: resolution refuses it (unknown_criterion).
+                    const std::optional<hapticopt::Criterion> c = server::named_criterion(object.gains);
+                    if (c && !checker.criterion_ready(*c) &&
+                        std::find(missing.begin(), missing.end(), *c) == missing.end())
+                        missing.push_back(*c);
                 }
             },
             *op.object);
     }
     if (missing.empty()) return false;
-    for (const std::string& c : missing) criterion_worker.request(c);
-    log("session " + std::to_string(s.id) + " waits for the first tuning of criterion " + missing.front() +
+    for (const hapticopt::Criterion c : missing) criterion_worker.request(c);
+    log("session " + std::to_string(s.id) + " waits for the first tuning of criterion " +
+        std::string(hapticopt::to_string(missing.front())) +
         (missing.size() > 1 ? " and " + std::to_string(missing.size() - 1) + " more" : std::string()));
     s.parked.emplace(bytes);
     s.awaiting = std::move(missing);
@@ -264,7 +266,7 @@ void Server::Impl::resume_parked() {
     for (auto& [sid, s] : sessions) {
         if (s.closed || !s.parked) continue;
         if (!std::all_of(s.awaiting.begin(), s.awaiting.end(),
-                         [&](const std::string& c) { return checker.criterion_ready(c); }))
+                         [&](hapticopt::Criterion c) { return checker.criterion_ready(c); }))
             continue;
         const std::string bytes = std::move(*s.parked);
         s.parked.reset();

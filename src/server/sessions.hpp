@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <hapticopt/criterion.hpp>
+
 #include "server/stream_framing.hpp"
 
 namespace hapticd::server {
@@ -55,7 +57,7 @@ struct Session {
     // A request waiting for criteria's first tuning (server/criterion_worker.hpp): nothing more is read from the
     // session until it is answered, and the session is not silent meanwhile (the server owes it a reply).
     std::optional<std::string> parked;
-    std::vector<std::string> awaiting;  // the criteria it waits for
+    std::vector<hapticopt::Criterion> awaiting;  // the criteria it waits for
 };
 
 struct ListeningSocket {

@@ -229,16 +229,16 @@ class GainChecker {
     // The optimum of a criterion (CE0 .. CE2+OV) for nominal mass m (kg), cached as said above, made stable over
     // the set: when the optimum (alpha*, beta*) is not, the gains f (alpha*, beta*) with the largest f < 1 that is,
     // less kAlphaMaxBackOff (the ray's stable interval through the optimum, from its unit-circle crossings; bisection
-    // on the set verdict when the plant has b or k). std::nullopt for an unknown name.
+    // on the set verdict when the plant has b or k).
     // Thread-safe: the tuning runs outside the cache's lock (two threads may tune the same key once each; the first
     // result is kept). A tuning that fails (a force-noise budget the criterion cannot meet) is cached as its error and
     // thrown again (std::invalid_argument) on each call.
-    std::optional<CriterionGains> criterion_gains(const std::string& criterion, double m);
-    // Whether criterion_gains for `criterion` answers without tuning: cached (gains or error), or not a criterion at
-    // all. The key's mass is the profile's: objects act with it unless b = k = 0, when the key holds for every mass.
-    [[nodiscard]] bool criterion_ready(const std::string& criterion) const;
+    CriterionGains criterion_gains(hapticopt::Criterion criterion, double m);
+    // Whether criterion_gains for `criterion` answers without tuning: cached (gains or error). The key's mass is the
+    // profile's: objects act with it unless b = k = 0, when the key holds for every mass.
+    [[nodiscard]] bool criterion_ready(hapticopt::Criterion criterion) const;
     // criterion_gains for the profile's mass, its error kept in the cache (for a worker thread: never throws).
-    void prepare_criterion(const std::string& criterion) noexcept;
+    void prepare_criterion(hapticopt::Criterion criterion) noexcept;
 
     // A field's Jacobian J: the stiffness it renders is S = -sym(J); returns the extreme eigenvalues of S
     // and the spectral norm of J (for the force bound ||F0|| + ||J|| radius).
@@ -338,12 +338,13 @@ class GainChecker {
         CriterionGains gains;
         std::string error;  // empty: gains hold
     };
-    [[nodiscard]] std::pair<std::string, double> cache_key(const std::string& criterion, double m) const {
+    [[nodiscard]] std::pair<hapticopt::Criterion, double> cache_key(hapticopt::Criterion criterion, double m) const {
         return {criterion, free_mass_plant_ ? 0.0 : m};
     }
-    CachedCriterion tune_criterion(const std::string& criterion, double m);
+    CachedCriterion tune_criterion(hapticopt::Criterion criterion, double m);
     mutable std::mutex cache_mutex_;
-    std::map<std::pair<std::string, double>, CachedCriterion> cache_;  // key mass: 0 when free_mass_plant_ (normalised)
+    std::map<std::pair<hapticopt::Criterion, double>, CachedCriterion>
+        cache_;  // key mass: 0 when free_mass_plant_ (normalised)
 };
 
 }  // namespace hapticd

@@ -19,7 +19,7 @@
 
 namespace hapticd {
 
-GainChecker::CachedCriterion GainChecker::tune_criterion(const std::string& criterion, double m) {
+GainChecker::CachedCriterion GainChecker::tune_criterion(hapticopt::Criterion criterion, double m) {
     // With the loop's velocity estimator and the profile's force-noise budget (judged with the coarsest axis's
     // encoder step, GainCheckPlant::position_resolution): tune_wall's optimum is the config walls'.
     TuningPlant p = plant_;
@@ -59,8 +59,7 @@ GainChecker::CachedCriterion GainChecker::tune_criterion(const std::string& crit
     return out;
 }
 
-std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& criterion, double m) {
-    if (!is_accepted_criterion(criterion)) return std::nullopt;
+CriterionGains GainChecker::criterion_gains(hapticopt::Criterion criterion, double m) {
     const double T = plant_.period;
     const auto key = cache_key(criterion, m);
     std::optional<CachedCriterion> found;
@@ -78,13 +77,12 @@ std::optional<CriterionGains> GainChecker::criterion_gains(const std::string& cr
     return CriterionGains{found->gains.K * m / (T * T), found->gains.B * m / T};
 }
 
-bool GainChecker::criterion_ready(const std::string& criterion) const {
-    if (!is_accepted_criterion(criterion)) return true;
+bool GainChecker::criterion_ready(hapticopt::Criterion criterion) const {
     std::lock_guard<std::mutex> lock(cache_mutex_);
     return cache_.count(cache_key(criterion, plant_.mass)) != 0;
 }
 
-void GainChecker::prepare_criterion(const std::string& criterion) noexcept {
+void GainChecker::prepare_criterion(hapticopt::Criterion criterion) noexcept {
     try {
         (void)criterion_gains(criterion, plant_.mass);
     } catch (...) {  // the error is cached: criterion_gains throws it to the request that asks

@@ -42,14 +42,6 @@ bool is_backward(const hapticopt::VelocityEstimator& e) { return e.kind == hapti
 
 namespace {
 
-hapticopt::Criterion parse(const std::string& name) {
-    const auto c = hapticopt::parse_criterion(name);
-    if (!c)
-        throw StartupError(ErrorKind::Usage,
-                           "criterion = " + name + " is invalid; accepted: " + accepted_criteria_text());
-    return *c;
-}
-
 std::string g(double v) {
     std::ostringstream s;
     s.precision(6);
@@ -73,26 +65,13 @@ double alpha_max_with(const hapticopt::NormalizedPlant& plant, const hapticopt::
 
 }  // namespace
 
-const std::vector<std::string>& accepted_criteria() {
-    static const std::vector<std::string> names = hapticopt::criterion_names(hapticopt::kAllCriteria);
-    return names;
-}
-
-bool is_accepted_criterion(const std::string& name) { return hapticopt::parse_criterion(name).has_value(); }
-
-const std::string& accepted_criteria_text() {
-    static const std::string text = hapticopt::joined_names(accepted_criteria());
-    return text;
-}
-
-TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
-    const hapticopt::Criterion c = parse(criterion);
+TuningResult tune_wall(hapticopt::Criterion c, const TuningPlant& plant) {
     const hapticopt::VelocityEstimator estimator = to_hapticopt_estimator(plant.velocity, plant.period);
     try {
         const hapticopt::PhysicalPlant physical = to_hapticopt(plant);
         const hapticopt::NormalizedPlant normalized = hapticopt::normalize(physical);
         TuningResult r;
-        r.criterion = criterion;
+        r.criterion = c;
         // A normalised optimum (alpha, beta) and its cost, scaled back to K = alpha m / T^2, B = beta m / T.
         auto take_normalised = [&](double alpha, double beta, std::optional<double> cost, double alpha_max) {
             r.alpha = alpha;
@@ -154,8 +133,8 @@ TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant) {
         if (!stable_with(normalized, gains, estimator)) {
             throw StartupError(
                 ErrorKind::UnstableGains,
-                "tuning: the " + criterion + " optimum K = " + g(r.K) + " N/m, B = " + g(r.B) +
-                    " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
+                "tuning: the " + std::string(hapticopt::to_string(c)) + " optimum K = " + g(r.K) +
+                    " N/m, B = " + g(r.B) + " N s/m (alpha = " + g(r.alpha) + ", beta = " + g(r.beta) +
                     ") is not strictly inside the stability region (velocity_estimator = " + to_string(plant.velocity) +
                     "); accepted: a criterion whose optimum is, or explicit --stiffness/--damping");
         }
@@ -214,10 +193,9 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
     }
 }
 
-TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box) {
-    const hapticopt::Criterion c = parse(criterion);
+TuningResult tune_wall_robust(hapticopt::Criterion c, const TuningBox& box) {
     if (!hapticopt::energy_index(c) || hapticopt::requires_no_overshoot(c)) {
-        throw StartupError(ErrorKind::Usage, "criterion = " + criterion +
+        throw StartupError(ErrorKind::Usage, "criterion = " + std::string(hapticopt::to_string(c)) +
                                                  " is invalid with --robust; accepted: CE0, CE1, CE2 "
                                                  "(a robust OV or CEx+OV optimum is not defined)");
     }
@@ -246,7 +224,7 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
         const hapticopt::NormalizedPlant nominal = hapticopt::normalize(r.nominal);
         const hapticopt::NormalizedGains gains = hapticopt::normalize(r.gains, r.nominal.mass, r.nominal.period);
         TuningResult t;
-        t.criterion = criterion;
+        t.criterion = c;
         t.K = r.gains.stiffness;
         t.B = r.gains.damping;
         t.alpha = gains.alpha;
@@ -268,8 +246,8 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
             if (!(r.force_noise_max <= *box.force_noise_budget)) {
                 throw StartupError(
                     ErrorKind::InvalidParameter,
-                    "robust tuning: the robust " + criterion + " gains K = " + g(t.K) + " N/m, B = " + g(t.B) +
-                        " N s/m exceed force_noise_budget = " + g(*box.force_noise_budget) +
+                    "robust tuning: the robust " + std::string(hapticopt::to_string(c)) + " gains K = " + g(t.K) +
+                        " N/m, B = " + g(t.B) + " N s/m exceed force_noise_budget = " + g(*box.force_noise_budget) +
                         " N between the optimisation grid's masses (sigma_F up to " + g(r.force_noise_max) +
                         " N); accepted: a larger force_noise_budget or a narrower mass range");
             }
@@ -281,11 +259,10 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
     }
 }
 
-TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,
+TuningResult check_explicit_gains(double K, double B, hapticopt::Criterion c, const TuningPlant& plant,
                                   bool allow_unstable) {
-    const hapticopt::Criterion c = parse(criterion);
     TuningResult r;
-    r.criterion = criterion;
+    r.criterion = c;
     r.explicit_gains = true;
     r.K = K;
     r.B = B;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/criterion_names.hpp"
 #include "common/velocity_estimator_spec.hpp"
 
 namespace hapticopt {
@@ -103,7 +104,7 @@ struct PlantSetCertificate {
 };
 
 struct TuningResult {
-    std::string criterion;                // "CE2", ...
+    hapticopt::Criterion criterion = hapticopt::Criterion::CE2;
     bool explicit_gains = false;          // K, B given by the user (then `criterion` only names the reported cost)
     double K = 0.0;                       // N/m
     double B = 0.0;                       // N s/m
@@ -122,13 +123,6 @@ struct TuningResult {
     bool force_noise_budget_active = false;        // the force-noise budget moved the optimum (tune_wall)
     [[nodiscard]] double stability_margin() const { return alpha_max > 0.0 ? alpha / alpha_max : 0.0; }
 };
-
-// The criteria hapticd accepts: every criterion hapticopt knows (hapticopt::kAllCriteria, the names of
-// hapticopt::to_string: amax, OV, CE0, CE1, CE2, CE0+OV, CE1+OV, CE2+OV), in that order.
-const std::vector<std::string>& accepted_criteria();
-[[nodiscard]] bool is_accepted_criterion(const std::string& name);
-// "amax, OV, CE0, ...": the accepted names for an error message.
-[[nodiscard]] const std::string& accepted_criteria_text();
 
 // The plant in hapticopt's terms (the same five numbers).
 hapticopt::PhysicalPlant to_hapticopt(const TuningPlant& plant);
@@ -156,7 +150,7 @@ inline constexpr double kAlphaMaxBackOff = 1e-3;
 // amax the stiffest wall that meets it, rendered as found (inside the region, no back-off); OV and CEx+OV the
 // largest alpha without overshoot on the budget's set); StartupError (ErrorKind::InvalidParameter) for q = 0 and
 // when no stable gains meet the budget.
-TuningResult tune_wall(const std::string& criterion, const TuningPlant& plant);
+TuningResult tune_wall(hapticopt::Criterion criterion, const TuningPlant& plant);
 
 // Sets t.position_resolution, t.force_noise_std and t.chatter for the plant the gains act on. sigma_F: the
 // white-noise model of rounding (error uniform over one step, variance q^2 / 12, independent from tick to tick),
@@ -174,7 +168,7 @@ void predict_encoder_effects(TuningResult& t, const TuningPlant& plant, double p
 // (hapticopt/robust_optimum.hpp says how stability is guaranteed). Throws StartupError: ErrorKind::Usage for
 // another criterion, ErrorKind::InvalidParameter for a bad box or when no gains are stable over the whole box (or
 // meet the budget there).
-TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box);
+TuningResult tune_wall_robust(hapticopt::Criterion criterion, const TuningBox& box);
 
 // Explicit gains: accepted when inside the stability region of the loop with the plant's velocity estimator (cost
 // of `criterion` predicted with it when it is an energy or overshoot criterion); refused with
@@ -182,7 +176,7 @@ TuningResult tune_wall_robust(const std::string& criterion, const TuningBox& box
 // otherwise. `allow_unstable` (--passivity-control: the controller is what keeps such a wall bounded): unstable
 // gains are accepted without a predicted cost; it models the backward difference, so with another estimator
 // `allow_unstable` is refused with StartupError(ErrorKind::Usage).
-TuningResult check_explicit_gains(double K, double B, const std::string& criterion, const TuningPlant& plant,
+TuningResult check_explicit_gains(double K, double B, hapticopt::Criterion criterion, const TuningPlant& plant,
                                   bool allow_unstable = false);
 
 }  // namespace hapticd

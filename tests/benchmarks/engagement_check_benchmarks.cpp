@@ -66,7 +66,8 @@ std::vector<SceneTerm> typical_scene(GainChecker& checker, int d) {
     for (std::size_t i = 0; i < box.size(); ++i) {
         std::array<double, 3> e{};
         e[box[i].axis] = 1.0;
-        const CriterionGains g = *checker.criterion_gains("CE2", checker.mass().of_axis(box[i].axis));
+        const CriterionGains g =
+            checker.criterion_gains(hapticopt::Criterion::CE2, checker.mass().of_axis(box[i].axis));
         terms.push_back(bench_plane(e, g.K, g.B, true));
         terms.back().exclusive_pair = pairs[i];
     }

@@ -58,14 +58,14 @@ void BM_EstimatorCheckerStart(benchmark::State& state) {
 
 void BM_EstimatorPairVerdict(benchmark::State& state) {
     const GainCheckPlant p = estimator_bench_plant(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-    const TuningResult ce2 = tune_wall("CE2", p);
+    const TuningResult ce2 = tune_wall(hapticopt::Criterion::CE2, p);
     const GainChecker checker(p);
     for (auto _ : state) benchmark::DoNotOptimize(checker.pair_is_stable(ce2.K, ce2.B, p.mass));
 }
 
 void BM_EstimatorCoupledCheck(benchmark::State& state) {
     const GainCheckPlant p = estimator_bench_plant(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-    const TuningResult ce2 = tune_wall("CE2", p);
+    const TuningResult ce2 = tune_wall(hapticopt::Criterion::CE2, p);
     const GainChecker checker(p);
     Matrix3 K{}, B{};
     const std::array<std::array<double, 3>, 3> normals{{{1.0, 0.2, 0.0}, {0.3, 1.0, 0.4}, {-0.2, 0.5, 1.0}}};
@@ -86,7 +86,7 @@ void BM_EstimatorCoupledCheck(benchmark::State& state) {
 
 void BM_EstimatorTuneWall(benchmark::State& state) {
     const GainCheckPlant p = estimator_bench_plant(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-    for (auto _ : state) benchmark::DoNotOptimize(tune_wall("CE2", p).K);
+    for (auto _ : state) benchmark::DoNotOptimize(tune_wall(hapticopt::Criterion::CE2, p).K);
 }
 
 void estimator_kinds(benchmark::internal::Benchmark* b) {

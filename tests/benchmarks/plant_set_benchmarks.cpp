@@ -54,8 +54,8 @@ GainCheckPlant set_bench_plant(int d, int kind, bool with_set, bool with_arm = f
 void run_pair(benchmark::State& state, bool with_set, bool with_arm = false, bool with_delays = false) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
     GainChecker checker(set_bench_plant(d, kind, with_set, with_arm, with_delays));
-    const std::optional<CriterionGains> g = checker.criterion_gains("CE2", 0.30);
-    const double K = 0.5 * g->K, B = 0.5 * g->B;
+    const CriterionGains g = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+    const double K = 0.5 * g.K, B = 0.5 * g.B;
     if (!checker.pair_is_stable(K, B, 0.30)) throw std::logic_error("benchmark gains not stable");
     for (auto _ : state) benchmark::DoNotOptimize(checker.pair_is_stable(K, B, 0.30));
 }
@@ -69,10 +69,10 @@ void BM_PairOverSetWithDelays(benchmark::State& state) { run_pair(state, true, s
 void BM_PlaneCommitOverSet(benchmark::State& state) {
     const bool with_arm = state.range(0) != 0, with_delays = state.range(1) != 0;
     GainChecker checker(set_bench_plant(6, 2, true, with_arm, with_delays));
-    const std::optional<CriterionGains> g = checker.criterion_gains("CE2", 0.30);
+    const CriterionGains g = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
     Matrix3 K{}, B{}, zero{};
-    K[2][2] = 0.5 * g->K;
-    B[2][2] = 0.5 * g->B;
+    K[2][2] = 0.5 * g.K;
+    B[2][2] = 0.5 * g.B;
     std::string why;
     for (auto _ : state) {
         const bool ok =
@@ -85,10 +85,10 @@ void BM_PlaneCommitOverSet(benchmark::State& state) {
 void BM_PlaneObjectOverSet(benchmark::State& state) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
     GainChecker checker(set_bench_plant(d, kind, true));
-    const std::optional<CriterionGains> g = checker.criterion_gains("CE2", 0.30);
+    const CriterionGains g = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
     const std::vector<double> masses{0.30};
-    if (!checker.check_object(g->K, g->B, masses).stable) throw std::logic_error("CE2 over the set not stable");
-    for (auto _ : state) benchmark::DoNotOptimize(checker.check_object(g->K, g->B, masses));
+    if (!checker.check_object(g.K, g.B, masses).stable) throw std::logic_error("CE2 over the set not stable");
+    for (auto _ : state) benchmark::DoNotOptimize(checker.check_object(g.K, g.B, masses));
 }
 
 void set_args(benchmark::internal::Benchmark* b) {

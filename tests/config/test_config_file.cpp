@@ -279,7 +279,7 @@ TEST_F(ConfigFileTest, NewUserSyntaxLoads) {
         "rate = 1_000.0\ncriterion = \"\"\"CE1\"\"\"\ntrace-capacity = 0x1000\n");
     ASSERT_EQ(r.code, -1) << r.message;
     EXPECT_EQ(r.options.rate, 1000.0);
-    EXPECT_EQ(r.options.criterion, "CE1");
+    EXPECT_EQ(r.options.criterion, hapticopt::Criterion::CE1);
     EXPECT_EQ(r.options.trace_capacity, 4096);
     ASSERT_EQ(r.options.walls.size(), 2U);
     std::string err;
@@ -343,7 +343,8 @@ TEST_F(ConfigFileTest, UnknownKeysAndRejectedValuesNameTheirPlace) {
         {"rate = 1000.0\n  stiffnes = 3.0\n", kExitBadConfig, {"line 2, column 3: unknown key 'stiffnes'"}},
         {"criterion = \"CE9\"\n",
          kExitBadConfig,
-         {"line 1, column 1: criterion = \"CE9\": ", "CE0"}},  // and the choices
+         {"line 1, column 1: criterion = \"CE9\": --criterion: CE9 not in "
+          "{amax,OV,CE0,CE1,CE2,CE0+OV,CE1+OV,CE2+OV}"}},
         {"\nrt-priority = 10000000000\n", kExitBadConfig, {"line 2, column 1: rt-priority = 10000000000"}},
         {"rate = [1, 2]\n", kExitBadConfig, {"rate = [1, 2] is an array; accepted: a number"}}};
     for (const std::string pass_one_only : {"config", "dry-run", "list-devices", "help", "version"}) {

@@ -200,9 +200,10 @@ TEST(Identification, TunedGainsEqualTheTrueOptimumWithinPropagatedUncertainty) {
         const IdentificationResult r = identify_plant(rec.data);
         ASSERT_TRUE(r.ok) << r.message;
         for (const char* criterion : {"CE2", "CE1"}) {
-            const IdentifiedTuning id = tune_identified(criterion, r, 1e-3, 0.0);
+            const hapticopt::Criterion c = *hapticopt::parse_criterion(criterion);
+            const IdentifiedTuning id = tune_identified(c, r, 1e-3, 0.0);
             const TuningResult truth =
-                tune_wall(criterion, TuningPlant{t.mass, t.damping, t.stiffness, 1e-3, t.delay_periods * 1e-3});
+                tune_wall(c, TuningPlant{t.mass, t.damping, t.stiffness, 1e-3, t.delay_periods * 1e-3});
             EXPECT_GT(id.K_stderr, 0.0);
             EXPECT_GT(id.B_stderr, 0.0);
             EXPECT_NEAR(id.tuning.K, truth.K, 3.0 * id.K_stderr + 1e-9 * truth.K) << t.name << " " << criterion;

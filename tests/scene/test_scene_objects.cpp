@@ -461,20 +461,19 @@ Matrix3 plus(const Matrix3& a, const Matrix3& b) {
 // must be hapticopt's for (2 alpha, 2 beta); two orthogonal planes are two independent loops.
 TEST(GainChecker, SummedGainsOfParallelPlanesAreCheckedAsTheirSum) {
     GainChecker checker(plant(0.0));
-    const auto ce2 = checker.criterion_gains("CE2", 0.3);
-    ASSERT_TRUE(ce2);
+    const CriterionGains ce2 = checker.criterion_gains(hapticopt::Criterion::CE2, 0.3);
     const std::array<double, 3> n{0.0, 0.6, 0.8}, e{1.0, 0.0, 0.0};
     std::string why;
     const hapticopt::NormalizedPlant np{0.0, 0.0, 0.0};
     for (const double factor : {1.0, 1.5, 2.0, 3.0}) {
-        const bool expected = hapticopt::is_stable(np, {factor * ce2->K * kT * kT / 0.3, factor * ce2->B * kT / 0.3});
-        EXPECT_EQ(checker.sum_is_stable(outer(n, factor * ce2->K), outer(n, factor * ce2->B), why), expected)
+        const bool expected = hapticopt::is_stable(np, {factor * ce2.K * kT * kT / 0.3, factor * ce2.B * kT / 0.3});
+        EXPECT_EQ(checker.sum_is_stable(outer(n, factor * ce2.K), outer(n, factor * ce2.B), why), expected)
             << factor << why;
     }
     EXPECT_TRUE(
-        checker.sum_is_stable(plus(outer(n, ce2->K), outer(e, ce2->K)), plus(outer(n, ce2->B), outer(e, ce2->B)), why))
+        checker.sum_is_stable(plus(outer(n, ce2.K), outer(e, ce2.K)), plus(outer(n, ce2.B), outer(e, ce2.B)), why))
         << why;
-    EXPECT_FALSE(checker.sum_is_stable(outer(n, 3.0 * ce2->K), outer(n, ce2->B), why));
+    EXPECT_FALSE(checker.sum_is_stable(outer(n, 3.0 * ce2.K), outer(n, ce2.B), why));
     EXPECT_NE(why.find("largest stable K"), std::string::npos) << why;
 }
 
@@ -639,12 +638,11 @@ TEST(AnisotropicMass, AnObjectIsCheckedWithItsOwnMass) {
 TEST(AnisotropicMass, CriterionGainsAreTheOptimumForTheObjectsMass) {
     GainChecker checker(anisotropic_plant(kT));
     for (const double m : {checker.mass_along({0.0, 0.6, 0.8}), checker.mass_along({1.0, 0.0, 0.0}), 0.45}) {
-        const auto g = checker.criterion_gains("CE1", m);
-        ASSERT_TRUE(g);
+        const CriterionGains g = checker.criterion_gains(hapticopt::Criterion::CE1, m);
         const hapticopt::WallTuning t =
             hapticopt::optimal_wall(hapticopt::Criterion::CE1, hapticopt::PhysicalPlant{m, 0.0, 0.0, kT, kT});
-        EXPECT_NEAR(g->K, t.K, 1e-12 * t.K) << m;
-        EXPECT_NEAR(g->B, t.B, 1e-12 * t.B) << m;
+        EXPECT_NEAR(g.K, t.K, 1e-12 * t.K) << m;
+        EXPECT_NEAR(g.B, t.B, 1e-12 * t.B) << m;
     }
 }
 
@@ -882,29 +880,28 @@ TEST(AnisotropicMass, AMeshsGainsAreStableInEveryContactConfigurationOverThePlan
         EXPECT_NEAR(masses.back(), es.eigenvalues()(2), 1e-12);
         for (std::size_t i = 1; i < masses.size(); ++i)
             EXPECT_LE(masses[i] * c_min, masses[i - 1] * c_max * (1 + 1e-12));
-        const auto optimum = checker.criterion_gains("CE2", masses.front());
-        ASSERT_TRUE(optimum.has_value());
-        const PairVerdict at_optimum = checker.check_object(optimum->K, optimum->B, masses);
+        const CriterionGains optimum = checker.criterion_gains(hapticopt::Criterion::CE2, masses.front());
+        const PairVerdict at_optimum = checker.check_object(optimum.K, optimum.B, masses);
         ASSERT_TRUE(at_optimum.stable);
-        double lo = optimum->K, hi = 100.0 * optimum->K;  // the largest K the check accepts at B, by bisection
-        ASSERT_FALSE(checker.check_object(hi, optimum->B, masses).stable);
+        double lo = optimum.K, hi = 100.0 * optimum.K;  // the largest K the check accepts at B, by bisection
+        ASSERT_FALSE(checker.check_object(hi, optimum.B, masses).stable);
         for (int i = 0; i < 40; ++i) {
             const double mid = 0.5 * (lo + hi);
-            (checker.check_object(mid, optimum->B, masses).stable ? lo : hi) = mid;
+            (checker.check_object(mid, optimum.B, masses).stable ? lo : hi) = mid;
         }
         const double near_edge = 0.99 * lo;
-        ASSERT_TRUE(checker.check_object(near_edge, optimum->B, masses).stable);
+        ASSERT_TRUE(checker.check_object(near_edge, optimum.B, masses).stable);
         {  // not vacuous: 5 % beyond the accepted K, a contact along M's lightest direction grows at the set's lightest
             const Eigen::Vector3d e = es.eigenvectors().col(0);
             const Eigen::VectorXcd ev =
-                physical_state_eigenvalues(c_min * M, 1.05 * lo * e * e.transpose(), optimum->B * e * e.transpose(), d);
+                physical_state_eigenvalues(c_min * M, 1.05 * lo * e * e.transpose(), optimum.B * e * e.transpose(), d);
             double beyond = 0.0;
             for (const auto& z : ev) {
                 if (std::abs(z - 1.0) > 1e-6) beyond = std::max(beyond, std::abs(z));
             }
             EXPECT_GT(beyond, 1.0) << "d " << d;
         }
-        for (const double K : {optimum->K, near_edge}) {
+        for (const double K : {optimum.K, near_edge}) {
             for (int trial = 0; trial < 60; ++trial) {
                 const int rank = 1 + trial % 4;  // 4: friction, P = I
                 Eigen::MatrixXd N(3, std::min(rank, 3));
@@ -916,7 +913,7 @@ TEST(AnisotropicMass, AMeshsGainsAreStableInEveryContactConfigurationOverThePlan
                     // (a Jordan block: within ~1e-8 of 1 in double). Those nearest 1 are set aside (checked within
                     // 1e-6 of it); the radius of the rest is the contact's.
                     const int r = rank == 4 ? 3 : rank;
-                    Eigen::VectorXcd ev = physical_state_eigenvalues(c * M, K * P, optimum->B * P, d);
+                    Eigen::VectorXcd ev = physical_state_eigenvalues(c * M, K * P, optimum.B * P, d);
                     std::vector<std::complex<double>> rest(ev.data(), ev.data() + ev.size());
                     std::sort(rest.begin(), rest.end(),
                               [](auto a, auto b) { return std::abs(a - 1.0) < std::abs(b - 1.0); });

@@ -94,7 +94,16 @@ TEST(WallSpec, ParsesAndRejectsWithNamedKeys) {
     EXPECT_EQ(s->position, -0.5);
     EXPECT_EQ(s->direction, -1.0);
     EXPECT_EQ(*s->mode, WallMode::Bilateral);
-    EXPECT_EQ(*s->criterion, "CE1");
+    EXPECT_EQ(*s->criterion, hapticopt::Criterion::CE1);
+    EXPECT_EQ(to_string(*s), "axis=1 position=-0.5 direction=-1 mode=bilateral criterion=CE1");
+    // The criterion is parsed here (exact, case-sensitive): another name is refused with the accepted ones.
+    auto ov = parse_wall_spec("axis=0 criterion=CE2+OV", err);
+    ASSERT_TRUE(ov) << err;
+    EXPECT_EQ(*ov->criterion, hapticopt::Criterion::CE2_OV);
+    EXPECT_FALSE(parse_wall_spec("axis=0 criterion=ce2", err));
+    EXPECT_EQ(err,
+              "wall 'axis=0 criterion=ce2': criterion = ce2 is invalid; accepted: amax, OV, CE0, CE1, CE2, "
+              "CE0+OV, CE1+OV, CE2+OV");
     EXPECT_FALSE(parse_wall_spec("axis=3", err));
     EXPECT_NE(err.find("axis = 3"), std::string::npos) << err;
     EXPECT_FALSE(parse_wall_spec("position=nan", err));

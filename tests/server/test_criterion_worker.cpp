@@ -30,29 +30,27 @@ GainCheckPlant falcon() {
 
 TEST(CriterionWorker, TunesOffTheCallingThreadWhileTheCheckerIsUsed) {
     GainChecker checker(falcon());
-    EXPECT_FALSE(checker.criterion_ready("CE1+OV"));
-    EXPECT_TRUE(checker.criterion_ready("no such criterion"));  // nothing to tune: resolution refuses it
+    EXPECT_FALSE(checker.criterion_ready(hapticopt::Criterion::CE1_OV));
     int verdicts = 0;
     {
         server::CriterionWorker worker(checker);
-        worker.request("CE1+OV");
-        worker.request("CE1+OV");  // queued once
+        worker.request(hapticopt::Criterion::CE1_OV);
+        worker.request(hapticopt::Criterion::CE1_OV);  // queued once
         const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-        while (!checker.criterion_ready("CE1+OV") && std::chrono::steady_clock::now() < deadline) {
+        while (!checker.criterion_ready(hapticopt::Criterion::CE1_OV) && std::chrono::steady_clock::now() < deadline) {
             // What the server thread does meanwhile: other objects' verdicts.
             EXPECT_TRUE(checker.check_object(100.0, 5.0, {0.30}).stable);
             ++verdicts;
         }
-        ASSERT_TRUE(checker.criterion_ready("CE1+OV"));
+        ASSERT_TRUE(checker.criterion_ready(hapticopt::Criterion::CE1_OV));
     }
     GainChecker direct(falcon());
-    const auto on_worker = checker.criterion_gains("CE1+OV", 0.30);
-    const auto here = direct.criterion_gains("CE1+OV", 0.30);
-    ASSERT_TRUE(on_worker && here);
-    EXPECT_EQ(on_worker->K, here->K);
-    EXPECT_EQ(on_worker->B, here->B);
+    const CriterionGains on_worker = checker.criterion_gains(hapticopt::Criterion::CE1_OV, 0.30);
+    const CriterionGains here = direct.criterion_gains(hapticopt::Criterion::CE1_OV, 0.30);
+    EXPECT_EQ(on_worker.K, here.K);
+    EXPECT_EQ(on_worker.B, here.B);
     std::printf("[ worker ] %d verdicts on the calling thread during CE1+OV's tuning: K %.6g N/m, B %.6g N s/m\n",
-                verdicts, on_worker->K, on_worker->B);
+                verdicts, on_worker.K, on_worker.B);
 }
 
 TEST(CriterionWorker, AFailedTuningIsCachedWithItsError) {
@@ -60,11 +58,11 @@ TEST(CriterionWorker, AFailedTuningIsCachedWithItsError) {
     p.force_noise_budget = 1e-9;  // no stable gains meet it
     p.position_resolution = 4.85e-5;
     GainChecker checker(p);
-    checker.prepare_criterion("CE2");  // never throws
-    ASSERT_TRUE(checker.criterion_ready("CE2"));
+    checker.prepare_criterion(hapticopt::Criterion::CE2);  // never throws
+    ASSERT_TRUE(checker.criterion_ready(hapticopt::Criterion::CE2));
     for (int i = 0; i < 2; ++i) {
         try {
-            (void)checker.criterion_gains("CE2", 0.30);
+            (void)checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
             ADD_FAILURE() << "an unmeetable budget gave gains";
         } catch (const std::invalid_argument& e) {
             EXPECT_NE(std::string(e.what()).find("force_noise_budget"), std::string::npos) << e.what();

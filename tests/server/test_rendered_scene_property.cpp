@@ -234,7 +234,7 @@ class Driver {
         sc.workspace_min = {-0.06, -0.06, -0.06};
         sc.workspace_max = {0.06, 0.06, 0.06};
         const double m0 = checker_->mass().of_axis(0);
-        const CriterionGains wall = *checker_->criterion_gains("CE2", m0);
+        const CriterionGains wall = checker_->criterion_gains(hapticopt::Criterion::CE2, m0);
         sc.config_walls.push_back(ConfigWallInfo{0, 0.05, 1.0, false, wall.K, wall.B});
         wall_K_ = Eigen::Matrix3d::Zero();
         wall_B_ = Eigen::Matrix3d::Zero();

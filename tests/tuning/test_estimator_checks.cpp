@@ -77,7 +77,7 @@ TEST(EstimatorChecks, ALowPassCheckerRefusesTheBackwardOptimum) {
     for (double d : {0.0, 1.0}) {
         const GainChecker backward(plant_with(d, {}));
         const GainChecker filtered(plant_with(d, low_pass_hz(20.0)));
-        const TuningResult ce2 = tune_wall("CE2", backward.plant());
+        const TuningResult ce2 = tune_wall(hapticopt::Criterion::CE2, backward.plant());
         EXPECT_TRUE(backward.pair_is_stable(ce2.K, ce2.B, kMass));
         EXPECT_FALSE(filtered.pair_is_stable(ce2.K, ce2.B, kMass)) << "d " << d;
         const double rho =
@@ -130,7 +130,7 @@ TEST(EstimatorChecks, TheEstimatorsOwnOptimumIsAcceptedAndIsTheLibrarys) {
             GainChecker checker(plant_with(d, spec));
             const hapticopt::EstimatorOptimum o =
                 hapticopt::optimal_point(hapticopt::Criterion::CE2, normalized(d), checker.estimator());
-            const TuningResult t = tune_wall("CE2", checker.plant());
+            const TuningResult t = tune_wall(hapticopt::Criterion::CE2, checker.plant());
             EXPECT_DOUBLE_EQ(t.alpha, o.alpha);
             EXPECT_DOUBLE_EQ(t.beta, o.beta);
             EXPECT_DOUBLE_EQ(t.K, o.alpha * kMass / (kPeriod * kPeriod));
@@ -138,13 +138,12 @@ TEST(EstimatorChecks, TheEstimatorsOwnOptimumIsAcceptedAndIsTheLibrarys) {
             ASSERT_TRUE(t.cost.has_value());
             EXPECT_DOUBLE_EQ(*t.cost, *o.cost);
             EXPECT_DOUBLE_EQ(t.alpha_max, o.alpha_max);
-            const auto gains = checker.criterion_gains("CE2", kMass);
-            ASSERT_TRUE(gains.has_value());
-            EXPECT_NEAR(gains->K, t.K, 1e-9 * t.K);
-            EXPECT_NEAR(gains->B, t.B, 1e-9 * t.B);
+            const CriterionGains gains = checker.criterion_gains(hapticopt::Criterion::CE2, kMass);
+            EXPECT_NEAR(gains.K, t.K, 1e-9 * t.K);
+            EXPECT_NEAR(gains.B, t.B, 1e-9 * t.B);
             EXPECT_TRUE(checker.pair_is_stable(t.K, t.B, kMass));
             EXPECT_TRUE(checker.check_object(t.K, t.B, {kMass}).stable);
-            const TuningResult e = check_explicit_gains(t.K, t.B, "CE2", checker.plant());
+            const TuningResult e = check_explicit_gains(t.K, t.B, hapticopt::Criterion::CE2, checker.plant());
             ASSERT_TRUE(e.cost.has_value());
             // The explicit gains are the optimum's up to the K/B round trip (1 ulp): the cost agrees to 1e-9.
             EXPECT_NEAR(*e.cost, *o.cost, 1e-9 * *o.cost);
@@ -153,7 +152,7 @@ TEST(EstimatorChecks, TheEstimatorsOwnOptimumIsAcceptedAndIsTheLibrarys) {
             // region's stated accuracy of ~1e-12 (EstimatorStabilityRegion).
             EXPECT_NEAR(e.alpha_max, o.alpha_max, 1e-12 * o.alpha_max);
             // amax: the main region's tip backed off by kAlphaMaxBackOff, stable with the estimator.
-            const TuningResult amax = tune_wall("amax", checker.plant());
+            const TuningResult amax = tune_wall(hapticopt::Criterion::AlphaMax, checker.plant());
             EXPECT_DOUBLE_EQ(amax.alpha, o.alpha_max * (1.0 - kAlphaMaxBackOff));
             EXPECT_TRUE(checker.pair_is_stable(amax.K, amax.B, kMass));
         }
@@ -163,22 +162,23 @@ TEST(EstimatorChecks, TheEstimatorsOwnOptimumIsAcceptedAndIsTheLibrarys) {
 TEST(EstimatorChecks, ExplicitGainsAreJudgedWithTheEstimator) {
     const TuningPlant backward = plant_with(1.0, {});
     const TuningPlant filtered = plant_with(1.0, low_pass_hz(20.0));
-    const TuningResult ce2 = tune_wall("CE2", backward);
-    EXPECT_NO_THROW((void)check_explicit_gains(ce2.K, ce2.B, "CE2", backward));
+    const TuningResult ce2 = tune_wall(hapticopt::Criterion::CE2, backward);
+    EXPECT_NO_THROW((void)check_explicit_gains(ce2.K, ce2.B, hapticopt::Criterion::CE2, backward));
     try {
-        (void)check_explicit_gains(ce2.K, ce2.B, "CE2", filtered);
+        (void)check_explicit_gains(ce2.K, ce2.B, hapticopt::Criterion::CE2, filtered);
         FAIL() << "the backward optimum accepted with the low-pass";
     } catch (const StartupError& e) {
         EXPECT_EQ(e.kind(), ErrorKind::UnstableGains);
         EXPECT_NE(std::string(e.what()).find("velocity_estimator = lowpass:20Hz"), std::string::npos) << e.what();
     }
     // --passivity-control models the backward difference: refused with another estimator.
-    EXPECT_EQ(kind_of([&] { (void)check_explicit_gains(ce2.K, ce2.B, "CE2", filtered, true); }), ErrorKind::Usage);
-    EXPECT_NO_THROW((void)check_explicit_gains(ce2.K, ce2.B, "CE2", backward, true));
+    EXPECT_EQ(kind_of([&] { (void)check_explicit_gains(ce2.K, ce2.B, hapticopt::Criterion::CE2, filtered, true); }),
+              ErrorKind::Usage);
+    EXPECT_NO_THROW((void)check_explicit_gains(ce2.K, ce2.B, hapticopt::Criterion::CE2, backward, true));
     // OV with the estimator (hapticopt::estimator_overshoot_point): its gains, checked as explicit gains with the
     // loop's estimator, have no overshoot (C_OV <= 1e-12, the search's tolerance).
-    const TuningResult ov = tune_wall("OV", filtered);
-    const TuningResult ov_checked = check_explicit_gains(ov.K, ov.B, "OV", filtered);
+    const TuningResult ov = tune_wall(hapticopt::Criterion::Overshoot, filtered);
+    const TuningResult ov_checked = check_explicit_gains(ov.K, ov.B, hapticopt::Criterion::Overshoot, filtered);
     ASSERT_TRUE(ov_checked.cost.has_value());
     EXPECT_LE(*ov_checked.cost, 1e-12);
 }
@@ -194,7 +194,7 @@ TEST(EstimatorChecks, TheRobustTuningAnalysesTheLoopsEstimator) {
     box.delay_min = box.delay_max = kPeriod;
     box.period = kPeriod;
     box.velocity = window_of(2);
-    const TuningResult r = tune_wall_robust("CE2", box);
+    const TuningResult r = tune_wall_robust(hapticopt::Criterion::CE2, box);
     ASSERT_TRUE(r.robust.has_value());
     EXPECT_TRUE(r.robust->mass_certified);
     EXPECT_GT(r.K, 0.0);
@@ -206,7 +206,7 @@ TEST(EstimatorChecks, TheRobustTuningAnalysesTheLoopsEstimator) {
     box.force_noise_budget = 1e-9;
     box.position_resolution = 1e-5;
     try {
-        (void)tune_wall_robust("CE2", box);
+        (void)tune_wall_robust(hapticopt::Criterion::CE2, box);
         FAIL() << "an unmeetable budget accepted";
     } catch (const StartupError& e) {
         EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
@@ -258,7 +258,7 @@ TEST(EstimatorChecks, DampingRangeIsTheEstimatorsInterval) {
 TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
     const double q = 1e-5;
     const TuningPlant filtered = plant_with(1.0, window_of(3));
-    TuningResult t = tune_wall("CE2", filtered);
+    TuningResult t = tune_wall(hapticopt::Criterion::CE2, filtered);
     predict_encoder_effects(t, filtered, q);
     ASSERT_TRUE(t.force_noise_std.has_value());
     const double expected = hapticopt::force_noise_std(to_hapticopt(filtered), hapticopt::WallGains{t.K, t.B}, q,
@@ -285,7 +285,7 @@ TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
     EXPECT_DOUBLE_EQ(t.chatter->cycle_amplitude, cycle.cycle.amplitude);
     EXPECT_DOUBLE_EQ(t.chatter->cycle_frequency, cycle.cycle.frequency);
     const TuningPlant backward = plant_with(1.0, {});
-    TuningResult b = tune_wall("CE2", backward);
+    TuningResult b = tune_wall(hapticopt::Criterion::CE2, backward);
     predict_encoder_effects(b, backward, q);
     ASSERT_TRUE(b.chatter.has_value());
     EXPECT_TRUE(b.chatter->backward_difference);
@@ -296,7 +296,7 @@ TEST(EstimatorChecks, EncoderEffectsUseTheEstimator) {
 TEST(EstimatorChecks, TheBackwardPathIsOptimalWall) {
     const TuningPlant p = plant_with(1.0, {});
     const hapticopt::WallTuning w = hapticopt::optimal_wall(hapticopt::Criterion::CE2, to_hapticopt(p));
-    const TuningResult t = tune_wall("CE2", p);
+    const TuningResult t = tune_wall(hapticopt::Criterion::CE2, p);
     EXPECT_EQ(t.K, w.K);
     EXPECT_EQ(t.B, w.B);
     EXPECT_EQ(t.alpha_max, w.alpha_max);
@@ -320,11 +320,11 @@ TEST(EstimatorChecks, ForceNoiseBudgetBoundsTheTunedWall) {
     for (const VelocityEstimatorSpec& spec : {VelocityEstimatorSpec{}, low_pass_hz(50.0), window_of(3)}) {
         TuningPlant p = plant_with(1.0, spec);
         p.position_resolution = q;
-        TuningResult free = tune_wall("CE2", p);
+        TuningResult free = tune_wall(hapticopt::Criterion::CE2, p);
         predict_encoder_effects(free, p, q);
         ASSERT_TRUE(free.force_noise_std.has_value());
         p.force_noise_budget = 0.5 * *free.force_noise_std;
-        TuningResult tight = tune_wall("CE2", p);
+        TuningResult tight = tune_wall(hapticopt::Criterion::CE2, p);
         const double g_max = *p.force_noise_budget * kPeriod * kPeriod / (kMass * q);
         const hapticopt::NoiseBudgetOptimum o = hapticopt::optimal_point_under_noise_budget(
             hapticopt::Criterion::CE2, normalized(1.0), to_hapticopt_estimator(spec, kPeriod), g_max);
@@ -339,7 +339,7 @@ TEST(EstimatorChecks, ForceNoiseBudgetBoundsTheTunedWall) {
         EXPECT_LE(*tight.force_noise_std, *p.force_noise_budget * (1 + 1e-6)) << to_string(spec);
         EXPECT_GT(*tight.force_noise_std, *p.force_noise_budget * 0.99) << to_string(spec);  // the budget binds
         p.force_noise_budget = 2.0 * *free.force_noise_std;
-        const TuningResult slack = tune_wall("CE2", p);
+        const TuningResult slack = tune_wall(hapticopt::Criterion::CE2, p);
         EXPECT_NEAR(slack.K, free.K, 1e-9 * free.K) << to_string(spec);
         EXPECT_NEAR(slack.B, free.B, 1e-9 * free.B) << to_string(spec);
     }
@@ -356,24 +356,26 @@ TEST(EstimatorChecks, EveryCriterionMeetsTheForceNoiseBudget) {
     for (const VelocityEstimatorSpec& spec : {VelocityEstimatorSpec{}, window_of(3)}) {
         TuningPlant p = plant_with(1.0, spec);
         p.position_resolution = q;
-        for (const char* criterion : {"amax", "OV", "CE2+OV"}) {
-            const bool on_curve = std::string(criterion) == "CE2+OV";
-            TuningResult free = tune_wall(on_curve ? criterion : "CE2", p);
+        for (const hapticopt::Criterion c :
+             {hapticopt::Criterion::AlphaMax, hapticopt::Criterion::Overshoot, hapticopt::Criterion::CE2_OV}) {
+            const std::string criterion(hapticopt::to_string(c));
+            const bool on_curve = c == hapticopt::Criterion::CE2_OV;
+            TuningResult free = tune_wall(on_curve ? c : hapticopt::Criterion::CE2, p);
             predict_encoder_effects(free, p, q);
             ASSERT_TRUE(free.force_noise_std.has_value());
             p.force_noise_budget = (on_curve ? 0.9 : 0.5) * *free.force_noise_std;
-            TuningResult t = tune_wall(criterion, p);
+            TuningResult t = tune_wall(c, p);
             EXPECT_TRUE(t.force_noise_budget_active) << criterion;
             predict_encoder_effects(t, p, q);
             ASSERT_TRUE(t.force_noise_std.has_value()) << criterion;
             EXPECT_LE(*t.force_noise_std, *p.force_noise_budget * (1 + 1e-9)) << criterion << " " << to_string(spec);
-            if (std::string(criterion) == "amax") {
+            if (c == hapticopt::Criterion::AlphaMax) {
                 EXPECT_GT(*t.force_noise_std, *p.force_noise_budget * (1 - 1e-6)) << to_string(spec);
             }
             if (on_curve) {
                 EXPECT_LT(t.K, free.K) << to_string(spec);
             }
-            EXPECT_NO_THROW((void)check_explicit_gains(t.K, t.B, criterion, p)) << criterion;
+            EXPECT_NO_THROW((void)check_explicit_gains(t.K, t.B, c, p)) << criterion;
             p.force_noise_budget.reset();
         }
     }
@@ -381,7 +383,7 @@ TEST(EstimatorChecks, EveryCriterionMeetsTheForceNoiseBudget) {
     p.force_noise_budget = 0.1;
     p.position_resolution = 0.0;
     try {
-        (void)tune_wall("CE1", p);
+        (void)tune_wall(hapticopt::Criterion::CE1, p);
         ADD_FAILURE() << "a budget without an encoder step accepted";
     } catch (const StartupError& e) {
         EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
@@ -391,7 +393,7 @@ TEST(EstimatorChecks, EveryCriterionMeetsTheForceNoiseBudget) {
     p.position_resolution = 1e-5;
     p.force_noise_budget = 1e-9;
     try {
-        (void)tune_wall("CE2", p);
+        (void)tune_wall(hapticopt::Criterion::CE2, p);
         ADD_FAILURE() << "an unmeetable budget accepted";
     } catch (const StartupError& e) {
         EXPECT_EQ(e.kind(), ErrorKind::InvalidParameter);
@@ -401,33 +403,32 @@ TEST(EstimatorChecks, EveryCriterionMeetsTheForceNoiseBudget) {
     // lighter mass the same normalised gains, whose sigma_F = (m q / T^2) g_F is then smaller.
     GainCheckPlant gp = plant_with(1.0, {});
     gp.position_resolution = 1e-5;
-    TuningResult plain = tune_wall("CE2", plant_with(1.0, {}));
+    TuningResult plain = tune_wall(hapticopt::Criterion::CE2, plant_with(1.0, {}));
     predict_encoder_effects(plain, plant_with(1.0, {}), gp.position_resolution);
     ASSERT_TRUE(plain.force_noise_std.has_value());
     gp.force_noise_budget = 0.5 * *plain.force_noise_std;
     GainChecker checker(gp);
-    const TuningResult wall = tune_wall("CE2", gp);
+    const TuningResult wall = tune_wall(hapticopt::Criterion::CE2, gp);
     EXPECT_TRUE(wall.force_noise_budget_active);
     for (const double m : {kMass, 0.5 * kMass}) {
-        const auto gains = checker.criterion_gains("CE2", m);
-        ASSERT_TRUE(gains.has_value());
-        EXPECT_NEAR(gains->K, wall.K * m / kMass, 1e-12 * wall.K) << m;
-        EXPECT_NEAR(gains->B, wall.B * m / kMass, 1e-12 * wall.B) << m;
+        const CriterionGains gains = checker.criterion_gains(hapticopt::Criterion::CE2, m);
+        EXPECT_NEAR(gains.K, wall.K * m / kMass, 1e-12 * wall.K) << m;
+        EXPECT_NEAR(gains.B, wall.B * m / kMass, 1e-12 * wall.B) << m;
         TuningPlant at = gp;
         at.mass = m;
         TuningResult judged;
-        judged.K = gains->K;
-        judged.B = gains->B;
+        judged.K = gains.K;
+        judged.B = gains.B;
         predict_encoder_effects(judged, at, gp.position_resolution);
         ASSERT_TRUE(judged.force_noise_std.has_value());
         EXPECT_LE(*judged.force_noise_std, *gp.force_noise_budget * (m / kMass) * (1 + 1e-9)) << m;
     }
-    EXPECT_LT(checker.criterion_gains("CE2", kMass)->K, plain.K);
+    EXPECT_LT(checker.criterion_gains(hapticopt::Criterion::CE2, kMass).K, plain.K);
     // An unmeetable budget: an error naming the key (the server refuses the object with it).
     gp.force_noise_budget = 1e-9;
     GainChecker unmeetable(gp);
     try {
-        (void)unmeetable.criterion_gains("CE2", kMass);
+        (void)unmeetable.criterion_gains(hapticopt::Criterion::CE2, kMass);
         ADD_FAILURE() << "an unmeetable budget accepted for an object";
     } catch (const std::exception& e) {
         EXPECT_NE(std::string(e.what()).find("force_noise_budget"), std::string::npos) << e.what();

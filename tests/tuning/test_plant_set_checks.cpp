@@ -57,49 +57,45 @@ TEST(PlantSetChecks, TheSetIsTheMassRangeWidenedByTheMargin) {
 TEST(PlantSetChecks, AnAmaxPlaneIsCertifiedForTheWholeSetNotForTheHeldMassAlone) {
     GainChecker nominal(falcon(false));
     const GainChecker set(falcon(true));
-    const std::optional<CriterionGains> held = nominal.criterion_gains("amax", 0.30);
-    ASSERT_TRUE(held);
-    EXPECT_TRUE(nominal.pair_is_stable(held->K, held->B, 0.30));
-    EXPECT_GT(loop_simulation::excursion_ratio(0.22, held->K, held->B, kPeriod, 6.0, kWindow15, 60000), 100.0)
+    const CriterionGains held = nominal.criterion_gains(hapticopt::Criterion::AlphaMax, 0.30);
+    EXPECT_TRUE(nominal.pair_is_stable(held.K, held.B, 0.30));
+    EXPECT_GT(loop_simulation::excursion_ratio(0.22, held.K, held.B, kPeriod, 6.0, kWindow15, 60000), 100.0)
         << "amax for 0.30 kg grows at 0.22 kg";
-    const PairVerdict v = set.check_object(held->K, held->B, {0.30});
+    const PairVerdict v = set.check_object(held.K, held.B, {0.30});
     EXPECT_FALSE(v.stable);
     EXPECT_GE(v.failing_mass, 0.2 - 1e-12);
     EXPECT_LT(v.failing_mass, 0.30);
     EXPECT_GT(v.largest_stable_K, 0.0);
-    EXPECT_LT(v.largest_stable_K, held->K);
-    EXPECT_TRUE(set.pair_is_stable(v.largest_stable_K * (1.0 - 1e-9), held->B, 0.30));
-    EXPECT_FALSE(set.pair_is_stable(v.largest_stable_K * (1.0 + 1e-6), held->B, 0.30));
+    EXPECT_LT(v.largest_stable_K, held.K);
+    EXPECT_TRUE(set.pair_is_stable(v.largest_stable_K * (1.0 - 1e-9), held.B, 0.30));
+    EXPECT_FALSE(set.pair_is_stable(v.largest_stable_K * (1.0 + 1e-6), held.B, 0.30));
     EXPECT_FALSE(v.damping_needed);  // no B makes the held amax stiffness stable at 0.2 kg
     // The damping that makes 0.6 of that stiffness stable over the set: inside accepted, just outside refused.
-    const std::optional<std::pair<double, double>> needed = set.damping_range(0.6 * held->K, {0.30}, true);
+    const std::optional<std::pair<double, double>> needed = set.damping_range(0.6 * held.K, {0.30}, true);
     ASSERT_TRUE(needed);
-    EXPECT_TRUE(set.pair_is_stable(0.6 * held->K, needed->first * (1 + 1e-6), 0.30));
-    EXPECT_TRUE(set.pair_is_stable(0.6 * held->K, needed->second * (1 - 1e-6), 0.30));
-    EXPECT_FALSE(set.pair_is_stable(0.6 * held->K, needed->first * (1 - 1e-6), 0.30));
-    EXPECT_FALSE(set.pair_is_stable(0.6 * held->K, needed->second * (1 + 1e-6), 0.30));
+    EXPECT_TRUE(set.pair_is_stable(0.6 * held.K, needed->first * (1 + 1e-6), 0.30));
+    EXPECT_TRUE(set.pair_is_stable(0.6 * held.K, needed->second * (1 - 1e-6), 0.30));
+    EXPECT_FALSE(set.pair_is_stable(0.6 * held.K, needed->first * (1 - 1e-6), 0.30));
+    EXPECT_FALSE(set.pair_is_stable(0.6 * held.K, needed->second * (1 + 1e-6), 0.30));
 
     GainChecker over_set(falcon(true));
-    const std::optional<CriterionGains> robust = over_set.criterion_gains("amax", 0.30);
-    ASSERT_TRUE(robust);
-    EXPECT_LT(robust->K, held->K);
-    EXPECT_NEAR(robust->B / robust->K, held->B / held->K, 1e-12 * held->B / held->K);  // on the optimum's ray
-    EXPECT_TRUE(over_set.check_object(robust->K, robust->B, {0.30}).stable);
+    const CriterionGains robust = over_set.criterion_gains(hapticopt::Criterion::AlphaMax, 0.30);
+    EXPECT_LT(robust.K, held.K);
+    EXPECT_NEAR(robust.B / robust.K, held.B / held.K, 1e-12 * held.B / held.K);  // on the optimum's ray
+    EXPECT_TRUE(over_set.check_object(robust.K, robust.B, {0.30}).stable);
     // amax over the set puts the lightest mass at its boundary: the simulation decides where the radius is clear
     // of 1 (the heavier masses); just inside, 0.99 of the gains decay at the light end too.
     for (const double m : {0.22, 0.25, 0.28, 0.30, 0.33}) {
-        EXPECT_LT(
-            loop_simulation::excursion_ratio(m, 0.99 * robust->K, 0.99 * robust->B, kPeriod, 6.0, kWindow15, 60000),
-            0.9)
+        EXPECT_LT(loop_simulation::excursion_ratio(m, 0.99 * robust.K, 0.99 * robust.B, kPeriod, 6.0, kWindow15, 60000),
+                  0.9)
             << "m = " << m;
     }
     // CE2's optimum for the held Falcon is stable over the set as it is (no derating).
-    const std::optional<CriterionGains> ce2 = over_set.criterion_gains("CE2", 0.30);
-    const std::optional<CriterionGains> ce2_nominal = nominal.criterion_gains("CE2", 0.30);
-    ASSERT_TRUE(ce2 && ce2_nominal);
-    EXPECT_DOUBLE_EQ(ce2->K, ce2_nominal->K);
+    const CriterionGains ce2 = over_set.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+    const CriterionGains ce2_nominal = nominal.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+    EXPECT_DOUBLE_EQ(ce2.K, ce2_nominal.K);
     for (const double m : {0.20, 0.22, 0.30, 0.33}) {
-        EXPECT_LT(loop_simulation::excursion_ratio(m, ce2->K, ce2->B, kPeriod, 6.0, kWindow15, 40000), 0.5)
+        EXPECT_LT(loop_simulation::excursion_ratio(m, ce2.K, ce2.B, kPeriod, 6.0, kWindow15, 40000), 0.5)
             << "m = " << m;
     }
 }
@@ -119,7 +115,7 @@ TEST(PlantSetChecks, TheRobustWallWithTheWindowEstimatorDecaysAcrossTheBox) {
     box.velocity = falcon(false).velocity;
     box.force_noise_budget = 0.05;
     box.position_resolution = 4.85e-5;
-    const TuningResult r = tune_wall_robust("CE2", box);
+    const TuningResult r = tune_wall_robust(hapticopt::Criterion::CE2, box);
     ASSERT_TRUE(r.robust.has_value());
     EXPECT_TRUE(r.robust->mass_certified);
     ASSERT_TRUE(r.robust->force_noise_max.has_value());
@@ -270,17 +266,16 @@ TEST(PlantSetChecks, AStiffArmIsInTheSetAndTheRefusalNamesIt) {
     // The criterion gains over the set with the arm: at 99 % of them the loop decays at the corners of the box
     // (masses 0.2 and 0.33 kg, arms (0, 0), (1000 m, 0), (0, 20 m), (1000 m, 20 m)) and inside it.
     GainChecker tuner(with_arm_plant);
-    for (const char* criterion : {"amax", "CE2"}) {
-        const std::optional<CriterionGains> g = tuner.criterion_gains(criterion, m);
-        ASSERT_TRUE(g.has_value());
-        EXPECT_TRUE(with_arm.pair_is_stable(g->K, g->B, m)) << criterion;
+    for (const hapticopt::Criterion criterion : {hapticopt::Criterion::AlphaMax, hapticopt::Criterion::CE2}) {
+        const CriterionGains g = tuner.criterion_gains(criterion, m);
+        EXPECT_TRUE(with_arm.pair_is_stable(g.K, g.B, m)) << hapticopt::to_string(criterion);
         for (const double mass : {0.2, 0.26, 0.33}) {
             for (const auto& [k, b] : {std::pair{0.0, 0.0}, std::pair{1000.0, 0.0}, std::pair{0.0, 20.0},
                                        std::pair{1000.0, 20.0}, std::pair{370.0, 7.0}, std::pair{820.0, 2.5}}) {
-                EXPECT_LT(loop_simulation::excursion_ratio_with_arm(mass, k * mass, b * mass, 0.99 * g->K, 0.99 * g->B,
+                EXPECT_LT(loop_simulation::excursion_ratio_with_arm(mass, k * mass, b * mass, 0.99 * g.K, 0.99 * g.B,
                                                                     kPeriod, 6.0, kWindow15, 20000),
                           1.0)
-                    << criterion << " m " << mass << " k/m " << k << " b/m " << b;
+                    << hapticopt::to_string(criterion) << " m " << mass << " k/m " << k << " b/m " << b;
             }
         }
     }
@@ -302,37 +297,35 @@ TEST(PlantSetChecks, TheDelayRangeIsInTheSetAndTheRefusalNamesTheDelay) {
     EXPECT_NEAR(ranged.delay_range().second, 0.008, 1e-15);
     EXPECT_NE(ranged.set_text().find("total delays 5 .. 8 ms"), std::string::npos) << ranged.set_text();
     const double m = 0.30;
-    const std::optional<CriterionGains> at_nominal = nominal_delay.criterion_gains("amax", m);
-    ASSERT_TRUE(at_nominal);
-    EXPECT_TRUE(nominal_delay.pair_is_stable(at_nominal->K, at_nominal->B, m));
-    const PairVerdict v = ranged.check_object(at_nominal->K, at_nominal->B, {m});
+    const CriterionGains at_nominal = nominal_delay.criterion_gains(hapticopt::Criterion::AlphaMax, m);
+    EXPECT_TRUE(nominal_delay.pair_is_stable(at_nominal.K, at_nominal.B, m));
+    const PairVerdict v = ranged.check_object(at_nominal.K, at_nominal.B, {m});
     ASSERT_FALSE(v.stable);
     EXPECT_GT(v.failing_delay, 0.006);
     EXPECT_LE(v.failing_delay, 0.008);
     EXPECT_NE(ranged.plant_text(v).find("at the total delay"), std::string::npos) << ranged.plant_text(v);
-    const double growth = loop_simulation::excursion_ratio(v.failing_mass, at_nominal->K, at_nominal->B, kPeriod,
+    const double growth = loop_simulation::excursion_ratio(v.failing_mass, at_nominal.K, at_nominal.B, kPeriod,
                                                            v.failing_delay / kPeriod, kWindow15, 60000);
     EXPECT_GT(growth, 1.0) << ranged.plant_text(v);
     std::printf("[ delay ] amax over the masses at 6 ms (K %.5g, B %.4g) refused with %s; growth x%.3g over 60 s\n",
-                at_nominal->K, at_nominal->B, ranged.plant_text(v).c_str(), growth);
+                at_nominal.K, at_nominal.B, ranged.plant_text(v).c_str(), growth);
     // Over the whole set: decays everywhere drawn.
-    const std::optional<CriterionGains> over_range = ranged.criterion_gains("amax", m);
-    ASSERT_TRUE(over_range);
-    EXPECT_LT(over_range->K, at_nominal->K);
-    EXPECT_TRUE(ranged.pair_is_stable(over_range->K, over_range->B, m));
+    const CriterionGains over_range = ranged.criterion_gains(hapticopt::Criterion::AlphaMax, m);
+    EXPECT_LT(over_range.K, at_nominal.K);
+    EXPECT_TRUE(ranged.pair_is_stable(over_range.K, over_range.B, m));
     std::printf("[ delay ] amax over the set with the delays 5 .. 8 ms: K %.5g, B %.4g (at 6 ms alone: K %.5g)\n",
-                over_range->K, over_range->B, at_nominal->K);
+                over_range.K, over_range.B, at_nominal.K);
     for (const double d : {5.0, 5.37, 6.0, 6.71, 7.29, 8.0}) {
         for (const double mass : {0.2, 0.25, 0.33}) {
-            EXPECT_LT(
-                loop_simulation::excursion_ratio(mass, over_range->K, over_range->B, kPeriod, d, kWindow15, 60000), 1.0)
+            EXPECT_LT(loop_simulation::excursion_ratio(mass, over_range.K, over_range.B, kPeriod, d, kWindow15, 60000),
+                      1.0)
                 << "d " << d << " mass " << mass;
         }
     }
     // Two orthogonal planes with the nominal-delay amax gains: the sum is refused naming the delay.
     Matrix3 K{}, B{};
-    K[0][0] = K[1][1] = at_nominal->K;
-    B[0][0] = B[1][1] = at_nominal->B;
+    K[0][0] = K[1][1] = at_nominal.K;
+    B[0][0] = B[1][1] = at_nominal.B;
     std::string why;
     EXPECT_TRUE(nominal_delay.sum_is_stable(K, B, why)) << why;
     EXPECT_FALSE(ranged.sum_is_stable(K, B, why));
@@ -357,12 +350,11 @@ TEST(PlantSetChecks, TheDelayRangeWithTheArmDecaysAtTheCorners) {
     p.arm_damping_per_mass = 20.0;
     GainChecker checker(p);
     const double m = 0.30;
-    const std::optional<CriterionGains> g = checker.criterion_gains("amax", m);
-    ASSERT_TRUE(g);
+    const CriterionGains g = checker.criterion_gains(hapticopt::Criterion::AlphaMax, m);
     for (const double d : {5.0, 6.43, 8.0}) {
         for (const double mass : {0.2, 0.33}) {
             for (const auto& [k, b] : std::vector<std::pair<double, double>>{{0, 0}, {1000, 0}, {1000, 20}, {370, 7}}) {
-                EXPECT_LT(loop_simulation::excursion_ratio_with_arm(mass, k * mass, b * mass, g->K, g->B, kPeriod, d,
+                EXPECT_LT(loop_simulation::excursion_ratio_with_arm(mass, k * mass, b * mass, g.K, g.B, kPeriod, d,
                                                                     kWindow15, 60000),
                           1.0)
                     << "d " << d << " mass " << mass << " k/m " << k << " b/m " << b;
