@@ -60,8 +60,10 @@ GainChecker::CommitMemo::CommitMemo(const GainChecker& checker) : owner_(&checke
 GainChecker::CommitMemo::~CommitMemo() { active_commit_memo = hidden_; }
 
 GainChecker::DirectionVerdict GainChecker::direction_over_box(double alpha, double beta, bool grid_deferred) const {
-    CommitMemo* memo =
-        active_commit_memo != nullptr && active_commit_memo->owner_ == this ? active_commit_memo : nullptr;
+    // The memo holds the deferred verdicts (the one coupled_over_set asks for with an arm box).
+    CommitMemo* memo = grid_deferred && active_commit_memo != nullptr && active_commit_memo->owner_ == this
+                           ? active_commit_memo
+                           : nullptr;
     const std::pair<double, double> key{alpha, beta};
     if (memo != nullptr) {
         if (const auto it = memo->verdicts_.find(key); it != memo->verdicts_.end()) {
