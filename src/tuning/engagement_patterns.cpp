@@ -310,7 +310,10 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
         return result;
     }
 
-    // The final scene of every group, then the ramp scenes of the groups the batch touches.
+    // The final scene of every group, then the ramp scenes of the groups the batch touches. A commuting sum's
+    // direction pair met again (another pattern or scene, the same plane along another direction) is judged once
+    // (GainChecker::CommitMemo: the verdict is a function of the pair).
+    const GainChecker::CommitMemo memo(checker);
     for (const auto& group : groups) {
         std::string why;
         if (!group_scene_is_stable(checker, terms, group, 1.0, result, why)) {

@@ -165,7 +165,8 @@ class GainChecker {
     // The arm's points of the set every verdict is taken at, normalised (gamma_H, delta_H) = (k_H T^2 / m, b_H T / m):
     // the grid {0, 1/2, 1} x {0, 1/2, 1} of the box [0, arm_stiffness_per_mass T^2] x [0, arm_damping_per_mass T]
     // (one point per zero side; (0, 0) alone without an arm). Sampled, not proven, between them
-    // (docs/robust-stability.md, "The arm").
+    // (docs/robust-stability.md, "The arm"). A commuting sum's directions are taken at the points other than (0, 0)
+    // only when the arm box neither proves nor refutes them (direction_over_box).
     [[nodiscard]] const std::vector<std::pair<double, double>>& arm_points() const noexcept { return arm_points_; }
     // "the mass 0.2 kg" or "the mass 0.2 kg with an arm k_H = 200 N/m, b_H = 0 N s/m", and " at the total delay
     // 6.5 ms" when delay_s >= 0 (for refusals).
@@ -267,6 +268,37 @@ class GainChecker {
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
 
+    // One common eigen-direction (alpha, beta) of a commuting sum over the whole arm box (coupled_over_set): stable
+    // (proven: certified by the box; else neither proven nor refuted within kAcceptArmBoxes and the grid's verdict
+    // stands), or the plant it fails at (scale s = 1 / c, total delay in periods).
+    struct DirectionVerdict {
+        bool stable = false;
+        bool proven = false;
+        double failing_scale = 0.0, failing_delay = -1.0;
+    };
+    // While alive, the direction verdicts of this checker's commuting sums on this thread are kept by their (alpha,
+    // beta), bitwise, and a pair met again answers from here (the verdict is a function of the pair alone: the set,
+    // the budget and the tests are the checker's, fixed). Scoped to one check (a commit's scenes and patterns:
+    // check_engagement_patterns, ramp_is_stable); nests (the inner one answers while it lives). Not shared between
+    // threads.
+    class CommitMemo {
+      public:
+        explicit CommitMemo(const GainChecker& checker);
+        ~CommitMemo();
+        CommitMemo(const CommitMemo&) = delete;
+        CommitMemo& operator=(const CommitMemo&) = delete;
+        // Verdicts answered from the memo.
+        [[nodiscard]] std::size_t hits() const noexcept { return hits_; }
+        [[nodiscard]] std::size_t size() const noexcept { return verdicts_.size(); }
+
+      private:
+        friend class GainChecker;
+        const GainChecker* owner_;
+        CommitMemo* hidden_;
+        std::map<std::pair<double, double>, DirectionVerdict> verdicts_;
+        std::size_t hits_ = 0;
+    };
+
     // The scenes a batch's ramps render (docs/protocol.md, section 5): at tick j after the batch is applied
     // the loop renders base + s_j (K_in, B_in) + (1 - s_j) (K_out, B_out) with s_j = j step (step = T /
     // ramp_time, the loop's ramp increment), from the scene before the batch (s = 0) to the scene after it
@@ -313,6 +345,16 @@ class GainChecker {
     // f if f (alpha, beta) is stable over the whole set (certified), else the largest stable f' < f found by 30
     // bisection steps on the certified verdict, kAlphaMaxBackOff inside when that is stable too (0: none).
     [[nodiscard]] double certified_factor_below(double m, double alpha, double beta, double f) const;
+    // A commuting sum's direction (alpha, beta) over the arm box (arm_box_ set), the live CommitMemo first.
+    // grid_deferred: the grid's arms other than 0 were not judged (coupled_over_set); a direction the box neither
+    // proves nor refutes is then judged at each of them as the grid judges it (exact along the mass, and over the
+    // delays by the estimated DelayRangeTest), so it is accepted only when the grid's full verdict holds, as without
+    // the deferral. A direction the box proves stable needs no more: the box is certified over every arm, mass and
+    // delay of the set, the grid's among them (a grid test could only refuse it wrongly: the estimated fit's residual).
+    // A direction it refutes is refused with the box's plant. Cost saved per proven direction: 8 exact crossing
+    // computations along the mass (~0.3 ms each on the Falcon's window 15) and, with delays, 8 estimated DelayRangeTest
+    // verdicts.
+    [[nodiscard]] DirectionVerdict direction_over_box(double alpha, double beta, bool grid_deferred) const;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 

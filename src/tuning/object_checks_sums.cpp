@@ -46,6 +46,62 @@ hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const 
                                                     Eigen::MatrixXd(Bn), estimator_);
 }
 
+namespace {
+
+// The innermost live CommitMemo of this thread (nullptr: none); each memo keeps the one it hides and restores it.
+thread_local GainChecker::CommitMemo* active_commit_memo = nullptr;
+
+}  // namespace
+
+GainChecker::CommitMemo::CommitMemo(const GainChecker& checker) : owner_(&checker), hidden_(active_commit_memo) {
+    active_commit_memo = this;
+}
+
+GainChecker::CommitMemo::~CommitMemo() { active_commit_memo = hidden_; }
+
+GainChecker::DirectionVerdict GainChecker::direction_over_box(double alpha, double beta, bool grid_deferred) const {
+    // The memo holds the deferred verdicts (the one coupled_over_set asks for with an arm box).
+    CommitMemo* memo = grid_deferred && active_commit_memo != nullptr && active_commit_memo->owner_ == this
+                           ? active_commit_memo
+                           : nullptr;
+    const std::pair<double, double> key{alpha, beta};
+    if (memo != nullptr) {
+        if (const auto it = memo->verdicts_.find(key); it != memo->verdicts_.end()) {
+            ++memo->hits_;
+            return it->second;
+        }
+    }
+    const double s_lo = 1.0 / scale_max_, s_hi = 1.0 / scale_min_;
+    DirectionVerdict v;
+    const hapticopt::ArmBoxStability box = arm_box_->over(alpha, beta, s_lo, s_hi, kAcceptArmBoxes);
+    if (box.stable) {
+        v.stable = v.proven = true;
+    } else if (box.proven_unstable) {
+        v.failing_scale = box.failing_scale;
+        v.failing_delay = box.failing_delay;
+        v.proven = true;
+    } else {
+        // Neither proven nor refuted within the subdivision limit: the grid's verdict stands, sampled. Deferred: the
+        // grid's non-zero arms are judged now for this direction, each as the grid judges it (the 1 x 1 gains (alpha,
+        // beta): the same tests the whole sum's matrix_over runs per common direction).
+        v.stable = true;
+        const Eigen::MatrixXd a1 = Eigen::MatrixXd::Constant(1, 1, alpha), b1 = Eigen::MatrixXd::Constant(1, 1, beta);
+        for (std::size_t a = 1; grid_deferred && a < arm_points_.size(); ++a) {
+            const hapticopt::MatrixGainScaleStability g =
+                delay_tests_.empty() ? scalings_[a].matrix_over(a1, b1, s_lo, s_hi, kSampledCoupledScales)
+                                     : delay_tests_[a].matrix_over(a1, b1, s_lo, s_hi, kSampledCoupledScales);
+            if (!g.stable) {
+                v.stable = false;
+                v.failing_scale = g.failing_scale;
+                v.failing_delay = g.failing_delay;
+                break;
+            }
+        }
+    }
+    if (memo != nullptr) memo->verdicts_.emplace(key, v);
+    return v;
+}
+
 hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum) const {
     const double T = plant_.period;
     const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
@@ -54,7 +110,12 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
     // The mass matrix c M gives the unit-mass gains (A, B) / c: the scales s = 1 / c. Every arm point in turn.
     hapticopt::MatrixGainScaleStability r;
     r.stable = true;
-    for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+    // With the arm box, a commuting sum's grid arms other than 0 are deferred to the box, per direction
+    // (direction_over_box): judged only for a direction the box neither proves nor refutes, whose verdict is then the
+    // grid's. Arm 0 (the device alone; with delays the certified closed-form family) is judged first and tells whether
+    // the sum commutes (the same for every arm: it depends on A, B alone).
+    bool grid_deferred = false;
+    for (std::size_t a = 0; a < arm_points_.size() && !grid_deferred; ++a) {
         if (!scalings_.empty()) {
             const hapticopt::MatrixGainScaleStability v =
                 delay_tests_.empty()
@@ -64,6 +125,7 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
             r.certified = v.certified && !arm_box_;  // with an arm: certified below, per direction
             r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
             if (!v.stable) return v;
+            grid_deferred = a == 0 && arm_box_ && v.commuting;
             continue;
         }
         // b or k > 0 (one mass): the coupled verdict at each sampled mass
@@ -97,20 +159,16 @@ hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3&
         if (Q.cols() > 0) {
             const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
             for (const hapticopt::NormalizedGains& g : hapticopt::detail::common_direction_gains(Ar, Br)) {
-                const hapticopt::ArmBoxStability box =
-                    arm_box_->over(g.alpha, g.beta, 1.0 / scale_max_, 1.0 / scale_min_, kAcceptArmBoxes);
-                // Neither proven nor refuted within the subdivision limit: the grid's verdict above stands, sampled.
-                if (!box.stable && !box.proven_unstable) {
-                    unproven = true;
+                const DirectionVerdict d = direction_over_box(g.alpha, g.beta, grid_deferred);
+                if (d.stable) {
+                    unproven = unproven || !d.proven;
                     continue;
                 }
-                if (!box.stable) {
-                    r.stable = false;
-                    r.failing_scale = box.failing_scale;
-                    r.failing_delay = box.failing_delay;
-                    r.certified = true;
-                    return r;
-                }
+                r.stable = false;
+                r.failing_scale = d.failing_scale;
+                r.failing_delay = d.failing_delay;
+                r.certified = d.proven;
+                return r;
             }
         }
         r.certified = !unproven;
@@ -239,6 +297,7 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
 bool GainChecker::ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in, const Matrix3& B_in,
                                  const Matrix3& K_out, const Matrix3& B_out, double step, std::string& why) const {
     if (!(step > 0.0) || step >= 1.0) return true;  // no ramp: the scene jumps from before to after
+    const CommitMemo memo(*this);                   // a direction's pair met again in a later scene is judged once
     for (int j = 1;; ++j) {
         const double s = static_cast<double>(j) * step;
         if (s >= 1.0) return true;

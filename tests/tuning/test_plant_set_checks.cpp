@@ -5,6 +5,7 @@
 // own nominal verdicts (a set verdict implies the nominal one; the converse is what the set adds).
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -405,6 +406,108 @@ TEST(PlantSetChecks, AnInteriorArmTheGridMissesIsRefused) {
     } else {
         EXPECT_FALSE(checker.pair_is_stable(1e-6 * K, B, p.mass));
     }
+}
+
+// The grid's arms other than 0 deferred to the certified box (GainChecker::direction_over_box) and the commit's memo
+// change no verdict: on the Falcon's loop with the arm of eq. 2 and the delays 5 .. 8 ms, every scene below gets the
+// verdict of the path that judges the 9 grid arms first (DelayRangeTest::matrix_over at each, then ArmBoxTest per
+// common direction with kAcceptArmBoxes = 256 sub-boxes, accepted when neither proven nor refuted), written out here
+// from the library's tests: a plane's 29 ramp scenes and its final scene (the first three the box neither proves nor
+// refutes), the amax gains over the set scaled by 0.9 .. 1.6 on one plane and on two orthogonal planes (refused from
+// 1.2 on), and the amax gains at the nominal delay alone on two planes (refused, naming the delay). A refusal names
+// the plant it fails at; the two identical orthogonal planes' second direction answers from the memo.
+namespace {
+
+constexpr int kGridReferenceBoxes = 256;  // GainChecker::kAcceptArmBoxes
+
+bool grid_then_box_verdict(const GainChecker& checker, const GainCheckPlant& p, const Matrix3& K, const Matrix3& B) {
+    const double T = p.period;
+    const auto [c_min, c_max] = checker.mass_scales();
+    const double s_lo = 1.0 / c_max, s_hi = 1.0 / c_min;
+    const double d_lo = checker.delay_range().first / T, d_hi = checker.delay_range().second / T;
+    const Eigen::Matrix3d Mis = as_eigen(checker.mass().inverse_sqrt);
+    const Eigen::MatrixXd A = (T * T) * (Mis * as_eigen(K) * Mis), Bn = T * (Mis * as_eigen(B) * Mis);
+    for (const auto& [gamma, delta] : checker.arm_points()) {
+        const hapticopt::DelayRangeTest grid(hapticopt::NormalizedPlant{gamma, delta, d_lo}, checker.estimator(), d_lo,
+                                             d_hi);
+        if (!grid.matrix_over(A, Bn, s_lo, s_hi, GainChecker::kSampledCoupledScales).stable) return false;
+    }
+    const hapticopt::ArmBoxTest box(hapticopt::NormalizedPlant{0.0, 0.0, d_lo}, checker.estimator(),
+                                    p.arm_stiffness_per_mass * T * T, p.arm_damping_per_mass * T, d_lo, d_hi);
+    const Eigen::MatrixXd Q = hapticopt::detail::acting_basis(A, Bn);
+    const Eigen::MatrixXd Ar = Q.transpose() * A * Q, Br = Q.transpose() * Bn * Q;
+    for (const hapticopt::NormalizedGains& g : hapticopt::detail::common_direction_gains(Ar, Br)) {
+        if (box.over(g.alpha, g.beta, s_lo, s_hi, kGridReferenceBoxes).proven_unstable) return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+TEST(PlantSetChecks, TheDeferredGridAndTheMemoKeepEveryVerdictOfTheGridFirstPath) {
+    GainCheckPlant p = falcon(true);
+    p.delay_range = std::make_pair(0.005, 0.008);
+    p.arm_stiffness_per_mass = 1000.0;
+    p.arm_damping_per_mass = 20.0;
+    GainChecker checker(p);
+    const double m = 0.30;
+    const std::optional<CriterionGains> ce2 = checker.criterion_gains("CE2", m);
+    const std::optional<CriterionGains> amax = checker.criterion_gains("amax", m);
+    GainCheckPlant at_nominal_plant = falcon(true);
+    at_nominal_plant.arm_stiffness_per_mass = 1000.0;
+    at_nominal_plant.arm_damping_per_mass = 20.0;
+    const std::optional<CriterionGains> amax_nominal = GainChecker(at_nominal_plant).criterion_gains("amax", m);
+    ASSERT_TRUE(ce2 && amax && amax_nominal);
+    struct Scene {
+        std::string name;
+        Matrix3 K{}, B{};
+    };
+    std::vector<Scene> scenes;
+    for (int j = 1; j <= 30; ++j) {  // the plane's ramp scenes at the default 30 ms ramp, and its final scene
+        const double s = j / 30.0;
+        Scene sc{"ramp s = " + std::to_string(j) + "/30", {}, {}};
+        sc.K[2][2] = s * s * 0.5 * ce2->K;
+        sc.B[2][2] = s * 0.5 * ce2->B;
+        scenes.push_back(sc);
+    }
+    for (const double f : {0.9, 1.0, 1.2, 1.6}) {
+        for (const int planes : {1, 2}) {
+            Scene sc{"amax x " + std::to_string(f) + " on " + std::to_string(planes) + " planes", {}, {}};
+            for (int i = 0; i < planes; ++i) {
+                sc.K[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = f * amax->K;
+                sc.B[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = f * amax->B;
+            }
+            scenes.push_back(sc);
+        }
+    }
+    Scene nominal{"amax at 6 ms on 2 planes", {}, {}};
+    nominal.K[0][0] = nominal.K[1][1] = amax_nominal->K;
+    nominal.B[0][0] = nominal.B[1][1] = amax_nominal->B;
+    scenes.push_back(nominal);
+    int refused = 0;
+    for (const Scene& sc : scenes) {
+        std::string why;
+        const bool verdict = checker.sum_is_stable(sc.K, sc.B, why);
+        EXPECT_EQ(verdict, grid_then_box_verdict(checker, p, sc.K, sc.B)) << sc.name << ": " << why;
+        if (verdict) continue;
+        ++refused;
+        EXPECT_NE(why.find("outside the stability region with the mass"), std::string::npos) << sc.name << ": " << why;
+        EXPECT_NE(why.find("at the total delay"), std::string::npos) << sc.name << ": " << why;
+    }
+    EXPECT_GE(refused, 3);
+    EXPECT_LT(refused, static_cast<int>(scenes.size()) - 30);
+    // The commit's memo: two identical orthogonal planes have one direction pair, judged once; the verdict is the one
+    // without the memo.
+    Matrix3 K{}, B{};
+    K[0][0] = K[1][1] = 0.5 * ce2->K;
+    B[0][0] = B[1][1] = 0.5 * ce2->B;
+    std::string why;
+    const bool without_memo = checker.sum_is_stable(K, B, why);
+    const GainChecker::CommitMemo memo(checker);
+    EXPECT_EQ(checker.sum_is_stable(K, B, why), without_memo) << why;
+    EXPECT_TRUE(without_memo) << why;
+    EXPECT_EQ(memo.size(), 1U);
+    EXPECT_EQ(memo.hits(), 1U);
 }
 
 }  // namespace plant_set_checks_test
