@@ -451,13 +451,13 @@ TEST(PlantSetChecks, TheDeferredGridAndTheMemoKeepEveryVerdictOfTheGridFirstPath
     p.arm_damping_per_mass = 20.0;
     GainChecker checker(p);
     const double m = 0.30;
-    const std::optional<CriterionGains> ce2 = checker.criterion_gains("CE2", m);
-    const std::optional<CriterionGains> amax = checker.criterion_gains("amax", m);
+    const CriterionGains ce2 = checker.criterion_gains(hapticopt::Criterion::CE2, m);
+    const CriterionGains amax = checker.criterion_gains(hapticopt::Criterion::AlphaMax, m);
     GainCheckPlant at_nominal_plant = falcon(true);
     at_nominal_plant.arm_stiffness_per_mass = 1000.0;
     at_nominal_plant.arm_damping_per_mass = 20.0;
-    const std::optional<CriterionGains> amax_nominal = GainChecker(at_nominal_plant).criterion_gains("amax", m);
-    ASSERT_TRUE(ce2 && amax && amax_nominal);
+    const CriterionGains amax_nominal =
+        GainChecker(at_nominal_plant).criterion_gains(hapticopt::Criterion::AlphaMax, m);
     struct Scene {
         std::string name;
         Matrix3 K{}, B{};
@@ -466,23 +466,23 @@ TEST(PlantSetChecks, TheDeferredGridAndTheMemoKeepEveryVerdictOfTheGridFirstPath
     for (int j = 1; j <= 30; ++j) {  // the plane's ramp scenes at the default 30 ms ramp, and its final scene
         const double s = j / 30.0;
         Scene sc{"ramp s = " + std::to_string(j) + "/30", {}, {}};
-        sc.K[2][2] = s * s * 0.5 * ce2->K;
-        sc.B[2][2] = s * 0.5 * ce2->B;
+        sc.K[2][2] = s * s * 0.5 * ce2.K;
+        sc.B[2][2] = s * 0.5 * ce2.B;
         scenes.push_back(sc);
     }
     for (const double f : {0.9, 1.0, 1.2, 1.6}) {
         for (const int planes : {1, 2}) {
             Scene sc{"amax x " + std::to_string(f) + " on " + std::to_string(planes) + " planes", {}, {}};
             for (int i = 0; i < planes; ++i) {
-                sc.K[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = f * amax->K;
-                sc.B[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = f * amax->B;
+                sc.K[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = f * amax.K;
+                sc.B[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = f * amax.B;
             }
             scenes.push_back(sc);
         }
     }
     Scene nominal{"amax at 6 ms on 2 planes", {}, {}};
-    nominal.K[0][0] = nominal.K[1][1] = amax_nominal->K;
-    nominal.B[0][0] = nominal.B[1][1] = amax_nominal->B;
+    nominal.K[0][0] = nominal.K[1][1] = amax_nominal.K;
+    nominal.B[0][0] = nominal.B[1][1] = amax_nominal.B;
     scenes.push_back(nominal);
     int refused = 0;
     for (const Scene& sc : scenes) {
@@ -499,8 +499,8 @@ TEST(PlantSetChecks, TheDeferredGridAndTheMemoKeepEveryVerdictOfTheGridFirstPath
     // The commit's memo: two identical orthogonal planes have one direction pair, judged once; the verdict is the one
     // without the memo.
     Matrix3 K{}, B{};
-    K[0][0] = K[1][1] = 0.5 * ce2->K;
-    B[0][0] = B[1][1] = 0.5 * ce2->B;
+    K[0][0] = K[1][1] = 0.5 * ce2.K;
+    B[0][0] = B[1][1] = 0.5 * ce2.B;
     std::string why;
     const bool without_memo = checker.sum_is_stable(K, B, why);
     const GainChecker::CommitMemo memo(checker);
