@@ -7,6 +7,7 @@
 #include <variant>
 
 #include "client/text_limits.hpp"
+#include "common/criterion_names.hpp"
 #include "tuning/tuning.hpp"
 
 namespace hapticd::server {

@@ -7,7 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "common/criterion_names.hpp"
+#include <hapticopt/criterion.hpp>
+
 #include "common/velocity_estimator_spec.hpp"
 
 namespace hapticopt {
@@ -95,8 +96,8 @@ struct PlantSetCertificate {
     double arm_stiffness_per_mass = 0.0, arm_damping_per_mass = 0.0;
     double derating = 1.0;
     bool exact = true;  // exact along the mass
-    bool arm_certified =
-        false;  // the arm box certified, else sampled at its grid (docs/robust-stability.md, "The arm")
+    // The arm box certified, else sampled at its grid (docs/robust-stability.md, "The arm").
+    bool arm_certified = false;
     // With every mass and arm, every total delay in [delay_min, delay_max] (s; the wall's delay twice without
     // inherent_delay_range); delay_exact: certified (docs/robust-stability.md, "The delay").
     double delay_min = 0.0, delay_max = 0.0;
