@@ -14,6 +14,9 @@
 // eigenvalues of the loop transition M (closed_loop.hpp); the tests check this.
 #pragma once
 
+#include <array>
+#include <cstddef>
+
 #include <Eigen/Core>
 
 #include "sampled_plant.hpp"
@@ -33,11 +36,19 @@ struct AffineCharacteristicPolynomial {
     Coefficients at(Scalar a, Scalar b) const { return base + a * alpha + b * beta; }
 };
 
-/// p(z) from the plant's segment transitions exp(A length_s) (one segment for integer d, two
-/// otherwise) and the whole delay n. 2x2 products written out.
+/// The plant's two factors of p(z) (header comment): D(z) = det(z I - Phi) = d0 + d1 z + z^2 and
+/// q(z) = [z - Phi_22, Phi_12] (g_a + z g_b) = q0 + q1 z + q2 z^2, from the segment transitions exp(A length_s)
+/// (one segment for integer d, two otherwise). 2x2 products written out.
 template <typename Scalar>
-AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(int whole_delay, int segment_count,
-                                                                 const Matrix3<Scalar>& ea, const Matrix3<Scalar>& eb) {
+struct PlantPolynomialFactors {
+    int whole_delay = 0;        ///< n
+    std::array<Scalar, 3> q{};  ///< q0, q1, q2 (q0 = 0 for integer d)
+    std::array<Scalar, 2> d{};  ///< d0, d1 (D is monic)
+};
+
+template <typename Scalar>
+PlantPolynomialFactors<Scalar> plant_polynomial_factors(int whole_delay, int segment_count, const Matrix3<Scalar>& ea,
+                                                        const Matrix3<Scalar>& eb) {
     Scalar phi[2][2];
     Scalar ga[2] = {0, 0};
     Scalar gb[2];
@@ -54,12 +65,30 @@ AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(int whole_delay
             gb[i] = -eb(i, 2);
         }
     }
-    // q(z) = q0 + q1 z + q2 z^2
-    const Scalar q2 = gb[0];
-    const Scalar q1 = ga[0] - phi[1][1] * gb[0] + phi[0][1] * gb[1];
-    const Scalar q0 = -phi[1][1] * ga[0] + phi[0][1] * ga[1];
-    const Scalar d1 = -(phi[0][0] + phi[1][1]);
-    const Scalar d0 = phi[0][0] * phi[1][1] - phi[0][1] * phi[1][0];
+    PlantPolynomialFactors<Scalar> f;
+    f.whole_delay = whole_delay;
+    f.q[2] = gb[0];
+    f.q[1] = ga[0] - phi[1][1] * gb[0] + phi[0][1] * gb[1];
+    f.q[0] = -phi[1][1] * ga[0] + phi[0][1] * ga[1];
+    f.d[1] = -(phi[0][0] + phi[1][1]);
+    f.d[0] = phi[0][0] * phi[1][1] - phi[0][1] * phi[1][0];
+    return f;
+}
+
+/// The factors from the plant transitions alone (plant_transitions, sampled_plant.hpp).
+template <typename Scalar>
+PlantPolynomialFactors<Scalar> plant_polynomial_factors(const PlantTransitions<Scalar>& t) {
+    return plant_polynomial_factors<Scalar>(t.whole_delay, t.segment_count, t.exp[0],
+                                            t.exp[static_cast<std::size_t>(t.segment_count - 1)]);
+}
+
+/// p(z) from the plant's segment transitions exp(A length_s) (one segment for integer d, two
+/// otherwise) and the whole delay n.
+template <typename Scalar>
+AffineCharacteristicPolynomial<Scalar> characteristic_polynomial(int whole_delay, int segment_count,
+                                                                 const Matrix3<Scalar>& ea, const Matrix3<Scalar>& eb) {
+    const PlantPolynomialFactors<Scalar> f = plant_polynomial_factors<Scalar>(whole_delay, segment_count, ea, eb);
+    const Scalar q0 = f.q[0], q1 = f.q[1], q2 = f.q[2], d0 = f.d[0], d1 = f.d[1];
 
     const int n = whole_delay;
     const int degree = n + 4;

@@ -44,23 +44,37 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, 1> poly_product(const Eigen::Matrix<Scalar
 
 }  // namespace detail
 
-/// p_est(z) = P_0 At + alpha P_alpha At + beta P_alpha Bt (header comment) from the backward loop's p(z).
+/// The estimator's transfer in z, D(z) T = Bt(z) / At(z) with At monic of degree l = max(nb - 1, na) (ascending
+/// coefficients): the backward difference gives At = z, Bt = z - 1.
 template <typename Scalar>
-AffineCharacteristicPolynomial<Scalar> estimator_characteristic_polynomial(
-    const AffineCharacteristicPolynomial<Scalar>& base, const VelocityEstimator& estimator) {
-    using Coefficients = typename AffineCharacteristicPolynomial<Scalar>::Coefficients;
+struct EstimatorTransferPolynomials {
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1> at;
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1> bt;
+};
+
+template <typename Scalar>
+EstimatorTransferPolynomials<Scalar> estimator_transfer_polynomials(const VelocityEstimator& estimator) {
+    using Coefficients = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
     const EstimatorCoefficients<Scalar> co = estimator_coefficients<Scalar>(estimator);
     const int nb = static_cast<int>(co.b.size());
     const int na = static_cast<int>(co.a.size());
     const int l = std::max(nb - 1, na);
-    Coefficients at = Coefficients::Zero(l + 1), bt = Coefficients::Zero(l + 1);
-    at(l) = 1;
-    for (int k = 1; k <= na; ++k) at(l - k) = -co.a[static_cast<std::size_t>(k - 1)];
-    for (int i = 0; i < nb; ++i) bt(l - i) = co.b[static_cast<std::size_t>(i)];
+    EstimatorTransferPolynomials<Scalar> t{Coefficients::Zero(l + 1), Coefficients::Zero(l + 1)};
+    t.at(l) = 1;
+    for (int k = 1; k <= na; ++k) t.at(l - k) = -co.a[static_cast<std::size_t>(k - 1)];
+    for (int i = 0; i < nb; ++i) t.bt(l - i) = co.b[static_cast<std::size_t>(i)];
+    return t;
+}
+
+/// p_est(z) = P_0 At + alpha P_alpha At + beta P_alpha Bt (header comment) from the backward loop's p(z).
+template <typename Scalar>
+AffineCharacteristicPolynomial<Scalar> estimator_characteristic_polynomial(
+    const AffineCharacteristicPolynomial<Scalar>& base, const VelocityEstimator& estimator) {
+    const EstimatorTransferPolynomials<Scalar> t = estimator_transfer_polynomials<Scalar>(estimator);
     AffineCharacteristicPolynomial<Scalar> p;
-    p.base = detail::poly_product(base.base, at);
-    p.alpha = detail::poly_product(base.alpha, at);
-    p.beta = detail::poly_product(base.alpha, bt);
+    p.base = detail::poly_product(base.base, t.at);
+    p.alpha = detail::poly_product(base.alpha, t.at);
+    p.beta = detail::poly_product(base.alpha, t.bt);
     return p;
 }
 

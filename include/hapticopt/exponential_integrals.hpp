@@ -171,4 +171,39 @@ Matrix3<Scalar> exponential(const Matrix3<Scalar>& A, Scalar h) {
     return result;
 }
 
+/// exp(A t) in closed form for the free mass with damping, A = [[0, 1, 0], [0, -delta, -1], [0, 0, 0]] (the
+/// normalised plant's augmented matrix with gamma = 0, sampled_plant.hpp):
+///   exp(A t) = [[1, E1, -E2], [0, e^(-delta t), -E1], [0, 0, 1]],
+///   E1 = integral_0^t e^(-delta u) du = -expm1(-delta t) / delta,   E2 = integral_0^t E1 = (t - E1) / delta,
+/// E1 = t and E2 = t^2 / 2 at delta = 0. E2's difference cancels for small delta t: there (|delta t| < 1) the
+/// series E2 = t^2 sum_k (-delta t)^k / (k + 2)!, summed until its terms fall below the rounding; elsewhere
+/// t - E1 >= t / e loses at most a factor e. A few roundings per entry, against the series' error growing
+/// with its 2^s squarings (exponential above). Expects delta >= 0, t >= 0.
+template <typename Scalar>
+Matrix3<Scalar> free_mass_exponential(Scalar delta, Scalar t) {
+    using std::exp;
+    using std::expm1;
+    const Scalar x = delta * t;
+    Scalar e1, e2;
+    if (x < Scalar(1)) {
+        Scalar term = Scalar(1) / Scalar(2), sum = term;  // x^k / (k + 2)! with alternating sign
+        Scalar series1 = Scalar(1), term1 = Scalar(1);    // E1 / t = sum_k (-x)^k / (k + 1)!
+        for (int k = 1; k < 40; ++k) {
+            term *= -x / Scalar(k + 2);
+            term1 *= -x / Scalar(k + 1);
+            sum += term;
+            series1 += term1;
+            if (std::abs(term1) <= std::numeric_limits<Scalar>::epsilon() * Scalar(1e-3)) break;
+        }
+        e1 = t * series1;
+        e2 = t * t * sum;
+    } else {
+        e1 = -expm1(-x) / delta;
+        e2 = (t - e1) / delta;
+    }
+    Matrix3<Scalar> m;
+    m << Scalar(1), e1, -e2, Scalar(0), exp(-x), -e1, Scalar(0), Scalar(0), Scalar(1);
+    return m;
+}
+
 }  // namespace hapticopt

@@ -79,17 +79,20 @@
 //    The DF is an approximation; its accuracy against a time-stepping simulation with stick-slip friction
 //    and real rounding is measured in tests/beyond/test_limit_cycles.cpp and tabulated in
 //    docs/limit-cycles.md, with where it holds and where it does not.
-//    Cost: 241 grid amplitudes plus ~40 bisection steps per cycle, each a bias bisection over the crossed
-//    thresholds and, when f_c > 0, 64 (d + 2 + L) + ~45 per crossover plant exponentials (one in all when
-//    f_c = 0): 30 to 110 ms for d = 0..6 with the backward difference (tests/benchmarks/core_benchmarks.cpp,
-//    BM_PredictLimitCycle). With an estimator each transfer evaluation also grows with its order (Horner on
-//    polynomials of degree d + 2 + L), up to N^2 for the window: at d = 6, 43 / 131 ms (low-pass nu = 0.02,
-//    f_c = 0 / 0.3 K q) and 102 / 395 ms (window 15), BM_PredictLimitCycleEstimator.
+//    Cost: 241 grid amplitudes plus ~40 bisection steps per cycle. Each amplitude solves the bias once (Illinois
+//    regula falsi on k x0 + K M(x0, A) - F, scalar_search.hpp, ~10 evaluations of M, each a sum over the 2 A / q
+//    crossed thresholds) and scans 64 (d + 2 + L) frequencies plus ~45 bisection steps per crossover; each
+//    transfer evaluation is G from the factors (LimitCycleLinearPart: O(L)), and when f_c > 0 it re-discretises the
+//    plant at b + b_eq (the free mass by free_mass_exponential's closed form, a plant with a spring by the series).
+//    Measured (tests/benchmarks/core_benchmarks.cpp, CPU, load 4): backward difference d = 0, 1, 6, f_c = 0 / 0.3 N:
+//    12-16 / 15-19, 18 / 21-38, 19-28 / 29-30 ms (BM_PredictLimitCycle); d = 6, f_c = 0 / 0.3 K q: low-pass
+//    nu = 0.02 24-25 / 32-34 ms, window 15 59-76 / 74-95 ms (BM_PredictLimitCycleEstimator).
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -221,7 +224,15 @@ inline double limit_cycle_bias(double k, double stiffness, double force, double 
     double lo = centre - reach, hi = centre + reach;
     while (g(lo) > 0) lo -= reach;  // g is non-decreasing; these loops end within a step or two
     while (g(hi) < 0) hi += reach;
-    const double tol = 1e-14 * reach;
+    // 1e-14 of the reach, but not below the spacing of doubles there (a bisection would not end before its cap)
+    const double tol =
+        std::max(1e-14 * reach, 4 * std::numeric_limits<double>::epsilon() * std::max(std::abs(lo), std::abs(hi)));
+    const double g_lo = g(lo), g_hi = g(hi);
+    if (g_lo < 0 && g_hi > 0) {  // a sign change: Illinois (scalar_search.hpp), ~10 evaluations instead of ~90
+        const IllinoisBracket r = illinois_bracket(g, lo, hi, g_lo, g_hi, tol);
+        if (r.bracketed) return (r.a + r.b) / 2;
+    }
+    // g == 0 met exactly: the zero set may be an interval (g flat); its ends by bisection, the middle
     const auto left = bisect([&](double x) { return g(x) >= 0; }, lo, hi, tol, 200);  // first x with g >= 0
     const auto right = bisect([&](double x) { return g(x) > 0; }, lo, hi, tol, 200);  // first x with g > 0
     return (left.second + right.second) / 2;
@@ -229,17 +240,41 @@ inline double limit_cycle_bias(double k, double stiffness, double force, double 
 
 /// Loop transfer G(e^{j theta}) = (alpha P_alpha + beta P_beta) / P_0 and the polynomial, for damping delta;
 /// with a low-pass or window estimator the polynomial is p_est (estimator_characteristic_polynomial).
+/// The transfer is evaluated from the polynomials' factors, not from their coefficients: with the plant's
+/// D(z), q(z) (plant_polynomial_factors), P_0 = z^(n+2) D, P_alpha = z q, and the estimator's At, Bt
+/// (estimator_transfer_polynomials; At = z, Bt = z - 1 for the backward difference),
+///   G(z) = q(z) (alpha At(z) + beta Bt(z)) / (z^(n+1) D(z) At(z)),
+/// O(l) per evaluation (l the estimator's order) instead of the products of polynomials of degree n + 4 + l.
 struct LimitCycleLinearPart {
+    LimitCycleLinearPart(const NormalizedPlant& p, double a, double b, const VelocityEstimator& e)
+        : plant(p), alpha(a), beta(b), estimator(e), controller(estimator_transfer_polynomials<double>(e)) {}
+
     NormalizedPlant plant;
     double alpha, beta;
     VelocityEstimator estimator;
+    EstimatorTransferPolynomials<double> controller;
 
-    AffineCharacteristicPolynomial<double> polynomial(double delta) const {
+    NormalizedPlant with_damping(double delta) const {
         NormalizedPlant p = plant;
         p.delta = delta;
-        AffineCharacteristicPolynomial<double> backward = characteristic_polynomial(plant_transitions<double>(p));
+        return p;
+    }
+
+    AffineCharacteristicPolynomial<double> polynomial(double delta) const {
+        AffineCharacteristicPolynomial<double> backward =
+            characteristic_polynomial(plant_transitions<double>(with_damping(delta)));
         if (estimator.kind == VelocityEstimatorKind::backward) return backward;
         return estimator_characteristic_polynomial(backward, estimator);
+    }
+
+    /// The plant's factors at damping delta; the free mass (gamma = 0) by the closed-form exponential.
+    PlantPolynomialFactors<double> factors(double delta) const {
+        const NormalizedPlant p = with_damping(delta);
+        if (p.gamma == 0) {
+            return plant_polynomial_factors(plant_transitions_with<double>(
+                p, [delta](double length) { return free_mass_exponential(delta, length); }));
+        }
+        return plant_polynomial_factors(plant_transitions<double>(p));
     }
 
     static std::complex<double> horner(const Eigen::VectorXd& c, std::complex<double> z) {
@@ -248,9 +283,13 @@ struct LimitCycleLinearPart {
         return v;
     }
 
-    std::complex<double> transfer(const AffineCharacteristicPolynomial<double>& p, double theta) const {
+    std::complex<double> transfer(const PlantPolynomialFactors<double>& f, double theta) const {
         const std::complex<double> z = std::polar(1.0, theta);
-        return (alpha * horner(p.alpha, z) + beta * horner(p.beta, z)) / horner(p.base, z);
+        const std::complex<double> q = (f.q[2] * z + f.q[1]) * z + f.q[0];
+        const std::complex<double> d = (z + f.d[1]) * z + f.d[0];
+        const std::complex<double> at = horner(controller.at, z);
+        const std::complex<double> shift = std::polar(1.0, (f.whole_delay + 1) * theta);
+        return q * (alpha * at + beta * horner(controller.bt, z)) / (shift * d * at);
     }
 };
 
@@ -283,9 +322,9 @@ HAPTICOPT_FUNC LimitCyclePrediction predict_limit_cycle(const LimitCycleLoop& lo
     auto delta_at = [&](double amplitude, double theta) {
         return base.delta + (friction > 0 ? 4 * friction / (pi * amplitude * theta) : 0.0);
     };
-    const auto fixed = linear.polynomial(base.delta);  // used when f_c = 0
+    const auto fixed = linear.factors(base.delta);  // used when f_c = 0
     auto transfer = [&](double amplitude, double theta) {
-        return friction > 0 ? linear.transfer(linear.polynomial(delta_at(amplitude, theta)), theta)
+        return friction > 0 ? linear.transfer(linear.factors(delta_at(amplitude, theta)), theta)
                             : linear.transfer(fixed, theta);
     };
 

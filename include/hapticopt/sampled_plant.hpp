@@ -59,21 +59,28 @@ struct PlantTransitions {
     std::array<Matrix3<Scalar>, 2> exp;  ///< exp(A length_s), s < segment_count
 };
 
-template <typename Scalar>
-PlantTransitions<Scalar> plant_transitions(const NormalizedPlant& plant) {
+/// The transitions with exp(A length) taken from `exponential_of(length)` (e.g. free_mass_exponential where
+/// gamma = 0); plant_transitions uses the series.
+template <typename Scalar, typename Exponential>
+PlantTransitions<Scalar> plant_transitions_with(const NormalizedPlant& plant, const Exponential& exponential_of) {
     PlantTransitions<Scalar> t;
     const double whole = std::floor(plant.delay);
     t.whole_delay = static_cast<int>(whole);
     const Scalar fraction = Scalar(plant.delay) - Scalar(whole);
-    const Matrix3<Scalar> a = plant_augmented_matrix<Scalar>(plant);
     if (fraction == Scalar(0)) {
-        t.exp[0] = exponential<Scalar>(a, Scalar(1));
+        t.exp[0] = exponential_of(Scalar(1));
     } else {
         t.segment_count = 2;
-        t.exp[0] = exponential<Scalar>(a, fraction);
-        t.exp[1] = exponential<Scalar>(a, Scalar(1) - fraction);
+        t.exp[0] = exponential_of(fraction);
+        t.exp[1] = exponential_of(Scalar(1) - fraction);
     }
     return t;
+}
+
+template <typename Scalar>
+PlantTransitions<Scalar> plant_transitions(const NormalizedPlant& plant) {
+    const Matrix3<Scalar> a = plant_augmented_matrix<Scalar>(plant);
+    return plant_transitions_with<Scalar>(plant, [&a](Scalar length) { return exponential<Scalar>(a, length); });
 }
 
 template <typename Scalar>

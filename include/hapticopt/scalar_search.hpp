@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // One-dimensional searches used by the optimisers: Brent's minimiser (golden section with
 // parabolic interpolation; R. P. Brent, "Algorithms for Minimization without Derivatives", 1973,
-// ch. 5) and bisection on a sign change. Both treat non-finite values as "worse than any finite".
+// ch. 5), bisection on a sign change, and the Illinois variant of regula falsi for a sign change of a continuous
+// function. Both treat non-finite values as "worse than any finite".
 #pragma once
 
 #include <cmath>
@@ -97,6 +98,50 @@ std::pair<double, double> bisect(Pred&& pred, double lo, double hi, double tol, 
             hi = mid;
     }
     return {lo, hi};
+}
+
+/// A bracket [a, b] of a sign change of a continuous g with g(a) < 0 < g(b), |b - a| <= tol, by the Illinois
+/// variant of regula falsi (Dowell and Jarratt, "A modified regula falsi method for computing the root of an
+/// equation", BIT 11, 1971: the endpoint kept twice in a row has its value halved; superlinear, order ~1.44, on a
+/// simple root) with a bisection step whenever three steps failed to halve the bracket, so at most three times
+/// bisection's steps; it stops early when a and b are adjacent doubles. Returns {a, b, false} as soon as some x has
+/// g(x) == 0 exactly (then `a` = `b` = x) or g is not finite: the caller decides (e.g. bisects for the ends of a flat
+/// zero set).
+struct IllinoisBracket {
+    double a, b;
+    bool bracketed;
+};
+
+template <typename G>
+IllinoisBracket illinois_bracket(G&& g, double a, double b, double ga, double gb, double tol,
+                                 int max_iterations = 600) {
+    int kept = 0;  // +1: a kept in a row, -1: b kept in a row
+    double width = b - a;
+    for (int it = 0; it < max_iterations && b - a > tol; ++it) {
+        double x;
+        if (it % 3 == 2 && b - a > width / 2) {
+            x = a + (b - a) / 2;
+        } else {
+            x = a - ga * (b - a) / (gb - ga);
+            if (!(x > a && x < b)) x = a + (b - a) / 2;
+        }
+        if (!(x > a && x < b)) break;  // a and b adjacent doubles: no narrower bracket exists
+        if (it % 3 == 2) width = b - a;
+        const double gx = g(x);
+        if (!std::isfinite(gx) || gx == 0) return {x, x, false};
+        if (gx < 0) {
+            a = x;
+            ga = gx;
+            if (kept == -1) gb /= 2;
+            kept = -1;
+        } else {
+            b = x;
+            gb = gx;
+            if (kept == +1) ga /= 2;
+            kept = +1;
+        }
+    }
+    return {a, b, true};
 }
 
 }  // namespace hapticopt::detail
