@@ -247,7 +247,9 @@ def test_broken_mesh_records_raise_recording_error(mesh_recorded, tmp_path):
 
     cases = {
         "beyond_limit": (changed(head + 16, "<Q", 200_001), name + r" has mode 1, 200001 vertices and 320 triangles"),
-        "beyond_file": (changed(head + 16, "<Q", 199_999), name + r" announces 40000 vertex and 32 triangle chunks"),
+        # Within the limits, but the file ends (its end record) after the mesh's own 64 chunks.
+        "beyond_file": (changed(head + 16, "<Q", 199_999)[:head + 128 * 65] + good[-128:],
+                        name + r" announces 40000 vertex and 32 triangle chunks; only 64 chunks follow it"),
         "nan": (changed(head + 128 + 8 + 8 * 4, "<d", float("nan")), name + r" is invalid: vertex 1 coordinate y = nan"),
         "index": (changed(head + 128 * 34 + 8 + 4 * 2, "<I", 162),
                   name + r" is invalid: triangle 0 vertex index 2 = 162, accepted 0\.\.161"),

@@ -220,8 +220,7 @@ bool Recorder::close() noexcept {
         end.dropped_batches = dropped_batches();
         end.checksum = checksum_;
         end.meshes = meshes_written();
-        end.complete =
-            end.dropped_ticks == 0 && end.dropped_batches == 0 && !write_error() && !missing_mesh_ ? 1U : 0U;
+        end.complete = end.dropped_ticks == 0 && end.dropped_batches == 0 && !write_error() && !missing_mesh_ ? 1U : 0U;
         if (std::fwrite(&end, 1, sizeof end, file_) != sizeof end) write_error_ = true;
         if (std::fflush(file_) != 0) write_error_ = true;
         if (std::fclose(file_) != 0) write_error_ = true;

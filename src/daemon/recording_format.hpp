@@ -110,7 +110,7 @@ struct UpdateChunkB {
 // The third part (version 2): what only a mesh object has (ObjectParams: mesh_id, orientation, friction).
 struct UpdateChunkC {
     std::uint32_t kind = kUpdateC;
-    std::uint32_t mesh = 0;  // the mesh record's id (0: none, every kind but a mesh)
+    std::uint32_t mesh = 0;                        // the mesh record's id (0: none, every kind but a mesh)
     double orientation[4] = {1.0, 0.0, 0.0, 0.0};  // unit quaternion w, x, y, z
     double static_friction = 0.0;
     double dynamic_friction = 0.0;
@@ -132,13 +132,13 @@ struct MeshChunk {
 
 struct MeshVerticesChunk {
     std::uint32_t kind = kMeshVertices;
-    std::uint32_t count = 0;                  // vertices in this chunk: 5, the last one 1 .. 5
+    std::uint32_t count = 0;                 // vertices in this chunk: 5, the last one 1 .. 5
     double xyz[3 * kVerticesPerChunk] = {};  // m, in the mesh's frame
 };
 
 struct MeshTrianglesChunk {
     std::uint32_t kind = kMeshTriangles;
-    std::uint32_t count = 0;                          // triangles in this chunk: 10, the last one 1 .. 10
+    std::uint32_t count = 0;                             // triangles in this chunk: 10, the last one 1 .. 10
     std::uint32_t indices[3 * kTrianglesPerChunk] = {};  // vertex indices, (a, b, c) per triangle
 };
 

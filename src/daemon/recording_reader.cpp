@@ -48,9 +48,10 @@ std::size_t read_mesh(const std::vector<char>& bytes, std::size_t header_size, s
     if (m.mesh == 0 || m.mode > 1 || m.vertices < 3 || m.vertices > limits.max_vertices || m.triangles < 1 ||
         m.triangles > limits.max_triangles) {
         bad(path, "corrupt: " + name + " has mode " + std::to_string(m.mode) + ", " + std::to_string(m.vertices) +
-                      " vertices and " + std::to_string(m.triangles) + " triangles (accepted: mesh id 1 .. 2^32-1, mode " +
-                      "0 surface or 1 solid, 3 .. " + std::to_string(limits.max_vertices) + " vertices, 1 .. " +
-                      std::to_string(limits.max_triangles) + " triangles: the protocol's limits)");
+                      " vertices and " + std::to_string(m.triangles) +
+                      " triangles (accepted: mesh id 1 .. 2^32-1, mode " + "0 surface or 1 solid, 3 .. " +
+                      std::to_string(limits.max_vertices) + " vertices, 1 .. " + std::to_string(limits.max_triangles) +
+                      " triangles: the protocol's limits)");
     }
     if (r.meshes.count(m.mesh) != 0) bad(path, "corrupt: " + name + " repeats the id of an earlier mesh record");
     const std::size_t nv = chunks_for(m.vertices, kVerticesPerChunk);
@@ -71,7 +72,8 @@ std::size_t read_mesh(const std::vector<char>& bytes, std::size_t header_size, s
                           " and count " + std::to_string(c.count) + "; expected the mesh's vertices (kind 8, count " +
                           std::to_string(expected) + ")");
         }
-        for (std::uint32_t v = 0; v < c.count; ++v) data.vertices.emplace_back(c.xyz[3 * v], c.xyz[3 * v + 1], c.xyz[3 * v + 2]);
+        for (std::uint32_t v = 0; v < c.count; ++v)
+            data.vertices.emplace_back(c.xyz[3 * v], c.xyz[3 * v + 1], c.xyz[3 * v + 2]);
     }
     for (std::size_t k = 0; k < nt; ++k) {
         const std::size_t c_at = at + (1 + nv + k) * kChunkSize;
@@ -101,11 +103,15 @@ std::size_t read_mesh(const std::vector<char>& bytes, std::size_t header_size, s
 }  // namespace
 
 Recording read_recording(const std::string& path) {
-    using namespace recording;
     std::ifstream in(path, std::ios::binary);
     if (!in) bad(path, std::string("cannot open: ") + std::strerror(errno));
-    std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (in.bad()) bad(path, "read error");
+    return parse_recording(path, bytes);
+}
+
+Recording parse_recording(const std::string& path, const std::vector<char>& bytes) {
+    using namespace recording;
     Recording r;
     r.path = path;
     if (bytes.size() < 16)
@@ -194,8 +200,8 @@ Recording read_recording(const std::string& path) {
                                   "came through the mesh upload, not the batch); accepted: version-1 recordings of "
                                   "planes, springs and fields (docs/recording.md, \"Limits\")");
                 }
-                if (a.kind != kUpdateA || bb.kind != kUpdateB || cc.kind != kUpdateC || a.slot >= kSceneObjectCapacity ||
-                    a.action > 3 || a.object_kind > 3 || a.constraint > 2) {
+                if (a.kind != kUpdateA || bb.kind != kUpdateB || cc.kind != kUpdateC ||
+                    a.slot >= kSceneObjectCapacity || a.action > 3 || a.object_kind > 3 || a.constraint > 2) {
                     bad(path, "corrupt: " + which + " is invalid");
                 }
                 SlotUpdate s;

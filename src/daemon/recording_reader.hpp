@@ -51,5 +51,7 @@ struct Recording {
 
 // Throws RecordingError (message: "recording '<path>': <what is wrong>").
 [[nodiscard]] Recording read_recording(const std::string& path);
+// The same checks on a file's bytes already read (`path` names it in the messages; tests/fuzz/fuzz_recording.cpp).
+[[nodiscard]] Recording parse_recording(const std::string& path, const std::vector<char>& bytes);
 
 }  // namespace hapticd

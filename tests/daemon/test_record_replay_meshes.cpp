@@ -19,7 +19,8 @@ constexpr double kHalf = 0.01;  // m: the box [-a, a]^3
 
 std::vector<cl::Vec3> box_vertices() {
     std::vector<cl::Vec3> v;
-    for (int i = 0; i < 8; ++i) v.push_back({(i & 1) ? kHalf : -kHalf, (i & 2) ? kHalf : -kHalf, (i & 4) ? kHalf : -kHalf});
+    for (int i = 0; i < 8; ++i)
+        v.push_back({(i & 1) ? kHalf : -kHalf, (i & 2) ? kHalf : -kHalf, (i & 4) ? kHalf : -kHalf});
     return v;
 }
 
@@ -209,11 +210,13 @@ TEST(RecordReplayMeshes, BrokenMeshRecordsAreRefusedWithTheirDefect) {
         std::vector<char> cut(bytes.begin(), bytes.begin() + static_cast<long>(mesh_at + 5 * rec::kChunkSize));
         cut.insert(cut.end(), bytes.end() - static_cast<long>(rec::kChunkSize), bytes.end());
         reseal(cut);
-        cases.push_back({"mesh_counts_beyond_file", cut, name + " announces 40000 vertex and 2 triangle chunks; only 4 "
-                                                                "chunks follow it"});
+        cases.push_back({"mesh_counts_beyond_file", cut,
+                         name + " announces 40000 vertex and 2 triangle chunks; only 4 "
+                                "chunks follow it"});
     }
-    cases.push_back({"mesh_count_mismatch", with_head(9, 12),
-                     "chunk 1 after " + name + " has kind 8 and count 3; expected the mesh's vertices (kind 8, count 4)"});
+    cases.push_back(
+        {"mesh_count_mismatch", with_head(9, 12),
+         "chunk 1 after " + name + " has kind 8 and count 3; expected the mesh's vertices (kind 8, count 4)"});
     {
         std::vector<char> bytes = good;  // the last triangle chunk cut out: a tick or batch read in its place
         const std::size_t last = mesh_at + 4 * rec::kChunkSize;
@@ -237,7 +240,8 @@ TEST(RecordReplayMeshes, BrokenMeshRecordsAreRefusedWithTheirDefect) {
         c.indices[2] = 8;  // triangle 0's third vertex: one past the 8 vertices
         std::memcpy(bytes.data() + mesh_at + 3 * rec::kChunkSize, &c, sizeof c);
         reseal(bytes);
-        cases.push_back({"mesh_index", bytes, name + " (solid) is invalid: mesh: triangle 0 vertex index 2 = 8, accepted 0..7"});
+        cases.push_back(
+            {"mesh_index", bytes, name + " (solid) is invalid: mesh: triangle 0 vertex index 2 = 8, accepted 0..7"});
     }
     {
         std::vector<char> bytes = good;  // the first mesh update names a mesh the file does not hold
@@ -251,7 +255,8 @@ TEST(RecordReplayMeshes, BrokenMeshRecordsAreRefusedWithTheirDefect) {
         cases.push_back({"mesh_unknown", bytes,
                          "names mesh " + std::to_string(run.box + 1000) + ", which no mesh record before it holds"});
     }
-    cases.push_back({"mesh_cut_off", std::vector<char>(good.begin(), good.begin() + static_cast<long>(mesh_at + 2 * rec::kChunkSize)),
+    cases.push_back({"mesh_cut_off",
+                     std::vector<char>(good.begin(), good.begin() + static_cast<long>(mesh_at + 2 * rec::kChunkSize)),
                      "truncated: no end record"});
     for (const Case& c : cases) {
         const std::string file = (scratch() / ("bad_" + c.name + ".rec")).string();
