@@ -43,7 +43,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         check(r.meshes.size() == r.end.meshes);
         for (std::size_t i = 0; i < r.ticks.size(); ++i) check(r.ticks[i].tick == i);
         for (const auto& [id, h] : r.meshes) {
-            check(id != 0 && h != nullptr && h->mesh().vertices.size() <= 200000 && h->mesh().triangles.size() <= 200000);
+            check(id != 0 && h != nullptr && h->mesh().vertices.size() <= 200000 &&
+                  h->mesh().triangles.size() <= 200000);
         }
         for (const auto& b : r.batches) {
             for (const auto& u : b.updates) {
