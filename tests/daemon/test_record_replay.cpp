@@ -213,6 +213,39 @@ TEST(RecordReplay, BadRecordingsAreRefusedWithTheirDefect) {
         << extra.err();
 }
 
+// A version-1 file (updates in two chunks, no mesh records) still replays: the plane session's recording with every
+// update's third chunk taken out, the version word 1 and the checksum resealed (what the recorder wrote before the
+// meshes were recorded, but for the header's layout, which --replay does not read).
+TEST(RecordReplay, AVersion1RecordingStillReplays) {
+    const std::vector<char> good = read_bytes(recorded_run());
+    std::vector<char> v1(good.begin(), good.begin() + header_size_of(good));
+    std::size_t dropped = 0;
+    for (std::size_t at = header_size_of(good); at + rec::kChunkSize <= good.size(); at += rec::kChunkSize) {
+        std::uint32_t kind = 0;
+        std::memcpy(&kind, good.data() + at, 4);
+        if (kind == rec::kUpdateC) {
+            ++dropped;
+            continue;
+        }
+        v1.insert(v1.end(), good.begin() + static_cast<long>(at),
+                  good.begin() + static_cast<long>(at + rec::kChunkSize));
+    }
+    ASSERT_GT(dropped, 0U);
+    const std::uint32_t version = 1;
+    std::memcpy(v1.data() + 8, &version, 4);
+    reseal(v1);
+    const std::string file = (scratch() / "version1.rec").string();
+    write_bytes(file, v1);
+    const Recording r = read_recording(file);
+    EXPECT_EQ(r.version, 1U);
+    const Replay out = replay(file, "replay_version1");
+    EXPECT_EQ(out.code, 0) << out.err;
+    EXPECT_NE(out.out.find(std::to_string(r.ticks.size()) + " ticks, " + std::to_string(r.batches.size()) +
+                           " batches: every force identical"),
+              std::string::npos)
+        << out.out;
+}
+
 // The profile a recording was made with changed: the replay refuses (exit 10) rather than compare another scene.
 TEST(RecordReplay, AChangedDeviceProfileIsRefused) {
     const std::string profile = (scratch() / "changing.toml").string();
