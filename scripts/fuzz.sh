@@ -6,13 +6,13 @@
 # build/fuzz/artifacts/). Installs clang-14 and libclang-rt-14-dev (which ships libclang_rt.fuzzer) from
 # Debian 12 when missing. Exit status non-zero when a target finds a crash, a leak or a sanitizer report.
 # Usage: scripts/fuzz.sh [seconds per target, default 20] [target...]
-#   targets: config_file falcon_frames ftdi_strip hid_reports server_messages stream_framing (default: all)
+#   targets: config_file falcon_frames ftdi_strip hid_reports server_messages stream_framing recording (default: all)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 seconds="${1:-20}"
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -gt 0 ]] || targets=(config_file falcon_frames ftdi_strip hid_reports server_messages stream_framing)
+[[ ${#targets[@]} -gt 0 ]] || targets=(config_file falcon_frames ftdi_strip hid_reports server_messages stream_framing recording)
 
 cxx="${FUZZ_CXX:-clang++-14}"
 fuzzer_lib=/usr/lib/llvm-14/lib/clang/14.0.6/lib/linux/libclang_rt.fuzzer-x86_64.a
@@ -30,6 +30,7 @@ declare -A sources=(
   [hid_reports]="src/devices/hid_ffb_protocol.cpp src/devices/hid_report_descriptor.cpp"
   [stream_framing]="src/server/stream_framing.cpp"
   [server_messages]="src/server/message_decoder.cpp src/server/reply_text.cpp src/server/object_limits.cpp src/client/object_json.cpp src/client/text_limits.cpp src/client/error_code.cpp"
+  [recording]="src/daemon/recording_reader.cpp src/mesh/triangle_mesh.cpp src/mesh/mesh_hierarchy.cpp"
 )
 # toml++ (Debian's libtomlplusplus-dev) is compiled into the config target header-only, so that its parser is
 # instrumented too (linking Debian's uninstrumented libtomlplusplus.so would leave it out of the coverage). Known
@@ -40,6 +41,7 @@ declare -A sources=(
 declare -A extra_flags=(
   [config_file]="-DTOML_HEADER_ONLY=1 -include tests/fuzz/toml_assert_policy.hpp -fno-sanitize=unreachable"
   [server_messages]="-Iinclude"
+  [recording]="-Iinclude -isystem /usr/include/eigen3"
 )
 out=build/fuzz
 mkdir -p "$out/artifacts"

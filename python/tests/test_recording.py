@@ -11,9 +11,11 @@ the recording headless. Bad files raise RecordingError naming the defect.
 from __future__ import annotations
 
 import json
+import math
 import os
 import pathlib
 import re
+import signal
 import struct
 import subprocess
 import sys
@@ -22,7 +24,7 @@ import time
 import numpy as np
 import pytest
 
-from daemon_support import HAPTICD, SCOPE_ENV, connectable, hc, needs_daemon, wait_until
+from daemon_support import HAPTICD, REPOSITORY, SCOPE_ENV, connectable, hc, needs_daemon, wait_until
 from hapticd_client import recording  # noqa: E402
 
 
@@ -153,3 +155,109 @@ def test_bad_files_raise_recording_error(recorded, tmp_path):
     result = subprocess.run([sys.executable, "-m", "hapticd_client.scope", "--recording", str(tmp_path / "cut.rec"), "--out",
                              str(tmp_path / "x.png")], capture_output=True, text=True, env=SCOPE_ENV, timeout=60)
     assert result.returncode == 10 and "truncated" in result.stderr
+
+
+SIM3 = os.path.join(REPOSITORY, "tests", "server", "sim3.toml")
+
+
+@pytest.fixture(scope="module")
+def mesh_recorded(tmp_path_factory):
+    """A lockstep recording on the 3-axis simulated device of a session with a mesh: an icosphere (radius 1 cm,
+    162 vertices, 320 triangles) uploaded, added beside the resting handle, moved until the handle is 0.2 mm inside
+    its outline (turned a little about z, with friction), removed. Returns its path, the mesh and its id."""
+    directory = tmp_path_factory.mktemp("mesh-recording")
+    socket_path = str(directory / "hapticd.sock")
+    path = str(directory / "mesh.rec")
+    shm = f"/hapticd-mesh-recording-pytest-{os.getpid()}"
+    vertices, triangles = hc.icosphere(0.01, 2)
+    process = subprocess.Popen([HAPTICD, "--config", "", "--device", SIM3, "--no-walls", "--lockstep", "--rt-priority",
+                                "0", "--mlock", "false", "--serve", "--serve-socket", socket_path, "--serve-shm", shm,
+                                "--serve-wait-commit", "--hand-stiffness", "-1", "--hand-damping", "-1", "--record", path],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
+        assert process.poll() is None, "hapticd ended at start-up"
+        with hc.Client.connect(socket_path=socket_path, client="pytest-mesh-recording") as client:
+            mesh_id = client.upload_mesh(vertices, triangles, solid=True)
+
+            def sphere(y, angle):
+                return hc.mesh(mesh_id=mesh_id, position=(0.0, y, 0.0),
+                               orientation=(math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)),
+                               static_friction=0.4, dynamic_friction=0.3)
+
+            obj = client.add(sphere(0.02, 0.0))
+            time.sleep(0.3)
+            for i, y in enumerate((0.012, 0.0102, 0.0098), start=1):
+                client.modify(obj, sphere(y, 0.02 * i))
+                time.sleep(0.3)
+            client.remove(obj)
+            time.sleep(0.3)
+            client.bye()
+        process.send_signal(signal.SIGTERM)
+        out, _ = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 0, out
+    return {"path": path, "id": mesh_id, "vertices": np.array(vertices, dtype=np.float64),
+            "triangles": np.array(triangles, dtype=np.uint32)}
+
+
+@needs_daemon
+def test_a_mesh_recording_holds_the_mesh_as_uploaded(mesh_recorded):
+    rec = recording.load(mesh_recorded["path"], verify_checksum=True)
+    assert rec.header["version"] == 2 and rec.end["meshes"] == 1
+    assert list(rec.meshes) == [mesh_recorded["id"]]
+    m = rec.meshes[mesh_recorded["id"]]
+    assert m.mode == "solid"
+    assert np.array_equal(m.vertices, mesh_recorded["vertices"])  # the same doubles, bit for bit
+    assert np.array_equal(m.triangles, mesh_recorded["triangles"])
+    # Before the first batch that renders it; every mesh update names it, with its pose's quaternion and friction.
+    updates = np.concatenate([b.updates for b in rec.batches])
+    mine = updates[updates["object_kind"] == 3]
+    assert len(mine) >= 5 and np.all(mine["mesh"] == mesh_recorded["id"])
+    assert np.all(updates["mesh"][updates["object_kind"] != 3] == 0)
+    assert np.all(mine["static_friction"] == 0.4) and np.all(mine["dynamic_friction"] == 0.3)
+    assert np.allclose(np.linalg.norm(mine["orientation"], axis=1), 1.0, rtol=0, atol=1e-12)
+    # The handle was inside the sphere's outline: it was pushed along -y (contact with slot 0).
+    assert np.count_nonzero(rec.ticks["contact_mask"]) > 100 and rec.ticks["force"][:, 1].min() < -1e-3
+
+
+@needs_daemon
+def test_the_daemon_replays_a_mesh_recording_bit_for_bit(mesh_recorded):
+    rec = recording.load(mesh_recorded["path"])
+    result = subprocess.run([HAPTICD, "--replay", mesh_recorded["path"]], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert f"{len(rec.ticks)} ticks, {len(rec.batches)} batches: every force identical" in result.stdout
+
+
+@needs_daemon
+def test_broken_mesh_records_raise_recording_error(mesh_recorded, tmp_path):
+    good = pathlib.Path(mesh_recorded["path"]).read_bytes()
+    size = struct.unpack("<I", good[12:16])[0]
+    kinds = [struct.unpack_from("<I", good, at)[0] for at in range(size, len(good), 128)]
+    head = size + 128 * kinds.index(recording.KIND_MESH)
+    name = re.escape(f"mesh record {kinds.index(recording.KIND_MESH)} (mesh {mesh_recorded['id']})")
+
+    def changed(at, fmt, value):
+        data = bytearray(good)
+        struct.pack_into(fmt, data, at, value)
+        return bytes(data)
+
+    cases = {
+        "beyond_limit": (changed(head + 16, "<Q", 200_001), name + r" has mode 1, 200001 vertices and 320 triangles"),
+        # Within the limits, but the file ends (its end record) after the mesh's own 64 chunks.
+        "beyond_file": (changed(head + 16, "<Q", 199_999)[:head + 128 * 65] + good[-128:],
+                        name + r" announces 40000 vertex and 32 triangle chunks; only 64 chunks follow it"),
+        "nan": (changed(head + 128 + 8 + 8 * 4, "<d", float("nan")), name + r" is invalid: vertex 1 coordinate y = nan"),
+        "index": (changed(head + 128 * 34 + 8 + 4 * 2, "<I", 162),
+                  name + r" is invalid: triangle 0 vertex index 2 = 162, accepted 0\.\.161"),
+        "cut": (good[:head + 128 * 65] + good[head + 128 * 66:],  # its last triangle chunk
+                r"chunk 64 after " + name + r" has kind \d+ and count \d+; expected the mesh's triangles"),
+    }
+    for case, (data, message) in cases.items():
+        f = tmp_path / f"{case}.rec"
+        f.write_bytes(data)
+        with pytest.raises(recording.RecordingError, match=re.escape(f"recording '{f}': ") + "corrupt: " + message):
+            recording.load(f)

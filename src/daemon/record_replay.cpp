@@ -64,7 +64,23 @@ json layout() {
          field("updates", "<u8", offsetof(EndChunk, updates)),
          field("dropped_ticks", "<u8", offsetof(EndChunk, dropped_ticks)),
          field("dropped_batches", "<u8", offsetof(EndChunk, dropped_batches)),
-         field("checksum", "<u8", offsetof(EndChunk, checksum))});
+         field("checksum", "<u8", offsetof(EndChunk, checksum)), field("meshes", "<u8", offsetof(EndChunk, meshes))});
+    l["update_c"] = json::array({field("kind", "<u4", offsetof(UpdateChunkC, kind)),
+                                 field("mesh", "<u4", offsetof(UpdateChunkC, mesh)),
+                                 field("orientation", "<f8", offsetof(UpdateChunkC, orientation), 4),
+                                 field("static_friction", "<f8", offsetof(UpdateChunkC, static_friction)),
+                                 field("dynamic_friction", "<f8", offsetof(UpdateChunkC, dynamic_friction))});
+    l["mesh"] = json::array(
+        {field("kind", "<u4", offsetof(MeshChunk, kind)), field("mode", "u1", offsetof(MeshChunk, mode)),
+         field("mesh", "<u4", offsetof(MeshChunk, mesh)), field("vertices", "<u8", offsetof(MeshChunk, vertices)),
+         field("triangles", "<u8", offsetof(MeshChunk, triangles))});
+    l["mesh_vertices"] = json::array({field("kind", "<u4", offsetof(MeshVerticesChunk, kind)),
+                                      field("count", "<u4", offsetof(MeshVerticesChunk, count)),
+                                      field("xyz", "<f8", offsetof(MeshVerticesChunk, xyz), 3 * kVerticesPerChunk)});
+    l["mesh_triangles"] =
+        json::array({field("kind", "<u4", offsetof(MeshTrianglesChunk, kind)),
+                     field("count", "<u4", offsetof(MeshTrianglesChunk, count)),
+                     field("indices", "<u4", offsetof(MeshTrianglesChunk, indices), 3 * kTrianglesPerChunk)});
     return l;
 }
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "daemon/recorder.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <chrono>
@@ -59,6 +60,60 @@ void Recorder::push_tick(recording::TickChunk& chunk) noexcept {
     while (!ticks_.try_push(chunk)) std::this_thread::yield();
 }
 
+void Recorder::on_mesh(std::uint32_t mesh_id, const std::shared_ptr<const mesh::MeshHierarchy>& hierarchy) {
+    if (!hierarchy || !announced_.insert(mesh_id).second) return;
+    std::lock_guard<std::mutex> lock(meshes_mutex_);
+    pending_.push_back(PendingMesh{mesh_id, hierarchy});
+}
+
+// The mesh record: its head, then its vertices 5 a chunk and its triangles 10 a chunk, exactly as uploaded
+// (the hierarchy keeps the mesh it was built from: MeshHierarchy::mesh()).
+void Recorder::write_mesh(const PendingMesh& m) noexcept {
+    const mesh::TriangleMesh& data = m.hierarchy->mesh();
+    recording::MeshChunk head;
+    head.mode = m.hierarchy->mode() == mesh::MeshMode::solid ? 1 : 0;
+    head.mesh = m.id;
+    head.vertices = data.vertices.size();
+    head.triangles = data.triangles.size();
+    write_chunk(&head);
+    for (std::size_t first = 0; first < data.vertices.size(); first += recording::kVerticesPerChunk) {
+        recording::MeshVerticesChunk c;
+        c.count = static_cast<std::uint32_t>(
+            std::min<std::size_t>(recording::kVerticesPerChunk, data.vertices.size() - first));
+        for (std::uint32_t i = 0; i < c.count; ++i) {
+            for (int k = 0; k < 3; ++k) c.xyz[3 * i + k] = data.vertices[first + i][k];
+        }
+        write_chunk(&c);
+    }
+    for (std::size_t first = 0; first < data.triangles.size(); first += recording::kTrianglesPerChunk) {
+        recording::MeshTrianglesChunk c;
+        c.count = static_cast<std::uint32_t>(
+            std::min<std::size_t>(recording::kTrianglesPerChunk, data.triangles.size() - first));
+        for (std::uint32_t i = 0; i < c.count; ++i) {
+            for (std::size_t k = 0; k < 3; ++k) c.indices[3 * i + k] = data.triangles[first + i][k];
+        }
+        write_chunk(&c);
+    }
+    meshes_written_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void Recorder::write_meshes() noexcept {
+    {
+        std::lock_guard<std::mutex> lock(meshes_mutex_);
+        if (pending_.empty()) return;
+        taken_.swap(pending_);
+    }
+    try {
+        for (const PendingMesh& m : taken_) {
+            write_mesh(m);
+            written_.insert(m.id);
+        }
+    } catch (...) {  // bad_alloc of the set: the recording cannot name that mesh
+        write_error_.store(true, std::memory_order_relaxed);
+    }
+    taken_.clear();  // the hierarchies are the server's again
+}
+
 void Recorder::write_chunk(const void* chunk) noexcept {
     checksum_ = recording::fnv1a64(chunk, recording::kChunkSize, checksum_);
     if (std::fwrite(chunk, 1, recording::kChunkSize, file_) != recording::kChunkSize) {
@@ -67,6 +122,14 @@ void Recorder::write_chunk(const void* chunk) noexcept {
 }
 
 void Recorder::write_batch(const BatchEntry& b) noexcept {
+    // A mesh a batch renders was queued before the batch was pushed (Server: on_mesh, then the ring): its record
+    // goes first.
+    for (std::uint32_t i = 0; i < b.commit.count && i < kSceneObjectCapacity; ++i) {
+        const ObjectParams& p = b.commit.updates[i].params;
+        if (p.mesh == nullptr || written_.count(p.mesh_id) != 0) continue;
+        write_meshes();
+        if (written_.count(p.mesh_id) == 0) missing_mesh_ = true;  // the replay could not render it: incomplete
+    }
     recording::BatchChunk head;
     head.source = static_cast<std::uint8_t>(b.source);
     head.tick = b.tick;
@@ -99,8 +162,14 @@ void Recorder::write_batch(const BatchEntry& b) noexcept {
             for (std::size_t c = 0; c < 3; ++c) bb.jacobian[3 * r + c] = p.jacobian[r][c];
             bb.point_rate[r] = p.point_rate[r];
         }
+        recording::UpdateChunkC cc;
+        cc.mesh = p.mesh != nullptr ? p.mesh_id : 0;
+        for (std::size_t k = 0; k < 4; ++k) cc.orientation[k] = p.orientation[k];
+        cc.static_friction = p.static_friction;
+        cc.dynamic_friction = p.dynamic_friction;
         write_chunk(&a);
         write_chunk(&bb);
+        write_chunk(&cc);
         ++updates_;
     }
     batches_written_.fetch_add(1, std::memory_order_relaxed);
@@ -126,9 +195,10 @@ std::size_t Recorder::drain() noexcept {
 
 void Recorder::run() noexcept {
     while (!stop_.load(std::memory_order_acquire)) {
+        write_meshes();
         if (drain() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
-    drain();  // everything pushed before stop_ was set
+    drain();  // everything pushed before stop_ was set (a mesh a batch names is written before that batch)
     // Batches of a tick whose record was dropped or never pushed (none in blocking mode).
     for (const BatchEntry* b = batches_.front(); b != nullptr; b = batches_.front()) {
         write_batch(*b);
@@ -149,7 +219,8 @@ bool Recorder::close() noexcept {
         end.dropped_ticks = dropped_ticks();
         end.dropped_batches = dropped_batches();
         end.checksum = checksum_;
-        end.complete = end.dropped_ticks == 0 && end.dropped_batches == 0 && !write_error() ? 1U : 0U;
+        end.meshes = meshes_written();
+        end.complete = end.dropped_ticks == 0 && end.dropped_batches == 0 && !write_error() && !missing_mesh_ ? 1U : 0U;
         if (std::fwrite(&end, 1, sizeof end, file_) != sizeof end) write_error_ = true;
         if (std::fflush(file_) != 0) write_error_ = true;
         if (std::fclose(file_) != 0) write_error_ = true;

@@ -4,8 +4,11 @@
 //   header   bytes 0..7 magic "HAPTREC\0", 8..11 u32 format version, 12..15 u32 header size H (a multiple of
 //            128, >= 128); bytes 16..H-1 a UTF-8 JSON object padded with spaces (docs/recording.md lists its keys)
 //   tick     (kind 1) one per tick, after the batches that tick took
-//   batch    (kind 2) one batch the loop took from a ring at the start of its tick, followed by `count` pairs
-//            of update chunks (kind 3, then kind 4: one SlotUpdate in two halves)
+//   batch    (kind 2) one batch the loop took from a ring at the start of its tick, followed by `count` update
+//            records: in version 2 three chunks each (kinds 3, 4, 6: one SlotUpdate in three parts), in version 1
+//            two (kinds 3, 4)
+//   mesh     (kind 7, version 2) a client's mesh, before the first batch that renders it: its id, mode and
+//            counts, followed by its vertices (kind 8, 5 a chunk) and triangles (kind 9, 10 a chunk)
 //   end      (kind 5) the last chunk: counts, the drops, and the FNV-1a 64 checksum of every chunk before it
 // All integers and doubles little-endian (the writer is the daemon's own memory layout; the static_asserts
 // below pin the offsets, and recording.cpp refuses a big-endian host).
@@ -17,10 +20,27 @@
 namespace hapticd::recording {
 
 inline constexpr char kMagic[8] = {'H', 'A', 'P', 'T', 'R', 'E', 'C', '\0'};
-inline constexpr std::uint32_t kFormatVersion = 1;
+// Version 2 adds the third update part (a mesh object's mesh, orientation and friction) and the mesh records;
+// readers accept versions kOldestFormatVersion .. kFormatVersion (a version-1 file has neither).
+inline constexpr std::uint32_t kFormatVersion = 2;
+inline constexpr std::uint32_t kOldestFormatVersion = 1;
 inline constexpr std::size_t kChunkSize = 128;
 
-enum ChunkKind : std::uint32_t { kTick = 1, kBatch = 2, kUpdateA = 3, kUpdateB = 4, kEnd = 5 };
+enum ChunkKind : std::uint32_t {
+    kTick = 1,
+    kBatch = 2,
+    kUpdateA = 3,
+    kUpdateB = 4,
+    kEnd = 5,
+    kUpdateC = 6,        // version 2
+    kMesh = 7,           // version 2
+    kMeshVertices = 8,   // version 2
+    kMeshTriangles = 9,  // version 2
+};
+
+// What a mesh's data chunks hold: 120 bytes after the kind and count words.
+inline constexpr std::uint32_t kVerticesPerChunk = 5;    // 15 doubles
+inline constexpr std::uint32_t kTrianglesPerChunk = 10;  // 30 u32 indices
 
 // Which ring the loop took a batch from (SceneObjects::apply_commits).
 enum BatchSource : std::uint8_t {
@@ -87,6 +107,41 @@ struct UpdateChunkB {
     std::uint8_t reserved1[24] = {};
 };
 
+// The third part (version 2): what only a mesh object has (ObjectParams: mesh_id, orientation, friction).
+struct UpdateChunkC {
+    std::uint32_t kind = kUpdateC;
+    std::uint32_t mesh = 0;                        // the mesh record's id (0: none, every kind but a mesh)
+    double orientation[4] = {1.0, 0.0, 0.0, 0.0};  // unit quaternion w, x, y, z
+    double static_friction = 0.0;
+    double dynamic_friction = 0.0;
+    std::uint8_t reserved[72] = {};
+};
+
+// A client's mesh (version 2), written once, before the first batch that renders it; followed by
+// ceil(vertices / 5) vertex chunks and ceil(triangles / 10) triangle chunks.
+struct MeshChunk {
+    std::uint32_t kind = kMesh;
+    std::uint8_t mode = 0;  // mesh::MeshMode: 0 surface, 1 solid
+    std::uint8_t reserved0[3] = {};
+    std::uint32_t mesh = 0;  // its id (the server's: ObjectParams::mesh_id), 1 .. 2^32-1
+    std::uint32_t reserved1 = 0;
+    std::uint64_t vertices = 0;
+    std::uint64_t triangles = 0;
+    std::uint8_t reserved2[96] = {};
+};
+
+struct MeshVerticesChunk {
+    std::uint32_t kind = kMeshVertices;
+    std::uint32_t count = 0;                 // vertices in this chunk: 5, the last one 1 .. 5
+    double xyz[3 * kVerticesPerChunk] = {};  // m, in the mesh's frame
+};
+
+struct MeshTrianglesChunk {
+    std::uint32_t kind = kMeshTriangles;
+    std::uint32_t count = 0;                             // triangles in this chunk: 10, the last one 1 .. 10
+    std::uint32_t indices[3 * kTrianglesPerChunk] = {};  // vertex indices, (a, b, c) per triangle
+};
+
 struct EndChunk {
     std::uint32_t kind = kEnd;
     std::uint32_t complete = 0;         // 1: no record was dropped and every write succeeded
@@ -96,7 +151,8 @@ struct EndChunk {
     std::uint64_t dropped_ticks = 0;    // tick records dropped (ring full, real-time mode)
     std::uint64_t dropped_batches = 0;  // batch records dropped
     std::uint64_t checksum = 0;         // FNV-1a 64 of every chunk before this one
-    std::uint8_t reserved[72] = {};
+    std::uint64_t meshes = 0;           // mesh records written (version 2)
+    std::uint8_t reserved[64] = {};
 };
 
 static_assert(sizeof(TickChunk) == kChunkSize && offsetof(TickChunk, tick) == 8 &&
@@ -113,7 +169,17 @@ static_assert(sizeof(UpdateChunkA) == kChunkSize && offsetof(UpdateChunkA, id) =
               offsetof(UpdateChunkA, offset_rate) == 120);
 static_assert(sizeof(UpdateChunkB) == kChunkSize && offsetof(UpdateChunkB, jacobian) == 8 &&
               offsetof(UpdateChunkB, point_rate) == 80);
-static_assert(sizeof(EndChunk) == kChunkSize && offsetof(EndChunk, ticks) == 8 && offsetof(EndChunk, checksum) == 48);
+static_assert(sizeof(EndChunk) == kChunkSize && offsetof(EndChunk, ticks) == 8 && offsetof(EndChunk, checksum) == 48 &&
+              offsetof(EndChunk, meshes) == 56);
+static_assert(sizeof(UpdateChunkC) == kChunkSize && offsetof(UpdateChunkC, mesh) == 4 &&
+              offsetof(UpdateChunkC, orientation) == 8 && offsetof(UpdateChunkC, static_friction) == 40 &&
+              offsetof(UpdateChunkC, dynamic_friction) == 48);
+static_assert(sizeof(MeshChunk) == kChunkSize && offsetof(MeshChunk, mode) == 4 && offsetof(MeshChunk, mesh) == 8 &&
+              offsetof(MeshChunk, vertices) == 16 && offsetof(MeshChunk, triangles) == 24);
+static_assert(sizeof(MeshVerticesChunk) == kChunkSize && offsetof(MeshVerticesChunk, count) == 4 &&
+              offsetof(MeshVerticesChunk, xyz) == 8);
+static_assert(sizeof(MeshTrianglesChunk) == kChunkSize && offsetof(MeshTrianglesChunk, count) == 4 &&
+              offsetof(MeshTrianglesChunk, indices) == 8);
 
 // FNV-1a 64 (Fowler, Noll, Vo: offset basis 14695981039346656037, prime 1099511628211), continued from `h`.
 [[nodiscard]] inline std::uint64_t fnv1a64(const void* data, std::size_t size,

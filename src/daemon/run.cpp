@@ -183,7 +183,10 @@ std::unique_ptr<ServeRuntime> start_serving(const Options& o, const DeviceProfil
         }
         serving = std::make_unique<ServeRuntime>(o, profile, period, delay, config_walls);
         daemon.attach(serving->hooks());
-        if (recorder) serving->hooks().objects->set_observer(recorder);
+        if (recorder) {
+            serving->hooks().objects->set_observer(recorder);
+            serving->set_mesh_observer(recorder);
+        }
         serving->start();
     }
     return serving;

@@ -88,6 +88,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <optional>
@@ -136,6 +137,7 @@ struct ObjectParams {
     // server frees a slot's resources only after the loop has emptied it), the pose's orientation (unit quaternion
     // w, x, y, z; the position is `point`) and the proxy's friction coefficients.
     const mesh::MeshHierarchy* mesh = nullptr;
+    std::uint32_t mesh_id = 0;  // mesh: the server's id of that hierarchy (what a recording names it by)
     std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};
     double static_friction = 0.0;
     double dynamic_friction = 0.0;
@@ -211,6 +213,19 @@ class CommitObserver {
     CommitObserver(const CommitObserver&) = default;
     CommitObserver& operator=(const CommitObserver&) = default;
     ~CommitObserver() = default;
+};
+
+// Told of each mesh hierarchy before the first batch that renders it is handed to the loop (--record:
+// daemon/recorder.hpp stores its triangles). Called on the server thread, never the loop's: may allocate and lock.
+class MeshObserver {
+  public:
+    virtual void on_mesh(std::uint32_t mesh_id, const std::shared_ptr<const mesh::MeshHierarchy>& hierarchy) = 0;
+
+  protected:
+    MeshObserver() = default;
+    MeshObserver(const MeshObserver&) = default;
+    MeshObserver& operator=(const MeshObserver&) = default;
+    ~MeshObserver() = default;
 };
 
 struct SceneObjectsConfig {

@@ -408,6 +408,7 @@ std::optional<Refusal> ObjectResolver::resolve_mesh(const cl::Mesh& m, Resolved&
     p.static_friction = m.static_friction;
     p.dynamic_friction = m.dynamic_friction;
     p.mesh = found.hierarchy.get();
+    p.mesh_id = m.mesh;
     out.mesh = std::move(found.hierarchy);
     for (std::size_t i = 0; i < 3; ++i) {
         out.K_matrix[i][i] = p.K * I[i][i];

@@ -32,6 +32,7 @@ class ServeRuntime {
 
     [[nodiscard]] ServerHooks hooks() noexcept { return ServerHooks{objects_.get(), state_.get(), contacts_.get()}; }
     void start();
+    void set_mesh_observer(MeshObserver* observer) noexcept { server_->set_mesh_observer(observer); }
     // --serve-wait-commit: returns once a client batch was handed to the loop, or on SIGINT/SIGTERM.
     void wait_for_first_commit() const;
     void stop();

@@ -231,6 +231,8 @@ void Server::stop() {
     thread_.join();
 }
 
+void Server::set_mesh_observer(MeshObserver* observer) noexcept { impl_->mesh_observer = observer; }
+
 const std::string& Server::socket_path() const noexcept { return impl_->config.socket_path; }
 
 const std::string& Server::stream_socket_path() const noexcept { return impl_->config.stream_socket_path; }

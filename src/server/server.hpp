@@ -110,7 +110,10 @@ class Server {
     Server& operator=(const Server&) = delete;
 
     void start();  // spawns the server thread
-    void stop();   // ends it (sessions closed) and joins
+    // Told (on the server thread) of each mesh hierarchy before the first batch that renders it is pushed
+    // (--record); set before start().
+    void set_mesh_observer(MeshObserver* observer) noexcept;
+    void stop();  // ends it (sessions closed) and joins
 
     [[nodiscard]] const std::string& socket_path() const noexcept;
     // The stream socket's path; empty when there is none.

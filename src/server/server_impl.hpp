@@ -84,6 +84,7 @@ struct Server::Impl {
         std::uint64_t applied_tick = 0;  // 0: not yet seen applied
     };
     std::vector<Retired> retired;
+    MeshObserver* mesh_observer = nullptr;  // --record: told of each hierarchy a pushed batch renders
 
     void log(const std::string& line) const {
         if (config.log_connections) std::cerr << "hapticd: server: " << line << "\n";

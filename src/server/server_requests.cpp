@@ -77,6 +77,15 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
         return;
     }
     c.seq = next_commit_seq;
+    if (mesh_observer != nullptr) {  // before the push: the recording holds a mesh before any batch that renders it
+        for (std::uint32_t i = 0; i < c.count; ++i) {
+            const SlotUpdate& u = c.updates[i];
+            const auto& held = plan.slots[u.slot].resolved.mesh;
+            if (u.params.kind == ObjectKind::Mesh && u.params.mesh != nullptr && held.get() == u.params.mesh) {
+                mesh_observer->on_mesh(u.params.mesh_id, held);
+            }
+        }
+    }
     if (c.count > 0 && !ring.try_push(c)) {
         send_error(s, id, cl::ErrorCode::Busy, "commit: the hand-over queue to the loop is full; retry", -1);
         return;

@@ -5,6 +5,7 @@ The config corpus also takes the repository's own config files. Re-run after cha
 import pathlib
 import random
 import shutil
+import struct
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
@@ -91,3 +92,80 @@ STREAM_SEEDS = [
 for i, stream in enumerate(STREAM_SEEDS):
     for limit_byte, cut_byte in ((20, 0), (20, 7), (255, 255), (0, 1)):
         put("stream_framing", f"seed_{i}_{limit_byte}_{cut_byte}", bytes([limit_byte, cut_byte]) + stream)
+
+# recording: small recordings (docs/recording.md, format 2 and 1) with the end chunk's checksum valid (the target
+# reseals it anyway): a mesh record (the 8-vertex, 12-triangle box: two vertex and two triangle chunks) and a batch
+# whose update renders it; then the broken mesh records --replay refuses: cut short, counts beyond the protocol's
+# limits, NaN, an index out of range, an update naming an unknown mesh, a repeated id; a version-1 file with a
+# plane and one with a mesh object.
+def fnv1a64(data, h=14695981039346656037):
+    for byte in data:
+        h = ((h ^ byte) * 1099511628211) & ((1 << 64) - 1)
+    return h
+
+
+def chunk(kind, payload=b""):
+    return (struct.pack("<I", kind) + payload).ljust(128, b"\0")
+
+
+def tick(n, batches=0):
+    return chunk(1, struct.pack("<BBBBQd", 0, 0, 0, 0, n, n * 1e-3) + b"\0" * 96 + struct.pack("<I", batches))
+
+
+def updates(version, slot, action, kind, mesh=0, K=2000.0):
+    a = chunk(3, struct.pack("<BBBBB3xI", slot, action, kind, 0, 0, 7) + b"\0" * 88 + struct.pack("<dd", K, 2.0))
+    b = chunk(4)
+    c = chunk(6, struct.pack("<I4ddd", mesh, 1.0, 0.0, 0.0, 0.0, 0.4, 0.3))
+    return a + b + (c if version >= 2 else b"")
+
+
+def batch(n, count, index=0):
+    return chunk(2, struct.pack("<B3xQQII", 0, n, 1 + n, count, index))
+
+
+BOX_V = [((i & 1) and 0.01 or -0.01, (i & 2) and 0.01 or -0.01, (i & 4) and 0.01 or -0.01) for i in range(8)]
+BOX_T = [(0, 2, 1), (1, 2, 3), (4, 5, 6), (5, 7, 6), (0, 1, 4), (1, 5, 4), (2, 6, 3), (3, 6, 7), (0, 4, 2),
+         (2, 4, 6), (1, 3, 5), (3, 7, 5)]
+
+
+def mesh_record(ident, vertices, triangles, mode=1, count_v=None, count_t=None):
+    out = chunk(7, struct.pack("<B3xIIQQ", mode, ident, 0, len(vertices) if count_v is None else count_v,
+                               len(triangles) if count_t is None else count_t))
+    for at in range(0, len(vertices), 5):
+        part = vertices[at:at + 5]
+        out += chunk(8, struct.pack("<I", len(part)) + b"".join(struct.pack("<ddd", *v) for v in part))
+    for at in range(0, len(triangles), 10):
+        part = triangles[at:at + 10]
+        out += chunk(9, struct.pack("<I", len(part)) + b"".join(struct.pack("<III", *t) for t in part))
+    return out
+
+
+def recording_file(version, body, ticks, batches, n_updates, meshes):
+    header = b'{"format":"hapticd-recording"}'.ljust(112, b" ")
+    end = chunk(5, struct.pack("<IQQQQQQQ", 1, ticks, batches, n_updates, 0, 0, fnv1a64(body),
+                               meshes if version >= 2 else 0))
+    return b"HAPTREC\0" + struct.pack("<II", version, 128) + header + body + end
+
+
+def mesh_session(mesh=None, update_mesh=1, extra=b""):
+    mesh = mesh_record(1, BOX_V, BOX_T) if mesh is None else mesh
+    body = tick(0) + mesh + extra + batch(1, 1) + updates(2, 0, 0, 3, update_mesh) + tick(1, 1) + \
+        batch(2, 1) + updates(2, 0, 1, 3, update_mesh) + tick(2, 1) + batch(3, 1) + updates(2, 0, 2, 3, update_mesh) + tick(3, 1)
+    return recording_file(2, body, 4, 3, 3, 1 + (1 if extra else 0))
+
+
+put("recording", "mesh_session", mesh_session())
+put("recording", "mesh_cut", mesh_session(mesh=mesh_record(1, BOX_V, BOX_T)[:-128]))
+put("recording", "mesh_vertices_beyond_limit", mesh_session(mesh=mesh_record(1, BOX_V, BOX_T, count_v=200_001)))
+put("recording", "mesh_vertices_beyond_file", mesh_session(mesh=mesh_record(1, BOX_V, BOX_T, count_v=199_999)))
+put("recording", "mesh_triangles_beyond_limit", mesh_session(mesh=mesh_record(1, BOX_V, BOX_T, count_t=200_001)))
+put("recording", "mesh_nan", mesh_session(mesh=mesh_record(1, [BOX_V[0], (0.01, float("nan"), -0.01)] + BOX_V[2:], BOX_T)))
+put("recording", "mesh_index", mesh_session(mesh=mesh_record(1, BOX_V, [(0, 2, 8)] + BOX_T[1:])))
+put("recording", "mesh_surface_open", mesh_session(mesh=mesh_record(1, BOX_V, BOX_T[:10], mode=0)))
+put("recording", "mesh_solid_open", mesh_session(mesh=mesh_record(1, BOX_V, BOX_T[:10], mode=1)))
+put("recording", "mesh_unknown_id", mesh_session(update_mesh=2))
+put("recording", "mesh_repeated_id", mesh_session(extra=mesh_record(1, BOX_V, BOX_T)))
+put("recording", "mesh_second", mesh_session(extra=mesh_record(5, BOX_V, BOX_T, mode=0)))
+put("recording", "v1_plane", recording_file(1, tick(0) + batch(1, 1) + updates(1, 0, 0, 0) + tick(1, 1), 2, 1, 1, 0))
+put("recording", "v1_mesh", recording_file(1, tick(0) + batch(1, 1) + updates(1, 0, 0, 3) + tick(1, 1), 2, 1, 1, 0))
+put("recording", "ticks_only", recording_file(2, tick(0) + tick(1) + tick(2), 3, 0, 0, 0))
