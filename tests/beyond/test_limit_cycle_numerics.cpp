@@ -85,13 +85,14 @@ TEST(LimitCycleNumerics, TheFactoredTransferAgreesWithThePolynomialsWithinHorner
                         const std::complex<double> num = horner(numerator, z), den = horner(p.base, z);
                         const std::complex<double> g_poly = num / den;
                         const std::complex<double> g_factored = linear.transfer(f, theta);
-                        const double bound = std::abs(g_poly) * ((4 * n + 16) * eps *
-                                                                     (abs_sum(numerator) / std::abs(num) +
-                                                                      abs_sum(p.base) / std::abs(den)) +
-                                                                 64 * eps);
+                        const double bound =
+                            std::abs(g_poly) *
+                            ((4 * n + 16) * eps *
+                                 (abs_sum(numerator) / std::abs(num) + abs_sum(p.base) / std::abs(den)) +
+                             64 * eps);
                         ASSERT_LE(std::abs(g_factored - g_poly), bound)
-                            << "estimator " << static_cast<int>(e.kind) << " d " << d << " gamma " << gamma << " delta " << delta << " theta "
-                            << theta;
+                            << "estimator " << static_cast<int>(e.kind) << " d " << d << " gamma " << gamma << " delta "
+                            << delta << " theta " << theta;
                         worst = std::max(worst, std::abs(g_factored - g_poly) / std::abs(g_poly));
                         const std::complex<LD> zl = std::polar(LD(1), LD(theta));
                         std::complex<LD> nl = 0, dl = 0;
@@ -101,9 +102,11 @@ TEST(LimitCycleNumerics, TheFactoredTransferAgreesWithThePolynomialsWithinHorner
                         }
                         const std::complex<LD> g_fine = nl / dl;
                         worst_polynomial = std::max(
-                            worst_polynomial, static_cast<double>(std::abs(std::complex<LD>(g_poly) - g_fine) / std::abs(g_fine)));
+                            worst_polynomial,
+                            static_cast<double>(std::abs(std::complex<LD>(g_poly) - g_fine) / std::abs(g_fine)));
                         worst_factored = std::max(
-                            worst_factored, static_cast<double>(std::abs(std::complex<LD>(g_factored) - g_fine) / std::abs(g_fine)));
+                            worst_factored,
+                            static_cast<double>(std::abs(std::complex<LD>(g_factored) - g_fine) / std::abs(g_fine)));
                         ++checked;
                     }
                 }
@@ -111,9 +114,10 @@ TEST(LimitCycleNumerics, TheFactoredTransferAgreesWithThePolynomialsWithinHorner
         }
     }
     EXPECT_EQ(checked, 3 * 3 * 2 * 3 * 40);
-    std::printf("largest relative difference of the two transfers: %.3g; against long double: polynomials %.3g, "
-                "factors %.3g\n",
-                worst, worst_polynomial, worst_factored);
+    std::printf(
+        "largest relative difference of the two transfers: %.3g; against long double: polynomials %.3g, "
+        "factors %.3g\n",
+        worst, worst_polynomial, worst_factored);
 }
 
 // The bias by bisection alone, both ends of the zero set {g >= 0} and {g > 0} (the definition in the header).
@@ -145,8 +149,7 @@ TEST(LimitCycleNumerics, TheBiasAgreesWithBisectionOnBothEndsOfTheZeroSet) {
         const double stiffness = std::pow(10.0, 2 + 3 * u(rng));
         const double k = u(rng) < 0.5 ? 0.0 : stiffness * std::pow(10.0, -3 + 3 * u(rng));
         const double amplitude = q * std::pow(10.0, -3 + 5 * u(rng));
-        const double force =
-            (u(rng) < 0.2 ? std::round(200 * u(rng) - 100) : 200 * u(rng) - 100) * stiffness * q;
+        const double force = (u(rng) < 0.2 ? std::round(200 * u(rng) - 100) : 200 * u(rng) - 100) * stiffness * q;
         double tol = 0;
         const double reference = bias_by_bisection(k, stiffness, force, amplitude, q, &tol);
         const double bias = detail::limit_cycle_bias(k, stiffness, force, amplitude, q);
