@@ -215,11 +215,6 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
     return best;
 }
 
-void MeshHierarchy::visit_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double grow,
-                                  const std::function<void(const HierarchyTriangle&)>& visit) const {
-    for_each_leaf_triangle(nodes_, triangles_, p, q - p, grow, visit);
-}
-
 std::size_t MeshHierarchy::memory_bytes() const {
     return sizeof(*this) + nodes_.capacity() * sizeof(Node) + triangles_.capacity() * sizeof(HierarchyTriangle) +
            mesh_.vertices.capacity() * sizeof(Eigen::Vector3d) +

@@ -10,7 +10,6 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <vector>
 
@@ -63,11 +62,6 @@ class MeshHierarchy {
     // on the triangle), else up to kRestingReach before that point. The smallest over the triangles met.
     // No allocation, no lock, no exception; visits each node at most once.
     SweepHit sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double offset = kSurfaceOffset) const noexcept;
-
-    // Calls visit(triangle) for every triangle whose box, grown by `grow`, the segment p -> q meets (off the loop:
-    // mesh_error's self-intersection check).
-    void visit_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double grow,
-                       const std::function<void(const HierarchyTriangle&)>& visit) const;
 
     // A point on the triangles' planes within kEdgeTolerance of a triangle's edge counts as inside it, so a
     // segment through a shared edge or vertex meets at least one of its triangles despite rounding.

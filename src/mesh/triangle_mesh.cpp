@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "mesh/triangle_mesh.hpp"
 
-#include "mesh/mesh_hierarchy.hpp"
+#include "mesh/self_intersection.hpp"
 
 #include <Eigen/Geometry>
 
@@ -72,49 +72,6 @@ std::optional<std::string> solid_error(const TriangleMesh& mesh) {
     return std::nullopt;
 }
 
-// Two triangles that share no vertex intersect when an edge of one crosses the other's interior: each edge is
-// swept against the triangles whose boxes it meets (the hierarchy), and counts when its ends lie strictly on both
-// sides of the plane (beyond 1e-12 of the mesh's size) and the crossing is inside the triangle by more than 1e-9
-// of its edges' lengths (barycentric). Coplanar overlaps and triangles meeting at a shared vertex are not found.
-std::optional<std::string> self_intersection_error(const TriangleMesh& mesh) {
-    const auto h = MeshHierarchy::build(mesh, MeshMode::solid);
-    Eigen::Vector3d lower = mesh.vertices[0], upper = mesh.vertices[0];
-    for (const auto& v : mesh.vertices) {
-        lower = lower.cwiseMin(v);
-        upper = upper.cwiseMax(v);
-    }
-    const double side = 1e-12 * (upper - lower).norm();
-    std::optional<std::string> error;
-    for (std::uint32_t t = 0; t < mesh.triangles.size() && !error; ++t) {
-        const auto& tri = mesh.triangles[t];
-        for (int k = 0; k < 3 && !error; ++k) {
-            const std::uint32_t i0 = tri[k], i1 = tri[(k + 1) % 3];
-            if (i0 > i1) continue;  // each edge once (its other triangle has it as (i1, i0))
-            const Eigen::Vector3d& p = mesh.vertices[i0];
-            const Eigen::Vector3d& q = mesh.vertices[i1];
-            h->visit_segment(p, q, 0.0, [&](const HierarchyTriangle& other) {
-                if (error) return;
-                const auto& o = mesh.triangles[other.index];
-                for (const std::uint32_t v : o)
-                    if (v == i0 || v == i1) return;
-                const double sp = other.normal.dot(p - other.a), sq = other.normal.dot(q - other.a);
-                if (!((sp > side && sq < -side) || (sp < -side && sq > side))) return;
-                const Eigen::Vector3d x = p + (sp / (sp - sq)) * (q - p) - other.a;
-                const double d00 = other.ab.dot(other.ab), d01 = other.ab.dot(other.ac), d11 = other.ac.dot(other.ac);
-                const double d20 = x.dot(other.ab), d21 = x.dot(other.ac);
-                const double det = d00 * d11 - d01 * d01;
-                const double v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
-                if (v > 1e-9 && w > 1e-9 && v + w < 1.0 - 1e-9) {
-                    error = "mesh: mode solid: the mesh intersects itself: edge (" + std::to_string(i0) + ", " +
-                            std::to_string(i1) + ") of triangle " + std::to_string(t) + " crosses triangle " +
-                            std::to_string(other.index) + " (a solid's surface must not cross itself)";
-                }
-            });
-        }
-    }
-    return error;
-}
-
 }  // namespace
 
 std::optional<std::string> mesh_error(const TriangleMesh& mesh, MeshMode mode, const MeshLimits& limits) {
@@ -162,7 +119,7 @@ std::optional<std::string> mesh_error(const TriangleMesh& mesh, MeshMode mode, c
     }
     if (mode == MeshMode::solid) {
         if (auto e = solid_error(mesh)) return e;
-        return self_intersection_error(mesh);
+        return detail::self_intersection_error(mesh);
     }
     return std::nullopt;
 }

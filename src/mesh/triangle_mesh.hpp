@@ -37,9 +37,11 @@ struct MeshLimits {
 // Empty when the mesh is valid for the mode, else one message naming the parameter and the accepted range: no
 // triangles, too many vertices or triangles, a non-finite or too large coordinate, an index out of range, a
 // degenerate (zero-area) triangle; in solid mode an open edge, an edge shared by more than two triangles, two
-// triangles using an edge in the same direction, inward winding, or an edge crossing a triangle it shares no
-// vertex with (self-intersection; coplanar overlaps are not found). Never throws for bad input (it may throw
-// std::bad_alloc). Cost O(n log n) in the triangles (solid mode builds a hierarchy for the crossing test).
+// triangles using an edge in the same direction, inward winding, or a surface that crosses or overlaps itself (an
+// edge crossing a triangle it shares no vertex with, two triangles sharing one vertex whose interiors cross, two
+// coplanar triangles whose interiors overlap; tolerances in docs/mesh-rendering.md). Never throws for bad input
+// (it may throw std::bad_alloc). Cost O(n log n) in the triangles (solid mode builds a hierarchy to find the pairs
+// of triangles whose boxes meet).
 std::optional<std::string> mesh_error(const TriangleMesh& mesh, MeshMode mode, const MeshLimits& limits = {});
 
 }  // namespace hapticd::mesh

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The mesh's costs (docs/mesh-rendering.md), baselines in the same run:
 //  * BM_Validate / BM_HierarchyBuild: mesh_error (solid) and MeshHierarchy::build of a 100 000-triangle torus
-//    (goal: accepted and built in under 1 s); BM_EmbreeBuild: Embree 3's scene commit of the same triangles.
+//    (goal: accepted and built in under 1 s); BM_EmbreeBuild: Embree 3's scene commit of the same triangles;
+//    BM_ValidateFlatFaces: mesh_error (solid) of a 99 372-triangle box (coplanar neighbours on its faces).
 //  * BM_Sweep*: one segment query over the same torus on the segments a proxy sweeps in contact (recorded from a
 //    proxy path): the hierarchy, brute force over every triangle, and Embree's rtcIntersect1 (first hit, no
 //    offset rule) when libembree-dev is installed.
@@ -97,6 +98,21 @@ void BM_Validate(benchmark::State& state) {
     state.counters["triangles"] = static_cast<double>(big_torus().triangles.size());
 }
 BENCHMARK(BM_Validate)->Unit(benchmark::kMillisecond);
+
+// A box whose faces are grids of 91 x 91 squares: 99 372 triangles, each face's triangles coplanar (the coplanar
+// overlap test runs on every pair of neighbours on a face).
+void BM_ValidateFlatFaces(benchmark::State& state) {
+    static const TriangleMesh m = box({0.03, 0.02, 0.01}, 91);
+    bool accepted = false;
+    for (auto _ : state) {
+        const auto e = mesh_error(m, MeshMode::solid);
+        accepted = !e.has_value();
+        benchmark::DoNotOptimize(accepted);
+    }
+    state.counters["triangles"] = static_cast<double>(m.triangles.size());
+    state.counters["accepted"] = accepted ? 1.0 : 0.0;
+}
+BENCHMARK(BM_ValidateFlatFaces)->Unit(benchmark::kMillisecond);
 
 void BM_HierarchyBuild(benchmark::State& state) {
     std::size_t bytes = 0, depth = 0;

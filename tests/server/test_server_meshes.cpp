@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // Mesh uploads and mesh objects against a running hapticd --serve (docs/protocol.md, sections 4 and 4a): the
 // upload's order, limits and errors (unknown ids, out-of-order chunks, NaN and out-of-range vertices, oversized
-// counts; degenerate, out-of-range-index and open-in-solid-mode meshes failed by the worker's validation), an upload
-// that never finishes (timed out), a client that dies mid-upload (its bytes freed, seen in `status`), and a box mesh
-// rendered like the plane it has as a face: the step response of the analysis, in lockstep.
+// counts; degenerate, out-of-range-index, open-in-solid-mode and self-overlapping meshes failed by the worker's
+// validation), an upload that never finishes (timed out), a client that dies mid-upload (its bytes freed, seen in
+// `status`), and a box mesh rendered like the plane it has as a face: the step response of the analysis, in
+// lockstep.
 #include <cmath>
 #include <cstdio>
 
@@ -249,6 +250,16 @@ TEST_F(ServerMeshes, DegenerateAndOpenSolidMeshesFailNamingTheRule) {
     MeshData flat{{0, 0, 0, 0.01, 0, 0, 0.02, 0, 0}, {0, 1, 2}};  // collinear: zero area
     r = upload_and_build(c, flat, "surface");
     EXPECT_EQ(r.value("state", ""), "failed") << r.dump();
+    // Two boxes face to face on their own vertices: closed and outward wound, but the face x = +a of the first and
+    // x = -a of the second are the same triangles twice (coplanar overlap).
+    MeshData twice = box(0.01);
+    const MeshData second = box(0.01);
+    for (std::size_t i = 0; i < second.vertices.size(); ++i)
+        twice.vertices.push_back(second.vertices[i] + (i % 3 == 0 ? 0.02 : 0.0));  // x + 2a
+    for (const std::uint32_t t : second.triangles) twice.triangles.push_back(t + 8);
+    r = upload_and_build(c, twice, "solid");
+    EXPECT_EQ(r.value("state", ""), "failed") << r.dump();
+    EXPECT_NE(r.value("message", "").find("overlaps itself: triangles 10 and 20"), std::string::npos) << r.dump();
 }
 
 TEST_F(ServerMeshes, ASessionHoldsAtMostEightMeshes) {
