@@ -89,12 +89,17 @@ def test_the_arrays_agree_with_the_header_and_the_end_record(recorded):
     assert np.all(rec.ticks["force"][:, 1:] == 0.0)  # 1 axis: the others are never written
 
 
-@needs_daemon
-def test_the_daemon_replays_what_the_reader_reads(recorded):
-    rec = recording.load(recorded["path"])
-    result = subprocess.run([HAPTICD, "--replay", recorded["path"]], capture_output=True, text=True, timeout=120)
+def assert_replays_bit_for_bit(path):
+    """`hapticd --replay` of the file exits 0 and counts the ticks and batches the reader reads."""
+    rec = recording.load(path)
+    result = subprocess.run([HAPTICD, "--replay", path], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert f"{len(rec.ticks)} ticks, {len(rec.batches)} batches: every force identical" in result.stdout
+
+
+@needs_daemon
+def test_the_daemon_replays_what_the_reader_reads(recorded):
+    assert_replays_bit_for_bit(recorded["path"])
 
 
 @needs_daemon
@@ -226,10 +231,7 @@ def test_a_mesh_recording_holds_the_mesh_as_uploaded(mesh_recorded):
 
 @needs_daemon
 def test_the_daemon_replays_a_mesh_recording_bit_for_bit(mesh_recorded):
-    rec = recording.load(mesh_recorded["path"])
-    result = subprocess.run([HAPTICD, "--replay", mesh_recorded["path"]], capture_output=True, text=True, timeout=120)
-    assert result.returncode == 0, result.stderr
-    assert f"{len(rec.ticks)} ticks, {len(rec.batches)} batches: every force identical" in result.stdout
+    assert_replays_bit_for_bit(mesh_recorded["path"])
 
 
 @needs_daemon
