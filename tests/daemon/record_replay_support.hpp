@@ -70,6 +70,17 @@ inline Replay replay(const std::string& file, const std::string& tag) {
     return result;
 }
 
+// `hapticd --replay file` exits 0 and reports every force of the recording's `ticks` and `batches` identical.
+inline void expect_replays_bit_for_bit(const std::string& file, const std::string& tag, std::size_t ticks,
+                                       std::size_t batches) {
+    const Replay out = replay(file, tag);
+    ASSERT_EQ(out.code, 0) << out.err;
+    EXPECT_NE(out.out.find(std::to_string(ticks) + " ticks, " + std::to_string(batches) +
+                           " batches: every force identical to the recording (bit for bit)"),
+              std::string::npos)
+        << out.out;
+}
+
 // Reads the state until `done` holds for a sample (the loop runs on in lockstep meanwhile).
 template <class Done>
 inline cl::StateSample wait_state(const cl::StateReader& state, Done done) {

@@ -74,11 +74,7 @@ TEST(RecordReplay, TheReplayReproducesEveryForceBitForBit) {
     EXPECT_EQ(departures, 1U);
     ASSERT_GT(nonzero, 1000U);  // the comparison is not one of zeros
 
-    const Replay out = replay(recorded_run(), "replay_ok");
-    ASSERT_EQ(out.code, 0) << out.err;
-    const std::string expected = std::to_string(r.ticks.size()) + " ticks, " + std::to_string(r.batches.size()) +
-                                 " batches: every force identical to the recording (bit for bit)";
-    EXPECT_NE(out.out.find(expected), std::string::npos) << out.out;
+    expect_replays_bit_for_bit(recorded_run(), "replay_ok", r.ticks.size(), r.batches.size());
 }
 
 // The middle one of the ticks in steady contact with the plane: force along -y (its normal) between 1 mN and
@@ -238,12 +234,7 @@ TEST(RecordReplay, AVersion1RecordingStillReplays) {
     write_bytes(file, v1);
     const Recording r = read_recording(file);
     EXPECT_EQ(r.version, 1U);
-    const Replay out = replay(file, "replay_version1");
-    EXPECT_EQ(out.code, 0) << out.err;
-    EXPECT_NE(out.out.find(std::to_string(r.ticks.size()) + " ticks, " + std::to_string(r.batches.size()) +
-                           " batches: every force identical"),
-              std::string::npos)
-        << out.out;
+    expect_replays_bit_for_bit(file, "replay_version1", r.ticks.size(), r.batches.size());
 }
 
 // The profile a recording was made with changed: the replay refuses (exit 10) rather than compare another scene.
