@@ -33,16 +33,19 @@ norandom=(setarch "$(uname -m)" -R)
 if [[ "$what" == asan || "$what" == all ]]; then
   stage "ASan + UBSan: configure" cmake --preset asan
   stage "ASan + UBSan: build" cmake --build build/asan -j"$jobs"
-  # One test is left to the release stage: the moving-wall example against the real-time daemon judges the
-  # contact chatter of poses sent on time, which the instrumented loop and client (several times slower, on
-  # a machine running two tests) do not deliver; its deterministic counterpart,
-  # SceneMotion.TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand, runs here.
+  # Two tests are left to the release stage, both examples whose updates must arrive within a latency budget that
+  # the instrumented daemons and client (several times slower, on a machine running two tests) do not keep: the
+  # moving-wall example against the real-time daemon judges the contact chatter of poses sent on time (its
+  # deterministic counterpart, SceneMotion.TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand, runs here);
+  # the two-handed spring's 50 Hz updates through two daemons' server threads must each come within the 120 ms its
+  # stability argument allows, and under ASan one came 133 ms after the one before (the example then removes its
+  # springs and exits 6, as it should). The instances' own tests (Instances.*) and the robust optimum it calls run here.
   # The layout checks (label layout: format, include graph, file sizes, cited paths) read the sources, not a
   # binary: they ran in the lint stage and the release ctest.
   stage "ASan + UBSan: ctest" env ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     "${norandom[@]}" ctest --test-dir build/asan --output-on-failure -j2 -LE '^layout$' \
-      -E '^Examples\.MovingWallRendersWithoutChatterAgainstTheReadmeDaemon$'
+      -E '^(Examples\.MovingWallRendersWithoutChatterAgainstTheReadmeDaemon|InstancesExample\.TwoHandedSpringHoldsTheHandlesAtTheStaticEquilibrium)$'
 fi
 if [[ "$what" == tsan || "$what" == all ]]; then
   stage "TSan: configure" cmake --preset tsan
