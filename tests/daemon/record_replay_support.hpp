@@ -94,4 +94,13 @@ inline cl::StateSample wait_state(const cl::StateReader& state, Done done) {
     return s;
 }
 
+// After the client left: waits until its objects are gone and 100 ticks more are recorded, then stops the daemon
+// (SIGTERM) and expects exit 0.
+inline void stop_after_the_client_left(const cl::StateReader& state, Child& daemon) {
+    const cl::StateSample gone = wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; });
+    wait_state(state, [&](const cl::StateSample& s) { return s.tick >= gone.tick + 100; });
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(std::chrono::seconds(120)), 0) << daemon.err();
+}
+
 }  // namespace hapticd::server_test

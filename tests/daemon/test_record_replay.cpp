@@ -53,10 +53,7 @@ const std::string& recorded_run() {
                 wait_state(state, [&](const cl::StateSample& s) { return s.last_commit_seq >= seq; });
             wait_state(state, [&](const cl::StateSample& s) { return s.tick >= applied.tick + kGap; });
         }  // the client leaves: a departure, the plane ramps out
-        const cl::StateSample gone = wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; });
-        wait_state(state, [&](const cl::StateSample& s) { return s.tick >= gone.tick + 100; });
-        daemon.signal(SIGTERM);
-        EXPECT_EQ(daemon.wait(std::chrono::seconds(120)), 0) << daemon.err();
+        stop_after_the_client_left(state, daemon);
         return file;
     }();
     return path;

@@ -85,10 +85,7 @@ const MeshRun& mesh_run() {
             remove.remove(r.object_ids.at(0));
             settle(c.commit(remove).commit_seq);
         }  // the client leaves
-        const cl::StateSample gone = wait_state(state, [](const cl::StateSample& s) { return s.objects == 0; });
-        wait_state(state, [&](const cl::StateSample& s) { return s.tick >= gone.tick + 100; });
-        daemon.signal(SIGTERM);
-        EXPECT_EQ(daemon.wait(std::chrono::seconds(120)), 0) << daemon.err();
+        stop_after_the_client_left(state, daemon);
         return out;
     }();
     return run;
