@@ -177,8 +177,9 @@ EnergyCostHessianT<Scalar> estimator_hessian_from_solver(const SampledPlant<Scal
     if (!(value > Scalar(0)) || !std::isfinite(static_cast<double>(value))) return {inf, nan, nan, nan, nan, nan};
     const Square& m = loop.transition;
     const DynamicVector<Scalar>& e0 = loop.initial_state;
-    const std::array<std::array<Square, 3>, 2> dg{estimator_state_derivative(stein, loop, a, dloop[0].transition, true),
-                                                  estimator_state_derivative(stein, loop, a, dloop[1].transition, false)};
+    const std::array<std::array<Square, 3>, 2> dg{
+        estimator_state_derivative(stein, loop, a, dloop[0].transition, true),
+        estimator_state_derivative(stein, loop, a, dloop[1].transition, false)};
     const std::array<TwoRows, 3> through{estimator_through(m, a, a.g), estimator_through(m, a, dg[0]),
                                          estimator_through(m, a, dg[1])};
     std::array<TwoRows, 2> dm;  // rows 0, 1 of M_alpha, M_beta
@@ -206,34 +207,28 @@ EnergyCostHessianT<Scalar> estimator_hessian_from_solver(const SampledPlant<Scal
     for (int i = 0; i < 2; ++i) {
         for (int j = i; j < 2; ++j) jj[i][j] = second[i][j] + mixed[i][j] + mixed[j][i];
     }
-    return {value,
-            a.j + k * dj[0],
-            k * dj[1],
-            Scalar(2) * dj[0] + k * jj[0][0],
-            dj[1] + k * jj[0][1],
-            k * jj[1][1]};
+    return {value, a.j + k * dj[0], k * dj[1], Scalar(2) * dj[0] + k * jj[0][0], dj[1] + k * jj[0][1], k * jj[1][1]};
 }
 
 }  // namespace detail
 
 /// C_E<index> (0, 1, 2) with the estimator, its gradient and its Hessian with respect to (alpha, beta), exact up
 /// to rounding (header comment), on the Stein solver estimator_energy_cost_gradient chooses (`dense` as there).
-/// Unstable gains give value +inf and NaN derivatives. Cost: about 1.6x the gradient's at window 15, d = 6
-/// (BM_EstimatorHessian, docs/benchmarks.md). Throws InvalidParameter for an index outside 0..2.
+/// Unstable gains give value +inf and NaN derivatives. Cost: 1.6-1.9 gradients (C_E2 at d = 6, low-pass 0.02 and
+/// window 15: BM_EstimatorOptimumParts/k/6/3, docs/benchmarks.md). Throws InvalidParameter for an index outside 0..2.
 template <typename Scalar>
 EnergyCostHessianT<Scalar> estimator_energy_cost_hessian(const SampledPlant<Scalar>& plant,
-                                                         const VelocityEstimator& estimator, Scalar alpha,
-                                                         Scalar beta, int index, bool dense = false) {
+                                                         const VelocityEstimator& estimator, Scalar alpha, Scalar beta,
+                                                         int index, bool dense = false) {
     detail::require_in_range("hapticopt::estimator_energy_cost_hessian", "index", index, 0, false, 2, "0, 1 or 2");
     const Scalar inf = std::numeric_limits<Scalar>::infinity();
     const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN();
     const EnergyCostHessianT<Scalar> unstable{inf, nan, nan, nan, nan, nan};
-    return detail::with_estimator_stein(plant, estimator, alpha, beta, dense, unstable,
-                                        [&](const ClosedLoop<Scalar>& loop, const auto& stein,
-                                            const std::array<ClosedLoop<Scalar>, 2>& dloop) {
-                                            return detail::estimator_hessian_from_solver(plant, loop, stein, dloop,
-                                                                                         index);
-                                        });
+    return detail::with_estimator_stein(
+        plant, estimator, alpha, beta, dense, unstable,
+        [&](const ClosedLoop<Scalar>& loop, const auto& stein, const std::array<ClosedLoop<Scalar>, 2>& dloop) {
+            return detail::estimator_hessian_from_solver(plant, loop, stein, dloop, index);
+        });
 }
 
 }  // namespace hapticopt
