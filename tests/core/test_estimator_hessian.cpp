@@ -44,10 +44,10 @@ TEST(EstimatorEnergyCostHessian, MatchesCentralDifferencesOfTheGradient) {
     // Central differences of the double gradient with step h_x = 1e-4 x (x = alpha or beta): truncation
     // (h^2 / 6) |g'''| ~ 2e-9 C / (x y) for costs that vary on the scale of the gains, rounding e_g |g| / h with
     // the gradient's relative error e_g <= 1e-12 (Stein solutions ~1e-13 / (1 - rho)^2, rho <= 0.99 here), so
-    // <= 1e-8 C / (x y). Tolerance 1e-6 C / (x y) + 1e-6 |H|: 100x above their sum (measured: the largest error
-    // is 7.3e-8 (C / (x y) + |H|), 14x below it; with a sixth of the <L_0, E_alpha,alpha> term left out it is 0.44
-    // (C / (x y) + |H|)). Each mixed entry is checked against both differences (d_alpha along beta and d_beta along
-    // alpha), which also checks the symmetry.
+    // <= 1e-8 C / (x y). Tolerance 1e-6 C / (x y) + 1e-6 |H|: 100x above that estimate (measured: the largest
+    // error is 7.3e-8 (C / (x y) + |H|), where the cost varies faster than on the gains' scale, 14x below it; with a
+    // sixth of the <L_0, E_alpha,alpha> term left out it is 0.44 (C / (x y) + |H|)). Each mixed entry is checked
+    // against both differences (d_alpha along beta and d_beta along alpha), which also checks the symmetry.
     int checked = 0;
     for (const VelocityEstimator& e : estimators()) {
         for (double d : {0.0, 1.0, 6.0}) {
