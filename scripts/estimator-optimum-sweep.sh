@@ -5,7 +5,7 @@
 #   - newton against brent where gamma > 0 (the CE2 minimum on the edge alpha -> 0+): cases, the largest relative
 #     cost difference, newton without a finite cost where brent has one;
 #   - with a revision: the largest relative CE2 cost difference at gamma = 0, and alpha_max (fast grid) moving by
-#     more than 1e-10.
+#     more than 1e-10, and the largest relative change of the newton CE2 point (alpha, beta).
 # Usage: scripts/estimator-optimum-sweep.sh [REVISION]   (g++ -O2; about a minute per build on 2 cores)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -38,6 +38,9 @@ def newton_against_brent(name, rows):
     missing = sum(1 for v in stiff.values() if not math.isfinite(v[4]))
     print(f"{name}: gamma > 0, {len(stiff)} cases with a finite brent cost: newton cost off by up to {worst:.3g} "
           f"relative, {above} above 1e-9, {missing} without a finite newton cost")
+    for k, v in stiff.items():
+        if math.isfinite(v[4]) and rel(v[4], v[5]) > 1e-9:
+            print("  ", " ".join(k), f"newton {v[4]:.17g} brent {v[5]:.17g}")
 current = load("current")
 newton_against_brent("current", current)
 if os.path.exists(os.path.join(out, "base.txt")):
@@ -50,4 +53,17 @@ if os.path.exists(os.path.join(out, "base.txt")):
           f"by up to {max((m for _, m in moved), default=0):.3g} relative")
     for k, m in moved:
         print("  ", " ".join(k), f"{m:.3g}")
+    both = [k for k in current if math.isfinite(current[k][2]) and math.isfinite(base[k][2]) and current[k][0] > 0]
+    da = max(((rel(base[k][2], current[k][2]), abs(base[k][2] - current[k][2]) / current[k][0], k) for k in both),
+             default=(0.0, 0.0, None))
+    db = max(((rel(base[k][3], current[k][3]), k) for k in both), default=(0.0, None))
+    inner = [k for k in both if float(k[3]) == 0]
+    print(f"CE2 point (newton), gamma = 0 (interior minima), {len(inner)} cases: alpha moved by up to "
+          f"{max((rel(base[k][2], current[k][2]) for k in inner), default=0):.3g} relative, beta by up to "
+          f"{max((rel(base[k][3], current[k][3]) for k in inner), default=0):.3g}")
+    print(f"CE2 point (newton), all {len(both)} cases: alpha moved by up to {da[0]:.3g} relative "
+          f"({max(abs(base[k][2] - current[k][2]) / current[k][0] for k in both):.3g} of alpha_max at most), "
+          f"beta by up to {db[0]:.3g} relative")
+    print("  largest alpha change:", " ".join(da[2]) if da[2] else "-", "; largest beta change:",
+          " ".join(db[1]) if db[1] else "-")
 PY

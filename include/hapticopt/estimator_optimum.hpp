@@ -14,6 +14,7 @@
 #include "errors.hpp"
 #include "estimator_costs.hpp"
 #include "estimator_gradient.hpp"
+#include "estimator_hessian.hpp"
 #include "estimator_region.hpp"
 #include "newton_search.hpp"
 #include "optimum.hpp"
@@ -54,8 +55,12 @@ struct EstimatorOptimumOptions {
 inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{16, 16, false};
 
 /// OptimumMethod::newton with an estimator: a minimum found below this fraction of alpha_max is on the edge
-/// alpha -> 0+, and its beta is polished there by a 1-d Newton (optimal_point).
-inline constexpr double kAlphaEdge = 1e-9;
+/// alpha -> 0+, and its beta is polished there by a 1-d Newton (optimal_point; the polished point is kept only
+/// where its cost is lower). Near that edge the cost's rounding grows (the loop nears marginal stability; ~1e-9
+/// relative at 1e-9 alpha_max for window 30, d = 0, gamma = 0.01), so the 2-d steps stop wherever rounding
+/// swamps their decrease, between ~1e-10 and ~2e-9 alpha_max in the sweep (scripts/estimator-optimum-sweep.sh),
+/// with beta not yet minimised; 1e-6 lies well above that.
+inline constexpr double kAlphaEdge = 1e-6;
 
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
 /// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
@@ -63,7 +68,8 @@ inline constexpr double kAlphaEdge = 1e-9;
 ///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 4)
 ///    alphas across (0, alpha_max) x max(4, beta_grid / 4) betas across the main region's beta interval
 ///    (6 x 4 by default; the interval's ends to 1e-3); then damped Newton (newton_search.hpp, minimize_newton_2d)
-///    from the best start point on the analytic gradient estimator_energy_cost_gradient, in coordinates scaled by
+///    from the best start point on the analytic gradient and exact Hessian (estimator_energy_cost_hessian,
+///    estimator_hessian.hpp), in coordinates scaled by
 ///    alpha_max and that point's interval width, to a step below 1e-12 of them or the function's resolution. A
 ///    minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma > 0): its beta is then minimised at
 ///    that alpha by minimize_newton_1d. A point outside the main region's beta interval there, or a start grid
@@ -155,9 +161,10 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
         // No finite start cost (a region thinner than the start grid resolves): the region search below.
         if (std::isfinite(best_value)) {
             auto fg = [&](double a, double b) {
-                if (!(a > 0 && a < out.alpha_max)) return detail::ValueAndGradient2{HUGE_VAL, 0, 0};
-                const EnergyCostGradient g = gradient(a, b);
-                return detail::ValueAndGradient2{g.value, g.d_alpha, g.d_beta};
+                if (!(a > 0 && a < out.alpha_max)) return detail::ValueGradientHessian2{HUGE_VAL, 0, 0, 0, 0, 0};
+                const EnergyCostHessian g = estimator_energy_cost_hessian(sampled, estimator, a, b, index);
+                return detail::ValueGradientHessian2{g.value,         g.d_alpha,      g.d_beta,
+                                                     g.d_alpha_alpha, g.d_alpha_beta, g.d_beta_beta};
             };
             detail::NewtonMinimum2 m = detail::minimize_newton_2d(fg, best_a, best_b, out.alpha_max, best_width);
             // The steps are bounded in alpha only; a point outside the main region's beta interval (another stable

@@ -11,6 +11,7 @@
 #include "errors.hpp"
 #include "estimator_costs.hpp"
 #include "estimator_gradient.hpp"
+#include "estimator_hessian.hpp"
 #include "estimator_impulse.hpp"
 #include "estimator_loop.hpp"
 #include "estimator_noise.hpp"

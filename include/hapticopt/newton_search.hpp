@@ -2,8 +2,9 @@
 // Local minimisation with an analytic gradient, used by the fast optimum (optimum.hpp):
 //  - minimize_newton_2d: Levenberg-Marquardt-damped Newton steps (a trust-region method: the damping mu
 //    shrinks the step where the quadratic model fails) on f(x, y) given f and its gradient; the Hessian
-//    comes from forward differences of the analytic gradient (step 1e-6 in the scaled coordinates x / sx,
-//    y / sy), and is kept after an accepted step below kKeepHessianBelow (a chord step: the Hessian there differs
+//    is the callback's own where it returns one (ValueGradientHessian2; exact Hessians: estimator_hessian.hpp),
+//    else forward differences of the analytic gradient (step 1e-6 in the scaled coordinates x / sx,
+//    y / sy), kept after an accepted step below kKeepHessianBelow (a chord step: the Hessian there differs
 //    by about that fraction, so each step still contracts the error by about as much; a kept Hessian whose step
 //    is rejected is replaced by a fresh one at the same point). A step is accepted when f decreases, or when f
 //    stays within rounding (8 eps |f|) and the gradient's norm decreases (at a minimum the values differ by
@@ -11,9 +12,10 @@
 //    raises mu. Stops when a step (accepted, or proposed under any damping) is below `step_tolerance` in the
 //    scaled coordinates, when a step below kUnresolvedStep is rejected inside the domain (the function no longer
 //    resolves it), when no step is accepted, or after `max_iterations`; a proposed step below the tolerance is
-//    not evaluated. Converges quadratically near a minimum with a positive definite Hessian until the chord
-//    steps (the forward-difference Hessian's relative error ~1e-6 only slows the last step's contraction to
-//    ~1e-6 per step); J. Nocedal, S. J. Wright, "Numerical Optimization", 2nd ed., 2006, ch. 4 and 10.
+//    not evaluated. Converges quadratically near a minimum with a positive definite Hessian (with the callback's
+//    exact Hessian at every step; with the differences until the chord steps, whose Hessian's relative error
+//    ~1e-6 only slows the last step's contraction to ~1e-6 per step); J. Nocedal, S. J. Wright, "Numerical
+//    Optimization", 2nd ed., 2006, ch. 4 and 10.
 //  - minimize_newton_1d: the same for a function of one variable, kept inside (lo, hi), with a fresh second
 //    derivative at every step and only the step-tolerance stop.
 // Both converge to a local minimum; callers start them in the global minimum's basin (a coarse grid).
@@ -22,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 namespace hapticopt::detail {
 
@@ -39,6 +42,22 @@ struct ValueAndGradient2 {
     double dy;
 };
 
+/// A result of minimize_newton_2d's callback with the Hessian: f, its gradient and its second derivatives.
+struct ValueGradientHessian2 {
+    double value;  ///< f, +inf (or NaN) outside the domain
+    double dx;
+    double dy;
+    double dxx;
+    double dxy;
+    double dyy;
+};
+
+/// True for callback results with members dxx, dxy, dyy (minimize_newton_2d then takes the Hessian from them).
+template <typename R, typename = void>
+struct has_hessian2 : std::false_type {};
+template <typename R>
+struct has_hessian2<R, std::void_t<decltype(R::dxx), decltype(R::dxy), decltype(R::dyy)>> : std::true_type {};
+
 struct NewtonMinimum2 {
     double x;
     double y;
@@ -46,7 +65,9 @@ struct NewtonMinimum2 {
     int evaluations;  ///< calls of the function
 };
 
-/// See the header comment. `fg(x, y)` returns ValueAndGradient2 (or anything with value, dx, dy members).
+/// See the header comment. `fg(x, y)` returns ValueAndGradient2 (or anything with value, dx, dy members), or
+/// ValueGradientHessian2 (members dxx, dxy, dyy too): the Hessian is then the callback's at every point where it
+/// is finite (no difference evaluations, no kept Hessian), and the forward differences where it is not.
 template <typename F>
 NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double sy, double step_tolerance = 1e-12,
                                   int max_iterations = 60) {
@@ -54,11 +75,18 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
     int evaluations = 0;
     struct Point {
         double u, v, f, gu, gv;
+        double huu, hvv, huv;  // the callback's Hessian in the scaled coordinates (NaN without one)
     };
+    using Result = std::decay_t<decltype(fg(x, y))>;
     auto eval = [&](double u, double v) {
         ++evaluations;
-        const auto r = fg(u * sx, v * sy);
-        return Point{u, v, r.value, r.dx * sx, r.dy * sy};
+        const Result r = fg(u * sx, v * sy);
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        if constexpr (has_hessian2<Result>::value) {
+            return Point{u, v, r.value, r.dx * sx, r.dy * sy, r.dxx * sx * sx, r.dyy * sy * sy, r.dxy * sx * sy};
+        } else {
+            return Point{u, v, r.value, r.dx * sx, r.dy * sy, nan, nan, nan};
+        }
     };
     auto finite = [](const Point& p) { return std::isfinite(p.f) && std::isfinite(p.gu) && std::isfinite(p.gv); };
     Point p = eval(x / sx, y / sy);
@@ -68,8 +96,14 @@ NewtonMinimum2 minimize_newton_2d(F&& fg, double x, double y, double sx, double 
     double huu = 0, hvv = 0, huv = 0, floor_mu = 0;
     bool fresh_hessian = true;
     for (int it = 0; it < max_iterations; ++it) {
-        const bool reused = !fresh_hessian;
-        if (fresh_hessian) {
+        const bool exact = std::isfinite(p.huu) && std::isfinite(p.hvv) && std::isfinite(p.huv);
+        const bool reused = !fresh_hessian && !exact;
+        if (exact) {  // the callback's Hessian at p
+            huu = p.huu;
+            hvv = p.hvv;
+            huv = p.huv;
+            floor_mu = 1e-3 * (std::abs(huu) + std::abs(hvv)) + 1e-300;
+        } else if (fresh_hessian) {
             // Hessian by forward differences of the gradient (backward where the forward point is outside).
             Point pu = eval(p.u + h, p.v);
             double hu = h;

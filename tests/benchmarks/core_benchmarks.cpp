@@ -204,7 +204,8 @@ BENCHMARK(BM_RegionCornerTip)->Args({0, 1})->Args({1, 1})->Args({1, 0})->Unit(be
 
 // The parts of the fast CE2 optimum with the estimator (d = range(1)): 0 = the main region on the fast
 // method's 16 x 16 scan (EstimatorStabilityRegion with kFastOptimumRegionGrid), 1 = one gradient
-// (estimator_energy_cost_gradient) at the optimum's neighbourhood, 2 = one cost (estimator_energy_costs) there.
+// (estimator_energy_cost_gradient) at the optimum's neighbourhood, 2 = one cost (estimator_energy_costs) there,
+// 3 = one exact Hessian (estimator_energy_cost_hessian, estimator_hessian.hpp) there.
 void BM_EstimatorOptimumParts(benchmark::State& state) {
     const double d = static_cast<double>(state.range(1));
     const NormalizedPlant np{0, 0, d};
@@ -216,9 +217,10 @@ void BM_EstimatorOptimumParts(benchmark::State& state) {
         if (part == 0) benchmark::DoNotOptimize(EstimatorStabilityRegion(np, e, kFastOptimumRegionGrid).alpha_max());
         if (part == 1) benchmark::DoNotOptimize(estimator_energy_cost_gradient(plant, e, g.alpha, g.beta, 2));
         if (part == 2) benchmark::DoNotOptimize(estimator_energy_costs(plant, e, g.alpha, g.beta));
+        if (part == 3) benchmark::DoNotOptimize(estimator_energy_cost_hessian(plant, e, g.alpha, g.beta, 2));
     }
 }
-BENCHMARK(BM_EstimatorOptimumParts)->ArgsProduct({{1, 2}, {1, 6}, {0, 1, 2}})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstimatorOptimumParts)->ArgsProduct({{1, 2}, {1, 6}, {0, 1, 2, 3}})->Unit(benchmark::kMicrosecond);
 
 // CE2 under a force-noise budget (noise_budget.hpp), d = 1: half the g_F of the unconstrained optimum (the budget
 // binds); the unconstrained optimum is part of the call (compare BM_EstimatorOptimum in the same run).
