@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 # The estimator optimum's sweep (tests/benchmarks/estimator_optimum_sweep.cpp, 180 cases) against the working
 # tree's headers and, given a git revision, against that revision's headers too; then a summary:
-#   - newton against brent where gamma > 0 (the CE2 minimum on the edge alpha -> 0+): cases, the largest relative
-#     cost difference, newton without a finite cost where brent has one;
+#   - newton against brent, where gamma > 0 (the CE2 minimum on the edge alpha -> 0+) and where gamma = 0: cases,
+#     the largest relative cost difference, the cases above 1e-9, newton without a finite cost where brent has one;
 #   - with a revision: the largest relative CE2 cost difference at gamma = 0, and alpha_max (fast grid) moving by
 #     more than 1e-10, and the largest relative change of the newton CE2 point (alpha, beta).
 # Usage: scripts/estimator-optimum-sweep.sh [REVISION]   (g++ -O2; about a minute per build on 2 cores)
@@ -32,15 +32,17 @@ def rel(a, b):
     if a == b: return 0.0
     return abs(a - b) / max(abs(a), abs(b))
 def newton_against_brent(name, rows):
-    stiff = {k: v for k, v in rows.items() if float(k[3]) > 0 and math.isfinite(v[5])}
-    worst = max((rel(v[4], v[5]) for v in stiff.values() if math.isfinite(v[4])), default=0.0)
-    above = sum(1 for v in stiff.values() if math.isfinite(v[4]) and rel(v[4], v[5]) > 1e-9)
-    missing = sum(1 for v in stiff.values() if not math.isfinite(v[4]))
-    print(f"{name}: gamma > 0, {len(stiff)} cases with a finite brent cost: newton cost off by up to {worst:.3g} "
-          f"relative, {above} above 1e-9, {missing} without a finite newton cost")
-    for k, v in stiff.items():
-        if math.isfinite(v[4]) and rel(v[4], v[5]) > 1e-9:
-            print("  ", " ".join(k), f"newton {v[4]:.17g} brent {v[5]:.17g}")
+    for label, keep in (("gamma > 0", lambda g: g > 0), ("gamma = 0", lambda g: g == 0)):
+        cases = {k: v for k, v in rows.items() if keep(float(k[3])) and math.isfinite(v[5])}
+        worst = max((rel(v[4], v[5]) for v in cases.values() if math.isfinite(v[4])), default=0.0)
+        above = sum(1 for v in cases.values() if math.isfinite(v[4]) and rel(v[4], v[5]) > 1e-9)
+        missing = sum(1 for v in cases.values() if not math.isfinite(v[4]))
+        print(f"{name}: {label}, {len(cases)} cases with a finite brent cost: newton cost off by up to {worst:.3g} "
+              f"relative, {above} above 1e-9, {missing} without a finite newton cost")
+        for k, v in cases.items():
+            if math.isfinite(v[4]) and rel(v[4], v[5]) > 1e-9:
+                side = "newton lower" if v[4] < v[5] else "NEWTON HIGHER"
+                print("  ", " ".join(k), f"newton {v[4]:.17g} brent {v[5]:.17g} ({side})")
 current = load("current")
 newton_against_brent("current", current)
 if os.path.exists(os.path.join(out, "base.txt")):

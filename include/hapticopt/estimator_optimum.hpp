@@ -62,15 +62,26 @@ inline constexpr EstimatorRegionOptions kFastOptimumRegionGrid{16, 16, false};
 /// with beta not yet minimised; 1e-6 lies well above that.
 inline constexpr double kAlphaEdge = 1e-6;
 
+/// The start grid's alphas of OptimumMethod::newton with an estimator, as fractions of alpha_max: spaced
+/// geometrically towards alpha -> 0+, where the CE2 minima of slow estimators lie (0.022-0.43 alpha_max over the
+/// 180 cases of scripts/estimator-optimum-sweep.sh). A uniform grid of 6 x 4 points starts Newton in a local
+/// minimum's basin for window 30, d = 0, delta = 0.05 (global minimum at 0.038 alpha_max); this one does not, with
+/// 15 costs instead of 24. A smaller fraction costs more than it finds: at 0.03 alpha_max the loop
+/// of window 15, d = 6 lies within kStabilityRefinementMargin of instability, where a cost takes the complex-Schur
+/// route (333 us against 27 us).
+inline constexpr double kStartAlphaFractions[] = {0.75, 0.5, 0.3, 0.15, 0.07};
+/// The start grid's betas at each start alpha: cell centres of the main region's beta interval there.
+inline constexpr int kStartBetas = 3;
+
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
 /// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
 /// EstimatorStabilityRegion; the CEx points by options.method:
-///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of max(4, alpha_grid / 4)
-///    alphas across (0, alpha_max) x max(4, beta_grid / 4) betas across the main region's beta interval
-///    (6 x 4 by default; the interval's ends to 1e-3); then damped Newton (newton_search.hpp, minimize_newton_2d)
-///    from the best start point on the analytic gradient and exact Hessian (estimator_energy_cost_hessian,
-///    estimator_hessian.hpp), in coordinates scaled by
-///    alpha_max and that point's interval width, to a step below 1e-12 of them or the function's resolution. A
+///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of the kStartAlphaFractions
+///    of alpha_max x kStartBetas betas across the main region's beta interval at each (cell centres; the
+///    interval's ends to 1e-3); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start
+///    point on the analytic gradient and exact Hessian (estimator_energy_cost_hessian, estimator_hessian.hpp), in
+///    coordinates scaled by alpha_max and that point's interval width, to a step below 1e-12 of them or the
+///    function's resolution; the cost is the one Newton's last evaluation gives (newton_search.hpp). A
 ///    minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma > 0): its beta is then minimised at
 ///    that alpha by minimize_newton_1d. A point outside the main region's beta interval there, or a start grid
 ///    without a finite cost, goes to brent's region search on the same region;
@@ -135,20 +146,18 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
     };
     auto interval = [&](double a) { return region.beta_interval(a); };
     auto gradient = [&](double a, double b) { return estimator_energy_cost_gradient(sampled, estimator, a, b, index); };
-    const int fast_alphas = std::max(4, options.search.alpha_grid / 4);
-    const int fast_betas = std::max(4, options.search.beta_grid / 4);
     if (!requires_no_overshoot(criterion) && newton) {
-        // Start grid of fast_alphas x fast_betas cell centres over the main region, then damped Newton
+        // The start grid (kStartAlphaFractions x kStartBetas) over the main region, then damped Newton
         // (newton_search.hpp) in coordinates scaled by alpha_max and the best start's beta interval width.
         // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-3 (the march
         // brackets them to a quarter of a scan cell first).
         double best_a = out.alpha_max / 2, best_b = 0, best_width = 1, best_value = HUGE_VAL;
-        for (int i = 0; i < fast_alphas; ++i) {
-            const double a = (i + 0.5) * out.alpha_max / fast_alphas;
+        for (const double fraction : kStartAlphaFractions) {
+            const double a = fraction * out.alpha_max;
             const auto [lo, hi] = region.beta_interval(a, 1e-3);
             if (!(hi > lo)) continue;
-            for (int j = 0; j < fast_betas; ++j) {
-                const double b = lo + (j + 0.5) * (hi - lo) / fast_betas;
+            for (int j = 0; j < kStartBetas; ++j) {
+                const double b = lo + (j + 0.5) * (hi - lo) / kStartBetas;
                 const double v = cost(a, b);
                 if (v < best_value) {
                     best_value = v;
@@ -180,11 +189,14 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
                         return detail::ValueAndDerivative{g.value, g.d_beta};
                     };
                     const detail::NewtonMinimum2 e = detail::minimize_newton_1d(fd, m.y, lo, hi);
-                    if (e.value < m.value) m.y = e.x;
+                    if (e.value < m.value) {
+                        m.y = e.x;
+                        m.value = e.value;
+                    }
                 }
                 out.alpha = m.x;
                 out.beta = m.y;
-                out.cost = cost(m.x, m.y);
+                out.cost = m.value;
                 return out;
             }
         }

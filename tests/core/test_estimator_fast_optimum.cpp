@@ -222,6 +222,24 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
     EXPECT_LE(refined, 1);
 }
 
+TEST(EstimatorFastOptimum, StartGridReachesTheGlobalBasinOfASlowWindow) {
+    // Window 30, d = 0, delta = 0.05: CE2 has a local minimum at alpha 0.030, beta -0.115 (cost 13850) besides the
+    // global one at alpha 0.0044, beta 0.040 (cost 6228, brent's), 0.038 of the fast grid's alpha_max (measured by
+    // scripts/estimator-optimum-sweep.sh). The start grid's alphas, spaced towards alpha -> 0+
+    // (kStartAlphaFractions), must start Newton in the global basin: the point and cost of AgreesWithBrent's
+    // tolerances.
+    const NormalizedPlant plant{0, 0.05, 0};
+    const VelocityEstimator e = VelocityEstimator::moving_window(30);
+    EstimatorOptimumOptions slow_options;
+    slow_options.method = OptimumMethod::brent;
+    const EstimatorOptimum fast = optimal_point(Criterion::CE2, plant, e);
+    const EstimatorOptimum slow = optimal_point(Criterion::CE2, plant, e, slow_options);
+    ASSERT_TRUE(fast.cost && slow.cost);
+    EXPECT_NEAR(*fast.cost / *slow.cost, 1.0, 1e-10);
+    EXPECT_NEAR(fast.alpha / slow.alpha, 1.0, 1e-5);
+    EXPECT_NEAR(fast.beta / slow.beta, 1.0, 1e-5);
+}
+
 TEST(EstimatorFastOptimum, EdgeMinimaOfAStiffPlantAgreeWithBrent) {
     // gamma = 0.01 (the plant's own stiffness): the CE2 minimum of these cases lies on the main region's edge
     // alpha -> 0+ (measured: both methods end below 1e-9 alpha_max), and for the slow low-pass at d = 2.5 the main

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <hapticopt/hapticopt.hpp>
@@ -152,6 +154,28 @@ TEST(NewtonSearch, HessianCallbackConvergesQuadratically) {
     EXPECT_NEAR(differences.x, 1.0, 1e-7);
     EXPECT_NEAR(differences.y, 1.0, 1e-7);
     EXPECT_LT(exact.evaluations, differences.evaluations);
+}
+
+TEST(NewtonSearch, TakesTheLastStepUnevaluatedWhereTheContractionPredictsTheTolerance) {
+    // f = exp(x - 1) - x + (1 + x^2) (y - 2)^2 + 3 from (0.3, 2.5): minimum (1, 2), value 4, Hessian diag(1, 4)
+    // there. With the exact Hessian the search ends on a step it does not evaluate (newton_search.hpp): the point
+    // returned is none the callback saw, yet within the step tolerance (1e-12, the error the observed contraction
+    // predicts; a margin of 10 for the estimate) of the minimum, and the value returned (the quadratic model's) is
+    // f there to rounding (4 eps |f|).
+    auto f = [](double x, double y) { return std::exp(x - 1) - x + (1 + x * x) * (y - 2) * (y - 2) + 3; };
+    std::vector<std::pair<double, double>> seen;
+    auto fgh = [&](double x, double y) {
+        seen.emplace_back(x, y);
+        const double e = std::exp(x - 1), dy = y - 2;
+        return detail::ValueGradientHessian2{f(x, y),    e - 1 + 2 * x * dy * dy, 2 * (1 + x * x) * dy, e + 2 * dy * dy,
+                                             4 * x * dy, 2 * (1 + x * x)};
+    };
+    const detail::NewtonMinimum2 m = detail::minimize_newton_2d(fgh, 0.3, 2.5, 1.0, 1.0);
+    EXPECT_NEAR(m.x, 1.0, 1e-11);
+    EXPECT_NEAR(m.y, 2.0, 1e-11);
+    EXPECT_NEAR(m.value, f(m.x, m.y), 4 * std::numeric_limits<double>::epsilon() * std::abs(f(m.x, m.y)));
+    EXPECT_EQ(static_cast<int>(seen.size()), m.evaluations);
+    for (const auto& [x, y] : seen) EXPECT_FALSE(x == m.x && y == m.y) << x << " " << y;
 }
 
 }  // namespace estimator_hessian_test
