@@ -226,13 +226,13 @@ struct Status {
 // StateMeshProxy), in the device frame: the object pushes the handle towards the proxy, K (proxy - position).
 struct MeshProxySample {
     std::uint32_t object_id = 0;
-    std::uint32_t slot = 0;               // the scene slot, 0 .. 63
-    Vec3 proxy{};                         // m: on or outside the surface (1 um in front of its faces)
-    std::array<Vec3, 3> normals{};        // unit outward normals of the active constraints (the first `constraints`)
-    int constraints = 0;                  // active faces, 0 .. 3; 0: free (the proxy is at the handle)
-    std::uint32_t triangle = 0xFFFFFFFFU; // one active face (index in the uploaded mesh); 0xFFFFFFFF when free
-    bool sliding = false;                 // friction: the proxy slid at this tick
-    bool converged = true;                // false: the proxy's step ran out of sweeps and goes on at the next tick
+    std::uint32_t slot = 0;                // the scene slot, 0 .. 63
+    Vec3 proxy{};                          // m: on or outside the surface (1 um in front of its faces)
+    std::array<Vec3, 3> normals{};         // unit outward normals of the active constraints (the first `constraints`)
+    int constraints = 0;                   // active faces, 0 .. 3; 0: free (the proxy is at the handle)
+    std::uint32_t triangle = 0xFFFFFFFFU;  // one active face (index in the uploaded mesh); 0xFFFFFFFF when free
+    bool sliding = false;                  // friction: the proxy slid at this tick
+    bool converged = true;                 // false: the proxy's step ran out of sweeps and goes on at the next tick
 };
 
 struct StateSample {

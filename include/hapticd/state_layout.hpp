@@ -74,14 +74,14 @@ inline constexpr std::uint8_t kMeshProxyUnconverged = 2U;  // the last step ran 
 // collision events, each a triangle and a normal) and OpenHaptics HL (HL_PROXY_POSITION, HL_PROXY_TOUCH_NORMAL,
 // HL_PROXY_IS_TOUCHING) show. The force the object renders is K (proxy - handle) - B P v (its ramp's weights).
 struct StateMeshProxy {
-    double proxy[3];            // m: on or outside the surface (1 um in front of its faces, kSurfaceOffset)
-    float normal[3][3];         // unit outward normals of the active constraints (the first `constraints`; 0 beyond)
-    std::uint32_t triangle;     // one active face, its index in the client's mesh; 0xFFFFFFFF when free
-    std::uint8_t slot;          // the scene slot (0..63)
-    std::uint8_t constraints;   // active faces, 0..3; > 0 exactly when the slot's contact_mask bit is set
-    std::uint8_t flags;         // kMeshProxySliding | kMeshProxyUnconverged
-    std::uint8_t reserved;      // 0
-    std::uint32_t object_id;    // the mesh object (the slot's, or the one fading out of it, below)
+    double proxy[3];           // m: on or outside the surface (1 um in front of its faces, kSurfaceOffset)
+    float normal[3][3];        // unit outward normals of the active constraints (the first `constraints`; 0 beyond)
+    std::uint32_t triangle;    // one active face, its index in the client's mesh; 0xFFFFFFFF when free
+    std::uint8_t slot;         // the scene slot (0..63)
+    std::uint8_t constraints;  // active faces, 0..3; > 0: in contact (the slot's contact_mask bit is set)
+    std::uint8_t flags;        // kMeshProxySliding | kMeshProxyUnconverged
+    std::uint8_t reserved;     // 0
+    std::uint32_t object_id;   // the mesh object: the slot's, or a mesh fading out of the slot
 };
 static_assert(sizeof(StateMeshProxy) == 72 && offsetof(StateMeshProxy, normal) == 24 &&
               offsetof(StateMeshProxy, triangle) == 60 && offsetof(StateMeshProxy, slot) == 64 &&

@@ -244,3 +244,24 @@ def test_a_state_message_with_proxies_becomes_a_sample():
     assert (p.object_id, p.slot, p.proxy, p.constraints, p.triangle, p.sliding) == (7, 2, (0.001, 0.0, -0.002), 2, 3, True)
     assert p.normals == ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0))
     assert hc.sample_from_state_message({"type": "state"}).mesh_proxies == []  # an older daemon's message
+
+
+def test_the_python_layout_is_the_cpp_headers():
+    """The reader's and the scope's offsets of the mesh block are the static_asserts of state_layout.hpp (a field
+    moved on one side only fails here)."""
+    import re
+    from hapticd_client import scope_proxies
+    text = (pathlib.Path(REPOSITORY) / "include" / "hapticd" / "state_layout.hpp").read_text()
+    layout = dict((name, int(offset)) for name, offset in
+                  re.findall(r"offsetof\(StateLayout, (\w+)\) == (\d+)", text))
+    entry = dict((name, int(offset)) for name, offset in re.findall(r"offsetof\(StateMeshProxy, (\w+)\) == (\d+)", text))
+    assert int(re.search(r"kStateMeshProxyCapacity = (\d+);", text).group(1)) == state.MESH_PROXY_CAPACITY
+    assert int(re.search(r"sizeof\(StateMeshProxy\) == (\d+)", text).group(1)) == scope_proxies.MESH_PROXY_DTYPE.itemsize
+    assert layout["mesh_proxy_capacity"] == 36
+    assert layout["mesh_slot_mask"] == state.MESH_OFFSET
+    for name in ("mesh_slot_mask", "mesh_proxies", "mesh_proxy"):
+        assert layout[name] - state.MESH_OFFSET == scope_proxies.MESH_DTYPE.fields[name][1], name
+    assert layout["reserved"] == state.MESH_OFFSET + state.MESH_BLOCK_SIZE
+    assert len(entry) == 6
+    for name, offset in entry.items():
+        assert scope_proxies.MESH_PROXY_DTYPE.fields[name][1] == offset, name

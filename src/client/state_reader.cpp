@@ -57,7 +57,7 @@ double StateReader::stale_after_s() const noexcept { return state_stale_after_s(
 long StateReader::writer_pid() const noexcept { return layout_->writer_pid; }
 std::size_t StateReader::mesh_proxy_capacity() const noexcept {
     return layout_->mesh_proxy_capacity < kStateMeshProxyCapacity ? layout_->mesh_proxy_capacity
-                                                                   : kStateMeshProxyCapacity;
+                                                                  : kStateMeshProxyCapacity;
 }
 
 bool StateReader::read(StateSample& out, int max_attempts) const noexcept {

@@ -242,10 +242,10 @@ struct SceneObjectsConfig {
 // it: docs/protocol.md, section 6): proxy = p + R c and normals R n_i for the proxy c and normals n_i in the mesh's
 // frame and the entry's pose (p, R) of that tick.
 struct MeshProxyView {
-    AxisVector proxy{};                     // m
-    std::array<AxisVector, 3> normals{};    // unit, the first `constraints`
-    int constraints = 0;                    // 0..3
-    std::uint32_t triangle = UINT32_MAX;    // one active face (index in the client's mesh), UINT32_MAX when free
+    AxisVector proxy{};                   // m
+    std::array<AxisVector, 3> normals{};  // unit, the first `constraints`
+    int constraints = 0;                  // 0..3
+    std::uint32_t triangle = UINT32_MAX;  // one active face (index in the client's mesh), UINT32_MAX when free
     std::uint32_t object_id = 0;
     bool sliding = false;
     bool converged = true;

@@ -40,10 +40,14 @@ TEST(ServerMeshProxy, AMeshPressedOnTheSimulatedDevicePublishesItsProxyOnTheFace
         const cl::StateReader reader = cl::StateReader::open(n.shm);
         EXPECT_EQ(reader.mesh_proxy_capacity(), kStateMeshProxyCapacity);
 
-        // A plane alone (far from the handle): a scene without a mesh publishes no mesh slot and no proxy.
+        // A plane alone (far from the handle): a scene without a mesh publishes no mesh slot and no proxy. Soft
+        // (10 N/m): the sums with the CE2 mesh below stay in the stability region (docs/protocol.md, section 5).
         const std::uint32_t plane =
-            c.commit(cl::Batch().add(cl::Plane{.normal = {0.0, 0.0, 1.0}, .offset = -0.04})).object_ids.at(0);
-        auto s = wait_state(reader, [&](const cl::StateSample& x) { return x.slot_object_id[0] == plane; }, 5.0);
+            c.commit(cl::Batch().add(cl::Plane{
+                         .normal = {0.0, 0.0, 1.0}, .offset = -0.04, .gains = cl::Gains::explicit_gains(10.0, 0.1)}))
+                .object_ids.at(0);
+        auto s = wait_state(
+            reader, [&](const cl::StateSample& x) { return x.slot_object_id[0] == plane; }, 5.0);
         ASSERT_TRUE(s.has_value());
         EXPECT_EQ(s->mesh_slot_mask, 0U);
         EXPECT_EQ(s->mesh_proxies, 0U);
@@ -81,7 +85,8 @@ TEST(ServerMeshProxy, AMeshPressedOnTheSimulatedDevicePublishesItsProxyOnTheFace
             EXPECT_EQ(p.object_id, id);
             EXPECT_EQ(x.slot_object_id[slot], id);
             EXPECT_EQ(x.mesh_slot_mask, std::uint64_t{1} << slot);
-            EXPECT_EQ(p.constraints == 1, ((x.contact_mask >> slot) & 1U) != 0U);  // in contact exactly when constrained
+            EXPECT_EQ(p.constraints == 1,
+                      ((x.contact_mask >> slot) & 1U) != 0U);  // in contact exactly when constrained
             if (p.constraints != 1) continue;
             ++checked;
             EXPECT_TRUE(p.triangle == 2U || p.triangle == 3U) << p.triangle;
@@ -119,7 +124,8 @@ TEST(ServerMeshProxy, AMeshPressedOnTheSimulatedDevicePublishesItsProxyOnTheFace
 
         // The mesh removed: once its ramp-out frees the slot, no mesh slot and no proxy (the plane and field stay).
         c.commit(cl::Batch().remove(id));
-        s = wait_state(reader, [&](const cl::StateSample& x) { return x.objects == 2; }, 5.0);
+        s = wait_state(
+            reader, [&](const cl::StateSample& x) { return x.objects == 2; }, 5.0);
         ASSERT_TRUE(s.has_value());
         EXPECT_EQ(s->mesh_slot_mask, 0U);
         EXPECT_EQ(s->mesh_proxies, 0U);

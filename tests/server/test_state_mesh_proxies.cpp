@@ -63,16 +63,14 @@ struct ProxyRig {
         ASSERT_TRUE(commits.try_push(c));
     }
     // One loop tick at handle position x (Daemon::tick's order: commits, forces, publication); the published state.
-    StateLayout step(const AxisVector& x) {
+    void step(const AxisVector& x, StateLayout& out) {
         objects.apply_commits();
         StateTick st;
         st.tick = tick++;
         st.position = x;
         EXPECT_TRUE(objects.add_forces(x, st.force));
         publisher.publish(st, &objects);
-        StateLayout out{};
         EXPECT_TRUE(publisher.read(out));
-        return out;
     }
 };
 
@@ -106,11 +104,12 @@ TEST(StateMeshProxies, TheFirstSevenMeshSlotsInSlotOrderFreeProxiesAtTheHandleAn
     updates.push_back(set(10, plane));
     const AxisVector x{0.001, -0.002, 0.003};
     // Before any object: nothing.
-    StateLayout l = rig.step(x);
+    StateLayout l{};
+    rig.step(x, l);
     EXPECT_EQ(l.mesh_slot_mask, 0U);
     EXPECT_EQ(l.mesh_proxies, 0U);
     rig.commit(updates);
-    for (int i = 0; i < 10; ++i) l = rig.step(x);
+    for (int i = 0; i < 10; ++i) rig.step(x, l);
     EXPECT_EQ(l.mesh_slot_mask, 0x3FEU);  // slots 1..9: all nine meshes, the two planes not
     ASSERT_EQ(l.mesh_proxies, kStateMeshProxyCapacity);
     for (std::size_t i = 0; i < kStateMeshProxyCapacity; ++i) {
@@ -126,7 +125,7 @@ TEST(StateMeshProxies, TheFirstSevenMeshSlotsInSlotOrderFreeProxiesAtTheHandleAn
     }
     // Slots 1..5 cut: four meshes left (slots 6..9), the entries beyond them zero.
     rig.commit({cut(1), cut(2), cut(3), cut(4), cut(5)});
-    l = rig.step(x);
+    rig.step(x, l);
     EXPECT_EQ(l.mesh_slot_mask, 0x3C0U);
     ASSERT_EQ(l.mesh_proxies, 4U);
     for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(l.mesh_proxy[i].slot, i + 6);
@@ -145,7 +144,7 @@ TEST(StateMeshProxies, TheFirstSevenMeshSlotsInSlotOrderFreeProxiesAtTheHandleAn
     }
     // Every mesh cut: no mask, no entries.
     rig.commit({cut(6), cut(7), cut(8), cut(9)});
-    l = rig.step(x);
+    rig.step(x, l);
     EXPECT_EQ(l.mesh_slot_mask, 0U);
     EXPECT_EQ(l.mesh_proxies, 0U);
     EXPECT_EQ(l.objects, 2U);  // the planes stay
@@ -164,12 +163,13 @@ TEST(StateMeshProxies, APressedFaceGivesTheProxyOnItsOffsetPlaneAndTheHandleBehi
     rig.commit({set(3, rig.mesh_at(42, centre, q))});
     // The handle approaches from outside along -n, then sits 0.5 mm behind the face, 1 mm off its centre.
     AxisVector x{};
+    StateLayout l{};
     for (int i = 0; i <= 20; ++i) {
         const double depth = 0.001 - 0.0015 * i / 20.0;  // n.x from +1 mm to -0.5 mm
         x = {0.001, depth * n[1], depth * n[2]};
-        rig.step(x);
+        rig.step(x, l);
     }
-    const StateLayout l = rig.step(x);
+    rig.step(x, l);
     EXPECT_EQ(l.mesh_slot_mask, 1U << 3);
     ASSERT_EQ(l.mesh_proxies, 1U);
     const StateMeshProxy& e = l.mesh_proxy[0];
@@ -262,9 +262,12 @@ TEST(StateLayoutDoc, TheProtocolTablesGiveEachFieldTheStructsOffset) {
     }
     EXPECT_EQ(documented.size(), layout.size()) << "a documented field the test does not know";
     const std::map<std::string, std::size_t> entry{
-        {"proxy", offsetof(StateMeshProxy, proxy)},         {"normal", offsetof(StateMeshProxy, normal)},
-        {"triangle", offsetof(StateMeshProxy, triangle)},   {"slot", offsetof(StateMeshProxy, slot)},
-        {"constraints", offsetof(StateMeshProxy, constraints)}, {"flags", offsetof(StateMeshProxy, flags)},
+        {"proxy", offsetof(StateMeshProxy, proxy)},
+        {"normal", offsetof(StateMeshProxy, normal)},
+        {"triangle", offsetof(StateMeshProxy, triangle)},
+        {"slot", offsetof(StateMeshProxy, slot)},
+        {"constraints", offsetof(StateMeshProxy, constraints)},
+        {"flags", offsetof(StateMeshProxy, flags)},
         {"object_id", offsetof(StateMeshProxy, object_id)},
     };
     std::map<std::string, std::size_t> entry_rows;
@@ -274,8 +277,9 @@ TEST(StateLayoutDoc, TheProtocolTablesGiveEachFieldTheStructsOffset) {
         EXPECT_EQ(entry_rows[name], offset) << "`" << name << "`";
     }
     EXPECT_EQ(entry_rows.size(), entry.size());
-    EXPECT_NE(text.find("| 8 | uint32 | `size` of the whole struct in bytes (" + std::to_string(sizeof(StateLayout)) + ")"),
-              std::string::npos);
+    EXPECT_NE(
+        text.find("| 8 | uint32 | `size` of the whole struct in bytes (" + std::to_string(sizeof(StateLayout)) + ")"),
+        std::string::npos);
     EXPECT_NE(text.find("`layout_version` = " + std::to_string(kStateLayoutVersion) + " |"), std::string::npos);
 }
 
