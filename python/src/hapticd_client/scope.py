@@ -289,7 +289,7 @@ class Scope:
         for m, k in enumerate(meshes):
             dashes = (4, 2) if m == 0 else (1 + m, 2, 1, 2)
             for a in range(self.axes):
-                line, = self.ax_position.plot(t, proxy[:, k, a] * 1e3, lw=1.0, color=f"C{a}", dashes=dashes,
+                line, = self.ax_position.plot(t, proxy[:, k, a] * 1e3, lw=1.4, color=f"C{a}", dashes=dashes, zorder=3,
                                               label=f"proxy id {int(ids[k])} {AXIS_NAMES[a]}")
                 self.proxy_lines.append(line)
 
@@ -309,7 +309,8 @@ class Scope:
                 i = int(np.flatnonzero(np.isfinite(penetration[:, k]))[-1])
                 self.row_notes.append(ax.text(
                     0.995, k, f"|proxy - handle| {1e3 * penetration[i, k]:.3f} mm, {int(constraints[i, k])} constraint(s)",
-                    transform=ax.get_yaxis_transform(), ha="right", va="center", fontsize="small"))
+                    transform=ax.get_yaxis_transform(), ha="right", va="center", fontsize="small",
+                    bbox={"facecolor": "white", "alpha": 0.8, "linewidth": 0}))
         ax.set_yticks(range(len(ids)))
         ax.set_yticklabels(labels)
         ax.set_ylim(-0.7, max(len(ids), 1) - 0.3)
