@@ -221,7 +221,6 @@ struct Status {
     std::uint64_t mesh_bytes = 0;  // what they count against the limits (docs/protocol.md, section 4a)
 };
 
-// One consistent copy of the shared-memory state (or of a subscribed `state` message).
 // A mesh object's god-object proxy as the loop rendered it at the sample's tick (docs/protocol.md, section 6;
 // StateMeshProxy), in the device frame: the object pushes the handle towards the proxy, K (proxy - position).
 struct MeshProxySample {
@@ -235,6 +234,7 @@ struct MeshProxySample {
     bool converged = true;                 // false: the proxy's step ran out of sweeps and goes on at the next tick
 };
 
+// One consistent copy of the shared-memory state (or of a subscribed `state` message).
 struct StateSample {
     std::uint64_t tick = 0;
     double time_s = 0.0;

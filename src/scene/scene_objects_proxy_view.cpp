@@ -19,7 +19,7 @@ std::uint64_t SceneObjects::mesh_slot_mask() const noexcept {
         const std::size_t s = k / 2;
         const Entry& e = (k % 2 == 0) ? slots_[s].current : slots_[s].fading;
         const MeshProxy& m = mesh_proxies_[proxy_of_[k]];
-        if (e.active && m.proxy && !m.fresh) mask |= std::uint64_t{1} << s;
+        if (e.active && e.params.kind == ObjectKind::Mesh && m.proxy && !m.fresh) mask |= std::uint64_t{1} << s;
     }
     return mask;
 }
