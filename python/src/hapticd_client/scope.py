@@ -305,12 +305,12 @@ class Scope:
             ax.fill_between(t, k - 0.35, k + 0.35, where=in_contact[:, k], step="post", color=f"C{3 + k % 7}", lw=0)
             mesh = np.isfinite(penetration[:, k]).any()
             labels.append(f"id {object_id} mesh" if mesh else f"id {object_id}")
-            if mesh:  # the newest sample that holds its proxy
+            if mesh:  # the newest sample that holds its proxy, written just above the row's bar
                 i = int(np.flatnonzero(np.isfinite(penetration[:, k]))[-1])
                 self.row_notes.append(ax.text(
-                    0.995, k, f"|proxy - handle| {1e3 * penetration[i, k]:.3f} mm, {int(constraints[i, k])} constraint(s)",
-                    transform=ax.get_yaxis_transform(), ha="right", va="center", fontsize="small",
-                    bbox={"facecolor": "white", "alpha": 0.8, "linewidth": 0}))
+                    0.995, k + 0.5, f"|proxy - handle| {1e3 * penetration[i, k]:.3f} mm, "
+                                    f"{int(constraints[i, k])} constraint(s)",
+                    transform=ax.get_yaxis_transform(), ha="right", va="center", fontsize="x-small"))
         ax.set_yticks(range(len(ids)))
         ax.set_yticklabels(labels)
         ax.set_ylim(-0.7, max(len(ids), 1) - 0.3)
