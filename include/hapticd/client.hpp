@@ -221,6 +221,19 @@ struct Status {
     std::uint64_t mesh_bytes = 0;  // what they count against the limits (docs/protocol.md, section 4a)
 };
 
+// A mesh object's god-object proxy as the loop rendered it at the sample's tick (docs/protocol.md, section 6;
+// StateMeshProxy), in the device frame: the object pushes the handle towards the proxy, K (proxy - position).
+struct MeshProxySample {
+    std::uint32_t object_id = 0;
+    std::uint32_t slot = 0;                // the scene slot, 0 .. 63
+    Vec3 proxy{};                          // m: on or outside the surface (1 um in front of its faces)
+    std::array<Vec3, 3> normals{};         // unit outward normals of the active constraints (the first `constraints`)
+    int constraints = 0;                   // active faces, 0 .. 3; 0: free (the proxy is at the handle)
+    std::uint32_t triangle = 0xFFFFFFFFU;  // one active face (index in the uploaded mesh); 0xFFFFFFFF when free
+    bool sliding = false;                  // friction: the proxy slid at this tick
+    bool converged = true;                 // false: the proxy's step ran out of sweeps and goes on at the next tick
+};
+
 // One consistent copy of the shared-memory state (or of a subscribed `state` message).
 struct StateSample {
     std::uint64_t tick = 0;
@@ -236,6 +249,12 @@ struct StateSample {
     std::uint32_t fault = 0;            // 0 none, 1 device, 2 non-finite, 3 watchdog, 4 fatal signal, 5 std::terminate
     std::uint32_t objects = 0;
     std::array<std::uint32_t, kStateObjectCapacity> slot_object_id{};
+    // The mesh objects' proxies: bit s of mesh_slot_mask set when slot s renders a mesh; mesh_proxy[0 ..
+    // mesh_proxies - 1] the proxies of the first kStateMeshProxyCapacity (7) of those slots, in slot order (a
+    // daemon that publishes none: 0 and 0, StateReader::mesh_proxy_capacity() 0).
+    std::uint64_t mesh_slot_mask = 0;
+    std::uint32_t mesh_proxies = 0;
+    std::array<MeshProxySample, kStateMeshProxyCapacity> mesh_proxy{};
     std::uint64_t dropped = 0;  // subscribed messages dropped before this one (socket only)
     // Shared memory only (docs/protocol.md, section 6): the writer's liveness. stale: the heartbeat is older
     // than state_stale_after_s(period) (10 periods, at least 50 ms) or was never written; the daemon is dead
@@ -444,6 +463,9 @@ class StateReader {
     [[nodiscard]] double stale_after_s() const noexcept;
     // The daemon's process id as it wrote it at start-up.
     [[nodiscard]] long writer_pid() const noexcept;
+    // Mesh proxies the daemon publishes per tick (StateLayout::mesh_proxy_capacity): 7, or 0 for a daemon that
+    // publishes none (its segment has zeros there).
+    [[nodiscard]] std::size_t mesh_proxy_capacity() const noexcept;
 
   private:
     explicit StateReader(const StateLayout* layout) : layout_(layout) {}

@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // The shared-memory state of hapticd (docs/protocol.md, section 6): one struct written once per tick by
 // the loop under a seqlock, read by any process without a system call. Layout version 2; the offsets are
-// part of the protocol and checked by static_asserts below.
+// part of the protocol and checked by static_asserts below. The mesh proxies (bytes 600..1119) use bytes that
+// were reserved and zero: a reader of version 2 that does not know them reads every other field as before, and a
+// reader that knows them learns from the header's mesh_proxy_capacity whether the writer publishes them (0: a
+// daemon that does not; its segment holds zeros there).
 // Liveness (docs/protocol.md, section 6): the loop stores CLOCK_MONOTONIC into heartbeat_ns after every
 // tick; a reader calls the state stale when it is older than state_stale_after_s(period_s), and a fault of
 // StateFault::FatalSignal / StateFault::Terminate says the daemon died (the segment is left for the readers to see).
@@ -59,6 +62,31 @@ inline constexpr double state_stale_after_s(double period_s) noexcept {
 inline constexpr std::uint32_t kStateMagic = 0x54535048U;  // "HPST" in little-endian bytes
 inline constexpr std::uint32_t kStateLayoutVersion = 2;
 inline constexpr std::size_t kStateObjectCapacity = 64;
+// Mesh proxies the state holds each tick: those of the first 7 slots, in slot order, whose object is a mesh.
+inline constexpr std::size_t kStateMeshProxyCapacity = 7;
+
+// StateMeshProxy::flags.
+inline constexpr std::uint8_t kMeshProxySliding = 1U;      // friction: the proxy slid in the last step
+inline constexpr std::uint8_t kMeshProxyUnconverged = 2U;  // the last step ran out of sweeps or planes (it goes on)
+
+// One mesh object's god-object proxy as the loop rendered it this tick (src/mesh/god_object_proxy.hpp,
+// docs/mesh-rendering.md), in the device's frame: what CHAI3D's finger proxy (the proxy position and up to three
+// collision events, each a triangle and a normal) and OpenHaptics HL (HL_PROXY_POSITION, HL_PROXY_TOUCH_NORMAL,
+// HL_PROXY_IS_TOUCHING) show. The force the object renders is K (proxy - handle) - B P v (its ramp's weights).
+struct StateMeshProxy {
+    double proxy[3];           // m: on or outside the surface (1 um in front of its faces, kSurfaceOffset)
+    float normal[3][3];        // unit outward normals of the active constraints (the first `constraints`; 0 beyond)
+    std::uint32_t triangle;    // one active face, its index in the client's mesh; 0xFFFFFFFF when free
+    std::uint8_t slot;         // the scene slot (0..63)
+    std::uint8_t constraints;  // active faces, 0..3; > 0: in contact (the slot's contact_mask bit is set)
+    std::uint8_t flags;        // kMeshProxySliding | kMeshProxyUnconverged
+    std::uint8_t reserved;     // 0
+    std::uint32_t object_id;   // the mesh object: the slot's, or a mesh fading out of the slot
+};
+static_assert(sizeof(StateMeshProxy) == 72 && offsetof(StateMeshProxy, normal) == 24 &&
+              offsetof(StateMeshProxy, triangle) == 60 && offsetof(StateMeshProxy, slot) == 64 &&
+              offsetof(StateMeshProxy, constraints) == 65 && offsetof(StateMeshProxy, flags) == 66 &&
+              offsetof(StateMeshProxy, object_id) == 68);
 
 struct StateLayout {
     // Header, written once before the loop starts.
@@ -69,8 +97,9 @@ struct StateLayout {
     double period_s;
     std::uint32_t capacity;
     std::uint32_t header_padding;
-    std::int32_t writer_pid;  // the daemon's process id
-    std::uint8_t header_reserved[28];
+    std::int32_t writer_pid;            // the daemon's process id
+    std::uint32_t mesh_proxy_capacity;  // kStateMeshProxyCapacity; 0: the writer publishes no mesh proxies
+    std::uint8_t header_reserved[24];
     // Seqlock sequence: odd while the loop writes the fields below.
     alignas(64) std::atomic<std::uint64_t> sequence;
     std::uint8_t sequence_padding[56];
@@ -95,7 +124,15 @@ struct StateLayout {
     // Under the seqlock, written every tick: the daemon's config walls in contact, bit i for the wall with
     // object id i + 1 (as `list` numbers them; the first 64), set while the handle is behind its surface.
     std::uint64_t config_contact_mask;
-    std::uint8_t reserved[552];
+    // Under the seqlock, written every tick: the mesh objects' proxies. mesh_slot_mask: bit s set when slot s is
+    // occupied and renders a mesh (its object, or the mesh fading out of it while another kind ramps in); the first
+    // kStateMeshProxyCapacity of them in slot order have their proxy in mesh_proxy[0 .. mesh_proxies - 1] (the
+    // entries beyond are zero). popcount(mesh_slot_mask) > mesh_proxies: the meshes beyond the limit are not shown.
+    std::uint64_t mesh_slot_mask;
+    std::uint32_t mesh_proxies;  // entries written, 0 .. kStateMeshProxyCapacity
+    std::uint32_t mesh_padding;
+    StateMeshProxy mesh_proxy[kStateMeshProxyCapacity];
+    std::uint8_t reserved[32];
 };
 
 static_assert(std::atomic<std::uint64_t>::is_always_lock_free, "the seqlock needs a lock-free 64-bit atomic");
@@ -119,6 +156,11 @@ static_assert(offsetof(StateLayout, writer_pid) == 32);
 static_assert(offsetof(StateLayout, heartbeat_ns) == 576);
 static_assert(offsetof(StateLayout, fatal_signal) == 584);
 static_assert(offsetof(StateLayout, config_contact_mask) == 592);
+static_assert(offsetof(StateLayout, mesh_proxy_capacity) == 36);
+static_assert(offsetof(StateLayout, mesh_slot_mask) == 600);
+static_assert(offsetof(StateLayout, mesh_proxies) == 608);
+static_assert(offsetof(StateLayout, mesh_proxy) == 616);
+static_assert(offsetof(StateLayout, reserved) == 1120);
 static_assert(std::atomic<std::int64_t>::is_always_lock_free && std::atomic<std::uint32_t>::is_always_lock_free,
               "the liveness words are written from a signal handler");
 static_assert(sizeof(StateLayout) == 1152);

@@ -79,6 +79,29 @@ StateSample state_from_json(const json& j) {
         s.slot_object_id[slot] = contact[k].get<std::uint32_t>();
         ++k;
     }
+    // The mesh proxies (section 6), absent from a daemon that publishes none.
+    s.mesh_slot_mask = j.value("mesh_slot_mask", std::uint64_t{0});
+    const json proxies = j.value("mesh_proxies", json::array());
+    for (std::size_t i = 0; proxies.is_array() && i < proxies.size() && i < kStateMeshProxyCapacity; ++i) {
+        const json& e = proxies[i];
+        if (!e.is_object()) break;
+        MeshProxySample& o = s.mesh_proxy[i];
+        o.object_id = e.value("object_id", std::uint32_t{0});
+        o.slot = e.value("slot", std::uint32_t{0});
+        o.proxy = vec3(e.value("proxy", json::array()));
+        const json normals = e.value("normals", json::array());
+        o.constraints = 0;
+        for (std::size_t k = 0; normals.is_array() && k < normals.size() && k < 3; ++k) {
+            o.normals[k] = vec3(normals[k]);
+            o.constraints = static_cast<int>(k + 1);
+        }
+        o.constraints = e.value("constraints", o.constraints);
+        o.triangle = e.contains("triangle") && e["triangle"].is_number_unsigned() ? e["triangle"].get<std::uint32_t>()
+                                                                                  : 0xFFFFFFFFU;
+        o.sliding = e.value("sliding", false);
+        o.converged = e.value("converged", true);
+        s.mesh_proxies = static_cast<std::uint32_t>(i + 1);
+    }
     return s;
 }
 

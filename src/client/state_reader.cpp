@@ -55,6 +55,10 @@ std::size_t StateReader::axes() const noexcept { return layout_->axes; }
 double StateReader::period_s() const noexcept { return layout_->period_s; }
 double StateReader::stale_after_s() const noexcept { return state_stale_after_s(layout_->period_s); }
 long StateReader::writer_pid() const noexcept { return layout_->writer_pid; }
+std::size_t StateReader::mesh_proxy_capacity() const noexcept {
+    return layout_->mesh_proxy_capacity < kStateMeshProxyCapacity ? layout_->mesh_proxy_capacity
+                                                                  : kStateMeshProxyCapacity;
+}
 
 bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
     const StateLayout& l = *layout_;
@@ -76,6 +80,23 @@ bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
         out.fault = l.fault;
         out.objects = l.objects;
         std::memcpy(out.slot_object_id.data(), l.slot_object_id, sizeof(l.slot_object_id));
+        out.mesh_slot_mask = l.mesh_slot_mask;
+        const std::uint32_t proxies = l.mesh_proxies;
+        out.mesh_proxies = proxies < kStateMeshProxyCapacity ? proxies : kStateMeshProxyCapacity;
+        for (std::uint32_t i = 0; i < out.mesh_proxies; ++i) {
+            const StateMeshProxy& e = l.mesh_proxy[i];
+            MeshProxySample& o = out.mesh_proxy[i];
+            o.object_id = e.object_id;
+            o.slot = e.slot;
+            for (std::size_t a = 0; a < 3; ++a) {
+                o.proxy[a] = e.proxy[a];
+                for (std::size_t k = 0; k < 3; ++k) o.normals[k][a] = e.normal[k][a];
+            }
+            o.constraints = e.constraints;
+            o.triangle = e.triangle;
+            o.sliding = (e.flags & kMeshProxySliding) != 0U;
+            o.converged = (e.flags & kMeshProxyUnconverged) == 0U;
+        }
         std::atomic_thread_fence(std::memory_order_acquire);
         if (l.sequence.load(std::memory_order_relaxed) == s1) {
             const std::int64_t beat = l.heartbeat_ns.load(std::memory_order_acquire);

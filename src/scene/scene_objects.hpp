@@ -238,6 +238,19 @@ struct SceneObjectsConfig {
     VelocityEstimatorSpec velocity{};  // the velocity estimate the dampers act on (the server checks with the same)
 };
 
+// A mesh object's god-object proxy as the last add_forces() rendered it, in the device frame (the state publishes
+// it: docs/protocol.md, section 6): proxy = p + R c and normals R n_i for the proxy c and normals n_i in the mesh's
+// frame and the entry's pose (p, R) of that tick.
+struct MeshProxyView {
+    AxisVector proxy{};                   // m
+    std::array<AxisVector, 3> normals{};  // unit, the first `constraints`
+    int constraints = 0;                  // 0..3
+    std::uint32_t triangle = UINT32_MAX;  // one active face (index in the client's mesh), UINT32_MAX when free
+    std::uint32_t object_id = 0;
+    bool sliding = false;
+    bool converged = true;
+};
+
 struct SceneObjectsStats {
     std::uint64_t commits_applied = 0;
     std::uint64_t last_commit_seq = 0;     // every batch up to this seq is applied
@@ -277,6 +290,11 @@ class SceneObjects {
     // Changes whenever a slot's object id or ramp factor changes (the state publisher rewrites the slot
     // table only then).
     [[nodiscard]] std::uint64_t slot_table_version() const noexcept { return slot_table_version_; }
+    // Bit s: slot s renders a mesh through a proxy the last add_forces() stepped (its current entry, or the mesh
+    // fading out of it). O(mesh entries). mesh_proxy(s): that proxy (the current entry's when both are meshes);
+    // false when slot s renders none (scene_objects_proxy_view.cpp).
+    [[nodiscard]] std::uint64_t mesh_slot_mask() const noexcept;
+    bool mesh_proxy(std::size_t slot, MeshProxyView& out) const noexcept;
     // Re-classifications so far (commits, ramp steps, moves, leaving the safe radius): for the benchmarks.
     [[nodiscard]] std::uint64_t classifications() const noexcept { return classifications_; }
     // Ticks whose motion failed the pressed planes' test (they were evaluated one by one): for the tests.

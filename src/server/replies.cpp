@@ -141,6 +141,24 @@ json state_message(const StateLayout& snapshot, std::uint64_t dropped) {
         if (((snapshot.contact_mask >> i) & 1U) != 0U && snapshot.slot_object_id[i] != 0)
             contact.push_back(snapshot.slot_object_id[i]);
     }
+    // The mesh proxies (section 6): the normals of the active constraints only; "triangle" null when free.
+    json proxies = json::array();
+    for (std::uint32_t i = 0; i < snapshot.mesh_proxies && i < kStateMeshProxyCapacity; ++i) {
+        const StateMeshProxy& e = snapshot.mesh_proxy[i];
+        json normals = json::array();
+        for (std::uint32_t k = 0; k < e.constraints && k < 3; ++k) {
+            normals.push_back({static_cast<double>(e.normal[k][0]), static_cast<double>(e.normal[k][1]),
+                               static_cast<double>(e.normal[k][2])});
+        }
+        proxies.push_back({{"object_id", e.object_id},
+                           {"slot", e.slot},
+                           {"proxy", vector_json(e.proxy)},
+                           {"constraints", e.constraints},
+                           {"normals", normals},
+                           {"triangle", e.constraints > 0 ? json(e.triangle) : json(nullptr)},
+                           {"sliding", (e.flags & kMeshProxySliding) != 0U},
+                           {"converged", (e.flags & kMeshProxyUnconverged) == 0U}});
+    }
     return json{{"type", "state"},
                 {"tick", snapshot.tick},
                 {"time_s", snapshot.time_s},
@@ -154,6 +172,8 @@ json state_message(const StateLayout& snapshot, std::uint64_t dropped) {
                 {"wake_latency_ns", snapshot.wake_latency_ns},
                 {"last_commit_seq", snapshot.last_commit_seq},
                 {"objects", snapshot.objects},
+                {"mesh_slot_mask", snapshot.mesh_slot_mask},
+                {"mesh_proxies", proxies},
                 {"fault", to_string(static_cast<StateFault>(snapshot.fault))},
                 {"dropped", dropped}};
 }

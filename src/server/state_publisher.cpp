@@ -9,6 +9,7 @@
 
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -108,6 +109,7 @@ StatePublisher::StatePublisher(const std::string& shm_name, std::size_t axes, do
     layout_->size = sizeof(StateLayout);
     layout_->layout_version = kStateLayoutVersion;
     layout_->writer_pid = static_cast<std::int32_t>(::getpid());
+    layout_->mesh_proxy_capacity = static_cast<std::uint32_t>(kStateMeshProxyCapacity);
     layout_->heartbeat_ns.store(0, std::memory_order_relaxed);
     layout_->fatal_signal.store(0, std::memory_order_relaxed);
     layout_->sequence.store(0, std::memory_order_relaxed);
@@ -164,6 +166,45 @@ void StatePublisher::mark_fatal(StateFault fault, int signal_number) noexcept {
     l.sequence.store(s + 1, std::memory_order_release);
 }
 
+// The first kStateMeshProxyCapacity mesh slots' proxies, in slot order (inside the seqlock of publish). A scene
+// without meshes costs one pass over the (empty) mesh list and two stores; the entries a previous tick wrote beyond
+// this tick's count are zeroed once.
+void StatePublisher::publish_mesh_proxies(StateLayout& l, const SceneObjects& objects) noexcept {
+    const std::uint64_t meshes = objects.mesh_slot_mask();
+    std::uint32_t n = 0;
+    for (std::uint64_t rest = meshes; rest != 0 && n < kStateMeshProxyCapacity; rest &= rest - 1) {
+        const auto slot = static_cast<std::size_t>(std::countr_zero(rest));
+        MeshProxyView v;
+        if (!objects.mesh_proxy(slot, v)) continue;
+        StateMeshProxy& e = l.mesh_proxy[n++];
+        for (std::size_t a = 0; a < 3; ++a) {
+            put(e.proxy[a], v.proxy[a]);
+            for (std::size_t i = 0; i < 3; ++i) put(e.normal[i][a], static_cast<float>(v.normals[i][a]));
+        }
+        put(e.triangle, v.triangle);
+        put(e.slot, static_cast<std::uint8_t>(slot));
+        put(e.constraints, static_cast<std::uint8_t>(v.constraints));
+        put(e.flags, static_cast<std::uint8_t>((v.sliding ? kMeshProxySliding : 0U) |
+                                               (v.converged ? 0U : kMeshProxyUnconverged)));
+        put(e.object_id, v.object_id);
+    }
+    for (std::uint32_t i = n; i < published_mesh_proxies_; ++i) {
+        StateMeshProxy& e = l.mesh_proxy[i];
+        for (std::size_t a = 0; a < 3; ++a) {
+            put(e.proxy[a], 0.0);
+            for (std::size_t k = 0; k < 3; ++k) put(e.normal[k][a], 0.0F);
+        }
+        put(e.triangle, std::uint32_t{0});
+        put(e.slot, std::uint8_t{0});
+        put(e.constraints, std::uint8_t{0});
+        put(e.flags, std::uint8_t{0});
+        put(e.object_id, std::uint32_t{0});
+    }
+    published_mesh_proxies_ = n;
+    put(l.mesh_slot_mask, meshes);
+    put(l.mesh_proxies, n);
+}
+
 void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) noexcept {
     if (fatal_.load(std::memory_order_acquire)) return;  // the daemon is dying: mark_fatal's fault stays
     StateLayout& l = *layout_;
@@ -197,6 +238,7 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
             published_slot_table_ = objects->slot_table_version();
             slot_table_written_ = true;
         }
+        publish_mesh_proxies(l, *objects);
     }
     l.sequence.store(s + 2, std::memory_order_release);
     l.heartbeat_ns.store(monotonic_ns(), std::memory_order_release);
@@ -222,6 +264,21 @@ bool StatePublisher::read(StateLayout& out) const noexcept {
         out.fault = get(l.fault);
         out.objects = get(l.objects);
         for (std::size_t i = 0; i < kStateObjectCapacity; ++i) out.slot_object_id[i] = get(l.slot_object_id[i]);
+        out.mesh_slot_mask = get(l.mesh_slot_mask);
+        out.mesh_proxies = get(l.mesh_proxies);
+        for (std::uint32_t i = 0; i < out.mesh_proxies && i < kStateMeshProxyCapacity; ++i) {
+            const StateMeshProxy& e = l.mesh_proxy[i];
+            StateMeshProxy& o = out.mesh_proxy[i];
+            for (std::size_t a = 0; a < 3; ++a) {
+                o.proxy[a] = get(e.proxy[a]);
+                for (std::size_t k = 0; k < 3; ++k) o.normal[k][a] = get(e.normal[k][a]);
+            }
+            o.triangle = get(e.triangle);
+            o.slot = get(e.slot);
+            o.constraints = get(e.constraints);
+            o.flags = get(e.flags);
+            o.object_id = get(e.object_id);
+        }
         std::atomic_thread_fence(std::memory_order_acquire);
         if (l.sequence.load(std::memory_order_relaxed) == s1) return true;
     }

@@ -4,7 +4,8 @@
 // the loop starts, written once per tick under a seqlock, unlinked at shut-down. A segment of the same name that
 // exists already is replaced only when the daemon's effective uid owns it, refused otherwise (never opened).
 // Writer protocol: sequence <- s + 1 (odd, relaxed store) ; release fence ; fields ; sequence <- s + 2
-// (release store). publish() does not allocate, lock, throw or make a system call.
+// (release store). publish() does not allocate, lock, throw or make a system call. With the fields it writes the
+// mesh objects' proxies (SceneObjects::mesh_proxy) of the first kStateMeshProxyCapacity mesh slots.
 #pragma once
 
 #include <atomic>
@@ -61,8 +62,11 @@ class StatePublisher {
   private:
     std::string name_;
     StateLayout* layout_ = nullptr;
+    void publish_mesh_proxies(StateLayout& l, const SceneObjects& objects) noexcept;
+
     std::uint64_t published_slot_table_ = 0;  // SceneObjects::slot_table_version() last written
     bool slot_table_written_ = false;
+    std::uint32_t published_mesh_proxies_ = 0;  // mesh proxy entries the last publication wrote
     std::atomic<bool> fatal_{false};
 };
 

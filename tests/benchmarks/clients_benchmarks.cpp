@@ -20,6 +20,8 @@
 //    and unilateral planes pressed 5 mm deep).
 //    The ratio benchmark alternates blocks of 1000 ticks of each so that both see the same machine load.
 //    Goal: <= 2x. BM_TickObjects/N: the worst-case tick with N = 0, 1, 8, 64 objects (fixed cost, cost per object).
+//  * BM_TickPartPublishMeshes/N: the state publication with N = 0, 1, 7, 9 mesh objects pressed into a face, the
+//    mesh proxies' part of it (the first 7 published); N = 0 is its baseline in the same run.
 //  * BM_StateRead*: StateReader::read (the C++ client's seqlock read of one tick) with no writer, with a
 //    writer at 1 kHz (the loop), and with a writer rewriting back to back (lockstep; reads then retry).
 //    Goal: <= 200 ns. The read includes the liveness check (one clock_gettime(CLOCK_MONOTONIC) against the
@@ -48,6 +50,8 @@
 #include "loop/realtime_loop.hpp"
 #include "loop/realtime_setup.hpp"
 #include "loop/stats.hpp"
+#include "mesh/mesh_hierarchy.hpp"
+#include "mesh/procedural_meshes.hpp"
 #include "scene/delay_ring.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_objects.hpp"
@@ -464,6 +468,52 @@ void BM_TickPartPublish64(benchmark::State& state) {
     }
 }
 BENCHMARK(BM_TickPartPublish64);
+// StatePublisher::publish with N mesh objects, each pressed 0.5 mm into a face (one active constraint): the
+// proxies' part of the publication (SceneObjects::mesh_slot_mask, mesh_proxy: the proxy and normals taken to the
+// device frame; the first 7 written). N = 0 is the same publication without meshes, its baseline in the same run.
+void BM_TickPartPublishMeshes(benchmark::State& state) {
+    const auto count = static_cast<std::size_t>(state.range(0));
+    CommitRing ring{4};
+    SceneObjectsConfig c;
+    c.axes = 3;
+    SceneObjects objects(c, ring);
+    StatePublisher publisher(bench_shm("partmeshes"), 3, 1e-3, -1);
+    const auto cube = mesh::MeshHierarchy::build(mesh::box(Eigen::Vector3d(0.01, 0.01, 0.01)), mesh::MeshMode::solid);
+    ObjectCommit commit;
+    commit.seq = 1;
+    commit.count = static_cast<std::uint32_t>(count);
+    for (std::size_t i = 0; i < count; ++i) {
+        SlotUpdate& u = commit.updates[i];
+        u.slot = static_cast<std::uint8_t>(i);
+        u.action = SlotUpdate::Action::Set;
+        u.params.id = static_cast<std::uint32_t>(i + 1);
+        u.params.kind = ObjectKind::Mesh;
+        u.params.mesh = cube.get();
+        u.params.mesh_id = 1;
+        u.params.point = {-0.0095, 0.0, 0.0};  // its +x face at x = 0.5 mm
+        u.params.K = 10.0;
+        u.params.B = 0.1;
+    }
+    ring.try_push(commit);
+    objects.apply_commits();
+    StateTick st;
+    for (int i = 0; i <= 100; ++i) {  // from 1 mm outside to 0.5 mm inside, then past the 30 ms ramps
+        st.position = {std::max(0.0, 0.0015 - 1.5e-4 * i), 0.0, 0.0};
+        AxisVector f{};
+        objects.add_forces(st.position, f);
+        publisher.publish(st, &objects);
+    }
+    for (auto _ : state) {
+        ++st.tick;
+        publisher.publish(st, &objects);
+    }
+    StateLayout out{};
+    publisher.read(out);
+    state.counters["meshes"] = static_cast<double>(__builtin_popcountll(out.mesh_slot_mask));
+    state.counters["proxies"] = static_cast<double>(out.mesh_proxies);
+    state.counters["in_contact"] = static_cast<double>(__builtin_popcountll(out.contact_mask));
+}
+BENCHMARK(BM_TickPartPublishMeshes)->Arg(0)->Arg(1)->Arg(7)->Arg(9);
 // ContactDetector::detect with 64 objects in contact and no transition (every tick of a steady scene), and
 // with 64 transitions per tick (the config mask toggling all 64 walls: 64 records pushed, then popped here so
 // the ring never fills; the pops are in the time).

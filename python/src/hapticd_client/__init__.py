@@ -18,7 +18,8 @@ from .instance import INSTANCE_NAME_FORM, instance_socket_path, instance_state_s
 from .meshes import box, icosphere, mesh, torus
 from .objects import Batch, field, gains, plane, spring
 from .state_source import StateSource, sample_from_state_message
-from .state import FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, StateFault, StateReader, StateSample, shm_path, stale_after_s
+from .state import (FAULT_FATAL_SIGNAL, FAULT_NAMES, FAULT_TERMINATE, MeshProxy, StateFault, StateReader, StateSample,
+                    shm_path, stale_after_s)
 
 __all__ = [
     "Batch",
@@ -35,6 +36,7 @@ __all__ = [
     "HapticdError",
     "INSTANCE_NAME_FORM",
     "MAX_MESSAGE_BYTES",
+    "MeshProxy",
     "PROTOCOL_VERSION",
     "StateFault",
     "StateReader",

@@ -9,6 +9,8 @@
 Four panels over the last ``--window`` seconds, against the loop's own clock: position (mm), velocity
 (mm/s) and force (N) per axis of the device, and the objects: one row per object id, a thin line while the
 object is in a slot of the scene, a bar while it is in contact (bit s of ``contact_mask`` for its slot s).
+A mesh object's god-object proxy (the state's mesh proxies, scope_proxies.py) is a dashed line on each position
+axis beside the handle's, and its row names the newest penetration |proxy - handle| (mm) and active constraints.
 
 A sampler thread reads the state (one seqlock read, ``StateReader.read_raw``) ``--sample-rate`` times per
 second and keeps each new tick in a ring buffer of numpy records whose layout is the state's fields
@@ -43,6 +45,7 @@ import numpy as np
 
 from .errors import HapticdError
 from .instance import INSTANCE_NAME_FORM, valid_instance_name
+from .scope_proxies import has_meshes, meshes_beyond, proxy_rows, sample_dtype
 from .state import CAPACITY, LAYOUT_SIZE, StateReader, _FIELDS, _FIELDS_OFFSET, FAULT_NAMES
 
 EXIT_OK = 0
@@ -61,6 +64,8 @@ STATE_DTYPE = np.dtype({
     "itemsize": _FIELDS.size,
 })
 assert STATE_DTYPE.itemsize == 448 and _FIELDS_OFFSET + STATE_DTYPE.itemsize <= LAYOUT_SIZE
+# What the sampler keeps per tick: those fields, then the mesh proxies of the same tick (bytes 600..1119).
+SAMPLE_DTYPE = sample_dtype(STATE_DTYPE)
 
 AXIS_NAMES = ("x", "y", "z")
 FILE_SUFFIXES = (".png", ".svg", ".pdf")
@@ -142,11 +147,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 class Sampler:
-    """Reads the state in a thread at ``rate_hz`` and keeps every new tick in a ring buffer of STATE_DTYPE."""
+    """Reads the state in a thread at ``rate_hz`` and keeps every new tick in a ring buffer of SAMPLE_DTYPE."""
 
     def __init__(self, reader: StateReader, capacity: int, rate_hz: float) -> None:
         self.reader = reader
-        self.buffer = np.zeros(capacity, STATE_DTYPE)
+        self.buffer = np.zeros(capacity, SAMPLE_DTYPE)
         self.count = 0  # samples ever stored; the newest is at (count - 1) % capacity
         self.overlapped = 0  # reads that overlapped the loop's writes every attempt
         self.last_change = time.monotonic()
@@ -157,11 +162,11 @@ class Sampler:
 
     def poll(self) -> bool:
         """One read; True when it gave a tick not stored yet."""
-        block = self.reader.read_raw(max_attempts=100)
+        block = self.reader.read_raw_meshes(max_attempts=100)
         if block is None:
             self.overlapped += 1
             return False
-        record = np.frombuffer(block, STATE_DTYPE, count=1)[0]
+        record = np.frombuffer(block, SAMPLE_DTYPE, count=1)[0]
         with self._lock:
             if self.count and self.buffer[(self.count - 1) % len(self.buffer)]["tick"] == record["tick"]:
                 return False
@@ -194,7 +199,7 @@ class Sampler:
         with self._lock:
             n = min(self.count, len(self.buffer))
             if n == 0:
-                return np.zeros(0, STATE_DTYPE)
+                return np.zeros(0, SAMPLE_DTYPE)
             start = self.count - n
             index = np.arange(start, self.count) % len(self.buffer)
             samples = self.buffer[index].copy()
@@ -239,12 +244,17 @@ class Scope:
         self.ax_contacts.set_xlim(-window_s, 0.0)
         self.title = figure.suptitle(f"hapticd state {shm}: waiting for samples", fontsize="medium", x=0.08, ha="left")
         self.status_line = ""
+        self.proxy_lines: List = []  # the mesh proxies' dashed lines on the position panel (redrawn each frame)
+        self.row_notes: List = []  # the mesh rows' penetration texts
         figure.subplots_adjust(left=0.08, right=0.98, top=0.93, bottom=0.07, hspace=0.12)
 
     def draw(self, samples: np.ndarray, status: str) -> None:
         """Set every artist from ``samples`` (the plotted data; write_data saves the same array)."""
         if len(samples):
             t = samples["time_s"] - samples["time_s"][-1]
+            rows = object_rows(samples)
+            proxy, penetration, constraints = proxy_rows(samples, rows[0])
+            self._draw_proxies(t, rows[0], proxy)
             for name, scale in (("position", 1e3), ("velocity", 1e3), ("force", 1.0)):
                 ax = self.ax_position if name == "position" else self.ax_velocity if name == "velocity" else self.ax_force
                 values = samples[name]
@@ -255,35 +265,71 @@ class Scope:
                 low, high = ax.get_ylim()
                 if high - low < 1e-9:  # a flat trace: a visible band around it
                     ax.set_ylim(low - 1.0, high + 1.0)
-            self._draw_objects(t, samples)
+            self._draw_objects(t, rows, penetration, constraints)
             newest = samples[-1]
+            beyond = meshes_beyond(newest) if has_meshes(samples) else 0
             touching = [int(newest["slot_object_id"][s]) for s in range(CAPACITY) if (int(newest["contact_mask"]) >> s) & 1]
             self.title.set_text(
                 f"hapticd state {self.shm}: tick {int(newest['tick'])}, "
                 f"{int(newest['objects'])} objects, in contact {{{', '.join(map(str, touching))}}}, "
                 f"overruns {int(newest['overruns'])}, "
                 f"fault {FAULT_NAMES.get(int(newest['fault']), int(newest['fault']))}; {len(samples)} samples"
+                + (f"; {beyond} mesh(es) beyond the 7 proxies the state holds" if beyond else "")
                 + (f"; {status}" if status else ""))
             self.title.set_color("C3" if status else "black")
         self.ax_contacts.set_xlim(-self.window_s, 0.0)
 
-    def _draw_objects(self, t: np.ndarray, samples: np.ndarray) -> None:
+    def _draw_proxies(self, t: np.ndarray, ids: np.ndarray, proxy: np.ndarray) -> None:
+        """Each mesh object's proxy (mm) as a dashed line per axis in the axis' colour, beside the handle's line;
+        NaN (no line) where the sample holds no proxy of it. Dash patterns tell several meshes apart."""
+        for line in self.proxy_lines:
+            line.remove()
+        self.proxy_lines = []
+        meshes = [k for k in range(len(ids)) if np.isfinite(proxy[:, k, 0]).any()]
+        for m, k in enumerate(meshes):
+            dashes = (4, 2) if m == 0 else (1 + m, 2, 1, 2)
+            for a in range(self.axes):
+                line, = self.ax_position.plot(t, proxy[:, k, a] * 1e3, lw=1.4, color=f"C{a}", dashes=dashes, zorder=3,
+                                              label=f"proxy id {int(ids[k])} {AXIS_NAMES[a]}")
+                self.proxy_lines.append(line)
+
+    def _draw_objects(self, t: np.ndarray, rows, penetration: np.ndarray, constraints: np.ndarray) -> None:
         ax = self.ax_contacts
-        for artist in list(ax.lines) + list(ax.collections):
+        for artist in list(ax.lines) + list(ax.collections) + self.row_notes:
             artist.remove()
-        ids, present, in_contact = object_rows(samples)
+        self.row_notes = []
+        ids, present, in_contact = rows
+        labels = []
         for k, object_id in enumerate(ids):
             ax.fill_between(t, k - 0.05, k + 0.05, where=present[:, k], step="post", color="0.6", lw=0)
             ax.fill_between(t, k - 0.35, k + 0.35, where=in_contact[:, k], step="post", color=f"C{3 + k % 7}", lw=0)
+            mesh = np.isfinite(penetration[:, k]).any()
+            labels.append(f"id {object_id} mesh" if mesh else f"id {object_id}")
+            if mesh:  # the newest sample that holds its proxy, written just above the row's bar
+                i = int(np.flatnonzero(np.isfinite(penetration[:, k]))[-1])
+                self.row_notes.append(ax.text(
+                    0.995, k + 0.5, f"|proxy - handle| {1e3 * penetration[i, k]:.3f} mm, "
+                                    f"{int(constraints[i, k])} constraint(s)",
+                    transform=ax.get_yaxis_transform(), ha="right", va="center", fontsize="x-small"))
         ax.set_yticks(range(len(ids)))
-        ax.set_yticklabels([f"id {i}" for i in ids])
+        ax.set_yticklabels(labels)
         ax.set_ylim(-0.7, max(len(ids), 1) - 0.3)
 
 
 def write_data(path: str, samples: np.ndarray, axes: int, window_s: float, shm: str) -> None:
-    """The samples of a frame as numpy arrays (SI units, the state's own values) plus the object rows."""
+    """The samples of a frame as numpy arrays (SI units, the state's own values) plus the object rows and, for the
+    mesh objects, their proxies and penetrations (docs/scope.md lists the arrays)."""
     ids, present, in_contact = object_rows(samples)
     arrays = {name: samples[name] for name in STATE_DTYPE.names}
+    proxy, penetration, constraints = proxy_rows(samples, ids)
+    arrays.update(proxy=proxy, penetration=penetration, proxy_constraints=constraints)
+    if has_meshes(samples):
+        entries = samples["mesh_proxy"]
+        arrays.update(mesh_slot_mask=samples["mesh_slot_mask"], mesh_proxies=samples["mesh_proxies"],
+                      mesh_proxy_object_id=entries["object_id"], mesh_proxy_slot=entries["slot"],
+                      mesh_proxy_position=entries["proxy"], mesh_proxy_normal=entries["normal"],
+                      mesh_proxy_constraints=entries["constraints"], mesh_proxy_triangle=entries["triangle"],
+                      mesh_proxy_flags=entries["flags"])
     target = pathlib.Path(path)
     tmp = target.with_name(target.name + ".tmp.npz")
     np.savez(tmp, **arrays, object_ids=ids, present=present, in_contact=in_contact, axes=np.int64(axes),
@@ -458,7 +504,7 @@ def _run_window(args, reader: StateReader, sampler: Sampler) -> int:
     figure = plt.figure(figsize=(width / args.dpi, height / args.dpi), dpi=args.dpi)
     figure.canvas.manager.set_window_title(f"hapticd-scope {reader.name}")
     scope = Scope(figure, reader.axes, args.window, reader.name)
-    shown = {"samples": np.zeros(0, STATE_DTYPE)}
+    shown = {"samples": np.zeros(0, SAMPLE_DTYPE)}
     start = time.monotonic()
 
     def update() -> None:

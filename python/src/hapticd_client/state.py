@@ -2,6 +2,11 @@
 """The daemon's state stream read from POSIX shared memory without a system call per read
 (docs/protocol.md, section 6: layout version 2, 1152 bytes, a seqlock written once per tick by the loop).
 
+Mesh objects' proxies (bytes 600..1119, under the seqlock): ``StateSample.mesh_proxies`` lists the god-object
+proxies of the first ``MESH_PROXY_CAPACITY`` (7) slots that render a mesh, in slot order; ``mesh_slot_mask`` has a
+bit for every such slot. A daemon that publishes none has ``mesh_proxy_capacity`` 0 in its header (the reader's
+attribute) and zeros there.
+
 Liveness: the loop stores CLOCK_MONOTONIC (ns) into ``heartbeat_ns`` after every tick. A sample is
 ``stale`` when that is older than ``stale_after_s(period_s)`` (10 periods, at least 50 ms), was never
 written, or the fault says the daemon died (4 fatal signal, 5 std::terminate): the daemon is dead or
@@ -42,6 +47,18 @@ _WRITER_PID = struct.Struct("<i")  # offset 32
 _HEARTBEAT_INDEX = 576 // 8  # heartbeat_ns (int64, CLOCK_MONOTONIC ns; 0: never written), one aligned load
 _FATAL_SIGNAL = struct.Struct("<I")  # offset 584
 _CONFIG_CONTACT_INDEX = 592 // 8  # config_contact_mask (uint64, under the seqlock)
+_MESH_PROXY_CAPACITY_AT = struct.Struct("<I")  # offset 36: mesh_proxy_capacity (header; 0: none published)
+MESH_PROXY_CAPACITY = 7
+MESH_OFFSET = 600  # mesh_slot_mask (uint64), mesh_proxies (uint32), padding, then the entries at 616
+_MESH_HEAD = struct.Struct("<QII")
+# One StateMeshProxy: proxy[3] (f8), normal[3][3] (f4), triangle (u4), slot, constraints, flags, reserved (u1),
+# object_id (u4): 72 bytes.
+_MESH_ENTRY = struct.Struct("<3d9fIBBBBI")
+MESH_BLOCK_SIZE = _MESH_HEAD.size + MESH_PROXY_CAPACITY * _MESH_ENTRY.size  # bytes 600 .. 1119
+assert _MESH_ENTRY.size == 72 and MESH_BLOCK_SIZE == 520
+MESH_PROXY_SLIDING = 1  # flags: friction, the proxy slid at this tick
+MESH_PROXY_UNCONVERGED = 2  # flags: the proxy's step ran out of sweeps (it goes on at the next tick)
+TRIANGLE_FREE = 0xFFFFFFFF
 
 
 def stale_after_s(period_s: float) -> float:
@@ -50,6 +67,36 @@ def stale_after_s(period_s: float) -> float:
 
 if sys.byteorder != "little":  # pragma: no cover - the layout is native, hapticd runs on little-endian hosts
     raise ImportError("hapticd_client.state: the state layout is little-endian; this host is big-endian")
+
+
+@dataclass
+class MeshProxy:
+    """A mesh object's god-object proxy at the sample's tick, device frame (include/hapticd/state_layout.hpp,
+    StateMeshProxy): the object pushes the handle towards it, K (proxy - position)."""
+
+    object_id: int = 0
+    slot: int = 0
+    proxy: Tuple[float, float, float] = (0.0, 0.0, 0.0)  # m, on or outside the surface (1 um in front of its faces)
+    constraints: int = 0  # active faces 0..3; 0: free (the proxy is at the handle)
+    normals: Tuple[Tuple[float, float, float], ...] = ()  # unit outward normals of the active constraints
+    triangle: Optional[int] = None  # one active face (index in the uploaded mesh); None when free
+    sliding: bool = False
+    converged: bool = True
+
+
+def mesh_proxies_from_block(block: bytes) -> Tuple[int, List[MeshProxy]]:
+    """``mesh_slot_mask`` and the proxies of the state's bytes 600..1119 (``MESH_BLOCK_SIZE`` bytes)."""
+    mask, count, _ = _MESH_HEAD.unpack_from(block, 0)
+    proxies = []
+    for i in range(min(count, MESH_PROXY_CAPACITY)):
+        v = _MESH_ENTRY.unpack_from(block, _MESH_HEAD.size + i * _MESH_ENTRY.size)
+        # v: proxy 0..2, normals 3..11, triangle 12, slot 13, constraints 14, flags 15, reserved 16, object_id 17
+        constraints = min(v[14], 3)
+        proxies.append(MeshProxy(object_id=v[17], slot=v[13], proxy=tuple(v[0:3]), constraints=constraints,
+                                 normals=tuple(tuple(v[3 + 3 * k:6 + 3 * k]) for k in range(constraints)),
+                                 triangle=None if v[12] == TRIANGLE_FREE or constraints == 0 else v[12],
+                                 sliding=bool(v[15] & MESH_PROXY_SLIDING), converged=not v[15] & MESH_PROXY_UNCONVERGED))
+    return mask, proxies
 
 
 @dataclass
@@ -74,6 +121,8 @@ class StateSample:
     heartbeat_age_s: float = 0.0  # s since the loop's last tick; -1: never written
     fatal_signal: int = 0  # the signal that ended the daemon (fault 4 or 5)
     contact_ids: Optional[List[int]] = None  # a subscribed state message's `contact` (no slot table in it)
+    mesh_slot_mask: int = 0  # bit s: slot s renders a mesh
+    mesh_proxies: List[MeshProxy] = field(default_factory=list)  # the first 7 of those slots' proxies, slot order
 
     def contacts(self) -> List[int]:
         """The ids of the objects in contact: the config walls' (ascending), then the client objects' in slot order."""
@@ -135,6 +184,7 @@ class StateReader:
         self.period_s = period_s
         self.capacity = capacity
         self.writer_pid = _WRITER_PID.unpack_from(self._map, 32)[0]
+        self.mesh_proxy_capacity = min(_MESH_PROXY_CAPACITY_AT.unpack_from(self._map, 36)[0], MESH_PROXY_CAPACITY)
         self.stale_after_s = stale_after_s(period_s)
         self._words = memoryview(self._map).cast("Q")  # native uint64 items: one 8-byte load each
 
@@ -152,11 +202,17 @@ class StateReader:
 
     def read_raw(self, max_attempts: int = 1000) -> Optional[bytes]:
         """The 448 bytes of one tick's fields, or None when ``max_attempts`` reads overlapped a write."""
-        got = self._read_consistent(max_attempts)
+        got = self._read_consistent(max_attempts, meshes=False)
         return None if got is None else got[0]
 
-    def _read_consistent(self, max_attempts: int) -> Optional[Tuple[bytes, int]]:
-        """The fields' 448 bytes and config_contact_mask of one tick (seqlock), or None."""
+    def read_raw_meshes(self, max_attempts: int = 1000) -> Optional[bytes]:
+        """The 448 bytes of one tick's fields followed by the 520 of its mesh proxies (bytes 600..1119) of the same
+        tick, or None when ``max_attempts`` reads overlapped a write."""
+        got = self._read_consistent(max_attempts, meshes=True)
+        return None if got is None else got[0] + got[2]
+
+    def _read_consistent(self, max_attempts: int, meshes: bool = True) -> Optional[Tuple[bytes, int, bytes]]:
+        """The fields' 448 bytes, config_contact_mask and (``meshes``) the mesh block of one tick (seqlock), or None."""
         words = self._words
         m = self._map
         for _ in range(max_attempts):
@@ -165,8 +221,9 @@ class StateReader:
                 continue
             block = m[_FIELDS_OFFSET:_FIELDS_OFFSET + _FIELDS.size]
             config_contacts = words[_CONFIG_CONTACT_INDEX]
+            mesh_block = m[MESH_OFFSET:MESH_OFFSET + MESH_BLOCK_SIZE] if meshes else b""
             if words[_SEQUENCE_INDEX] == s1:
-                return block, config_contacts
+                return block, config_contacts, mesh_block
         return None
 
     def read(self, max_attempts: int = 1000, require_live: bool = False) -> StateSample:
@@ -175,8 +232,9 @@ class StateReader:
         got = self._read_consistent(max_attempts)
         if got is None:
             raise HapticdError("transport", f"StateReader.read: {max_attempts} reads in a row overlapped the loop's writes")
-        block, config_contacts = got
+        block, config_contacts, mesh_block = got
         v = _FIELDS.unpack(block)
+        mesh_mask, proxies = mesh_proxies_from_block(mesh_block)
         beat = self._words[_HEARTBEAT_INDEX]
         if beat >= 1 << 63:
             beat -= 1 << 64
@@ -186,7 +244,8 @@ class StateReader:
         sample = StateSample(tick=v[0], time_s=v[1], position=tuple(v[2:5]), velocity=tuple(v[5:8]), force=tuple(v[8:11]),
                              contact_mask=v[11], config_contact_mask=config_contacts, overruns=v[12], wake_latency_ns=v[13], last_commit_seq=v[14], fault=fault,
                              objects=v[16], slot_object_id=list(v[17:81]), slot_ramp=list(v[81:145]), stale=stale,
-                             heartbeat_age_s=age, fatal_signal=_FATAL_SIGNAL.unpack_from(self._map, 584)[0])
+                             heartbeat_age_s=age, fatal_signal=_FATAL_SIGNAL.unpack_from(self._map, 584)[0],
+                             mesh_slot_mask=mesh_mask, mesh_proxies=proxies)
         if require_live and stale:
             why = (f"the daemon died (fault {FAULT_NAMES.get(fault, fault)}, signal {sample.fatal_signal})"
                    if fault in (FAULT_FATAL_SIGNAL, FAULT_TERMINATE)

@@ -13,20 +13,24 @@ segment cannot be opened (another mount namespace, no permission).
 
 from __future__ import annotations
 
-from typing import Dict, Optional
+from typing import Dict, Optional, Tuple
 
 from .client import Client
 from .errors import HapticdError
-from .state import FAULT_NAMES, StateReader, StateSample
+from .state import FAULT_NAMES, MeshProxy, StateReader, StateSample
 
 MODES = ("auto", "shm", "subscribe")
 _FAULT_NUMBERS = {name: int(fault) for fault, name in FAULT_NAMES.items()}
 
 
+def _vec3(v) -> Tuple[float, float, float]:
+    return tuple(float(x) for x in v[:3]) + (0.0,) * (3 - len(v[:3])) if isinstance(v, list) else (0.0, 0.0, 0.0)
+
+
 def sample_from_state_message(message: Dict) -> StateSample:
     """A ``state`` message (docs/protocol.md, section 6) as a StateSample: ``slot_object_id``/``slot_ramp`` are
-    not in the message (zeros), the ids in contact are (``contact_ids``); ``stale`` is False (the daemon sent
-    it) and ``heartbeat_age_s`` 0."""
+    not in the message (zeros), the ids in contact are (``contact_ids``), and the mesh proxies (``mesh_proxies``,
+    ``mesh_slot_mask``) when the daemon sends them; ``stale`` is False (the daemon sent it) and ``heartbeat_age_s`` 0."""
     def vec(key):
         v = message.get(key)
         return tuple(float(x) for x in v[:3]) + (0.0,) * (3 - len(v[:3])) if isinstance(v, list) else (0.0, 0.0, 0.0)
@@ -39,6 +43,15 @@ def sample_from_state_message(message: Dict) -> StateSample:
                          last_commit_seq=int(message.get("last_commit_seq", 0)),
                          fault=_FAULT_NUMBERS.get(fault, -1) if isinstance(fault, str) else int(fault),
                          objects=int(message.get("objects", 0)))
+    sample.mesh_slot_mask = int(message.get("mesh_slot_mask", 0))
+    for e in message.get("mesh_proxies") or []:
+        normals = tuple(tuple(float(x) for x in n[:3]) for n in e.get("normals", []) if isinstance(n, list))
+        triangle = e.get("triangle")
+        sample.mesh_proxies.append(MeshProxy(
+            object_id=int(e.get("object_id", 0)), slot=int(e.get("slot", 0)), proxy=_vec3(e.get("proxy")),
+            constraints=int(e.get("constraints", len(normals))), normals=normals,
+            triangle=int(triangle) if isinstance(triangle, int) else None, sliding=bool(e.get("sliding", False)),
+            converged=bool(e.get("converged", True))))
     contact = message.get("contact")
     if isinstance(contact, list):
         sample.contact_ids = [int(i) for i in contact if isinstance(i, int)]
