@@ -155,9 +155,8 @@ hc::ObjectDescription parse_object_spec(const std::vector<std::string>& words) {
         return f;
     }
     if (kind == "mesh") {
-        const Words w = split_key_values(
-            words, {"mesh", "position", "orientation", "criterion", "K", "B", "static_friction", "dynamic_friction",
-                    "shading"});
+        const Words w = split_key_values(words, {"mesh", "position", "orientation", "criterion", "K", "B",
+                                                 "static_friction", "dynamic_friction", "shading"});
         hc::Mesh m;
         const double id = parse_number("mesh", w.at("mesh"));
         if (!(id >= 1 && id <= 4294967295.0) || id != std::floor(id)) {

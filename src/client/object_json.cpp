@@ -128,12 +128,13 @@ json object_to_json(const ObjectDescription& object) {
         return j;
     }
     if (const auto* m = std::get_if<Mesh>(&object)) {
-        json j{{"kind", "mesh"},
-               {"mesh", m->mesh},
-               {"position", vec(m->position)},
-               {"orientation", json::array({m->orientation[0], m->orientation[1], m->orientation[2], m->orientation[3]})},
-               {"gains", gains_json(m->gains)},
-               {"friction", json{{"static", m->static_friction}, {"dynamic", m->dynamic_friction}}}};
+        json j{
+            {"kind", "mesh"},
+            {"mesh", m->mesh},
+            {"position", vec(m->position)},
+            {"orientation", json::array({m->orientation[0], m->orientation[1], m->orientation[2], m->orientation[3]})},
+            {"gains", gains_json(m->gains)},
+            {"friction", json{{"static", m->static_friction}, {"dynamic", m->dynamic_friction}}}};
         if (m->shading_crease_angle_deg) j["shading"] = json{{"crease_angle_deg", *m->shading_crease_angle_deg}};
         return j;
     }

@@ -241,8 +241,10 @@ Recording parse_recording(const std::string& path, const std::vector<char>& byte
                     p.mesh_id = cc.mesh;
                 }
                 if (cc.shading != 0) {
-                    if (p.mesh == nullptr || !(cc.crease_angle_deg >= 0.0 && cc.crease_angle_deg <= mesh::kMaxCreaseAngleDeg)) {
-                        bad(path, "corrupt: " + which + " shades with crease angle " + std::to_string(cc.crease_angle_deg) +
+                    if (p.mesh == nullptr ||
+                        !(cc.crease_angle_deg >= 0.0 && cc.crease_angle_deg <= mesh::kMaxCreaseAngleDeg)) {
+                        bad(path, "corrupt: " + which + " shades with crease angle " +
+                                      std::to_string(cc.crease_angle_deg) +
                                       " deg (accepted: 0 .. 80, on a mesh object)");
                     }
                     p.crease_angle_deg = cc.crease_angle_deg;

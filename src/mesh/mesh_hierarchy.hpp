@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The bounding-volume hierarchy of a mesh (axis-aligned boxes, median split, up to 4 triangles a leaf): built once
-// off the loop thread, then immutable (but for the shading normals kept per crease angle) and queried in the tick without allocation (a fixed-size traversal stack).
+// off the loop thread, then immutable (but for the shading normals kept per crease angle) and queried in the tick
+// without allocation (a fixed-size traversal stack).
 #pragma once
 
 #include "mesh/triangle_mesh.hpp"

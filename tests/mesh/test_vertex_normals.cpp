@@ -31,7 +31,8 @@ TEST(VertexNormals, AnIcospheresCornerNormalsPointRadiallyWithinTheFacesLargestT
         const ShadingNormals s = shading_normals(m, 30.0);
         double delta = 0.0, worst = 0.0;
         for (std::size_t f = 0; f < m.triangles.size(); ++f) {
-            for (const std::uint32_t v : m.triangles[f]) delta = std::max(delta, angle_between(s.face[f], m.vertices[v]));
+            for (const std::uint32_t v : m.triangles[f])
+                delta = std::max(delta, angle_between(s.face[f], m.vertices[v]));
         }
         for (std::size_t f = 0; f < m.triangles.size(); ++f) {
             EXPECT_EQ(s.smooth[f], 1) << f;
@@ -44,9 +45,10 @@ TEST(VertexNormals, AnIcospheresCornerNormalsPointRadiallyWithinTheFacesLargestT
         }
         // Angle-weighted: a vertex's normal does not depend on which face asks (every face around it is within the
         // crease on a sphere this fine: the dihedral angles are < 30 deg), so shading is continuous across edges.
-        std::printf("[ icosphere s=%d ] %zu triangles: largest face tilt %.3e rad, largest corner-normal angle to the "
-                    "radius %.3e rad\n",
-                    subdivisions, m.triangles.size(), delta, worst);
+        std::printf(
+            "[ icosphere s=%d ] %zu triangles: largest face tilt %.3e rad, largest corner-normal angle to the "
+            "radius %.3e rad\n",
+            subdivisions, m.triangles.size(), delta, worst);
         EXPECT_LT(worst, 0.5 * delta);
     }
 }

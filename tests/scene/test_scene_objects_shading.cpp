@@ -113,9 +113,10 @@ TEST(ForceShading, AShadedSpheresForceIsCloserToTheAnalyticNormalThanTheUnshaded
             flat_sum += e0;
             shaded_sum += e1;
         }
-        std::printf("[ force shading ] icosphere %zu triangles, 300 directions, 3 mm: angle to the sphere's normal "
-                    "unshaded mean %.3e max %.3e rad, shaded mean %.3e max %.3e rad\n",
-                    h->mesh().triangles.size(), flat_sum / n, flat_max, shaded_sum / n, shaded_max);
+        std::printf(
+            "[ force shading ] icosphere %zu triangles, 300 directions, 3 mm: angle to the sphere's normal "
+            "unshaded mean %.3e max %.3e rad, shaded mean %.3e max %.3e rad\n",
+            h->mesh().triangles.size(), flat_sum / n, flat_max, shaded_sum / n, shaded_max);
         EXPECT_LT(shaded_sum, 0.5 * flat_sum);
         EXPECT_LT(shaded_max, flat_max);
     }
@@ -124,8 +125,8 @@ TEST(ForceShading, AShadedSpheresForceIsCloserToTheAnalyticNormalThanTheUnshaded
 // A random path inside a sphere of 320 triangles wound inward (a one-sided concave surface: the handle 0 .. 4 mm
 // beyond it, 0.3 mm a tick, across its valleys, where the proxy rests on two faces, and its vertices, on three),
 // shaded and unshaded side by side, and an independent proxy fed the same handle for the constraint count: with 2 or
-// 3 constraints the forces are equal bitwise; with one on a smooth face they differ. A box (2 x 2 cells a face) at crease 30 deg: equal bitwise at every tick (faces, edges,
-// corners).
+// 3 constraints the forces are equal bitwise; with one on a smooth face they differ. A box (2 x 2 cells a face) at
+// crease 30 deg: equal bitwise at every tick (faces, edges, corners).
 TEST(ForceShading, OnlyAProxyOnOneFaceIsShadedAndABoxAtThirtyDegreesIsUnchangedBitwise) {
     std::mt19937 rng(40);
     std::uniform_real_distribution<double> depth(0.0, 0.004);
@@ -208,7 +209,8 @@ double contact_radius(const Eigen::VectorXcd& ev, int free) {
     std::sort(rest.begin(), rest.end(), [](auto a, auto b) { return std::abs(a - 1.0) < std::abs(b - 1.0); });
     for (int f = 0; f < free; ++f) EXPECT_LT(std::abs(rest[static_cast<std::size_t>(f)] - 1.0), 1e-6);
     double radius = 0.0;
-    for (std::size_t i = static_cast<std::size_t>(free); i < rest.size(); ++i) radius = std::max(radius, std::abs(rest[i]));
+    for (std::size_t i = static_cast<std::size_t>(free); i < rest.size(); ++i)
+        radius = std::max(radius, std::abs(rest[i]));
     return radius;
 }
 
@@ -239,7 +241,8 @@ TEST(ForceShading, TheCertifiedGainsOfAShadedSphereAreStableInEveryShadedConfigu
     const double theta = crease * std::numbers::pi / 180.0;
     normals.emplace_back(Eigen::Vector3d::UnitZ(), Eigen::Vector3d(std::sin(theta), 0.0, std::cos(theta)));
     double sphere_tilt = 0.0;
-    for (const auto& [nf, ns] : normals) sphere_tilt = std::max(sphere_tilt, angle_between(nf, ns) * (nf.z() == 1 ? 0 : 1));
+    for (const auto& [nf, ns] : normals)
+        sphere_tilt = std::max(sphere_tilt, angle_between(nf, ns) * (nf.z() == 1 ? 0 : 1));
     const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
     double worst = 0.0;
     int configurations = 0;
@@ -276,8 +279,10 @@ TEST(ForceShading, TheCertifiedGainsOfAShadedSphereAreStableInEveryShadedConfigu
                 for (int j = 1; j <= 30; j += (j < 3 || j > 27) ? 1 : 13) {
                     const double w = j / 30.0;
                     for (const double c : {c_min, 1.0, c_max}) {
-                        const double r0 = contact_radius(state_eigenvalues(c * m * I, w * w * K * wall, w * optimum.B * wall, d), 4);
-                        const double r1 = contact_radius(state_eigenvalues(c * m * I, w * w * K * stuck, w * optimum.B * stuck, d), 0);
+                        const double r0 =
+                            contact_radius(state_eigenvalues(c * m * I, w * w * K * wall, w * optimum.B * wall, d), 4);
+                        const double r1 = contact_radius(
+                            state_eigenvalues(c * m * I, w * w * K * stuck, w * optimum.B * stuck, d), 0);
                         EXPECT_LT(r0, 1.0) << "d " << d << " K " << K << " weight " << w << " c " << c;
                         EXPECT_LT(r1, 1.0) << "d " << d << " K " << K << " weight " << w << " c " << c;
                         worst = std::max({worst, r0, r1});
@@ -288,8 +293,9 @@ TEST(ForceShading, TheCertifiedGainsOfAShadedSphereAreStableInEveryShadedConfigu
         }
         {  // the model sees what the check refuses: 5 % beyond the largest accepted K, a face grows at the lightest
             const Eigen::Matrix3d wall = Eigen::Vector3d::UnitZ() * Eigen::Vector3d::UnitZ().transpose();
-            EXPECT_GT(contact_radius(state_eigenvalues(c_min * m * I, 1.05 * shaded_edge * wall, optimum.B * wall, d), 4),
-                      1.0)
+            EXPECT_GT(
+                contact_radius(state_eigenvalues(c_min * m * I, 1.05 * shaded_edge * wall, optimum.B * wall, d), 4),
+                1.0)
                 << "d " << d;
         }
         // Where the two checks differ (a grid of K and B, log-spaced): the pairs the unshaded masses accept and the
@@ -313,9 +319,10 @@ TEST(ForceShading, TheCertifiedGainsOfAShadedSphereAreStableInEveryShadedConfigu
                     d, differ, grow);
         EXPECT_EQ(grow, differ) << "d " << d;
     }
-    std::printf("[ shading ] %d configurations (sphere: n_s up to %.4f rad from n_f; and the 30 deg worst case), "
-                "largest spectral radius %.9f\n",
-                configurations, sphere_tilt, worst);
+    std::printf(
+        "[ shading ] %d configurations (sphere: n_s up to %.4f rad from n_f; and the 30 deg worst case), "
+        "largest spectral radius %.9f\n",
+        configurations, sphere_tilt, worst);
 }
 
 }  // namespace shading_test

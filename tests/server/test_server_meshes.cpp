@@ -232,6 +232,47 @@ TEST_F(ServerMeshes, BadUploadsGetErrorsNamingTheFieldAndTheSessionGoesOn) {
     EXPECT_EQ(request(c, {{"type", "heartbeat"}}).value("type", ""), "ok");  // still served
 }
 
+// Force shading (docs/protocol.md, section 4: "shading": {"crease_angle_deg": ...}): accepted at 0 .. 80 deg on this
+// one-mass, free-mass profile; out of range, of the wrong type, or a fifth crease angle on one mesh refused naming
+// the parameter and the accepted range; the session goes on.
+TEST_F(ServerMeshes, ShadingIsAcceptedInItsRangeAndBadCreaseAnglesAreRefusedNamingTheParameter) {
+    RawConnection c(n_->socket);
+    c.hello();
+    json error;
+    const std::uint32_t id = upload(c, box(0.01), "solid", error);
+    ASSERT_NE(id, 0U) << error.dump();
+    ASSERT_EQ(wait_built(c, id).value("state", ""), "ready");
+    auto add = [&](const json& shading) {
+        json object = mesh_object(id, {0.0, 0.0, -0.03}, {1, 0, 0, 0}, {{"criterion", "CE2"}});
+        object["shading"] = shading;
+        return request(c, {{"type", "commit"}, {"ops", {{{"op", "add"}, {"object", object}}}}});
+    };
+    // One at a time (two CE2 meshes on one spot would sum to an unstable scene); the mesh keeps each angle's normals.
+    const auto add_and_remove = [&](double crease) {
+        const json r = add({{"crease_angle_deg", crease}});
+        ASSERT_EQ(r.value("type", ""), "ok") << crease << " " << r.dump();
+        const json removed =
+            request(c, {{"type", "commit"},
+                        {"ops", {{{"op", "remove"}, {"object_id", r["object_ids"][0].get<std::uint32_t>()}}}}});
+        EXPECT_EQ(removed.value("type", ""), "ok") << removed.dump();
+    };
+    for (const double crease : {0.0, 30.0, 80.0, 45.0}) add_and_remove(crease);
+    const auto expect = [&](const json& shading, const std::string& code, const std::string& names) {
+        const json r = add(shading);
+        EXPECT_EQ(r.value("type", ""), "error") << r.dump();
+        EXPECT_EQ(r.value("code", ""), code) << r.dump();
+        EXPECT_NE(r.value("message", "").find(names), std::string::npos) << r.dump();
+    };
+    expect({{"crease_angle_deg", 80.5}}, "bad_message", "mesh.shading.crease_angle_deg = 80.5; accepted: 0 .. 80");
+    expect({{"crease_angle_deg", -1}}, "bad_message", "mesh.shading.crease_angle_deg = -1; accepted: 0 .. 80");
+    expect({{"crease_angle_deg", "thirty"}}, "bad_message", "shading.crease_angle_deg: expected a finite number");
+    expect(json::object(), "bad_message", "shading.crease_angle_deg: missing");
+    expect(30, "bad_message", "object.shading: expected {\"crease_angle_deg\": number}");
+    expect({{"crease_angle_deg", 20.0}}, "capacity", "already keeps the normals of 4 other crease angles");
+    // A kept angle is accepted again; the session goes on.
+    add_and_remove(30.0);
+}
+
 TEST_F(ServerMeshes, DegenerateAndOpenSolidMeshesFailNamingTheRule) {
     RawConnection c(n_->socket);
     c.hello();
