@@ -30,7 +30,7 @@ declare -A sources=(
   [hid_reports]="src/devices/hid_ffb_protocol.cpp src/devices/hid_report_descriptor.cpp"
   [stream_framing]="src/server/stream_framing.cpp"
   [server_messages]="src/server/message_decoder.cpp src/server/reply_text.cpp src/server/object_limits.cpp src/client/object_json.cpp src/client/text_limits.cpp src/client/error_code.cpp"
-  [recording]="src/daemon/recording_reader.cpp src/mesh/triangle_mesh.cpp src/mesh/mesh_hierarchy.cpp src/mesh/self_intersection.cpp"
+  [recording]="src/daemon/recording_reader.cpp src/mesh/triangle_mesh.cpp src/mesh/mesh_hierarchy.cpp src/mesh/self_intersection.cpp src/mesh/vertex_normals.cpp"
 )
 # toml++ (Debian's libtomlplusplus-dev) is compiled into the config target header-only, so that its parser is
 # instrumented too (linking Debian's uninstrumented libtomlplusplus.so would leave it out of the coverage). Known

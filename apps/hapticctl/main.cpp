@@ -362,7 +362,8 @@ int main(int argc, char** argv) {
                                    "Add one object and hold it until SIGINT/SIGTERM (or --for): "
                                    "plane normal=X,Y,Z [offset=M] [mode=bilateral] [criterion=C | K= B=]; "
                                    "mesh FILE.stl|FILE.obj [mode=solid|surface] [scale=S] [position=X,Y,Z] "
-                                   "[orientation=W,X,Y,Z] [criterion=C | K= B=] [static_friction= dynamic_friction=]; "
+                                   "[orientation=W,X,Y,Z] [criterion=C | K= B=] [static_friction= dynamic_friction=] "
+                                   "[shading=CREASE_DEG]; "
                                    "spring [constraint=point|line|plane] point=X,Y,Z [direction=X,Y,Z] K= [B=]; "
                                    "field center=X,Y,Z radius=M [force=X,Y,Z] [jacobian=9 numbers]");
     add->add_option("object", words, "KIND key=value ...")->required()->expected(1, -1);

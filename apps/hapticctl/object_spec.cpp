@@ -155,8 +155,8 @@ hc::ObjectDescription parse_object_spec(const std::vector<std::string>& words) {
         return f;
     }
     if (kind == "mesh") {
-        const Words w = split_key_values(
-            words, {"mesh", "position", "orientation", "criterion", "K", "B", "static_friction", "dynamic_friction"});
+        const Words w = split_key_values(words, {"mesh", "position", "orientation", "criterion", "K", "B",
+                                                 "static_friction", "dynamic_friction", "shading"});
         hc::Mesh m;
         const double id = parse_number("mesh", w.at("mesh"));
         if (!(id >= 1 && id <= 4294967295.0) || id != std::floor(id)) {
@@ -171,6 +171,7 @@ hc::ObjectDescription parse_object_spec(const std::vector<std::string>& words) {
         m.gains = parse_gains(w, false).value_or(hc::Gains::by_criterion("CE2"));
         if (w.has("static_friction")) m.static_friction = parse_number("static_friction", w.at("static_friction"));
         if (w.has("dynamic_friction")) m.dynamic_friction = parse_number("dynamic_friction", w.at("dynamic_friction"));
+        if (w.has("shading")) m.shading_crease_angle_deg = parse_number("shading", w.at("shading"));
         return m;
     }
     throw SpecError("parse_object_spec: object kind '" + kind + "' is unknown; accepted: plane, spring, field, mesh");

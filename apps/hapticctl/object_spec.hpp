@@ -4,7 +4,8 @@
 //   spring [constraint=point|line|plane] point=X,Y,Z [direction=DX,DY,DZ] (K=N/m [B=Ns/m] | criterion=C)
 //   field  center=X,Y,Z radius=M [force=FX,FY,FZ] [jacobian=J11,J12,J13,J21,...,J33]
 //   mesh   mesh=ID [position=X,Y,Z] [orientation=W,X,Y,Z] [criterion=C | K=N/m B=Ns/m] [static_friction=]
-//          [dynamic_friction=]  (ID: a mesh this session uploaded; `hapticctl add mesh FILE` uploads one)
+//          [dynamic_friction=] [shading=DEG]  (ID: a mesh this session uploaded; `hapticctl add mesh FILE` uploads
+//          one; shading: force shading's crease angle in degrees, 0 .. 80)
 // SI units (m, N, N/m, N s/m). A plane without gains asks for criterion=CE2. Only the form is checked here
 // (known keys, finite numbers, vector lengths); the daemon checks the physics (unit normal, stability,
 // device limits) and answers with the protocol's error codes.

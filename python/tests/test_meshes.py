@@ -100,6 +100,20 @@ def test_numpy_arrays_are_accepted(daemon):
         assert c.add(hc.mesh(mesh_id=mesh_id, position=(0.0, 0.03, 0.0), K=300, B=3)) > 0
 
 
+def test_a_shaded_mesh_is_listed_with_its_crease_angle_and_bad_angles_are_refused(daemon):
+    assert "shading" not in hc.mesh(mesh_id=1)  # off by default: the object is what it was
+    assert hc.mesh(mesh_id=1, shading=30)["shading"] == {"crease_angle_deg": 30.0}
+    with connect(daemon) as c:
+        mesh_id = c.upload_mesh(*hc.icosphere(0.01, 2))
+        ball = c.add(hc.mesh(mesh_id=mesh_id, position=(0.0, 0.0, -0.03), criterion="CE2", shading=30))
+        assert {o["id"]: o for o in c.list()}[ball]["object"]["shading"] == {"crease_angle_deg": 30.0}
+        c.remove(ball)
+        with pytest.raises(hc.HapticdError) as steep:
+            c.add(hc.mesh(mesh_id=mesh_id, position=(0.0, 0.0, -0.03), shading=85))
+        assert steep.value.code == "bad_message"
+        assert "mesh.shading.crease_angle_deg = 85; accepted: 0 .. 80" in str(steep.value)
+
+
 def test_bad_meshes_are_refused_naming_the_problem(daemon):
     with connect(daemon) as c:
         with pytest.raises(ValueError, match="not finite"):

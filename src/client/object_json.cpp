@@ -128,13 +128,15 @@ json object_to_json(const ObjectDescription& object) {
         return j;
     }
     if (const auto* m = std::get_if<Mesh>(&object)) {
-        return json{
+        json j{
             {"kind", "mesh"},
             {"mesh", m->mesh},
             {"position", vec(m->position)},
             {"orientation", json::array({m->orientation[0], m->orientation[1], m->orientation[2], m->orientation[3]})},
             {"gains", gains_json(m->gains)},
             {"friction", json{{"static", m->static_friction}, {"dynamic", m->dynamic_friction}}}};
+        if (m->shading_crease_angle_deg) j["shading"] = json{{"crease_angle_deg", *m->shading_crease_angle_deg}};
+        return j;
     }
     const auto& f = std::get<Field>(object);
     return json{{"kind", "field"},
@@ -253,6 +255,15 @@ std::optional<ObjectDescription> object_from_json(const json& j, std::string& er
                 !read_number(*fr, "dynamic", where + ".friction", m.dynamic_friction, error, false)) {
                 return std::nullopt;
             }
+        }
+        if (const auto sh = j.find("shading"); sh != j.end()) {
+            double crease = 0.0;
+            if (!sh->is_object()) {
+                error = "object.shading: expected {\"crease_angle_deg\": number}";
+                return std::nullopt;
+            }
+            if (!read_number(*sh, "crease_angle_deg", where + ".shading", crease, error)) return std::nullopt;
+            m.shading_crease_angle_deg = crease;
         }
         return ObjectDescription{m};
     }

@@ -69,7 +69,9 @@ json layout() {
                                  field("mesh", "<u4", offsetof(UpdateChunkC, mesh)),
                                  field("orientation", "<f8", offsetof(UpdateChunkC, orientation), 4),
                                  field("static_friction", "<f8", offsetof(UpdateChunkC, static_friction)),
-                                 field("dynamic_friction", "<f8", offsetof(UpdateChunkC, dynamic_friction))});
+                                 field("dynamic_friction", "<f8", offsetof(UpdateChunkC, dynamic_friction)),
+                                 field("shading", "<u4", offsetof(UpdateChunkC, shading)),
+                                 field("crease_angle_deg", "<f8", offsetof(UpdateChunkC, crease_angle_deg))});
     l["mesh"] = json::array(
         {field("kind", "<u4", offsetof(MeshChunk, kind)), field("mode", "u1", offsetof(MeshChunk, mode)),
          field("mesh", "<u4", offsetof(MeshChunk, mesh)), field("vertices", "<u8", offsetof(MeshChunk, vertices)),

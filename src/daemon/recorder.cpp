@@ -167,6 +167,10 @@ void Recorder::write_batch(const BatchEntry& b) noexcept {
         for (std::size_t k = 0; k < 4; ++k) cc.orientation[k] = p.orientation[k];
         cc.static_friction = p.static_friction;
         cc.dynamic_friction = p.dynamic_friction;
+        if (p.shading != nullptr) {
+            cc.shading = 1;
+            cc.crease_angle_deg = p.crease_angle_deg;
+        }
         write_chunk(&a);
         write_chunk(&bb);
         write_chunk(&cc);

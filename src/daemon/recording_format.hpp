@@ -107,14 +107,19 @@ struct UpdateChunkB {
     std::uint8_t reserved1[24] = {};
 };
 
-// The third part (version 2): what only a mesh object has (ObjectParams: mesh_id, orientation, friction).
+// The third part (version 2): what only a mesh object has (ObjectParams: mesh_id, orientation, friction, shading).
 struct UpdateChunkC {
     std::uint32_t kind = kUpdateC;
     std::uint32_t mesh = 0;                        // the mesh record's id (0: none, every kind but a mesh)
     double orientation[4] = {1.0, 0.0, 0.0, 0.0};  // unit quaternion w, x, y, z
     double static_friction = 0.0;
     double dynamic_friction = 0.0;
-    std::uint8_t reserved[72] = {};
+    // Force shading (ObjectParams::crease_angle_deg): 1 on, with the crease angle in degrees; 0 off. Version-2 files
+    // written before it hold zeros here (reserved): off, as they were rendered.
+    std::uint32_t shading = 0;
+    std::uint32_t reserved0 = 0;
+    double crease_angle_deg = 0.0;
+    std::uint8_t reserved[56] = {};
 };
 
 // A client's mesh (version 2), written once, before the first batch that renders it; followed by
@@ -173,7 +178,8 @@ static_assert(sizeof(EndChunk) == kChunkSize && offsetof(EndChunk, ticks) == 8 &
               offsetof(EndChunk, meshes) == 56);
 static_assert(sizeof(UpdateChunkC) == kChunkSize && offsetof(UpdateChunkC, mesh) == 4 &&
               offsetof(UpdateChunkC, orientation) == 8 && offsetof(UpdateChunkC, static_friction) == 40 &&
-              offsetof(UpdateChunkC, dynamic_friction) == 48);
+              offsetof(UpdateChunkC, dynamic_friction) == 48 && offsetof(UpdateChunkC, shading) == 56 &&
+              offsetof(UpdateChunkC, crease_angle_deg) == 64);
 static_assert(sizeof(MeshChunk) == kChunkSize && offsetof(MeshChunk, mode) == 4 && offsetof(MeshChunk, mesh) == 8 &&
               offsetof(MeshChunk, vertices) == 16 && offsetof(MeshChunk, triangles) == 24);
 static_assert(sizeof(MeshVerticesChunk) == kChunkSize && offsetof(MeshVerticesChunk, count) == 4 &&

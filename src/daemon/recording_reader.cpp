@@ -240,6 +240,20 @@ Recording parse_recording(const std::string& path, const std::vector<char>& byte
                     p.mesh = found->second.get();
                     p.mesh_id = cc.mesh;
                 }
+                if (cc.shading != 0) {
+                    if (p.mesh == nullptr ||
+                        !(cc.crease_angle_deg >= 0.0 && cc.crease_angle_deg <= mesh::kMaxCreaseAngleDeg)) {
+                        bad(path, "corrupt: " + which + " shades with crease angle " +
+                                      std::to_string(cc.crease_angle_deg) +
+                                      " deg (accepted: 0 .. 80, on a mesh object)");
+                    }
+                    p.crease_angle_deg = cc.crease_angle_deg;
+                    p.shading = p.mesh->shading(cc.crease_angle_deg);
+                    if (p.shading == nullptr) {
+                        bad(path, "corrupt: " + which + " shades mesh " + std::to_string(cc.mesh) +
+                                      " with more crease angles than a mesh keeps");
+                    }
+                }
                 rb.updates.push_back(s);
                 ++updates;
             }

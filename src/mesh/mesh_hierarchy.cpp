@@ -215,6 +215,16 @@ SweepHit MeshHierarchy::sweep(const Eigen::Vector3d& p, const Eigen::Vector3d& q
     return best;
 }
 
+const ShadingNormals* MeshHierarchy::shading(double crease_angle_deg) const {
+    const std::lock_guard<std::mutex> lock(shading_mutex_);
+    for (const auto& s : shadings_) {
+        if (s->crease_angle_deg == crease_angle_deg) return s.get();
+    }
+    if (shadings_.size() >= kMaxShadings) return nullptr;
+    shadings_.push_back(std::make_unique<const ShadingNormals>(shading_normals(mesh_, crease_angle_deg)));
+    return shadings_.back().get();
+}
+
 std::size_t MeshHierarchy::memory_bytes() const {
     return sizeof(*this) + nodes_.capacity() * sizeof(Node) + triangles_.capacity() * sizeof(HierarchyTriangle) +
            mesh_.vertices.capacity() * sizeof(Eigen::Vector3d) +

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 // The bounding-volume hierarchy of a mesh (axis-aligned boxes, median split, up to 4 triangles a leaf): built once
-// off the loop thread, then immutable and queried in the tick without allocation (a fixed-size traversal stack).
+// off the loop thread, then immutable (but for the shading normals kept per crease angle) and queried in the tick
+// without allocation (a fixed-size traversal stack).
 #pragma once
 
 #include "mesh/triangle_mesh.hpp"
+#include "mesh/vertex_normals.hpp"
 
 #include <Eigen/Core>
 
@@ -11,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 namespace hapticd::mesh {
@@ -77,6 +80,13 @@ class MeshHierarchy {
     std::size_t depth() const { return depth_; }
     std::size_t memory_bytes() const;
 
+    // Force shading: the mesh's corner normals for crease angle `crease_angle_deg` (vertex_normals.hpp), computed
+    // on the first request for that angle (off the loop thread: allocates, O(n)) and kept, unmoved, for as long as
+    // the hierarchy lives, so the pointer may be handed to the loop with the hierarchy. At most kMaxShadings angles
+    // a mesh: nullptr beyond. Thread-safe (a mutex the loop never takes). Throws std::bad_alloc only.
+    static constexpr std::size_t kMaxShadings = 4;
+    const ShadingNormals* shading(double crease_angle_deg) const;
+
   private:
     MeshHierarchy() = default;
     TriangleMesh mesh_;
@@ -84,6 +94,8 @@ class MeshHierarchy {
     std::vector<Node> nodes_;
     std::vector<HierarchyTriangle> triangles_;  // in leaf order
     std::size_t depth_ = 0;
+    mutable std::mutex shading_mutex_;
+    mutable std::vector<std::unique_ptr<const ShadingNormals>> shadings_;
 };
 
 }  // namespace hapticd::mesh

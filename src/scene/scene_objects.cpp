@@ -59,7 +59,8 @@ bool is_move(const ObjectParams& before, const ObjectParams& after) noexcept {
             return before.radius == after.radius && before.jacobian == after.jacobian;
         case ObjectKind::Mesh:
             return before.mesh == after.mesh && before.static_friction == after.static_friction &&
-                   before.dynamic_friction == after.dynamic_friction;
+                   before.dynamic_friction == after.dynamic_friction && before.shading == after.shading &&
+                   before.crease_angle_deg == after.crease_angle_deg;
     }
     return false;
 }

@@ -141,6 +141,11 @@ struct ObjectParams {
     std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};
     double static_friction = 0.0;
     double dynamic_friction = 0.0;
+    // mesh: force shading (docs/mesh-rendering.md, "Force shading"): the crease angle in degrees, negative when
+    // off, and the hierarchy's corner normals for it (MeshHierarchy::shading: kept alive with the hierarchy;
+    // nullptr when off).
+    double crease_angle_deg = -1.0;
+    const mesh::ShadingNormals* shading = nullptr;
     // The loop's own (clients' objects arrive with zeros): the velocity of the rendered pose while a move is
     // interpolated, d(offset)/dt (m/s) and d(point)/dt (m/s), so that the damping acts on the handle's
     // velocity relative to the object's surface (SceneObjects::advance_glides).

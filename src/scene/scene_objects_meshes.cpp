@@ -5,7 +5,10 @@
 // with R the rotation of the entry's orientation, p its position, r its ramp factor and P the projector on the span
 // of the active constraints' normals (0 when the proxy is free; I with friction, whose stuck proxy is a spring of
 // K in every direction: damped in every direction too). This is the law the server certifies: for every P it is
-// a spring of at most K and a damper of at most B (docs/protocol.md, section 5). No allocation, lock or exception.
+// a spring of at most K and a damper of at most B (docs/protocol.md, section 5). With force shading and exactly one
+// active face (normal n_f) the mesh-frame force is S fm with S = I + (n_s - n_f) n_f^T, n_s the shaded normal at the
+// proxy: along n_f the wall law scaled by n_s . n_f in [cos theta_c, 1], certified as the unscaled law with the mass
+// divided by it (docs/mesh-rendering.md, "Force shading"). No allocation, lock or exception.
 #include <cmath>
 #include <memory>
 
@@ -86,6 +89,17 @@ void SceneObjects::add_meshes(const AxisVector& x, const AxisVector& v, double (
         AxisVector fm{};
         for (std::size_t a = 0; a < 3; ++a) {
             fm[a] = wk * (c.proxy[static_cast<Eigen::Index>(a)] - h[static_cast<Eigen::Index>(a)]) - wb * pv[a];
+        }
+        if (p.shading != nullptr && c.constraints == 1 && p.shading->smooth[c.triangle] != 0) {
+            // Force shading on one face: fm + (n_s - n_f)(n_f . fm), the component along the face normal n_f turned
+            // onto the shaded normal n_s, the rest as is (docs/mesh-rendering.md, "Force shading").
+            const Eigen::Vector3d ns = mesh::shaded_normal(*p.shading, p.mesh->mesh(), c.triangle, c.proxy);
+            const Eigen::Vector3d& nf = c.normals[0];
+            const double along = nf[0] * fm[0] + nf[1] * fm[1] + nf[2] * fm[2];
+            for (std::size_t a = 0; a < 3; ++a) {
+                const auto i = static_cast<Eigen::Index>(a);
+                fm[a] += (ns[i] - nf[i]) * along;
+            }
         }
         for (std::size_t a = 0; a < 3; ++a) f[a] += dot(R[a], fm);  // back to the device frame
     }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <numbers>
 #include <variant>
 
 #include "client/text_limits.hpp"
@@ -364,6 +365,15 @@ std::vector<double> mesh_masses(const std::vector<double>& eigen_masses, double 
     return out;
 }
 
+std::vector<double> shaded_mesh_masses(const std::vector<double>& eigen_masses, double scale_min, double scale_max,
+                                       double crease_angle_deg) {
+    if (eigen_masses.empty()) return {};
+    std::vector<double> extended = eigen_masses;
+    const double c = std::cos(crease_angle_deg * std::numbers::pi / 180.0) * (1.0 - 1e-9);
+    extended.push_back(*std::max_element(eigen_masses.begin(), eigen_masses.end()) / c);
+    return mesh_masses(extended, scale_min, scale_max);
+}
+
 // Mesh: a proxy whose coupling to the handle is K P, B P for the active constraints' projector P (any rank, I
 // with friction): certified as a spring of K and a damper of B in every direction with every mass P can give
 // (mesh_masses); in the sums a conditional term K I, B I on the device's axes.
@@ -395,13 +405,63 @@ std::optional<Refusal> ObjectResolver::resolve_mesh(const cl::Mesh& m, Resolved&
         return Refusal{ErrorCode::UnknownObject, "mesh.mesh = " + std::to_string(m.mesh) + ": no mesh store",
                        std::nullopt};
     }
+    if (m.shading_crease_angle_deg) {
+        const double crease = *m.shading_crease_angle_deg;
+        if (!(crease >= 0.0 && crease <= mesh::kMaxCreaseAngleDeg)) {
+            return Refusal{ErrorCode::BadMessage,
+                           "mesh.shading.crease_angle_deg = " + g(crease) + "; accepted: 0 .. " +
+                               g(mesh::kMaxCreaseAngleDeg) + " (degrees)",
+                           std::nullopt};
+        }
+        if (!checker_.mass().isotropic || !checker_.certified()) {
+            return Refusal{ErrorCode::BadMessage,
+                           "mesh.shading: accepted on devices with one mass and a free-mass plant (b = k = 0), whose "
+                           "shaded wall is the wall with a heavier mass (docs/mesh-rendering.md, \"Force shading\"); "
+                           "this profile's plant is " +
+                               checker_.set_text(),
+                           std::nullopt};
+        }
+    }
     MeshLookupResult found = (*meshes)(m.mesh);
     if (found.refusal) return found.refusal;
     Matrix3 I{};
     for (std::size_t i = 0; i < config_.axes; ++i) I[i][i] = 1.0;
     const auto [c_min, c_max] = checker_.mass_scales();
-    const std::vector<double> masses = mesh_masses(checker_.masses_of(I), c_min, c_max);
+    const std::vector<double> masses =
+        m.shading_crease_angle_deg
+            ? shaded_mesh_masses(checker_.masses_of(I), c_min, c_max, *m.shading_crease_angle_deg)
+            : mesh_masses(checker_.masses_of(I), c_min, c_max);
     if (auto r = resolve_gains(m.gains, "mesh", masses, p.K, p.B)) return r;
+    if (m.shading_crease_angle_deg && config_.ramp_time > 0.0) {
+        // The ramp scenes of the shaded mesh alone, (s^2 K, s B) at the same masses (the summed check takes them
+        // at the plant set's masses, without the shading's heavier ones).
+        const double step = config_.period / config_.ramp_time;
+        for (int j = 1; j * step < 1.0; ++j) {
+            const double s = j * step;
+            const PairVerdict v = checker_.check_object(s * s * p.K, s * p.B, masses);
+            if (!v.stable) {
+                return Refusal{ErrorCode::UnstableGains,
+                               "mesh.shading.crease_angle_deg = " + g(*m.shading_crease_angle_deg) + ": K = " + g(p.K) +
+                                   " N/m, B = " + g(p.B) + " N s/m during the ramp (weight " + g(s) +
+                                   ") are outside the stability region with " + checker_.plant_text(v) + " of " +
+                                   checker_.set_text() + ", for the shaded mass " + g(v.mass) +
+                                   " kg; accepted: a smaller crease angle or other gains",
+                               std::nullopt};
+            }
+        }
+    }
+    if (m.shading_crease_angle_deg) {
+        p.shading = found.hierarchy->shading(*m.shading_crease_angle_deg);
+        if (p.shading == nullptr) {
+            return Refusal{ErrorCode::Capacity,
+                           "mesh.shading.crease_angle_deg = " + g(*m.shading_crease_angle_deg) + ": mesh " +
+                               std::to_string(m.mesh) + " already keeps the normals of " +
+                               std::to_string(mesh::MeshHierarchy::kMaxShadings) +
+                               " other crease angles; accepted: one of those",
+                           std::nullopt};
+        }
+        p.crease_angle_deg = *m.shading_crease_angle_deg;
+    }
     p.kind = ObjectKind::Mesh;
     p.point = to_axis(m.position);
     for (std::size_t i = 0; i < 4; ++i) p.orientation[i] = m.orientation[i] / qn;

@@ -99,6 +99,12 @@ using MeshLookup = std::function<MeshLookupResult(std::uint32_t mesh)>;
 // cover [c_min lambda_min, c_max lambda_max] without a gap. `eigen_masses`: masses_of(I) (M's eigenvalues).
 [[nodiscard]] std::vector<double> mesh_masses(const std::vector<double>& eigen_masses, double scale_min,
                                               double scale_max);
+// The same with force shading at crease angle theta_c (degrees, 0 .. 80; docs/mesh-rendering.md, "Force shading"):
+// on one face the wall law along its normal is scaled by c = n_s . n_f in [cos theta_c, 1], and with one mass and
+// b = k = 0 the loop m x'' = c F is the loop (m / c) x'' = F: the masses reach lambda_max / cos theta_c (its cosine
+// less 1e-9: the normals' rounding is ~1e-16).
+[[nodiscard]] std::vector<double> shaded_mesh_masses(const std::vector<double>& eigen_masses, double scale_min,
+                                                     double scale_max, double crease_angle_deg);
 
 // The criterion a client's gains name: gains.criterion parsed into hapticopt::Criterion (hapticopt::parse_criterion:
 // exact, case-sensitive), the one place the server turns the wire's name into the type the checker takes;

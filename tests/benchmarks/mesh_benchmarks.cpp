@@ -3,6 +3,7 @@
 //  * BM_Validate / BM_HierarchyBuild: mesh_error (solid) and MeshHierarchy::build of a 100 000-triangle torus
 //    (goal: accepted and built in under 1 s); BM_EmbreeBuild: Embree 3's scene commit of the same triangles;
 //    BM_ValidateFlatFaces: mesh_error (solid) of a 99 372-triangle box (coplanar neighbours on its faces).
+//  * BM_ShadingNormals: force shading's corner normals of the torus (crease 30 deg).
 //  * BM_Sweep*: one segment query over the same torus on the segments a proxy sweeps in contact (recorded from a
 //    proxy path): the hierarchy, brute force over every triangle, and Embree's rtcIntersect1 (first hit, no
 //    offset rule) when libembree-dev is installed.
@@ -14,7 +15,8 @@
 //    contact (the contact path above, 0.5 m/s): SceneObjects::apply_commits and add_forces (the proxy, the wall law
 //    in the mesh frame, the finite check), the delay buffer with the law's change, the force limiter; each tick timed
 //    for p50/p99/max. /1, the baseline in the same run: the same path against one unilateral plane (a client's
-//    one-wall scene, the handle 2 mm in). The device's read and write and the state's publication (~30 ns,
+//    one-wall scene, the handle 2 mm in). /2: /0 with force shading (crease 30 deg: every face of the torus is
+//    smooth, each contact on one face shaded). The device's read and write and the state's publication (~30 ns,
 //    docs/clients.md) are not in either.
 #include <benchmark/benchmark.h>
 
@@ -127,6 +129,19 @@ void BM_HierarchyBuild(benchmark::State& state) {
     state.counters["depth"] = static_cast<double>(depth);
 }
 BENCHMARK(BM_HierarchyBuild)->Unit(benchmark::kMillisecond);
+
+// Force shading's corner normals of the same torus at crease 30 deg (off the loop: the first commit that asks for the
+// angle pays it).
+void BM_ShadingNormals(benchmark::State& state) {
+    std::size_t bytes = 0;
+    for (auto _ : state) {
+        const ShadingNormals s = shading_normals(big_torus(), 30.0);
+        bytes = s.memory_bytes();
+        benchmark::DoNotOptimize(s.corners.data());
+    }
+    state.counters["memory_MB"] = static_cast<double>(bytes) / 1e6;
+}
+BENCHMARK(BM_ShadingNormals)->Unit(benchmark::kMillisecond);
 
 void BM_SweepHierarchy(benchmark::State& state) {
     const auto h = big_hierarchy();
@@ -293,7 +308,7 @@ BENCHMARK(BM_ProxyStepFast);
 
 void BM_TickMeshContact(benchmark::State& state) {
     using namespace hapticd;
-    const bool with_mesh = state.range(0) == 0;
+    const bool with_mesh = state.range(0) != 1;
     std::shared_ptr<const MeshHierarchy> h = big_hierarchy();
     CommitRing ring(8);
     SceneObjectsConfig config;
@@ -309,6 +324,10 @@ void BM_TickMeshContact(benchmark::State& state) {
     if (with_mesh) {
         p.kind = ObjectKind::Mesh;
         p.mesh = h.get();
+        if (state.range(0) == 2) {
+            p.shading = h->shading(30.0);
+            p.crease_angle_deg = 30.0;
+        }
     } else {  // the plane x = 0.078 with normal +x (solid for x < 0.078): 1 cm out for 20 ticks, then 2 mm in, along y,
               // z
         p.kind = ObjectKind::Plane;
@@ -346,6 +365,6 @@ void BM_TickMeshContact(benchmark::State& state) {
     state.counters["contact_fraction"] = static_cast<double>(contacts) / static_cast<double>(state.iterations());
     report_percentiles(state, ns);
 }
-BENCHMARK(BM_TickMeshContact)->Arg(0)->Arg(1);
+BENCHMARK(BM_TickMeshContact)->Arg(0)->Arg(1)->Arg(2);
 
 }  // namespace

@@ -397,7 +397,8 @@ std::string cube_vertex(int i) {
 
 // `hapticctl add mesh FILE` on the 3-axis simulated device: an OBJ and an STL cube are read (assimp), uploaded and
 // added (8 vertices and 12 triangles each: the STL's 36 vertices joined), held for --for; an open cube in solid mode
-// is refused by the daemon's validation naming the mode, a missing file and an unknown key before connecting (2).
+// is refused by the daemon's validation naming the mode, a missing file and an unknown key before connecting (2);
+// shading=30 accepted, shading=85 refused naming the crease angle's range.
 TEST(HapticctlMesh, AddMeshReadsObjAndStlUploadsAndAdds) {
     LockstepDaemon daemon("hapticctl_mesh", {"--device", "sim3"});
     ASSERT_TRUE(daemon.ready()) << daemon.log();
@@ -427,6 +428,15 @@ TEST(HapticctlMesh, AddMeshReadsObjAndStlUploadsAndAdds) {
         EXPECT_NE(r.out.find("8 vertices, 12 triangles (solid)"), std::string::npos) << r.out;
         EXPECT_NE(r.out.find("(mesh, K = 500 N/m, B = 5 N s/m)"), std::string::npos) << r.out;
     }
+    // Force shading: shading=DEG is the crease angle (a cube's faces stay flat at 30 deg); 85 is refused by the daemon
+    // naming the parameter and its range.
+    const std::string cube = clients_test::write_file("shaded.obj", obj);
+    const Result shaded =
+        ctl({"add", "mesh", cube, "scale=0.001", "K=500", "B=5", "shading=30", "--for", "0.2"}, "shaded");
+    EXPECT_EQ(shaded.code, 0) << shaded.err;
+    const Result steep = ctl({"add", "mesh", cube, "scale=0.001", "K=500", "B=5", "shading=85"}, "steep");
+    EXPECT_NE(steep.code, 0) << steep.out;
+    EXPECT_NE(steep.err.find("mesh.shading.crease_angle_deg = 85; accepted: 0 .. 80"), std::string::npos) << steep.err;
     const Result open = ctl({"add", "mesh", clients_test::write_file("open.obj", open_obj), "K=500", "B=5"}, "open");
     EXPECT_NE(open.code, 0) << open.out;
     EXPECT_NE(open.err.find("solid"), std::string::npos) << open.err;

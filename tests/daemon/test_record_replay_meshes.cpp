@@ -43,7 +43,8 @@ cl::Mesh box_at(std::uint32_t mesh, double y, double angle) {
                     .orientation = {std::cos(angle / 2), 0.0, 0.0, std::sin(angle / 2)},
                     .gains = cl::Gains::explicit_gains(2000.0, 2.0),  // N/m, N s/m: stable beside the config wall
                     .static_friction = 0.4,
-                    .dynamic_friction = 0.3};
+                    .dynamic_friction = 0.3,
+                    .shading_crease_angle_deg = 30.0};  // a box's faces stay flat at 30 deg: recorded, not visible
 }
 
 // Made once. Each step waits kGap ticks of the loop after its batch is applied (the state's counters).
@@ -117,7 +118,7 @@ TEST(RecordReplayMeshes, AMeshSessionReplaysBitForBit) {
         for (int k = 0; k < 3; ++k) EXPECT_EQ(h.mesh().vertices[i][k], v[i][static_cast<std::size_t>(k)]);
     }
     EXPECT_EQ(h.mesh().triangles, box_triangles());
-    // add, 5 moves, the removal; every mesh update names the box and carries its orientation and friction.
+    // add, 5 moves, the removal; every mesh update names the box and carries its orientation, friction and shading.
     std::size_t mesh_updates = 0;
     for (const auto& b : r.batches) {
         for (const auto& u : b.updates) {
@@ -127,6 +128,9 @@ TEST(RecordReplayMeshes, AMeshSessionReplaysBitForBit) {
             EXPECT_EQ(u.params.mesh, &h);
             EXPECT_EQ(u.params.static_friction, 0.4);
             EXPECT_EQ(u.params.dynamic_friction, 0.3);
+            EXPECT_EQ(u.params.crease_angle_deg, 30.0);
+            EXPECT_EQ(u.params.shading, h.shading(30.0));
+            EXPECT_NE(u.params.shading, nullptr);
         }
     }
     EXPECT_GE(r.batches.size(), 7U);

@@ -200,6 +200,7 @@ cl::Mesh mesh_object(const cl::Vec3& position, double angle) {
     m.gains = cl::Gains::explicit_gains(300.0, 3.0);
     m.static_friction = 0.4;
     m.dynamic_friction = 0.3;
+    m.shading_crease_angle_deg = 30.0;  // force shading: the interpolated normal in the tick, on one face
     return m;
 }
 cl::Field field(const cl::Vec3& center, double radius, const cl::Vec3& force) {

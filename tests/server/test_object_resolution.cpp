@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "mesh/procedural_meshes.hpp"
 #include "server/object_resolution.hpp"
 
 namespace hapticd::server {
@@ -189,4 +190,69 @@ TEST(ObjectResolution, AnIdIsTheSessionsSlotOrAReasonWhyNot) {
 }
 
 }  // namespace object_resolution_test
+}  // namespace hapticd::server
+
+namespace hapticd::server {
+namespace object_resolution_shading_test {
+
+namespace cl = hapticd::client;
+using cl::ErrorCode;
+
+// Force shading (docs/mesh-rendering.md, "Force shading"): on one free mass (0.3 kg, b = k = 0) a shaded mesh gets the
+// hierarchy's normals for its crease angle; an angle outside 0 .. 80 deg, and shading on a device with a mass matrix
+// or with damping, are refused naming mesh.shading (the same mesh unshaded is accepted there).
+TEST(ObjectResolution, ShadingNeedsACreaseAngleInRangeAndOneFreeMass) {
+    const auto h = mesh::MeshHierarchy::build(mesh::icosphere(0.01, 2), mesh::MeshMode::solid);
+    const MeshLookup lookup = [&](std::uint32_t) { return MeshLookupResult{h, std::nullopt}; };
+    auto resolve = [&](const GainCheckPlant& plant, std::optional<double> crease, Resolved& out) {
+        ServerConfig c;
+        c.axes = 3;
+        c.period = 1e-3;
+        c.delay = 1e-3;
+        c.max_force = 10.0;
+        c.workspace_min = {-0.06, -0.06, -0.06};
+        c.workspace_max = {0.06, 0.06, 0.06};
+        GainChecker checker(plant);
+        ObjectResolver resolver(c, checker);
+        cl::Mesh m{.mesh = 1, .gains = cl::Gains::by_criterion("CE2"), .shading_crease_angle_deg = crease};
+        return resolver.resolve(cl::ObjectDescription{m}, out, &lookup);
+    };
+    GainCheckPlant one;
+    one.mass = 0.3;
+    one.period = 1e-3;
+    one.time_delay = 1e-3;
+    one.mass_matrix = DeviceMass::isotropic_mass(0.3, 3);
+    Resolved out;
+    ASSERT_FALSE(resolve(one, 30.0, out));
+    EXPECT_EQ(out.params.shading, h->shading(30.0));
+    EXPECT_EQ(out.params.crease_angle_deg, 30.0);
+    ASSERT_FALSE(resolve(one, std::nullopt, out));
+    EXPECT_EQ(out.params.shading, nullptr);
+    EXPECT_LT(out.params.crease_angle_deg, 0.0);
+    for (const double bad : {-0.5, 80.001, 90.0}) {
+        const auto r = resolve(one, bad, out);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->code, ErrorCode::BadMessage);
+        EXPECT_EQ(r->message.rfind("mesh.shading.crease_angle_deg = ", 0), 0U) << r->message;
+        EXPECT_NE(r->message.find("accepted: 0 .. 80 (degrees)"), std::string::npos) << r->message;
+    }
+    GainCheckPlant aniso = one;
+    MassMatrix M{};
+    M[0][0] = 0.45;
+    M[1][1] = 0.3;
+    M[2][2] = 0.25;
+    aniso.mass_matrix = DeviceMass::from_matrix(M, 3);
+    GainCheckPlant damped = one;
+    damped.damping = 0.5;
+    for (const GainCheckPlant& p : {aniso, damped}) {
+        const auto r = resolve(p, 30.0, out);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->code, ErrorCode::BadMessage);
+        EXPECT_EQ(r->message.rfind("mesh.shading: accepted on devices with one mass and a free-mass plant", 0), 0U)
+            << r->message;
+        EXPECT_FALSE(resolve(p, std::nullopt, out));
+    }
+}
+
+}  // namespace object_resolution_shading_test
 }  // namespace hapticd::server

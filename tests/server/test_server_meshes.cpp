@@ -232,6 +232,50 @@ TEST_F(ServerMeshes, BadUploadsGetErrorsNamingTheFieldAndTheSessionGoesOn) {
     EXPECT_EQ(request(c, {{"type", "heartbeat"}}).value("type", ""), "ok");  // still served
 }
 
+// Force shading (docs/protocol.md, section 4: "shading": {"crease_angle_deg": ...}): accepted at 0 .. 80 deg on this
+// one-mass, free-mass profile; out of range, of the wrong type, or a fifth crease angle on one mesh refused naming
+// the parameter and the accepted range; the session goes on.
+TEST_F(ServerMeshes, ShadingIsAcceptedInItsRangeAndBadCreaseAnglesAreRefusedNamingTheParameter) {
+    RawConnection c(n_->socket);
+    c.hello();
+    json error;
+    const std::uint32_t id = upload(c, box(0.01), "solid", error);
+    ASSERT_NE(id, 0U) << error.dump();
+    ASSERT_EQ(wait_built(c, id).value("state", ""), "ready");
+    // Soft gains (K 10 N/m, B 1 N s/m): several meshes on one spot stay a stable sum.
+    auto shaded = [&](const json& shading) {
+        json object = mesh_object(id, {0.0, 0.0, -0.03}, {1, 0, 0, 0}, {{"K", 10.0}, {"B", 1.0}});
+        object["shading"] = shading;
+        return object;
+    };
+    auto add = [&](const json& shading) {
+        return request(c, {{"type", "commit"}, {"ops", {{{"op", "add"}, {"object", shaded(shading)}}}}});
+    };
+    // One batch (the daemon's loop is in lockstep here: each batch stays in flight): four angles, the mesh keeps the
+    // normals of each.
+    json ops = json::array();
+    for (const double crease : {0.0, 30.0, 80.0, 45.0})
+        ops.push_back({{"op", "add"}, {"object", shaded({{"crease_angle_deg", crease}})}});
+    json r = request(c, {{"type", "commit"}, {"ops", ops}});
+    ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
+    ASSERT_EQ(r["object_ids"].size(), 4U);
+    const auto expect = [&](const json& shading, const std::string& code, const std::string& names) {
+        const json e = add(shading);
+        EXPECT_EQ(e.value("type", ""), "error") << e.dump();
+        EXPECT_EQ(e.value("code", ""), code) << e.dump();
+        EXPECT_NE(e.value("message", "").find(names), std::string::npos) << e.dump();
+    };
+    expect({{"crease_angle_deg", 80.5}}, "bad_message", "mesh.shading.crease_angle_deg = 80.5; accepted: 0 .. 80");
+    expect({{"crease_angle_deg", -1}}, "bad_message", "mesh.shading.crease_angle_deg = -1; accepted: 0 .. 80");
+    expect({{"crease_angle_deg", "thirty"}}, "bad_message", "shading.crease_angle_deg: expected a finite number");
+    expect(json::object(), "bad_message", "shading.crease_angle_deg: missing");
+    expect(30, "bad_message", "object.shading: expected {\"crease_angle_deg\": number}");
+    expect({{"crease_angle_deg", 20.0}}, "capacity", "already keeps the normals of 4 other crease angles");
+    // A kept angle is accepted again; the session goes on.
+    r = add({{"crease_angle_deg", 30.0}});
+    EXPECT_EQ(r.value("type", ""), "ok") << r.dump();
+}
+
 TEST_F(ServerMeshes, DegenerateAndOpenSolidMeshesFailNamingTheRule) {
     RawConnection c(n_->socket);
     c.hello();

@@ -37,11 +37,13 @@ def _rows(name: str, values, kind) -> list:
 def mesh(vertices=None, triangles=None, *, mesh_id: Optional[int] = None, mode: str = "solid",
          position: Sequence[float] = (0.0, 0.0, 0.0), orientation: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
          K: Optional[float] = None, B: Optional[float] = None, criterion: Optional[str] = None,
-         static_friction: float = 0.0, dynamic_friction: float = 0.0) -> Dict:
+         static_friction: float = 0.0, dynamic_friction: float = 0.0, shading: Optional[float] = None) -> Dict:
     """A ``mesh`` object: the triangle mesh (vertices n x 3 in metres, triangles m x 3 vertex indices), uploaded by
     ``Client.add``/``commit``/``modify`` before the batch (``Client.upload_mesh``), or an uploaded one by
     ``mesh_id``; its pose (position in m, orientation a unit quaternion w, x, y, z), gains (criterion CE2 without
-    any) and friction coefficients (0 <= dynamic <= static). ``mode``: "solid" (closed) or "surface" (one-sided)."""
+    any) and friction coefficients (0 <= dynamic <= static). ``mode``: "solid" (closed) or "surface" (one-sided).
+    ``shading``: force shading's crease angle in degrees (0 .. 80; faces meeting at more than it keep a sharp edge),
+    None for off (docs/mesh-rendering.md, "Force shading")."""
     if K is None and B is None and criterion is None:
         criterion = "CE2"
     if mode not in ("solid", "surface"):
@@ -54,6 +56,8 @@ def mesh(vertices=None, triangles=None, *, mesh_id: Optional[int] = None, mode: 
         raise ValueError("mesh: position: expected 3 numbers")
     obj = {"kind": "mesh", "position": p, "orientation": q, "gains": gains(K, B, criterion),
            "friction": {"static": float(static_friction), "dynamic": float(dynamic_friction)}}
+    if shading is not None:
+        obj["shading"] = {"crease_angle_deg": float(shading)}
     if mesh_id is not None:
         if vertices is not None or triangles is not None:
             raise ValueError("mesh: give either mesh_id or vertices and triangles, not both")

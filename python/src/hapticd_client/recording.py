@@ -66,7 +66,8 @@ EXPECTED_LAYOUT: Dict[str, List[list]] = dict(
     LAYOUT_V1,
     end=LAYOUT_V1["end"] + [["meshes", "<u8", 56, 1]],
     update_c=[["kind", "<u4", 0, 1], ["mesh", "<u4", 4, 1], ["orientation", "<f8", 8, 4],
-              ["static_friction", "<f8", 40, 1], ["dynamic_friction", "<f8", 48, 1]],
+              ["static_friction", "<f8", 40, 1], ["dynamic_friction", "<f8", 48, 1], ["shading", "<u4", 56, 1],
+              ["crease_angle_deg", "<f8", 64, 1]],
     mesh=[["kind", "<u4", 0, 1], ["mode", "u1", 4, 1], ["mesh", "<u4", 8, 1], ["vertices", "<u8", 16, 1],
           ["triangles", "<u8", 24, 1]],
     mesh_vertices=[["kind", "<u4", 0, 1], ["count", "<u4", 4, 1], ["xyz", "<f8", 8, 3 * VERTICES_PER_CHUNK]],
@@ -285,7 +286,7 @@ def load(path: Union[str, pathlib.Path], verify_checksum: bool = False) -> Recor
     updates["orientation"] = (1.0, 0.0, 0.0, 0.0)
     if parts == 3:
         c_rows = raw[c_at].copy().view(dtype_of(EXPECTED_LAYOUT["update_c"])).reshape(-1)
-        for name in ("mesh", "orientation", "static_friction", "dynamic_friction"):
+        for name in ("mesh", "orientation", "static_friction", "dynamic_friction", "shading", "crease_angle_deg"):
             updates[name] = c_rows[name]
     for name in UPDATE_DTYPE.names:
         if name in a_rows.dtype.names:
