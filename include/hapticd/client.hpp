@@ -136,7 +136,7 @@ struct Mesh {
     double dynamic_friction = 0.0;
     // Force shading (docs/mesh-rendering.md, "Force shading"): the crease angle in degrees, 0 .. 80; faces meeting
     // at more than it keep their edge sharp. Empty: off (the faces' own normals).
-    std::optional<double> shading_crease_angle_deg;
+    std::optional<double> shading_crease_angle_deg{};
 };
 
 using ObjectDescription = std::variant<Plane, Spring, Field, Mesh>;
