@@ -227,7 +227,7 @@ def test_a_client_over_ssh_adds_a_plane_the_handle_rests_on_and_gets_refusals(da
         assert [o["id"] for o in c.list()] == [wall]
         c.bye()
     # The C++ client over the same forward: hapticctl watch picks the subscription (the segment is local).
-    out = subprocess.run([HAPTICCTL, "--socket", local, "watch", "--count", "3", "--rate", "50"],
+    out = subprocess.run([HAPTICCTL, "--socket", local, "watch", "--count", "3", "--rate", "50", "--stall-timeout", "10"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 0 and len(out.stdout.strip().splitlines()) == 3, out
 
