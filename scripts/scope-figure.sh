@@ -11,22 +11,9 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 out=${1:-docs/figures/scope.png}
-hapticd=${HAPTICD_BINARY:-build/release/apps/hapticd/hapticd}
-python=${HAPTICOPT_PYTHON:-/usr/bin/python3}
-work=$(mktemp -d)
-shm=/hapticd-scope-figure-$$
-"$hapticd" --config "" --no-walls --device sim3 --rt-priority 0 --serve --serve-socket "$work/hapticd.sock" \
-           --serve-shm "$shm" >"$work/hapticd.log" 2>&1 &
-daemon=$!
-scene=""
-cleanup() {
-  [[ -n "$scene" ]] && kill "$scene" 2>/dev/null || true
-  kill -TERM "$daemon" 2>/dev/null && wait "$daemon" || true
-  rm -rf "$work"
-}
-trap cleanup EXIT
-for _ in $(seq 100); do [[ -S "$work/hapticd.sock" ]] && break; sleep 0.1; done
-export PYTHONPATH=$PWD/python/src${PYTHONPATH:+:$PYTHONPATH}
+# shellcheck source=scripts/figure-daemon.sh
+source scripts/figure-daemon.sh
+start_figure_daemon scope-figure
 "$python" - "$work/hapticd.sock" <<'PY' &
 import sys, time
 from hapticd_client import Client, field, plane

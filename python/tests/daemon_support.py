@@ -1,12 +1,15 @@
 # SPDX-License-Identifier: Apache-2.0
 """What the tests against a real hapticd share: the client package (installed, else from the source tree),
 the daemon binary ($HAPTICD_BINARY, else build/release/apps/hapticd/hapticd), the environment that runs the
-scope headless from the same package, and waiting for a socket or a condition."""
+scope headless from the same package, waiting for a socket or a condition, and a serving daemon."""
 from __future__ import annotations
 
+import contextlib
 import os
 import pathlib
+import signal
 import socket
+import subprocess
 import sys
 import time
 
@@ -54,3 +57,25 @@ def wait_until(predicate, timeout_s=5.0, step_s=0.01):
             return True
         time.sleep(step_s)
     return False
+
+
+@contextlib.contextmanager
+def serving_daemon(directory, shm, options=()):
+    """``hapticd --serve`` at ``directory``/hapticd.sock with state segment ``shm`` (no config, no walls, normal
+    priority, the watchdog out of the way of a loaded machine) plus ``options``; yields the socket's path once it
+    accepts connections. On leaving: SIGTERM, and the daemon must exit 0 (its log in the assertion)."""
+    socket_path = str(pathlib.Path(directory) / "hapticd.sock")
+    with open(pathlib.Path(directory) / "hapticd.log", "w+") as log:
+        process = subprocess.Popen([HAPTICD, "--config", "", "--no-walls", "--rt-priority", "0",
+                                    "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000",
+                                    *options, "--serve", "--serve-socket", socket_path, "--serve-shm", shm],
+                                   stdout=log, stderr=subprocess.STDOUT)
+        try:
+            assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
+            assert process.poll() is None, "hapticd ended at start-up"
+            yield socket_path
+        finally:
+            process.send_signal(signal.SIGTERM)
+            code = process.wait(20)
+            log.seek(0)
+            assert code == 0, log.read()

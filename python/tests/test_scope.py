@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 import pathlib
 import shutil
-import signal
 import struct
 import subprocess
 import sys
@@ -22,7 +21,7 @@ import time
 import numpy as np
 import pytest
 
-from daemon_support import HAPTICD, SCOPE_ENV, connectable, hc, needs_daemon, wait_until
+from daemon_support import SCOPE_ENV, hc, needs_daemon, serving_daemon, wait_until
 from hapticd_client import scope  # noqa: E402
 
 
@@ -44,29 +43,14 @@ def png_size(path):
 def resting_on_a_plane(tmp_path_factory):
     """The daemon at 1 kHz, a client holding a plane the handle rests on, and the plane's id."""
     directory = tmp_path_factory.mktemp("scope")
-    socket_path = str(directory / "hapticd.sock")
     shm = f"/hapticd-scope-pytest-{os.getpid()}"
-    log = open(directory / "hapticd.log", "w+")
-    process = subprocess.Popen([HAPTICD, "--config", "", "--no-walls", "--rt-priority", "0",
-                                "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000",
-                                "--serve", "--serve-socket", socket_path, "--serve-shm", shm],
-                               stdout=log, stderr=subprocess.STDOUT)
-    try:
-        assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
-        assert process.poll() is None, "hapticd ended at start-up"
-        with hc.Client.connect(socket_path=socket_path, client="pytest-scope") as client, hc.StateReader(shm) as state:
-            wall = client.add(hc.plane(normal=(-1, 0, 0), offset=0.005, criterion="CE2"))
-            # The plane pushes the handle out to its surface at 1 cm/s (5 mm: 0.5 s); 1.5 s bounds a loaded machine.
-            assert wait_until(lambda: wall in state.read().contacts() and state.read().position[0] < -0.0049, 5.0)
-            yield {"socket": socket_path, "shm": shm, "wall": wall, "state": state, "directory": directory}
-            client.bye()
-    finally:
-        process.send_signal(signal.SIGTERM)
-        code = process.wait(20)
-        log.seek(0)
-        text = log.read()
-        log.close()
-        assert code == 0, text
+    with serving_daemon(directory, shm) as socket_path, \
+            hc.Client.connect(socket_path=socket_path, client="pytest-scope") as client, hc.StateReader(shm) as state:
+        wall = client.add(hc.plane(normal=(-1, 0, 0), offset=0.005, criterion="CE2"))
+        # The plane pushes the handle out to its surface at 1 cm/s (5 mm: 0.5 s); 1.5 s bounds a loaded machine.
+        assert wait_until(lambda: wall in state.read().contacts() and state.read().position[0] < -0.0049, 5.0)
+        yield {"socket": socket_path, "shm": shm, "wall": wall, "state": state, "directory": directory}
+        client.bye()
 
 
 @needs_daemon

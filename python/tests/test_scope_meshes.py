@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import os
 import pathlib
-import signal
 import struct
 import subprocess
 import sys
@@ -21,7 +20,7 @@ import sys
 import numpy as np
 import pytest
 
-from daemon_support import HAPTICD, REPOSITORY, SCOPE_ENV, connectable, hc, needs_daemon, wait_until
+from daemon_support import REPOSITORY, SCOPE_ENV, hc, needs_daemon, serving_daemon, wait_until
 from hapticd_client import scope, state
 
 SIM3 = os.path.join(REPOSITORY, "tests", "server", "sim3.toml")
@@ -38,38 +37,22 @@ def dot(u, v):
 def pressed_mesh(tmp_path_factory):
     """The daemon, a client holding the pressed box mesh and the field, and the mesh object's id."""
     directory = tmp_path_factory.mktemp("scope-meshes")
-    socket_path = str(directory / "hapticd.sock")
     shm = f"/hapticd-scope-meshes-pytest-{os.getpid()}"
-    log = open(directory / "hapticd.log", "w+")
-    process = subprocess.Popen([HAPTICD, "--config", "", "--device", SIM3, "--no-walls", "--rt-priority", "0",
-                                "--hand-stiffness", "0", "--hand-damping", "0",
-                                "--watchdog-overruns", "1000000", "--watchdog-stall-periods", "1000000",
-                                "--serve", "--serve-socket", socket_path, "--serve-shm", shm],
-                               stdout=log, stderr=subprocess.STDOUT)
-    try:
-        assert wait_until(lambda: connectable(socket_path) or process.poll() is not None, 20.0)
-        assert process.poll() is None, "hapticd ended at start-up"
-        with hc.Client.connect(socket_path=socket_path, client="pytest-scope-meshes") as client, \
-                hc.StateReader(shm) as reader:
-            theta = math.atan2(-0.6, 0.8)  # R_x(theta) e_z = n
-            box = client.add(hc.mesh(*hc.box((HALF, HALF, HALF)),
-                                     position=(0.0, -0.6 * (HALF + DELTA), -0.8 * (HALF + DELTA)),
-                                     orientation=(math.cos(theta / 2), math.sin(theta / 2), 0.0, 0.0)))
-            client.add(hc.field(center=(0, 0, 0), radius=1.0, force=(0.0, -0.6, -0.8)))
+    with serving_daemon(directory, shm, ["--device", SIM3, "--hand-stiffness", "0", "--hand-damping", "0"]) as \
+            socket_path, hc.Client.connect(socket_path=socket_path, client="pytest-scope-meshes") as client, \
+            hc.StateReader(shm) as reader:
+        theta = math.atan2(-0.6, 0.8)  # R_x(theta) e_z = n
+        box = client.add(hc.mesh(*hc.box((HALF, HALF, HALF)),
+                                 position=(0.0, -0.6 * (HALF + DELTA), -0.8 * (HALF + DELTA)),
+                                 orientation=(math.cos(theta / 2), math.sin(theta / 2), 0.0, 0.0)))
+        client.add(hc.field(center=(0, 0, 0), radius=1.0, force=(0.0, -0.6, -0.8)))
 
-            def pressed():
-                s = reader.read()
-                return len(s.mesh_proxies) == 1 and s.mesh_proxies[0].constraints == 1 and dot(NORMAL, s.position) < -5e-6
-            assert wait_until(pressed, 5.0)
-            yield {"socket": socket_path, "shm": shm, "mesh": box, "reader": reader, "client": client}
-            client.bye()
-    finally:
-        process.send_signal(signal.SIGTERM)
-        code = process.wait(20)
-        log.seek(0)
-        text = log.read()
-        log.close()
-        assert code == 0, text
+        def pressed():
+            s = reader.read()
+            return len(s.mesh_proxies) == 1 and s.mesh_proxies[0].constraints == 1 and dot(NORMAL, s.position) < -5e-6
+        assert wait_until(pressed, 5.0)
+        yield {"socket": socket_path, "shm": shm, "mesh": box, "reader": reader, "client": client}
+        client.bye()
 
 
 @needs_daemon
