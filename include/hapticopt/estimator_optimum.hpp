@@ -39,7 +39,8 @@ struct EstimatorOptimum {
 
 /// Options of optimal_point with an estimator.
 struct EstimatorOptimumOptions {
-    RegionSearchOptions search;                    ///< grids of the CEx search (region_minimum.hpp)
+    RegionSearchOptions search;                    ///< grids of brent's CEx search and of the CEx+OV curve
+                                                   ///< (region_minimum.hpp); newton starts from kStartAlphaFractions
     double overshoot_tolerance = 1e-12;            ///< "no overshoot" means C_OV <= this (relative), (0, 1]
     double alpha_tolerance = 1e-10;                ///< bisection tolerance of the CEx+OV points, relative to alpha_max
     OptimumMethod method = OptimumMethod::newton;  ///< search of the CE0..2 points (optimal_point below); brent is
