@@ -457,8 +457,10 @@ class StateReader {
     StateReader& operator=(const StateReader&) = delete;
     ~StateReader();
 
-    // Copies one consistent tick (seqlock). No system call, no allocation. Returns false only if
-    // `max_attempts` reads in a row overlapped a write.
+    // Copies one consistent tick (seqlock). No allocation, no system call but the vDSO's clock_gettime. While
+    // the writer is inside a publication (the sequence odd; a preempted loop can hold it for milliseconds) it
+    // waits, up to stale_after_s(). Returns false if the sequence stayed odd that long (a stalled or dead
+    // writer) or `max_attempts` completed copies in a row overlapped a write.
     bool read(StateSample& out, int max_attempts = 1000) const noexcept;
     [[nodiscard]] std::size_t axes() const noexcept;
     [[nodiscard]] double period_s() const noexcept;

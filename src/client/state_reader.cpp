@@ -60,11 +60,36 @@ std::size_t StateReader::mesh_proxy_capacity() const noexcept {
                                                                   : kStateMeshProxyCapacity;
 }
 
+namespace {
+
+std::int64_t monotonic_now_ns() noexcept {
+    timespec ts{};
+    ::clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+}  // namespace
+
 bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
     const StateLayout& l = *layout_;
-    for (int attempt = 0; attempt < max_attempts; ++attempt) {
+    // An odd sequence: the writer is inside a publication. The loop's thread can be preempted there for
+    // milliseconds on a loaded machine; the reader waits for it up to the stale age (a writer that holds the
+    // sequence odd longer has stalled or died mid-write) without counting an attempt.
+    const auto odd_limit_ns = static_cast<std::int64_t>(1e9 * stale_after_s());
+    std::int64_t odd_since_ns = -1;
+    for (int attempt = 0; attempt < max_attempts;) {
         const std::uint64_t s1 = l.sequence.load(std::memory_order_acquire);
-        if ((s1 & 1U) != 0U) continue;
+        if ((s1 & 1U) != 0U) {
+            const std::int64_t now = monotonic_now_ns();
+            if (odd_since_ns < 0) {
+                odd_since_ns = now;
+            } else if (now - odd_since_ns > odd_limit_ns) {
+                return false;
+            }
+            continue;
+        }
+        odd_since_ns = -1;
+        ++attempt;
         out.tick = l.tick;
         out.time_s = l.time_s;
         for (std::size_t i = 0; i < 3; ++i) {
@@ -100,9 +125,7 @@ bool StateReader::read(StateSample& out, int max_attempts) const noexcept {
         std::atomic_thread_fence(std::memory_order_acquire);
         if (l.sequence.load(std::memory_order_relaxed) == s1) {
             const std::int64_t beat = l.heartbeat_ns.load(std::memory_order_acquire);
-            timespec ts{};
-            ::clock_gettime(CLOCK_MONOTONIC, &ts);
-            const std::int64_t now = static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+            const std::int64_t now = monotonic_now_ns();
             out.heartbeat_age_s = beat == 0 ? -1.0 : 1e-9 * static_cast<double>(now - beat);
             out.stale = beat == 0 || out.heartbeat_age_s > stale_after_s() ||
                         out.fault == static_cast<std::uint32_t>(StateFault::FatalSignal) ||

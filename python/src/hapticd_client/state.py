@@ -201,7 +201,8 @@ class StateReader:
         self.close()
 
     def read_raw(self, max_attempts: int = 1000) -> Optional[bytes]:
-        """The 448 bytes of one tick's fields, or None when ``max_attempts`` reads overlapped a write."""
+        """The 448 bytes of one tick's fields, or None when ``max_attempts`` reads overlapped a write or the writer
+        stayed inside one publication longer than the stale age."""
         got = self._read_consistent(max_attempts, meshes=False)
         return None if got is None else got[0]
 
@@ -215,10 +216,21 @@ class StateReader:
         """The fields' 448 bytes, config_contact_mask and (``meshes``) the mesh block of one tick (seqlock), or None."""
         words = self._words
         m = self._map
-        for _ in range(max_attempts):
+        attempt = 0
+        odd_since = None
+        while attempt < max_attempts:
             s1 = words[_SEQUENCE_INDEX]
             if s1 & 1:
+                # The writer is inside a publication (a preempted loop holds it for milliseconds on a loaded
+                # machine): wait for it up to the stale age, without counting an attempt.
+                now = time.monotonic()
+                if odd_since is None:
+                    odd_since = now
+                elif now - odd_since > self.stale_after_s:
+                    return None
                 continue
+            odd_since = None
+            attempt += 1
             block = m[_FIELDS_OFFSET:_FIELDS_OFFSET + _FIELDS.size]
             config_contacts = words[_CONFIG_CONTACT_INDEX]
             mesh_block = m[MESH_OFFSET:MESH_OFFSET + MESH_BLOCK_SIZE] if meshes else b""
@@ -231,7 +243,8 @@ class StateReader:
         with ``require_live`` HapticdError("stale_state") when the sample is stale (module docstring)."""
         got = self._read_consistent(max_attempts)
         if got is None:
-            raise HapticdError("transport", f"StateReader.read: {max_attempts} reads in a row overlapped the loop's writes")
+            raise HapticdError("transport", f"StateReader.read: no consistent tick: {max_attempts} reads in a row overlapped "
+                               f"the loop's writes, or one write lasted over {self.stale_after_s:.3f} s")
         block, config_contacts, mesh_block = got
         v = _FIELDS.unpack(block)
         mesh_mask, proxies = mesh_proxies_from_block(mesh_block)
