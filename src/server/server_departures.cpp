@@ -74,7 +74,7 @@ void Server::Impl::push_pending() {
 }
 
 void Server::Impl::reclaim_slots() {
-    state.read(snapshot);
+    if (!state.read(snapshot)) return;  // no consistent tick now: slots are reclaimed on a later pass
     for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
         ServerSlot& slot = slots[i];
         if (slot.state != ServerSlot::State::Draining || slot.drain_seq == server::kNotPushed) continue;

@@ -26,8 +26,9 @@ namespace cl = hapticd::client;
 
 // Per-session limit (docs/protocol.md, section 7): one session may not fill the hand-over ring.
 bool Server::Impl::refuse_over_in_flight_limit(Session& s, std::uint64_t id) {
-    state.read(snapshot);
-    while (!s.in_flight.empty() && s.in_flight.front() <= snapshot.last_commit_seq) s.in_flight.pop_front();
+    if (state.read(snapshot)) {
+        while (!s.in_flight.empty() && s.in_flight.front() <= snapshot.last_commit_seq) s.in_flight.pop_front();
+    }
     if (s.in_flight.size() < config.session_max_in_flight) return false;
     count(&ServerCounters::commits_refused);
     send_error(s, id, cl::ErrorCode::SessionLimit,

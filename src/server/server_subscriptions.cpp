@@ -20,7 +20,7 @@ void Server::Impl::send_states(Clock::time_point now) {
         // A state never overtakes a contact event: while contact messages wait for room, states wait too.
         if (s.closed || !s.subscribed || now < s.next_state || !s.contact_queue.empty()) continue;
         if (!have) {
-            state.read(snapshot);
+            if (!state.read(snapshot)) return;  // no consistent tick now: the states go out on a later pass
             have = true;
         }
         s.next_state += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / s.rate_hz));

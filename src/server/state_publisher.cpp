@@ -246,9 +246,23 @@ void StatePublisher::publish(const StateTick& t, const SceneObjects* objects) no
 
 bool StatePublisher::read(StateLayout& out) const noexcept {
     const StateLayout& l = *layout_;
-    for (int attempt = 0; attempt < 10000; ++attempt) {
+    // An odd sequence: the loop is inside a publication, where a loaded machine can preempt it for milliseconds.
+    // Waited out up to the state's stale age (a loop that holds it longer has stalled), not counted as an attempt.
+    const auto odd_limit_ns = static_cast<std::int64_t>(1e9 * state_stale_after_s(l.period_s));
+    std::int64_t odd_since_ns = -1;
+    for (int attempt = 0; attempt < 10000;) {
         const std::uint64_t s1 = l.sequence.load(std::memory_order_acquire);
-        if ((s1 & 1U) != 0U) continue;
+        if ((s1 & 1U) != 0U) {
+            const std::int64_t now = monotonic_ns();
+            if (odd_since_ns < 0) {
+                odd_since_ns = now;
+            } else if (now - odd_since_ns > odd_limit_ns) {
+                return false;
+            }
+            continue;
+        }
+        odd_since_ns = -1;
+        ++attempt;
         out.tick = get(l.tick);
         out.time_s = get(l.time_s);
         for (std::size_t a = 0; a < 3; ++a) {

@@ -54,7 +54,9 @@ class StatePublisher {
     // writes `fault` and the signal under the seqlock. The heartbeat stops with it.
     void mark_fatal(StateFault fault, int signal_number) noexcept;
 
-    // For the server thread: a consistent copy of the last tick (seqlock read).
+    // For the server thread: a consistent copy of the last tick (seqlock read), waiting out a publication in
+    // progress up to the state's stale age. False (the loop stalled inside a publication, or 10 000 copies in a
+    // row overlapped one): `out` then holds fields of two consecutive ticks, not one.
     bool read(StateLayout& out) const noexcept;
 
     [[nodiscard]] const std::string& name() const noexcept { return name_; }
