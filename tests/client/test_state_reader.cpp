@@ -53,7 +53,9 @@ class HandWrittenSegment {
     StateLayout* layout_ = nullptr;
 };
 
-std::string segment_name(const char* tag) { return "/hapticd-test-reader-" + std::string(tag) + "-" + std::to_string(::getpid()); }
+std::string segment_name(const char* tag) {
+    return "/hapticd-test-reader-" + std::string(tag) + "-" + std::to_string(::getpid());
+}
 
 // The writer enters a publication and is held there 20 ms before it writes tick 2: read() returns tick 2. The
 // header's period of 0.1 s makes the stale age 1 s, fifty times the hold, so a loaded machine delaying the writer
