@@ -97,6 +97,22 @@ class EstimatorStabilityRegion {
             }
             refine_tip();
         }
+        // A tip the region continues beyond (a waist narrower than the scan's cells, where the flood fill stopped,
+        // so the edge's maximum is no tip): the region again on finer grids, up to kFinestGrid.
+        for (const int grid : {kFallbackGrid, EstimatorRegionOptions{}.alpha_grid, kFinestGrid}) {
+            if (std::min(options_.alpha_grid, options_.beta_grid) >= grid) continue;
+            if (!continues_beyond_tip()) break;
+            const EstimatorRegionOptions coarser = options_;
+            options_.alpha_grid = std::max(options_.alpha_grid, grid);
+            options_.beta_grid = std::max(options_.beta_grid, grid);
+            if (!fit_box(false, nullptr)) {  // keep the coarser grid's region (its tip is a stable point's alpha)
+                options_ = coarser;
+                fit_box(false, nullptr);
+                refine_tip();
+                break;
+            }
+            refine_tip();
+        }
         // Islands: the components of the first (widest) scan not connected to its first column, except any that
         // overlaps the main region's box (a main region thinner than that scan's cells can appear detached in it).
         const double db = (b1_ - b0_) / nb();
@@ -166,6 +182,28 @@ class EstimatorStabilityRegion {
   private:
     static constexpr int kCoarseGrid = 16;
     static constexpr int kFallbackGrid = 40;
+    static constexpr int kFinestGrid = 640;  ///< the finest re-scan of a region that continues beyond its tip
+    static constexpr double kTipProbe = 1e-3;  ///< continues_beyond_tip's relative step in alpha
+
+    /// Whether stable points lie above the tip found (alpha_max_ (1 + kTipProbe)), in the beta window three times
+    /// the main region's stable interval at alpha_max_ (1 - kTipProbe) wide and centred on it, at 17 points. At a
+    /// tip (smooth, corner or cusp) the region ends: none is stable. Where the scan's flood fill stopped at a
+    /// waist, the region goes on as a band about as wide as that interval, which the 17 points (spacing 3/16 of
+    /// it) cannot miss. A stable island that close only costs a finer re-scan.
+    bool continues_beyond_tip() const {
+        const double a = alpha_max_;
+        if (!(a > 0)) return false;
+        auto [lo, hi] = beta_interval(a * (1 - kTipProbe), 1e-6);
+        if (!(hi > lo)) {  // no interval found there: the window of one scan cell about the tip's beta
+            lo = beta_at_alpha_max_ - (b1_ - b0_) / nb() / 2;
+            hi = beta_at_alpha_max_ + (b1_ - b0_) / nb() / 2;
+        }
+        const double w = hi - lo, above = a * (1 + kTipProbe);
+        for (int k = 0; k <= 16; ++k) {
+            if (test_.stable(above, lo - w + k * (3 * w) / 16)) return true;
+        }
+        return false;
+    }
     int na() const { return scan_na_; }
     int nb() const { return scan_nb_; }
     int label(int i, int j) const { return labels_[static_cast<std::size_t>(i * nb() + j)]; }

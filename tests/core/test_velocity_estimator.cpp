@@ -349,6 +349,41 @@ TEST(VelocityEstimator, MainRegionTipAgainstTheLoopsSpectralRadius) {
     }
 }
 
+// Window 30, d = 0, delta = 0.05: the main region narrows to a waist (beta interval 0.06 wide at alpha 0.105, its
+// centre moving down as alpha grows) and widens again up to its tip at 0.16907. A 16 x 16 or 40 x 40 scan's flood
+// fill stopped at the waist and reported a point on its upper edge (0.11398, 0.11486) as the tip;
+// continues_beyond_tip sends the region to a finer grid. Every grid gives the default grid's tip, and it is the
+// region's: a path of points marched up in alpha through the waist (200 steps of the beta interval's midpoint, each
+// interval overlapping the next) is stable by the loop's spectral radius (an eigenvalue solve, independent of the
+// Schur-Cohn verdicts the region uses), and above the tip the radius is >= 1 over a band of betas.
+TEST(VelocityEstimator, AWaistNarrowerThanTheScanCellsDoesNotEndTheRegion) {
+    const NormalizedPlant plant{0, 0.05, 0};
+    const VelocityEstimator e = VelocityEstimator::moving_window(30);
+    const EstimatorStabilityRegion reference(plant, e);
+    const double a = reference.alpha_max(), b = reference.beta_at_alpha_max();
+    EXPECT_GT(a, 0.16);
+    auto radius = [&](double alpha, double beta) {
+        return stability(plant, NormalizedGains{alpha, beta}, e).spectral_radius;
+    };
+    for (const EstimatorRegionOptions& grid : {kFastOptimumRegionGrid, EstimatorRegionOptions{40, 40, false}}) {
+        const EstimatorStabilityRegion region(plant, e, grid);
+        EXPECT_NEAR(region.alpha_max() / a, 1.0, 1e-10) << grid.alpha_grid;
+    }
+    double previous_lo = -HUGE_VAL, previous_hi = HUGE_VAL;
+    for (int k = 1; k < 200; ++k) {
+        const double alpha = a * k / 200;
+        const auto [lo, hi] = reference.beta_interval(alpha, 1e-10);
+        ASSERT_GT(hi, lo) << alpha;
+        EXPECT_TRUE(lo < previous_hi && hi > previous_lo) << "the interval at " << alpha << " joins the one below";
+        EXPECT_LT(radius(alpha, (lo + hi) / 2), 1) << alpha;
+        previous_lo = lo;
+        previous_hi = hi;
+    }
+    EXPECT_LT(radius(a * (1 - 1e-7), b), 1);
+    const auto [lo, hi] = reference.beta_interval(a / 2);
+    for (int k = -10; k <= 10; ++k) EXPECT_GE(radius(a * (1 + 1e-7), b + 0.1 * (hi - lo) * k / 10), 1) << k;
+}
+
 // The 15-sample window at d = 0 has a stable island above the main region (negative beta): reported as an
 // island, with alpha_max the main region's, far below it.
 TEST(VelocityEstimator, LongWindowIslandIsSeparate) {
