@@ -20,6 +20,7 @@
 
 #include "cli_output.hpp"
 #include "commands.hpp"
+#include "criterion_option.hpp"
 
 namespace hapticopt::cli {
 
@@ -70,10 +71,10 @@ void print_passivity_and_gains(bool covered, double margin, const WallGains* gai
     if (gains) std::printf("K          %.6g N/m\nB          %.6g N s/m\n", gains->stiffness, gains->damping);
 }
 
-int run_robust(const std::string& name, const UncertainPlant& box, const RobustOptions& options, bool json) {
-    const auto step = parse_criterion(name);
-    const auto impulse = parse_impulse_criterion(name);
-    RobustOptimum r = impulse ? robust_optimum(*impulse, box, options) : robust_optimum(*step, box, options);
+int run_robust(const StepOrCollisionCriterion& criterion, const UncertainPlant& box, const RobustOptions& options,
+               bool json) {
+    const std::string name = criterion_name(criterion);
+    RobustOptimum r = std::visit([&](auto c) { return robust_optimum(c, box, options); }, criterion);
     // Passivity over the box: the physical margin b - max_theta R(theta; K T, B) (passivity.hpp) does not
     // depend on m and is smallest at b = b_min; the normalised margin (T/m) * that is smallest at m_min when
     // negative (m_max when positive). Covered for one integer delay (t_d fixed), else reported as null.
@@ -155,7 +156,7 @@ int run_robust(const std::string& name, const UncertainPlant& box, const RobustO
 
 CommandRunner add_optimum_command(CLI::App& app) {
     struct Args {
-        std::string criterion;
+        StepOrCollisionCriterion criterion;  // parsed by its option (criterion_option.hpp)
         PlantOptions plant;
         std::string mass, damping = "0", stiffness = "0", time_delay = "0";
         double period = 0;
@@ -168,13 +169,10 @@ CommandRunner add_optimum_command(CLI::App& app) {
     };
     auto args = std::make_shared<Args>();
     CLI::App* sub = app.add_subcommand("optimum", "optimal (alpha, beta) of a criterion, and (K, B) with --mass");
-    const std::vector<std::string> step = criterion_names(kAllCriteria);
-    const std::vector<std::string> collision = criterion_names(kAllImpulseCriteria);
-    std::vector<std::string> accepted = step;
-    accepted.insert(accepted.end(), collision.begin(), collision.end());
-    sub->add_option("--criterion", args->criterion, joined_names(step) + "; collision: " + joined_names(collision))
-        ->required()
-        ->check(CLI::IsMember(accepted));
+    add_criterion_option(*sub, "--criterion", args->criterion,
+                         joined_names(criterion_names(kAllCriteria)) +
+                             "; collision: " + joined_names(criterion_names(kAllImpulseCriteria)))
+        ->required();
     args->plant.add_to(*sub);
     CLI::Option* mass = sub->add_option("--mass", args->mass,
                                         "moving mass m [kg] (device + arm); physical mode; MIN:MAX with --robust");
@@ -240,13 +238,14 @@ CommandRunner add_optimum_command(CLI::App& app) {
             }
             box.period = args->period;
         }
-        const auto impulse = parse_impulse_criterion(args->criterion);
+        const std::string name = criterion_name(args->criterion);
+        const Criterion* const step = std::get_if<Criterion>(&args->criterion);
+        const ImpulseCriterion* const impulse = std::get_if<ImpulseCriterion>(&args->criterion);
         const VelocityEstimator estimator = args->velocity.parse(physical ? box.period : 0.0);
         if ((noise_budget->count() > 0 || force_budget->count() > 0) && !args->robust) {
-            const auto step = parse_criterion(args->criterion);
             if (!step) {
                 std::cerr << "hapticopt optimum: --noise-budget and --force-noise-budget support the step criteria "
-                          << joined_names(criterion_names(kAllCriteria)) << " (not " << args->criterion << ")\n";
+                          << joined_names(criterion_names(kAllCriteria)) << " (not " << name << ")\n";
                 return int{kUsage};
             }
             const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
@@ -267,7 +266,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                 force_budget->count() > 0 ? plant.mass * args->resolution / (plant.period * plant.period) : 0;
             if (args->json) {
                 nlohmann::json out;
-                out["criterion"] = args->criterion;
+                out["criterion"] = name;
                 out["alpha"] = o.alpha;
                 out["beta"] = o.beta;
                 out["cost"] = number_or_null(o.cost);
@@ -293,7 +292,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             std::printf(
                 "criterion  %s\nvelocity   %s\nbudget     g_F <= %.6g%s\nalpha      %.10f\nbeta       %.10f\n"
                 "cost       %.10g\nnoise gain g_F   %.6g\nalpha_max  %.10f\n",
-                args->criterion.c_str(), velocity_text(estimator).c_str(), o.noise_budget,
+                name.c_str(), velocity_text(estimator).c_str(), o.noise_budget,
                 o.budget_active ? " (active)" : " (met by the unconstrained optimum)", o.alpha, o.beta, o.cost,
                 o.force_noise_gain, o.alpha_max);
             std::printf("unconstrained    cost %.10g, g_F %.6g\n", o.unconstrained_cost,
@@ -305,10 +304,8 @@ CommandRunner add_optimum_command(CLI::App& app) {
             return int{kOk};
         }
         if (args->robust) {
-            const auto step = parse_criterion(args->criterion);
             if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
-                std::cerr << "hapticopt optimum: --robust supports CE0, CE1, CE2, CI0, CI1, CI2 (not "
-                          << args->criterion << ")\n";
+                std::cerr << "hapticopt optimum: --robust supports CE0, CE1, CE2, CI0, CI1, CI2 (not " << name << ")\n";
                 return int{kUsage};
             }
             RobustOptions ro;
@@ -320,13 +317,6 @@ CommandRunner add_optimum_command(CLI::App& app) {
             return run_robust(args->criterion, box, ro, args->json);
         }
         if (estimator.kind != VelocityEstimatorKind::backward && !args->passive) {
-            const auto step = parse_criterion(args->criterion);
-            if (!impulse && !step) {
-                std::cerr << "hapticopt optimum: --velocity " << args->velocity.text << " supports "
-                          << joined_names(criterion_names(kAllCriteria)) << " and CI0..2 (not " << args->criterion
-                          << ")\n";
-                return int{kUsage};
-            }
             const PhysicalPlant plant{box.mass.min, box.damping.min, box.stiffness.min, box.period, box.time_delay.min};
             const NormalizedPlant np = physical ? normalize(plant) : args->plant.normalized();
             const bool covered = passivity_is_covered(np);
@@ -338,7 +328,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                 if (physical) g = to_physical(og, plant.mass, plant.period);
                 if (args->json) {
                     nlohmann::json out;
-                    out["criterion"] = args->criterion;
+                    out["criterion"] = name;
                     out["alpha"] = o.alpha;
                     out["beta"] = o.beta;
                     out["cost"] = number_or_null(o.cost);
@@ -360,7 +350,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                     return int{kOk};
                 }
                 std::printf("criterion  %s\nvelocity   %s\nalpha      %.10f\nbeta       %.10f\ncost       %.10g\n",
-                            args->criterion.c_str(), velocity_text(estimator).c_str(), o.alpha, o.beta, o.cost);
+                            name.c_str(), velocity_text(estimator).c_str(), o.alpha, o.beta, o.cost);
                 std::printf("penetration %.10g v0 T%s\n", o.penetration,
                             o.penetration_converged ? "" : " (not proven final within the period cap)");
                 if (o.on_region_edge) std::printf("note       the infimum lies on the region's edge alpha -> 0\n");
@@ -378,7 +368,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             const double margin = covered ? passivity_margin(np, NormalizedGains{o.alpha, o.beta}, estimator) : 0.0;
             if (args->json) {
                 nlohmann::json out;
-                out["criterion"] = args->criterion;
+                out["criterion"] = name;
                 out["alpha"] = o.alpha;
                 out["beta"] = o.beta;
                 out["cost"] = o.cost ? nlohmann::json(*o.cost) : nlohmann::json(nullptr);
@@ -398,7 +388,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
                 std::cout << out.dump() << '\n';
                 return int{kOk};
             }
-            std::printf("criterion  %s\nvelocity   %s\nalpha      %.10f\nbeta       %.10f\n", args->criterion.c_str(),
+            std::printf("criterion  %s\nvelocity   %s\nalpha      %.10f\nbeta       %.10f\n", name.c_str(),
                         velocity_text(estimator).c_str(), o.alpha, o.beta);
             if (o.cost) std::printf("cost       %.10g\n", *o.cost);
             std::printf("alpha_max  %.10f (main region, beta %.10f)\n", o.alpha_max, o.beta_at_alpha_max);
@@ -411,10 +401,9 @@ CommandRunner add_optimum_command(CLI::App& app) {
             return int{kOk};
         }
         if (args->passive) {
-            const auto step = parse_criterion(args->criterion);
             if (!impulse && !(step && energy_index(*step) && !requires_no_overshoot(*step))) {
-                std::cerr << "hapticopt optimum: --passive supports CE0, CE1, CE2, CI0, CI1, CI2 (not "
-                          << args->criterion << ")\n";
+                std::cerr << "hapticopt optimum: --passive supports CE0, CE1, CE2, CI0, CI1, CI2 (not " << name
+                          << ")\n";
                 return int{kUsage};
             }
         }
@@ -426,12 +415,12 @@ CommandRunner add_optimum_command(CLI::App& app) {
         std::optional<double> cost, depth;
         bool on_edge = false;
         if (args->passive) {
-            const int k = impulse ? energy_index(*impulse) : *energy_index(*parse_criterion(args->criterion));
+            const int k = impulse ? energy_index(*impulse) : *energy_index(*step);
             const auto po = impulse ? passive_impulse_optimum(k, np, estimator) : passive_optimum(k, np, estimator);
             if (!po) {
                 if (args->json) {
                     nlohmann::json out;
-                    out["criterion"] = args->criterion;
+                    out["criterion"] = name;
                     out["passive_constraint"] = true;
                     out["cost"] = nullptr;
                     out["passive"] = false;
@@ -457,7 +446,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             depth = o.penetration;
             on_edge = o.on_region_edge;
         } else {
-            const Optimum o = optimal_point(*parse_criterion(args->criterion), np, options);
+            const Optimum o = optimal_point(*step, np, options);
             alpha = o.alpha;
             beta = o.beta;
             cost = o.cost;
@@ -469,7 +458,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
         if (physical) g = to_physical(NormalizedGains{alpha, beta}, plant.mass, plant.period);
         if (args->json) {
             nlohmann::json out;
-            out["criterion"] = args->criterion;
+            out["criterion"] = name;
             out["alpha"] = alpha;
             out["beta"] = beta;
             out["cost"] = cost ? nlohmann::json(*cost) : nlohmann::json(nullptr);
@@ -493,7 +482,7 @@ CommandRunner add_optimum_command(CLI::App& app) {
             std::cout << out.dump() << '\n';
             return int{kOk};
         }
-        std::printf("criterion  %s\n", args->criterion.c_str());
+        std::printf("criterion  %s\n", name.c_str());
         if (estimator.kind != VelocityEstimatorKind::backward)
             std::printf("velocity   %s\n", velocity_text(estimator).c_str());
         std::printf("alpha      %.10f\nbeta       %.10f\n", alpha, beta);

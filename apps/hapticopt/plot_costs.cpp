@@ -17,6 +17,7 @@
 #include <hapticopt/optimum.hpp>
 
 #include "commands.hpp"
+#include "criterion_option.hpp"
 #include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
@@ -24,16 +25,14 @@ namespace hapticopt::cli {
 CommandRunner add_plot_costs(CLI::App& plot) {
     struct Args {
         FigureOptions fig;
-        std::string criterion = "CE2";
+        Criterion criterion = Criterion::CE2;
         int grid = 200, levels = 12, curve_points = 60;
     };
     auto args = std::make_shared<Args>();
     CLI::App* sub =
         plot.add_subcommand("costs", "cost contours, optimal curve and optimal point of CE0/CE1/CE2 (Fig. 4)");
     args->fig.add_to(*sub, false, 800);
-    sub->add_option("--criterion,-c", args->criterion, "CE0, CE1 or CE2")
-        ->capture_default_str()
-        ->check(CLI::IsMember(criterion_names(kEnergyCriteria)));
+    add_criterion_option(*sub, "--criterion,-c", args->criterion, kEnergyCriteria, "CE0, CE1 or CE2");
     sub->add_option("--grid", args->grid, "grid points per axis of the contour grid")
         ->capture_default_str()
         ->check(CLI::Range(8, 2000));
@@ -46,7 +45,7 @@ CommandRunner add_plot_costs(CLI::App& plot) {
         const FigureOptions& o = args->fig;
         const double sx = o.k_scale(), sy = o.b_scale();
         const NormalizedPlant plant = o.plant();
-        const Criterion criterion = *parse_criterion(args->criterion);
+        const Criterion criterion = args->criterion;
         const int k = *energy_index(criterion);
         const WallOptimizer optimizer(plant);
         const StabilityRegion& region = optimizer.region();
@@ -78,7 +77,7 @@ CommandRunner add_plot_costs(CLI::App& plot) {
             along.emplace_back(a * sx, optimizer.energy_cost(k, a, b));
         }
 
-        const std::string name = args->criterion;
+        const std::string name(to_string(criterion));
         svg::Document doc(o.width, o.height, name + " contours and optimum, " + o.caption(plant));
         svg::Axes& ax =
             main_axes(doc, o, {region.alpha_min() * sx, region.alpha_max() * 1.05 * sx}, {b_lo * sy, b_hi * 1.05 * sy},

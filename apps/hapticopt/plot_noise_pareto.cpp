@@ -20,6 +20,7 @@
 
 #include "cli_output.hpp"
 #include "commands.hpp"
+#include "criterion_option.hpp"
 #include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
@@ -27,7 +28,7 @@ namespace hapticopt::cli {
 CommandRunner add_plot_noise_pareto(CLI::App& plot) {
     struct Args {
         FigureOptions fig;
-        std::string criterion = "CE2";
+        Criterion criterion = Criterion::CE2;
         std::vector<std::string> velocity{"backward", "lowpass:0.02", "window:5"};
         int points = 12;
         double resolution = 0;
@@ -37,9 +38,7 @@ CommandRunner add_plot_noise_pareto(CLI::App& plot) {
     CLI::App* sub = plot.add_subcommand(
         "noise-pareto", "optimum cost against force-noise gain g_F under a noise budget, one curve per estimator");
     args->fig.add_to(*sub);
-    sub->add_option("--criterion,-c", args->criterion, "CE0, CE1 or CE2")
-        ->capture_default_str()
-        ->check(CLI::IsMember(criterion_names(kEnergyCriteria)));
+    add_criterion_option(*sub, "--criterion,-c", args->criterion, kEnergyCriteria, "CE0, CE1 or CE2");
     sub->add_option("--velocity", args->velocity,
                     "velocity estimators, one curve each (repeat the option): backward, lowpass:NU (lowpass:FHz with "
                     "--period), window:N")
@@ -56,7 +55,7 @@ CommandRunner add_plot_noise_pareto(CLI::App& plot) {
         const auto start = std::chrono::steady_clock::now();
         const FigureOptions& o = args->fig;
         const NormalizedPlant plant = o.plant();
-        const Criterion criterion = *parse_criterion(args->criterion);
+        const Criterion criterion = args->criterion;
         const bool sigma = args->resolution_option->count() > 0;
         if (sigma) detail::require_positive("hapticopt plot noise-pareto", "position_resolution", args->resolution);
         std::vector<VelocityEstimator> estimators;
@@ -91,7 +90,7 @@ CommandRunner add_plot_noise_pareto(CLI::App& plot) {
             curves.push_back(std::move(c));
         }
         const double pad_x = 0.05 * (x1 - x0), pad_y = 0.05 * (y1 - y0);
-        const std::string name = args->criterion;
+        const std::string name(to_string(criterion));
         std::string x_label = "log\u2081\u2080 g_F (force noise per encoder step, normalised)";
         if (sigma) {
             const double scale = o.mass * args->resolution / (o.period * o.period);

@@ -13,6 +13,7 @@
 #include <hapticopt/step_response.hpp>
 
 #include "commands.hpp"
+#include "criterion_option.hpp"
 #include "svg/svg_figure.hpp"
 
 namespace hapticopt::cli {
@@ -20,17 +21,15 @@ namespace hapticopt::cli {
 CommandRunner add_plot_step(CLI::App& plot) {
     struct Args {
         FigureOptions fig;
-        std::vector<std::string> criteria{"CE0", "CE1", "CE2"};
+        std::vector<Criterion> criteria{Criterion::CE0, Criterion::CE1, Criterion::CE2};
         double duration = 30, tolerance = 1e-12;
         int samples = 20;
     };
     auto args = std::make_shared<Args>();
     CLI::App* sub = plot.add_subcommand("step", "step responses at the optima of criteria, overshoot marked (Fig. 5)");
     args->fig.add_to(*sub);
-    sub->add_option("--criteria,-c", args->criteria, "criteria whose optima are shown (amax OV CE0 CE1 CE2 CEx+OV)")
-        ->delimiter(',')
-        ->capture_default_str()
-        ->check(CLI::IsMember(criterion_names(kAllCriteria)));
+    add_criteria_option(*sub, "--criteria,-c", args->criteria, kAllCriteria,
+                        "criteria whose optima are shown (amax OV CE0 CE1 CE2 CEx+OV)");
     sub->add_option("--duration", args->duration, "time span in periods T")
         ->capture_default_str()
         ->check(CLI::Range(1.0, 1e5));
@@ -61,8 +60,8 @@ CommandRunner add_plot_step(CLI::App& plot) {
         };
         std::vector<Curve> curves;
         double y_max = 1.0;
-        for (const std::string& name : args->criteria) {
-            Curve c{name, optimizer.optimum(*parse_criterion(name)), {}, {}};
+        for (const Criterion criterion : args->criteria) {
+            Curve c{std::string(to_string(criterion)), optimizer.optimum(criterion), {}, {}};
             const double x_inf = 1.0 / (c.opt.alpha + plant.gamma);  // F = 1 in normalised units
             for (const auto& p : step_response(optimizer.sampled_plant(), c.opt.alpha, c.opt.beta, times)) {
                 c.points.emplace_back(p.time * st, p.position / x_inf);

@@ -479,9 +479,14 @@ TEST(PlotNoisePareto, CurvesAreTheConstrainedOptimaPerEstimator) {
 TEST(PlotCli, UsageErrors) {
     EXPECT_EQ(run_cli("plot"), 2);
     EXPECT_EQ(run_cli("plot costs --criterion CE9 --out x.svg"), 2);
+    EXPECT_NE(read_text(cli_log()).find("--criterion: CE9 not in {CE0,CE1,CE2}"), std::string::npos);
+    EXPECT_EQ(run_cli("plot step --criteria CE0,ce1 --out x.svg"), 2);
+    EXPECT_NE(read_text(cli_log()).find("--criteria: ce1 not in {amax,OV,CE0,CE1,CE2,CE0+OV,CE1+OV,CE2+OV}"),
+              std::string::npos);
     EXPECT_EQ(run_cli("plot region"), 2);                       // --out is required
     EXPECT_EQ(run_cli("plot step --mass 0.3 --out x.svg"), 2);  // --mass needs --period
     EXPECT_EQ(run_cli("plot noise-pareto --criterion CE0+OV --out x.svg"), 2);
+    EXPECT_NE(read_text(cli_log()).find("--criterion: CE0+OV not in {CE0,CE1,CE2}"), std::string::npos);
     EXPECT_EQ(run_cli("plot noise-pareto --points 1 --out x.svg"), 2);
     EXPECT_EQ(run_cli("plot noise-pareto --position-resolution 1e-5 --out x.svg"), 2);  // needs --mass
     EXPECT_EQ(run_cli("plot noise-pareto --velocity window:0 --out x.svg"), 3);
