@@ -186,6 +186,7 @@ std::shared_ptr<const MeshHierarchy> MeshHierarchy::build(TriangleMesh mesh, Mes
     h->triangles_.resize(n);
     for (std::size_t i = 0; i < n; ++i) h->triangles_[i] = prepared[order[i]];
     h->nodes_.shrink_to_fit();
+    h->shadings_.reserve(kMaxShadings);  // counted in memory_bytes() from the start: a new table adds its own bytes
     return h;
 }
 
@@ -225,10 +226,28 @@ const ShadingNormals* MeshHierarchy::shading(double crease_angle_deg) const {
     return shadings_.back().get();
 }
 
+const ShadingNormals* MeshHierarchy::kept_shading(double crease_angle_deg) const {
+    const std::lock_guard<std::mutex> lock(shading_mutex_);
+    for (const auto& s : shadings_) {
+        if (s->crease_angle_deg == crease_angle_deg) return s.get();
+    }
+    return nullptr;
+}
+
+std::size_t MeshHierarchy::shadings_kept() const {
+    const std::lock_guard<std::mutex> lock(shading_mutex_);
+    return shadings_.size();
+}
+
 std::size_t MeshHierarchy::memory_bytes() const {
-    return sizeof(*this) + nodes_.capacity() * sizeof(Node) + triangles_.capacity() * sizeof(HierarchyTriangle) +
-           mesh_.vertices.capacity() * sizeof(Eigen::Vector3d) +
-           mesh_.triangles.capacity() * sizeof(std::array<std::uint32_t, 3>);
+    std::size_t bytes = sizeof(*this) + nodes_.capacity() * sizeof(Node) +
+                        triangles_.capacity() * sizeof(HierarchyTriangle) +
+                        mesh_.vertices.capacity() * sizeof(Eigen::Vector3d) +
+                        mesh_.triangles.capacity() * sizeof(std::array<std::uint32_t, 3>);
+    const std::lock_guard<std::mutex> lock(shading_mutex_);
+    bytes += shadings_.capacity() * sizeof(shadings_[0]);
+    for (const auto& s : shadings_) bytes += s->memory_bytes();
+    return bytes;
 }
 
 }  // namespace hapticd::mesh

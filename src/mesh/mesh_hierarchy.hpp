@@ -78,14 +78,23 @@ class MeshHierarchy {
     const std::vector<Node>& nodes() const { return nodes_; }
     const std::vector<HierarchyTriangle>& triangles() const { return triangles_; }
     std::size_t depth() const { return depth_; }
+    // What the hierarchy holds: the tree, the prepared triangles, its copy of the mesh and the shading tables kept
+    // so far (each ShadingNormals::memory_bytes()). Takes the shading mutex.
     std::size_t memory_bytes() const;
 
     // Force shading: the mesh's corner normals for crease angle `crease_angle_deg` (vertex_normals.hpp), computed
     // on the first request for that angle (off the loop thread: allocates, O(n)) and kept, unmoved, for as long as
     // the hierarchy lives, so the pointer may be handed to the loop with the hierarchy. At most kMaxShadings angles
     // a mesh: nullptr beyond. Thread-safe (a mutex the loop never takes). Throws std::bad_alloc only.
+    // A new angle adds new_shading_bytes() to memory_bytes().
     static constexpr std::size_t kMaxShadings = 4;
     const ShadingNormals* shading(double crease_angle_deg) const;
+    // The table kept for `crease_angle_deg`, or nullptr (nothing is built). Thread-safe, no allocation.
+    const ShadingNormals* kept_shading(double crease_angle_deg) const;
+    // The crease angles kept (0 .. kMaxShadings). Thread-safe.
+    std::size_t shadings_kept() const;
+    // The bytes a new crease angle's table holds: shading_normals_bytes(triangles), before it is built.
+    std::size_t new_shading_bytes() const noexcept { return shading_normals_bytes(mesh_.triangles.size()); }
 
   private:
     MeshHierarchy() = default;

@@ -14,6 +14,13 @@ std::size_t ShadingNormals::memory_bytes() const {
            smooth.capacity();
 }
 
+std::size_t shading_normals_bytes(std::size_t triangles) noexcept {
+    using Corners = decltype(ShadingNormals::corners)::value_type;
+    using Face = decltype(ShadingNormals::face)::value_type;
+    using Smooth = decltype(ShadingNormals::smooth)::value_type;
+    return sizeof(ShadingNormals) + triangles * (sizeof(Corners) + sizeof(Face) + sizeof(Smooth));
+}
+
 ShadingNormals shading_normals(const TriangleMesh& mesh, double crease_angle_deg) {
     const std::size_t n = mesh.triangles.size();
     const std::size_t nv = mesh.vertices.size();

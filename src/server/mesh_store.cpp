@@ -261,6 +261,47 @@ std::variant<MeshStore::Built, Refusal> MeshStore::built(std::uint64_t session, 
     return unknown(mesh);
 }
 
+std::variant<const mesh::ShadingNormals*, Refusal> MeshStore::shading(std::uint64_t session, std::uint32_t mesh,
+                                                                      double crease_angle_deg) {
+    const auto it = entries_.find(mesh);
+    if (it == entries_.end() || it->second.owner != session) return unknown(mesh);
+    Entry& e = it->second;
+    if (e.state != MeshState::Ready) return std::get<Refusal>(built(session, mesh));
+    const mesh::MeshHierarchy& h = *e.hierarchy;
+    if (const mesh::ShadingNormals* kept = h.kept_shading(crease_angle_deg)) return kept;
+    const std::string field =
+        "mesh.shading.crease_angle_deg = " + short_number(crease_angle_deg) + ": mesh " + std::to_string(mesh);
+    if (h.shadings_kept() >= mesh::MeshHierarchy::kMaxShadings) {
+        return refusal(cl::ErrorCode::Capacity, field + " already keeps the normals of " +
+                                                    std::to_string(mesh::MeshHierarchy::kMaxShadings) +
+                                                    " other crease angles; accepted: one of those");
+    }
+    const std::size_t bytes = h.new_shading_bytes();
+    const std::string need = field + "'s corner normals for a new crease angle need " + mib(bytes) + " (" +
+                             std::to_string(bytes) + " bytes, " + std::to_string(h.mesh().triangles.size()) +
+                             " triangles)";
+    const std::size_t held = session_bytes(session);
+    if (held + bytes > limits_.bytes_per_session) {
+        return refusal(cl::ErrorCode::SessionLimit,
+                       need + "; this session holds " + mib(held) + " (" + std::to_string(held) +
+                           " bytes) of meshes; accepted: at most " + mib(limits_.bytes_per_session) + " (" +
+                           std::to_string(limits_.bytes_per_session) +
+                           " bytes) per session (a crease angle the mesh already keeps, or mesh_delete a mesh first)");
+    }
+    if (total_bytes_ + bytes > limits_.bytes_total) {
+        return refusal(cl::ErrorCode::Capacity,
+                       need + "; the daemon holds " + mib(total_bytes_) + " (" + std::to_string(total_bytes_) +
+                           " bytes) of meshes; that much more would exceed the " + mib(limits_.bytes_total) + " (" +
+                           std::to_string(limits_.bytes_total) + " bytes) of every session together; retry");
+    }
+    const mesh::ShadingNormals* built_now = h.shading(crease_angle_deg);
+    if (built_now == nullptr) return refusal(cl::ErrorCode::Capacity, field + ": its crease angles are taken; retry");
+    const std::size_t added = built_now->memory_bytes();  // = bytes: each vector sized once to the triangle count
+    e.bytes += added;
+    total_bytes_ += added;
+    return built_now;
+}
+
 void MeshStore::drop_session(std::uint64_t session) {
     for (auto it = entries_.begin(); it != entries_.end();) {
         const auto next = std::next(it);

@@ -83,6 +83,15 @@ class MeshStore {
         mesh::MeshMode mode = mesh::MeshMode::surface;
     };
     [[nodiscard]] std::variant<Built, Refusal> built(std::uint64_t session, std::uint32_t mesh) const;
+    // Force shading: built mesh `mesh`'s corner normals for crease angle `crease_angle_deg`
+    // (MeshHierarchy::shading), counted in the mesh's bytes (status, session_bytes, total_bytes) until the mesh is
+    // dropped. An angle the mesh keeps costs nothing. A new one is refused before it is built when its table
+    // (MeshHierarchy::new_shading_bytes) would take the session's meshes beyond bytes_per_session (session_limit)
+    // or every session's beyond bytes_total (capacity), and when the mesh keeps kMaxShadings angles (capacity);
+    // unknown_object and the refusals of built() as for an `add`. Builds the table here, on the server thread
+    // (O(n), ~16 ms for 100 000 triangles), never on the loop's. Throws std::bad_alloc only.
+    [[nodiscard]] std::variant<const mesh::ShadingNormals*, Refusal> shading(std::uint64_t session, std::uint32_t mesh,
+                                                                             double crease_angle_deg);
 
     void drop_session(std::uint64_t session);  // every mesh and upload of the session
     void expire(Clock::time_point now);        // drops uploads silent for longer than upload_timeout

@@ -451,15 +451,15 @@ std::optional<Refusal> ObjectResolver::resolve_mesh(const cl::Mesh& m, Resolved&
         }
     }
     if (m.shading_crease_angle_deg) {
-        p.shading = found.hierarchy->shading(*m.shading_crease_angle_deg);
-        if (p.shading == nullptr) {
-            return Refusal{ErrorCode::Capacity,
-                           "mesh.shading.crease_angle_deg = " + g(*m.shading_crease_angle_deg) + ": mesh " +
-                               std::to_string(m.mesh) + " already keeps the normals of " +
-                               std::to_string(mesh::MeshHierarchy::kMaxShadings) +
-                               " other crease angles; accepted: one of those",
+        // The table is the last thing checked (a new angle's is built here, counted against the mesh limits).
+        if (!found.shading) {
+            return Refusal{ErrorCode::UnknownObject,
+                           "mesh.shading: mesh " + std::to_string(m.mesh) + " has no store counting its normals",
                            std::nullopt};
         }
+        auto table = found.shading(*m.shading_crease_angle_deg);
+        if (auto* r = std::get_if<Refusal>(&table)) return std::move(*r);
+        p.shading = std::get<const mesh::ShadingNormals*>(table);
         p.crease_angle_deg = *m.shading_crease_angle_deg;
     }
     p.kind = ObjectKind::Mesh;

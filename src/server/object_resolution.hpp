@@ -16,6 +16,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "hapticd/client.hpp"
@@ -84,10 +85,16 @@ struct SlotLookup {
 // The first free slot that `taken` (slots this batch already changes) leaves, or -1.
 [[nodiscard]] int free_slot(const SlotTable& slots, const std::array<bool, kSceneObjectCapacity>& taken);
 
-// A mesh id of the committing session -> its built hierarchy, or the refusal (server/mesh_store.hpp: built()).
+// A crease angle -> the found mesh's corner normals for it, counted against the mesh limits, or the refusal
+// (server/mesh_store.hpp: shading()).
+using ShadingLookup = std::function<std::variant<const mesh::ShadingNormals*, Refusal>(double crease_angle_deg)>;
+
+// A mesh id of the committing session -> its built hierarchy, or the refusal (server/mesh_store.hpp: built()), and
+// the way to its shading tables (empty: a shaded mesh object is refused).
 struct MeshLookupResult {
     std::shared_ptr<const mesh::MeshHierarchy> hierarchy;
     std::optional<Refusal> refusal;
+    ShadingLookup shading;
 };
 using MeshLookup = std::function<MeshLookupResult(std::uint32_t mesh)>;
 

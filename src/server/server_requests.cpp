@@ -59,6 +59,9 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
             out.refusal = std::move(*r);
         } else {
             out.hierarchy = std::get<server::MeshStore::Built>(found).hierarchy;
+            out.shading = [this, session = s.id, mesh](double crease_angle_deg) {
+                return meshes.shading(session, mesh, crease_angle_deg);
+            };
         }
         return out;
     };

@@ -151,7 +151,12 @@ struct ServerSide {
     // Plans the batch (fails the test on a refusal) and adopts it, as the server does once it is in the ring.
     ObjectCommit commit(std::vector<CommitOperation> ops, std::vector<std::uint32_t>* ids = nullptr) {
         const server::MeshLookup lookup = [this](std::uint32_t) {
-            return server::MeshLookupResult{mesh, std::nullopt};
+            // The hierarchy's own tables (no mesh store: nothing counts their bytes here).
+            return server::MeshLookupResult{
+                mesh, std::nullopt,
+                [this](double crease) -> std::variant<const mesh::ShadingNormals*, server::Refusal> {
+                    return mesh->shading(crease);
+                }};
         };
         server::CommitOutcome o = server::plan_commit(server::CommitContext{config, checker, resolver, &lookup}, slots,
                                                       1, next_id, server::CommitRequest{std::move(ops)});

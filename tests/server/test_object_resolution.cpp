@@ -5,6 +5,7 @@
 // for a line spring); and ids to slots (unknown_object, not_owner). Device: 0.3 kg per axis, T = 1 ms, a
 // delay of one period, workspace +-0.06 m.
 #include <string>
+#include <variant>
 
 #include <gtest/gtest.h>
 
@@ -203,7 +204,10 @@ using cl::ErrorCode;
 // or with damping, are refused naming mesh.shading (the same mesh unshaded is accepted there).
 TEST(ObjectResolution, ShadingNeedsACreaseAngleInRangeAndOneFreeMass) {
     const auto h = mesh::MeshHierarchy::build(mesh::icosphere(0.01, 2), mesh::MeshMode::solid);
-    const MeshLookup lookup = [&](std::uint32_t) { return MeshLookupResult{h, std::nullopt}; };
+    const ShadingLookup shading = [&](double crease) -> std::variant<const mesh::ShadingNormals*, Refusal> {
+        return h->shading(crease);
+    };
+    const MeshLookup lookup = [&](std::uint32_t) { return MeshLookupResult{h, std::nullopt, shading}; };
     auto resolve = [&](const GainCheckPlant& plant, std::optional<double> crease, Resolved& out) {
         ServerConfig c;
         c.axes = 3;

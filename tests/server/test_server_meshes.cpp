@@ -252,13 +252,16 @@ TEST_F(ServerMeshes, ShadingIsAcceptedInItsRangeAndBadCreaseAnglesAreRefusedNami
         return request(c, {{"type", "commit"}, {"ops", {{{"op", "add"}, {"object", shaded(shading)}}}}});
     };
     // One batch (the daemon's loop is in lockstep here: each batch stays in flight): four angles, the mesh keeps the
-    // normals of each.
+    // normals of each, and counts them in its bytes (97 a triangle and angle, and each table's struct).
+    const auto bytes = [&] { return request(c, {{"type", "mesh_status"}, {"mesh", id}}).value("bytes", 0.0); };
+    const double unshaded = bytes();
     json ops = json::array();
     for (const double crease : {0.0, 30.0, 80.0, 45.0})
         ops.push_back({{"op", "add"}, {"object", shaded({{"crease_angle_deg", crease}})}});
     json r = request(c, {{"type", "commit"}, {"ops", ops}});
     ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
     ASSERT_EQ(r["object_ids"].size(), 4U);
+    EXPECT_GE(bytes() - unshaded, 4 * 12 * 97) << unshaded;
     const auto expect = [&](const json& shading, const std::string& code, const std::string& names) {
         const json e = add(shading);
         EXPECT_EQ(e.value("type", ""), "error") << e.dump();
