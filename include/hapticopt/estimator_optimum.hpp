@@ -7,6 +7,7 @@
 #include <cmath>
 #include <optional>
 
+#include "characteristic_polynomial.hpp"
 #include "config.hpp"
 #include "criterion.hpp"
 #include "energy_costs.hpp"
@@ -16,6 +17,8 @@
 #include "estimator_gradient.hpp"
 #include "estimator_hessian.hpp"
 #include "estimator_region.hpp"
+#include "estimator_stability.hpp"
+#include "loop_schur_form.hpp"
 #include "newton_search.hpp"
 #include "optimum.hpp"
 #include "overshoot.hpp"
@@ -23,6 +26,7 @@
 #include "region_minimum.hpp"
 #include "sampled_plant.hpp"
 #include "scalar_search.hpp"
+#include "schur_cohn.hpp"
 #include "estimator_types.hpp"
 
 namespace hapticopt {
@@ -66,11 +70,11 @@ inline constexpr double kAlphaEdge = 1e-6;
 /// The start grid's alphas of OptimumMethod::newton with an estimator, as fractions of alpha_max: spaced
 /// geometrically towards alpha -> 0+, where the CE2 minima of slow estimators lie (0.022-0.43 alpha_max over the
 /// 180 cases of scripts/estimator-optimum-sweep.sh). A uniform grid of 6 x 4 points starts Newton in a local
-/// minimum's basin for window 30, d = 0, delta = 0.05 (global minimum at 0.038 alpha_max); this one does not, with
-/// 15 costs instead of 24. A smaller fraction costs more than it finds: at 0.03 alpha_max the loop
-/// of window 15, d = 6 lies within kStabilityRefinementMargin of instability, where a cost takes the complex-Schur
-/// route (333 us against 27 us).
-inline constexpr double kStartAlphaFractions[] = {0.75, 0.5, 0.3, 0.15, 0.07};
+/// minimum's basin for window 30, d = 0, delta = 0.05 (global minimum at 0.026 alpha_max); this one does not, with
+/// 15 costs instead of 24. A start point whose loop lies within kStabilityRefinementMargin of instability
+/// (Schur-Cohn margin) is skipped: its cost would take the complex-Schur route (333 us against 27 us for window 15,
+/// d = 6, at 0.03 alpha_max), and a loop that close to instability is no candidate for a minimum of the energy.
+inline constexpr double kStartAlphaFractions[] = {0.75, 0.4, 0.15, 0.06, 0.025};
 /// The start grid's betas at each start alpha: cell centres of the main region's beta interval there.
 inline constexpr int kStartBetas = 3;
 
@@ -79,7 +83,7 @@ inline constexpr int kStartBetas = 3;
 /// EstimatorStabilityRegion; the CEx points by options.method:
 ///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of the kStartAlphaFractions
 ///    of alpha_max x kStartBetas betas across the main region's beta interval at each (cell centres; the
-///    interval's ends to 1e-3); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start
+///    interval's ends to 1e-3; points within the Schur-Cohn margin skipped); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start
 ///    point on the analytic gradient and exact Hessian (estimator_energy_cost_hessian, estimator_hessian.hpp), in
 ///    coordinates scaled by alpha_max and that point's interval width, to a step below 1e-12 of them or the
 ///    function's resolution; the cost is the one Newton's last evaluation gives (newton_search.hpp). A
@@ -153,13 +157,17 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
         // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-3 (the march
         // brackets them to a quarter of a scan cell first).
         double best_a = out.alpha_max / 2, best_b = 0, best_width = 1, best_value = HUGE_VAL;
+        const AffineCharacteristicPolynomial<double> p_est =
+            estimator_characteristic_polynomial(characteristic_polynomial(sampled), estimator);
         for (const double fraction : kStartAlphaFractions) {
             const double a = fraction * out.alpha_max;
             const auto [lo, hi] = region.beta_interval(a, 1e-3);
             if (!(hi > lo)) continue;
             for (int j = 0; j < kStartBetas; ++j) {
                 const double b = lo + (j + 0.5) * (hi - lo) / kStartBetas;
-                const double v = cost(a, b);
+                const double v = std::abs(schur_cohn<double>(p_est.at(a, b)).margin) < kStabilityRefinementMargin
+                                     ? HUGE_VAL
+                                     : cost(a, b);
                 if (v < best_value) {
                     best_value = v;
                     best_a = a;

@@ -224,8 +224,8 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
 
 TEST(EstimatorFastOptimum, StartGridReachesTheGlobalBasinOfASlowWindow) {
     // Window 30, d = 0, delta = 0.05: CE2 has a local minimum at alpha 0.030, beta -0.115 (cost 13850) besides the
-    // global one at alpha 0.0044, beta 0.040 (cost 6228, brent's), 0.038 of the fast grid's alpha_max (measured by
-    // scripts/estimator-optimum-sweep.sh). The start grid's alphas, spaced towards alpha -> 0+
+    // global one at alpha 0.0044, beta 0.040 (cost 6228, brent's), 0.026 of alpha_max (measured by
+    // scripts/estimator-optimum-sweep.sh; the region narrows to a waist at alpha 0.105 and ends at 0.169). The start grid's alphas, spaced towards alpha -> 0+
     // (kStartAlphaFractions), must start Newton in the global basin: the point and cost of AgreesWithBrent's
     // tolerances.
     const NormalizedPlant plant{0, 0.05, 0};

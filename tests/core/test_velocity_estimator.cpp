@@ -355,7 +355,10 @@ TEST(VelocityEstimator, MainRegionTipAgainstTheLoopsSpectralRadius) {
 // continues_beyond_tip sends the region to a finer grid. Every grid gives the default grid's tip, and it is the
 // region's: a path of points marched up in alpha through the waist (200 steps of the beta interval's midpoint, each
 // interval overlapping the next) is stable by the loop's spectral radius (an eigenvalue solve, independent of the
-// Schur-Cohn verdicts the region uses), and above the tip the radius is >= 1 over a band of betas.
+// Schur-Cohn verdicts the region uses), stable points lie within 1e-8 alpha_max of the tip on the segment towards
+// the midpoint of the interval at 0.99 alpha_max (the tip is a corner, the crossing of the two edges: the point
+// straight below it is outside),
+// and above the tip the radius is >= 1 over a band of betas.
 TEST(VelocityEstimator, AWaistNarrowerThanTheScanCellsDoesNotEndTheRegion) {
     const NormalizedPlant plant{0, 0.05, 0};
     const VelocityEstimator e = VelocityEstimator::moving_window(30);
@@ -379,7 +382,12 @@ TEST(VelocityEstimator, AWaistNarrowerThanTheScanCellsDoesNotEndTheRegion) {
         previous_lo = lo;
         previous_hi = hi;
     }
-    EXPECT_LT(radius(a * (1 - 1e-7), b), 1);
+    const auto [below_lo, below_hi] = reference.beta_interval(0.99 * a, 1e-12);
+    ASSERT_GT(below_hi, below_lo);
+    const double inner_beta = (below_lo + below_hi) / 2;
+    for (const double s : {1e-4, 1e-6}) {
+        EXPECT_LT(radius(a + s * (0.99 * a - a), b + s * (inner_beta - b)), 1) << s;
+    }
     const auto [lo, hi] = reference.beta_interval(a / 2);
     for (int k = -10; k <= 10; ++k) EXPECT_GE(radius(a * (1 + 1e-7), b + 0.1 * (hi - lo) * k / 10), 1) << k;
 }
