@@ -83,13 +83,13 @@ inline constexpr int kStartBetas = 3;
 /// EstimatorStabilityRegion; the CEx points by options.method:
 ///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of the kStartAlphaFractions
 ///    of alpha_max x kStartBetas betas across the main region's beta interval at each (cell centres; the
-///    interval's ends to 1e-3; points within the Schur-Cohn margin skipped); then damped Newton (newton_search.hpp, minimize_newton_2d) from the best start
-///    point on the analytic gradient and exact Hessian (estimator_energy_cost_hessian, estimator_hessian.hpp), in
-///    coordinates scaled by alpha_max and that point's interval width, to a step below 1e-12 of them or the
-///    function's resolution; the cost is the one Newton's last evaluation gives (newton_search.hpp). A
-///    minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma > 0): its beta is then minimised at
-///    that alpha by minimize_newton_1d. A point outside the main region's beta interval there, or a start grid
-///    without a finite cost, goes to brent's region search on the same region;
+///    interval's ends to 1e-3; points within the Schur-Cohn margin skipped); then damped Newton (newton_search.hpp,
+///    minimize_newton_2d) from the best start point on the analytic gradient and exact Hessian
+///    (estimator_energy_cost_hessian, estimator_hessian.hpp), in coordinates scaled by alpha_max and that point's
+///    interval width, to a step below 1e-12 of them or the function's resolution; the cost is the one Newton's last
+///    evaluation gives (newton_search.hpp). A minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma >
+///    0): its beta is then minimised at that alpha by minimize_newton_1d. A point outside the main region's beta
+///    interval there, or a start grid without a finite cost, goes to brent's region search on the same region;
 ///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
 ///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
 /// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:

@@ -182,7 +182,7 @@ class EstimatorStabilityRegion {
   private:
     static constexpr int kCoarseGrid = 16;
     static constexpr int kFallbackGrid = 40;
-    static constexpr int kFinestGrid = 640;  ///< the finest re-scan of a region that continues beyond its tip
+    static constexpr int kFinestGrid = 640;    ///< the finest re-scan of a region that continues beyond its tip
     static constexpr double kTipProbe = 1e-3;  ///< continues_beyond_tip's relative step in alpha
 
     /// Whether stable points lie above the tip found (alpha_max_ (1 + kTipProbe)), in the beta window three times

@@ -121,10 +121,10 @@ TEST(CriterionCli, TheJsonCriterionFieldIsTheNameGiven) {
         const nlohmann::json out = optimum_json({"--criterion", name, "--delay", "1", "--delta", "0.02", "--json"});
         EXPECT_EQ(out.at("criterion"), name);
     }
-    EXPECT_EQ(optimum_json({"--criterion", "CI1", "--velocity", "window:15", "--delay", "1", "--delta", "0.02",
-                            "--json"})
-                  .at("criterion"),
-              "CI1");
+    EXPECT_EQ(
+        optimum_json({"--criterion", "CI1", "--velocity", "window:15", "--delay", "1", "--delta", "0.02", "--json"})
+            .at("criterion"),
+        "CI1");
     EXPECT_EQ(optimum_json({"--criterion", "CE1", "--noise-budget", "5", "--delay", "1", "--json"}).at("criterion"),
               "CE1");
 }

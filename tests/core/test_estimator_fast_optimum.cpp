@@ -225,9 +225,9 @@ TEST(EstimatorFastOptimum, AgreesWithBrent) {
 TEST(EstimatorFastOptimum, StartGridReachesTheGlobalBasinOfASlowWindow) {
     // Window 30, d = 0, delta = 0.05: CE2 has a local minimum at alpha 0.030, beta -0.115 (cost 13850) besides the
     // global one at alpha 0.0044, beta 0.040 (cost 6228, brent's), 0.026 of alpha_max (measured by
-    // scripts/estimator-optimum-sweep.sh; the region narrows to a waist at alpha 0.105 and ends at 0.169). The start grid's alphas, spaced towards alpha -> 0+
-    // (kStartAlphaFractions), must start Newton in the global basin: the point and cost of AgreesWithBrent's
-    // tolerances.
+    // scripts/estimator-optimum-sweep.sh; the region narrows to a waist at alpha 0.105 and ends at 0.169). The start
+    // grid's alphas, spaced towards alpha -> 0+ (kStartAlphaFractions), must start Newton in the global basin: the
+    // point and cost of AgreesWithBrent's tolerances.
     const NormalizedPlant plant{0, 0.05, 0};
     const VelocityEstimator e = VelocityEstimator::moving_window(30);
     EstimatorOptimumOptions slow_options;

@@ -113,9 +113,10 @@ TEST(MeshStoreShading, ANewCreaseAngleBeyondTheSessionsBytesIsRefusedBeforeItIsB
     const Refusal& r = std::get<Refusal>(refused);
     EXPECT_EQ(r.code, ErrorCode::SessionLimit);
     EXPECT_EQ(r.message.rfind("mesh.shading.crease_angle_deg = 45: mesh " + std::to_string(id), 0), 0U) << r.message;
-    for (const std::string& part : std::vector<std::string>{
-             std::to_string(table) + " bytes, 1280 triangles", "this session holds", std::to_string(base + table) + " bytes",
-          "accepted: at most", std::to_string(limits.bytes_per_session) + " bytes) per session"}) {
+    for (const std::string& part :
+         std::vector<std::string>{std::to_string(table) + " bytes, 1280 triangles", "this session holds",
+                                  std::to_string(base + table) + " bytes", "accepted: at most",
+                                  std::to_string(limits.bytes_per_session) + " bytes) per session"}) {
         EXPECT_NE(r.message.find(part), std::string::npos) << part << " in: " << r.message;
     }
     EXPECT_EQ(built.hierarchy->shadings_kept(), 1U);  // refused before it was built
