@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "mesh/procedural_meshes.hpp"
+#include "resolution_device.hpp"
 #include "server/mesh_store.hpp"
 
 namespace hapticd::server {
@@ -158,19 +159,8 @@ TEST(MeshStoreShading, TheObjectResolutionRefusesAShadedMeshBeyondTheSessionsByt
         out.shading = [&store, mesh](double crease) { return store.shading(1, mesh, crease); };
         return out;
     };
-    ServerConfig c;
-    c.axes = 3;
-    c.period = 1e-3;
-    c.delay = 1e-3;
-    c.max_force = 10.0;
-    c.workspace_min = {-0.06, -0.06, -0.06};
-    c.workspace_max = {0.06, 0.06, 0.06};
-    GainCheckPlant plant;
-    plant.mass = 0.3;
-    plant.period = 1e-3;
-    plant.time_delay = 1e-3;
-    plant.mass_matrix = DeviceMass::isotropic_mass(0.3, 3);
-    GainChecker checker(plant);
+    const ServerConfig c = resolution_device::config(3);
+    GainChecker checker(resolution_device::plant(3));
     ObjectResolver resolver(c, checker);
     auto resolve = [&](double crease, Resolved& out) {
         cl::Mesh m{.mesh = id, .gains = cl::Gains::by_criterion("CE2"), .shading_crease_angle_deg = crease};

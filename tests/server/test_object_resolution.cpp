@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "mesh/procedural_meshes.hpp"
+#include "resolution_device.hpp"
 #include "server/object_resolution.hpp"
 
 namespace hapticd::server {
@@ -18,31 +19,14 @@ namespace object_resolution_test {
 namespace cl = hapticd::client;
 using cl::ErrorCode;
 
-constexpr double kMass = 0.3, kT = 1e-3;
+using resolution_device::kMass;
+using resolution_device::kT;
 
 struct Device {
     explicit Device(std::size_t axes, std::optional<double> max_stiffness = std::nullopt)
-        : config(make_config(axes)), checker(make_plant(axes, max_stiffness)), resolver(config, checker) {}
-
-    static ServerConfig make_config(std::size_t axes) {
-        ServerConfig c;
-        c.axes = axes;
-        c.period = kT;
-        c.delay = kT;
-        c.max_force = 10.0;
-        c.workspace_min = {-0.06, -0.06, -0.06};
-        c.workspace_max = {0.06, 0.06, 0.06};
-        return c;
-    }
-    static GainCheckPlant make_plant(std::size_t axes, std::optional<double> max_stiffness) {
-        GainCheckPlant p;
-        p.mass = kMass;
-        p.period = kT;
-        p.time_delay = kT;
-        p.mass_matrix = DeviceMass::isotropic_mass(kMass, axes);
-        p.max_stiffness = max_stiffness;
-        return p;
-    }
+        : config(resolution_device::config(axes)),
+          checker(resolution_device::plant(axes, max_stiffness)),
+          resolver(config, checker) {}
 
     std::optional<Refusal> resolve(const cl::ObjectDescription& d) { return resolver.resolve(d, last); }
 
@@ -209,23 +193,13 @@ TEST(ObjectResolution, ShadingNeedsACreaseAngleInRangeAndOneFreeMass) {
     };
     const MeshLookup lookup = [&](std::uint32_t) { return MeshLookupResult{h, std::nullopt, shading}; };
     auto resolve = [&](const GainCheckPlant& plant, std::optional<double> crease, Resolved& out) {
-        ServerConfig c;
-        c.axes = 3;
-        c.period = 1e-3;
-        c.delay = 1e-3;
-        c.max_force = 10.0;
-        c.workspace_min = {-0.06, -0.06, -0.06};
-        c.workspace_max = {0.06, 0.06, 0.06};
+        const ServerConfig c = resolution_device::config(3);
         GainChecker checker(plant);
         ObjectResolver resolver(c, checker);
         cl::Mesh m{.mesh = 1, .gains = cl::Gains::by_criterion("CE2"), .shading_crease_angle_deg = crease};
         return resolver.resolve(cl::ObjectDescription{m}, out, &lookup);
     };
-    GainCheckPlant one;
-    one.mass = 0.3;
-    one.period = 1e-3;
-    one.time_delay = 1e-3;
-    one.mass_matrix = DeviceMass::isotropic_mass(0.3, 3);
+    const GainCheckPlant one = resolution_device::plant(3);
     Resolved out;
     ASSERT_FALSE(resolve(one, 30.0, out));
     EXPECT_EQ(out.params.shading, h->shading(30.0));
