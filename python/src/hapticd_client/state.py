@@ -239,7 +239,8 @@ class StateReader:
         return None
 
     def read(self, max_attempts: int = 1000, require_live: bool = False) -> StateSample:
-        """One consistent tick. Raises HapticdError("transport") if every attempt overlapped a write, and
+        """One consistent tick (a write in progress is waited for up to the stale age). Raises
+        HapticdError("transport") if every attempt overlapped a write or one write outlasted the stale age, and
         with ``require_live`` HapticdError("stale_state") when the sample is stale (module docstring)."""
         got = self._read_consistent(max_attempts)
         if got is None:
