@@ -188,8 +188,9 @@ class EstimatorStabilityRegion {
     /// Whether stable points lie above the tip found (alpha_max_ (1 + kTipProbe)), in the beta window three times
     /// the main region's stable interval at alpha_max_ (1 - kTipProbe) wide and centred on it, at 17 points. At a
     /// tip (smooth, corner or cusp) the region ends: none is stable. Where the scan's flood fill stopped at a
-    /// waist, the region goes on as a band about as wide as that interval, which the 17 points (spacing 3/16 of
-    /// it) cannot miss. A stable island that close only costs a finer re-scan.
+    /// waist, the region goes on as a band about as wide as that interval (window 30, d = 0, delta = 0.05: 0.124
+    /// at alpha 0.115 and 0.187 at 0.120), which the 17 points (spacing 3/16 of it) find whenever the band is at
+    /// least that wide inside the window. A stable island that close only costs a finer re-scan.
     bool continues_beyond_tip() const {
         const double a = alpha_max_;
         if (!(a > 0)) return false;
