@@ -440,13 +440,13 @@ def _fill_until_refused(c, offset):
     """Adds a plane and changes its gains until the server answers busy or session_limit: (the object id or
     None when the add itself was busy, the code)."""
     try:
-        oid = c.add(hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=100, B=5))
+        oid = c.add(hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=100, B=50))
     except hc.HapticdError as e:
         assert e.code == "busy", str(e)
         return None, e.code
     for i in range(200):
         try:
-            c.modify(oid, hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=120 if i % 2 == 0 else 100, B=5))
+            c.modify(oid, hc.plane(normal=(-1, 0, 0), offset=offset, bilateral=True, K=120 if i % 2 == 0 else 100, B=50))
         except hc.HapticdError as e:
             assert e.code in ("busy", "session_limit"), str(e)
             return oid, e.code
@@ -458,7 +458,8 @@ def test_commit_retries_busy_with_a_bounded_back_off(slow_ramp_daemon):
     busy after 8 tries and at least their 113 ms of back-off (no upper bound: the machine may be loaded) with
     the defaults, and accepted with 1000 tries once a filling session leaves (its departure applies every
     batch sent before it at once). Bilateral planes (a unilateral one is checked in every engagement pattern, and 1000-tick ramps make that too
-    many scenes on one axis), 0-3 mm from the handle: soft springs (100-120 N/m each) the hand holds against."""
+    many scenes on one axis), 0-3 mm from the handle: soft springs (100-120 N/m each, 50 N s/m as in the C++ test: the commit check of a 1 s ramp
+    costs ~0.07 s against ~0.17 s with 5 N s/m, and ~130 commits fill the queue) the hand holds against."""
     daemon = slow_ramp_daemon
     fillers = [connect(daemon, busy_retry=(1, 1e-3, 0.05)) for _ in range(3)]
     try:
@@ -471,12 +472,12 @@ def test_commit_retries_busy_with_a_bounded_back_off(slow_ramp_daemon):
                 if oid is None:
                     continue
                 try:
-                    fillers[k].modify(oid, hc.plane(normal=(-1, 0, 0), offset=-0.001 * k, bilateral=True, K=110, B=5))
+                    fillers[k].modify(oid, hc.plane(normal=(-1, 0, 0), offset=-0.001 * k, bilateral=True, K=110, B=50))
                 except hc.HapticdError as e:
                     assert e.code in ("busy", "session_limit"), str(e)
                     if e.code == "busy":
                         break
-            wall = hc.plane(normal=(-1, 0, 0), offset=-0.003, bilateral=True, K=100, B=5)
+            wall = hc.plane(normal=(-1, 0, 0), offset=-0.003, bilateral=True, K=100, B=50)
             with pytest.raises(hc.HapticdError) as e:
                 c.add(wall)
             assert e.value.code == "busy" and "busy after 1 tries" in str(e.value)
