@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <optional>
 
 #include "characteristic_polynomial.hpp"
@@ -77,19 +78,39 @@ inline constexpr double kAlphaEdge = 1e-6;
 inline constexpr double kStartAlphaFractions[] = {0.75, 0.4, 0.15, 0.06, 0.025};
 /// The start grid's betas at each start alpha: cell centres of the main region's beta interval there.
 inline constexpr int kStartBetas = 3;
+/// Start rows that compete with the best start point (OptimumMethod::newton with an estimator): a start row other
+/// than the best point's whose middle point costs at most kRowRefineRatio times the best point, in a steep valley
+/// (both its neighbours at least kRowValleySteepness times its cost). A slow window's CE2 minima lie in beta valleys
+/// about a quarter of the interval wide near alpha -> 0+, which can fall between a row's three points (window 60,
+/// d = 0, delta = 0.05: the 0.025 row's points 2.3e5, 4.6e4, 1.5e6, its minimum 1.6e4, the best point 2.1e4 in a
+/// local minimum's basin) or hold a row's minimum below the best point's in another basin (d = 1: the 0.15 row
+/// 2.9e4 against the best point's 4.0e4, whose own row holds 1.8e4). Where a row competes, each competing row and
+/// the best point's row have their minimum over beta by Brent (minimize_scalar: kRowRefineSteps steps after the
+/// first point, to kRowRefineTolerance of the row's interval width, between the neighbours of the row's lowest
+/// point or an interval end), and Newton starts from the lowest point. Where none competes (window 15 and the
+/// low-pass 0.02 at d = 6 for CE0..2), the start grid's 15 costs are all.
+inline constexpr double kRowRefineRatio = 3;
+/// See kRowRefineRatio.
+inline constexpr double kRowValleySteepness = 2;
+/// See kRowRefineRatio: Newton polishes the start, so the row's minimum is needed only to pick the basin.
+inline constexpr double kRowRefineTolerance = 1e-2;
+/// See kRowRefineRatio.
+inline constexpr int kRowRefineSteps = 7;
 
 /// The optimum of amax, CE0..2 or CE0+OV..CE2+OV with the estimator over the main stable region. The backward
 /// difference is optimal_point() (optimum.hpp, with options.method). Others: alpha_max from
 /// EstimatorStabilityRegion; the CEx points by options.method:
 ///  - newton (default): the region on the kFastOptimumRegionGrid scan; a start grid of the kStartAlphaFractions
 ///    of alpha_max x kStartBetas betas across the main region's beta interval at each (cell centres; the
-///    interval's ends to 1e-3; points within the Schur-Cohn margin skipped); then damped Newton (newton_search.hpp,
-///    minimize_newton_2d) from the best start point on the analytic gradient and exact Hessian
-///    (estimator_energy_cost_hessian, estimator_hessian.hpp), in coordinates scaled by alpha_max and that point's
-///    interval width, to a step below 1e-12 of them or the function's resolution; the cost is the one Newton's last
-///    evaluation gives (newton_search.hpp). A minimum below kAlphaEdge alpha_max lies on the edge alpha -> 0+ (gamma >
-///    0): its beta is then minimised at that alpha by minimize_newton_1d. A point outside the main region's beta
-///    interval there, or a start grid without a finite cost, goes to brent's region search on the same region;
+///    interval's ends to 1e-3; points within the Schur-Cohn margin skipped); the minimum over beta of the start
+///    rows that compete with the best start point, and of the best point's row, where a row competes
+///    (kRowRefineRatio); then damped Newton (newton_search.hpp, minimize_newton_2d) from the lowest start point on the
+///    analytic gradient and exact Hessian (estimator_energy_cost_hessian, estimator_hessian.hpp), in coordinates scaled
+///    by alpha_max and that point's interval width, to a step below 1e-12 of them or the function's resolution; the
+///    cost is the one Newton's last evaluation gives (newton_search.hpp). A minimum below kAlphaEdge alpha_max lies on
+///    the edge alpha -> 0+ (gamma > 0): its beta is then minimised at that alpha by minimize_newton_1d. A point outside
+///    the main region's beta interval there, or a start grid without a finite cost, goes to brent's region search on
+///    the same region;
 ///  - brent: the region on the default 160 x 160 scan; minimize_on_region (region_minimum.hpp: coarse grid over
 ///    (0, alpha_max) x the main region's beta interval, then Brent over alpha with Brent over beta inside).
 /// The tests require both to agree (tests/core/test_estimator_fast_optimum.cpp); measured times of both:
@@ -153,27 +174,67 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
     auto gradient = [&](double a, double b) { return estimator_energy_cost_gradient(sampled, estimator, a, b, index); };
     if (!requires_no_overshoot(criterion) && newton) {
         // The start grid (kStartAlphaFractions x kStartBetas) over the main region, then damped Newton
-        // (newton_search.hpp) in coordinates scaled by alpha_max and the best start's beta interval width.
+        // (newton_search.hpp) in coordinates scaled by alpha_max and the start point's beta interval width.
         // The start grid's intervals need their ends to a small fraction of a grid cell only: 1e-3 (the march
         // brackets them to a quarter of a scan cell first).
         double best_a = out.alpha_max / 2, best_b = 0, best_width = 1, best_value = HUGE_VAL;
         const AffineCharacteristicPolynomial<double> p_est =
             estimator_characteristic_polynomial(characteristic_polynomial(sampled), estimator);
-        for (const double fraction : kStartAlphaFractions) {
-            const double a = fraction * out.alpha_max;
+        constexpr int rows = static_cast<int>(std::size(kStartAlphaFractions));
+        double row_lo[rows] = {}, row_hi[rows] = {}, row_value[rows][kStartBetas];
+        for (int i = 0; i < rows; ++i) {
+            const double a = kStartAlphaFractions[i] * out.alpha_max;
             const auto [lo, hi] = region.beta_interval(a, 1e-3);
-            if (!(hi > lo)) continue;
+            row_lo[i] = lo;
+            row_hi[i] = hi;
             for (int j = 0; j < kStartBetas; ++j) {
+                row_value[i][j] = HUGE_VAL;
+                if (!(hi > lo)) continue;
                 const double b = lo + (j + 0.5) * (hi - lo) / kStartBetas;
                 const double v = std::abs(schur_cohn<double>(p_est.at(a, b)).margin) < kStabilityRefinementMargin
                                      ? HUGE_VAL
                                      : cost(a, b);
+                row_value[i][j] = v;
                 if (v < best_value) {
                     best_value = v;
                     best_a = a;
                     best_b = b;
                     best_width = hi - lo;
                 }
+            }
+        }
+        // The start rows that compete with the best start point (kRowRefineRatio) and, where one does, the best
+        // point's row: their minima over beta between the neighbours of the row's lowest point (or its interval end).
+        static_assert(kStartBetas == 3, "the valley test reads a row's three points");
+        const double best_start = best_value;
+        bool competing[rows] = {};
+        bool any = false;
+        int best_row = -1;
+        for (int i = 0; i < rows; ++i) {
+            const double* v = row_value[i];
+            if (v[0] == best_start || v[1] == best_start || v[2] == best_start) {
+                if (best_row < 0) best_row = i;
+                continue;
+            }
+            competing[i] = v[1] <= kRowRefineRatio * best_start && v[0] >= kRowValleySteepness * v[1] &&
+                           v[2] >= kRowValleySteepness * v[1];
+            any = any || competing[i];
+        }
+        if (any && best_row >= 0) competing[best_row] = true;
+        for (int i = 0; i < rows && any; ++i) {
+            if (!competing[i]) continue;
+            const double* v = row_value[i];
+            const int k = v[0] <= v[1] && v[0] <= v[2] ? 0 : v[1] <= v[2] ? 1 : 2;
+            const double a = kStartAlphaFractions[i] * out.alpha_max;
+            const double width = row_hi[i] - row_lo[i];
+            const detail::ScalarMinimum m = detail::minimize_scalar(
+                [&](double b) { return cost(a, b); }, row_lo[i] + std::max(2 * k - 1, 0) * width / 6,
+                row_lo[i] + std::min(2 * k + 3, 6) * width / 6, kRowRefineTolerance * width, kRowRefineSteps);
+            if (m.value < best_value) {
+                best_value = m.value;
+                best_a = a;
+                best_b = m.x;
+                best_width = width;
             }
         }
         // No finite start cost (a region thinner than the start grid resolves): the region search below.

@@ -240,6 +240,30 @@ TEST(EstimatorFastOptimum, StartGridReachesTheGlobalBasinOfASlowWindow) {
     EXPECT_NEAR(fast.beta / slow.beta, 1.0, 1e-5);
 }
 
+TEST(EstimatorFastOptimum, CompetingStartRowsReachTheGlobalBasinOfASlowerWindow) {
+    // Window 60, delta = 0.05: CE2 has local minima besides brent's global one in narrow beta valleys near
+    // alpha -> 0+ (measured by scripts/estimator-optimum-sweep.sh and a 24-point beta scan of each start row):
+    //  - d = 0: the best start point (0.15 alpha_max, cost 2.06e4) lies in the basin of a local minimum at 0.144
+    //    alpha_max (cost 18230); the global one (15743) lies at 0.022 alpha_max, where the 0.025 row's valley (its
+    //    minimum 1.61e4 at 0.35 of the beta interval) falls between the row's three points (2.3e5, 4.6e4, 1.5e6);
+    //  - d = 1: the 0.15 row's minimum over beta (2.9e4) is lower than the best start point's (0.06 row, 4.0e4),
+    //    but leads to a local minimum (28580); the 0.06 row's own minimum (1.8e4) leads to the global one (17781).
+    // The competing rows' minima over beta (kRowRefineRatio, kRowValleySteepness) must start Newton in the global
+    // basin: the point and cost of AgreesWithBrent's tolerances.
+    const VelocityEstimator e = VelocityEstimator::moving_window(60);
+    EstimatorOptimumOptions slow_options;
+    slow_options.method = OptimumMethod::brent;
+    for (const double d : {0.0, 1.0}) {
+        const NormalizedPlant plant{0, 0.05, d};
+        const EstimatorOptimum fast = optimal_point(Criterion::CE2, plant, e);
+        const EstimatorOptimum slow = optimal_point(Criterion::CE2, plant, e, slow_options);
+        ASSERT_TRUE(fast.cost && slow.cost) << "d=" << d;
+        EXPECT_NEAR(*fast.cost / *slow.cost, 1.0, 1e-10) << "d=" << d;
+        EXPECT_NEAR(fast.alpha / slow.alpha, 1.0, 1e-5) << "d=" << d;
+        EXPECT_NEAR(fast.beta / slow.beta, 1.0, 1e-5) << "d=" << d;
+    }
+}
+
 TEST(EstimatorFastOptimum, EdgeMinimaOfAStiffPlantAgreeWithBrent) {
     // gamma = 0.01 (the plant's own stiffness): the CE2 minimum of these cases lies on the main region's edge
     // alpha -> 0+ (measured: both methods end below 1e-9 alpha_max), and for the slow low-pass at d = 2.5 the main
