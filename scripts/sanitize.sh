@@ -52,7 +52,7 @@ fi
 if [[ "$what" == tsan || "$what" == all ]]; then
   # The scene's own tests (tests/scene) start no thread: TSan reports races between threads only, so they would be
   # ~100 s of CPU that can find nothing here (they run in the release and ASan stages). The scene's hand-overs
-  # between the server thread and the loop run under TSan in the server, process and tick tests.
+  # between the server thread and the loop run under TSan in the server and process tests (the TSan-built daemon).
   stage "TSan: configure" cmake --preset tsan
   stage "TSan: build" cmake --build build/tsan -j"$jobs" --target hapticd hapticd_loop_tests hapticd_tick_tests hapticd_config_tests \
     hapticd_sim_device_tests hapticd_analysis_tests hapticd_process_tests hapticd_retune_tests hapticd_experiment_tests \
