@@ -26,6 +26,7 @@
 
 #include "../core/reference_simulation.hpp"
 #include "../data/accuracy_cases.hpp"
+#include "common/test_paths.hpp"
 
 namespace {
 
@@ -36,8 +37,8 @@ struct Reference {
 
 const std::vector<Reference>& references() {
     static const std::vector<Reference> refs = [] {
-        std::ifstream in(HAPTICOPT_TEST_DATA_DIR "/accuracy_reference.csv");
-        if (!in) throw std::runtime_error("cannot read " HAPTICOPT_TEST_DATA_DIR "/accuracy_reference.csv");
+        std::ifstream in(HAPTICOPT_TEST_DATA_DIR + "/accuracy_reference.csv");
+        if (!in) throw std::runtime_error("cannot read " + HAPTICOPT_TEST_DATA_DIR + "/accuracy_reference.csv");
         std::vector<Reference> out;
         std::string line;
         while (std::getline(in, line)) {

@@ -7,7 +7,7 @@ if(TARGET hapticd_core AND TARGET hapticd_client)
   endif()
   add_executable(hapticd_client_benchmarks "${CMAKE_CURRENT_LIST_DIR}/clients_benchmarks.cpp")
   target_link_libraries(hapticd_client_benchmarks PRIVATE hapticd_core hapticd_client benchmark::benchmark)
-  target_compile_definitions(hapticd_client_benchmarks PRIVATE HAPTICD_BINARY="$<TARGET_FILE:hapticd>")
+  hapticopt_test_paths(hapticd_client_benchmarks HAPTICD_BINARY "$<TARGET_FILE:hapticd>")
   target_include_directories(hapticd_client_benchmarks PRIVATE "${PROJECT_SOURCE_DIR}/tests")  # tests/common/
   add_dependencies(hapticd_client_benchmarks hapticd)
 endif()

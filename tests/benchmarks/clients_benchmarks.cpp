@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "common/process.hpp"
+#include "common/test_paths.hpp"
 #include "common/unix_socket.hpp"
 #include "devices/sim_device.hpp"
 #include "hapticd/client.hpp"

@@ -20,6 +20,8 @@
 #include <limits>
 #include <vector>
 
+#include "common/test_paths.hpp"
+
 namespace hapticopt::limit_cycle_test {
 
 struct Device {

@@ -18,6 +18,8 @@
 
 #include <hapticopt/hapticopt.hpp>
 
+#include "common/test_paths.hpp"
+
 namespace hapticopt {
 namespace {
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/process.hpp"
+#include "common/test_paths.hpp"
 #include "common/unix_socket.hpp"
 
 namespace clients_test {

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "client_process.hpp"
+#include "common/test_paths.hpp"
 
 namespace {
 

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client_process.hpp"
+#include "common/test_paths.hpp"
 
 namespace {
 

@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client_process.hpp"
+#include "common/test_paths.hpp"
 #include "hapticd/client.hpp"
 #include "hapticd/instance.hpp"
 

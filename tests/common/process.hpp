@@ -20,6 +20,8 @@
 #include <thread>
 #include <vector>
 
+#include "common/test_paths.hpp"
+
 extern char** environ;
 
 namespace hapticd::test {

@@ -16,6 +16,7 @@
 #include <set>
 #include <sstream>
 
+#include "common/test_paths.hpp"
 #include "config/config_file.hpp"
 #include "config/options.hpp"
 #include "daemon/exit_codes.hpp"

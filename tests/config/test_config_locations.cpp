@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_paths.hpp"
 #include "config/config_locations.hpp"
 #include "config/options.hpp"
 #include "daemon/exit_codes.hpp"

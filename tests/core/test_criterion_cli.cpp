@@ -16,6 +16,7 @@
 
 #include "cli_output.hpp"
 #include "commands.hpp"
+#include "common/test_paths.hpp"
 #include "criterion_option.hpp"
 
 namespace hapticopt::cli {

@@ -31,6 +31,7 @@
 #include <hapticopt/optimum.hpp>
 #include <hapticopt/estimator_types.hpp>
 
+#include "common/test_paths.hpp"
 #include "paper_table.hpp"
 
 namespace hapticopt {
@@ -56,7 +57,7 @@ void expect_same_optimum(const Optimum& fast, const Optimum& brent, const std::s
 }
 
 TEST(FastOptimum, EqualsTheBrentSearchOnEveryEnergyRowOfTheTables) {
-    std::ifstream in(HAPTICOPT_TEST_DATA_DIR "/paper_tables.csv");
+    std::ifstream in(HAPTICOPT_TEST_DATA_DIR + "/paper_tables.csv");
     std::stringstream text;
     text << in.rdbuf();
     const auto rows = cli::parse_paper_table(text.str());

@@ -18,6 +18,7 @@
 
 #include <hapticopt/optimum.hpp>
 
+#include "common/test_paths.hpp"
 #include "paper_table.hpp"
 #include "reference_simulation.hpp"
 
@@ -44,7 +45,7 @@ const Erratum* erratum_for(const cli::PaperRow& r) {
 }
 
 std::vector<cli::PaperRow> load_rows() {
-    std::ifstream in(HAPTICOPT_TEST_DATA_DIR "/paper_tables.csv");
+    std::ifstream in(HAPTICOPT_TEST_DATA_DIR + "/paper_tables.csv");
     std::stringstream text;
     text << in.rdbuf();
     return cli::parse_paper_table(text.str());

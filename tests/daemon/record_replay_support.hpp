@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_paths.hpp"
 #include "daemon/recording_format.hpp"
 #include "daemon/recording_reader.hpp"
 #include "../server/server_fixture.hpp"

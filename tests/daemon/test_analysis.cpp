@@ -16,6 +16,7 @@
 #include <hapticopt/hapticopt.hpp>
 #include <nlohmann/json.hpp>
 
+#include "common/test_paths.hpp"
 #include "devices/zoh_plant.hpp"
 #include "daemon/hapticd_main.hpp"
 
@@ -425,7 +426,7 @@ TEST(DaemonMatchesAnalysis, ForceNoiseFromTheEncoderStepMatchesTheWhiteNoiseMode
 // that loop, which the analyses below are made for), plus `extra` lines: the loop the tests below analyse.
 std::string falcon_with_the_backward_difference(const std::string& tag, const std::string& extra = "") {
     const auto profile = dir() / (tag + ".toml");
-    std::ifstream in(HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml");
+    std::ifstream in(HAPTICD_SOURCE_CONFIG_DIR + "/devices/falcon.toml");
     std::ofstream out(profile);
     std::string line;
     int dropped = 0;
@@ -598,7 +599,7 @@ TEST(DaemonMatchesAnalysis, TheShippedFalconWindowBoundsTheBuzzToOneCountsForce)
     const std::string trace = (dir() / "falcon_window.csv").string();
     const std::string summary = (dir() / "falcon_window.json").string();
     const RunOutput out =
-        run_hapticd({"hapticd", "--config", "", "--device", HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml",
+        run_hapticd({"hapticd", "--config", "", "--device", HAPTICD_SOURCE_CONFIG_DIR + "/devices/falcon.toml",
                      "--simulate", "--lockstep", "--quiet", "--hand-damping", "4", "--hand-stiffness", "200",
                      "--duration", "6.01", "--trace", trace, "--summary-json", summary},
                     trace, summary);

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/process.hpp"
+#include "common/test_paths.hpp"
 #include "common/trace_rows.hpp"
 #include "daemon/exit_codes.hpp"
 

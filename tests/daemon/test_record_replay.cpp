@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "common/test_paths.hpp"
 #include "record_replay_support.hpp"
 
 namespace hapticd::server_test {
@@ -237,7 +238,7 @@ TEST(RecordReplay, AVersion1RecordingStillReplays) {
 // The profile a recording was made with changed: the replay refuses (exit 10) rather than compare another scene.
 TEST(RecordReplay, AChangedDeviceProfileIsRefused) {
     const std::string profile = (scratch() / "changing.toml").string();
-    std::filesystem::copy_file(HAPTICD_SERVER_TEST_DIR "/sim3.toml", profile,
+    std::filesystem::copy_file(HAPTICD_SERVER_TEST_DIR + "/sim3.toml", profile,
                                std::filesystem::copy_options::overwrite_existing);
     const std::string file = (scratch() / "profile.rec").string();
     Child run(HAPTICD_BINARY,
@@ -264,7 +265,7 @@ namespace {
 // reproduces the zero-force end: 151 ticks, identical.
 TEST(RecordReplay, ADeviceFaultReplaysAtItsTick) {
     const std::string profile = (scratch() / "failing.toml").string();
-    std::filesystem::copy_file(HAPTICD_SOURCE_CONFIG_DIR "/devices/sim.toml", profile,
+    std::filesystem::copy_file(HAPTICD_SOURCE_CONFIG_DIR + "/devices/sim.toml", profile,
                                std::filesystem::copy_options::overwrite_existing);
     std::ofstream(profile, std::ios::app) << "\nfail_at_tick = 150\n";
     const std::string file = (scratch() / "failing.rec").string();

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 
+#include "common/test_paths.hpp"
 #include "record_replay_support.hpp"
 
 namespace hapticd::server_test::record_meshes {

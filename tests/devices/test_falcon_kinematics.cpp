@@ -9,6 +9,7 @@
 #include <numbers>
 #include <random>
 
+#include "common/test_paths.hpp"
 #include "config/options.hpp"
 #include "devices/falcon_kinematics.hpp"
 
@@ -201,7 +202,7 @@ TEST(FalconKinematics, TheEquivalentPositionStepMatchesRoundedAnglesThroughTheKi
 TEST(FalconKinematics, TheFalconProfileCarriesTheEncoderStepAtTheWorkspaceCentre) {
     const Vec3 q = equivalent_position_step(kCentre);
     hapticd::Options o;
-    o.device = HAPTICD_SOURCE_CONFIG_DIR "/devices/falcon.toml";
+    o.device = HAPTICD_SOURCE_CONFIG_DIR + "/devices/falcon.toml";
     const hapticd::DeviceProfile profile = hapticd::load_device_profile(o);
     std::printf("equivalent steps at the centre: x %.6g m, y %.6g m, z %.6g m\n", q[0], q[1], q[2]);
     for (std::size_t a = 0; a < 3; ++a) {

@@ -6,6 +6,7 @@
 
 #include <cstdlib>
 
+#include "common/test_paths.hpp"
 #include "devices/device_list.hpp"
 #include "devices/falcon_device.hpp"
 #include "devices/hid_device.hpp"

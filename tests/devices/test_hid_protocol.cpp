@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_paths.hpp"
 #include "devices/hid_ffb_protocol.hpp"
 #include "pid_descriptor.hpp"
 

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "common/run_child.hpp"
+#include "common/test_paths.hpp"
 #include "emulated_falcon.hpp"
 #include "emulated_hid_device.hpp"
 #include "node_access.hpp"

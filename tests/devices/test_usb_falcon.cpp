@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/test_paths.hpp"
 #include "daemon/fatal_signal.hpp"
 #include "devices/falcon_device.hpp"
 #include "devices/transport_libusb.hpp"

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/test_paths.hpp"
 #include "daemon/fatal_signal.hpp"
 #include "devices/hid_device.hpp"
 #include "emulated_hid_device.hpp"

@@ -34,6 +34,7 @@
 #include <hapticopt/step_response.hpp>
 #include <hapticopt/estimator_types.hpp>
 
+#include "common/test_paths.hpp"
 #include "svg/svg_contour.hpp"
 #include "svg_reader.hpp"
 #include "svg/svg_writer.hpp"

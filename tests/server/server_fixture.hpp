@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/process.hpp"
+#include "common/test_paths.hpp"
 #include "common/unix_socket.hpp"
 #include "hapticd/client.hpp"
 
@@ -77,7 +78,7 @@ inline std::vector<std::string> daemon_args(const Names& n, const std::vector<st
                                             const std::string& profile = "sim3.toml") {
     const std::vector<std::pair<std::string, std::string>> defaults{
         {"--config", ""},
-        {"--device", std::string(HAPTICD_SERVER_TEST_DIR "/") + profile},
+        {"--device", HAPTICD_SERVER_TEST_DIR + "/" + profile},
         {"--serve-socket", n.socket},
         {"--serve-shm", n.shm},
         {"--rt-priority", "0"},

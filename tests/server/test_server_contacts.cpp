@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <map>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {
@@ -28,7 +29,7 @@ namespace {
 std::vector<std::string> contact_daemon_args(const Names& n, const std::vector<std::string>& walls,
                                              const std::string& rt_priority = "0") {
     std::vector<std::string> a{"--config",  "",
-                               "--device",  std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/sim.toml"),
+                               "--device",  HAPTICD_SERVER_TEST_DIR + "/../../config/devices/sim.toml",
                                "--serve",   "--serve-socket",
                                n.socket,    "--serve-shm",
                                n.shm,       "--rt-priority",

@@ -12,6 +12,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {
@@ -46,18 +47,13 @@ constexpr std::size_t kStopWindow = 5;
 std::vector<HandTraceRow> readme_run(const std::string& tag, const std::vector<std::string>& extra) {
     const Names n = names(tag);
     const std::string trace = (scratch() / (tag + ".csv")).string();
-    std::vector<std::string> args{
-        "--config",       "",
-        "--device",       std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/sim.toml"),
-        "--serve",        "--no-walls",
-        "--serve-socket", n.socket,
-        "--serve-shm",    n.shm,
-        "--rt-priority",  "0",
-        "--mlock",        "false",
-        "--lockstep",     "--serve-wait-commit",
-        "--duration",     "2",
-        "--trace",        trace,
-        "--trace-axis",   "0"};
+    const std::string profile = HAPTICD_SERVER_TEST_DIR + "/../../config/devices/sim.toml";
+    std::vector<std::string> args{"--config",     "",           "--device",       profile,
+                                  "--serve",      "--no-walls", "--serve-socket", n.socket,
+                                  "--serve-shm",  n.shm,        "--rt-priority",  "0",
+                                  "--mlock",      "false",      "--lockstep",     "--serve-wait-commit",
+                                  "--duration",   "2",          "--trace",        trace,
+                                  "--trace-axis", "0"};
     args.insert(args.end(), extra.begin(), extra.end());
     Child daemon(HAPTICD_BINARY, args, tag + "_daemon");
     EXPECT_TRUE(wait_for_socket(n.socket)) << daemon.err();
@@ -128,7 +124,7 @@ TEST(ServerHand, TheReadmeWallAppearsWithoutAKickAndTheHandleRestsOnIt) {
 // moves between the encoder levels next to the balance (the buzz of docs/velocity-estimation.md, "In the
 // daemon"); 5 q bounds that cycle loosely and is still 10^5 times below the free device's drift.
 TEST(ServerHand, TheSimulatedFalconDoesNotDrift) {
-    const std::string falcon = std::string(HAPTICD_SERVER_TEST_DIR "/../../config/devices/falcon.toml");
+    const std::string falcon = HAPTICD_SERVER_TEST_DIR + "/../../config/devices/falcon.toml";
     const Names n = names("falcon_rest");
     const std::string rest_trace = (scratch() / "falcon_rest.csv").string();
     Child serving(HAPTICD_BINARY, {"--config",

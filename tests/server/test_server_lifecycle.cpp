@@ -13,6 +13,7 @@
 #include <cstring>
 
 #include "common/run_child.hpp"
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {
@@ -197,7 +198,7 @@ TEST(ServeShm, ANonRootDaemonRefusesASegmentAnotherUserMadeFirst) {
     }
     auto run_as_nobody = [&](const std::string& shm) {
         return test::run_child(
-            {HAPTICD_BINARY, "--config", "", "--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml", "--serve",
+            {HAPTICD_BINARY, "--config", "", "--device", HAPTICD_SERVER_TEST_DIR + "/sim3.toml", "--serve",
              "--serve-socket", "/tmp/hapticd-test-" + tag + "-nobody.sock", "--serve-shm", shm, "--rt-priority", "0",
              "--mlock", "false", "--lockstep", "--duration", "0.05", "--wall", "axis=0 position=0.05 direction=+1"},
             std::chrono::seconds(60), &nobody);

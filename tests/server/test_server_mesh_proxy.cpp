@@ -8,6 +8,7 @@
 // a mesh publishes none, and the proxy goes with its object.
 #include <cmath>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test::mesh_proxy_test {

@@ -10,6 +10,7 @@
 
 #include <hapticopt/hapticopt.hpp>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {

@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <hapticopt/hapticopt.hpp>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {

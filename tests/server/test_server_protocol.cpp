@@ -6,6 +6,7 @@
 #include <pwd.h>
 #include <sys/stat.h>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {
@@ -233,8 +234,8 @@ TEST(ServerStiffnessLimit, AConfigWallAboveMaxStiffnessIsRefusedAtStartUp) {
         "--config",    "",       "--dry-run", "--wall", "axis=0 position=0.05 direction=+1",
         "--stiffness", "150000", "--damping", "150"};
     std::vector<std::string> limited = args, unlimited = args;
-    limited.insert(limited.end(), {"--device", HAPTICD_SERVER_TEST_DIR "/sim3_aniso.toml"});
-    unlimited.insert(unlimited.end(), {"--device", HAPTICD_SERVER_TEST_DIR "/sim3.toml"});
+    limited.insert(limited.end(), {"--device", HAPTICD_SERVER_TEST_DIR + "/sim3_aniso.toml"});
+    unlimited.insert(unlimited.end(), {"--device", HAPTICD_SERVER_TEST_DIR + "/sim3.toml"});
     Child refused(HAPTICD_BINARY, limited, "stiff_wall_refused");
     EXPECT_EQ(refused.wait(), 4) << refused.err();
     EXPECT_NE(refused.err().find("max_stiffness = 100000"), std::string::npos) << refused.err();

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/test_paths.hpp"
 #include "server_fixture.hpp"
 
 namespace hapticd::server_test {

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_paths.hpp"
 #include "mesh/mesh_hierarchy.hpp"
 #include "mesh/procedural_meshes.hpp"
 #include "scene/scene_objects.hpp"
@@ -218,7 +219,7 @@ std::vector<std::pair<std::size_t, std::string>> table_rows(const std::string& t
 }
 
 TEST(StateLayoutDoc, TheProtocolTablesGiveEachFieldTheStructsOffset) {
-    std::ifstream f(HAPTICD_SOURCE_DIR "/docs/protocol.md");
+    std::ifstream f(HAPTICD_SOURCE_DIR + "/docs/protocol.md");
     ASSERT_TRUE(f.good());
     std::stringstream buffer;
     buffer << f.rdbuf();
