@@ -47,10 +47,30 @@ out=build/fuzz
 mkdir -p "$out/artifacts"
 flags=(-std=c++20 -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all
        -Wall -Wextra -Wpedantic -Werror -Isrc)
+# Each source is compiled to its own object (through ccache when it is installed: a later run compiles only what
+# changed), two at a time, then each target is linked.
+launcher=()
+command -v ccache >/dev/null 2>&1 && launcher=(ccache)
+compile() {  # compile <target> <source>: $out/obj/<target>/<source path with / as _>.o
+  local object="$out/obj/$1/${2//\//_}.o"
+  mkdir -p "$out/obj/$1"
+  "${launcher[@]}" "$cxx" "${flags[@]}" ${extra_flags[$1]:-} -c "$2" -o "$object"
+}
+jobs_running=0
 for t in "${targets[@]}"; do
   [[ -n "${sources[$t]:-}" ]] || { echo "fuzz.sh: unknown target '$t'" >&2; exit 2; }
   echo "fuzz.sh: building $out/fuzz_$t" >&2
-  "$cxx" "${flags[@]}" ${extra_flags[$t]:-} "tests/fuzz/fuzz_$t.cpp" ${sources[$t]} -o "$out/fuzz_$t"
+  for source in "tests/fuzz/fuzz_$t.cpp" ${sources[$t]}; do
+    if [[ $jobs_running -ge 2 ]]; then wait -n; jobs_running=$((jobs_running - 1)); fi
+    compile "$t" "$source" &
+    jobs_running=$((jobs_running + 1))
+  done
+done
+while [[ $jobs_running -gt 0 ]]; do wait -n; jobs_running=$((jobs_running - 1)); done
+for t in "${targets[@]}"; do
+  objects=()
+  for source in "tests/fuzz/fuzz_$t.cpp" ${sources[$t]}; do objects+=("$out/obj/$t/${source//\//_}.o"); done
+  "$cxx" "${flags[@]}" "${objects[@]}" -o "$out/fuzz_$t"
 done
 
 status=0
