@@ -117,8 +117,8 @@ TEST(VelocityCli, OptimumWithEstimator) {
     EXPECT_EQ(out["stable_islands"].size(), 1u);
     // OV with the estimator: estimator_overshoot_point's point (no overshoot there). Window 5 (0.08 s in a release
     // build, against 0.8 s for window 15 and nine times that under ASan): the CLI's plumbing is the same.
-    const auto [code2, ov_point] = run_velocity_command(
-        add_optimum_command, {"optimum", "--criterion", "OV", "--velocity", "window:5", "--json"});
+    const auto [code2, ov_point] =
+        run_velocity_command(add_optimum_command, {"optimum", "--criterion", "OV", "--velocity", "window:5", "--json"});
     ASSERT_EQ(code2, 0);
     const NoiseBudgetOptimum expected_ov = estimator_overshoot_point({0, 0, 0}, VelocityEstimator::moving_window(5));
     EXPECT_EQ(ov_point["alpha"].get<double>(), expected_ov.alpha);
