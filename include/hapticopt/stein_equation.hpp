@@ -128,9 +128,13 @@ class ShiftSteinSolver {
             }
             const int rest = u - j - 1;
             lu_.col(j).tail(rest) *= Scalar(1) / d;  // the multipliers by the pivot's reciprocal (as LAPACK's getf2)
-            // The rank-1 update of the trailing block as one expression (vectorised; each entry is
-            // a - f b, as written out element by element).
-            lu_.bottomRightCorner(rest, rest).noalias() -= lu_.col(j).tail(rest) * lu_.row(j).tail(rest);
+            // The rank-1 update of the trailing block row by row (each entry a - f b, vectorised along the row),
+            // skipping the rows whose multiplier f is zero (a - 0 b = a): the reduced system's shift equations
+            // hold few non-zeros (n + 1 of its 2n - 1 columns), so before the fill-in most rows have none here.
+            for (int i = j + 1; i < u; ++i) {
+                const Scalar f = lu_(i, j);
+                if (f != Scalar(0)) lu_.row(i).tail(rest) -= f * lu_.row(j).tail(rest);
+            }
         }
     }
 
