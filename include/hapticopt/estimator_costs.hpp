@@ -83,6 +83,20 @@ EnergyCostsT<Scalar> shift_structured_energy_costs(const SampledPlant<Scalar>& p
     return energy_costs_from_stein_solver(plant, loop, stein);
 }
 
+/// C_E0..2 of the estimator's loop `loop` (make_estimator_loop) at gains whose p_est Schur-Cohn has already found
+/// stable outside its margin kStabilityRefinementMargin: the window through shift_structured_energy_costs, the
+/// low-pass through RowShiftSteinSolver (one LU each, no verdict of its own). +inf if a pivot vanishes.
+template <typename Scalar>
+EnergyCostsT<Scalar> structured_estimator_energy_costs(const SampledPlant<Scalar>& plant,
+                                                       const VelocityEstimator& estimator,
+                                                       const ClosedLoop<Scalar>& loop) {
+    if (estimator.kind != VelocityEstimatorKind::lowpass) return shift_structured_energy_costs(plant, loop);
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    const RowShiftSteinSolver<Scalar> stein(loop.transition);
+    if (!stein.ok()) return {inf, inf, inf};
+    return energy_costs_from_stein_solver(plant, loop, stein);
+}
+
 }  // namespace detail
 
 /// C_E0..2 with the estimator for a precomputed plant, +inf when unstable (M's spectral radius >= 1, or the
@@ -96,7 +110,6 @@ EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, c
     const Scalar inf = std::numeric_limits<Scalar>::infinity();
     if (!(alpha + Scalar(plant.parameters().gamma) > Scalar(0))) return {inf, inf, inf};
     const EstimatorLoop<Scalar> el = make_estimator_loop(plant, estimator, alpha, beta, false);
-    const bool fir = estimator.kind != VelocityEstimatorKind::lowpass;
     if (!dense) {
         // The structured solvers do not see instability by themselves: Schur-Cohn on p_est first; near the
         // boundary (|margin| < 1e-4) the complex-Schur path below decides by the spectral radius.
@@ -105,10 +118,7 @@ EnergyCostsT<Scalar> estimator_energy_costs(const SampledPlant<Scalar>& plant, c
         using std::abs;
         if (abs(sc.margin) >= Scalar(kStabilityRefinementMargin)) {
             if (!sc.stable) return {inf, inf, inf};
-            if (fir) return detail::shift_structured_energy_costs(plant, el.loop);
-            const RowShiftSteinSolver<Scalar> stein(el.loop.transition);
-            if (!stein.ok()) return {inf, inf, inf};
-            return detail::energy_costs_from_stein_solver(plant, el.loop, stein);
+            return detail::structured_estimator_energy_costs(plant, estimator, el.loop);
         }
     }
     const LoopSchurForm<Scalar> schur = loop_schur_form(el.loop.transition);

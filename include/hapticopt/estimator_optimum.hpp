@@ -191,9 +191,14 @@ HAPTICOPT_FUNC EstimatorOptimum optimal_point(Criterion criterion, const Normali
                 row_value[i][j] = HUGE_VAL;
                 if (!(hi > lo)) continue;
                 const double b = lo + (j + 0.5) * (hi - lo) / kStartBetas;
-                const double v = std::abs(schur_cohn<double>(p_est.at(a, b)).margin) < kStabilityRefinementMargin
-                                     ? HUGE_VAL
-                                     : cost(a, b);
+                // cost(a, b) on the verdict already taken here (estimator_energy_costs' structured route).
+                const SchurCohnResult<double> sc = schur_cohn<double>(p_est.at(a, b));
+                double v = HUGE_VAL;
+                if (std::abs(sc.margin) >= kStabilityRefinementMargin && sc.stable) {
+                    const EnergyCosts c = detail::structured_estimator_energy_costs(
+                        sampled, estimator, make_estimator_loop(sampled, estimator, a, b, false).loop);
+                    v = index == 0 ? c.ce0 : index == 1 ? c.ce1 : c.ce2;
+                }
                 row_value[i][j] = v;
                 if (v < best_value) {
                     best_value = v;

@@ -121,7 +121,13 @@ class RowShiftSteinSolver {
             }
             const int rest = u - j - 1;
             lu_.col(j).tail(rest) *= Scalar(1) / d;
-            lu_.bottomRightCorner(rest, rest).noalias() -= lu_.col(j).tail(rest) * lu_.row(j).tail(rest);
+            // The rank-1 update of the trailing block row by row (each entry a - f b, vectorised along the row),
+            // skipping the rows whose multiplier f is zero (a - 0 b = a): the reduced system's shift equations
+            // hold a few non-zeros each, so before the fill-in most rows have none here.
+            for (int i = j + 1; i < u; ++i) {
+                const Scalar f = lu_(i, j);
+                if (f != Scalar(0)) lu_.row(i).tail(rest) -= f * lu_.row(j).tail(rest);
+            }
         }
     }
 

@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <utility>
@@ -84,6 +85,14 @@ class ShiftSteinSolver {
     explicit ShiftSteinSolver(const Top& top) : top_(top), n_(static_cast<int>(top.cols())) {
         const int n = n_;
         const int u = 2 * n - 1;
+        for (int a = 0; a < 2; ++a) {
+            nonzero_[a].resize(n);
+            int count = 0;
+            for (int m = 0; m < n; ++m) {
+                if (top_(a, m) != Scalar(0)) nonzero_[a](count++) = m;
+            }
+            nonzero_[a].conservativeResize(count);
+        }
         ref_.resize(n, n);
         for (int k = 0; k < n; ++k) {
             for (int l = 0; l < n; ++l) {
@@ -98,10 +107,10 @@ class ShiftSteinSolver {
                 lu_(eq, eq) += Scalar(1);
                 if (b >= 2) {
                     const int sb = shift_source(b);
-                    for (int m = 0; m < n; ++m) lu_(eq, ref_(m, sb)) -= top_(a, m);
+                    for (const int m : nonzero_[a]) lu_(eq, ref_(m, sb)) -= top_(a, m);
                 } else {
-                    for (int m = 0; m < n; ++m) {
-                        for (int l = 0; l < n; ++l) lu_(eq, ref_(m, l)) -= top_(a, m) * top_(b, l);
+                    for (const int m : nonzero_[a]) {
+                        for (const int l : nonzero_[b]) lu_(eq, ref_(m, l)) -= top_(a, m) * top_(b, l);
                     }
                 }
             }
@@ -128,9 +137,13 @@ class ShiftSteinSolver {
             }
             const int rest = u - j - 1;
             lu_.col(j).tail(rest) *= Scalar(1) / d;  // the multipliers by the pivot's reciprocal (as LAPACK's getf2)
-            // The rank-1 update of the trailing block as one expression (vectorised; each entry is
-            // a - f b, as written out element by element).
-            lu_.bottomRightCorner(rest, rest).noalias() -= lu_.col(j).tail(rest) * lu_.row(j).tail(rest);
+            // The rank-1 update of the trailing block row by row (each entry a - f b, vectorised along the row),
+            // skipping the rows whose multiplier f is zero (a - 0 b = a): the reduced system's shift equations
+            // hold few non-zeros (n + 1 of its 2n - 1 columns), so before the fill-in most rows have none here.
+            for (int i = j + 1; i < u; ++i) {
+                const Scalar f = lu_(i, j);
+                if (f != Scalar(0)) lu_.row(i).tail(rest) -= f * lu_.row(j).tail(rest);
+            }
         }
     }
 
@@ -156,7 +169,7 @@ class ShiftSteinSolver {
                     v = p(a, shift_source(b));
                 } else {
                     v = 0;
-                    for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+                    for (const int m : nonzero_[b]) v += p(a, m) * top_(b, m);
                 }
                 rhs(basic(a, b)) = c(a, b) + v;
             }
@@ -225,10 +238,10 @@ class ShiftSteinSolver {
                 const Scalar l = lambda(basic(a, b));
                 if (b >= 2) {
                     const int sb = shift_source(b);
-                    for (int k = 0; k < n; ++k) phi(k, sb) += l * top_(a, k);
+                    for (const int k : nonzero_[a]) phi(k, sb) += l * top_(a, k);
                 } else {
-                    for (int m = 0; m < n; ++m) {
-                        for (int k = 0; k < n; ++k) phi(k, m) += l * top_(a, k) * top_(b, m);
+                    for (const int m : nonzero_[b]) {
+                        for (const int k : nonzero_[a]) phi(k, m) += l * top_(a, k) * top_(b, m);
                     }
                 }
             }
@@ -260,7 +273,7 @@ class ShiftSteinSolver {
         for (int a = 0; a < 2; ++a) {
             for (int b = 0; b < 2; ++b) {
                 Scalar v = 0;
-                for (int m = 0; m < n; ++m) v += p(a, m) * top_(b, m);
+                for (const int m : nonzero_[b]) v += p(a, m) * top_(b, m);
                 y(a, b) = v;
             }
         }
@@ -297,10 +310,8 @@ class ShiftSteinSolver {
         Top p(2, n);
         for (int l = 0; l < n; ++l) {
             Scalar v0 = 0, v1 = 0;
-            for (int m = 0; m < n; ++m) {
-                v0 += top_(0, m) * x(m, l);
-                v1 += top_(1, m) * x(m, l);
-            }
+            for (const int m : nonzero_[0]) v0 += top_(0, m) * x(m, l);
+            for (const int m : nonzero_[1]) v1 += top_(1, m) * x(m, l);
             p(0, l) = v0;
             p(1, l) = v1;
         }
@@ -311,6 +322,9 @@ class ShiftSteinSolver {
     int basic(int a, int b) const { return a == 0 ? b : n_ + b - 1; }
 
     Top top_;
+    /// The columns m where top_(a, m) != 0, ascending: the sums over m above skip the zero terms (v + 0 m = v, so
+    /// the results are those of the full sums); an estimator's force row reads few of the history's entries.
+    std::array<Eigen::Matrix<int, Eigen::Dynamic, 1, 0, MaxN, 1>, 2> nonzero_;
     int n_;
     bool ok_ = true;
     Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, 0, MaxN, MaxN> ref_;
