@@ -6,14 +6,15 @@ A citation is a word that starts with one of the repository's top-level folders 
 include/, apps/, tests/, docs/, scripts/, config/, python/, .ci/) followed by a path whose last part names a
 file (it has a dot or a glob) or ends with "/": `src/server/server.cpp`, `tests/common/run_child.*`,
 `src/daemon/recorder*`, `docs/protocol.md`, `tests/common/`. It resolves against the repository root, src/,
-include/ or the citing file's folder (sources include "config/options.hpp" from src/). Globs (`*`) and brace
-lists (`{a,b}`) are expanded. Not citations: paths in URLs, in a build tree (`build/...`), and paths of an
+include/ or the citing file's folder (sources include "config/options.hpp" from src/), against the tracked files
+and their folders only: a file that exists in this checkout but is not tracked (a build product, an untracked
+draft) is dangling, as it is in a clean clone. Globs (`*`) and brace lists (`{a,b}`) are expanded. Not
+citations: paths in URLs, in a build tree (after `build`, or through a folder named `build`), and paths of an
 upstream project named on the same or the previous line (UPSTREAM), and templates with a placeholder
 (`src/{name}/`, a brace group without a comma). tests/layout/ (the layout checks' own tests, which build
 trees with dangling paths on purpose) is not scanned. Usage: check-cited-paths.py [REPO_ROOT] — exit 1 and one line per dangling
 citation (file:line: path), exit 0 when every citation resolves.
 """
-import glob
 import os
 import re
 import subprocess
@@ -40,13 +41,27 @@ def names_a_file(cited):
     return cited.endswith("/") or "." in last or "*" in last or "}" in last
 
 
-def resolves(root, citing_dir, cited):
-    for base in (root, os.path.join(root, "src"), os.path.join(root, "include"), os.path.join(root, citing_dir)):
+def resolves(tracked, citing_dir, cited):
+    """tracked: the tracked files and every folder above them, as "a/b/c" and "a/b/"."""
+    for base in ("", "src/", "include/", citing_dir + "/" if citing_dir else ""):
         for path in expand(cited):
-            full = os.path.join(base, path)
-            if glob.glob(full) if "*" in path else os.path.exists(full):
+            full = os.path.normpath(base + path) + ("/" if path.endswith("/") else "")
+            if "*" in path:
+                pattern = re.compile("[^/]*".join(re.escape(p) for p in full.split("*")) + "/?")
+                if any(pattern.fullmatch(t) for t in tracked):
+                    return True
+            elif full in tracked or full + "/" in tracked:
                 return True
     return False
+
+
+def with_folders(files):
+    out = set(files)
+    for f in files:
+        parts = f.split("/")
+        for i in range(1, len(parts)):
+            out.add("/".join(parts[:i]) + "/")
+    return sorted(out)
 
 
 def tracked_files(root):
@@ -67,6 +82,8 @@ def tracked_files(root):
 def main():
     root = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), ".."))
     files = tracked_files(root)
+    tracked = with_folders(files)
+    tracked_set = set(tracked)
     dangling = []
     for rel in files:
         if not SCANNED.search(rel) or rel.startswith(("tests/fuzz/corpus", "tests/layout/")):
@@ -83,9 +100,11 @@ def main():
                 before = line[: m.start(1)]
                 if not names_a_file(cited) or re.search(r"(https?://|build)\S*$", before) or re.search(r"\{[^,{}]*\}", cited):
                     continue
+                if "build" in cited.split("/"):
+                    continue
                 if any(u in before or u in previous for u in UPSTREAM):
                     continue
-                if not resolves(root, os.path.dirname(rel), cited):
+                if not resolves(tracked if "*" in cited else tracked_set, os.path.dirname(rel), cited):
                     dangling.append(f"{rel}:{number}: {cited}")
     for d in dangling:
         print(d)
