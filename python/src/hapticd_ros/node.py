@@ -29,7 +29,8 @@ from std_srvs.srv import Trigger
 import hapticd_client as hc
 
 from .object_words import ObjectWordsError, moved, parse_object_words
-from .state_messages import fill_pose, fill_twist, fill_wrench, realtime_offset_ns, stamp_of, status
+from .realtime_offset import RealtimeOffset
+from .state_messages import fill_pose, fill_twist, fill_wrench, stamp_of, status
 
 OBJECT_PREFIX = "objects."
 OBJECT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,62}$")
@@ -304,6 +305,7 @@ class HapticdNode(Node):
         for msg in (pose, twist, wrench):
             msg.header.frame_id = self.frame_id
         period_ns = int(round(1e9 / self.rate_hz))
+        offset = RealtimeOffset()
         deadline = time.monotonic_ns()
         last_tick = -1
         last_status = 0.0
@@ -328,7 +330,7 @@ class HapticdNode(Node):
                     else:
                         condition = (DiagnosticStatus.OK, "rendering")
                     if not sample.stale and sample.tick != last_tick:
-                        stamp = stamp_of(sample.time_s, realtime_offset_ns())
+                        stamp = stamp_of(sample.time_s, offset.ns())
                         for msg in (pose, twist, wrench):
                             msg.header.stamp = stamp
                         fill_pose(pose, sample.position)
@@ -368,6 +370,7 @@ class HapticdNode(Node):
         values object_id, object (this node's name for it, else ""), tick, position, force, dropped."""
         name = f"{self.get_fully_qualified_name()}: contact"
         hardware_id = self.device.name
+        offset = RealtimeOffset()
         while not self._stop.is_set():
             try:
                 event = self._contact_client.next_contact(0.1)
@@ -379,7 +382,7 @@ class HapticdNode(Node):
             with self._registering:
                 object_name = self._names_by_id.get(event.object_id, "")
             array = DiagnosticArray()
-            array.header.stamp = stamp_of(event.time_s, realtime_offset_ns())
+            array.header.stamp = stamp_of(event.time_s, offset.ns())
             array.header.frame_id = self.frame_id
             array.status = [status(DiagnosticStatus.OK, name, event.event, hardware_id, object_id=event.object_id,
                                    object=object_name, tick=event.tick,

@@ -2,23 +2,17 @@
 """The device's state (one tick of the shared memory, hapticd_client.StateSample) as ROS 2 messages.
 
 Stamps: the tick's wake-up time ``time_s`` is CLOCK_MONOTONIC; ROS stamps are the system clock (ROS time
-without simulated time), so a stamp is ``time_s + (CLOCK_REALTIME - CLOCK_MONOTONIC)``, the offset read at
-publication (two clock reads ~0.1 us apart). A subscriber's ``now - stamp`` is then the time from the tick to
-its callback."""
+without simulated time), so a stamp is ``time_s + (CLOCK_REALTIME - CLOCK_MONOTONIC)``, the offset measured by
+the publishing thread's realtime_offset.RealtimeOffset. A subscriber's ``now - stamp`` is then the time from the tick
+to its callback."""
 
 from __future__ import annotations
 
-import time
 from typing import Sequence
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
-
-
-def realtime_offset_ns() -> int:
-    """CLOCK_REALTIME - CLOCK_MONOTONIC now, ns."""
-    return time.clock_gettime_ns(time.CLOCK_REALTIME) - time.clock_gettime_ns(time.CLOCK_MONOTONIC)
 
 
 def stamp_of(time_s: float, offset_ns: int) -> Time:
