@@ -137,7 +137,8 @@ bool EmulatedFalcon::complete_in(Flying& f, std::chrono::steady_clock::time_poin
         return true;
     }
     auto& rx = static_cast<ScriptedTransport&>(*model_.transport).rx;
-    while (!held_.empty() && held_.front().release <= now) {  // a slow loader's echo, now burned
+    // A slow loader's echo, burned, and answered status-only at least once meanwhile (the lockstep above).
+    while (!held_.empty() && held_.front().release <= now && held_.front().status_only_sent) {
         rx.insert(rx.end(), held_.front().bytes.begin(), held_.front().bytes.end());
         held_.pop_front();
         log_.last_echo_released = now;
@@ -148,6 +149,7 @@ bool EmulatedFalcon::complete_in(Flying& f, std::chrono::steady_clock::time_poin
     if (rx.empty()) {  // this packet carries the status bytes alone
         if (!held_.empty()) {
             ++log_.status_only_while_burning;
+            held_.front().status_only_sent = true;
         } else if (dtr_high_ != std::chrono::steady_clock::time_point{} && !loader_answered_ &&
                    !falcon_.firmware_running) {
             ++log_.status_only_while_waking;

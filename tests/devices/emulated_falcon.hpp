@@ -12,9 +12,11 @@
 // A loader that takes its time (set_slow_loader()): after DTR goes high (the end of the loader set-up,
 // FalconCommLibUSB.cpp setFirmwareMode()) the loader ignores what it is sent for `wake_up`, and it holds
 // the echo of every firmware chunk for `burn_per_chunk` (the chunk being written to the microcontroller's
-// memory). Meanwhile the FTDI chip answers each bulk IN with the 2 status bytes alone when its latency
-// timer (16 ms in the loader mode) runs out, which is what the driver's handshake tries and per-chunk
-// empty reads see. The emulation counts those status-only packets and times the load.
+// memory) and, in lockstep with the host, until at least one bulk IN came back status-only during the hold: a
+// host thread preempted past the hold still meets the packets the test is about. Meanwhile the FTDI chip answers each
+// bulk IN with the 2 status bytes alone when its latency timer (16 ms in the loader mode) runs out, which is what the
+// driver's handshake tries and per-chunk empty reads see. The emulation counts those status-only packets and times the
+// load.
 #pragma once
 
 #include <chrono>
@@ -68,7 +70,7 @@ class EmulatedFalcon {
 
     struct SlowLoader {
         std::chrono::milliseconds wake_up{0};         // from DTR high until the loader listens
-        std::chrono::milliseconds burn_per_chunk{0};  // each firmware chunk's echo is held this long
+        std::chrono::milliseconds burn_per_chunk{0};  // each firmware chunk's echo is held at least this long
     };
     void set_slow_loader(SlowLoader s) {
         auto l = lock();
@@ -104,6 +106,7 @@ class EmulatedFalcon {
     struct HeldEcho {
         std::chrono::steady_clock::time_point release;
         std::vector<std::uint8_t> bytes;
+        bool status_only_sent = false;  // a bulk IN came back with the status bytes alone during the hold
     };
 
     _UMockdevTestbed* testbed_ = nullptr;
