@@ -57,6 +57,19 @@ def test_a_wide_bracket_keeps_the_previous_offset_and_is_measured_again():
     assert not clock.readings
 
 
+def test_a_wide_first_bracket_is_kept_only_until_the_next_call():
+    clock = ScriptedClock(
+        [(M, 0)] + bracket(0, 5_000_000, 300_000)            # first: width 300 us, offset 4 850 000, provisional
+        + [(M, 400_000)] + bracket(400_000, 401_000, 400_000)  # the next call measures again: offset 1000, kept
+        + [(M, 500_000)]                                     # then held for refresh_s
+    )
+    offset = RealtimeOffset(refresh_s=0.1, max_bracket_ns=100_000, tries=1, clock=clock)
+    assert offset.ns() == 4_850_000 and offset.rejected == 1
+    assert offset.ns() == 1000
+    assert offset.ns() == 1000
+    assert not clock.readings
+
+
 @pytest.mark.parametrize("kwargs, named", [
     (dict(refresh_s=0), "refresh_s"), (dict(refresh_s=float("nan")), "refresh_s"),
     (dict(max_bracket_ns=0), "max_bracket_ns"), (dict(tries=0), "tries"), (dict(tries=1.5), "tries"),

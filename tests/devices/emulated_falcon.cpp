@@ -137,7 +137,8 @@ bool EmulatedFalcon::complete_in(Flying& f, std::chrono::steady_clock::time_poin
         return true;
     }
     auto& rx = static_cast<ScriptedTransport&>(*model_.transport).rx;
-    // A slow loader's echo, burned, and answered status-only at least once meanwhile (the lockstep above).
+    // A slow loader's echo, burned, and answered status-only at least once meanwhile (emulated_falcon.hpp: the
+    // lockstep).
     while (!held_.empty() && held_.front().release <= now && held_.front().status_only_sent) {
         rx.insert(rx.end(), held_.front().bytes.begin(), held_.front().bytes.end());
         held_.pop_front();

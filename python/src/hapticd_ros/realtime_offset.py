@@ -54,12 +54,15 @@ class RealtimeOffset:
 
     def ns(self) -> int:
         """The offset in ns: the last kept measurement, measured again when older than ``refresh_s``. The first call
-        keeps its measurement whatever its bracket (there is no other yet)."""
+        keeps its measurement whatever its bracket (there is no other yet), but a wide one only until the next call,
+        which measures again."""
         now = self._clock(time.CLOCK_MONOTONIC)
         if self._offset_ns is None or now - self._measured_at_ns >= self._refresh_ns:
             offset, width, at = self._measure()
-            if self._offset_ns is None or width <= self._max_bracket_ns:
+            if width <= self._max_bracket_ns:
                 self._offset_ns, self._measured_at_ns = offset, at
             else:
                 self.rejected += 1
+                if self._offset_ns is None:  # provisional: due again at the next call
+                    self._offset_ns, self._measured_at_ns = offset, at - self._refresh_ns
         return self._offset_ns
