@@ -74,20 +74,23 @@ class HapticdNode(Node):
         if not self.frame_id:
             raise ValueError("frame_id = '': accepted: a non-empty frame name")
 
-        self.client = self._connect(client_name, self.lease_s)
-        self.device = self.client.device
         self._objects: Dict[str, Dict] = {}  # name -> {"id": int, "description": dict, "subscription": ...}
         self._names_by_id: Dict[int, str] = {}
         # Held from a commit's request to the new ids' registration: a contact event of an object just added
         # (its first tick may come before the reply is read) waits for its name.
         self._registering = threading.Lock()
 
+        # The ROS entities first: creating them costs DDS work that a loaded machine can stretch past the lease, and
+        # the lease runs from the session's connection until the executor's keep-alive timer takes over.
         self.pose_pub = self.create_publisher(PoseStamped, "~/pose", 10)
         self.twist_pub = self.create_publisher(TwistStamped, "~/twist", 10)
         self.wrench_pub = self.create_publisher(WrenchStamped, "~/wrench", 10)
         self.contacts_pub = self.create_publisher(DiagnosticArray, "~/contacts", 100)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(Trigger, "~/clear_objects", self._clear_objects)
+
+        self.client = self._connect(client_name, self.lease_s)
+        self.device = self.client.device
 
         # Objects given at start (--ros-args -p objects.NAME:="..." or a params file) are committed as one batch.
         initial = list(self.get_parameters_by_prefix(OBJECT_PREFIX.rstrip(".")).values())
@@ -106,6 +109,8 @@ class HapticdNode(Node):
                                                 daemon=True)
         self._contact_client = self._connect(client_name + " (contacts)", 0.0)
         self._contact_client.subscribe_contacts()
+        # The lease's clock restarts here: the second session's connection above is a round trip to the daemon.
+        self.client.keep_alive()
         self._state_thread.start()
         self._contact_thread.start()
 
