@@ -395,7 +395,8 @@ class ArmBoxTest {
             return std::max(std::abs(detail::horner(at_lo, z)), std::abs(detail::horner(at_hi, z)));
         }
         double derivative_bound(std::complex<double> z) const {
-            return std::max(std::abs(detail::horner_derivative(at_lo, z)), std::abs(detail::horner_derivative(at_hi, z)));
+            return std::max(std::abs(detail::horner_derivative(at_lo, z)),
+                            std::abs(detail::horner_derivative(at_hi, z)));
         }
         double weighted_bound(int power) const {
             return std::max(detail::weighted_sum(at_lo, power), detail::weighted_sum(at_hi, power));

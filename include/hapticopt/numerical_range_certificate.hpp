@@ -57,7 +57,7 @@ namespace hapticopt {
 /// of 4 in [4, 4096]): its vertices (a, b), counter-clockwise. Throws InvalidParameter for A, B not square, of
 /// different sizes, not finite, or another number of directions.
 HAPTICOPT_FUNC std::vector<Eigen::Vector2d> numerical_range_polygon(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
-                                                                     int directions)
+                                                                    int directions)
 #if HAPTICOPT_DEFINITIONS
 {
     const char* fn = "hapticopt::numerical_range_polygon";
@@ -103,8 +103,8 @@ HAPTICOPT_FUNC std::vector<Eigen::Vector2d> numerical_range_polygon(const Eigen:
 
 /// conv(s_lo P u s_hi P) of a polygon P (0 < s_lo <= s_hi, finite): its vertices counter-clockwise (Andrew's monotone
 /// chain; points on an edge dropped).
-HAPTICOPT_FUNC std::vector<Eigen::Vector2d> scaled_polygon_hull(const std::vector<Eigen::Vector2d>& polygon, double s_lo,
-                                                                double s_hi)
+HAPTICOPT_FUNC std::vector<Eigen::Vector2d> scaled_polygon_hull(const std::vector<Eigen::Vector2d>& polygon,
+                                                                double s_lo, double s_hi)
 #if HAPTICOPT_DEFINITIONS
 {
     if (!(s_lo > 0 && s_lo <= s_hi && std::isfinite(s_hi))) {
@@ -142,9 +142,10 @@ HAPTICOPT_FUNC std::vector<Eigen::Vector2d> scaled_polygon_hull(const std::vecto
 
 /// The outcome of certify_by_numerical_range.
 struct NumericalRangeCertificate {
-    bool proven = false;  ///< every edge of K stable over the set: no coupled loop of the family has a root on the circle
-    int edges = 0;        ///< edges of K judged (up to the first that failed)
-    int directions = 0;   ///< support lines of the polygon P
+    bool proven =
+        false;      ///< every edge of K stable over the set: no coupled loop of the family has a root on the circle
+    int edges = 0;  ///< edges of K judged (up to the first that failed)
+    int directions = 0;                          ///< support lines of the polygon P
     double failing_alpha = 0, failing_beta = 0;  ///< not proven: the gains of K at which the edge's verdict failed
 };
 
@@ -158,7 +159,8 @@ NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, c
                                                      double s_hi, int directions, SegmentVerdict&& segment_verdict) {
     NumericalRangeCertificate r;
     r.directions = directions;
-    const std::vector<Eigen::Vector2d> hull = scaled_polygon_hull(numerical_range_polygon(A, B, directions), s_lo, s_hi);
+    const std::vector<Eigen::Vector2d> hull =
+        scaled_polygon_hull(numerical_range_polygon(A, B, directions), s_lo, s_hi);
     for (std::size_t i = 0; i < hull.size(); ++i) {
         const Eigen::Vector2d& from = hull[i];
         const Eigen::Vector2d& to = hull[(i + 1) % hull.size()];

@@ -364,8 +364,8 @@ class GainChecker {
     // verdicts.
     [[nodiscard]] DirectionVerdict direction_over_box(double alpha, double beta, bool grid_deferred) const;
     // Summed gains A, B (normalised for the reference mass matrix, symmetric to the rounding level, not commuting)
-    // proven stable over the whole set by their joint numerical range (hapticopt::certify_by_numerical_range, every edge
-    // judged by segment_box_ over the arm box, masses and delays, kAcceptArmBoxes sub-boxes each), with
+    // proven stable over the whole set by their joint numerical range (hapticopt::certify_by_numerical_range, every
+    // edge judged by segment_box_ over the arm box, masses and delays, kAcceptArmBoxes sub-boxes each), with
     // kNumericalRangeDirections support lines, then 4 times as many when that is not proven. The anchor (the coupled
     // loop stable at one plant) is the caller's. false: not proven (a curl, b or k > 0, or an edge not proven stable).
     [[nodiscard]] bool proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const;

@@ -120,9 +120,9 @@ bool GainChecker::proven_by_numerical_range(const Eigen::MatrixXd& A, const Eige
         v.failing_scale = box.failing_scale;
         return v;
     };
-    // The finer polygon when the coarse one is not proven: its excess over the range is smaller (an unstable plant there
-    // may lie outside it) and its edges shorter (an edge the box could not decide within its budget may split into
-    // edges it can).
+    // The finer polygon when the coarse one is not proven: its excess over the range is smaller (an unstable plant
+    // there may lie outside it) and its edges shorter (an edge the box could not decide within its budget may split
+    // into edges it can).
     for (const int directions : {kNumericalRangeDirections, 4 * kNumericalRangeDirections}) {
         if (hapticopt::certify_by_numerical_range(Ar, Br, 1.0 / scale_max_, 1.0 / scale_min_, directions, verdict)
                 .proven)

@@ -135,8 +135,8 @@ TEST(GainSegmentVerdict, AgreesWithTheExactVerdictOnDensePoints) {
             trial % 2 == 0 ? VelocityEstimator{} : VelocityEstimator::moving_window(1 + trial % 7);
         const hapticopt::MassScalingTest test(plant, estimator);
         const double scale = 1.0 / (1.0 + plant.delay);
-        const GainSegment g = GainSegment::between(scale * alpha_of(rng), beta_of(rng), scale * alpha_of(rng),
-                                                   beta_of(rng));
+        const GainSegment g =
+            GainSegment::between(scale * alpha_of(rng), beta_of(rng), scale * alpha_of(rng), beta_of(rng));
         const hapticopt::GainRayStability v = test.segment_over(g);
         bool dense_stable = true;
         for (int k = 0; k <= 2000 && dense_stable; ++k) {
@@ -171,8 +171,8 @@ TEST(GainSegmentVerdict, TheArmBoxVerdictHoldsAtPlantsInsideTheBox) {
     const hapticopt::ArmBoxTest box(device, estimator, gamma_max, delta_max, d_lo, d_hi);
     int proven = 0;
     for (int trial = 0; trial < 12; ++trial) {
-        const GainSegment g = GainSegment::between(4e-4 * unit(rng), 0.02 * unit(rng), 4e-4 * unit(rng),
-                                                   0.02 * unit(rng));
+        const GainSegment g =
+            GainSegment::between(4e-4 * unit(rng), 0.02 * unit(rng), 4e-4 * unit(rng), 0.02 * unit(rng));
         const hapticopt::ArmBoxStability v = box.segment_over(g, 256);
         if (!v.stable) continue;
         ++proven;
@@ -236,8 +236,7 @@ TEST(NumericalRangeCertificate, ProvenSumsAreStableAtEveryMassOfTheSet) {
     const double s_lo = 0.7, s_hi = 1.4;
     for (int trial = 0; trial < 40; ++trial) {
         const NormalizedPlant plant{0.0, 0.0, trial % 2 == 0 ? 1.0 : 2.5};
-        const VelocityEstimator estimator =
-            trial % 3 == 0 ? VelocityEstimator::moving_window(4) : VelocityEstimator{};
+        const VelocityEstimator estimator = trial % 3 == 0 ? VelocityEstimator::moving_window(4) : VelocityEstimator{};
         const hapticopt::MassScalingTest test(plant, estimator);
         const Sum sum = random_planes(rng, 0.03 / (1 + plant.delay), 0.3);
         ASSERT_GT((sum.A * sum.B - sum.B * sum.A).norm(), 1e-6);  // not commuting
@@ -276,8 +275,7 @@ TEST(NumericalRangeCertificate, ProvenSumsAreStableOverTheArmBoxAndTheDelays) {
     std::mt19937 rng(19);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     const VelocityEstimator estimator = VelocityEstimator::moving_window(15);
-    const double gamma_max = 1000.0 * 1e-6, delta_max = 20.0 * 1e-3, d_lo = 5.0, d_hi = 8.0, s_lo = 0.67,
-                 s_hi = 1.5;
+    const double gamma_max = 1000.0 * 1e-6, delta_max = 20.0 * 1e-3, d_lo = 5.0, d_hi = 8.0, s_lo = 0.67, s_hi = 1.5;
     const hapticopt::ArmBoxTest box(NormalizedPlant{0.0, 0.0, d_lo}, estimator, gamma_max, delta_max, d_lo, d_hi);
     const coupled_loop_matrix::Difference e = coupled_loop_matrix::window(15);
     int proven = 0, stable = 0;
@@ -343,9 +341,10 @@ TEST(NumericalRangeCertificate, AnUnstableEdgeIsNamed) {
         A, B, 1.0, 1.0, 16, [&](const GainSegment& g) { return test.segment_over(g); });
     EXPECT_FALSE(c.proven);
     EXPECT_GE(c.edges, 1);
-    EXPECT_FALSE(test.stable(c.failing_alpha, c.failing_beta) &&
-                 hapticopt::stability(plant, hapticopt::NormalizedGains{c.failing_alpha, c.failing_beta})
-                         .spectral_radius < 1.0 - 1e-7);
+    EXPECT_FALSE(
+        test.stable(c.failing_alpha, c.failing_beta) &&
+        hapticopt::stability(plant, hapticopt::NormalizedGains{c.failing_alpha, c.failing_beta}).spectral_radius <
+            1.0 - 1e-7);
 }
 
 TEST(NumericalRangeCertificate, BadInputIsRefusedNamingTheParameter) {

@@ -557,8 +557,9 @@ TEST(PlantSetChecks, AnObliqueSumIsProvenOverTheSetAndStableAtItsPlants) {
                 corner ? ((k_plant & 2) ? e_max : 0.0) : e_max * unit(rng),
                 corner ? ((k_plant & 4) ? d_hi : d_lo) : d_lo + (d_hi - d_lo) * unit(rng)};
             // On the planes' span (the free direction's own roots at z = 1 are the device's, not the scene's).
-            const auto [A, Bn] = coupled_loop_matrix::on_span((T * T / mass) * as_eigen(K), (T / mass) * as_eigen(B),
-                                                              {Eigen::Vector3d(0.0, 0.0, 1.0), Eigen::Vector3d(0.0, c, c)});
+            const auto [A, Bn] =
+                coupled_loop_matrix::on_span((T * T / mass) * as_eigen(K), (T / mass) * as_eigen(B),
+                                             {Eigen::Vector3d(0.0, 0.0, 1.0), Eigen::Vector3d(0.0, c, c)});
             EXPECT_LT(coupled_loop_matrix::state_radius(plant, A, Bn, window), 1.0)
                 << "arm " << with_arm << ": mass " << mass << ", gamma " << plant.gamma << ", delta " << plant.delta
                 << ", d " << plant.delay;
