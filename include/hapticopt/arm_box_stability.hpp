@@ -47,6 +47,11 @@
 // kArmBoxMaxBoxes sub-boxes refuse conservatively (stable = false, proven_unstable false: no proof either way; the
 // failing plant named is the last box's centre).
 //
+// Gain segments (segment_over; GainSegment of mass_scaling_stability.hpp): with the gains K(z; u) = K_0(z) + u K_1(z)
+// for u in [u_lo, u_hi] (u >= 0) in place of s K(z), the centre's polynomial is (P_X + q_X K_0) + u q_X K_1 and
+// max(|K(z; u_lo)|, |K(z; u_hi)|) (|K| is convex in u) takes the place of s_hi |K(z)| in G and in its slope; the rest
+// is unchanged (the ray is K_0 = 0, u = s). The exact check along the centre is MassScalingTest::segment_over.
+//
 // Where exact, where certified: exact along the mass at each box centre; certified (a bound, never a sample) over the
 // arm, the fractional delay and between the centres. Accuracy: the bound is strict and the enclosures rigorous up to
 // the stated rounding allowance; a box whose roots pass within that rounding of the circle may be refused although
@@ -60,6 +65,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "config.hpp"
@@ -259,11 +265,24 @@ class ArmBoxTest {
         if (!(s_lo > 0 && s_lo <= s_hi && std::isfinite(s_hi))) {
             throw InvalidParameter("hapticopt::ArmBoxTest::over", "scale interval", s_lo, "0 < s_lo <= s_hi, finite");
         }
-        if (!(std::isfinite(alpha) && std::isfinite(beta))) {
-            throw InvalidParameter("hapticopt::ArmBoxTest::over", "alpha", alpha, "finite");
+        return segment_over(GainSegment::ray(alpha, beta, s_lo, s_hi), max_boxes);
+    }
+
+    /// Stability of every gain pair of the segment (mass_scaling_stability.hpp: (alpha_0 + u alpha_1, beta_0 + u
+    /// beta_1), 0 <= u_lo <= u_hi, finite) with every arm of the box and every delay of the interval: the verdict above
+    /// with s (alpha, beta) replaced by the segment's gains (header comment: P_X + s Q_X becomes (P_X + q K_0) + u q
+    /// K_1, and s_hi |K| in G the larger |K| of the segment's ends). failing_scale: the u it fails at.
+    HAPTICOPT_DEFERRED ArmBoxStability segment_over(const GainSegment& g, int max_boxes = kArmBoxMaxBoxes) const {
+        if (!(g.u_lo >= 0 && g.u_lo <= g.u_hi && std::isfinite(g.u_hi))) {
+            throw InvalidParameter("hapticopt::ArmBoxTest::segment_over", "u interval", g.u_lo,
+                                   "0 <= u_lo <= u_hi, finite");
+        }
+        if (!(std::isfinite(g.alpha_0) && std::isfinite(g.beta_0) && std::isfinite(g.alpha_1) &&
+              std::isfinite(g.beta_1))) {
+            throw InvalidParameter("hapticopt::ArmBoxTest::segment_over", "gains", g.alpha_0, "finite");
         }
         ArmBoxStability r;
-        const Eigen::VectorXd k_gain = gain_polynomial(alpha, beta);
+        const Gains k{gain_polynomial(g.alpha_0, g.beta_0), gain_polynomial(g.alpha_1, g.beta_1), g.u_lo, g.u_hi};
         // The boxes: one per whole delay n, phi in [max(d_lo - n, 0), min(d_hi - n, 1)].
         std::vector<Box> stack;
         const int n_first = static_cast<int>(std::floor(d_lo_));
@@ -277,10 +296,10 @@ class ArmBoxTest {
         {
             const Box& b = stack.front();
             const MassScalingTest centre(centre_plant(b), estimator_, ArmAlongRay::per_mass);
-            if (!centre.stable(s_lo * alpha, s_lo * beta)) return failing(r, b, s_lo, true);
+            if (!centre.stable(g.alpha(g.u_lo), g.beta(g.u_lo))) return failing(r, b, g.u_lo, true);
         }
         for (const Box& b : stack) {
-            if (unstable_corner(b, k_gain, alpha, beta, s_lo, s_hi, r)) return r;
+            if (unstable_corner(b, k, g, r)) return r;
         }
         while (!stack.empty()) {
             const Box b = stack.back();
@@ -288,16 +307,16 @@ class ArmBoxTest {
             ++r.boxes;
             const Centre c = centre(b);
             double theta = 0;
-            if (excludes_zero(b, c, k_gain, s_lo, s_hi, theta)) continue;
-            if (b.depth > 0 && unstable_corner(b, k_gain, alpha, beta, s_lo, s_hi, r)) return r;
+            if (excludes_zero(b, c, k, theta)) continue;
+            if (b.depth > 0 && unstable_corner(b, k, g, r)) return r;
             if (b.depth % kArmBoxExactEvery == 0) {
                 const MassScalingTest exact(centre_plant(b), estimator_, ArmAlongRay::per_mass);
-                const GainRayStability ray = exact.over(alpha, beta, s_lo, s_hi);
+                const GainRayStability ray = exact.segment_over(g);
                 if (!ray.stable) return failing(r, b, ray.failing_scale, true);
             }
             if (r.boxes + static_cast<int>(stack.size()) + 2 > std::max(max_boxes, 1))
-                return failing(r, b, s_lo, false);
-            const int axis = split_axis(b, c, k_gain, s_hi, theta);
+                return failing(r, b, g.u_lo, false);
+            const int axis = split_axis(b, c, k, theta);
             Box lo = b, hi = b;
             Interval1& l = lo.axis(axis);
             Interval1& h = hi.axis(axis);
@@ -364,6 +383,25 @@ class ArmBoxTest {
         std::array<double, 5> c;
         std::array<double, 5> radius;
     };
+    // The segment's gain polynomials: K(z; u) = K_0(z) + u K_1(z), u in [u_lo, u_hi] (header comment), and K at the
+    // segment's ends. |K(z; u)|, |K'(z; u)| and sum_k k^j |K_k(u)| are convex in u, so their largest values over the
+    // segment are at its ends.
+    struct Gains {
+        Eigen::VectorXd k0, k1, at_lo, at_hi;
+        double u_lo, u_hi;
+        Gains(Eigen::VectorXd k_0, Eigen::VectorXd k_1, double lo, double hi)
+            : k0(std::move(k_0)), k1(std::move(k_1)), at_lo(k0 + lo * k1), at_hi(k0 + hi * k1), u_lo(lo), u_hi(hi) {}
+        double bound(std::complex<double> z) const {
+            return std::max(std::abs(detail::horner(at_lo, z)), std::abs(detail::horner(at_hi, z)));
+        }
+        double derivative_bound(std::complex<double> z) const {
+            return std::max(std::abs(detail::horner_derivative(at_lo, z)),
+                            std::abs(detail::horner_derivative(at_hi, z)));
+        }
+        double weighted_bound(int power) const {
+            return std::max(detail::weighted_sum(at_lo, power), detail::weighted_sum(at_hi, power));
+        }
+    };
 
     Eigen::VectorXd gain_polynomial(double alpha, double beta) const {
         const Eigen::Index size = std::max(k_alpha_.size(), k_beta_.size());
@@ -390,6 +428,15 @@ class ArmBoxTest {
         }
     }
 
+    // The segment's P = At z^(n+2) D + q K_0 and Q = q K_1: p(z; u) = P + u Q.
+    void segment_polynomials(const std::array<double, 5>& c, int n, const Gains& k, Eigen::VectorXd& p,
+                             Eigen::VectorXd& q) const {
+        Eigen::VectorXd p_plant, q_0;
+        base_and_gain(c, n, k.k0, p_plant, q_0);
+        base_and_gain(c, n, k.k1, p, q);
+        p = p_plant + q_0;
+    }
+
     NormalizedPlant centre_plant(const Box& b) const {
         NormalizedPlant p = plant_;
         p.gamma += b.gamma.mid();
@@ -409,9 +456,9 @@ class ArmBoxTest {
 
     // The axis whose half-width moves G(theta) most at the theta where the exclusion failed (one-sided changes of c
     // at the centre, double exponentials, weighted as G weighs the radii).
-    int split_axis(const Box& b, const Centre& c, const Eigen::VectorXd& k, double s_hi, double theta) const {
+    int split_axis(const Box& b, const Centre& c, const Gains& k, double theta) const {
         const std::complex<double> z = std::polar(1.0, theta);
-        const double a = std::abs(detail::horner(at_, z)), kk = std::abs(detail::horner(k, z)), w = std::abs(z - 1.0);
+        const double a = std::abs(detail::horner(at_, z)), kk = k.bound(z), w = std::abs(z - 1.0);
         int best = 2;
         double largest = -1;
         for (int axis = 0; axis < 3; ++axis) {
@@ -424,7 +471,7 @@ class ArmBoxTest {
             const std::array<double, 5> m = coefficients(g, d, f);
             std::array<double, 5> r{};
             for (std::size_t i = 0; i < 5; ++i) r[i] = std::abs(m[i] - c.c[i]);
-            const double change = a * (r[0] + r[1] * w) + s_hi * kk * (r[2] + w * (r[3] + w * r[4]));
+            const double change = a * (r[0] + r[1] * w) + kk * (r[2] + w * (r[3] + w * r[4]));
             if (change > largest) {
                 largest = change;
                 best = axis;
@@ -436,8 +483,8 @@ class ArmBoxTest {
     // Schur-Cohn at the box's corners with s_lo and s_hi; a corner it finds unstable is confirmed by the library's
     // exact verdict (MassScalingTest::stable: the long double refinement near the boundary) and is then the failing
     // plant (r filled, true).
-    HAPTICOPT_DEFERRED bool unstable_corner(const Box& b, const Eigen::VectorXd& k, double alpha, double beta,
-                                            double s_lo, double s_hi, ArmBoxStability& r) const {
+    HAPTICOPT_DEFERRED bool unstable_corner(const Box& b, const Gains& k, const GainSegment& gains,
+                                            ArmBoxStability& r) const {
         for (int corner = 0; corner < 8; ++corner) {
             const double g = (corner & 1) ? b.gamma.hi : b.gamma.lo, d = (corner & 2) ? b.delta.hi : b.delta.lo,
                          f = (corner & 4) ? b.phi.hi : b.phi.lo;
@@ -445,14 +492,15 @@ class ArmBoxTest {
                 ((corner & 4) && b.phi.hi == b.phi.lo))
                 continue;  // the same corner again
             Eigen::VectorXd p, q;
-            base_and_gain(coefficients(g, d, f), b.n, k, p, q);
-            for (const double s : {s_lo, s_hi}) {
+            segment_polynomials(coefficients(g, d, f), b.n, k, p, q);
+            for (const double s : {k.u_lo, k.u_hi}) {
                 if (schur_cohn<double>(Eigen::VectorXd(p + s * q)).stable) continue;
                 NormalizedPlant plant = plant_;
                 plant.gamma += g;
                 plant.delta += d;
                 plant.delay = b.n + f;
-                if (MassScalingTest(plant, estimator_, ArmAlongRay::per_mass).stable(s * alpha, s * beta)) continue;
+                if (MassScalingTest(plant, estimator_, ArmAlongRay::per_mass).stable(gains.alpha(s), gains.beta(s)))
+                    continue;
                 r.stable = false;
                 r.proven_unstable = true;
                 r.failing_scale = s;
@@ -476,10 +524,10 @@ class ArmBoxTest {
     }
 
     // H(theta) > threshold on [0, pi] (header comment).
-    HAPTICOPT_DEFERRED bool excludes_zero(const Box& b, const Centre& c, const Eigen::VectorXd& k, double s_lo,
-                                          double s_hi, double& failing_theta) const {
+    HAPTICOPT_DEFERRED bool excludes_zero(const Box& b, const Centre& c, const Gains& k, double& failing_theta) const {
+        const double s_lo = k.u_lo, s_hi = k.u_hi;
         Eigen::VectorXd p, q;
-        base_and_gain(c.c, b.n, k, p, q);
+        segment_polynomials(c.c, b.n, k, p, q);
         const std::array<double, 5>& r = c.radius;
         const double eps = std::numeric_limits<double>::epsilon();
         const double threshold = 4.0 * static_cast<double>(p.size() + 1) * eps *
@@ -489,10 +537,10 @@ class ArmBoxTest {
         const double p2 = detail::weighted_sum(p, 2);
         const double q2 = detail::weighted_sum(q, 2);
         const double a1 = detail::weighted_sum(at_, 1), a2 = detail::weighted_sum(at_, 2);
-        const double k1 = detail::weighted_sum(k, 1), k2 = detail::weighted_sum(k, 2);
+        const double k1 = k.weighted_bound(1), k2 = k.weighted_bound(2);
         struct Point {
             double h;                            // H(theta)
-            double p_d, q_d, a, a_d, k, k_d, w;  // |P'|, |Q'|, |At|, |At'|, |K|, |K'|, |z - 1|
+            double p_d, q_d, a, a_d, k, k_d, w;  // |P'|, |Q'|, |At|, |At'|, bounds of |K| and |K'|, |z - 1|
         };
         auto at = [&](double theta) {
             const std::complex<double> z = std::polar(1.0, theta);
@@ -502,24 +550,25 @@ class ArmBoxTest {
             s = std::clamp(s, s_lo, s_hi);
             Point v;
             v.a = std::abs(detail::horner(at_, z));
-            v.k = std::abs(detail::horner(k, z));
+            v.k = k.bound(z);
             v.w = std::abs(z - 1.0);
-            const double g = v.a * (r[0] + r[1] * v.w) + s_hi * v.k * (r[2] + v.w * (r[3] + v.w * r[4]));
+            const double g = v.a * (r[0] + r[1] * v.w) + v.k * (r[2] + v.w * (r[3] + v.w * r[4]));
             v.h = std::abs(pz + s * qz) - g;
             v.p_d = std::abs(detail::horner_derivative(p, z));
             v.q_d = std::abs(detail::horner_derivative(q, z));
             v.a_d = std::abs(detail::horner_derivative(at_, z));
-            v.k_d = std::abs(detail::horner_derivative(k, z));
+            v.k_d = k.derivative_bound(z);
             return v;
         };
         // The largest |dH/dtheta| within h of a point: min_s |P + s Q| moves by at most |P'| + s_hi |Q'|, G by the
-        // derivative of its products (|d|z - 1|/dtheta| <= 1), each factor bounded over the cell from the point.
+        // derivative of its products (|d|z - 1|/dtheta| <= 1), each factor bounded over the cell from the point (|K|
+        // and |K'| by their larger value at the segment's ends; s: the segment's u).
         auto slope = [&](const Point& v, double h) {
             const double pd = v.p_d + h * p2, qd = v.q_d + h * q2;
             const double a = v.a + h * a1, ad = v.a_d + h * a2, kk = v.k + h * k1, kd = v.k_d + h * k2;
             const double w = std::min(v.w + h, 2.0);
-            const double g_d = ad * (r[0] + r[1] * w) + a * r[1] +
-                               s_hi * (kd * (r[2] + w * (r[3] + w * r[4])) + kk * (r[3] + 2.0 * w * r[4]));
+            const double g_d =
+                ad * (r[0] + r[1] * w) + a * r[1] + kd * (r[2] + w * (r[3] + w * r[4])) + kk * (r[3] + 2.0 * w * r[4]);
             return pd + s_hi * qd + g_d;
         };
         constexpr int kCells = 128;

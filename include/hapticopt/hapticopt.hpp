@@ -30,6 +30,7 @@
 #include "arm_box_stability.hpp"
 #include "matrix_gain_stability.hpp"
 #include "newton_search.hpp"
+#include "numerical_range_certificate.hpp"
 #include "noise_budget.hpp"
 #include "optimal_wall.hpp"
 #include "optimum.hpp"

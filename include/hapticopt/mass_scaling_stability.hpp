@@ -45,7 +45,12 @@
 // judged as above: an exact verdict (`certified`). Otherwise the characteristic loci do not reduce to one
 // polynomial in s; the block companion matrix's spectral radius is checked below 1 - kMatrixGainRadiusMargin at
 // `samples` scales spread over the interval (ends included) and at s = 1: a sampled check, not a proof
-// (`certified` false).
+// (`certified` false); numerical_range_certificate.hpp proves such sums where it can, with segment_over below.
+//
+// Segments (GainSegment): the gains (alpha_0 + u alpha_1, beta_0 + u beta_1), u in [u_lo, u_hi], give
+// p(z; u) = (P_0 + alpha_0 P_alpha + beta_0 P_beta) + u (alpha_1 P_alpha + beta_1 P_beta), affine in u like the ray,
+// so the same crossing test with that base decides every segment exactly (segment_over; the ray is the segment with
+// alpha_0 = beta_0 = 0 and u = s).
 //
 // Cost: the cascade is O(N^3) with up to 64 bisection steps per zero of each derivative, N = n + 3 (+ L): 2.5 us at
 // d = 1 and 16 us at d = 6 with the backward difference, 0.34 ms with a 15-period window at d = 6
@@ -77,6 +82,22 @@ struct GainRayStability {
     bool stable = false;
     bool certified = false;    ///< decided by the exact crossing test (always for scalar gains)
     double failing_scale = 0;  ///< when not stable: a scale in [s_lo, s_hi] at which the loop is not stable
+};
+
+/// The gains (alpha_0 + u alpha_1, beta_0 + u beta_1), u in [u_lo, u_hi] (0 <= u_lo <= u_hi): a segment of the gain
+/// plane. The mass ray s (alpha, beta), s in [s_lo, s_hi], is ray(alpha, beta, s_lo, s_hi); the edge from gains g to h
+/// is between(g, h) (u in [0, 1]). Its characteristic polynomial is affine in u (header comment, with P_0 the base
+/// plus alpha_0 P_alpha + beta_0 P_beta), so the ray's crossing test applies to every segment.
+struct GainSegment {
+    double alpha_0 = 0, beta_0 = 0, alpha_1 = 0, beta_1 = 0, u_lo = 0, u_hi = 0;
+    static GainSegment ray(double alpha, double beta, double s_lo, double s_hi) {
+        return {0.0, 0.0, alpha, beta, s_lo, s_hi};
+    }
+    static GainSegment between(double alpha_from, double beta_from, double alpha_to, double beta_to) {
+        return {alpha_from, beta_from, alpha_to - alpha_from, beta_to - beta_from, 0.0, 1.0};
+    }
+    double alpha(double u) const { return alpha_0 + u * alpha_1; }
+    double beta(double u) const { return beta_0 + u * beta_1; }
 };
 
 /// The same for matrix gains; `commuting`: symmetric A, B that commute, decided exactly per direction.
@@ -211,25 +232,42 @@ class MassScalingTest {
 
     /// Stability of s (alpha, beta) for every s in [s_lo, s_hi] (0 < s_lo <= s_hi, finite).
     HAPTICOPT_DEFERRED GainRayStability over(double alpha, double beta, double s_lo, double s_hi) const {
-        GainRayStability r;
-        r.certified = true;
         if (!(s_lo > 0 && s_lo <= s_hi && std::isfinite(s_hi))) {
             throw InvalidParameter("hapticopt::MassScalingTest::over", "scale interval", s_lo,
                                    "0 < s_lo <= s_hi, finite");
         }
-        if (!stable(s_lo * alpha, s_lo * beta)) {
-            r.failing_scale = s_lo;
+        return segment_over(GainSegment::ray(alpha, beta, s_lo, s_hi));
+    }
+
+    /// Stability of every gain pair of the segment (0 <= u_lo <= u_hi, all finite): the exact verdict at u_lo and the
+    /// unit-circle crossings of p(z; u) = (P_0 + alpha_0 P_alpha + beta_0 P_beta) + u (alpha_1 P_alpha + beta_1 P_beta)
+    /// (gain_ray_crossings on the rebased polynomial; exact as over is). failing_scale: the u it fails at. Gains that
+    /// are not finite are not stable (failing at u_lo), as stable() says.
+    HAPTICOPT_DEFERRED GainRayStability segment_over(const GainSegment& g) const {
+        if (!(g.u_lo >= 0 && g.u_lo <= g.u_hi && std::isfinite(g.u_hi))) {
+            throw InvalidParameter("hapticopt::MassScalingTest::segment_over", "u interval", g.u_lo,
+                                   "0 <= u_lo <= u_hi, finite");
+        }
+        GainRayStability r;
+        r.certified = true;
+        if (!stable(g.alpha(g.u_lo), g.beta(g.u_lo))) {
+            r.failing_scale = g.u_lo;
             return r;
         }
-        if (s_hi > s_lo) {
-            for (const double s : gain_ray_crossings(poly_, alpha, beta)) {
-                if (s >= s_lo * (1 - 1e-9) && s <= s_hi * (1 + 1e-9)) {
-                    r.failing_scale = std::clamp(s, s_lo, s_hi);
+        if (g.u_hi > g.u_lo) {
+            AffineCharacteristicPolynomial<double> rebased = poly_;
+            if (g.alpha_0 != 0.0 || g.beta_0 != 0.0) {
+                rebased.base.head(poly_.alpha.size()) += g.alpha_0 * poly_.alpha;
+                rebased.base.head(poly_.beta.size()) += g.beta_0 * poly_.beta;
+            }
+            for (const double u : gain_ray_crossings(rebased, g.alpha_1, g.beta_1)) {
+                if (u >= g.u_lo * (1 - 1e-9) && u <= g.u_hi * (1 + 1e-9)) {
+                    r.failing_scale = std::clamp(u, g.u_lo, g.u_hi);
                     return r;
                 }
             }
-            if (!stable(s_hi * alpha, s_hi * beta)) {
-                r.failing_scale = s_hi;
+            if (!stable(g.alpha(g.u_hi), g.beta(g.u_hi))) {
+                r.failing_scale = g.u_hi;
                 return r;
             }
         }

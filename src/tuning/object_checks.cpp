@@ -96,6 +96,11 @@ GainChecker::GainChecker(const GainCheckPlant& plant)
         // The whole arm box with every mass and delay: certified (arm_box_stability.hpp).
         arm_box_.emplace(normalized_for(plant_.mass), estimator_, k_arm * T * T, b_arm * T, delay_lo_, delay_hi_);
     }
+    if (free_mass_plant_) {
+        // Gain segments over the whole set (the arm box, if any, every mass and delay): the numerical-range proof of
+        // summed gains that do not commute (proven_by_numerical_range).
+        segment_box_.emplace(normalized_for(plant_.mass), estimator_, k_arm * T * T, b_arm * T, delay_lo_, delay_hi_);
+    }
     if (delay_hi_ > delay_lo_) {
         if (free_mass_plant_) {
             for (std::size_t a = 0; a < arm_points_.size(); ++a) {

@@ -30,7 +30,9 @@
 //    unit-mass plant of the y coordinates, A = T^2 M^-1/2 K_sum M^-1/2, B = T M^-1/2 B_sum M^-1/2: for
 //    symmetric A, B the exact per-direction verdict when they commute, otherwise the eigenvalues of the
 //    block companion matrix of the 3-axis loop with the delay, both with the margin 1 - 1e-6 on the spectral
-//    radius and every direction touched above the rounding level judged (matrix_gain_stability.hpp). The
+//    radius and every direction touched above the rounding level judged (matrix_gain_stability.hpp). Over the
+//    plant set, symmetric gains that do not commute are then proven stable for every mass, arm and delay of the
+//    set by their joint numerical range (proven_by_numerical_range; docs/robust-stability.md), else sampled. The
 //    header normalises with m = 1, which these are. The refusal names the first eigen-direction whose pair
 //    alone is unstable, as the plane along n = M^1/2 u / |M^1/2 u| with mass m_n that renders that term
 //    (K = alpha m_n / T^2, B = beta m_n / T), or the coupled spectral radius (always, with a curl).
@@ -66,6 +68,7 @@
 #include <hapticopt/estimator_stability.hpp>
 #include <hapticopt/mass_scaling_stability.hpp>
 #include <hapticopt/matrix_gain_stability.hpp>
+#include <hapticopt/numerical_range_certificate.hpp>
 #include <hapticopt/estimator_types.hpp>
 
 #include "tuning/device_mass.hpp"
@@ -261,12 +264,14 @@ class GainChecker {
     // field's curl), in the unit-mass coordinates (hapticopt::general_matrix_gain_stability), nominal mass.
     [[nodiscard]] hapticopt::MatrixGainStability coupled(const Matrix3& K_sum, const Matrix3& B_sum) const;
     // The same over the set (hapticopt::MassScalingTest::matrix_over: exact for symmetric commuting gains,
-    // kSampledCoupledScales scales otherwise; b or k > 0: general_matrix_gain_stability at kSampledCoupledScales
-    // masses).
-    [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(const Matrix3& K_sum,
-                                                                       const Matrix3& B_sum) const;
+    // kSampledCoupledScales scales otherwise, then proven_by_numerical_range for symmetric ones: `certified` when it
+    // proves them; b or k > 0: general_matrix_gain_stability at kSampledCoupledScales masses). prove = false: the
+    // sampled verdict alone for non-commuting gains (a ramp's scenes: ramp_is_stable).
+    [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum,
+                                                                       bool prove = true) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
-    [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why) const;
+    [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why,
+                                     bool prove = true) const;
 
     // One common eigen-direction (alpha, beta) of a commuting sum over the whole arm box (coupled_over_set): stable
     // (proven: certified by the box; else neither proven nor refuted within kAcceptArmBoxes and the grid's verdict
@@ -304,7 +309,10 @@ class GainChecker {
     // ramp_time, the loop's ramp increment), from the scene before the batch (s = 0) to the scene after it
     // (s = 1). Sums of stable scenes need not be stable (the stable set of gain matrices is not convex when
     // the directions do not commute), so every intermediate s_j, 0 < s_j < 1, is checked with sum_is_stable:
-    // at most 1 / step - 1 verdicts. On failure `why` says at which s and why.
+    // at most 1 / step - 1 verdicts. On failure `why` says at which s and why. Non-commuting ramp scenes keep the
+    // sampled verdict (prove = false): each is rendered for one tick, a frozen scene's verdict does not prove the
+    // time-varying ramp anyway, and the proof would cost up to m + 2 box verdicts per scene, most of them failing on
+    // the ramp's soft early directions.
     [[nodiscard]] bool ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in,
                                       const Matrix3& B_in, const Matrix3& K_out, const Matrix3& B_out, double step,
                                       std::string& why) const;
@@ -355,6 +363,13 @@ class GainChecker {
     // computations along the mass (~0.3 ms each on the Falcon's window 15) and, with delays, 8 estimated DelayRangeTest
     // verdicts.
     [[nodiscard]] DirectionVerdict direction_over_box(double alpha, double beta, bool grid_deferred) const;
+    // Summed gains A, B (normalised for the reference mass matrix, symmetric to the rounding level, not commuting)
+    // proven stable over the whole set by their joint numerical range (hapticopt::certify_by_numerical_range, every
+    // edge judged by segment_box_ over the arm box, masses and delays, kAcceptArmBoxes sub-boxes each), with
+    // kNumericalRangeDirections support lines, then 4 times as many when that is not proven. The anchor (the coupled
+    // loop stable at one plant) is the caller's. false: not proven (a curl, b or k > 0, or an edge not proven stable).
+    [[nodiscard]] bool proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const;
+    static constexpr int kNumericalRangeDirections = 16;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 
@@ -375,6 +390,8 @@ class GainChecker {
     std::vector<hapticopt::DelayRangeTest> delay_tests_;  // free_mass_plant_ with a delay range: per arm point
     // free_mass_plant_ with an arm: the certified verdict over the whole arm box, every mass and delay of the set.
     std::optional<hapticopt::ArmBoxTest> arm_box_;
+    // free_mass_plant_: the same box (the arm's or none) for gain segments (proven_by_numerical_range).
+    std::optional<hapticopt::ArmBoxTest> segment_box_;
     // The criterion's gains, or the error its tuning threw.
     struct CachedCriterion {
         CriterionGains gains;

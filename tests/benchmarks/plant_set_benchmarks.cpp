@@ -15,11 +15,18 @@
 //  * BM_PlaneCommitOverSet: what the server checks when a client commits one plane on the Falcon's loop (window 15,
 //    d = 6): the plane's ramp over 30 ticks (ramp_is_stable: 29 scenes) and the final scene (sum_is_stable), gains
 //    half the CE2 optimum; arm 0/1 as above, delays 0: the nominal delay alone, 1: 5 .. 8 ms.
+//  * BM_ObliqueSumOverSet: sum_is_stable of two planes 45 degrees apart, one with half the CE2 gains and one with a
+//    quarter of its stiffness and half its damping (their gain matrices do not commute), on the Falcon's loop (window
+//    15, d = 6), arm and delays as above: the sampled coupled verdict, then the numerical-range proof over the set
+//    (numerical_range_certificate.hpp); counter `proven` 1 when coupled_over_set reports it certified. Baseline in
+//    the same run: BM_ObliqueSumNominal, the same sum for the nominal plant alone (one block companion eigenproblem).
 // Gains: CE2 for the nominal mass of each kind and delay, scaled by 0.5 (stable over the set in every case: checked).
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "tuning/object_checks.hpp"
 
@@ -82,6 +89,36 @@ void BM_PlaneCommitOverSet(benchmark::State& state) {
     }
 }
 
+// The two oblique planes of BM_ObliqueSumOverSet, (K, B) summed.
+std::pair<Matrix3, Matrix3> oblique_sum(const CriterionGains& g) {
+    Matrix3 K{}, B{};
+    const double c = std::sqrt(0.5);
+    const double n[2][3] = {{0.0, 0.0, 1.0}, {0.0, c, c}};
+    const double k[2] = {0.5 * g.K, 0.25 * g.K}, b[2] = {0.5 * g.B, 0.5 * g.B};
+    for (int p = 0; p < 2; ++p) {
+        for (std::size_t i = 0; i < 3; ++i) {
+            for (std::size_t j = 0; j < 3; ++j) {
+                K[i][j] += k[p] * n[p][i] * n[p][j];
+                B[i][j] += b[p] * n[p][i] * n[p][j];
+            }
+        }
+    }
+    return {K, B};
+}
+
+void run_oblique_sum(benchmark::State& state, bool with_set) {
+    const bool with_arm = with_set && state.range(0) != 0, with_delays = with_set && state.range(1) != 0;
+    GainChecker checker(set_bench_plant(6, 2, with_set, with_arm, with_delays));
+    const auto [K, B] = oblique_sum(checker.criterion_gains(hapticopt::Criterion::CE2, 0.30));
+    std::string why;
+    if (!checker.sum_is_stable(K, B, why)) throw std::logic_error("benchmark sum not stable: " + why);
+    for (auto _ : state) benchmark::DoNotOptimize(checker.sum_is_stable(K, B, why));
+    state.counters["proven"] = with_set && checker.coupled_over_set(K, B).certified ? 1.0 : 0.0;
+}
+
+void BM_ObliqueSumNominal(benchmark::State& state) { run_oblique_sum(state, false); }
+void BM_ObliqueSumOverSet(benchmark::State& state) { run_oblique_sum(state, true); }
+
 void BM_PlaneObjectOverSet(benchmark::State& state) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
     GainChecker checker(set_bench_plant(d, kind, true));
@@ -114,6 +151,14 @@ BENCHMARK(BM_PairOverSetWithDelays)
     ->Args({6, 2, 1})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PlaneCommitOverSet)
+    ->ArgNames({"arm", "delays"})
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObliqueSumNominal)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObliqueSumOverSet)
     ->ArgNames({"arm", "delays"})
     ->Args({0, 0})
     ->Args({0, 1})

@@ -20,105 +20,18 @@
 #include <unsupported/Eigen/MatrixFunctions>
 #include <vector>
 
+#include "common/coupled_loop_matrix.hpp"
+
 namespace matrix_gain_estimator_test {
 
 using hapticopt::NormalizedPlant;
 using hapticopt::VelocityEstimator;
 
-// The estimator as the test writes it: v_j = sum_i b[i] x_{j-i} + sum_k a[k-1] v_{j-k}.
-//   low-pass: lambda = exp(-2 pi nu), v_j = lambda v_{j-1} + (1 - lambda)(x_j - x_{j-1})
-//   window N: v_j = (x_j - x_{j-N}) / N
-struct Difference {
-    std::vector<double> b, a;
-};
-
-Difference low_pass(double nu) {
-    const double lambda = std::exp(-2.0 * 3.14159265358979323846 * nu);
-    return {{1.0 - lambda, lambda - 1.0}, {lambda}};
-}
-
-Difference window(int n) {
-    Difference d;
-    d.b.assign(static_cast<std::size_t>(n) + 1, 0.0);
-    d.b.front() = 1.0 / n;
-    d.b.back() = -1.0 / n;
-    return d;
-}
-
-// Per axis x'' = -gamma x - delta x' - u (m = T = 1), u constant over a sub-interval of length tau:
-// (x, x')(tau) = phi (x, x')(0) + g u, from the exponential of the augmented 3x3 generator.
-struct Zoh {
-    Eigen::Matrix2d phi;
-    Eigen::Vector2d g;
-};
-
-Zoh zoh(const NormalizedPlant& plant, double tau) {
-    Eigen::Matrix3d c;
-    c << 0, 1, 0, -plant.gamma, -plant.delta, -1, 0, 0, 0;
-    const Eigen::Matrix3d e = (c * tau).exp();
-    return {e.topLeftCorner<2, 2>(), e.topRightCorner<2, 1>()};
-}
-
-// The loop's state for three axes: (x_j, x'_j, x_{j-1} .. x_{j-hx}, v_{j-1} .. v_{j-hv}), each a 3-vector.
-// f_j = A x_j + B v_j acts during [j + d, j + 1 + d): with d = n + phi (0 <= phi < 1) the period [j, j + 1)
-// sees f_{j-n-1} during [j, j + phi) and f_{j-n} during [j + phi, j + 1).
-struct Layout {
-    int hx, hv, size;
-    int x(int age) const { return age == 0 ? 0 : 3 * (age + 1); }
-    int xdot() const { return 3; }
-    int v(int age) const { return 3 * (2 + hx + age - 1); }
-};
-
-Eigen::MatrixXd state_matrix(const NormalizedPlant& plant, const Eigen::Matrix3d& A, const Eigen::Matrix3d& B,
-                             const Difference& e) {
-    const int n = static_cast<int>(std::floor(plant.delay));
-    const double phi = plant.delay - n;
-    const int nb = static_cast<int>(e.b.size()), na = static_cast<int>(e.a.size());
-    Layout l{};
-    l.hx = std::max(n + 1, nb - 1);
-    l.hv = std::max({n + 1, na, 1});
-    l.size = 3 * (2 + l.hx + l.hv);
-    const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-    // Row block (3 x size) of v_{j-age}: written out for age 0, a state for age >= 1.
-    auto velocity = [&](int age) {
-        Eigen::MatrixXd r = Eigen::MatrixXd::Zero(3, l.size);
-        if (age > 0) {
-            r.block(0, l.v(age), 3, 3) = I;
-            return r;
-        }
-        for (int i = 0; i < nb; ++i) r.block(0, l.x(i), 3, 3) += e.b[static_cast<std::size_t>(i)] * I;
-        for (int k = 1; k <= na; ++k) r.block(0, l.v(k), 3, 3) += e.a[static_cast<std::size_t>(k - 1)] * I;
-        return r;
-    };
-    auto force = [&](int age) {
-        Eigen::MatrixXd r = B * velocity(age);
-        r.block(0, l.x(age), 3, 3) += A;
-        return r;
-    };
-    const Zoh first = zoh(plant, phi), second = zoh(plant, 1.0 - phi);
-    // (x, x')_{j+1} = P2 P1 s + P2 g1 u1 + g2 u2, per axis (Kronecker with I).
-    const Eigen::Matrix2d through = second.phi * first.phi;
-    const Eigen::Vector2d g1 = second.phi * first.g, g2 = second.g;
-    Eigen::MatrixXd M = Eigen::MatrixXd::Zero(l.size, l.size);
-    const Eigen::MatrixXd u1 = force(n + 1), u2 = force(n);
-    for (int row = 0; row < 2; ++row) {
-        const int r = row == 0 ? l.x(0) : l.xdot();
-        M.block(r, l.x(0), 3, 3) += through(row, 0) * I;
-        M.block(r, l.xdot(), 3, 3) += through(row, 1) * I;
-        // g carries the wall force's sign (the generator's -1: x'' = ... - f).
-        M.block(r, 0, 3, l.size) += g1(row) * u1 + g2(row) * u2;
-    }
-    for (int age = 1; age <= l.hx; ++age) M.block(l.x(age), l.x(age - 1), 3, 3) = I;
-    M.block(l.v(1), 0, 3, l.size) = velocity(0);
-    for (int age = 2; age <= l.hv; ++age) M.block(l.v(age), l.v(age - 1), 3, 3) = I;
-    return M;
-}
-
-double state_radius(const NormalizedPlant& plant, const Eigen::Matrix3d& A, const Eigen::Matrix3d& B,
-                    const Difference& e) {
-    const Eigen::EigenSolver<Eigen::MatrixXd> es(state_matrix(plant, A, B, e), false);
-    return es.eigenvalues().cwiseAbs().maxCoeff();
-}
+using coupled_loop_matrix::Difference;
+using coupled_loop_matrix::low_pass;
+using coupled_loop_matrix::state_matrix;
+using coupled_loop_matrix::state_radius;
+using coupled_loop_matrix::window;
 
 Eigen::Matrix3d projector(const Eigen::Vector3d& n) { return n.normalized() * n.normalized().transpose(); }
 

@@ -3,15 +3,18 @@
 // for the masses mass_range widened by mass_margin. Checked against the independent time-stepping simulation of the
 // rendered loop (tests/common/loop_simulation.hpp) at the set's corners and inside it, and against the checker's
 // own nominal verdicts (a set verdict implies the nominal one; the converse is what the set adds).
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <hapticopt/hapticopt.hpp>
 
+#include "common/coupled_loop_matrix.hpp"
 #include "common/loop_simulation.hpp"
 #include "tuning/object_checks.hpp"
 #include "tuning/tuning.hpp"
@@ -510,6 +513,58 @@ TEST(PlantSetChecks, TheDeferredGridAndTheMemoKeepEveryVerdictOfTheGridFirstPath
     EXPECT_TRUE(without_memo) << why;
     EXPECT_EQ(memo.size(), 1U);
     EXPECT_EQ(memo.hits(), 1U);
+}
+
+// Two planes 45 degrees apart with different K / B ratios (their gain matrices do not commute) on the Falcon's set with
+// the arm and the delays 5 .. 8 ms, and on its mass range alone: coupled_over_set proves them (the numerical range),
+// and the coupled loop's state matrix, built independently, is stable at the set's corners and at random plants inside.
+TEST(PlantSetChecks, AnObliqueSumIsProvenOverTheSetAndStableAtItsPlants) {
+    std::mt19937 rng(23);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (const bool with_arm : {false, true}) {
+        const GainCheckPlant p = with_arm ? falcon_with_arm(true) : falcon(true);
+        GainChecker checker(p);
+        const CriterionGains ce2 = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+        const double c = std::sqrt(0.5);
+        const std::array<std::array<double, 3>, 2> normals{{{0.0, 0.0, 1.0}, {0.0, c, c}}};
+        const double k[2] = {0.5 * ce2.K, 0.25 * ce2.K}, b[2] = {0.5 * ce2.B, 0.5 * ce2.B};
+        Matrix3 K{}, B{};
+        for (std::size_t o = 0; o < 2; ++o) {
+            for (std::size_t i = 0; i < 3; ++i) {
+                for (std::size_t j = 0; j < 3; ++j) {
+                    K[i][j] += k[o] * normals[o][i] * normals[o][j];
+                    B[i][j] += b[o] * normals[o][i] * normals[o][j];
+                }
+            }
+        }
+        const hapticopt::MatrixGainScaleStability v = checker.coupled_over_set(K, B);
+        EXPECT_TRUE(v.stable) << "arm " << with_arm;
+        EXPECT_FALSE(v.commuting);
+        EXPECT_TRUE(v.certified) << "arm " << with_arm;
+        std::string why;
+        EXPECT_TRUE(checker.sum_is_stable(K, B, why)) << why;
+        // The set: masses c M, c in mass_scales; arm (k_H / m, b_H / m) in the box; total delays 5 .. 8 ms (6 ms alone
+        // without the arm).
+        const auto [c_lo, c_hi] = checker.mass_scales();
+        const double T = kPeriod, d_lo = with_arm ? 5.0 : 6.0, d_hi = with_arm ? 8.0 : 6.0;
+        const double g_max = p.arm_stiffness_per_mass * T * T, e_max = p.arm_damping_per_mass * T;
+        const coupled_loop_matrix::Difference window = coupled_loop_matrix::window(15);
+        for (int k_plant = 0; k_plant < 24; ++k_plant) {
+            const bool corner = k_plant < 16;
+            const double mass = 0.30 * (corner ? ((k_plant & 8) ? c_hi : c_lo) : c_lo + (c_hi - c_lo) * unit(rng));
+            const hapticopt::NormalizedPlant plant{
+                corner ? ((k_plant & 1) ? g_max : 0.0) : g_max * unit(rng),
+                corner ? ((k_plant & 2) ? e_max : 0.0) : e_max * unit(rng),
+                corner ? ((k_plant & 4) ? d_hi : d_lo) : d_lo + (d_hi - d_lo) * unit(rng)};
+            // On the planes' span (the free direction's own roots at z = 1 are the device's, not the scene's).
+            const auto [A, Bn] =
+                coupled_loop_matrix::on_span((T * T / mass) * as_eigen(K), (T / mass) * as_eigen(B),
+                                             {Eigen::Vector3d(0.0, 0.0, 1.0), Eigen::Vector3d(0.0, c, c)});
+            EXPECT_LT(coupled_loop_matrix::state_radius(plant, A, Bn, window), 1.0)
+                << "arm " << with_arm << ": mass " << mass << ", gamma " << plant.gamma << ", delta " << plant.delta
+                << ", d " << plant.delay;
+        }
+    }
 }
 
 }  // namespace plant_set_checks_test
