@@ -136,6 +136,15 @@ void set_args(benchmark::internal::Benchmark* b) {
     b->Unit(benchmark::kMicrosecond);
 }
 
+// Without and with the arm, without and with the delays' range, in milliseconds.
+void arm_and_delay_args(benchmark::internal::Benchmark* b) {
+    b->ArgNames({"arm", "delays"});
+    for (const int arm : {0, 1}) {
+        for (const int delays : {0, 1}) b->Args({arm, delays});
+    }
+    b->Unit(benchmark::kMillisecond);
+}
+
 }  // namespace
 
 BENCHMARK(BM_PairNominal)->Apply(set_args);
@@ -150,18 +159,6 @@ BENCHMARK(BM_PairOverSetWithDelays)
     ->Args({6, 0, 1})
     ->Args({6, 2, 1})
     ->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_PlaneCommitOverSet)
-    ->ArgNames({"arm", "delays"})
-    ->Args({0, 0})
-    ->Args({0, 1})
-    ->Args({1, 0})
-    ->Args({1, 1})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlaneCommitOverSet)->Apply(arm_and_delay_args);
 BENCHMARK(BM_ObliqueSumNominal)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_ObliqueSumOverSet)
-    ->ArgNames({"arm", "delays"})
-    ->Args({0, 0})
-    ->Args({0, 1})
-    ->Args({1, 0})
-    ->Args({1, 1})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObliqueSumOverSet)->Apply(arm_and_delay_args);
