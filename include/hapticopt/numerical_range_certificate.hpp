@@ -32,7 +32,8 @@
 // (a verdict of the coupled loop at one plant of the set).
 //
 // Sufficient, not necessary: W is a relaxation (the coupled loop can be stable while a scalar loop of W is not), and P
-// exceeds W by up to R (1 / cos(pi / m) - 1), R W's extent (0.5 % at m = 32). A certificate that fails proves nothing
+// exceeds W: each vertex lies within (D / 2) tan(pi / m) of W, D the distance between the support points of its two
+// lines (the triangle they form has the apex angle pi - 2 pi / m). A certificate that fails proves nothing
 // either way. Tested against the coupled loop's state matrix, built independently, at plants drawn from the set
 // (tests/beyond/test_numerical_range_certificate.cpp).
 // Cost: m symmetric r x r eigenvalue problems, a hull of 2 m points and at most m + 2 segment verdicts (K's edges: the
