@@ -71,10 +71,11 @@ TEST(Examples, PushButtonPrintsPressedWhenTheHandPushesPastTheClick) {
 // and the roughness (RMS of f_j - 2 f_{j-1} + f_{j-2}). The bounds that hold for poses on time (no release,
 // roughness <= 0.47 N) are asserted deterministically by
 // SceneMotion.TheMovingWallTracksWithoutChatterInClosedLoopWithTheHand; here the example's poses carry the
-// shared machine's timing (a pose more than one interval late is beyond the hold's extrapolation and can still
-// open the contact), so the real processes are compared with moves applied at once in the same run
-// (--move-interval-max 0 --activation-speed 0): at least ten times fewer releases, roughness below the 0.47 N
-// bound and below a third of the baseline's (whose 5 ms steps of K v_max n T = 4.7 N give ~2.7 N).
+// shared machine's timing (a pose more than one interval late is beyond the hold's extrapolation: it can open the
+// contact and step the force, which the trace cannot tell from chatter), so no absolute bound holds on a loaded
+// machine and the real processes are compared with moves applied at once in the same run
+// (--move-interval-max 0 --activation-speed 0), under the same load: at least ten times fewer releases and
+// roughness below a third of the baseline's (whose 5 ms steps of K v_max n T = 4.7 N give ~2.7 N).
 struct WallRun {
     std::size_t releases = 0, counted = 0;
     double roughness = 0.0;
@@ -141,7 +142,6 @@ TEST(Examples, MovingWallRendersWithoutChatterAgainstTheReadmeDaemon) {
     ASSERT_GT(held.counted, 600U) << "too many late ticks to judge";
     ASSERT_GT(at_once.counted, 600U) << "too many late ticks to judge";
     EXPECT_LE(10 * held.releases, at_once.releases);
-    EXPECT_LE(held.roughness, (74225.8 * 1e-3 + 223.336) * 0.0126 / 5.0 * std::sqrt(2.0 / 5.0));
     EXPECT_LE(3.0 * held.roughness, at_once.roughness);
 }
 
