@@ -15,7 +15,7 @@ namespace hapticd {
 // A session's objects ramp out by the departure rule (departure_plan.hpp, docs/protocol.md section 5):
 // with them, if the scene they leave or a ramp scene would be unstable, the fewest further client
 // objects (or all of them, or all cut at once); the owners of those get an event with the reason.
-void Server::Impl::ramp_out_objects_of(std::uint64_t session) {
+std::size_t Server::Impl::ramp_out_objects_of(std::uint64_t session) {
     std::vector<DepartureObject> leaving, staying;
     for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
         const ServerSlot& slot = slots[i];
@@ -23,7 +23,7 @@ void Server::Impl::ramp_out_objects_of(std::uint64_t session) {
         (slot.owner == session ? leaving : staying)
             .push_back(DepartureObject{i, slot.owner, server::slot_term(slot, SceneTerm::Role::Base)});
     }
-    if (leaving.empty()) return;
+    if (leaving.empty()) return 0;
     const double step = config.ramp_time > 0.0 ? config.period / config.ramp_time : 1.0;
     const DeparturePlan plan =
         plan_departure(checker, server::terms_of_config_walls(config.config_walls), leaving, staying, step);
@@ -55,6 +55,7 @@ void Server::Impl::ramp_out_objects_of(std::uint64_t session) {
                                                 " (docs/protocol.md, section 5)"));
         }
     }
+    return leaving.size();
 }
 
 // Pushes waiting departure batches in order; assigns their sequence numbers when they enter the ring.

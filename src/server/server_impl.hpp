@@ -116,7 +116,8 @@ struct Server::Impl {
     void close_silent_sessions(Clock::time_point now);
 
     // ---- departures (server_departures.cpp) ------------------------------------------------------
-    void ramp_out_objects_of(std::uint64_t session);
+    // The number of the session's objects that ramp out (0: it had none).
+    std::size_t ramp_out_objects_of(std::uint64_t session);
     void push_pending();
     void reclaim_slots();
 
