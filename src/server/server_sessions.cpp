@@ -82,9 +82,9 @@ void Server::Impl::close_session(Session& s, const std::string& why) {
     meshes.drop_session(s.id);
     log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " +
         std::to_string(s.pid) + ", uid " + std::to_string(s.uid) + ") closed: " + why +
-        (leaving == 0
-             ? std::string()
-             : "; " + std::to_string(leaving) + " objects ramp out, departure planned in " + g(planned_ms) + " ms"));
+        (leaving == 0 ? std::string()
+                      : "; " + std::to_string(leaving) + " of its objects leave the scene, departure planned in " +
+                            g(planned_ms) + " ms"));
     count(&ServerCounters::sessions_closed);
 }
 
