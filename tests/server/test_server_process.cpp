@@ -604,8 +604,8 @@ struct PressScene {
 // real-time) noticing it in its 1 ms poll and being scheduled on a shared 2-core machine, one tick.
 constexpr double kDetectionAllowance = 0.1;  // s
 
-// How much slower the daemon's own work (a departure's plan and checks, run by the server thread) is in
-// this build: ThreadSanitizer documents a 5-15x slowdown (10 taken), AddressSanitizer about 2x (3 taken,
+// How much slower the server thread's own work (noticing a departure; a departure's plan, where the daemon does not
+// time it) is in this build: ThreadSanitizer documents a 5-15x slowdown (10 taken), AddressSanitizer about 2x (3 taken,
 // with UBSan); 1 in a release build. Used where that work competes with other clients' processes.
 #if defined(__SANITIZE_THREAD__)
 constexpr double kInstrumentationSlowdown = 10.0;
