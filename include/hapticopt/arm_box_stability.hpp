@@ -15,47 +15,69 @@
 // E_a, E_b as characteristic_polynomial.hpp writes them), monic of one degree for every plant of the box.
 //
 // Enclosure. On a sub-box X of (gamma_H, delta_H, phi) the coefficients are enclosed in intervals [c_lo, c_hi] by
-// interval arithmetic on the exponentials: exp(M) of the interval matrix M = A t by scaling (M / 2^j, |M / 2^j|_inf
-// <= 1/2), the Taylor series to degree 20 in Horner form with its remainder |R| <= 2 mu^21 / 21! (mu <= 1/2 the
-// scaled norm) added to every entry, and j squarings; the result is widened by kArmBoxRounding (64 (20 + 2^j) eps
-// times the largest entry) for the rounding of the operations. With c_X the coefficients at the centre of X and
-// r_i = max(c_hi,i - c_X,i, c_X,i - c_lo,i), every plant of X with every s satisfies at z = e^{i theta}
+// interval arithmetic on the exponentials (interval_exponential.hpp: scaling, the Taylor series of degree 20 with its
+// remainder, squaring, a rounding allowance of 64 (20 + 2^j) eps times the largest entry). With c_X the coefficients
+// at the centre of X and r_i = max(c_hi,i - c_X,i, c_X,i - c_lo,i), every plant of X with every s satisfies at
+// z = e^{i theta}
 //
 //   |p(z) - p_X(z; s)| <= G(theta) = |At(z)| (r_d1 + r_d0) + s_hi |K(z)| (r_q0 + r_q1 + r_q2),
 //
-// p_X(z; s) = P_X(z) + s Q_X(z) the centre's polynomial.
+// p_X(z; s) = P_X(z) + s Q_X(z) the centre's polynomial: the radii's bound.
+//
+// Mean-value form. The radii's bound loses the correlation between the coefficients: where |p| is small, near z = 1
+// for gains near zero (the first ticks of a ramp: the roots within ~beta of z = 1), G exceeds it for any sub-box
+// wider than ~beta^2. On such a sub-box the coefficients are written c(x) = c(x_c) + J (x - x_c) + e, x = (gamma_H,
+// delta_H, phi), with J the midpoints of enclosures of the gradient over X (interval_exponential.hpp: the block
+// exponential for gamma and delta, -A E_b for phi, carried through the coefficients' expressions by DualInterval) and
+// |e_i| <= E_i: the radius of c(x_c)'s thin enclosure plus sum_j rad(J_ij over X) r_j (the mean value theorem per
+// coefficient). Since p is affine in c and in s, at z = e^{i theta} with s in [s_a, s_b] (s_c, s_r its middle and
+// half-width),
+//
+//   p = p_c + tau Q_c + sum_j t_j (a_j + s_c b_j) + tau sum_j t_j b_j,   |tau| <= s_r, |t_j| <= 1,
+//
+// with one generator j per axis of positive width (J's column times r_j) and per coefficient remainder (E_i), each
+// the polynomial dp/dc applied to it (a_j its part with K_0, b_j with K_1): the first three terms range over a
+// zonotope of the complex plane whose distance from 0 is exact (zonotope_distance.hpp), the last over a disc of radius
+// s_r sum_j |b_j(z)|. Its margin, distance less disc less rounding, is a lower bound of |p| over X and the s of the
+// cell, and moves with theta by at most the sum of its polynomials' |f'| bounds (each largest at an end of s).
 //
 // Theorem used (zero exclusion; e.g. Barmish, New Tools for Robustness of Linear Systems, 1994, ch. 7): the roots
 // depend continuously on the plant and s, the degree is constant (monic), and the pieces of whole delay n and n + 1
 // join with the same roots outside the circle (phi = 1 of n is z^0 p_{n+1}, phi = 0 of n + 1 is z p_{n+1}); so the
 // loop is stable on the whole box iff it is stable at one plant and p(e^{i theta}) != 0 for every theta and plant.
 // The one plant: the exact Schur-Cohn verdict at the first sub-box's centre with s_lo (MassScalingTest::stable).
-// The exclusion on X: H(theta) = min_{s in [s_lo, s_hi]} |P_X + s Q_X| - G(theta) > rounding for every theta in
-// [0, pi] (real coefficients), the min over s closed-form, theta cell by cell (from 128 cells): on a cell of width h,
-// H >= (H_1 + H_2) / 2 - L h / 2 with L the smaller, over the two ends, of a bound of |dH/dtheta| over the cell: |P_X'|
-// + s_hi |Q_X'| plus the derivative of G's products, each factor |f| or |f'| bounded over the cell by its value at the
-// end plus h sum k |f_k| or h sum k^2 |f_k| (|d/dtheta f(e^{i theta})| = |f'(z)|, |d|z - 1|/dtheta| <= 1); a failing
-// cell is halved down to kArmBoxMinCell (at most 20000 halvings). Horner's rounding 4 (N + 1) eps sum |c_k| is added
-// to the threshold.
+// The exclusion on X: H(theta) = min_{s in [s_a, s_b]} |P_X + s Q_X| - G(theta) > rounding for every theta in
+// [0, pi] (real coefficients) and every s, the min over s closed-form, cell by cell in (theta, s) from 128 theta cells
+// with the whole s range: on a cell of width h, H >= (H_1 + H_2) / 2 - L h / 2 with L the smaller, over the two ends,
+// of a bound of |dH/dtheta| over the cell: max over the cell's ends of s of |P_X' + s Q_X'| (convex in s) plus the
+// derivative of G's products, each factor |f| or |f'| bounded over the cell by its value at the end plus h sum k |f_k|
+// or h sum k^2 |f_k| (|d/dtheta f(e^{i theta})| = |f'(z)|, |d|z - 1|/dtheta| <= 1). A cell with an end where H is not
+// positive is judged by the mean-value margin instead (the same bound on the cell, with its own slope). A cell that
+// fails is halved in s where an end is not positive or where |P_X' + s Q_X'| differs by more than a factor 2 between
+// the ends of s (down to 1e-6 of the segment), else in theta, down to kArmBoxMinCell, at most kArmBoxMaxEvaluations
+// times. Horner's rounding 4 (N + 1) eps sum |c_k| (over every polynomial evaluated) is added to the threshold.
 //
 // Before the boxes, and for every sub-box that fails, the plants at the box's corners with s_lo and s_hi are judged by
 // Schur-Cohn (an unstable one confirmed by the library's exact verdict: the failing plant). A sub-box that fails at
 // depths 0, kArmBoxExactEvery, ... is also judged exactly along the mass at its centre (MassScalingTest::over, the
 // crossings of the unit circle along s: exact): an unstable centre is the failing plant (stable = false,
 // proven_unstable), else the box is halved along the axis whose half-width moves G most at the theta where the
-// exclusion failed (one-sided changes of c at the centre, double exponentials), and its halves are judged. More than
-// kArmBoxMaxBoxes sub-boxes refuse conservatively (stable = false, proven_unstable false: no proof either way; the
-// failing plant named is the last box's centre).
+// exclusion failed (one-sided changes of c at the centre, double exponentials), and its halves are judged. A sub-box
+// of one plant (no width on any axis) that fails is decided by that exact verdict alone. More than kArmBoxMaxBoxes
+// sub-boxes refuse conservatively (stable = false, proven_unstable false: no proof either way; the failing plant named
+// is the last box's centre).
 //
 // Gain segments (segment_over; GainSegment of mass_scaling_stability.hpp): with the gains K(z; u) = K_0(z) + u K_1(z)
 // for u in [u_lo, u_hi] (u >= 0) in place of s K(z), the centre's polynomial is (P_X + q_X K_0) + u q_X K_1 and
-// max(|K(z; u_lo)|, |K(z; u_hi)|) (|K| is convex in u) takes the place of s_hi |K(z)| in G and in its slope; the rest
-// is unchanged (the ray is K_0 = 0, u = s). The exact check along the centre is MassScalingTest::segment_over.
+// max(|K(z; u_a)|, |K(z; u_b)|) over the cell's u (|K| is convex in u) takes the place of s_hi |K(z)| in G and in its
+// slope; the rest is unchanged (the ray is K_0 = 0, u = s). The exact check along the centre is
+// MassScalingTest::segment_over.
 //
 // Where exact, where certified: exact along the mass at each box centre; certified (a bound, never a sample) over the
 // arm, the fractional delay and between the centres. Accuracy: the bound is strict and the enclosures rigorous up to
 // the stated rounding allowance; a box whose roots pass within that rounding of the circle may be refused although
-// stable, never the converse. Cost: docs/benchmarks.md, "Plant set" (tests/benchmarks/plant_set_benchmarks.cpp).
+// stable, never the converse. Tests: tests/beyond/test_arm_box_stability.cpp, test_arm_box_mean_value.cpp. Cost:
+// docs/benchmarks.md, "Plant set" (tests/benchmarks/plant_set_benchmarks.cpp).
 // Not for the real-time loop (allocates).
 #pragma once
 
@@ -73,9 +95,11 @@
 #include "estimator_stability.hpp"
 #include "estimator_types.hpp"
 #include "exponential_integrals.hpp"
+#include "interval_exponential.hpp"
 #include "mass_scaling_stability.hpp"
 #include "parameters.hpp"
 #include "schur_cohn.hpp"
+#include "zonotope_distance.hpp"
 
 namespace hapticopt {
 
@@ -96,90 +120,10 @@ inline constexpr double kArmBoxMinCell = 1e-9;
 /// A failing sub-box is judged exactly along the mass at its centre at depths 0, kArmBoxExactEvery, ... (between:
 /// halved without it; the exact verdict costs a crossing computation, O(N^3)).
 inline constexpr int kArmBoxExactEvery = 3;
+/// Cells of (theta, s) evaluated at most per sub-box's exclusion.
+inline constexpr int kArmBoxMaxEvaluations = 20000;
 
 namespace detail {
-
-/// A closed interval of reals; arithmetic encloses every result of its operands (up to rounding: the caller widens).
-struct Interval {
-    double lo = 0, hi = 0;
-    Interval() = default;
-    Interval(double v) : lo(v), hi(v) {}  // NOLINT: a point is an interval
-    Interval(double l, double h) : lo(l), hi(h) {}
-    double magnitude() const { return std::max(std::abs(lo), std::abs(hi)); }
-};
-inline Interval operator+(Interval a, Interval b) { return {a.lo + b.lo, a.hi + b.hi}; }
-inline Interval operator-(Interval a, Interval b) { return {a.lo - b.hi, a.hi - b.lo}; }
-inline Interval operator-(Interval a) { return {-a.hi, -a.lo}; }
-inline Interval operator*(Interval a, Interval b) {
-    const double p[4] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
-    return {*std::min_element(p, p + 4), *std::max_element(p, p + 4)};
-}
-inline Interval widened(Interval a, double w) { return {a.lo - w, a.hi + w}; }
-
-using IntervalMatrix3 = std::array<std::array<Interval, 3>, 3>;
-
-inline IntervalMatrix3 interval_product(const IntervalMatrix3& a, const IntervalMatrix3& b) {
-    IntervalMatrix3 c{};
-    for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) {
-            Interval s(0.0);
-            for (std::size_t k = 0; k < 3; ++k) s = s + a[i][k] * b[k][j];
-            c[i][j] = s;
-        }
-    }
-    return c;
-}
-
-/// An enclosure of exp(A t) for every gamma, delta, t of the intervals (header comment): scaling, the Taylor series
-/// of degree 20 with its remainder, squaring, widened for rounding.
-inline IntervalMatrix3 interval_exponential(Interval gamma, Interval delta, Interval t) {
-    IntervalMatrix3 m{};
-    for (auto& row : m) row.fill(Interval(0.0));
-    m[0][1] = t;
-    m[1][0] = -(gamma * t);
-    m[1][1] = -(delta * t);
-    m[1][2] = -t;
-    double norm = 0;
-    for (const auto& row : m) norm = std::max(norm, row[0].magnitude() + row[1].magnitude() + row[2].magnitude());
-    int squarings = 0;
-    if (norm > 0.5) squarings = static_cast<int>(std::ceil(std::log2(norm / 0.5)));
-    const double scale = std::ldexp(1.0, -squarings);
-    for (auto& row : m) {
-        for (auto& e : row) e = Interval(e.lo * scale, e.hi * scale);
-    }
-    const double mu = norm * scale;
-    constexpr int kDegree = 20;
-    // Horner: I + M (I + M/2 (I + ... (I + M/20))).
-    IntervalMatrix3 result{};
-    for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) result[i][j] = Interval(i == j ? 1.0 : 0.0);
-    }
-    for (int k = kDegree; k >= 1; --k) {
-        IntervalMatrix3 next = interval_product(m, result);
-        for (std::size_t i = 0; i < 3; ++i) {
-            for (std::size_t j = 0; j < 3; ++j) {
-                next[i][j] = Interval(next[i][j].lo / k, next[i][j].hi / k) + Interval(i == j ? 1.0 : 0.0);
-            }
-        }
-        result = next;
-    }
-    double remainder = 2.0;  // 2 mu^21 / 21!, mu <= 1/2: the series' tail in the infinity norm bounds every entry
-    for (int k = 1; k <= kDegree + 1; ++k) remainder *= mu / k;
-    for (auto& row : result) {
-        for (auto& e : row) e = widened(e, remainder);
-    }
-    for (int i = 0; i < squarings; ++i) result = interval_product(result, result);
-    double largest = 0;
-    for (const auto& row : result) {
-        for (const auto& e : row) largest = std::max(largest, e.magnitude());
-    }
-    const double rounding =
-        64.0 * (kDegree + std::ldexp(1.0, squarings)) * std::numeric_limits<double>::epsilon() * std::max(largest, 1.0);
-    for (auto& row : result) {
-        for (auto& e : row) e = widened(e, rounding);
-    }
-    return result;
-}
 
 /// The plant's discrete coefficients about z = 1 (header comment), c = (e_0, e_1, f_0, f_1, f_2):
 /// D(z) = (z - 1)^2 + e_1 (z - 1) + e_0 and q(z) = f_0 + f_1 (z - 1) + f_2 (z - 1)^2, from W = exp(A) and the
@@ -187,8 +131,8 @@ inline IntervalMatrix3 interval_exponential(Interval gamma, Interval delta, Inte
 /// getters). Written so that each is one expression of the entries without cancellation: e_0 = det(I - W) (small, with
 /// gamma), e_1 = tr(I - W), f_0 = q(1) = (1 - W_11) G_0 + W_01 G_1 with G = -W_(0..1, 2) the whole period's response
 /// (independent of phi), f_1 = q'(1) = G_0 + (1 - W_11) gb_0 + W_01 gb_1, f_2 = gb_0, gb = -E_b,(0..1, 2).
-template <typename Scalar, typename Get>
-std::array<Scalar, 5> arm_plant_coefficients(Get whole, Get /*ea*/, Get eb) {
+template <typename Scalar, typename GetWhole, typename GetA, typename GetB>
+std::array<Scalar, 5> arm_plant_coefficients(GetWhole whole, GetA /*ea*/, GetB eb) {
     const Scalar one(1.0);
     const Scalar u00 = one - whole(0, 0), u11 = one - whole(1, 1);
     const Scalar e0 = u00 * u11 - whole(0, 1) * whole(1, 0);
@@ -199,6 +143,9 @@ std::array<Scalar, 5> arm_plant_coefficients(Get whole, Get /*ea*/, Get eb) {
     const Scalar f1 = g0 + u11 * gb0 + whole(0, 1) * gb1;
     return {e0, e1, f0, f1, gb0};
 }
+
+/// |z| as sqrt(re^2 + im^2) (within 2 ulp; the magnitudes here are far from overflow and underflow).
+inline double magnitude(std::complex<double> z) { return std::sqrt(std::norm(z)); }
 
 inline std::complex<double> horner(const Eigen::VectorXd& c, std::complex<double> z) {
     std::complex<double> v = 0;
@@ -309,10 +256,12 @@ class ArmBoxTest {
             double theta = 0;
             if (excludes_zero(b, c, k, theta)) continue;
             if (b.depth > 0 && unstable_corner(b, k, g, r)) return r;
-            if (b.depth % kArmBoxExactEvery == 0) {
+            const bool point = b.gamma.hi == b.gamma.lo && b.delta.hi == b.delta.lo && b.phi.hi == b.phi.lo;
+            if (point || b.depth % kArmBoxExactEvery == 0) {
                 const MassScalingTest exact(centre_plant(b), estimator_, ArmAlongRay::per_mass);
                 const GainRayStability ray = exact.segment_over(g);
                 if (!ray.stable) return failing(r, b, ray.failing_scale, true);
+                if (point) continue;  // one plant: the exact verdict is the whole verdict
             }
             if (r.boxes + static_cast<int>(stack.size()) + 2 > std::max(max_boxes, 1))
                 return failing(r, b, g.u_lo, false);
@@ -338,12 +287,57 @@ class ArmBoxTest {
         const detail::Interval g = gamma_h + detail::Interval(plant_.gamma),
                                d = delta_h + detail::Interval(plant_.delta);
         const detail::IntervalMatrix3 w = detail::interval_exponential(g, d, detail::Interval(1.0));
-        const detail::IntervalMatrix3 a = detail::interval_exponential(g, d, phi);
         const detail::IntervalMatrix3 b = detail::interval_exponential(g, d, detail::Interval(1.0) - phi);
         auto get = [](const detail::IntervalMatrix3& m) {
             return [&m](int i, int j) { return m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)]; };
         };
-        return detail::arm_plant_coefficients<detail::Interval>(get(w), get(a), get(b));
+        return detail::arm_plant_coefficients<detail::Interval>(get(w), get(w), get(b));  // E_a does not enter
+    }
+
+    /// Enclosures of the same coefficients and of their partial derivatives along (gamma_H, delta_H, phi) over the
+    /// intervals (interval_exponential.hpp: the block exponential for gamma and delta, -A E_b for phi).
+    std::array<detail::DualInterval, 5> coefficient_gradient_enclosure(detail::Interval gamma_h,
+                                                                       detail::Interval delta_h,
+                                                                       detail::Interval phi) const {
+        using detail::DualInterval;
+        using detail::Interval;
+        const Interval g = gamma_h + Interval(plant_.gamma), d = delta_h + Interval(plant_.delta);
+        const Interval rest = Interval(1.0) - phi;
+        const detail::IntervalMatrix3 w = detail::interval_exponential(g, d, Interval(1.0));
+        const detail::IntervalMatrix3 eb = detail::interval_exponential(g, d, rest);
+        const std::array<detail::IntervalMatrix3, 2> dw = detail::interval_exponential_derivatives(g, d, Interval(1.0));
+        const std::array<detail::IntervalMatrix3, 2> deb = detail::interval_exponential_derivatives(g, d, rest);
+        detail::IntervalMatrix3 deb_phi =
+            detail::interval_product(detail::plant_interval_matrix(g, d, Interval(1.0)), eb);
+        for (auto& row : deb_phi) {
+            for (auto& e : row) e = -e;  // d exp(A (1 - phi)) / dphi = -A exp(A (1 - phi))
+        }
+        auto at = [](const detail::IntervalMatrix3& m, int i, int j) {
+            return m[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+        };
+        auto whole = [&](int i, int j) {
+            return DualInterval(at(w, i, j), {at(dw[0], i, j), at(dw[1], i, j), Interval(0.0)});
+        };
+        auto rest_segment = [&](int i, int j) {
+            return DualInterval(at(eb, i, j), {at(deb[0], i, j), at(deb[1], i, j), at(deb_phi, i, j)});
+        };
+        return detail::arm_plant_coefficients<DualInterval>(whole, whole, rest_segment);
+    }
+
+    /// The mean-value form at theta on a sub-box (gamma_H, delta_H, phi in the intervals, whole delay n) for the
+    /// segment's gains with u in [u_lo, u_hi] (header comment): margin, a lower bound of |p(e^{i theta})| over every
+    /// plant of the box and every u (less the rounding allowances), and its slope bound within h of theta, slope +
+    /// h growth. For the tests.
+    struct CircleMargin {
+        double margin, slope, growth;
+    };
+    CircleMargin mean_value_margin(detail::Interval gamma_h, detail::Interval delta_h, detail::Interval phi, int n,
+                                   const GainSegment& g, double theta) const {
+        const Box b{n, 0, {gamma_h.lo, gamma_h.hi}, {delta_h.lo, delta_h.hi}, {phi.lo, phi.hi}};
+        const Gains k{gain_polynomial(g.alpha_0, g.beta_0), gain_polynomial(g.alpha_1, g.beta_1), g.u_lo, g.u_hi};
+        CircleMargin m{};
+        mean_value_form(b, k).fill(theta, g.u_lo, g.u_hi, m.margin, m.slope, m.growth);
+        return m;
     }
 
     /// The same coefficients at one point (double exponentials, exponential_integrals.hpp).
@@ -391,12 +385,15 @@ class ArmBoxTest {
         double u_lo, u_hi;
         Gains(Eigen::VectorXd k_0, Eigen::VectorXd k_1, double lo, double hi)
             : k0(std::move(k_0)), k1(std::move(k_1)), at_lo(k0 + lo * k1), at_hi(k0 + hi * k1), u_lo(lo), u_hi(hi) {}
-        double bound(std::complex<double> z) const {
-            return std::max(std::abs(detail::horner(at_lo, z)), std::abs(detail::horner(at_hi, z)));
+        double bound(std::complex<double> z) const { return bound(z, u_lo, u_hi); }
+        // Over u in [lo, hi]: the larger of |K| (|K'|) at the two ends.
+        double bound(std::complex<double> z, double lo, double hi) const {
+            const std::complex<double> k_0 = detail::horner(k0, z), k_1 = detail::horner(k1, z);
+            return std::max(detail::magnitude(k_0 + lo * k_1), detail::magnitude(k_0 + hi * k_1));
         }
-        double derivative_bound(std::complex<double> z) const {
-            return std::max(std::abs(detail::horner_derivative(at_lo, z)),
-                            std::abs(detail::horner_derivative(at_hi, z)));
+        double derivative_bound(std::complex<double> z, double lo, double hi) const {
+            const std::complex<double> k_0 = detail::horner_derivative(k0, z), k_1 = detail::horner_derivative(k1, z);
+            return std::max(detail::magnitude(k_0 + lo * k_1), detail::magnitude(k_0 + hi * k_1));
         }
         double weighted_bound(int power) const {
             return std::max(detail::weighted_sum(at_lo, power), detail::weighted_sum(at_hi, power));
@@ -523,88 +520,248 @@ class ArmBoxTest {
         return r;
     }
 
-    // H(theta) > threshold on [0, pi] (header comment).
+    // The mean-value form over a sub-box (header comment): c(x) in cc + m (x - x_c) + [-e, e] for every x of the box.
+    struct MeanValue {
+        std::array<double, 5> cc{}, e{};
+        std::array<std::array<double, 3>, 5> m{};
+        std::array<double, 3> r{};  // the box's half-widths along gamma_H, delta_H, phi
+    };
+    MeanValue mean_value(const Box& b) const {
+        MeanValue v;
+        const double x[3] = {b.gamma.mid(), b.delta.mid(), b.phi.mid()};
+        v.r = {0.5 * (b.gamma.hi - b.gamma.lo), 0.5 * (b.delta.hi - b.delta.lo), 0.5 * (b.phi.hi - b.phi.lo)};
+        const std::array<Interval, 5> at_centre = coefficient_enclosure(x[0], x[1], x[2]);
+        const std::array<detail::DualInterval, 5> over =
+            coefficient_gradient_enclosure({b.gamma.lo, b.gamma.hi}, {b.delta.lo, b.delta.hi}, {b.phi.lo, b.phi.hi});
+        for (std::size_t i = 0; i < 5; ++i) {
+            v.cc[i] = at_centre[i].mid();
+            v.e[i] = at_centre[i].radius();
+            for (std::size_t j = 0; j < 3; ++j) {
+                v.m[i][j] = over[i].d[j].mid();
+                v.e[i] += over[i].d[j].radius() * v.r[j];
+            }
+        }
+        return v;
+    }
+
+    // A polynomial affine in the segment's u: a0 + u a1, with sum k^2 |a0_k + u a1_k| bounded over the segment (its
+    // larger value at the ends: convex in u) and sum |a0_k| + u_hi sum |a1_k| for the rounding allowance.
+    struct AffinePolynomial {
+        Eigen::VectorXd a0, a1;
+        double w2 = 0, w2_a1 = 0, size = 0;
+    };
+    AffinePolynomial affine_polynomial(const std::array<double, 5>& dc, int n, const Gains& k) const {
+        // At z^(n+2) (dc_0 + dc_1 (z - 1)) + K(z; u) (dc_2 + dc_3 (z - 1) + dc_4 (z - 1)^2): base_and_gain of dc less
+        // its monic (z - 1)^2 part.
+        static const std::array<double, 5> none{};
+        Eigen::VectorXd p, q, monic, unused, q1;
+        base_and_gain(dc, n, k.k0, p, q);
+        base_and_gain(none, n, k.k0, monic, unused);
+        base_and_gain(dc, n, k.k1, unused, q1);
+        AffinePolynomial a;
+        a.a0 = p - monic + q;
+        a.a1 = q1;
+        a.w2 = std::max(detail::weighted_sum(Eigen::VectorXd(a.a0 + k.u_lo * a.a1), 2),
+                        detail::weighted_sum(Eigen::VectorXd(a.a0 + k.u_hi * a.a1), 2));
+        a.w2_a1 = detail::weighted_sum(a.a1, 2);
+        a.size = detail::weighted_sum(a.a0, 0) + k.u_hi * detail::weighted_sum(a.a1, 0);
+        return a;
+    }
+
+    // The mean-value form's polynomials on one sub-box (header comment): the centre's P_m + s Q_m and the generators
+    // (one per axis of positive width, one per coefficient remainder), each affine in s.
+    struct MeanValueForm {
+        bool built = false;
+        Eigen::VectorXd pm, qm;
+        double pm2 = 0, qm2 = 0, threshold = 0;
+        std::vector<AffinePolynomial> gens;
+        // At theta with s in [s_lo, s_hi] (u_c the middle, s_r the half-width): p = (P_m + u_c Q_m) + tau Q_m +
+        // sum_k t_k (A0_k + u_c A1_k) + tau sum_k t_k A1_k, |tau| <= s_r, |t_k| <= 1: the zonotope of the first three
+        // terms, the last in a disc. margin: its distance from 0 less the disc and the rounding; slope: the sum of its
+        // polynomials' |f'| bounds at theta (each largest at an end of s), growth: that bound's growth per unit of h.
+        void fill(double theta, double s_lo, double s_hi, double& margin, double& slope, double& growth) const {
+            const double eps = std::numeric_limits<double>::epsilon();
+            const std::complex<double> z = std::polar(1.0, theta);
+            const double u_c = 0.5 * (s_lo + s_hi), s_r = 0.5 * (s_hi - s_lo);
+            std::array<std::complex<double>, kZonotopeMaxGenerators> g{};
+            std::size_t m = 0;
+            const std::complex<double> qz = detail::horner(qm, z);
+            const std::complex<double> centre = detail::horner(pm, z) + u_c * qz;
+            g[m++] = s_r * qz;
+            const std::complex<double> pd = detail::horner_derivative(pm, z), qd = detail::horner_derivative(qm, z);
+            slope = std::max(detail::magnitude(pd + s_lo * qd), detail::magnitude(pd + s_hi * qd)) +
+                    s_r * detail::magnitude(qd);
+            growth = pm2 + s_r * qm2;
+            double disc = 0, sum = detail::magnitude(centre) + detail::magnitude(g[0]);
+            for (const AffinePolynomial& a : gens) {
+                const std::complex<double> a0 = detail::horner(a.a0, z), a1 = detail::horner(a.a1, z);
+                const std::complex<double> a0d = detail::horner_derivative(a.a0, z),
+                                           a1d = detail::horner_derivative(a.a1, z);
+                g[m++] = a0 + u_c * a1;
+                sum += detail::magnitude(g[m - 1]);
+                disc += s_r * detail::magnitude(a1);
+                slope += std::max(detail::magnitude(a0d + s_lo * a1d), detail::magnitude(a0d + s_hi * a1d)) +
+                         s_r * detail::magnitude(a1d);
+                growth += a.w2 + s_r * a.w2_a1;
+            }
+            const double rounding = (2.0 * static_cast<double>(m) + 4.0) * eps * 2.0 * sum;
+            margin = zonotope_origin_distance(centre, g.data(), m) - disc - rounding - threshold;
+        }
+    };
+    MeanValueForm mean_value_form(const Box& b, const Gains& k) const {
+        const MeanValue mv = mean_value(b);
+        MeanValueForm f;
+        f.built = true;
+        segment_polynomials(mv.cc, b.n, k, f.pm, f.qm);
+        f.pm2 = std::max(detail::weighted_sum(Eigen::VectorXd(f.pm + k.u_lo * f.qm), 2),
+                         detail::weighted_sum(Eigen::VectorXd(f.pm + k.u_hi * f.qm), 2));
+        f.qm2 = detail::weighted_sum(f.qm, 2);
+        for (std::size_t j = 0; j < 3; ++j) {
+            if (!(mv.r[j] > 0)) continue;
+            std::array<double, 5> dc{};
+            for (std::size_t i = 0; i < 5; ++i) dc[i] = mv.m[i][j] * mv.r[j];
+            f.gens.push_back(affine_polynomial(dc, b.n, k));
+        }
+        for (std::size_t i = 0; i < 5; ++i) {
+            if (!(mv.e[i] > 0)) continue;
+            std::array<double, 5> dc{};
+            dc[i] = mv.e[i];
+            f.gens.push_back(affine_polynomial(dc, b.n, k));
+        }
+        // Horner's rounding on every polynomial evaluated (as the radii's threshold).
+        double size = detail::weighted_sum(f.pm, 0) + k.u_hi * detail::weighted_sum(f.qm, 0);
+        for (const AffinePolynomial& a : f.gens) size += a.size;
+        f.threshold = 4.0 * static_cast<double>(f.pm.size() + 1) * std::numeric_limits<double>::epsilon() * size;
+        return f;
+    }
+
+    // H(theta) > threshold on [0, pi] (header comment), cell by cell in (theta, s): a cell is excluded by the
+    // coefficient radii's bound or, on a sub-box of positive width where that fails, by the mean-value form.
     HAPTICOPT_DEFERRED bool excludes_zero(const Box& b, const Centre& c, const Gains& k, double& failing_theta) const {
-        const double s_lo = k.u_lo, s_hi = k.u_hi;
         Eigen::VectorXd p, q;
         segment_polynomials(c.c, b.n, k, p, q);
         const std::array<double, 5>& r = c.radius;
         const double eps = std::numeric_limits<double>::epsilon();
         const double threshold = 4.0 * static_cast<double>(p.size() + 1) * eps *
-                                 (detail::weighted_sum(p, 0) + s_hi * detail::weighted_sum(q, 0));
+                                 (detail::weighted_sum(p, 0) + k.u_hi * detail::weighted_sum(q, 0));
         // Bounds over theta of |f| growth: |f(z(theta'))| <= |f(z)| + |theta' - theta| sum k |f_k|, and of |f'| with
-        // sum k^2 |f_k|.
-        const double p2 = detail::weighted_sum(p, 2);
-        const double q2 = detail::weighted_sum(q, 2);
+        // sum k^2 |f_k|; for the affine families in s (P + s Q, K) their larger value at the segment's ends.
+        const double p2 = std::max(detail::weighted_sum(Eigen::VectorXd(p + k.u_lo * q), 2),
+                                   detail::weighted_sum(Eigen::VectorXd(p + k.u_hi * q), 2));
         const double a1 = detail::weighted_sum(at_, 1), a2 = detail::weighted_sum(at_, 2);
         const double k1 = k.weighted_bound(1), k2 = k.weighted_bound(2);
+        const bool wide = b.gamma.hi > b.gamma.lo || b.delta.hi > b.delta.lo || b.phi.hi > b.phi.lo;
+        MeanValueForm form;  // built at its first use
         struct Point {
-            double h;                            // H(theta)
-            double p_d, q_d, a, a_d, k, k_d, w;  // |P'|, |Q'|, |At|, |At'|, bounds of |K| and |K'|, |z - 1|
+            double theta, s_lo, s_hi;
+            double h;                       // H(theta) over the point's s, the radii's bound
+            double p_d, a, a_d, k, k_d, w;  // max over s of |P' + s Q'|, |At|, |At'|, bounds of |K| and |K'|, |z - 1|
+            bool mv = false;                // the mean-value margin below computed
+            double h_mv = -1, mv_d = 0, mv_w = 0;  // it, its slope bound at the point and that bound's growth per h
         };
-        auto at = [&](double theta) {
+        auto at = [&](double theta, double s_lo, double s_hi) {
             const std::complex<double> z = std::polar(1.0, theta);
             const std::complex<double> pz = detail::horner(p, z), qz = detail::horner(q, z);
+            const std::complex<double> pd = detail::horner_derivative(p, z), qd = detail::horner_derivative(q, z);
             const double qq = std::norm(qz);
             double s = qq > 0 ? -(pz * std::conj(qz)).real() / qq : s_lo;
             s = std::clamp(s, s_lo, s_hi);
             Point v;
-            v.a = std::abs(detail::horner(at_, z));
-            v.k = k.bound(z);
-            v.w = std::abs(z - 1.0);
+            v.theta = theta;
+            v.s_lo = s_lo;
+            v.s_hi = s_hi;
+            v.a = detail::magnitude(detail::horner(at_, z));
+            v.k = k.bound(z, s_lo, s_hi);
+            v.w = detail::magnitude(z - 1.0);
             const double g = v.a * (r[0] + r[1] * v.w) + v.k * (r[2] + v.w * (r[3] + v.w * r[4]));
-            v.h = std::abs(pz + s * qz) - g;
-            v.p_d = std::abs(detail::horner_derivative(p, z));
-            v.q_d = std::abs(detail::horner_derivative(q, z));
-            v.a_d = std::abs(detail::horner_derivative(at_, z));
-            v.k_d = k.derivative_bound(z);
+            v.h = detail::magnitude(pz + s * qz) - g;
+            v.p_d = std::max(detail::magnitude(pd + s_lo * qd), detail::magnitude(pd + s_hi * qd));
+            v.a_d = detail::magnitude(detail::horner_derivative(at_, z));
+            v.k_d = k.derivative_bound(z, s_lo, s_hi);
             return v;
         };
-        // The largest |dH/dtheta| within h of a point: min_s |P + s Q| moves by at most |P'| + s_hi |Q'|, G by the
-        // derivative of its products (|d|z - 1|/dtheta| <= 1), each factor bounded over the cell from the point (|K|
-        // and |K'| by their larger value at the segment's ends; s: the segment's u).
+        auto with_mean_value = [&](Point& v) {
+            if (!wide || v.mv) return;
+            if (!form.built) form = mean_value_form(b, k);
+            form.fill(v.theta, v.s_lo, v.s_hi, v.h_mv, v.mv_d, v.mv_w);
+            v.mv = true;
+        };
+        // The largest |dH/dtheta| within h of a point: min_s |P + s Q| moves by at most max_s |P' + s Q'| (convex in s:
+        // at the cell's ends of s), G by the derivative of its products (|d|z - 1|/dtheta| <= 1), each factor bounded
+        // over the cell from the point.
         auto slope = [&](const Point& v, double h) {
-            const double pd = v.p_d + h * p2, qd = v.q_d + h * q2;
+            const double pd = v.p_d + h * p2;
             const double a = v.a + h * a1, ad = v.a_d + h * a2, kk = v.k + h * k1, kd = v.k_d + h * k2;
             const double w = std::min(v.w + h, 2.0);
             const double g_d =
                 ad * (r[0] + r[1] * w) + a * r[1] + kd * (r[2] + w * (r[3] + w * r[4])) + kk * (r[3] + 2.0 * w * r[4]);
-            return pd + s_hi * qd + g_d;
+            return pd + g_d;
+        };
+        auto positive = [&](Point& v) {
+            if (v.h > threshold) return true;
+            with_mean_value(v);
+            return v.h_mv > 0;
+        };
+        // Where the radii's bound is positive at both ends the cell is left to it (halving theta refines it, at a
+        // fraction of the mean-value form's cost); where it is not at an end, the mean-value form judges the cell.
+        auto passes = [&](Point& pa, Point& pb, double h) {
+            if (pa.h > threshold && pb.h > threshold)
+                return (pa.h + pb.h) / 2 - std::min(slope(pa, h), slope(pb, h)) * h / 2 > threshold;
+            if (!wide) return false;
+            with_mean_value(pa);
+            with_mean_value(pb);
+            const double lipschitz = std::min(pa.mv_d + h * pa.mv_w, pb.mv_d + h * pb.mv_w);
+            return pa.h_mv > 0 && pb.h_mv > 0 && (pa.h_mv + pb.h_mv) / 2 - lipschitz * h / 2 > 0;
         };
         constexpr int kCells = 128;
         const double pi = 3.14159265358979323846;
         struct Cell {
-            double a, b;
             Point pa, pb;
         };
         std::vector<Cell> cells;
-        Point prev = at(0.0);
-        failing_theta = 0.0;
-        if (!(prev.h > threshold)) return false;
+        Point prev = at(0.0, k.u_lo, k.u_hi);
         for (int i = 1; i <= kCells; ++i) {
-            const double theta = pi * i / kCells;
-            failing_theta = theta;
-            const Point next = at(theta);
-            if (!(next.h > threshold)) return false;
-            cells.push_back(Cell{pi * (i - 1) / kCells, theta, prev, next});
+            const Point next = at(pi * i / kCells, k.u_lo, k.u_hi);
+            cells.push_back(Cell{prev, next});
             prev = next;
         }
+        // A cell with an end where neither bound is positive is refined in s (the mean-value form's s-generator and
+        // K's bound shrink with s's range) down to 1e-6 of the segment's, then fails; one whose ends are positive but
+        // whose slope bound is too large is halved in s (s_spread) or theta.
+        const double s_narrowest = 1e-6 * (k.u_hi - k.u_lo);
         int evaluations = 0;
         while (!cells.empty()) {
-            const Cell cell = cells.back();
+            Cell cell = cells.back();
             cells.pop_back();
-            const double h = cell.b - cell.a;
-            const double lipschitz = std::min(slope(cell.pa, h), slope(cell.pb, h));
-            if ((cell.pa.h + cell.pb.h) / 2 - lipschitz * h / 2 > threshold) continue;
-            const double mid = 0.5 * (cell.a + cell.b);
-            failing_theta = mid;
-            if (h < kArmBoxMinCell || ++evaluations > 20000) return false;
-            const Point pm = at(mid);
-            if (!(pm.h > threshold)) return false;
-            cells.push_back(Cell{cell.a, mid, cell.pa, pm});
-            cells.push_back(Cell{mid, cell.b, pm, cell.pb});
+            const double h = cell.pb.theta - cell.pa.theta;
+            const bool ends = positive(cell.pa) && positive(cell.pb);
+            if (ends && passes(cell.pa, cell.pb, h)) continue;
+            failing_theta =
+                ends ? 0.5 * (cell.pa.theta + cell.pb.theta) : (cell.pa.h > threshold ? cell.pb.theta : cell.pa.theta);
+            if (h < kArmBoxMinCell || ++evaluations > kArmBoxMaxEvaluations) return false;
+            const double s_lo = cell.pa.s_lo, s_hi = cell.pa.s_hi;
+            const bool s_split =
+                s_hi - s_lo > s_narrowest && (!ends || s_spread(cell.pa.theta, s_lo, s_hi, p, q) > 2.0);
+            if (!ends && !s_split) return false;
+            if (s_split) {
+                const double s_mid = 0.5 * (s_lo + s_hi);
+                for (const auto& [lo, hi] : {std::pair{s_lo, s_mid}, std::pair{s_mid, s_hi}})
+                    cells.push_back(Cell{at(cell.pa.theta, lo, hi), at(cell.pb.theta, lo, hi)});
+                continue;
+            }
+            const Point mid = at(0.5 * (cell.pa.theta + cell.pb.theta), s_lo, s_hi);
+            cells.push_back(Cell{cell.pa, mid});
+            cells.push_back(Cell{mid, cell.pb});
         }
         return true;
+    }
+
+    // max / min over the ends of s of |P' + s Q'| at theta (the s-split rule of excludes_zero).
+    static double s_spread(double theta, double s_lo, double s_hi, const Eigen::VectorXd& p, const Eigen::VectorXd& q) {
+        const std::complex<double> z = std::polar(1.0, theta);
+        const std::complex<double> pd = detail::horner_derivative(p, z), qd = detail::horner_derivative(q, z);
+        const double lo = std::abs(pd + s_lo * qd), hi = std::abs(pd + s_hi * qd);
+        return std::max(lo, hi) / std::max(std::min(lo, hi), std::numeric_limits<double>::min());
     }
 
     NormalizedPlant plant_;

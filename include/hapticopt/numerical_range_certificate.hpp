@@ -153,8 +153,8 @@ struct NumericalRangeCertificate {
 /// The certificate of the header comment for symmetric A, B (r x r, normalised for the reference mass; not commuting,
 /// else the per-direction verdicts are exact and cheaper) over the scales [s_lo, s_hi] (0 < s_lo <= s_hi), with
 /// `directions` support lines. `segment_verdict(const GainSegment&)` returns a GainRayStability (stable, and the
-/// segment's u where it fails) for every plant of the rest of the set. Edges are judged in order and the first that
-/// fails ends the certificate.
+/// segment's u where it fails) for every plant of the rest of the set. Edges are judged longest first, and the first
+/// that fails ends the certificate.
 template <typename SegmentVerdict>
 NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double s_lo,
                                                      double s_hi, int directions, SegmentVerdict&& segment_verdict) {
@@ -162,10 +162,15 @@ NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, c
     r.directions = directions;
     const std::vector<Eigen::Vector2d> hull =
         scaled_polygon_hull(numerical_range_polygon(A, B, directions), s_lo, s_hi);
-    for (std::size_t i = 0; i < hull.size(); ++i) {
+    // The longest edges first: the polygon's excess over the range is largest at their ends, where an unstable gain
+    // pair outside the range most often lies, so a certificate that fails most often fails at its first verdicts.
+    std::vector<std::size_t> order(hull.size() == 2 ? 1 : hull.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    auto length = [&](std::size_t i) { return (hull[(i + 1) % hull.size()] - hull[i]).norm(); };
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return length(a) > length(b); });
+    for (const std::size_t i : order) {
         const Eigen::Vector2d& from = hull[i];
         const Eigen::Vector2d& to = hull[(i + 1) % hull.size()];
-        if (hull.size() == 2 && i == 1) break;  // a segment: one edge
         const GainSegment edge = hull.size() == 1 ? GainSegment::between(from.x(), from.y(), from.x(), from.y())
                                                   : GainSegment::between(from.x(), from.y(), to.x(), to.y());
         ++r.edges;

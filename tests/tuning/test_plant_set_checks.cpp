@@ -567,5 +567,55 @@ TEST(PlantSetChecks, AnObliqueSumIsProvenOverTheSetAndStableAtItsPlants) {
     }
 }
 
+// The scenes of a plane's 30-tick ramp beside a CE2 wall (the plane 45 degrees to the wall's axis, 100 N/m and
+// 1 N s/m; their matrices do not commute) on a simulated 0.30 kg device (backward difference, no delay, masses
+// 0.2727 .. 0.33 kg), without and with the arm of eq. 2: coupled_over_set proves each scene over the whole set (the
+// numerical range, every edge certified over the arm box; the first scenes' soft direction is near free, its roots
+// near z = 1), and the coupled loop's state matrix, built independently, is stable at the set's corners.
+TEST(PlantSetChecks, TheRampScenesOfAnObliquePlaneBesideAWallAreProvenOverTheSet) {
+    for (const bool with_arm : {false, true}) {
+        GainCheckPlant p;
+        p.mass = 0.30;
+        p.period = kPeriod;
+        p.mass_range = std::make_pair(0.30, 0.30);
+        p.mass_margin = 0.1;
+        if (with_arm) {
+            p.arm_stiffness_per_mass = 1000.0;
+            p.arm_damping_per_mass = 20.0;
+        }
+        GainChecker checker(p);
+        const CriterionGains ce2 = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+        const double c = std::sqrt(0.5);
+        const auto [c_lo, c_hi] = checker.mass_scales();
+        const double T = kPeriod, g_max = p.arm_stiffness_per_mass * T * T, e_max = p.arm_damping_per_mass * T;
+        for (int j = 1; j < 30; j += with_arm ? 14 : 4) {
+            const double s = j / 30.0;
+            Matrix3 K{}, B{};
+            K[0][0] = ce2.K;
+            B[0][0] = ce2.B;
+            const double n[3] = {c, c, 0.0};
+            for (std::size_t r = 0; r < 3; ++r) {
+                for (std::size_t q = 0; q < 3; ++q) {
+                    K[r][q] += s * s * 100.0 * n[r] * n[q];
+                    B[r][q] += s * 1.0 * n[r] * n[q];
+                }
+            }
+            const hapticopt::MatrixGainScaleStability v = checker.coupled_over_set(K, B);
+            EXPECT_TRUE(v.stable) << "arm " << with_arm << ", scene " << j;
+            EXPECT_FALSE(v.commuting);
+            EXPECT_TRUE(v.certified) << "arm " << with_arm << ", scene " << j;
+            for (int k = 0; k < 8; ++k) {
+                const double mass = 0.30 * ((k & 4) ? c_hi : c_lo);
+                const hapticopt::NormalizedPlant plant{(k & 1) ? g_max : 0.0, (k & 2) ? e_max : 0.0, 0.0};
+                const auto [A, Bn] =
+                    coupled_loop_matrix::on_span((T * T / mass) * as_eigen(K), (T / mass) * as_eigen(B),
+                                                 {Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(c, c, 0.0)});
+                EXPECT_LT(coupled_loop_matrix::state_radius(plant, A, Bn, coupled_loop_matrix::window(1)), 1.0)
+                    << "arm " << with_arm << ", scene " << j << ", corner " << k;
+            }
+        }
+    }
+}
+
 }  // namespace plant_set_checks_test
 }  // namespace hapticd
