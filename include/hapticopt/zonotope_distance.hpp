@@ -37,10 +37,9 @@ inline double zonotope_origin_distance(std::complex<double> c, const std::comple
     }
     if (count == 0) return std::sqrt(std::norm(c));
     // By argument in [0, pi): a before b iff b lies counter-clockwise of a (their cross product is positive).
-    std::sort(gens.begin(), gens.begin() + static_cast<std::ptrdiff_t>(count),
-              [](std::complex<double> a, std::complex<double> b) {
-                  return a.real() * b.imag() - a.imag() * b.real() > 0;
-              });
+    std::sort(
+        gens.begin(), gens.begin() + static_cast<std::ptrdiff_t>(count),
+        [](std::complex<double> a, std::complex<double> b) { return a.real() * b.imag() - a.imag() * b.real() > 0; });
     std::complex<double> v = c;
     for (std::size_t k = 0; k < count; ++k) v -= gens[k];
     bool inside = true;

@@ -344,8 +344,8 @@ class GainChecker {
     // certify with kSearchArmBoxes: near the boundary a verdict subdivides to its limit (~0.5 s at 4096 on the sim
     // profile), and "not proven" only moves the end inwards.
     // An object's or a scene's verdict subdivides to kAcceptArmBoxes: beyond, neither proven nor refuted, the grid's
-    // verdict stands (sampled) — a near-free ramp scene's roots lie near z = 1 and reach any limit, and a commit
-    // judges up to ~30 such scenes.
+    // verdict stands (sampled) — a commit judges up to ~30 ramp scenes, and near the boundary a verdict can subdivide
+    // to any limit.
     static constexpr int kSearchArmBoxes = 64;
     static constexpr int kAcceptArmBoxes = 256;
     [[nodiscard]] bool stable_over_set(double m, double alpha, double beta, SetFailure& failure, bool certify = true,

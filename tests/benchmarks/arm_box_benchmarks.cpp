@@ -9,6 +9,11 @@
 // Arguments: delays 0: the total delay 6 periods alone, 1: 5 .. 7 periods (the shipped profile's range); gains 0: half
 // the CE2 optimum for 0.30 kg (K 189.2 N/m, B 7.747 N s/m), 1: amax over the set with the delays 5 .. 7 ms (K 455.7
 // N/m, B 7.107 N s/m, docs/robust-stability.md: a plant of the box within 0.1 % of the boundary).
+//  * BM_NearFreeEdge: ArmBoxTest::segment_over of the longest edge of the numerical range's hull in the first tick of a
+//    plane's ramp beside a wall (0.30 kg, backward difference, the masses 0.2727 .. 0.33 kg; from the soft corner
+//    (alpha, beta) = (1.78e-7, 5.05e-5), roots near z = 1, to the stiff one (0.2249, 0.5431)) on four boxes: box 0 one
+//    plant (no arm, no delay range), 1: gamma_H <= 1e-4, 2: delta_H <= 2e-3, 3: the arm of eq. 2 with the delays
+//    0 .. 0.3 periods; 256 sub-boxes at most (the daemon's budget). Counters `stable` (1: proven) and `boxes`.
 #include <benchmark/benchmark.h>
 
 #include <hapticopt/arm_box_stability.hpp>
@@ -74,6 +79,21 @@ void BM_ArmBoxCertified(benchmark::State& state) {
     state.counters["boxes"] = boxes;
 }
 
+void BM_NearFreeEdge(benchmark::State& state) {
+    const double boxes[4][4] = {{0, 0, 0, 0}, {1e-4, 0, 0, 0}, {0, 2e-3, 0, 0}, {1e-3, 0.02, 0, 0.3}};
+    const double* b = boxes[state.range(0)];
+    const hapticopt::ArmBoxTest test(hapticopt::NormalizedPlant{0, 0, 0}, hapticopt::VelocityEstimator{}, b[0], b[1],
+                                     b[2], b[3]);
+    const hapticopt::GainSegment edge = hapticopt::GainSegment::between(1.77654e-07, 5.05087e-05, 0.224927, 0.543072);
+    hapticopt::ArmBoxStability v;
+    for (auto _ : state) {
+        v = test.segment_over(edge, 256);
+        benchmark::DoNotOptimize(v);
+    }
+    state.counters["stable"] = v.stable ? 1.0 : 0.0;
+    state.counters["boxes"] = v.boxes;
+}
+
 void arm_args(benchmark::internal::Benchmark* b) {
     b->ArgNames({"delays", "amax"});
     for (const int delays : {0, 1}) {
@@ -86,4 +106,5 @@ void arm_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_ArmGridSampled)->Apply(arm_args);
 BENCHMARK(BM_ArmBoxCertified)->Apply(arm_args);
+BENCHMARK(BM_NearFreeEdge)->ArgName("box")->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();
