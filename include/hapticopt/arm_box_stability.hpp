@@ -120,8 +120,11 @@ inline constexpr double kArmBoxMinCell = 1e-9;
 /// A failing sub-box is judged exactly along the mass at its centre at depths 0, kArmBoxExactEvery, ... (between:
 /// halved without it; the exact verdict costs a crossing computation, O(N^3)).
 inline constexpr int kArmBoxExactEvery = 3;
-/// Cells of (theta, s) evaluated at most per sub-box's exclusion.
+/// Cells of (theta, s) evaluated at most per sub-box's exclusion, and of them judged by the mean-value form (each
+/// ~10 times the radii's cost): beyond, the exclusion fails and the sub-box is halved, as where its bound is not
+/// positive.
 inline constexpr int kArmBoxMaxEvaluations = 20000;
+inline constexpr int kArmBoxMaxMeanValuePoints = 512;
 
 namespace detail {
 
@@ -680,11 +683,13 @@ class ArmBoxTest {
             v.k_d = k.derivative_bound(z, s_lo, s_hi);
             return v;
         };
+        int fills = 0;  // mean-value points computed; beyond kArmBoxMaxMeanValuePoints the cell is not positive there
         auto with_mean_value = [&](Point& v) {
             if (!wide || v.mv) return;
+            v.mv = true;
+            if (++fills > kArmBoxMaxMeanValuePoints) return;  // h_mv stays -1: not positive
             if (!form.built) form = mean_value_form(b, k);
             form.fill(v.theta, v.s_lo, v.s_hi, v.h_mv, v.mv_d, v.mv_w);
-            v.mv = true;
         };
         // The largest |dH/dtheta| within h of a point: min_s |P + s Q| moves by at most max_s |P' + s Q'| (convex in s:
         // at the cell's ends of s), G by the derivative of its products (|d|z - 1|/dtheta| <= 1), each factor bounded

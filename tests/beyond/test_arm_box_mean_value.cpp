@@ -222,7 +222,7 @@ TEST(ArmBoxMeanValue, ANearFreeSegmentIsProvenOnEveryBoxAndItsPlantsAreStable) {
           Box{VelocityEstimator{}, 0.0, 2e-3, 0.0, 0.0}, Box{VelocityEstimator{}, 1e-3, 0.02, 0.0, 0.3}}) {
         const ArmBoxTest test(NormalizedPlant{0, 0, 0}, box.e, box.gamma_max, box.delta_max, box.d_lo, box.d_hi);
         for (const GainSegment& g : {edge, GainSegment::ray(1.77654e-07, 5.05087e-05, 0.909, 1.1)}) {
-            const ArmBoxStability v = test.segment_over(g, 256);
+            const ArmBoxStability v = test.segment_over(g);  // the library's budget, kArmBoxMaxBoxes
             EXPECT_TRUE(v.stable) << "box gamma " << box.gamma_max << ", delta " << box.delta_max << ", delay "
                                   << box.d_hi << ": refused at gamma " << v.failing_gamma << ", delta "
                                   << v.failing_delta << ", delay " << v.failing_delay << " after " << v.boxes;
