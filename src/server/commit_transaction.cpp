@@ -76,6 +76,8 @@ class Transaction {
         }
         const double step = context_.config.ramp_time > 0.0 ? context_.config.period / context_.config.ramp_time : 1.0;
         const EngagementCheck verdict = check_engagement_patterns(context_.checker, terms, step);
+        scenes_checked_ = verdict.checks;
+        scenes_sampled_ = verdict.sampled;
         if (verdict.stable) return std::nullopt;
         return Refusal{verdict.over_limit ? ErrorCode::Capacity : ErrorCode::UnstableSum,
                        "commit: " + verdict.why + " (docs/protocol.md, section 5)"};
@@ -89,6 +91,8 @@ class Transaction {
         }
         plan.new_ids = new_ids_;
         plan.next_object_id = next_id_;
+        plan.scenes_checked = scenes_checked_;
+        plan.scenes_sampled = scenes_sampled_;
         return plan;
     }
 
@@ -182,6 +186,7 @@ class Transaction {
     SlotTable proposal_;
     std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates_{};
     std::vector<std::uint32_t> new_ids_;
+    mutable std::size_t scenes_checked_ = 0, scenes_sampled_ = 0;  // check_rendered_scenes' counts
     std::uint64_t session_;
     std::uint32_t next_id_;
 };

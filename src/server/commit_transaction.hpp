@@ -32,6 +32,8 @@ struct CommitPlan {
     ObjectCommit batch;  // the loop's updates, one per changed slot (count 0: nothing changes); seq unset
     std::vector<std::uint32_t> new_ids;  // the added objects' ids, in the order of the adds
     std::uint32_t next_object_id = 1;    // the id the next add gets
+    std::size_t scenes_checked = 0;      // scene verdicts of the rendered-scene check (EngagementCheck::checks) ...
+    std::size_t scenes_sampled = 0;      // ... and of them accepted on the sampled verdict (EngagementCheck::sampled)
 };
 
 struct CommitRefusal {

@@ -114,6 +114,8 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
     json ok = server::ok_reply(id);
     ok["commit_seq"] = seq;
     ok["object_ids"] = plan.new_ids;
+    ok["scenes_checked"] = plan.scenes_checked;
+    ok["scenes_sampled"] = plan.scenes_sampled;
     send_reply(s, ok);
 }
 

@@ -168,7 +168,11 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
         if (!checked.insert(sum_key(K, B)).second) continue;  // the same sum as a pattern checked already
         ++result.checks;
         std::string reason;
-        if (checker.sum_is_stable(K, B, reason)) continue;
+        bool proven = false;
+        if (checker.sum_is_stable(K, B, reason, s >= 1.0, &proven)) {
+            result.sampled += proven ? 0 : 1;
+            continue;
+        }
         std::vector<std::size_t> engaged, free;
         for (std::size_t u = 0; u < units.size(); ++u) {
             const std::vector<std::size_t> in = units[u].engaged(digits[u]);

@@ -84,6 +84,10 @@ struct EngagementCheck {
     bool stable = true;
     bool over_limit = false;  // more than kMaxEngagementPatternScenes (weighted as above): not checked
     std::size_t checks = 0;   // scene verdicts computed
+    // Of them, accepted on the sampled verdict, not proven over the whole plant set (GainChecker::sum_is_stable's
+    // `proven`): a final scene no proof covers, or a ramp scene whose gains do not commute (the numerical-range proof
+    // runs on final scenes only: its cost per scene is 0.1 to 1.5 s on the Falcon's set, docs/benchmarks.md).
+    std::size_t sampled = 0;
     std::size_t largest_group_patterns = 0;
     std::size_t groups = 0;
     std::string why;  // on failure or over_limit: which scene, which pattern, why

@@ -270,8 +270,10 @@ class GainChecker {
     [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum,
                                                                        bool prove = true) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
-    [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why,
-                                     bool prove = true) const;
+    // `proven` (when given): stable and certified over the whole set (exact per direction, the arm box, or the
+    // numerical range); false: refused, or accepted on the sampled verdict.
+    [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why, bool prove = true,
+                                     bool* proven = nullptr) const;
 
     // One common eigen-direction (alpha, beta) of a commuting sum over the whole arm box (coupled_over_set): stable
     // (proven: certified by the box; else neither proven nor refuted within kAcceptArmBoxes and the grid's verdict
@@ -366,10 +368,12 @@ class GainChecker {
     // Summed gains A, B (normalised for the reference mass matrix, symmetric to the rounding level, not commuting)
     // proven stable over the whole set by their joint numerical range (hapticopt::certify_by_numerical_range, every
     // edge judged by segment_box_ over the arm box, masses and delays, kAcceptArmBoxes sub-boxes each), with
-    // kNumericalRangeDirections support lines, then 4 times as many when that is not proven. The anchor (the coupled
-    // loop stable at one plant) is the caller's. false: not proven (a curl, b or k > 0, or an edge not proven stable).
+    // kNumericalRangeDirections support lines, refined where an edge fails outside the range's hull, up to
+    // kMaxNumericalRangeDirections. The anchor (the coupled loop stable at one plant) is the caller's. false: not
+    // proven (a curl, b or k > 0, or an edge not proven stable).
     [[nodiscard]] bool proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const;
     static constexpr int kNumericalRangeDirections = 16;
+    static constexpr int kMaxNumericalRangeDirections = 256;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.
     [[nodiscard]] std::shared_ptr<const hapticopt::EstimatorStabilityRegion> estimator_region_for(double m) const;
 

@@ -116,19 +116,13 @@ bool GainChecker::proven_by_numerical_range(const Eigen::MatrixXd& A, const Eige
         const hapticopt::ArmBoxStability box = segment_box_->segment_over(g, kAcceptArmBoxes);
         hapticopt::GainRayStability v;
         v.stable = box.stable;
-        v.certified = true;
+        v.certified = box.stable || box.proven_unstable;  // false: neither within the box's subdivision limit
         v.failing_scale = box.failing_scale;
         return v;
     };
-    // The finer polygon when the coarse one is not proven: its excess over the range is smaller (an unstable plant
-    // there may lie outside it) and its edges shorter (an edge the box could not decide within its budget may split
-    // into edges it can).
-    for (const int directions : {kNumericalRangeDirections, 4 * kNumericalRangeDirections}) {
-        if (hapticopt::certify_by_numerical_range(Ar, Br, 1.0 / scale_max_, 1.0 / scale_min_, directions, verdict)
-                .proven)
-            return true;
-    }
-    return false;
+    return hapticopt::certify_by_numerical_range(Ar, Br, 1.0 / scale_max_, 1.0 / scale_min_, kNumericalRangeDirections,
+                                                 verdict, kMaxNumericalRangeDirections)
+        .proven;
 }
 
 hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum,
@@ -267,11 +261,14 @@ std::string GainChecker::set_text() const {
     return s.str();
 }
 
-bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why, bool prove) const {
+bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why, bool prove,
+                                bool* proven) const {
     const Eigen::Matrix3d K = symmetric_part(K_sum), B = symmetric_part(B_sum);
+    if (proven != nullptr) *proven = true;  // nothing acts: the free device
     if (as_eigen(K_sum).isZero(0.0) && as_eigen(B_sum).isZero(0.0)) return true;
     // The decision: the coupled loop's verdict over the set (exact per direction when the gains commute).
     const hapticopt::MatrixGainScaleStability verdict = coupled_over_set(K_sum, B_sum, prove);
+    if (proven != nullptr) *proven = verdict.stable && verdict.certified;
     if (verdict.stable) return true;
     const double failing_scale_of_mass = 1.0 / verdict.failing_scale;  // c: the mass matrix c M fails
     std::string at_delay;  // with a delay range: the total delay it fails at

@@ -20,6 +20,9 @@
 //    15, d = 6), arm and delays as above: the sampled coupled verdict, then the numerical-range proof over the set
 //    (numerical_range_certificate.hpp); counter `proven` 1 when coupled_over_set reports it certified. Baseline in
 //    the same run: BM_ObliqueSumNominal, the same sum for the nominal plant alone (one block companion eigenproblem).
+//  * BM_ObliqueRampSceneOverSet: coupled_over_set of scene j / 30 of a plane's ramp (100 N/m, 1 N s/m at its end,
+//    45 degrees to the wall) beside a wall of half the CE2 gains on the Falcon's loop with the arm and the delays
+//    5 .. 8 ms: a thin numerical range (the refined polygon; numerical_range_certificate.hpp); counter `proven`.
 // Gains: CE2 for the nominal mass of each kind and delay, scaled by 0.5 (stable over the set in every case: checked).
 #include <benchmark/benchmark.h>
 
@@ -119,6 +122,29 @@ void run_oblique_sum(benchmark::State& state, bool with_set) {
 void BM_ObliqueSumNominal(benchmark::State& state) { run_oblique_sum(state, false); }
 void BM_ObliqueSumOverSet(benchmark::State& state) { run_oblique_sum(state, true); }
 
+void BM_ObliqueRampSceneOverSet(benchmark::State& state) {
+    GainChecker checker(set_bench_plant(6, 2, true, true, true));
+    const CriterionGains g = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+    const double s = static_cast<double>(state.range(0)) / 30.0, c = std::sqrt(0.5);
+    Matrix3 K{}, B{};
+    K[0][0] = 0.5 * g.K;
+    B[0][0] = 0.5 * g.B;
+    const double n[3] = {c, c, 0.0};
+    for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) {
+            K[i][j] += s * s * 100.0 * n[i] * n[j];
+            B[i][j] += s * 1.0 * n[i] * n[j];
+        }
+    }
+    hapticopt::MatrixGainScaleStability v;
+    for (auto _ : state) {
+        v = checker.coupled_over_set(K, B);
+        benchmark::DoNotOptimize(v);
+    }
+    if (!v.stable) throw std::logic_error("benchmark ramp scene not stable");
+    state.counters["proven"] = v.certified ? 1.0 : 0.0;
+}
+
 void BM_PlaneObjectOverSet(benchmark::State& state) {
     const int d = static_cast<int>(state.range(0)), kind = static_cast<int>(state.range(1));
     GainChecker checker(set_bench_plant(d, kind, true));
@@ -162,3 +188,11 @@ BENCHMARK(BM_PairOverSetWithDelays)
 BENCHMARK(BM_PlaneCommitOverSet)->Apply(arm_and_delay_args);
 BENCHMARK(BM_ObliqueSumNominal)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ObliqueSumOverSet)->Apply(arm_and_delay_args);
+BENCHMARK(BM_ObliqueRampSceneOverSet)
+    ->ArgName("j")
+    ->Arg(1)
+    ->Arg(2)
+    ->Arg(15)
+    ->Arg(29)
+    ->Arg(30)
+    ->Unit(benchmark::kMillisecond);

@@ -75,6 +75,27 @@ TEST_F(ServerProtocol, MalformedAndTruncatedMessagesGetAnErrorAndTheConnectionSt
     EXPECT_EQ(r.value("id", 0), 8);
 }
 
+// The commit's reply counts its scene verdicts and those accepted on the samples (docs/protocol.md, section 5): a plane
+// parallel to the config wall (x) commutes with it in every scene (exact verdicts: none sampled); a plane at 45 degrees
+// does not, and its ramp's scenes with both engaged rest on the samples while its final scene's patterns are proven
+// (the numerical range; sim3: one mass range, no arm, no delay).
+TEST_F(ServerProtocol, TheCommitReplyCountsTheSceneVerdictsAndThoseOnTheSamples) {
+    RawConnection c(n_->socket);
+    c.hello();
+    c.send(
+        R"({"type":"commit","id":1,"ops":[{"op":"add","object":{"kind":"plane","normal":[1,0,0],"offset":0.04,"gains":{"K":100,"B":1}}}]})");
+    json r = c.receive_json();
+    ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
+    EXPECT_GE(r.value("scenes_checked", 0), 30) << r.dump();  // the final scene and 29 ramp scenes at least
+    EXPECT_EQ(r.value("scenes_sampled", -1), 0) << r.dump();
+    c.send(
+        R"({"type":"commit","id":2,"ops":[{"op":"add","object":{"kind":"plane","normal":[0.7071067811865476,0.7071067811865476,0],"offset":0.04,"gains":{"K":100,"B":1}}}]})");
+    r = c.receive_json();
+    ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
+    EXPECT_GT(r.value("scenes_sampled", 0), 0) << r.dump();
+    EXPECT_LT(r.value("scenes_sampled", 0), r.value("scenes_checked", 0)) << r.dump();
+}
+
 TEST_F(ServerProtocol, AnOversizedMessageIsRefusedAndClosedOthersUndisturbed) {
     cl::Client keeper = cl::Client::connect({.socket_path = n_->socket, .client_name = "keeper"});
     const auto kept = keeper.commit(cl::Batch().add(cl::Plane{

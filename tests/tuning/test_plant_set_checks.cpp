@@ -617,5 +617,50 @@ TEST(PlantSetChecks, TheRampScenesOfAnObliquePlaneBesideAWallAreProvenOverTheSet
     }
 }
 
+// The same ramp beside a wall of half the CE2 gains on the Falcon's set with the arm and the delays 5 .. 8 ms: the
+// numerical range is a thin sliver, and the polygons of 16 and 64 equally spaced lines have a vertex beside it whose
+// loop is unstable; the refined polygon proves the scenes (coupled_over_set certified), and the coupled loop's state
+// matrix, built independently, is stable at the set's 16 corners and at 8 random plants of each.
+TEST(PlantSetChecks, TheRampScenesBesideAHalfCe2WallAreProvenOnTheFalconsSet) {
+    const GainCheckPlant p = falcon_with_arm(true);
+    GainChecker checker(p);
+    const CriterionGains ce2 = checker.criterion_gains(hapticopt::Criterion::CE2, 0.30);
+    const double c = std::sqrt(0.5);
+    const auto [c_lo, c_hi] = checker.mass_scales();
+    const double T = kPeriod, g_max = p.arm_stiffness_per_mass * T * T, e_max = p.arm_damping_per_mass * T;
+    std::mt19937 rng(37);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (const int j : {6, 15, 29}) {
+        const double s = j / 30.0;
+        Matrix3 K{}, B{};
+        K[0][0] = 0.5 * ce2.K;
+        B[0][0] = 0.5 * ce2.B;
+        const double n[3] = {c, c, 0.0};
+        for (std::size_t r = 0; r < 3; ++r) {
+            for (std::size_t q = 0; q < 3; ++q) {
+                K[r][q] += s * s * 100.0 * n[r] * n[q];
+                B[r][q] += s * 1.0 * n[r] * n[q];
+            }
+        }
+        const hapticopt::MatrixGainScaleStability v = checker.coupled_over_set(K, B);
+        EXPECT_TRUE(v.stable) << "scene " << j;
+        EXPECT_FALSE(v.commuting);
+        EXPECT_TRUE(v.certified) << "scene " << j;
+        for (int k = 0; k < 24; ++k) {
+            const bool corner = k < 16;
+            const double mass = 0.30 * (corner ? ((k & 8) ? c_hi : c_lo) : c_lo + (c_hi - c_lo) * unit(rng));
+            const hapticopt::NormalizedPlant plant{corner ? ((k & 1) ? g_max : 0.0) : g_max * unit(rng),
+                                                   corner ? ((k & 2) ? e_max : 0.0) : e_max * unit(rng),
+                                                   corner ? ((k & 4) ? 8.0 : 5.0) : 5.0 + 3.0 * unit(rng)};
+            const auto [A, Bn] =
+                coupled_loop_matrix::on_span((T * T / mass) * as_eigen(K), (T / mass) * as_eigen(B),
+                                             {Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(c, c, 0.0)});
+            EXPECT_LT(coupled_loop_matrix::state_radius(plant, A, Bn, coupled_loop_matrix::window(15)), 1.0)
+                << "scene " << j << ": mass " << mass << ", gamma " << plant.gamma << ", delta " << plant.delta
+                << ", d " << plant.delay;
+        }
+    }
+}
+
 }  // namespace plant_set_checks_test
 }  // namespace hapticd
