@@ -163,6 +163,8 @@ class Batch {
 struct CommitResult {
     std::uint64_t commit_seq = 0;           // appears as StateSample::last_commit_seq once applied
     std::vector<std::uint32_t> object_ids;  // one per add, in order
+    std::size_t scenes_checked = 0;         // scene verdicts of the stability check (docs/protocol.md, section 5) ...
+    std::size_t scenes_sampled = 0;         // ... of them accepted on the sampled verdict, not proven over the set
 };
 
 // The welcome's `device` (docs/protocol.md, section 2).

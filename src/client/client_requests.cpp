@@ -127,6 +127,8 @@ CommitResult Client::commit(const Batch& batch) {
     CommitResult result;
     result.commit_seq = r.value("commit_seq", std::uint64_t{0});
     for (const auto& id : r.value("object_ids", json::array())) result.object_ids.push_back(id.get<std::uint32_t>());
+    result.scenes_checked = r.value("scenes_checked", std::size_t{0});
+    result.scenes_sampled = r.value("scenes_sampled", std::size_t{0});
     return result;
 }
 

@@ -94,6 +94,13 @@ TEST_F(ServerProtocol, TheCommitReplyCountsTheSceneVerdictsAndThoseOnTheSamples)
     ASSERT_EQ(r.value("type", ""), "ok") << r.dump();
     EXPECT_GT(r.value("scenes_sampled", 0), 0) << r.dump();
     EXPECT_LT(r.value("scenes_sampled", 0), r.value("scenes_checked", 0)) << r.dump();
+    // The C++ client's CommitResult carries both.
+    cl::Client client = cl::Client::connect({.socket_path = n_->socket, .client_name = "scenes"});
+    const cl::CommitResult result = client.commit(cl::Batch().add(
+        cl::Plane{.normal = {0.6, 0.8, 0.0}, .offset = 0.04, .gains = cl::Gains::explicit_gains(100.0, 1.0)}));
+    EXPECT_GT(result.scenes_sampled, 0U);
+    EXPECT_LT(result.scenes_sampled, result.scenes_checked);
+    client.bye();
 }
 
 TEST_F(ServerProtocol, AnOversizedMessageIsRefusedAndClosedOthersUndisturbed) {
