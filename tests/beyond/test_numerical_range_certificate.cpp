@@ -58,6 +58,16 @@ bool inside(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& 
     return true;
 }
 
+// A point (v^* A v, v^* B v) of the joint numerical range at a random complex unit vector v.
+Eigen::Vector2d random_range_point(std::mt19937& rng, const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) {
+    std::normal_distribution<double> normal(0.0, 1.0);
+    Eigen::VectorXcd v(A.rows());
+    for (Eigen::Index i = 0; i < A.rows(); ++i) v(i) = std::complex<double>(normal(rng), normal(rng));
+    v.normalize();
+    const Eigen::MatrixXcd Ac = A.cast<std::complex<double>>(), Bc = B.cast<std::complex<double>>();
+    return Eigen::Vector2d((v.adjoint() * Ac * v)(0).real(), (v.adjoint() * Bc * v)(0).real());
+}
+
 double segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     const Eigen::Vector2d e = b - a;
     const double t = e.squaredNorm() > 0 ? std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0) : 0.0;
@@ -66,7 +76,6 @@ double segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, cons
 
 TEST(NumericalRange, ThePolygonHoldsTheRangeAndHugsIt) {
     std::mt19937 rng(20261207);
-    std::normal_distribution<double> normal(0.0, 1.0);
     for (int trial = 0; trial < 40; ++trial) {
         const int r = 2 + trial % 2;
         const Eigen::MatrixXd A = random_symmetric(rng, r), B = random_symmetric(rng, r);
@@ -75,11 +84,7 @@ TEST(NumericalRange, ThePolygonHoldsTheRangeAndHugsIt) {
         ASSERT_EQ(polygon.size(), static_cast<std::size_t>(m));
         const double tol = 1e-12 * (A.norm() + B.norm());
         for (int k = 0; k < 2000; ++k) {
-            Eigen::VectorXcd v(r);
-            for (int i = 0; i < r; ++i) v(i) = std::complex<double>(normal(rng), normal(rng));
-            v.normalize();
-            const Eigen::MatrixXcd Ac = A.cast<std::complex<double>>(), Bc = B.cast<std::complex<double>>();
-            const Eigen::Vector2d w((v.adjoint() * Ac * v)(0).real(), (v.adjoint() * Bc * v)(0).real());
+            const Eigen::Vector2d w = random_range_point(rng, A, B);
             ASSERT_TRUE(inside(polygon, w, tol)) << "trial " << trial << ": (" << w.transpose() << ")";
         }
         // Vertex j lies on the support lines j and j + 1; with t_j, t_{j+1} their support points (points of the
@@ -130,7 +135,6 @@ TEST(NumericalRange, TheHullHoldsEveryScaledPolygon) {
 // combinations of its vertices) lies within the largest excess of the support points' hull, measured here.
 TEST(NumericalRange, AnUnevenOutlineHoldsTheRangeWithinItsExcess) {
     std::mt19937 rng(20261208);
-    std::normal_distribution<double> normal(0.0, 1.0);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     for (int trial = 0; trial < 30; ++trial) {
         const int r = 2 + trial % 2;
@@ -152,11 +156,7 @@ TEST(NumericalRange, AnUnevenOutlineHoldsTheRangeWithinItsExcess) {
                 << "trial " << trial << ", line " << j;
         }
         for (int k = 0; k < 500; ++k) {
-            Eigen::VectorXcd v(r);
-            for (int i = 0; i < r; ++i) v(i) = std::complex<double>(normal(rng), normal(rng));
-            v.normalize();
-            const Eigen::MatrixXcd Ac = A.cast<std::complex<double>>(), Bc = B.cast<std::complex<double>>();
-            const Eigen::Vector2d w((v.adjoint() * Ac * v)(0).real(), (v.adjoint() * Bc * v)(0).real());
+            const Eigen::Vector2d w = random_range_point(rng, A, B);
             ASSERT_TRUE(inside(o.vertices, w, tol)) << "trial " << trial << ": (" << w.transpose() << ")";
             // A point of the polygon: a random convex combination of its vertices.
             Eigen::Vector2d p = Eigen::Vector2d::Zero();

@@ -9,6 +9,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -567,6 +568,22 @@ TEST(PlantSetChecks, AnObliqueSumIsProvenOverTheSetAndStableAtItsPlants) {
     }
 }
 
+// Scene s of a ramp: a wall along x with (K_wall, B_wall) and a plane at 45 degrees to it, normal (1, 1, 0) / sqrt(2),
+// ramping in to 100 N/m and 1 N s/m (stiffness s^2, damping s: the loop's ramp).
+std::pair<Matrix3, Matrix3> oblique_ramp_scene(double K_wall, double B_wall, double s) {
+    Matrix3 K{}, B{};
+    K[0][0] = K_wall;
+    B[0][0] = B_wall;
+    const double c = std::sqrt(0.5), n[3] = {c, c, 0.0};
+    for (std::size_t r = 0; r < 3; ++r) {
+        for (std::size_t q = 0; q < 3; ++q) {
+            K[r][q] += s * s * 100.0 * n[r] * n[q];
+            B[r][q] += s * 1.0 * n[r] * n[q];
+        }
+    }
+    return {K, B};
+}
+
 // The scenes of a plane's 30-tick ramp beside a CE2 wall (the plane 45 degrees to the wall's axis, 100 N/m and
 // 1 N s/m; their matrices do not commute) on a simulated 0.30 kg device (backward difference, no delay, masses
 // 0.2727 .. 0.33 kg), without and with the arm of eq. 2: coupled_over_set proves each scene over the whole set (the
@@ -589,17 +606,7 @@ TEST(PlantSetChecks, TheRampScenesOfAnObliquePlaneBesideAWallAreProvenOverTheSet
         const auto [c_lo, c_hi] = checker.mass_scales();
         const double T = kPeriod, g_max = p.arm_stiffness_per_mass * T * T, e_max = p.arm_damping_per_mass * T;
         for (int j = 1; j < 30; j += with_arm ? 14 : 4) {
-            const double s = j / 30.0;
-            Matrix3 K{}, B{};
-            K[0][0] = ce2.K;
-            B[0][0] = ce2.B;
-            const double n[3] = {c, c, 0.0};
-            for (std::size_t r = 0; r < 3; ++r) {
-                for (std::size_t q = 0; q < 3; ++q) {
-                    K[r][q] += s * s * 100.0 * n[r] * n[q];
-                    B[r][q] += s * 1.0 * n[r] * n[q];
-                }
-            }
+            const auto [K, B] = oblique_ramp_scene(ce2.K, ce2.B, j / 30.0);
             const hapticopt::MatrixGainScaleStability v = checker.coupled_over_set(K, B);
             EXPECT_TRUE(v.stable) << "arm " << with_arm << ", scene " << j;
             EXPECT_FALSE(v.commuting);
@@ -631,17 +638,7 @@ TEST(PlantSetChecks, TheRampScenesBesideAHalfCe2WallAreProvenOnTheFalconsSet) {
     std::mt19937 rng(37);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     for (const int j : {6, 15, 29}) {
-        const double s = j / 30.0;
-        Matrix3 K{}, B{};
-        K[0][0] = 0.5 * ce2.K;
-        B[0][0] = 0.5 * ce2.B;
-        const double n[3] = {c, c, 0.0};
-        for (std::size_t r = 0; r < 3; ++r) {
-            for (std::size_t q = 0; q < 3; ++q) {
-                K[r][q] += s * s * 100.0 * n[r] * n[q];
-                B[r][q] += s * 1.0 * n[r] * n[q];
-            }
-        }
+        const auto [K, B] = oblique_ramp_scene(0.5 * ce2.K, 0.5 * ce2.B, j / 30.0);
         const hapticopt::MatrixGainScaleStability v = checker.coupled_over_set(K, B);
         EXPECT_TRUE(v.stable) << "scene " << j;
         EXPECT_FALSE(v.commuting);
