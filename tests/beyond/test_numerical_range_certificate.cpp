@@ -323,6 +323,17 @@ coupled_loop_matrix::Difference difference_of(const VelocityEstimator& e) {
     return coupled_loop_matrix::window(1);
 }
 
+// An edge's verdict by the arm box (256 sub-boxes), as GainChecker asks it: `certified` when stable or refuted with an
+// unstable plant, not when left undecided within the budget.
+hapticopt::GainRayStability box_verdict(const hapticopt::ArmBoxTest& box, const GainSegment& g) {
+    const hapticopt::ArmBoxStability b = box.segment_over(g, 256);
+    hapticopt::GainRayStability v;
+    v.stable = b.stable;
+    v.certified = b.stable || b.proven_unstable;
+    v.failing_scale = b.failing_scale;
+    return v;
+}
+
 // Whether the coupled loop (independent state matrix) is stable at `count` scales spread over [s_lo, s_hi], ends
 // included: the sampled truth the proof is measured against (how many stable sums it proves).
 bool stable_at_scales(const NormalizedPlant& plant, const Sum& sum, const coupled_loop_matrix::Difference& e,
@@ -393,16 +404,8 @@ TEST(NumericalRangeCertificate, ProvenSumsAreStableOverTheArmBoxAndTheDelays) {
                              stable_at_scales(NormalizedPlant{gamma_max, delta_max, d_hi}, sum, e, s_lo, s_hi, 9);
         stable += sampled ? 1 : 0;
         const hapticopt::NumericalRangeCertificate c = hapticopt::certify_by_numerical_range(
-            sum.A, sum.B, s_lo, s_hi, 16,
-            [&](const GainSegment& g) {
-                const hapticopt::ArmBoxStability b = box.segment_over(g, 256);
-                hapticopt::GainRayStability v;
-                v.stable = b.stable;
-                v.certified = b.stable || b.proven_unstable;
-                v.failing_scale = b.failing_scale;
-                return v;
-            },
-            trial % 2 == 0 ? 256 : 0);  // refined on even trials
+            sum.A, sum.B, s_lo, s_hi, 16, [&](const GainSegment& g) { return box_verdict(box, g); },
+            trial % 2 == 0 ? 256 : 0);  // refined: even
         const bool anchor = coupled_loop_matrix::state_radius(NormalizedPlant{0.0, 0.0, 6.0}, sum.A, sum.B, e) < 1.0;
         if (!(c.proven && anchor)) {
             if (sampled) {
@@ -451,14 +454,7 @@ TEST(NumericalRangeCertificate, RefinementProvesAThinRangeTheEvenPolygonsDoNot) 
     const Eigen::Matrix3d K = 159.4 * wall * wall.transpose() + 25.0 * plane * plane.transpose();
     const Eigen::Matrix3d Bd = 6.53 * wall * wall.transpose() + 0.5 * plane * plane.transpose();
     const auto [A, B] = coupled_loop_matrix::on_span((T * T / m) * K, (T / m) * Bd, {wall, plane});
-    auto verdict = [&](const GainSegment& g) {
-        const hapticopt::ArmBoxStability b = box.segment_over(g, 256);
-        hapticopt::GainRayStability v;
-        v.stable = b.stable;
-        v.certified = b.stable || b.proven_unstable;
-        v.failing_scale = b.failing_scale;
-        return v;
-    };
+    auto verdict = [&](const GainSegment& g) { return box_verdict(box, g); };
     for (const int even : {16, 64}) {
         const hapticopt::NumericalRangeCertificate c =
             hapticopt::certify_by_numerical_range(A, B, s_lo, s_hi, even, verdict);
