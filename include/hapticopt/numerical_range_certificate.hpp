@@ -59,11 +59,19 @@
 
 namespace hapticopt {
 
+namespace detail {
+/// The distance from p to the segment [a, b] (a point when a = b).
+inline double segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    const Eigen::Vector2d e = b - a;
+    const double t = e.squaredNorm() > 0.0 ? std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0) : 0.0;
+    return (a + t * e - p).norm();
+}
+}  // namespace detail
+
 /// An outer polygon of the joint numerical range W(A, B) (header comment) from support lines at the directions
 /// phi_j = 2 pi turns[j] (turns increasing in [0, 1), consecutive ones less than half a turn apart, the last to the
 /// first across 1; a multiple of 1/4 is the axis direction exactly), with what bounds its excess over W.
 struct NumericalRangeOutline {
-    std::vector<double> turns;              ///< the lines' directions, in turns
     std::vector<Eigen::Vector2d> vertices;  ///< vertex j: lines j and j + 1 meet (counter-clockwise)
     std::vector<Eigen::Vector2d> support;   ///< a point of W on line j: (v^T A v, v^T B v), v its top eigenvector
     /// The distance of vertex j from the chord support[j] .. support[j + 1]. conv(support) lies in W, and the polygon
@@ -96,7 +104,6 @@ HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::Matrix
     const double pi = 3.14159265358979323846;
     const double rounding = kMatrixGainRoundingLevel * (As.norm() + Bs.norm());
     NumericalRangeOutline o;
-    o.turns = turns;
     std::vector<double> c(m), s(m), h(m);
     o.support.resize(m);
     for (std::size_t j = 0; j < m; ++j) {
@@ -123,10 +130,7 @@ HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::Matrix
         const double det = c[i] * s[k] - s[i] * c[k];
         const Eigen::Vector2d x((h[i] * s[k] - s[i] * h[k]) / det, (c[i] * h[k] - c[k] * h[i]) / det);
         o.vertices.push_back(x);
-        const Eigen::Vector2d chord = o.support[k] - o.support[i];
-        const double t =
-            chord.squaredNorm() > 0.0 ? std::clamp((x - o.support[i]).dot(chord) / chord.squaredNorm(), 0.0, 1.0) : 0.0;
-        o.excess.push_back((o.support[i] + t * chord - x).norm());
+        o.excess.push_back(detail::segment_distance(x, o.support[i], o.support[k]));
     }
     return o;
 }
@@ -242,19 +246,14 @@ HAPTICOPT_FUNC double distance_to_convex_polygon(const std::vector<Eigen::Vector
 #if HAPTICOPT_DEFINITIONS
 {
     if (hull.empty()) return std::numeric_limits<double>::infinity();
-    auto to_segment = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-        const Eigen::Vector2d e = b - a;
-        const double t = e.squaredNorm() > 0.0 ? std::clamp((w - a).dot(e) / e.squaredNorm(), 0.0, 1.0) : 0.0;
-        return (a + t * e - w).norm();
-    };
-    if (hull.size() < 3) return to_segment(hull.front(), hull.back());
+    if (hull.size() < 3) return detail::segment_distance(w, hull.front(), hull.back());
     bool inside = true;
     double nearest = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < hull.size(); ++i) {
         const Eigen::Vector2d& a = hull[i];
         const Eigen::Vector2d& b = hull[(i + 1) % hull.size()];
         inside = inside && (b.x() - a.x()) * (w.y() - a.y()) - (b.y() - a.y()) * (w.x() - a.x()) >= 0.0;
-        nearest = std::min(nearest, to_segment(a, b));
+        nearest = std::min(nearest, detail::segment_distance(w, a, b));
     }
     return inside ? 0.0 : nearest;
 }
