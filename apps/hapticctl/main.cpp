@@ -98,6 +98,11 @@ int cmd_status(const Common& common, bool json) {
                                     {"objects", s.objects},
                                     {"overruns", s.overruns},
                                     {"commits_applied", s.commits_applied},
+                                    {"commit_check", s.commit_check_session
+                                                         ? nlohmann::json{{"session", *s.commit_check_session},
+                                                                          {"running_s", s.commit_check_running_s}}
+                                                         : nlohmann::json()},
+                                    {"commits_waiting", s.commits_waiting},
                                     {"fault", s.fault},
                                     {"protocol", w.protocol},
                                     {"device",
@@ -129,6 +134,10 @@ int cmd_status(const Common& common, bool json) {
                   << w.capacity << ", overruns " << s.overruns << ", commits applied " << s.commits_applied
                   << ", fault " << s.fault << "\nstate stream " << w.state_shm << ", ramp " << w.ramp_s * 1e3
                   << " ms, protocol " << w.protocol << "\n";
+        if (s.commit_check_session) {
+            std::cout << "checking the scenes of session " << *s.commit_check_session << "'s commit for "
+                      << s.commit_check_running_s << " s; " << s.commits_waiting << " commits of other sessions wait\n";
+        }
     }
     client.bye();
     return kExitOk;

@@ -224,6 +224,11 @@ struct Status {
     std::string fault;
     std::uint64_t meshes = 0;      // meshes held by every session (uploading, building or built)
     std::uint64_t mesh_bytes = 0;  // what they count against the limits (docs/protocol.md, section 4a)
+    // The commit whose scenes are being checked (docs/protocol.md, section 3): its session and for how long so far;
+    // none when no check runs. Commits of other sessions waiting for it: commits_waiting.
+    std::optional<std::uint64_t> commit_check_session;
+    double commit_check_running_s = 0.0;
+    std::uint64_t commits_waiting = 0;
 };
 
 // A mesh object's god-object proxy as the loop rendered it at the sample's tick (docs/protocol.md, section 6;

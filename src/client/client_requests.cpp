@@ -175,6 +175,11 @@ Status Client::status() {
     s.fault = r.value("fault", std::string());
     s.meshes = r.value("meshes", std::uint64_t{0});
     s.mesh_bytes = r.value("mesh_bytes", std::uint64_t{0});
+    if (const auto c = r.find("commit_check"); c != r.end() && c->is_object()) {
+        s.commit_check_session = c->value("session", std::uint64_t{0});
+        s.commit_check_running_s = c->value("running_s", 0.0);
+    }
+    s.commits_waiting = r.value("commits_waiting", std::uint64_t{0});
     return s;
 }
 

@@ -4,8 +4,9 @@
 #include <array>
 #include <optional>
 #include <string>
-
-#include "tuning/engagement_patterns.hpp"
+#include <utility>
+#include <variant>
+#include <vector>
 
 namespace hapticd::server {
 
@@ -62,7 +63,7 @@ class Transaction {
     // changed objects ramp in, the ones they replace or remove ramp out, everything else sits at its final
     // weight — exactly what the loop renders, since it starts this batch's ramps only once every earlier
     // batch's have ended (SceneObjects::apply_commits). Moves have no ramp.
-    std::optional<Refusal> check_rendered_scenes() const {
+    std::vector<SceneTerm> rendered_scene_terms() const {
         std::vector<SceneTerm> terms = terms_of_config_walls(context_.config.config_walls);
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
             if (updates_[i] && updates_[i]->action != SlotUpdate::Action::Move) {
@@ -74,13 +75,11 @@ class Transaction {
                 terms.push_back(slot_term(proposal_[i], SceneTerm::Role::Base));
             }
         }
-        const double step = context_.config.ramp_time > 0.0 ? context_.config.period / context_.config.ramp_time : 1.0;
-        const EngagementCheck verdict = check_engagement_patterns(context_.checker, terms, step);
-        scenes_checked_ = verdict.checks;
-        scenes_sampled_ = verdict.sampled;
-        if (verdict.stable) return std::nullopt;
-        return Refusal{verdict.over_limit ? ErrorCode::Capacity : ErrorCode::UnstableSum,
-                       "commit: " + verdict.why + " (docs/protocol.md, section 5)"};
+        return terms;
+    }
+
+    double ramp_step() const {
+        return context_.config.ramp_time > 0.0 ? context_.config.period / context_.config.ramp_time : 1.0;
     }
 
     CommitPlan finish() const {
@@ -91,8 +90,6 @@ class Transaction {
         }
         plan.new_ids = new_ids_;
         plan.next_object_id = next_id_;
-        plan.scenes_checked = scenes_checked_;
-        plan.scenes_sampled = scenes_sampled_;
         return plan;
     }
 
@@ -186,15 +183,14 @@ class Transaction {
     SlotTable proposal_;
     std::array<std::optional<SlotUpdate>, kSceneObjectCapacity> updates_{};
     std::vector<std::uint32_t> new_ids_;
-    mutable std::size_t scenes_checked_ = 0, scenes_sampled_ = 0;  // check_rendered_scenes' counts
     std::uint64_t session_;
     std::uint32_t next_id_;
 };
 
 }  // namespace
 
-CommitOutcome plan_commit(const CommitContext& context, const SlotTable& slots, std::uint64_t session,
-                          std::uint32_t next_object_id, const CommitRequest& request) {
+StagedOutcome stage_commit(const CommitContext& context, const SlotTable& slots, std::uint64_t session,
+                           std::uint32_t next_object_id, const CommitRequest& request) {
     Transaction t(context, slots, session, next_object_id);
     int op_index = 0;
     for (const auto& op : request.ops) {
@@ -205,8 +201,27 @@ CommitOutcome plan_commit(const CommitContext& context, const SlotTable& slots, 
         ++op_index;
     }
     if (auto refusal = t.check_summed_stiffness()) return CommitRefusal{std::move(*refusal), -1};
-    if (auto refusal = t.check_rendered_scenes()) return CommitRefusal{std::move(*refusal), -1};
-    return t.finish();
+    return StagedCommit{t.finish(), t.rendered_scene_terms(), t.ramp_step()};
+}
+
+CommitOutcome finish_commit(CommitPlan plan, const EngagementCheck& verdict) {
+    if (!verdict.stable) {
+        return CommitRefusal{Refusal{verdict.over_limit ? ErrorCode::Capacity : ErrorCode::UnstableSum,
+                                     "commit: " + verdict.why + " (docs/protocol.md, section 5)"},
+                             -1};
+    }
+    plan.scenes_checked = verdict.checks;
+    plan.scenes_sampled = verdict.sampled;
+    return plan;
+}
+
+CommitOutcome plan_commit(const CommitContext& context, const SlotTable& slots, std::uint64_t session,
+                          std::uint32_t next_object_id, const CommitRequest& request) {
+    StagedOutcome staged = stage_commit(context, slots, session, next_object_id, request);
+    if (auto* refusal = std::get_if<CommitRefusal>(&staged)) return std::move(*refusal);
+    StagedCommit& s = std::get<StagedCommit>(staged);
+    const EngagementCheck verdict = check_engagement_patterns(context.checker, s.terms, s.step);
+    return finish_commit(std::move(s.plan), verdict);
 }
 
 }  // namespace hapticd::server

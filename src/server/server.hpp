@@ -85,8 +85,9 @@ struct ServerCounters {
     std::uint64_t commits_pushed = 0;
     std::uint64_t commits_refused = 0;
     std::uint64_t states_dropped = 0;
-    std::uint64_t contacts_lost = 0;     // contact records the loop's ring could not take
-    std::uint64_t contacts_dropped = 0;  // contact messages not queued for a session (its queue was full)
+    std::uint64_t contacts_lost = 0;           // contact records the loop's ring could not take
+    std::uint64_t contacts_dropped = 0;        // contact messages not queued for a session (its queue was full)
+    std::uint64_t scene_checks_restarted = 0;  // commits' scene checks cancelled by a departure and run again
 };
 
 // Every engagement pattern of the config walls alone (a unilateral wall acts only beyond its position;

@@ -40,6 +40,8 @@ std::size_t Server::Impl::ramp_out_objects_of(std::uint64_t session) {
         u.params = slot.resolved.params;
     }
     pending.push_back(c);  // before the events: a send may close another session, whose batch must follow
+    ++scene_version;
+    restart_scene_check();  // a commit being checked was staged on the scene before this departure
     push_pending();
     if (!plan.further.empty()) {
         const std::string how =

@@ -21,6 +21,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/commit_check_worker.hpp"
+#include "server/commit_transaction.hpp"
 #include "server/criterion_worker.hpp"
 #include "server/mesh_store.hpp"
 #include "server/message_decoder.hpp"
@@ -128,7 +130,8 @@ struct Server::Impl {
     void handle_decode_error(Session& s, const server::DecodeError& e);
     void handle_hello(Session& s, const server::HelloRequest& hello);
     bool refuse_over_in_flight_limit(Session& s, std::uint64_t id);
-    void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req);
+    void handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req, std::string_view bytes);
+    void adopt_commit(Session& s, std::uint64_t id, server::CommitPlan& plan);
     void send_refusal(Session& s, std::uint64_t id, const server::Refusal& r);
     json mesh_info_reply(std::uint64_t id, std::uint32_t mesh, const server::MeshInfo& info);
     template <class Request>
@@ -148,7 +151,31 @@ struct Server::Impl {
     // Takes again each parked request whose criteria are ready.
     void resume_parked();
 
-    // Last: destroyed first, so its thread ends while the checker it uses lives.
+    // ---- commits' scene checks (server_requests.cpp; server/commit_check_worker.hpp) ------------------
+    // The commit whose scenes commit_checker checks: its plan, staged on the scene of `scene_version`.
+    struct SceneCheck {
+        std::uint64_t session = 0;
+        std::uint64_t request_id = 0;
+        server::CommitPlan plan;
+        std::uint64_t scene_version = 0;
+        Clock::time_point started;
+    };
+    std::optional<SceneCheck> scene_check;
+    std::uint64_t scene_version = 0;  // +1 at every change of the used slots: a commit adopted, a departure
+    std::uint64_t next_parked_seq = 1;
+    // Parks a commit while another's scenes are being checked: true when parked (no reply yet).
+    bool park_for_scene_check(Session& s, std::string_view bytes);
+    // The scene changed under the check in progress (a departure): it is cancelled; its commit waits to be staged
+    // again on the new scene.
+    void restart_scene_check();
+    // Drops the check of a closing session's commit.
+    void drop_scene_check_of(const Session& s);
+    // Answers the checked commit once its verdict is in.
+    void finish_scene_check();
+    [[nodiscard]] std::size_t commits_waiting_for_check() const;
+
+    // Last: destroyed first, so their threads end while the checker they use lives.
+    server::CommitCheckWorker commit_checker{checker};
     server::CriterionWorker criterion_worker{checker};
 };
 

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 // Each request of a session decoded (server/message_decoder.hpp) and answered (server/replies.hpp):
-// hello, commit (planned by server/commit_transaction.hpp and handed whole to the loop's ring),
+// hello, commit (staged by server/commit_transaction.hpp, its scenes checked by server/commit_check_worker.hpp,
+// handed whole to the loop's ring),
 // meshes, list, status, subscriptions, bye; whatever escapes answered `internal` (Server::Impl,
 // server_impl.hpp).
 #include "server/server_impl.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <stdexcept>
 #include <string_view>
 #include <type_traits>
@@ -42,10 +44,12 @@ bool Server::Impl::refuse_over_in_flight_limit(Session& s, std::uint64_t id) {
     return true;
 }
 
-// The batch planned (all-or-nothing), handed to the loop behind the waiting departures, and adopted once
-// it is in the ring; busy when the ring has no room (nothing changes). A ring already full, or departures
-// still waiting for it, answer busy before the batch is planned: a busy server does not spend the checks.
-void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req) {
+// The batch staged (operations, summed stiffness) here, its scenes checked by commit_checker while the session is
+// parked (finish_scene_check answers it), then handed to the loop behind the waiting departures and adopted once it
+// is in the ring; busy when the ring has no room (nothing changes). A ring already full, or departures still
+// waiting for it, answer busy before the batch is staged: a busy server does not spend the checks.
+void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::CommitRequest& req,
+                                 std::string_view bytes) {
     if (refuse_over_in_flight_limit(s, id)) return;
     push_pending();
     if (!pending.empty() || (!req.ops.empty() && ring.full())) {
@@ -65,15 +69,28 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
         }
         return out;
     };
-    server::CommitOutcome outcome = server::plan_commit(server::CommitContext{config, checker, resolver, &lookup},
+    server::StagedOutcome staged = server::stage_commit(server::CommitContext{config, checker, resolver, &lookup},
                                                         slots, s.id, next_object_id, req);
-    if (const auto* r = std::get_if<server::CommitRefusal>(&outcome)) {
+    if (const auto* r = std::get_if<server::CommitRefusal>(&staged)) {
         count(&ServerCounters::commits_refused);
         send_error(s, id, r->refusal.code, r->refusal.message, r->op_index, r->refusal.largest_stable_K,
                    r->refusal.damping_needed);
         return;
     }
-    server::CommitPlan& plan = std::get<server::CommitPlan>(outcome);
+    server::StagedCommit& st = std::get<server::StagedCommit>(staged);
+    if (!commit_checker.start(std::move(st.terms), st.step)) {  // park_for_scene_check let it through: never
+        send_error(s, id, cl::ErrorCode::Busy, "commit: another commit's scenes are being checked; retry", -1);
+        return;
+    }
+    scene_check = SceneCheck{s.id, id, std::move(st.plan), scene_version, Clock::now()};
+    s.parked.emplace(bytes);
+    s.checking = true;
+}
+
+// The checked batch handed to the loop (behind the waiting departures) and its table adopted: the slots the batch
+// changes only, since the table may have changed meanwhile by slots reclaimed (a drained slot that became free;
+// every other change cancels the check, restart_scene_check).
+void Server::Impl::adopt_commit(Session& s, std::uint64_t id, server::CommitPlan& plan) {
     ObjectCommit& c = plan.batch;
     push_pending();  // older ramp-outs first, so batches reach the loop in order
     if (!pending.empty()) {
@@ -100,15 +117,17 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
         commits_pushed.fetch_add(1, std::memory_order_release);
         count(&ServerCounters::commits_pushed);
     }
-    for (ServerSlot& slot : plan.slots) {
-        if (slot.state == ServerSlot::State::Draining && slot.drain_seq == server::kNotPushed) slot.drain_seq = seq;
-    }
-    for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {  // a modify that replaced a mesh object's hierarchy
-        if (slots[i].resolved.mesh && slots[i].resolved.mesh != plan.slots[i].resolved.mesh) {
+    for (std::uint32_t k = 0; k < c.count; ++k) {
+        const std::size_t i = c.updates[k].slot;
+        ServerSlot& planned = plan.slots[i];
+        if (planned.state == ServerSlot::State::Draining && planned.drain_seq == server::kNotPushed)
+            planned.drain_seq = seq;
+        // a modify that replaced a mesh object's hierarchy
+        if (slots[i].resolved.mesh && slots[i].resolved.mesh != planned.resolved.mesh)
             retired.push_back(Retired{slots[i].resolved.mesh, seq, 0});
-        }
+        slots[i] = planned;
     }
-    slots = plan.slots;
+    if (c.count > 0) ++scene_version;
     next_object_id = plan.next_object_id;
     if (c.count > 0) s.in_flight.push_back(seq);
     json ok = server::ok_reply(id);
@@ -117,6 +136,70 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
     ok["scenes_checked"] = plan.scenes_checked;
     ok["scenes_sampled"] = plan.scenes_sampled;
     send_reply(s, ok);
+}
+
+bool Server::Impl::park_for_scene_check(Session& s, std::string_view bytes) {
+    if (!scene_check && commit_checker.idle()) return false;
+    s.parked.emplace(bytes);
+    s.parked_seq = next_parked_seq++;
+    return true;
+}
+
+void Server::Impl::restart_scene_check() {
+    if (!scene_check) return;
+    commit_checker.cancel();
+    const auto it = sessions.find(scene_check->session);
+    if (it != sessions.end()) {
+        it->second.checking = false;  // still parked: staged again on the new scene ahead of later commits
+        it->second.parked_seq = 0;
+    }
+    log("session " + std::to_string(scene_check->session) +
+        ": the scene changed during its commit's check (a departure); the commit is checked again");
+    scene_check.reset();
+    count(&ServerCounters::scene_checks_restarted);
+}
+
+void Server::Impl::drop_scene_check_of(const Session& s) {
+    if (!scene_check || scene_check->session != s.id) return;
+    commit_checker.cancel();
+    scene_check.reset();
+}
+
+void Server::Impl::finish_scene_check() {
+    if (!scene_check) return;
+    std::optional<server::CommitCheckWorker::Outcome> outcome = commit_checker.take();
+    if (!outcome) return;
+    SceneCheck check = std::move(*scene_check);
+    scene_check.reset();
+    const auto it = sessions.find(check.session);  // a closing session's check is dropped (drop_scene_check_of)
+    if (it == sessions.end() || it->second.closed) return;
+    Session& s = it->second;
+    s.parked.reset();
+    s.checking = false;
+    try {
+        if (outcome->failure != nullptr) {
+            internal_error(s, outcome->failure);
+        } else if (server::CommitOutcome o = server::finish_commit(std::move(check.plan), outcome->verdict);
+                   const auto* r = std::get_if<server::CommitRefusal>(&o)) {
+            count(&ServerCounters::commits_refused);
+            send_error(s, check.request_id, r->refusal.code, r->refusal.message, r->op_index,
+                       r->refusal.largest_stable_K, r->refusal.damping_needed);
+        } else {
+            adopt_commit(s, check.request_id, std::get<server::CommitPlan>(o));
+        }
+    } catch (const std::exception& e) {
+        internal_error(s, e.what());
+    } catch (...) {
+        internal_error(s, "an unknown exception");
+    }
+    s.last_rx = Clock::now();
+}
+
+std::size_t Server::Impl::commits_waiting_for_check() const {
+    return static_cast<std::size_t>(std::count_if(sessions.begin(), sessions.end(), [](const auto& entry) {
+        const Session& s = entry.second;
+        return !s.closed && s.parked && !s.checking && s.awaiting.empty();
+    }));
 }
 
 // Meshes (docs/protocol.md, section 4a): the mesh requests answered from the session's uploads (server/mesh_store.hpp).
@@ -206,7 +289,8 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
                 ok["tick"] = snapshot.tick;
                 send_reply(s, ok);
             } else if constexpr (std::is_same_v<T, server::CommitRequest>) {
-                if (!park_for_criteria(s, bytes, body)) handle_commit(s, id, body);
+                if (!park_for_criteria(s, bytes, body) && !park_for_scene_check(s, bytes))
+                    handle_commit(s, id, body, bytes);
             } else if constexpr (std::is_same_v<T, server::ListRequest>) {
                 json ok = server::ok_reply(id);
                 ok["objects"] = server::list_json(config.config_walls, slots);
@@ -216,6 +300,12 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
                 std::size_t n = config.config_walls.size();
                 for (const auto& slot : slots) n += slot.state != ServerSlot::State::Free ? 1U : 0U;
                 json ok = server::status_reply(id, snapshot, sessions.size(), n);
+                ok["commit_check"] =
+                    scene_check ? json{{"session", scene_check->session},
+                                       {"running_s",
+                                        std::chrono::duration<double>(Clock::now() - scene_check->started).count()}}
+                                : json(nullptr);
+                ok["commits_waiting"] = commits_waiting_for_check();
                 ok["meshes"] = meshes.meshes();
                 ok["mesh_bytes"] = meshes.total_bytes();
                 send_reply(s, ok);
@@ -277,9 +367,12 @@ bool Server::Impl::park_for_criteria(Session& s, std::string_view bytes, const s
     return true;
 }
 
+// The checked commit first; then the requests whose criteria are ready; then, while the scene checker is free, the
+// commits waiting for it, the oldest first (a commit whose check a departure cancelled comes before all).
 void Server::Impl::resume_parked() {
+    finish_scene_check();
     for (auto& [sid, s] : sessions) {
-        if (s.closed || !s.parked) continue;
+        if (s.closed || !s.parked || s.awaiting.empty()) continue;
         if (!std::all_of(s.awaiting.begin(), s.awaiting.end(),
                          [&](hapticopt::Criterion c) { return checker.criterion_ready(c); }))
             continue;
@@ -287,6 +380,18 @@ void Server::Impl::resume_parked() {
         s.parked.reset();
         s.awaiting.clear();
         handle_guarded(s, bytes);
+        close_departed_sessions();
+    }
+    while (!scene_check && commit_checker.idle()) {
+        Session* next = nullptr;
+        for (auto& [sid, s] : sessions) {
+            if (s.closed || !s.parked || s.checking || !s.awaiting.empty()) continue;
+            if (next == nullptr || s.parked_seq < next->parked_seq) next = &s;
+        }
+        if (next == nullptr) break;
+        const std::string bytes = std::move(*next->parked);
+        next->parked.reset();
+        handle_guarded(*next, bytes);
         close_departed_sessions();
     }
 }

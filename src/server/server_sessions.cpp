@@ -75,6 +75,7 @@ void Server::Impl::close_session(Session& s, const std::string& why) {
     s.closed = true;
     ::close(s.fd);
     s.fd = -1;
+    drop_scene_check_of(s);
     // The departure's plan (its checks) timed: the one piece of a departure's latency that is the daemon's own work.
     const Clock::time_point planning = Clock::now();
     const std::size_t leaving = ramp_out_objects_of(s.id);

@@ -133,7 +133,8 @@ SumKey sum_key(const Matrix3& K, const Matrix3& B) {
 // Every pattern of one group in the scene at ramp position s (s = 1: final). False on the first unstable
 // pattern, with `why`.
 bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& terms,
-                           const std::vector<std::size_t>& group, double s, EngagementCheck& result, std::string& why) {
+                           const std::vector<std::size_t>& group, double s, EngagementCheck& result, std::string& why,
+                           const std::atomic<bool>* cancel) {
     Matrix3 K_always{}, B_always{};
     std::vector<std::size_t> conditional;
     std::vector<std::pair<double, double>> weight(terms.size(), {0.0, 0.0});
@@ -166,6 +167,11 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
             }
         }
         if (!checked.insert(sum_key(K, B)).second) continue;  // the same sum as a pattern checked already
+        if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) {
+            result.cancelled = true;
+            why = "the check was cancelled";
+            return false;
+        }
         ++result.checks;
         std::string reason;
         bool proven = false;
@@ -234,7 +240,7 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // directions touched below rounding (it moves a root by at most ~sqrt(1.5e-14) = 1.2e-7 for a double root, inside
 // the 1e-6 radius margin of the sampled coupled path; the exact paths judge each group over the whole mass set).
 EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step,
-                                          PatternLimit limit) {
+                                          PatternLimit limit, const std::atomic<bool>* cancel) {
     EngagementCheck result;
     const Eigen::Matrix3d Mis = as_eigen(checker.mass().inverse_sqrt);
     std::vector<Eigen::Matrix3d> span(terms.size());
@@ -320,7 +326,7 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
     const GainChecker::CommitMemo memo(checker);
     for (const auto& group : groups) {
         std::string why;
-        if (!group_scene_is_stable(checker, terms, group, 1.0, result, why)) {
+        if (!group_scene_is_stable(checker, terms, group, 1.0, result, why, cancel)) {
             result.stable = false;
             result.why = why;
             return result;
@@ -335,7 +341,12 @@ EngagementCheck check_engagement_patterns(const GainChecker& checker, const std:
             const double s = static_cast<double>(j) * step;  // the loop's arithmetic (SceneObjects::step_ramps)
             if (s >= 1.0) break;
             std::string why;
-            if (!group_scene_is_stable(checker, terms, group, s, result, why)) {
+            if (!group_scene_is_stable(checker, terms, group, s, result, why, cancel)) {
+                if (result.cancelled) {
+                    result.stable = false;
+                    result.why = why;
+                    return result;
+                }
                 std::ostringstream o;
                 o.precision(4);
                 o << "during the ramp, " << j << " ticks after the batch (new or changed objects at weight s = " << s

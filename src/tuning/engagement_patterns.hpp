@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Every scene the loop can render when some objects act only at some handle positions (docs/protocol.md,
-// section 5, "Engagement patterns"). Runs in the server thread (and once at start-up), never in the loop.
+// section 5, "Engagement patterns"). Runs on the server's commit-check worker (server/commit_check_worker.hpp), in
+// the server thread (departures) and once at start-up, never in the loop.
 //
 // A unilateral plane renders its law only while the handle is behind its surface and the law pushes out, a
 // field only inside its radius, a unilateral config wall only beyond its position: these terms are
@@ -32,8 +33,9 @@
 // (over_limit) rather than spend unbounded time.
 #pragma once
 
-#include <cstddef>
 #include <array>
+#include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -47,8 +49,8 @@ namespace hapticd {
 // together): 7 different conditional objects on coupled directions, or the 6 walls of a box (27 patterns)
 // and 2 more (108). A group acting along one direction only (parallel planes) counts
 // 1 / kOneDirectionPatternsPerUnit per pattern: each of its verdicts is one scalar Schur-Cohn test (~5 us),
-// not a companion eigenproblem (~15-30 us). Bounds a commit's check to ~60 ms (d = 1) .. ~115 ms (d = 3) of
-// the server thread at the default 30 ms ramp (docs/protocol.md, section 5: hapticd_benchmarks BM_CommitCheck*).
+// not a companion eigenproblem (~15-30 us). Bounds a commit's check on one mass to ~60 ms (d = 1) .. ~115 ms
+// (d = 3) at the default 30 ms ramp (docs/protocol.md, section 5: hapticd_benchmarks BM_CommitCheck*).
 inline constexpr std::size_t kMaxEngagementPatterns = 128;
 inline constexpr std::size_t kOneDirectionPatternsPerUnit = 4;
 // The limit itself, in patterns times scenes (a group's scenes: the final one, and 1 / step - 1 ramp scenes
@@ -90,7 +92,8 @@ struct EngagementCheck {
     std::size_t sampled = 0;
     std::size_t largest_group_patterns = 0;
     std::size_t groups = 0;
-    std::string why;  // on failure or over_limit: which scene, which pattern, why
+    bool cancelled = false;  // stopped at `cancel` before its verdict: stable is false and means nothing
+    std::string why;         // on failure or over_limit: which scene, which pattern, why
 };
 
 // The config walls' exclusive pairs: for walls on one axis (axis, position, direction +1 / -1, bilateral),
@@ -110,7 +113,10 @@ std::vector<int> exclusive_wall_pairs(const std::vector<AxisWall>& walls, int fi
 // group; in each scene every engagement pattern of the conditional terms, each judged by
 // GainChecker::coupled (the verdict of sum_is_stable; on failure sum_is_stable's explanation). Groups are
 // checked independently (header comment). The all-engaged pattern of each scene is checked first.
+// `cancel` (may be null) is read before each verdict: once true the check ends with `cancelled` (a caller on
+// another thread waits at most one verdict, GainChecker::sum_is_stable: up to ~1.5 s on the Falcon's set).
 EngagementCheck check_engagement_patterns(const GainChecker& checker, const std::vector<SceneTerm>& terms, double step,
-                                          PatternLimit limit = PatternLimit::Enforced);
+                                          PatternLimit limit = PatternLimit::Enforced,
+                                          const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace hapticd

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The checks of the clients' scene objects against hapticopt's exact stability region (docs/protocol.md,
-// section 5). Runs in the server thread (never in the loop).
+// section 5). Runs in the server thread and its workers (never in the loop).
 //
 // The plant: M x'' + b x' + k x = F on the device's axes, M the profile's mass matrix (one mass, one per
 // axis, or a full symmetric positive-definite matrix: tuning/device_mass.hpp), b and k scalars (an

@@ -412,7 +412,9 @@ class Client:
         return list(self.request("list")["objects"])
 
     def status(self) -> Dict:
-        """``tick``, ``sessions``, ``objects``, ``overruns``, ``fault``, ``commits_applied``."""
+        """``tick``, ``sessions``, ``objects``, ``overruns``, ``fault``, ``commits_applied``, ``meshes``,
+        ``mesh_bytes``, ``commit_check`` (None, or the ``session`` whose commit's scenes are being checked and
+        ``running_s``) and ``commits_waiting`` (other sessions' commits waiting for that check)."""
         return self.request("status")
 
     def subscribe(self, rate_hz: float) -> None:
