@@ -33,16 +33,26 @@
 // move continuously with the plant, so the coupled loop is stable at every plant iff it is at one: the caller's anchor
 // (a verdict of the coupled loop at one plant of the set).
 //
+// Families. A set F of gain pairs (A, B) whose ranges all lie in the hull H = conv(W(A_1, B_1) u ... u W(A_k, B_k)) of
+// k members' ranges is certified at once with H for W: every root of every loop of F is a root of a scalar loop with
+// gains in H. If F is connected and the roots move continuously over it, one anchor (one member at one plant) again
+// decides every member at every plant. The case it serves: a mesh's proxy couples to the handle with K P, B P for the
+// projector P of its active constraints (rank 1, 2 or 3, any orientation), beside other objects' (A_0, B_0); with
+// (A_I, B_I) its gains at P = I, every P gives v^* A v = v^* A_0 v + tau v^* A_I v with one tau in [0, 1] for A and B
+// alike (tau = |P w|^2 / |w|^2, w = M^-1/2 v), so every configuration's range lies in the hull of W(A_0, B_0) and
+// W(A_0 + A_I, B_0 + B_I), and the family 0 <= Q <= I (Q for P) is convex. Several meshes: the members are A_0 plus
+// each subset of them at P = I (2^k members).
+//
 // Sufficient, not necessary: W is a relaxation (the coupled loop can be stable while a scalar loop of W is not), and P
 // exceeds W: each vertex lies within (D / 2) tan(dphi / 2) of W, D the distance between the support points of its two
 // lines and dphi their angle (the triangle they form has the apex angle pi - dphi), and within its `excess` of the hull
 // of the support points (NumericalRangeOutline). A certificate that fails proves nothing either way. Tested against the
 // coupled loop's state matrix, built independently, at plants drawn from the set
 // (tests/beyond/test_numerical_range_certificate.cpp).
-// Cost per polygon: m symmetric r x r eigenvalue problems, a hull of 2 m points and at most m + 2 segment verdicts (K's
-// edges: the edges of s_lo P facing the origin, those of s_hi P facing away, and two along rays), fewer after the
-// merge; a refined polygon asks only for the verdicts of its new edges.
-// Not for the real-time loop (allocates).
+// Cost per polygon: m symmetric r x r eigenvalue problems per member, a hull of 2 m points and at most m + 2 segment
+// verdicts (K's edges: the edges of s_lo P facing the origin, those of s_hi P facing away, and two along rays), fewer
+// after the merge; a refined polygon asks only for the verdicts of its new edges. Not for the real-time loop
+// (allocates).
 #pragma once
 
 #include <Eigen/Eigenvalues>
@@ -80,18 +90,30 @@ struct NumericalRangeOutline {
     std::vector<double> excess;
 };
 
-/// The outline of W(A, B) at `turns` (NumericalRangeOutline). Cost: one symmetric r x r eigen problem per line.
-/// Throws InvalidParameter for A, B not square, of different sizes, not finite, or turns not as stated (2 to 4096 of
-/// them).
-HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+/// One member of a family of summed gains (A, B symmetric r x r, normalised as the loop's): the family's certificate
+/// judges the convex hull of the union of its members' numerical ranges (header comment, "Families").
+struct GainMatrixPair {
+    Eigen::MatrixXd A, B;
+};
+
+/// The outline of conv(W(A_1, B_1) u ... u W(A_k, B_k)) at `turns` (NumericalRangeOutline, with that hull for W): the
+/// support function is the members' largest, max_i lambda_max(cos(phi) A_i + sin(phi) B_i), and each line's support
+/// point the maximising member's. Cost: k symmetric r x r eigen problems per line. Throws InvalidParameter for no
+/// member, A, B not square, of different sizes (also across members), not finite, or turns not as stated (2 to 4096
+/// of them).
+HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const std::vector<GainMatrixPair>& members,
                                                              const std::vector<double>& turns)
 #if HAPTICOPT_DEFINITIONS
 {
     const char* fn = "hapticopt::numerical_range_outline";
-    if (A.rows() == 0 || A.rows() != A.cols() || B.rows() != A.rows() || B.cols() != A.cols()) {
-        throw InvalidParameter(fn, "A, B", static_cast<double>(A.rows()), "square matrices of one size >= 1");
+    if (members.empty()) throw InvalidParameter(fn, "members", 0.0, "at least one pair (A, B)");
+    const Eigen::Index r = members.front().A.rows();
+    for (const GainMatrixPair& g : members) {
+        if (r == 0 || g.A.rows() != r || g.A.cols() != r || g.B.rows() != r || g.B.cols() != r) {
+            throw InvalidParameter(fn, "A, B", static_cast<double>(g.A.rows()), "square matrices of one size >= 1");
+        }
+        if (!g.A.allFinite() || !g.B.allFinite()) throw InvalidParameter(fn, "A, B", 0.0, "finite entries");
     }
-    if (!A.allFinite() || !B.allFinite()) throw InvalidParameter(fn, "A, B", 0.0, "finite entries");
     const std::size_t m = turns.size();
     if (m < 2 || m > 4096) throw InvalidParameter(fn, "turns", static_cast<double>(m), "2 to 4096 directions");
     for (std::size_t j = 0; j < m; ++j) {
@@ -100,9 +122,14 @@ HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::Matrix
             throw InvalidParameter(fn, "turns", turns[j], "increasing in [0, 1), consecutive ones less than 1/2 apart");
         }
     }
-    const Eigen::MatrixXd As = 0.5 * (A + A.transpose()), Bs = 0.5 * (B + B.transpose());
+    std::vector<Eigen::MatrixXd> As, Bs;
+    double rounding = 0.0;
+    for (const GainMatrixPair& g : members) {
+        As.push_back(0.5 * (g.A + g.A.transpose()));
+        Bs.push_back(0.5 * (g.B + g.B.transpose()));
+        rounding = std::max(rounding, kMatrixGainRoundingLevel * (As.back().norm() + Bs.back().norm()));
+    }
     const double pi = 3.14159265358979323846;
-    const double rounding = kMatrixGainRoundingLevel * (As.norm() + Bs.norm());
     NumericalRangeOutline o;
     std::vector<double> c(m), s(m), h(m);
     o.support.resize(m);
@@ -116,11 +143,16 @@ HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::Matrix
             c[j] = std::cos(2 * pi * turns[j]);
             s[j] = std::sin(2 * pi * turns[j]);
         }
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> e(c[j] * As + s[j] * Bs);
-        Eigen::Index top = 0;
-        h[j] = e.eigenvalues().maxCoeff(&top) + rounding;
-        const Eigen::VectorXd v = e.eigenvectors().col(top);
-        o.support[j] = Eigen::Vector2d(v.dot(As * v), v.dot(Bs * v));
+        h[j] = -std::numeric_limits<double>::infinity();
+        for (std::size_t i = 0; i < members.size(); ++i) {
+            const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> e(c[j] * As[i] + s[j] * Bs[i]);
+            Eigen::Index top = 0;
+            const double top_value = e.eigenvalues().maxCoeff(&top);
+            if (!(top_value + rounding > h[j])) continue;
+            h[j] = top_value + rounding;
+            const Eigen::VectorXd v = e.eigenvectors().col(top);
+            o.support[j] = Eigen::Vector2d(v.dot(As[i] * v), v.dot(Bs[i] * v));
+        }
     }
     o.vertices.reserve(m);
     o.excess.reserve(m);
@@ -133,6 +165,18 @@ HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::Matrix
         o.excess.push_back(detail::segment_distance(x, o.support[i], o.support[k]));
     }
     return o;
+}
+#else
+    ;
+#endif
+
+/// The outline of W(A, B) at `turns` (NumericalRangeOutline): the family of the one member (A, B). Throws as the
+/// family's outline.
+HAPTICOPT_FUNC NumericalRangeOutline numerical_range_outline(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                                             const std::vector<double>& turns)
+#if HAPTICOPT_DEFINITIONS
+{
+    return numerical_range_outline(std::vector<GainMatrixPair>{GainMatrixPair{A, B}}, turns);
 }
 #else
     ;
@@ -298,8 +342,9 @@ struct NumericalRangeCertificate {
 /// line is left, after kNumericalRangeUndecidedRefinements refinements for undecided verdicts (certified false), or on
 /// the first failure without refinement.
 /// Cost: per polygon, one r x r eigen problem per line and the verdicts of its new edges.
+/// The family's certificate (header comment, "Families"): the same with conv(W(A_1, B_1) u ... u W(A_k, B_k)) for W.
 template <typename SegmentVerdict>
-NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double s_lo,
+NumericalRangeCertificate certify_by_numerical_range(const std::vector<GainMatrixPair>& members, double s_lo,
                                                      double s_hi, int directions, SegmentVerdict&& segment_verdict,
                                                      int max_directions = 0) {
     const char* fn = "hapticopt::certify_by_numerical_range";
@@ -316,7 +361,7 @@ NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, c
     std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> stable_edges;
     int undecided = 0;
     for (;;) {
-        const NumericalRangeOutline outline = numerical_range_outline(A, B, turns);
+        const NumericalRangeOutline outline = numerical_range_outline(members, turns);
         r.directions = static_cast<int>(turns.size());
         const std::vector<Eigen::Vector2d> hull =
             merge_crowded_vertices(scaled_polygon_hull(outline.vertices, s_lo, s_hi), kNumericalRangeMergeRelative);
@@ -407,6 +452,15 @@ NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, c
         turns = std::move(finer);
         ++r.refinements;
     }
+}
+
+/// The certificate of the pair (A, B): the family of that one member.
+template <typename SegmentVerdict>
+NumericalRangeCertificate certify_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, double s_lo,
+                                                     double s_hi, int directions, SegmentVerdict&& segment_verdict,
+                                                     int max_directions = 0) {
+    return certify_by_numerical_range(std::vector<GainMatrixPair>{GainMatrixPair{A, B}}, s_lo, s_hi, directions,
+                                      std::forward<SegmentVerdict>(segment_verdict), max_directions);
 }
 
 }  // namespace hapticopt

@@ -72,6 +72,8 @@ SceneTerm slot_term(const ServerSlot& slot, SceneTerm::Role role) {
     t.conditional = engages_conditionally(slot.resolved.params);
     t.role = role;
     t.object_id = slot.id;
+    t.proxy = slot.resolved.params.kind == ObjectKind::Mesh;
+    t.shaded = t.proxy && slot.resolved.params.crease_angle_deg >= 0.0;
     return t;
 }
 

@@ -117,17 +117,30 @@ std::string id_list(const std::vector<SceneTerm>& terms, const std::vector<std::
     return s + "]";
 }
 
-using SumKey = std::array<double, 18>;
+// A scene's sums, and the proxies' share of them (two patterns with the same sums but other proxies in them are
+// other families of configurations).
+using SumKey = std::array<double, 36>;
 
-SumKey sum_key(const Matrix3& K, const Matrix3& B) {
+SumKey sum_key(const Matrix3& K, const Matrix3& B, const Matrix3& K_proxies, const Matrix3& B_proxies) {
     SumKey k{};
     for (std::size_t i = 0; i < 3; ++i) {
         for (std::size_t j = 0; j < 3; ++j) {
             k[3 * i + j] = K[i][j];
             k[9 + 3 * i + j] = B[i][j];
+            k[18 + 3 * i + j] = K_proxies[i][j];
+            k[27 + 3 * i + j] = B_proxies[i][j];
         }
     }
     return k;
+}
+
+// A term at its weights as GainChecker::sum_is_stable takes a proxy.
+GainChecker::ProxyGains proxy_gains(const SceneTerm& t, std::pair<double, double> weight) {
+    GainChecker::ProxyGains p;
+    add_weighted(p.K, t.K, weight.first);
+    add_weighted(p.B, t.B, weight.second);
+    p.shaded = t.shaded;
+    return p;
 }
 
 // Every pattern of one group in the scene at ramp position s (s = 1: final). False on the first unstable
@@ -136,7 +149,7 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
                            const std::vector<std::size_t>& group, double s, EngagementCheck& result, std::string& why,
                            const std::atomic<bool>* cancel) {
     Matrix3 K_always{}, B_always{};
-    std::vector<std::size_t> conditional;
+    std::vector<std::size_t> conditional, always;
     std::vector<std::pair<double, double>> weight(terms.size(), {0.0, 0.0});
     for (const std::size_t i : group) {
         weight[i] = role_weights(terms[i].role, s);
@@ -144,6 +157,7 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
         if (terms[i].conditional) {
             conditional.push_back(i);
         } else {
+            always.push_back(i);
             add_weighted(K_always, terms[i].K, weight[i].first);
             add_weighted(B_always, terms[i].B, weight[i].second);
         }
@@ -155,18 +169,34 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
     // pattern first.
     std::set<SumKey> checked;
     std::vector<std::size_t> digits(units.size());
+    std::vector<GainChecker::ProxyGains> proxies;
     for (std::size_t code = count; code-- > 0;) {
         std::size_t rest = code;
         Matrix3 K = K_always, B = B_always;
+        proxies.clear();
+        std::size_t acting = always.size();
+        for (const std::size_t i : always) {
+            if (terms[i].proxy) proxies.push_back(proxy_gains(terms[i], weight[i]));
+        }
         for (std::size_t u = 0; u < units.size(); ++u) {
             digits[u] = rest % units[u].options();
             rest /= units[u].options();
             for (const std::size_t i : units[u].engaged(digits[u])) {
                 add_weighted(K, terms[i].K, weight[i].first);
                 add_weighted(B, terms[i].B, weight[i].second);
+                ++acting;
+                if (terms[i].proxy) proxies.push_back(proxy_gains(terms[i], weight[i]));
             }
         }
-        if (!checked.insert(sum_key(K, B)).second) continue;  // the same sum as a pattern checked already
+        // A proxy alone: its object check judged every configuration (ObjectResolver, mesh_masses); beside other
+        // terms every configuration of the sum is the family's.
+        if (acting < 2) proxies.clear();
+        Matrix3 K_proxies{}, B_proxies{};
+        for (const GainChecker::ProxyGains& p : proxies) {
+            add_to(K_proxies, p.K);
+            add_to(B_proxies, p.B);
+        }
+        if (!checked.insert(sum_key(K, B, K_proxies, B_proxies)).second) continue;  // a pattern checked already
         if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) {
             result.cancelled = true;
             why = "the check was cancelled";
@@ -175,7 +205,7 @@ bool group_scene_is_stable(const GainChecker& checker, const std::vector<SceneTe
         ++result.checks;
         std::string reason;
         bool proven = false;
-        if (checker.sum_is_stable(K, B, reason, s >= 1.0, &proven)) {
+        if (checker.sum_is_stable(K, B, reason, s >= 1.0, &proven, proxies)) {
             result.sampled += proven ? 0 : 1;
             continue;
         }

@@ -76,6 +76,10 @@ struct SceneTerm {
     int exclusive_pair = -1;
     Role role = Role::Base;
     std::uint32_t object_id = 0;  // for messages
+    // A mesh's proxy: K, B are its gains at P = I, rendered as K P, B P for its active constraints' projector P
+    // (GainChecker::ProxyGains); in a sum with other terms every configuration is judged (proven or not) with them.
+    bool proxy = false;
+    bool shaded = false;  // with force shading (never proven in a sum)
 };
 
 // The term of a plane (or a spring to a plane) along the unit normal n with gains K, B: K n n^T, B n n^T,

@@ -260,20 +260,36 @@ class GainChecker {
     [[nodiscard]] bool field_is_stable(const Matrix3& J, const Matrix3& B_field, std::string& why,
                                        std::optional<double>& largest_stable_K) const;
 
+    // A mesh's proxy in a sum (docs/protocol.md, section 5): it renders K P, B P for the projector P of its active
+    // constraints (rank 1, 2 or 3, any orientation: moves are not checked); K, B are its gains at P = I as weighted in
+    // the scene, and the sum passed with them holds them at P = I. With force shading the configurations are not of
+    // that form (S = I + (n_s - n_f) n_f^T): `shaded`, never proven in a sum.
+    struct ProxyGains {
+        Matrix3 K{}, B{};
+        bool shaded = false;
+    };
+    // Proxies a sum's proof takes (its family has 2^k members); more: accepted on the sampled verdict, not proven.
+    static constexpr std::size_t kMaxProvenProxies = 4;
+
     // The coupled loop's verdict for physical gain matrices as rendered (K_sum may be non-symmetric: a
     // field's curl), in the unit-mass coordinates (hapticopt::general_matrix_gain_stability), nominal mass.
     [[nodiscard]] hapticopt::MatrixGainStability coupled(const Matrix3& K_sum, const Matrix3& B_sum) const;
     // The same over the set (hapticopt::MassScalingTest::matrix_over: exact for symmetric commuting gains,
     // kSampledCoupledScales scales otherwise, then proven_by_numerical_range for symmetric ones: `certified` when it
     // proves them; b or k > 0: general_matrix_gain_stability at kSampledCoupledScales masses). prove = false: the
-    // sampled verdict alone for non-commuting gains (a ramp's scenes: ramp_is_stable).
-    [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum,
-                                                                       bool prove = true) const;
+    // sampled verdict alone for non-commuting gains (a ramp's scenes: ramp_is_stable). With `proxies` (meshes' proxies
+    // in a sum with other gains) the verdict is the one of their configuration P = I (sampled or exact as above), and
+    // `certified` only by the numerical range of the whole family of configurations (proven_by_numerical_range):
+    // commuting at P = I says nothing of rank 1 or 2.
+    [[nodiscard]] hapticopt::MatrixGainScaleStability coupled_over_set(
+        const Matrix3& K_sum, const Matrix3& B_sum, bool prove = true,
+        const std::vector<ProxyGains>& proxies = {}) const;
     // The summed-gain check above. On failure `why` names the direction and the pair, or the coupled radius.
     // `proven` (when given): stable and certified over the whole set (exact per direction, the arm box, or the
-    // numerical range); false: refused, or accepted on the sampled verdict.
+    // numerical range) and, with proxies, over every configuration of theirs; false: refused, or accepted on the
+    // sampled verdict.
     [[nodiscard]] bool sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why, bool prove = true,
-                                     bool* proven = nullptr) const;
+                                     bool* proven = nullptr, const std::vector<ProxyGains>& proxies = {}) const;
 
     // One common eigen-direction (alpha, beta) of a commuting sum over the whole arm box (coupled_over_set): stable
     // (proven: certified by the box; else neither proven nor refuted within kAcceptArmBoxes and the grid's verdict
@@ -370,8 +386,17 @@ class GainChecker {
     // edge judged by segment_box_ over the arm box, masses and delays, kAcceptArmBoxes sub-boxes each), with
     // kNumericalRangeDirections support lines, refined where an edge fails outside the range's hull, up to
     // kMaxNumericalRangeDirections. The anchor (the coupled loop stable at one plant) is the caller's. false: not
-    // proven (a curl, b or k > 0, or an edge not proven stable).
-    [[nodiscard]] bool proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const;
+    // proven (a curl, b or k > 0, or an edge not proven stable). With `proxies` (normalised as A, B, held in them at
+    // P = I): the family of every configuration of theirs (numerical_range_certificate.hpp, "Families"), its members
+    // A, B less each subset of the proxies; false for a shaded proxy or more than kMaxProvenProxies.
+    [[nodiscard]] bool proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                                 const std::vector<hapticopt::GainMatrixPair>& proxies = {}) const;
+    // The sampled configurations of proxies in a sum the family's proof did not prove (sum_is_stable, prove): every
+    // proxy with the projector P = u u^T (rank 1) and I - u u^T (rank 2) for u along the 3 axes, the 6 face and 4 body
+    // diagonals and the eigenvectors of the other terms' stiffness, each over the set as coupled_over_set judges P = I.
+    // false with `why` naming the first unstable configuration. Sampled: a configuration between them is not judged.
+    [[nodiscard]] bool proxy_configurations_stable(const Matrix3& K_sum, const Matrix3& B_sum,
+                                                   const std::vector<ProxyGains>& proxies, std::string& why) const;
     static constexpr int kNumericalRangeDirections = 16;
     static constexpr int kMaxNumericalRangeDirections = 256;
     // The estimator's main stable region for mass m (the profile's, built once, or a new one); non-backward only.

@@ -102,8 +102,9 @@ GainChecker::DirectionVerdict GainChecker::direction_over_box(double alpha, doub
     return v;
 }
 
-bool GainChecker::proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) const {
-    if (!segment_box_) return false;
+bool GainChecker::proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                            const std::vector<hapticopt::GainMatrixPair>& proxies) const {
+    if (!segment_box_ || proxies.size() > kMaxProvenProxies) return false;
     const double scale = A.norm() + B.norm();
     if ((A - A.transpose()).norm() > hapticopt::kMatrixGainRoundingLevel * scale ||
         (B - B.transpose()).norm() > hapticopt::kMatrixGainRoundingLevel * scale)
@@ -111,7 +112,18 @@ bool GainChecker::proven_by_numerical_range(const Eigen::MatrixXd& A, const Eige
     const Eigen::MatrixXd As = 0.5 * (A + A.transpose()), Bs = 0.5 * (B + B.transpose());
     const Eigen::MatrixXd Q = hapticopt::detail::acting_basis(As, Bs);
     if (Q.cols() == 0) return false;  // nothing acts: the caller's verdict is exact
-    const Eigen::MatrixXd Ar = Q.transpose() * As * Q, Br = Q.transpose() * Bs * Q;
+    // The members: the sum less each subset of the proxies (every term is positive semi-definite, so each member acts
+    // within the sum's acting basis). Without proxies: the sum alone.
+    std::vector<hapticopt::GainMatrixPair> members;
+    for (std::size_t subset = 0; subset < (std::size_t{1} << proxies.size()); ++subset) {
+        Eigen::MatrixXd Am = As, Bm = Bs;
+        for (std::size_t j = 0; j < proxies.size(); ++j) {
+            if ((subset >> j) & 1U) continue;  // proxy j at P = I, as in the sum
+            Am -= 0.5 * (proxies[j].A + proxies[j].A.transpose());
+            Bm -= 0.5 * (proxies[j].B + proxies[j].B.transpose());
+        }
+        members.push_back(hapticopt::GainMatrixPair{Q.transpose() * Am * Q, Q.transpose() * Bm * Q});
+    }
     auto verdict = [this](const hapticopt::GainSegment& g) {
         const hapticopt::ArmBoxStability box = segment_box_->segment_over(g, kAcceptArmBoxes);
         hapticopt::GainRayStability v;
@@ -120,17 +132,43 @@ bool GainChecker::proven_by_numerical_range(const Eigen::MatrixXd& A, const Eige
         v.failing_scale = box.failing_scale;
         return v;
     };
-    return hapticopt::certify_by_numerical_range(Ar, Br, 1.0 / scale_max_, 1.0 / scale_min_, kNumericalRangeDirections,
+    return hapticopt::certify_by_numerical_range(members, 1.0 / scale_max_, 1.0 / scale_min_, kNumericalRangeDirections,
                                                  verdict, kMaxNumericalRangeDirections)
         .proven;
 }
 
 hapticopt::MatrixGainScaleStability GainChecker::coupled_over_set(const Matrix3& K_sum, const Matrix3& B_sum,
-                                                                  bool prove) const {
+                                                                  bool prove,
+                                                                  const std::vector<ProxyGains>& proxies) const {
     const double T = plant_.period;
     const Eigen::Matrix3d Mis = as_eigen(mass_.inverse_sqrt);
     const Eigen::MatrixXd A = (T * T) * (Mis * as_eigen(K_sum) * Mis);
     const Eigen::MatrixXd Bn = T * (Mis * as_eigen(B_sum) * Mis);
+    // Proxies: the verdict of the configuration P = I (every arm point judged by the grid: no per-direction deferral,
+    // since commuting there says nothing of the other configurations); certified by the family's numerical range.
+    if (!proxies.empty()) {
+        hapticopt::MatrixGainScaleStability r;
+        r.stable = true;
+        if (scalings_.empty()) return coupled_over_set(K_sum, B_sum, false);  // b or k > 0: never proven
+        for (std::size_t a = 0; a < arm_points_.size(); ++a) {
+            const hapticopt::MatrixGainScaleStability v =
+                delay_tests_.empty()
+                    ? scalings_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales)
+                    : delay_tests_[a].matrix_over(A, Bn, 1.0 / scale_max_, 1.0 / scale_min_, kSampledCoupledScales);
+            r.commuting = v.commuting;
+            r.spectral_radius = std::max(r.spectral_radius, v.spectral_radius);
+            if (!v.stable) return v;
+        }
+        std::vector<hapticopt::GainMatrixPair> family;
+        bool shaded = false;
+        for (const ProxyGains& p : proxies) {
+            shaded = shaded || p.shaded;
+            family.push_back(
+                hapticopt::GainMatrixPair{(T * T) * (Mis * as_eigen(p.K) * Mis), T * (Mis * as_eigen(p.B) * Mis)});
+        }
+        r.certified = prove && !shaded && proven_by_numerical_range(A, Bn, family);
+        return r;
+    }
     // The mass matrix c M gives the unit-mass gains (A, B) / c: the scales s = 1 / c. Every arm point in turn.
     hapticopt::MatrixGainScaleStability r;
     r.stable = true;
@@ -261,14 +299,16 @@ std::string GainChecker::set_text() const {
     return s.str();
 }
 
-bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why, bool prove,
-                                bool* proven) const {
+bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std::string& why, bool prove, bool* proven,
+                                const std::vector<ProxyGains>& proxies) const {
     const Eigen::Matrix3d K = symmetric_part(K_sum), B = symmetric_part(B_sum);
     if (proven != nullptr) *proven = true;  // nothing acts: the free device
     if (as_eigen(K_sum).isZero(0.0) && as_eigen(B_sum).isZero(0.0)) return true;
     // The decision: the coupled loop's verdict over the set (exact per direction when the gains commute).
-    const hapticopt::MatrixGainScaleStability verdict = coupled_over_set(K_sum, B_sum, prove);
+    const hapticopt::MatrixGainScaleStability verdict = coupled_over_set(K_sum, B_sum, prove, proxies);
     if (proven != nullptr) *proven = verdict.stable && verdict.certified;
+    if (verdict.stable && prove && !verdict.certified && !proxies.empty())
+        return proxy_configurations_stable(K_sum, B_sum, proxies, why);
     if (verdict.stable) return true;
     const double failing_scale_of_mass = 1.0 / verdict.failing_scale;  // c: the mass matrix c M fails
     std::string at_delay;  // with a delay range: the total delay it fails at
@@ -324,6 +364,66 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
       << (verdict.commuting ? "" : " (the coupled check needs < 1 - 1e-6: docs/robust-stability.md)");
     why = s.str();
     return false;
+}
+
+bool GainChecker::proxy_configurations_stable(const Matrix3& K_sum, const Matrix3& B_sum,
+                                              const std::vector<ProxyGains>& proxies, std::string& why) const {
+    Eigen::Matrix3d K0 = as_eigen(K_sum), B0 = as_eigen(B_sum), K_proxies = Eigen::Matrix3d::Zero(),
+                    B_proxies = Eigen::Matrix3d::Zero();
+    for (const ProxyGains& p : proxies) {
+        K_proxies += as_eigen(p.K);
+        B_proxies += as_eigen(p.B);
+    }
+    K0 -= K_proxies;
+    B0 -= B_proxies;
+    std::vector<Eigen::Vector3d> directions;
+    for (int i = 0; i < 3; ++i) directions.push_back(Eigen::Vector3d::Unit(i));
+    for (int i = 0; i < 3; ++i) {
+        for (int j = i + 1; j < 3; ++j) {
+            directions.push_back((Eigen::Vector3d::Unit(i) + Eigen::Vector3d::Unit(j)).normalized());
+            directions.push_back((Eigen::Vector3d::Unit(i) - Eigen::Vector3d::Unit(j)).normalized());
+        }
+    }
+    for (const double y : {1.0, -1.0}) {
+        for (const double z : {1.0, -1.0}) directions.push_back(Eigen::Vector3d(1.0, y, z).normalized());
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> others(0.5 * (K0 + K0.transpose()));
+    for (int c = 0; c < 3; ++c) {  // unless one of the fixed ones already (a wall along an axis)
+        const Eigen::Vector3d v = others.eigenvectors().col(c);
+        if (std::none_of(directions.begin(), directions.end(),
+                         [&](const Eigen::Vector3d& u) { return std::abs(u.dot(v)) > 1.0 - 1e-12; }))
+            directions.push_back(v);
+    }
+    for (const Eigen::Vector3d& u : directions) {
+        for (const int rank : {1, 2}) {
+            const Eigen::Matrix3d P = rank == 1 ? Eigen::Matrix3d(u * u.transpose())
+                                                : Eigen::Matrix3d(Eigen::Matrix3d::Identity() - u * u.transpose());
+            Matrix3 K{}, B{};
+            for (std::size_t r = 0; r < 3; ++r) {
+                for (std::size_t c = 0; c < 3; ++c) {
+                    const auto ri = static_cast<Eigen::Index>(r), ci = static_cast<Eigen::Index>(c);
+                    K[r][c] = K0(ri, ci) + (P * K_proxies * P)(ri, ci);
+                    B[r][c] = B0(ri, ci) + (P * B_proxies * P)(ri, ci);
+                }
+            }
+            const hapticopt::MatrixGainScaleStability v = coupled_over_set(K, B, false);
+            if (v.stable) continue;
+            std::ostringstream s;
+            s.precision(6);
+            s << "a mesh's proxy resting on "
+              << (rank == 1 ? "one face with normal" : "two faces whose edge runs along") << " (" << u(0) << ", "
+              << u(1) << ", " << u(2) << ") beside the other objects: the coupled loop with the mass scaled by "
+              << 1.0 / v.failing_scale;
+            if (delay_hi_ > delay_lo_ && v.failing_delay >= 0.0)
+                s << " at the total delay " << v.failing_delay * plant_.period * 1e3 << " ms";
+            s << " (" << set_text() << ") has spectral radius " << v.spectral_radius
+              << " (the proxy's contact configurations of rank 1 and 2 are judged at sampled orientations; "
+                 "docs/protocol.md, section 5)";
+            why = s.str();
+            return false;
+        }
+    }
+    return true;
 }
 
 bool GainChecker::ramp_is_stable(const Matrix3& K_base, const Matrix3& B_base, const Matrix3& K_in, const Matrix3& B_in,
