@@ -121,7 +121,9 @@ void Server::Impl::run() {
         }
     }
     final_contacts();
-    for (auto& [sid, s] : sessions) close_session(s, "server stopping");
+    // The daemon stops its loop before the server (daemon/run.cpp): the sessions' objects need no ramp-out, and a
+    // departure's checks (seconds over the Falcon's set) would only delay the exit.
+    for (auto& [sid, s] : sessions) close_session(s, "server stopping", false);
     sessions.clear();
 }
 

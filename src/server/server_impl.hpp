@@ -113,7 +113,8 @@ struct Server::Impl {
                     int op_index = -1, std::optional<double> largest = std::nullopt,
                     std::optional<std::pair<double, double>> damping = std::nullopt);
     void accept_all(int listen_fd, bool stream);
-    void close_session(Session& s, const std::string& why);
+    // depart false: no departure plan (the server stops after the loop has ended: nothing would render a ramp-out).
+    void close_session(Session& s, const std::string& why, bool depart = true);
     void close_departed_sessions();
     void close_silent_sessions(Clock::time_point now);
 

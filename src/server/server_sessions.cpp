@@ -70,7 +70,7 @@ void Server::Impl::accept_all(int listen_fd, bool stream) {
     }
 }
 
-void Server::Impl::close_session(Session& s, const std::string& why) {
+void Server::Impl::close_session(Session& s, const std::string& why, bool depart) {
     if (s.closed) return;
     s.closed = true;
     ::close(s.fd);
@@ -78,7 +78,7 @@ void Server::Impl::close_session(Session& s, const std::string& why) {
     drop_scene_check_of(s);
     // The departure's plan (its checks) timed: the one piece of a departure's latency that is the daemon's own work.
     const Clock::time_point planning = Clock::now();
-    const std::size_t leaving = ramp_out_objects_of(s.id);
+    const std::size_t leaving = depart ? ramp_out_objects_of(s.id) : 0;
     const double planned_ms = std::chrono::duration<double, std::milli>(Clock::now() - planning).count();
     meshes.drop_session(s.id);
     log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " +

@@ -13,7 +13,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -29,6 +28,7 @@
 #include <vector>
 
 #include "common/coupled_loop_matrix.hpp"
+#include "common/random_projector.hpp"
 
 namespace numerical_range_certificate_test {
 
@@ -512,17 +512,7 @@ Eigen::MatrixXd random_mass_inverse_sqrt(std::mt19937& rng) {
     return e.eigenvectors() * d.asDiagonal() * e.eigenvectors().transpose();
 }
 
-// A random orthogonal projector of rank `rank` (1 .. 3): the span of `rank` random normals.
-Eigen::MatrixXd random_projector(std::mt19937& rng, int rank) {
-    std::normal_distribution<double> normal(0.0, 1.0);
-    Eigen::MatrixXd V(3, rank);
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < rank; ++j) V(i, j) = normal(rng);
-    }
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(V);
-    const Eigen::MatrixXd U = qr.householderQ() * Eigen::MatrixXd::Identity(3, rank);
-    return U * U.transpose();
-}
+using test_projector::random_projector;
 
 // The family's outline holds the range of every configuration: points of W at random complex vectors for random Q
 // with 0 <= Q <= I (projectors among them) lie in the polygon, within its rounding term.

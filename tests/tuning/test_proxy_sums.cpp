@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/QR>
 #include <gtest/gtest.h>
 
 #include "common/coupled_loop_matrix.hpp"
+#include "common/random_projector.hpp"
 #include "tuning/object_checks.hpp"
 
 namespace hapticd {
@@ -32,16 +32,7 @@ GainCheckPlant plant(int delay_periods) {
     return p;
 }
 
-Eigen::Matrix3d random_projector(std::mt19937& rng, int rank) {
-    std::normal_distribution<double> normal(0.0, 1.0);
-    Eigen::MatrixXd V(3, rank);
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < rank; ++j) V(i, j) = normal(rng);
-    }
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(V);
-    const Eigen::MatrixXd U = qr.householderQ() * Eigen::MatrixXd::Identity(3, rank);
-    return U * U.transpose();
-}
+using test_projector::random_projector;
 
 // The loop's spectral radius with the physical gains K, B at mass m (one mass on every axis), by the state matrix.
 double radius(const Eigen::Matrix3d& K, const Eigen::Matrix3d& B, double m, int delay_periods) {
