@@ -391,11 +391,10 @@ class GainChecker {
     // A, B less each subset of the proxies; false for a shaded proxy or more than kMaxProvenProxies.
     [[nodiscard]] bool proven_by_numerical_range(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
                                                  const std::vector<hapticopt::GainMatrixPair>& proxies = {}) const;
-    // Proxies' configurations in a sum the family's proof did not prove (sum_is_stable, prove): each proxy with P = u
-    // u^T (rank 1) and I - u u^T (rank 2), u along the 3 axes, 6 face and 4 body diagonals and the other terms'
-    // stiffness eigenvectors, then a pattern search (16 steps) from the one nearest the circle, each as
-    // coupled_over_set judges P = I. false with `why` naming the first unstable configuration. Sampled: others between
-    // them are not judged.
+    // The sampled configurations of proxies in a sum the family's proof did not prove (sum_is_stable, prove): every
+    // proxy with the projector P = u u^T (rank 1) and I - u u^T (rank 2) for u along the 3 axes, the 6 face and 4 body
+    // diagonals and the eigenvectors of the other terms' stiffness, each over the set as coupled_over_set judges P = I.
+    // false with `why` naming the first unstable configuration. Sampled: a configuration between them is not judged.
     [[nodiscard]] bool proxy_configurations_stable(const Matrix3& K_sum, const Matrix3& B_sum,
                                                    const std::vector<ProxyGains>& proxies, std::string& why) const;
     static constexpr int kNumericalRangeDirections = 16;

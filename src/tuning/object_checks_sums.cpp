@@ -48,9 +48,6 @@ hapticopt::MatrixGainStability GainChecker::coupled(const Matrix3& K_sum, const 
 
 namespace {
 
-// The configurations a pattern search judges after the sampled ones (GainChecker::proxy_configurations_stable).
-constexpr int kProxySearchSteps = 16;
-
 // The innermost live CommitMemo of this thread (nullptr: none); each memo keeps the one it hides and restores it.
 thread_local GainChecker::CommitMemo* active_commit_memo = nullptr;
 
@@ -397,72 +394,34 @@ bool GainChecker::proxy_configurations_stable(const Matrix3& K_sum, const Matrix
                          [&](const Eigen::Vector3d& u) { return std::abs(u.dot(v)) > 1.0 - 1e-12; }))
             directions.push_back(v);
     }
-    // Each configuration over the set as coupled_over_set judges P = I; the one nearest the circle is remembered.
-    auto configuration = [&](const Eigen::Vector3d& u, int rank) {
-        const Eigen::Matrix3d P = rank == 1 ? Eigen::Matrix3d(u * u.transpose())
-                                            : Eigen::Matrix3d(Eigen::Matrix3d::Identity() - u * u.transpose());
-        Matrix3 K{}, B{};
-        for (std::size_t r = 0; r < 3; ++r) {
-            for (std::size_t c = 0; c < 3; ++c) {
-                const auto ri = static_cast<Eigen::Index>(r), ci = static_cast<Eigen::Index>(c);
-                K[r][c] = K0(ri, ci) + (P * K_proxies * P)(ri, ci);
-                B[r][c] = B0(ri, ci) + (P * B_proxies * P)(ri, ci);
-            }
-        }
-        return coupled_over_set(K, B, false);
-    };
-    auto refuse = [&](const Eigen::Vector3d& u, int rank, const hapticopt::MatrixGainScaleStability& v) {
-        std::ostringstream s;
-        s.precision(6);
-        s << "a mesh's proxy resting on " << (rank == 1 ? "one face with normal" : "two faces whose edge runs along")
-          << " (" << u(0) << ", " << u(1) << ", " << u(2)
-          << ") beside the other objects: the coupled loop with the mass scaled by " << 1.0 / v.failing_scale;
-        if (delay_hi_ > delay_lo_ && v.failing_delay >= 0.0)
-            s << " at the total delay " << v.failing_delay * plant_.period * 1e3 << " ms";
-        s << " (" << set_text() << ") has spectral radius " << v.spectral_radius
-          << " (the proxy's contact configurations of rank 1 and 2 are judged at sampled orientations; "
-             "docs/protocol.md, section 5)";
-        why = s.str();
-        return false;
-    };
-    double nearest = -1.0;
-    Eigen::Vector3d nearest_u = directions.front();
-    int nearest_rank = 1;
     for (const Eigen::Vector3d& u : directions) {
         for (const int rank : {1, 2}) {
-            const hapticopt::MatrixGainScaleStability v = configuration(u, rank);
-            if (!v.stable) return refuse(u, rank, v);
-            if (v.spectral_radius > nearest) {
-                nearest = v.spectral_radius;
-                nearest_u = u;
-                nearest_rank = rank;
+            const Eigen::Matrix3d P = rank == 1 ? Eigen::Matrix3d(u * u.transpose())
+                                                : Eigen::Matrix3d(Eigen::Matrix3d::Identity() - u * u.transpose());
+            Matrix3 K{}, B{};
+            for (std::size_t r = 0; r < 3; ++r) {
+                for (std::size_t c = 0; c < 3; ++c) {
+                    const auto ri = static_cast<Eigen::Index>(r), ci = static_cast<Eigen::Index>(c);
+                    K[r][c] = K0(ri, ci) + (P * K_proxies * P)(ri, ci);
+                    B[r][c] = B0(ri, ci) + (P * B_proxies * P)(ri, ci);
+                }
             }
+            const hapticopt::MatrixGainScaleStability v = coupled_over_set(K, B, false);
+            if (v.stable) continue;
+            std::ostringstream s;
+            s.precision(6);
+            s << "a mesh's proxy resting on "
+              << (rank == 1 ? "one face with normal" : "two faces whose edge runs along") << " (" << u(0) << ", "
+              << u(1) << ", " << u(2) << ") beside the other objects: the coupled loop with the mass scaled by "
+              << 1.0 / v.failing_scale;
+            if (delay_hi_ > delay_lo_ && v.failing_delay >= 0.0)
+                s << " at the total delay " << v.failing_delay * plant_.period * 1e3 << " ms";
+            s << " (" << set_text() << ") has spectral radius " << v.spectral_radius
+              << " (the proxy's contact configurations of rank 1 and 2 are judged at sampled orientations; "
+                 "docs/protocol.md, section 5)";
+            why = s.str();
+            return false;
         }
-    }
-    // Then a pattern search from the configuration nearest the circle (its sampled radius; 0 when every verdict was
-    // exact, nothing to climb): the orientation tilted by `step` radians' worth towards each of two orthogonal
-    // directions, both ways; a step that raises the radius is taken, else the step halves, from 0.3 down to 0.02, at
-    // most kProxySearchSteps configurations. An unstable one found is refused like the samples.
-    if (nearest <= 0.0) return true;
-    Eigen::Vector3d u = nearest_u;
-    int evaluations = 0;
-    for (double step = 0.3; step >= 0.02 && evaluations < kProxySearchSteps;) {
-        const Eigen::Vector3d a = u.unitOrthogonal(), c = u.cross(a);
-        bool climbed = false;
-        for (const Eigen::Vector3d& towards : {a, Eigen::Vector3d(-a), c, Eigen::Vector3d(-c)}) {
-            if (evaluations >= kProxySearchSteps) break;
-            const Eigen::Vector3d tilted = (u + step * towards).normalized();
-            const hapticopt::MatrixGainScaleStability v = configuration(tilted, nearest_rank);
-            ++evaluations;
-            if (!v.stable) return refuse(tilted, nearest_rank, v);
-            if (v.spectral_radius > nearest) {
-                nearest = v.spectral_radius;
-                u = tilted;
-                climbed = true;
-                break;
-            }
-        }
-        if (!climbed) step /= 2.0;
     }
     return true;
 }
