@@ -24,6 +24,10 @@ json commit_of(std::uint64_t id, const json& object) {
     return json{{"type", "commit"}, {"id", id}, {"ops", json::array({json{{"op", "add"}, {"object", object}}})}};
 }
 
+// A liveness guard for a reply that waits for a check, not a latency bound: 1.2 s in a release build, over 60 s under
+// TSan or ASan + UBSan beside two busy loops.
+constexpr double kCheckTimeoutS = 600.0;
+
 const json kOblique = plane({0.7071067811865476, 0.7071067811865476, 0.0}, 0.06, json{{"K", 100.0}, {"B", 1.0}});
 
 // A session as the test drives it: hello, then requests sent and replies read one by one.
@@ -84,9 +88,9 @@ TEST(ServerCommitCheck, OtherSessionsAreAnsweredAndTheirCommitsWaitWhileAScenesC
     ASSERT_TRUE(queued) << "C's commit was not seen waiting while A's check ran";
     EXPECT_FALSE(c.connection.receive(0.0)) << "C's commit was answered while A's check ran";
 
-    const json a_reply = a.connection.receive_json();
+    const json a_reply = a.connection.receive_json(kCheckTimeoutS);
     ASSERT_EQ(a_reply.value("type", ""), "ok") << a_reply.dump();
-    const json c_reply = c.connection.receive_json();
+    const json c_reply = c.connection.receive_json(kCheckTimeoutS);
     ASSERT_EQ(c_reply.value("type", ""), "ok") << c_reply.dump();
     EXPECT_GT(c_reply.value("commit_seq", 0), a_reply.value("commit_seq", 0));
     const json listed = b.request(json{{"type", "list"}, {"id", 1}});
@@ -117,7 +121,7 @@ TEST(ServerCommitCheck, ADepartureDuringACheckStagesTheCommitAgainOnTheSceneItLe
         << "session A's commit was answered before B saw its check running";
     d.reset();  // D leaves while A's check runs
 
-    const json a_reply = a.connection.receive_json();
+    const json a_reply = a.connection.receive_json(kCheckTimeoutS);  // checked twice: before and after the departure
     ASSERT_EQ(a_reply.value("type", ""), "ok") << a_reply.dump();
     EXPECT_NE(
         daemon.err().find("the scene changed during its commit's check (a departure); the commit is checked again"),
