@@ -39,8 +39,7 @@ std::size_t Server::Impl::ramp_out_objects_of(std::uint64_t session) {
         u.action = plan.cut ? SlotUpdate::Action::Cut : SlotUpdate::Action::Remove;
         u.params = slot.resolved.params;
     }
-    pending.push_back(c);  // before the events: a send may close another session, whose batch must follow
-    ++scene_version;
+    pending.push_back(c);   // before the events: a send may close another session, whose batch must follow
     restart_scene_check();  // a commit being checked was staged on the scene before this departure
     push_pending();
     if (!plan.further.empty()) {

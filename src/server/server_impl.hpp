@@ -153,16 +153,15 @@ struct Server::Impl {
     void resume_parked();
 
     // ---- commits' scene checks (server_requests.cpp; server/commit_check_worker.hpp) ------------------
-    // The commit whose scenes commit_checker checks: its plan, staged on the scene of `scene_version`.
+    // The commit whose scenes commit_checker checks: its plan, staged on the scene as it is (a departure meanwhile
+    // restarts the check: restart_scene_check; commits wait for it: park_for_scene_check).
     struct SceneCheck {
         std::uint64_t session = 0;
         std::uint64_t request_id = 0;
         server::CommitPlan plan;
-        std::uint64_t scene_version = 0;
         Clock::time_point started;
     };
     std::optional<SceneCheck> scene_check;
-    std::uint64_t scene_version = 0;  // +1 at every change of the used slots: a commit adopted, a departure
     std::uint64_t next_parked_seq = 1;
     // Parks a commit while another's scenes are being checked: true when parked (no reply yet).
     bool park_for_scene_check(Session& s, std::string_view bytes);

@@ -82,7 +82,7 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
         send_error(s, id, cl::ErrorCode::Busy, "commit: another commit's scenes are being checked; retry", -1);
         return;
     }
-    scene_check = SceneCheck{s.id, id, std::move(st.plan), scene_version, Clock::now()};
+    scene_check = SceneCheck{s.id, id, std::move(st.plan), Clock::now()};
     s.parked.emplace(bytes);
     s.checking = true;
 }
@@ -127,7 +127,6 @@ void Server::Impl::adopt_commit(Session& s, std::uint64_t id, server::CommitPlan
             retired.push_back(Retired{slots[i].resolved.mesh, seq, 0});
         slots[i] = planned;
     }
-    if (c.count > 0) ++scene_version;
     next_object_id = plan.next_object_id;
     if (c.count > 0) s.in_flight.push_back(seq);
     json ok = server::ok_reply(id);
