@@ -103,6 +103,7 @@ int cmd_status(const Common& common, bool json) {
                                                                           {"running_s", s.commit_check_running_s}}
                                                          : nlohmann::json()},
                                     {"commits_waiting", s.commits_waiting},
+                                    {"departures_waiting", s.departures_waiting},
                                     {"fault", s.fault},
                                     {"protocol", w.protocol},
                                     {"device",
@@ -137,6 +138,10 @@ int cmd_status(const Common& common, bool json) {
         if (s.commit_check_session) {
             std::cout << "checking the scenes of session " << *s.commit_check_session << "'s commit for "
                       << s.commit_check_running_s << " s; " << s.commits_waiting << " commits of other sessions wait\n";
+        }
+        if (s.departures_waiting > 0) {
+            std::cout << s.departures_waiting
+                      << " sessions gone whose objects render until their departure is planned\n";
         }
     }
     client.bye();

@@ -229,6 +229,8 @@ struct Status {
     std::optional<std::uint64_t> commit_check_session;
     double commit_check_running_s = 0.0;
     std::uint64_t commits_waiting = 0;
+    // Sessions gone whose objects still render while their departure is planned (docs/protocol.md, section 5).
+    std::uint64_t departures_waiting = 0;
 };
 
 // A mesh object's god-object proxy as the loop rendered it at the sample's tick (docs/protocol.md, section 6;

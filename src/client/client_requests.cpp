@@ -180,6 +180,7 @@ Status Client::status() {
         s.commit_check_running_s = c->value("running_s", 0.0);
     }
     s.commits_waiting = r.value("commits_waiting", std::uint64_t{0});
+    s.departures_waiting = r.value("departures_waiting", std::uint64_t{0});
     return s;
 }
 

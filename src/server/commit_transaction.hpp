@@ -47,7 +47,7 @@ using CommitOutcome = std::variant<CommitPlan, CommitRefusal>;
 
 // A batch whose operations are applied and whose summed stiffness is within the limit: what is left is the check of
 // every scene it renders (check_engagement_patterns on `terms` with `step`), the one part that can take seconds
-// (docs/protocol.md, section 5). The server runs that part off its thread (server/commit_check_worker.hpp).
+// (docs/protocol.md, section 5). The server runs that part off its thread (server/scene_check_worker.hpp).
 struct StagedCommit {
     CommitPlan plan;               // scenes_checked / scenes_sampled unset
     std::vector<SceneTerm> terms;  // every term of the check: config walls, Base, In, Out

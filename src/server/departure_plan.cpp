@@ -11,7 +11,8 @@ namespace {
 // every engagement pattern; `checks` counts the verdicts spent.
 bool departure_is_stable(const GainChecker& checker, const std::vector<SceneTerm>& fixed,
                          const std::vector<const DepartureObject*>& out, const std::vector<DepartureObject>& staying,
-                         const std::vector<bool>& removed, double step, std::string& why, std::size_t& checks) {
+                         const std::vector<bool>& removed, double step, std::string& why, std::size_t& checks,
+                         const std::atomic<bool>* cancel, bool& cancelled) {
     std::vector<SceneTerm> terms = fixed;
     for (std::size_t i = 0; i < staying.size(); ++i) {
         if (removed[i]) continue;
@@ -23,8 +24,9 @@ bool departure_is_stable(const GainChecker& checker, const std::vector<SceneTerm
         terms.back().role = SceneTerm::Role::Out;
     }
     // No pattern limit: the scene was accepted with its patterns; its departure removes terms, never adds any.
-    const EngagementCheck verdict = check_engagement_patterns(checker, terms, step, PatternLimit::None);
+    const EngagementCheck verdict = check_engagement_patterns(checker, terms, step, PatternLimit::None, cancel);
     checks += verdict.checks;
+    cancelled = cancelled || verdict.cancelled;
     if (verdict.stable) return true;
     why = "the scene left behind or its ramp-out is unstable: " + verdict.why;
     return false;
@@ -47,22 +49,25 @@ bool next_combination(std::vector<std::size_t>& c, std::size_t n) {
 
 DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed,
                              const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying,
-                             double step) {
+                             double step, const std::atomic<bool>* cancel) {
     DeparturePlan plan;
     for (const DepartureObject& o : leaving) plan.out.push_back(o.slot);
     std::vector<const DepartureObject*> out;
     for (const DepartureObject& o : leaving) out.push_back(&o);
     std::vector<bool> removed(staying.size(), false);
     std::size_t checks = 0;
-    if (departure_is_stable(checker, fixed, out, staying, removed, step, plan.reason, checks)) {
+    if (departure_is_stable(checker, fixed, out, staying, removed, step, plan.reason, checks, cancel, plan.cancelled)) {
         plan.reason.clear();
         return plan;
     }
+    if (plan.cancelled) return plan;
     const std::size_t departing = out.size();
     std::size_t tried = 0;
     checks = 0;
     std::string ignored;
-    auto within_budget = [&] { return tried < kDepartureSearchBudget && checks < kDepartureCheckBudget; };
+    auto within_budget = [&] {
+        return !plan.cancelled && tried < kDepartureSearchBudget && checks < kDepartureCheckBudget;
+    };
     for (std::size_t k = 1; k < staying.size() && within_budget(); ++k) {
         std::vector<std::size_t> c(k);
         std::iota(c.begin(), c.end(), std::size_t{0});
@@ -74,7 +79,8 @@ DeparturePlan plan_departure(const GainChecker& checker, const std::vector<Scene
                 removed[i] = true;
             }
             ++tried;
-            if (departure_is_stable(checker, fixed, out, staying, removed, step, ignored, checks)) {
+            if (departure_is_stable(checker, fixed, out, staying, removed, step, ignored, checks, cancel,
+                                    plan.cancelled)) {
                 for (const std::size_t i : c) {
                     plan.out.push_back(staying[i].slot);
                     plan.further.push_back(staying[i].slot);
@@ -83,6 +89,7 @@ DeparturePlan plan_departure(const GainChecker& checker, const std::vector<Scene
             }
         } while (within_budget() && next_combination(c, staying.size()));
     }
+    if (plan.cancelled) return plan;
     // Every client object.
     out.resize(departing);
     for (const DepartureObject& o : staying) {
@@ -91,7 +98,8 @@ DeparturePlan plan_departure(const GainChecker& checker, const std::vector<Scene
         plan.further.push_back(o.slot);
     }
     std::fill(removed.begin(), removed.end(), true);
-    if (!departure_is_stable(checker, fixed, out, staying, removed, step, ignored, checks)) plan.cut = true;
+    if (!departure_is_stable(checker, fixed, out, staying, removed, step, ignored, checks, cancel, plan.cancelled))
+        plan.cut = true;
     return plan;
 }
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // What ramps out when a session ends (a disconnect, a lost lease, a closed slow consumer): the rule of
-// docs/protocol.md, section 5, "A client that leaves". Runs in the server thread, never in the loop.
+// docs/protocol.md, section 5, "A client that leaves". Runs in the scene-check worker (server/scene_check_worker.hpp),
+// never in the loop.
 //
 // The loop renders, from the tick the departure batch is applied, base + (1 - s_j)^2 K_out and
 // base + (1 - s_j) B_out (s_j = j T / ramp_s, the loop's ramp weights r^2 for stiffness, r for damping),
@@ -23,6 +24,7 @@
 // The owners of objects removed in 2-4 get an event naming them and the reason (server_departures.cpp).
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -34,7 +36,7 @@
 namespace hapticd {
 
 // Sets a departure may try, and scene verdicts it may spend, on finding the fewest further objects (step 2
-// above): bounds the server thread's pause in step 2 to ~2048 x 20-60 us ~ 40-120 ms (the sets' count
+// above): bounds step 2 to ~2048 x 20-60 us ~ 40-120 ms (the sets' count
 // alone, 64 x 30 scenes at the default 30 ms ramp, was the bound before engagement patterns).
 inline constexpr std::size_t kDepartureSearchBudget = 64;
 inline constexpr std::size_t kDepartureCheckBudget = 2048;
@@ -50,11 +52,13 @@ struct DeparturePlan {
     std::vector<std::size_t> further;  // of those, the staying objects removed with them (steps 2-4)
     bool cut = false;                  // step 4: removed at once, no ramp
     std::string reason;                // why the departing objects alone could not ramp out (steps 2-4)
+    bool cancelled = false;            // stopped at `cancel`: nothing above holds
 };
 
-// The rule above. `fixed`: the config walls (Base terms); `step` = T / ramp_s (>= 1: no ramp).
+// The rule above. `fixed`: the config walls (Base terms); `step` = T / ramp_s (>= 1: no ramp). `cancel` (may be
+// null) is read before each verdict: once true the plan ends at once and means nothing (`cancelled`).
 DeparturePlan plan_departure(const GainChecker& checker, const std::vector<SceneTerm>& fixed,
                              const std::vector<DepartureObject>& leaving, const std::vector<DepartureObject>& staying,
-                             double step);
+                             double step, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace hapticd

@@ -21,13 +21,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/commit_check_worker.hpp"
 #include "server/commit_transaction.hpp"
 #include "server/criterion_worker.hpp"
 #include "server/mesh_store.hpp"
 #include "server/message_decoder.hpp"
 #include "server/object_limits.hpp"
 #include "server/object_resolution.hpp"
+#include "server/scene_check_worker.hpp"
 #include "server/server.hpp"
 #include "server/sessions.hpp"
 #include "server/state_publisher.hpp"
@@ -119,8 +119,27 @@ struct Server::Impl {
     void close_silent_sessions(Clock::time_point now);
 
     // ---- departures (server_departures.cpp) ------------------------------------------------------
-    // The number of the session's objects that ramp out (0: it had none).
-    std::size_t ramp_out_objects_of(std::uint64_t session);
+    // A closed session's objects wait, rendered as they were, until their departure is planned by scene_checker
+    // (one session at a time, in the order they left, ahead of every commit's check): the session's number
+    // and its label for the log.
+    struct Departure {
+        std::uint64_t session = 0;
+        std::string label;
+    };
+    std::deque<Departure> departures_waiting;
+    struct DepartureCheck {
+        Departure departure;
+        std::size_t leaving = 0;
+        Clock::time_point started;
+    };
+    std::optional<DepartureCheck> departure_check;
+    // Queues the session's departure: the number of its objects that leave (0: it had none, nothing queued).
+    std::size_t queue_departure(const Session& s);
+    // The next waiting departure's plan started, when the worker is free.
+    void start_departure();
+    // The plan taken once it is in: its batch handed to the loop (behind the waiting departures), its events sent.
+    void finish_departure();
+    void ramp_out(const Departure& d, const DeparturePlan& plan, double planned_ms);
     void push_pending();
     void reclaim_slots();
 
@@ -152,8 +171,8 @@ struct Server::Impl {
     // Takes again each parked request whose criteria are ready.
     void resume_parked();
 
-    // ---- commits' scene checks (server_requests.cpp; server/commit_check_worker.hpp) ------------------
-    // The commit whose scenes commit_checker checks: its plan, staged on the scene as it is (a departure meanwhile
+    // ---- commits' scene checks (server_requests.cpp; server/scene_check_worker.hpp) ------------------
+    // The commit whose scenes scene_checker checks: its plan, staged on the scene as it is (a departure meanwhile
     // restarts the check: restart_scene_check; commits wait for it: park_for_scene_check).
     struct SceneCheck {
         std::uint64_t session = 0;
@@ -163,7 +182,8 @@ struct Server::Impl {
     };
     std::optional<SceneCheck> scene_check;
     std::uint64_t next_parked_seq = 1;
-    // Parks a commit while another's scenes are being checked: true when parked (no reply yet).
+    // Parks a commit while another's scenes are being checked or a departure waits for its plan: true when parked (no
+    // reply yet).
     bool park_for_scene_check(Session& s, std::string_view bytes);
     // The scene changed under the check in progress (a departure): it is cancelled; its commit waits to be staged
     // again on the new scene.
@@ -174,8 +194,11 @@ struct Server::Impl {
     void finish_scene_check();
     [[nodiscard]] std::size_t commits_waiting_for_check() const;
 
+    // No commit's check and no departure's plan running, waiting or not yet taken.
+    [[nodiscard]] bool scene_checks_idle() const;
+
     // Last: destroyed first, so their threads end while the checker they use lives.
-    server::CommitCheckWorker commit_checker{checker};
+    server::SceneCheckWorker scene_checker{checker};
     server::CriterionWorker criterion_worker{checker};
 };
 

@@ -44,7 +44,7 @@ bool Server::Impl::refuse_over_in_flight_limit(Session& s, std::uint64_t id) {
     return true;
 }
 
-// The batch staged (operations, summed stiffness) here, its scenes checked by commit_checker while the session is
+// The batch staged (operations, summed stiffness) here, its scenes checked by scene_checker while the session is
 // parked (finish_scene_check answers it), then handed to the loop behind the waiting departures and adopted once it
 // is in the ring; busy when the ring has no room (nothing changes). A ring already full, or departures still
 // waiting for it, answer busy before the batch is staged: a busy server does not spend the checks.
@@ -78,7 +78,7 @@ void Server::Impl::handle_commit(Session& s, std::uint64_t id, const server::Com
         return;
     }
     server::StagedCommit& st = std::get<server::StagedCommit>(staged);
-    if (!commit_checker.start(std::move(st.terms), st.step)) {  // park_for_scene_check let it through: never
+    if (!scene_checker.start(std::move(st.terms), st.step)) {  // park_for_scene_check let it through: never
         send_error(s, id, cl::ErrorCode::Busy, "commit: another commit's scenes are being checked; retry", -1);
         return;
     }
@@ -138,7 +138,7 @@ void Server::Impl::adopt_commit(Session& s, std::uint64_t id, server::CommitPlan
 }
 
 bool Server::Impl::park_for_scene_check(Session& s, std::string_view bytes) {
-    if (!scene_check && commit_checker.idle()) return false;
+    if (scene_checks_idle()) return false;
     s.parked.emplace(bytes);
     s.parked_seq = next_parked_seq++;
     return true;
@@ -146,7 +146,7 @@ bool Server::Impl::park_for_scene_check(Session& s, std::string_view bytes) {
 
 void Server::Impl::restart_scene_check() {
     if (!scene_check) return;
-    commit_checker.cancel();
+    scene_checker.cancel();
     const auto it = sessions.find(scene_check->session);
     if (it != sessions.end()) {
         it->second.checking = false;  // still parked: staged again on the new scene ahead of later commits
@@ -160,13 +160,13 @@ void Server::Impl::restart_scene_check() {
 
 void Server::Impl::drop_scene_check_of(const Session& s) {
     if (!scene_check || scene_check->session != s.id) return;
-    commit_checker.cancel();
+    scene_checker.cancel();
     scene_check.reset();
 }
 
 void Server::Impl::finish_scene_check() {
     if (!scene_check) return;
-    std::optional<server::CommitCheckWorker::Outcome> outcome = commit_checker.take();
+    std::optional<server::SceneCheckWorker::Outcome> outcome = scene_checker.take();
     if (!outcome) return;
     SceneCheck check = std::move(*scene_check);
     scene_check.reset();
@@ -192,6 +192,10 @@ void Server::Impl::finish_scene_check() {
         internal_error(s, "an unknown exception");
     }
     s.last_rx = Clock::now();
+}
+
+bool Server::Impl::scene_checks_idle() const {
+    return !scene_check && !departure_check && departures_waiting.empty() && scene_checker.idle();
 }
 
 std::size_t Server::Impl::commits_waiting_for_check() const {
@@ -305,6 +309,7 @@ void Server::Impl::handle_message(Session& s, std::string_view bytes) {
                                         std::chrono::duration<double>(Clock::now() - scene_check->started).count()}}
                                 : json(nullptr);
                 ok["commits_waiting"] = commits_waiting_for_check();
+                ok["departures_waiting"] = departures_waiting.size() + (departure_check ? 1U : 0U);
                 ok["meshes"] = meshes.meshes();
                 ok["mesh_bytes"] = meshes.total_bytes();
                 send_reply(s, ok);
@@ -366,10 +371,13 @@ bool Server::Impl::park_for_criteria(Session& s, std::string_view bytes, const s
     return true;
 }
 
-// The checked commit first; then the requests whose criteria are ready; then, while the scene checker is free, the
-// commits waiting for it, the oldest first (a commit whose check a departure cancelled comes before all).
+// The checked commit or the planned departure first, and the next departure's plan; then the requests whose criteria
+// are ready; then, while the scene checker is free and no departure waits, the commits waiting for it, the oldest first
+// (a commit whose check a departure cancelled comes before all).
 void Server::Impl::resume_parked() {
     finish_scene_check();
+    finish_departure();
+    start_departure();
     for (auto& [sid, s] : sessions) {
         if (s.closed || !s.parked || s.awaiting.empty()) continue;
         if (!std::all_of(s.awaiting.begin(), s.awaiting.end(),
@@ -381,7 +389,7 @@ void Server::Impl::resume_parked() {
         handle_guarded(s, bytes);
         close_departed_sessions();
     }
-    while (!scene_check && commit_checker.idle()) {
+    while (scene_checks_idle()) {
         Session* next = nullptr;
         for (auto& [sid, s] : sessions) {
             if (s.closed || !s.parked || s.checking || !s.awaiting.empty()) continue;

@@ -76,16 +76,13 @@ void Server::Impl::close_session(Session& s, const std::string& why, bool depart
     ::close(s.fd);
     s.fd = -1;
     drop_scene_check_of(s);
-    // The departure's plan (its checks) timed: the one piece of a departure's latency that is the daemon's own work.
-    const Clock::time_point planning = Clock::now();
-    const std::size_t leaving = depart ? ramp_out_objects_of(s.id) : 0;
-    const double planned_ms = std::chrono::duration<double, std::milli>(Clock::now() - planning).count();
+    const std::size_t leaving = depart ? queue_departure(s) : 0;
     meshes.drop_session(s.id);
     log("session " + std::to_string(s.id) + " (" + (s.name.empty() ? "unnamed" : s.name) + ", pid " +
         std::to_string(s.pid) + ", uid " + std::to_string(s.uid) + ") closed: " + why +
-        (leaving == 0 ? std::string()
-                      : "; " + std::to_string(leaving) + " of its objects leave the scene, departure planned in " +
-                            g(planned_ms) + " ms"));
+        (leaving == 0
+             ? std::string()
+             : "; " + std::to_string(leaving) + " of its objects leave the scene once their departure is planned"));
     count(&ServerCounters::sessions_closed);
 }
 

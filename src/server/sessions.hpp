@@ -56,7 +56,7 @@ struct Session {
     StreamOutbox outbox;                    // stream: sent bytes the socket has not taken yet
     // A request waiting for criteria's first tuning (server/criterion_worker.hpp): nothing more is read from the
     // session until it is answered, and the session is not silent meanwhile (the server owes it a reply).
-    // A commit waiting for the scene checker (server/commit_check_worker.hpp) is parked too: `checking` while the
+    // A commit waiting for the scene checker (server/scene_check_worker.hpp) is parked too: `checking` while the
     // checker runs its scenes, else until the checker is free (the oldest parked_seq first).
     std::optional<std::string> parked;
     std::vector<hapticopt::Criterion> awaiting;  // the criteria it waits for

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Every scene the loop can render when some objects act only at some handle positions (docs/protocol.md,
-// section 5, "Engagement patterns"). Runs on the server's commit-check worker (server/commit_check_worker.hpp), in
-// the server thread (departures) and once at start-up, never in the loop.
+// section 5, "Engagement patterns"). Runs on the server's scene-check worker (server/scene_check_worker.hpp: commits
+// and departures) and once at start-up, never in the loop.
 //
 // A unilateral plane renders its law only while the handle is behind its surface and the law pushes out, a
 // field only inside its radius, a unilateral config wall only beyond its position: these terms are

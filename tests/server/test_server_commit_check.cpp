@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 // A commit's scene check off the server thread (server/commit_check_worker.hpp; docs/protocol.md, section 3), with
 // real processes: while one commit's scenes are checked the server answers other sessions, parks their commits behind
-// it (status: commit_check, commits_waiting), and a departure during the check stages the commit again on the scene
-// the departure leaves. The daemon: the simulated Falcon (config/devices/falcon.toml: its plant set, window:15, 6 ms)
-// with a 180 N/m, 7.35 N s/m config wall and a 10 ms ramp; a plane at 45 degrees to that wall makes a sum whose gains
-// do not commute, checked on the sampled plants at 10 scenes (1.2 s in a release build on an idle machine).
+// it (status: commit_check, commits_waiting), a departure during the check stages the commit again on the scene
+// the departure leaves, and a departure's plan runs off the server thread too (status: departures_waiting). The daemon:
+// the simulated Falcon (config/devices/falcon.toml: its plant set, window:15, 6 ms) with a 180 N/m, 7.35 N s/m config
+// wall and a 10 ms ramp; a plane at 45 degrees to that wall makes a sum whose gains do not commute, checked on the
+// sampled plants at 10 scenes (1.2 s in a release build on an idle machine).
 #include <string>
 
 #include "server_fixture.hpp"
@@ -130,6 +131,46 @@ TEST(ServerCommitCheck, ADepartureDuringACheckStagesTheCommitAgainOnTheSceneItLe
     const json listed = b.request(json{{"type", "list"}, {"id", 1}});
     ASSERT_EQ(listed.value("type", ""), "ok") << listed.dump();
     for (const json& o : listed.at("objects")) EXPECT_NE(o.value("id", 0U), d_object) << listed.dump();
+    daemon.signal(SIGTERM);
+    EXPECT_EQ(daemon.wait(), 0) << daemon.err();
+}
+
+// Session D's oblique plane leaves: its ramp-out's scenes are the check's (1.2 s in a release build). Meanwhile B is
+// answered and sees the departure being planned (departures_waiting 1); C's commit, sent then, is answered once the
+// plan is in (the daemon's log says so), and D's plane ramps out.
+TEST(ServerCommitCheck, ADeparturesPlanRunsOffTheServerThreadAndCommitsWaitForIt) {
+    const Names n = names("commit_check_plan");
+    Child daemon(HAPTICD_BINARY, falcon_args(n), "commit_check_plan_daemon");
+    ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
+    const RawSession b(n.socket), c(n.socket);
+    std::optional<RawSession> d(std::in_place, n.socket);
+    const json held = d->request(commit_of(1, kOblique));
+    ASSERT_EQ(held.value("type", ""), "ok") << held.dump();
+    const std::uint32_t d_object = held.at("object_ids").at(0).get<std::uint32_t>();
+    d.reset();
+
+    const double end = monotonic_s() + kCheckTimeoutS;
+    std::optional<json> planning;
+    for (std::uint64_t i = 1000; monotonic_s() < end && !planning; ++i) {
+        const json s = b.request(json{{"type", "status"}, {"id", i}});
+        ASSERT_EQ(s.value("type", ""), "ok") << s.dump();
+        if (s.value("departures_waiting", 0) == 1) planning = s;
+        if (daemon.err().find("departure planned in") != std::string::npos) break;
+    }
+    ASSERT_TRUE(planning) << "B never saw D's departure being planned: " << daemon.err();
+    c.connection.send(commit_of(1, plane({0.0, 0.0, 1.0}, 0.06, json{{"K", 50.0}, {"B", 1.0}}, true)).dump());
+    const json c_reply = c.connection.receive_json(kCheckTimeoutS);
+    ASSERT_EQ(c_reply.value("type", ""), "ok") << c_reply.dump();
+    EXPECT_NE(daemon.err().find("1 of its objects ramp out, departure planned in"), std::string::npos) << daemon.err();
+    const json listed = b.request(json{{"type", "list"}, {"id", 1}});
+    ASSERT_EQ(listed.value("type", ""), "ok") << listed.dump();
+    for (const json& o : listed.at("objects")) {  // gone, or still in its 10 ms ramp-out
+        if (o.value("id", 0U) == d_object) {
+            EXPECT_TRUE(o.value("ramping_out", false)) << listed.dump();
+        }
+    }
+    const json idle = b.request(json{{"type", "status"}, {"id", 2}});
+    EXPECT_EQ(idle.value("departures_waiting", 99), 0) << idle.dump();
     daemon.signal(SIGTERM);
     EXPECT_EQ(daemon.wait(), 0) << daemon.err();
 }

@@ -414,7 +414,8 @@ class Client:
     def status(self) -> Dict:
         """``tick``, ``sessions``, ``objects``, ``overruns``, ``fault``, ``commits_applied``, ``meshes``,
         ``mesh_bytes``, ``commit_check`` (None, or the ``session`` whose commit's scenes are being checked and
-        ``running_s``) and ``commits_waiting`` (other sessions' commits waiting for that check)."""
+        ``running_s``), ``commits_waiting`` (other sessions' commits waiting for that check) and
+        ``departures_waiting`` (sessions gone whose objects render until their departure is planned)."""
         return self.request("status")
 
     def subscribe(self, rate_hz: float) -> None:

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// server/commit_check_worker.hpp: a commit's scene check on the worker thread gives the verdict the same check gives
-// on the calling thread (stable and refused scenes alike), one check at a time, a cancelled check dropped and the
-// worker usable again, its destruction during a long check bounded; and check_engagement_patterns stops at `cancel`
-// before its next verdict.
+// server/scene_check_worker.hpp: a commit's scene check and a departure's plan on the worker thread give the verdict
+// and the plan the same calls give on the calling thread (stable and refused scenes alike), one check at a time, a
+// cancelled check dropped and the worker usable again, its destruction during a long check bounded; and
+// check_engagement_patterns and plan_departure stop at `cancel` before their next verdict.
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -10,11 +10,11 @@
 
 #include <gtest/gtest.h>
 
-#include "server/commit_check_worker.hpp"
+#include "server/scene_check_worker.hpp"
 #include "tuning/engagement_patterns.hpp"
 
 namespace hapticd {
-namespace commit_check_worker_test {
+namespace scene_check_worker_test {
 
 // 0.30 kg on three axes, T = 1 ms, 2 ms of delay, the hand's mass range 0.25 .. 0.30 kg: the sampled coupled verdicts
 // of sums whose gains do not commute.
@@ -43,7 +43,7 @@ std::vector<SceneTerm> oblique_scene(double K_oblique, bool bilateral = false) {
 }
 
 // The worker's verdict, waited for up to two minutes.
-std::optional<server::CommitCheckWorker::Outcome> wait_for(server::CommitCheckWorker& worker) {
+std::optional<server::SceneCheckWorker::Outcome> wait_for(server::SceneCheckWorker& worker) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
     while (std::chrono::steady_clock::now() < deadline) {
         if (auto outcome = worker.take()) return outcome;
@@ -52,15 +52,15 @@ std::optional<server::CommitCheckWorker::Outcome> wait_for(server::CommitCheckWo
     return std::nullopt;
 }
 
-TEST(CommitCheckWorker, TheVerdictIsTheCheckOnTheCallingThread) {
+TEST(SceneCheckWorker, TheVerdictIsTheCheckOnTheCallingThread) {
     const GainChecker checker(plant());
-    server::CommitCheckWorker worker(checker);
+    server::SceneCheckWorker worker(checker);
     // 100 N/m: stable in every scene; 1e6 N/m: refused (far outside the region at 0.25 kg, 2 ms).
     for (const double K : {100.0, 1e6}) {
         const std::vector<SceneTerm> terms = oblique_scene(K);
         const EngagementCheck here = check_engagement_patterns(checker, terms, 1.0 / 30.0);
         ASSERT_TRUE(worker.start(terms, 1.0 / 30.0));
-        const std::optional<server::CommitCheckWorker::Outcome> there = wait_for(worker);
+        const std::optional<server::SceneCheckWorker::Outcome> there = wait_for(worker);
         ASSERT_TRUE(there) << "no verdict within two minutes";
         EXPECT_EQ(there->failure, nullptr);
         EXPECT_EQ(there->verdict.stable, here.stable) << K;
@@ -74,9 +74,37 @@ TEST(CommitCheckWorker, TheVerdictIsTheCheckOnTheCallingThread) {
     EXPECT_FALSE(check_engagement_patterns(checker, oblique_scene(1e6), 1.0 / 30.0).stable);
 }
 
-TEST(CommitCheckWorker, OneCheckAtATimeAndACancelledOneIsDropped) {
+// The oblique plane of oblique_scene leaves (object 2 of session 7) beside the wall (a config wall): stable at 100 N/m,
+// so it alone ramps out; the worker's plan is the calling thread's.
+TEST(SceneCheckWorker, ADeparturesPlanIsTheRuleOnTheCallingThread) {
     const GainChecker checker(plant());
-    server::CommitCheckWorker worker(checker);
+    server::SceneCheckWorker worker(checker);
+    const std::vector<SceneTerm> scene = oblique_scene(100.0);
+    const std::vector<SceneTerm> fixed{scene[0]};
+    const std::vector<DepartureObject> leaving{DepartureObject{5, 7, scene[1]}};
+    const DeparturePlan here = plan_departure(checker, fixed, leaving, {}, 1.0 / 30.0);
+    ASSERT_TRUE(worker.start_departure(fixed, leaving, {}, 1.0 / 30.0));
+    EXPECT_FALSE(worker.start(scene, 1.0 / 30.0));  // one at a time, whatever its kind
+    const std::optional<server::SceneCheckWorker::Outcome> there = wait_for(worker);
+    ASSERT_TRUE(there) << "no plan within two minutes";
+    EXPECT_EQ(there->failure, nullptr);
+    ASSERT_TRUE(there->departure);
+    EXPECT_EQ(there->departure->out, here.out);
+    EXPECT_EQ(there->departure->out, std::vector<std::size_t>{5});
+    EXPECT_TRUE(there->departure->further.empty());
+    EXPECT_EQ(there->departure->cut, here.cut);
+    EXPECT_FALSE(there->departure->cut);
+    EXPECT_FALSE(there->departure->cancelled);
+    EXPECT_TRUE(worker.idle());
+
+    std::atomic<bool> cancel{true};
+    const DeparturePlan stopped = plan_departure(checker, fixed, leaving, {}, 1.0 / 30.0, &cancel);
+    EXPECT_TRUE(stopped.cancelled);
+}
+
+TEST(SceneCheckWorker, OneCheckAtATimeAndACancelledOneIsDropped) {
+    const GainChecker checker(plant());
+    server::SceneCheckWorker worker(checker);
     EXPECT_TRUE(worker.idle());
     EXPECT_FALSE(worker.take());
     // 9999 ramp scenes of two always-engaged planes: long enough to be cancelled while queued or running.
@@ -92,16 +120,16 @@ TEST(CommitCheckWorker, OneCheckAtATimeAndACancelledOneIsDropped) {
     EXPECT_FALSE(worker.take());  // its verdict is dropped
     // The worker takes the next check, and that one is not cancelled.
     ASSERT_TRUE(worker.start(oblique_scene(100.0), 1.0 / 30.0));
-    const std::optional<server::CommitCheckWorker::Outcome> next = wait_for(worker);
+    const std::optional<server::SceneCheckWorker::Outcome> next = wait_for(worker);
     ASSERT_TRUE(next);
     EXPECT_TRUE(next->verdict.stable);
     EXPECT_FALSE(next->verdict.cancelled);
 }
 
-TEST(CommitCheckWorker, ItsDestructionDuringALongCheckEnds) {
+TEST(SceneCheckWorker, ItsDestructionDuringALongCheckEnds) {
     const GainChecker checker(plant());
     {
-        server::CommitCheckWorker worker(checker);
+        server::SceneCheckWorker worker(checker);
         ASSERT_TRUE(worker.start(oblique_scene(100.0, true), 1e-4));
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }  // cancels and joins: the test's own timeout bounds it
@@ -124,5 +152,5 @@ TEST(EngagementPatterns, ACancelledCheckStopsBeforeItsNextVerdict) {
     EXPECT_GT(whole.checks, 30U);
 }
 
-}  // namespace commit_check_worker_test
+}  // namespace scene_check_worker_test
 }  // namespace hapticd
