@@ -43,8 +43,9 @@
 // Matrix gains (several objects at once, matrix_gain_stability.hpp) on a mass matrix scaled by 1/s: with symmetric,
 // commuting A and B the loop decouples along their common eigenvectors into scalar loops (alpha_i, beta_i), each
 // judged as above: an exact verdict (`certified`). Otherwise the characteristic loci do not reduce to one
-// polynomial in s; the block companion matrix's spectral radius is checked below 1 - kMatrixGainRadiusMargin at
-// `samples` scales spread over the interval (ends included) and at s = 1: a sampled check, not a proof
+// polynomial in s; the block companion matrix's roots are checked inside the unit circle (below 1 -
+// kMatrixGainRadiusMargin, or certified one by one nearer: matrix_gain_stability.hpp) at `samples` scales spread over
+// the interval (ends included) and at s = 1: a sampled check, not a proof
 // (`certified` false); numerical_range_certificate.hpp proves such sums where it can, with segment_over below.
 //
 // Segments (GainSegment): the gains (alpha_0 + u alpha_1, beta_0 + u beta_1), u in [u_lo, u_hi], give
@@ -318,11 +319,11 @@ class MassScalingTest {
         for (int i = 0; i < n; ++i) scales.push_back(n == 1 ? s_lo : s_lo + (s_hi - s_lo) * i / (n - 1));
         if (s_lo < 1.0 && 1.0 < s_hi) scales.push_back(1.0);  // the reference mass itself
         for (const double s : scales) {
-            const double radius = detail::companion_spectral_radius(poly_, s * Ar, s * Br);
-            r.spectral_radius = std::max(r.spectral_radius, radius);
-            if (!(radius < 1.0 - kMatrixGainRadiusMargin)) {
+            const detail::CompanionRoots roots = detail::companion_roots(poly_, s * Ar, s * Br);
+            r.spectral_radius = std::max(r.spectral_radius, roots.radius);
+            if (!roots.inside) {
                 r.failing_scale = s;
-                r.spectral_radius = radius;
+                r.spectral_radius = roots.radius;
                 return r;
             }
         }

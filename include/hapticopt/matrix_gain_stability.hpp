@@ -37,13 +37,22 @@
 // is required in the scalar verdict.
 //
 // Accuracy and the verdict: the eigenvalues have a backward error of ~eps ||companion||; a root of
-// multiplicity two moves by ~sqrt(eps) ~ 1.5e-8 times its conditioning. The verdict is therefore "stable"
-// only for a spectral radius below 1 - kMatrixGainRadiusMargin (1e-6), in both paths (the commuting path
-// takes the Schur-Cohn verdict and the radius of the scalar loops' transition matrices): gain sets within
-// that distance of the boundary, or so weakly acting along some direction that a root lies within 1e-6 of
-// z = 1 (a time constant above 1e6 periods), are refused as not certifiably stable. The tests compare the
-// spectral radius with the eigenvalues of the loop's state-transition matrix built independently from the
-// matrix exponential of the 3-axis plant (tests/beyond/test_matrix_gain_stability.cpp).
+// multiplicity two moves by ~sqrt(eps) ~ 1.5e-8 times its conditioning. A spectral radius below
+// 1 - kMatrixGainRadiusMargin (1e-6) is "stable" at once, in both paths (the commuting path takes the Schur-Cohn
+// verdict and the radius of the scalar loops' transition matrices). Nearer the circle a root is certified one by one
+// (near_circle_roots_inside): with C the companion matrix (n x n), lambda a computed root, x and y its right and left
+// eigenvectors (inverse iteration from lambda) and s = |y^H x| / (|x| |y|) its reciprocal condition number, the
+// root of the exact matrix lies within e = n eps ||C||_F / s of lambda to first order (Wilkinson; LAPACK Users'
+// Guide, 3rd ed., section 4.8.1: the approximate error bound eps ||A|| / RCONDE of xGEEVX, here with the factor n of
+// the QR algorithm's backward error). The root counts as inside when |lambda| + e < 1 and e is below a quarter of its
+// distance to the nearest other root (the first-order term dominates: a cluster of roots, e.g. the free plant's
+// double root at 1 barely split, is not certified). So a stable loop whose slow root lies within 1e-6 of the circle
+// is reported stable when that root is well conditioned: a weak spring beside a damped or delayed one (a plane
+// ramping in over a slow ramp beside a wall, the hand's damping b_H on a nearly free direction: a root
+// 1 - k / b_H T away from 1, a time constant of hours), as the problem is stable. A root within its own error bound
+// of the circle, or in a cluster, is refused as not certifiably stable. The tests compare the spectral radius with the
+// eigenvalues of the loop's state-transition matrix built independently from the matrix exponential of the 3-axis
+// plant (tests/beyond/test_matrix_gain_stability.cpp), in long double near the circle.
 //
 // The velocity estimator (velocity_estimator.hpp): with f_j = A x_j + B v_j and v_j from the estimator's
 // difference equation A(1/z) v = B(1/z) x, the steps of estimator_characteristic_polynomial multiply the
@@ -74,8 +83,10 @@
 #pragma once
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <Eigen/SVD>
 #include <cmath>
+#include <complex>
 #include <vector>
 
 #include "characteristic_polynomial.hpp"
@@ -86,13 +97,13 @@
 
 namespace hapticopt {
 
-/// Distance from the unit circle below which no gain set is reported stable (both paths).
+/// Distance from the unit circle within which a root is reported inside only if certified by its error bound.
 inline constexpr double kMatrixGainRadiusMargin = 1e-6;
 /// Relative singular value of the stacked gains [A; B] at or below which a direction counts as free (64 eps).
 inline constexpr double kMatrixGainRoundingLevel = 64 * 2.220446049250313e-16;
 
 struct MatrixGainStability {
-    bool stable = false;           ///< every root of the restricted loop strictly inside the unit circle
+    bool stable = false;           ///< every root of the restricted loop strictly inside the unit circle (certified)
     bool commuting = false;        ///< A B = B A (within 1e-12 relative): decided per common eigenvector
     int active_directions = 0;     ///< rank of the part where a wall acts (0: nothing to judge, stable)
     double spectral_radius = 0.0;  ///< largest |root| of the restricted loop (0 when nothing acts)
@@ -130,11 +141,10 @@ HAPTICOPT_FUNC Eigen::MatrixXd acting_basis(const Eigen::MatrixXd& A, const Eige
     ;
 #endif
 
-// Largest |root| of det(P_0(z) I + P_alpha(z) A + P_beta(z) B) (A, B any r x r matrices): the eigenvalues
-// of the block companion matrix (first block row -C_{degree-1} ... -C_0, identity blocks below the
-// diagonal), C_k = base_k I + alpha_k A + beta_k B, C_degree = I. HUGE_VAL if the eigen-solver fails.
-HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolynomial<double>& p,
-                                                const Eigen::MatrixXd& A, const Eigen::MatrixXd& B)
+// The block companion matrix of det(P_0(z) I + P_alpha(z) A + P_beta(z) B) (A, B any r x r matrices): first block
+// row -C_{degree-1} ... -C_0, identity blocks below the diagonal, C_k = base_k I + alpha_k A + beta_k B, C_degree = I.
+HAPTICOPT_FUNC Eigen::MatrixXd block_companion(const AffineCharacteristicPolynomial<double>& p,
+                                               const Eigen::MatrixXd& A, const Eigen::MatrixXd& B)
 #if HAPTICOPT_DEFINITIONS
 {
     const Eigen::Index r = A.rows();
@@ -145,9 +155,71 @@ HAPTICOPT_FUNC double companion_spectral_radius(const AffineCharacteristicPolyno
         companion.block(0, r * (degree - 1 - k), r, r) = -(p.base(k) * I + p.alpha(k) * A + p.beta(k) * B);
     }
     for (int b = 1; b < degree; ++b) companion.block(r * b, r * (b - 1), r, r) = I;
-    const Eigen::EigenSolver<Eigen::MatrixXd> roots(companion, /*computeEigenvectors=*/false);
-    if (roots.info() != Eigen::Success) return HUGE_VAL;
-    return roots.eigenvalues().cwiseAbs().maxCoeff();
+    return companion;
+}
+#else
+    ;
+#endif
+
+// The reciprocal condition number s = |y^H x| / (|x| |y|) of the eigenvalue `lambda` of C: x and y from two steps of
+// inverse iteration on C - lambda I and its adjoint (one LU). 0 when the shifted matrix is singular to working
+// precision (no finite iterate).
+HAPTICOPT_FUNC double eigenvalue_reciprocal_condition(const Eigen::MatrixXd& C, std::complex<double> lambda)
+#if HAPTICOPT_DEFINITIONS
+{
+    const Eigen::Index n = C.rows();
+    const Eigen::MatrixXcd shifted = C.cast<std::complex<double>>() - lambda * Eigen::MatrixXcd::Identity(n, n);
+    const Eigen::PartialPivLU<Eigen::MatrixXcd> lu(shifted);
+    Eigen::VectorXcd x(n), y(n);
+    for (Eigen::Index i = 0; i < n; ++i) x(i) = y(i) = std::complex<double>(1.0, 0.5 + 0.25 * std::sin(1.0 + i));
+    for (int step = 0; step < 2; ++step) {
+        x = lu.solve(x);
+        y = lu.adjoint().solve(y);
+        if (!x.allFinite() || !y.allFinite() || x.norm() == 0.0 || y.norm() == 0.0) return 0.0;
+        x.normalize();
+        y.normalize();
+    }
+    return std::abs(y.dot(x));
+}
+#else
+    ;
+#endif
+
+// The roots of det P: the largest |root| and whether the roots within kMatrixGainRadiusMargin of the unit circle (or
+// beyond it) are each certified inside by its first-order error bound (the header's "Accuracy and the verdict").
+struct CompanionRoots {
+    double radius = HUGE_VAL;  // HUGE_VAL if the eigen-solver fails
+    bool inside = false;       // every root certified strictly inside the unit circle
+};
+
+HAPTICOPT_FUNC CompanionRoots companion_roots(const AffineCharacteristicPolynomial<double>& p, const Eigen::MatrixXd& A,
+                                              const Eigen::MatrixXd& B)
+#if HAPTICOPT_DEFINITIONS
+{
+    CompanionRoots out;
+    const Eigen::MatrixXd C = block_companion(p, A, B);
+    const Eigen::EigenSolver<Eigen::MatrixXd> roots(C, /*computeEigenvectors=*/false);
+    if (roots.info() != Eigen::Success) return out;
+    const Eigen::VectorXcd& lambda = roots.eigenvalues();
+    out.radius = lambda.cwiseAbs().maxCoeff();
+    if (!(out.radius < 1.0)) return out;
+    if (out.radius < 1.0 - kMatrixGainRadiusMargin) {
+        out.inside = true;
+        return out;
+    }
+    const double backward = static_cast<double>(C.rows()) * 2.220446049250313e-16 * C.norm();
+    for (Eigen::Index i = 0; i < lambda.size(); ++i) {
+        if (std::abs(lambda(i)) < 1.0 - kMatrixGainRadiusMargin) continue;
+        double gap = HUGE_VAL;
+        for (Eigen::Index j = 0; j < lambda.size(); ++j) {
+            if (j != i) gap = std::min(gap, std::abs(lambda(i) - lambda(j)));
+        }
+        const double s = eigenvalue_reciprocal_condition(C, lambda(i));
+        const double bound = s > 0.0 ? backward / s : HUGE_VAL;
+        if (!(bound < 0.25 * gap && std::abs(lambda(i)) + bound < 1.0)) return out;
+    }
+    out.inside = true;
+    return out;
 }
 #else
     ;
@@ -213,14 +285,25 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
             result.stable = result.stable && s.stable;
             result.spectral_radius = std::max(result.spectral_radius, s.spectral_radius);
         }
-        result.stable = result.stable && result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+        if (result.stable && result.spectral_radius >= 1.0 - kMatrixGainRadiusMargin) {
+            // A root near the circle: each direction's scalar loop certified root by root.
+            const AffineCharacteristicPolynomial<double> p = characteristic_polynomial(SampledPlant<double>(plant));
+            const AffineCharacteristicPolynomial<double> pe =
+                backward ? p : estimator_characteristic_polynomial(p, estimator);
+            for (const NormalizedGains& gains : detail::common_direction_gains(Ar, Br)) {
+                const Eigen::MatrixXd a = Eigen::MatrixXd::Constant(1, 1, gains.alpha);
+                const Eigen::MatrixXd b = Eigen::MatrixXd::Constant(1, 1, gains.beta);
+                result.stable = result.stable && detail::companion_roots(pe, a, b).inside;
+            }
+        }
         return result;
     }
 
     const AffineCharacteristicPolynomial<double> p = characteristic_polynomial(SampledPlant<double>(plant));
-    result.spectral_radius =
-        detail::companion_spectral_radius(backward ? p : estimator_characteristic_polynomial(p, estimator), Ar, Br);
-    result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+    const detail::CompanionRoots roots =
+        detail::companion_roots(backward ? p : estimator_characteristic_polynomial(p, estimator), Ar, Br);
+    result.spectral_radius = roots.radius;
+    result.stable = roots.inside;
     return result;
 }
 #else
@@ -230,8 +313,8 @@ HAPTICOPT_FUNC MatrixGainStability matrix_gain_stability(const NormalizedPlant& 
 /// Stability of the loop with any real normalised gain matrices `A` (stiffness, e.g. -J of a force field
 /// with a curl) and `B` (damping), same plant on every axis: the gains as the loop renders them. Symmetric
 /// A and B (asymmetry at most kMatrixGainRoundingLevel relative) go to matrix_gain_stability; otherwise the
-/// restricted block companion matrix decides, stable only for a spectral radius below 1 -
-/// kMatrixGainRadiusMargin (commuting = false). Velocity from `estimator` (default: the backward
+/// restricted block companion matrix decides, stable for a spectral radius below 1 - kMatrixGainRadiusMargin or with
+/// every root nearer the circle certified inside (commuting = false). Velocity from `estimator` (default: the backward
 /// difference), as in matrix_gain_stability. Throws InvalidParameter for non-square, differently sized
 /// or non-finite matrices, the plant's own invalid parameters and an invalid estimator. Cost: one SVD of a
 /// 2r x r matrix and one non-symmetric eigenproblem of size r (n + 3) (~18 x 18 for r = 3, d = 3; r L more
@@ -254,10 +337,11 @@ HAPTICOPT_FUNC MatrixGainStability general_matrix_gain_stability(const Normalize
     result.active_directions = static_cast<int>(Q.cols());
     const Eigen::MatrixXd Ar = Q.transpose() * A * Q, Br = Q.transpose() * B * Q;
     const AffineCharacteristicPolynomial<double> p = characteristic_polynomial(SampledPlant<double>(plant));
-    result.spectral_radius = detail::companion_spectral_radius(
+    const detail::CompanionRoots roots = detail::companion_roots(
         estimator.kind == VelocityEstimatorKind::backward ? p : estimator_characteristic_polynomial(p, estimator), Ar,
         Br);
-    result.stable = result.spectral_radius < 1.0 - kMatrixGainRadiusMargin;
+    result.spectral_radius = roots.radius;
+    result.stable = roots.inside;
     return result;
 }
 #else

@@ -29,8 +29,9 @@
 //    sum B_i P_i (symmetric), the coupled loop's verdict hapticopt::general_matrix_gain_stability for the
 //    unit-mass plant of the y coordinates, A = T^2 M^-1/2 K_sum M^-1/2, B = T M^-1/2 B_sum M^-1/2: for
 //    symmetric A, B the exact per-direction verdict when they commute, otherwise the eigenvalues of the
-//    block companion matrix of the 3-axis loop with the delay, both with the margin 1 - 1e-6 on the spectral
-//    radius and every direction touched above the rounding level judged (matrix_gain_stability.hpp). Over the
+//    block companion matrix of the 3-axis loop with the delay, both stable below the spectral radius 1 - 1e-6 or,
+//    nearer, with each root certified inside by its error bound, and every direction touched above the rounding
+//    level judged (matrix_gain_stability.hpp). Over the
 //    plant set, symmetric gains that do not commute are then proven stable for every mass, arm and delay of the
 //    set by their joint numerical range (proven_by_numerical_range; docs/robust-stability.md), else sampled. The
 //    header normalises with m = 1, which these are. The refusal names the first eigen-direction whose pair

@@ -322,8 +322,9 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
         s.precision(10);
         s << "summed gains with a curl (antisymmetric part of the summed stiffness, from force fields' Jacobians, norm "
           << curl << " N/m): the coupled loop as rendered with the mass scaled by " << failing_scale_of_mass << at_delay
-          << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius << " (stable needs < 1 - "
-          << hapticopt::kMatrixGainRadiusMargin << ")";
+          << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius
+          << " (stable needs every root inside the unit circle: below 1 - " << hapticopt::kMatrixGainRadiusMargin
+          << ", or certified by its error bound nearer)";
         why = s.str();
         return false;
     }
@@ -361,7 +362,10 @@ bool GainChecker::sum_is_stable(const Matrix3& K_sum, const Matrix3& B_sum, std:
     s << "summed gains: each direction is stable over the set on its own, but the coupled loop of K_sum and B_sum "
          "with the mass scaled by "
       << failing_scale_of_mass << at_delay << " (" << set_text() << ") has spectral radius " << verdict.spectral_radius
-      << (verdict.commuting ? "" : " (the coupled check needs < 1 - 1e-6: docs/robust-stability.md)");
+      << (verdict.commuting
+              ? ""
+              : " (the coupled check needs every root inside the unit circle: below 1 - 1e-6, or certified "
+                "by its error bound nearer; docs/robust-stability.md)");
     why = s.str();
     return false;
 }

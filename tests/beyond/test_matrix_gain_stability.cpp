@@ -19,7 +19,7 @@ using hapticopt::NormalizedPlant;
 
 // Loop state (x_j, v_j, x_{j-1}, ..., x_{j-d-1}) of three axes; during [j, j+1) the force
 // u_j = A x_{j-d} + B (x_{j-d} - x_{j-d-1}) acts; per axis x'' = -gamma x - delta x' - u (m = T = 1).
-double full_state_spectral_radius(const NormalizedPlant& plant, const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
+Eigen::MatrixXd full_state_matrix(const NormalizedPlant& plant, const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
     const int d = static_cast<int>(plant.delay);
     Eigen::Matrix3d continuous;
     continuous << 0, 1, 0, -plant.gamma, -plant.delta, -1, 0, 0, 0;
@@ -43,7 +43,19 @@ double full_state_spectral_radius(const NormalizedPlant& plant, const Eigen::Mat
         M.block<3, 3>(r, x_block(d + 1)) += -gamma_u(row) * B;
     }
     for (int age = 1; age <= d + 1; ++age) M.block<3, 3>(x_block(age), x_block(age - 1)) = I;
-    const Eigen::EigenSolver<Eigen::MatrixXd> es(M, false);
+    return M;
+}
+
+double full_state_spectral_radius(const NormalizedPlant& plant, const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
+    const Eigen::EigenSolver<Eigen::MatrixXd> es(full_state_matrix(plant, A, B), false);
+    return es.eigenvalues().cwiseAbs().maxCoeff();
+}
+
+// The same state matrix's spectral radius with its eigenvalues in long double.
+long double full_state_spectral_radius_long_double(const NormalizedPlant& plant, const Eigen::Matrix3d& A,
+                                                   const Eigen::Matrix3d& B) {
+    using MatrixL = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
+    const Eigen::EigenSolver<MatrixL> es(full_state_matrix(plant, A, B).cast<long double>(), false);
     return es.eigenvalues().cwiseAbs().maxCoeff();
 }
 
@@ -195,18 +207,65 @@ TEST(MatrixGainStability, WeaklyTouchedDirectionsAreJudgedWithTheMargin) {
     EXPECT_EQ(undamped.active_directions, 2);
     EXPECT_FALSE(undamped.stable);
     EXPECT_GT(full_state_spectral_radius(plant, A1, B), 1.0);
+    // A weak spring with damping: its slow root 1 - 1e-8 is simple and well conditioned, certified inside (z acts
+    // too, so that the reference's state matrix has no free direction).
     Eigen::Matrix3d A2 = A, B2 = B;
     A2(1, 1) = 1e-10;
     B2(1, 1) = 0.01;
+    A2(2, 2) = A(0, 0);
+    B2(2, 2) = B(0, 0);
     const auto slow = hapticopt::matrix_gain_stability(plant, A2, B2);
-    EXPECT_EQ(slow.active_directions, 2);
-    EXPECT_FALSE(slow.stable);
+    EXPECT_EQ(slow.active_directions, 3);
+    EXPECT_TRUE(slow.stable);
+    EXPECT_GT(slow.spectral_radius, 1.0 - hapticopt::kMatrixGainRadiusMargin);
     EXPECT_GT(full_state_spectral_radius(plant, A2, B2), 1.0 - hapticopt::kMatrixGainRadiusMargin);
+    EXPECT_LT(full_state_spectral_radius(plant, A2, B2), 1.0);
+    // Damping alone, no stiffness: a root at z = 1 (the position integrates), within its own bound: refused.
+    Eigen::Matrix3d B4 = B;
+    B4(1, 1) = 0.01;
+    EXPECT_FALSE(hapticopt::matrix_gain_stability(plant, A, B4).stable);
     Eigen::Matrix3d A3 = A;
     A3(1, 1) = 1e-17;
     const auto rounding = hapticopt::matrix_gain_stability(plant, A3, B);
     EXPECT_EQ(rounding.active_directions, 1);
     EXPECT_TRUE(rounding.stable);
+}
+
+// Roots within 1e-6 of the circle, decided root by root by their error bounds: random sums of two strong planes and a
+// weak oblique one (gains 1e-10 .. 1e-4 of it, damping ratios on both sides of the delay's small-gain limit), on
+// plants with and without damping, delays 0 .. 3. The implication against the full state matrix, whose eigenvalues
+// are taken in long double (the near-circle roots are simple: the reference's error is ~1e-19 times their
+// conditioning): reported stable => reference radius below 1. Both must occur among the near-circle scenes: certified
+// stable ones, and refused ones that grow by the reference.
+TEST(MatrixGainStability, NearCircleRootsAreCertifiedAgainstTheStateMatrixInLongDouble) {
+    std::mt19937 rng(20261208);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0), log_weak(-10.0, -4.0), ratio_of(0.0, 8.0);
+    int near_stable = 0, near_refused = 0, refused_growing = 0;
+    for (int trial = 0; trial < 400; ++trial) {
+        const NormalizedPlant plant{0.0, trial % 2 == 0 ? 0.0 : 0.02, static_cast<double>(trial % 4)};
+        const Eigen::Vector3d n(unit(rng), unit(rng), unit(rng)), w(unit(rng), unit(rng), unit(rng));
+        const Eigen::Vector3d u(unit(rng), unit(rng), unit(rng));
+        const double weak = std::pow(10.0, log_weak(rng));
+        const double scale = 1.0 / (1 + plant.delay);
+        // Two strong planes; the direction they leave free gets the weak oblique plane's part.
+        Eigen::Matrix3d A = 0.05 * scale * (projector(n) + projector(w)) + weak * projector(u);
+        Eigen::Matrix3d B = 0.4 * (projector(n) + projector(w)) + ratio_of(rng) * std::sqrt(weak) * 1e-3 * projector(u);
+        if (trial % 3 == 0) B += weak * ratio_of(rng) * projector(u);
+        const auto m = hapticopt::matrix_gain_stability(plant, A, B);
+        if (m.spectral_radius < 1.0 - hapticopt::kMatrixGainRadiusMargin) continue;
+        const double reference = full_state_spectral_radius_long_double(plant, A, B);
+        if (m.stable) {
+            EXPECT_LT(reference, 1.0L) << "trial " << trial;
+            ++near_stable;
+        } else {
+            ++near_refused;
+            refused_growing += reference >= 1.0L ? 1 : 0;
+        }
+    }
+    std::printf("[ near-circle ] %d certified stable, %d refused (%d of them growing by the reference)\n", near_stable,
+                near_refused, refused_growing);
+    EXPECT_GT(near_stable, 20);
+    EXPECT_GT(refused_growing, 5);
 }
 
 TEST(MatrixGainStability, RejectsAsymmetricAndNonFiniteMatrices) {

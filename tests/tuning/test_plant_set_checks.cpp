@@ -624,6 +624,40 @@ TEST(PlantSetChecks, TheRampScenesOfAnObliquePlaneBesideAWallAreProvenOverTheSet
     }
 }
 
+// The first ramp scene of that plane (s = 0.002: a 0.5 s ramp) beside a wall of 180 N/m, 2 N s/m along x, on one mass
+// with the arm: where the hand's damping holds the nearly free direction, the loop's slow root lies 1 - k / b_H T from
+// 1 (a time constant of hours), within 1e-6 of the circle. It is stable, and accepted because that root is certified
+// inside by its error bound (hapticopt/matrix_gain_stability.hpp, "Accuracy and the verdict"), where the fixed margin
+// refused the commit with the spectral radius 0.9999999394. The independent state matrix agrees at the set's corners.
+TEST(PlantSetChecks, ANearFreeObliqueRampSceneIsAcceptedWhenItsSlowRootIsCertified) {
+    GainCheckPlant p;
+    p.mass = 0.30;
+    p.period = kPeriod;
+    p.mass_range = std::make_pair(0.22, 0.30);
+    p.mass_margin = 0.1;
+    p.arm_stiffness_per_mass = 1000.0;
+    p.arm_damping_per_mass = 20.0;
+    const GainChecker checker(p);
+    const auto [K, B] = oblique_ramp_scene(180.0, 2.0, 0.002);
+    const hapticopt::MatrixGainScaleStability v = checker.coupled_over_set(K, B);
+    EXPECT_TRUE(v.stable);
+    EXPECT_FALSE(v.commuting);
+    const double c = std::sqrt(0.5);
+    const auto [c_lo, c_hi] = checker.mass_scales();
+    const double T = kPeriod, g_max = p.arm_stiffness_per_mass * T * T, e_max = p.arm_damping_per_mass * T;
+    double largest = 0.0;
+    for (int k = 0; k < 8; ++k) {
+        const double mass = 0.30 * ((k & 4) ? c_hi : c_lo);
+        const hapticopt::NormalizedPlant plant{(k & 1) ? g_max : 0.0, (k & 2) ? e_max : 0.0, 0.0};
+        const auto [A, Bn] = coupled_loop_matrix::on_span((T * T / mass) * as_eigen(K), (T / mass) * as_eigen(B),
+                                                          {Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(c, c, 0.0)});
+        const double radius = coupled_loop_matrix::state_radius(plant, A, Bn, coupled_loop_matrix::window(1));
+        EXPECT_LT(radius, 1.0) << "corner " << k;
+        largest = std::max(largest, radius);
+    }
+    EXPECT_GT(largest, 1.0 - hapticopt::kMatrixGainRadiusMargin);  // the case the fixed margin refused
+}
+
 // The same ramp beside a wall of half the CE2 gains on the Falcon's set with the arm and the delays 5 .. 8 ms: the
 // numerical range is a thin sliver, and the polygons of 16 and 64 equally spaced lines have a vertex beside it whose
 // loop is unstable; the refined polygon proves the scenes (coupled_over_set certified), and the coupled loop's state
