@@ -50,6 +50,16 @@ GainCheckPlant falcon_with_arm(bool with_delays) {
     return p;
 }
 
+// One mass, 0.30 kg held and 0.22 kg free with the 10 % margin, no delay, the backward difference.
+GainCheckPlant held_and_free_set() {
+    GainCheckPlant p;
+    p.mass = 0.30;
+    p.period = kPeriod;
+    p.mass_range = std::make_pair(0.22, 0.30);
+    p.mass_margin = 0.1;
+    return p;
+}
+
 const loop_simulation::Velocity kWindow15{loop_simulation::Estimator::Window, 0.0, 15};
 
 TEST(PlantSetChecks, TheSetIsTheMassRangeWidenedByTheMargin) {
@@ -148,11 +158,7 @@ TEST(PlantSetChecks, TheRobustWallWithTheWindowEstimatorDecaysAcrossTheBox) {
 // A near-free scene: a plane K 100 N/m, B 1 N s/m ramped in over 4 s (the ramp's first tick: spectral radius
 // 0.9999995833, stable for every mass) is accepted over the set, with the backward difference at d = 0.
 TEST(PlantSetChecks, ANearFreeSlowRampIsAcceptedWhenStableOverTheSet) {
-    GainCheckPlant p;
-    p.mass = 0.30;
-    p.period = kPeriod;
-    p.mass_range = std::make_pair(0.22, 0.30);
-    p.mass_margin = 0.1;
+    GainCheckPlant p = held_and_free_set();
     const GainChecker checker(p);
     Matrix3 K{}, B{}, zero{};
     K[0][0] = 100.0;
@@ -630,11 +636,7 @@ TEST(PlantSetChecks, TheRampScenesOfAnObliquePlaneBesideAWallAreProvenOverTheSet
 // inside by its error bound (hapticopt/matrix_gain_stability.hpp, "Accuracy and the verdict"), where the fixed margin
 // refused the commit with the spectral radius 0.9999999394. The independent state matrix agrees at the set's corners.
 TEST(PlantSetChecks, ANearFreeObliqueRampSceneIsAcceptedWhenItsSlowRootIsCertified) {
-    GainCheckPlant p;
-    p.mass = 0.30;
-    p.period = kPeriod;
-    p.mass_range = std::make_pair(0.22, 0.30);
-    p.mass_margin = 0.1;
+    GainCheckPlant p = held_and_free_set();
     p.arm_stiffness_per_mass = 1000.0;
     p.arm_damping_per_mass = 20.0;
     const GainChecker checker(p);
