@@ -144,7 +144,8 @@ TEST(ServerCommitCheck, ADeparturesPlanRunsOffTheServerThreadAndCommitsWaitForIt
     ASSERT_TRUE(wait_for_socket(n.socket)) << daemon.err();
     const RawSession b(n.socket), c(n.socket);
     std::optional<RawSession> d(std::in_place, n.socket);
-    const json held = d->request(commit_of(1, kOblique));
+    d->connection.send(commit_of(1, kOblique).dump());
+    const json held = d->connection.receive_json(kCheckTimeoutS);
     ASSERT_EQ(held.value("type", ""), "ok") << held.dump();
     const std::uint32_t d_object = held.at("object_ids").at(0).get<std::uint32_t>();
     d.reset();
