@@ -23,9 +23,11 @@ std::size_t Server::Impl::queue_departure(const Session& s) {
             return slot.state == ServerSlot::State::Used && slot.owner == s.id;
         }));
     if (leaving == 0) return 0;
-    departures_waiting.push_back(Departure{s.id, "session " + std::to_string(s.id) + " (" +
-                                                     (s.name.empty() ? "unnamed" : s.name) + ", pid " +
-                                                     std::to_string(s.pid) + ")"});
+    departures_waiting.push_back(Departure{s.id,
+                                           "session " + std::to_string(s.id) + " (" +
+                                               (s.name.empty() ? "unnamed" : s.name) + ", pid " +
+                                               std::to_string(s.pid) + ")",
+                                           Clock::now()});
     restart_scene_check();  // a commit being checked was staged on the scene before this departure
     start_departure();
     return leaving;
@@ -47,7 +49,7 @@ void Server::Impl::start_departure() {
                                                     std::move(leaving), std::move(staying), step))
         return;  // idle was checked above: never
     departures_waiting.pop_front();
-    if (count > 0) departure_check = DepartureCheck{d, count, Clock::now()};
+    if (count > 0) departure_check = DepartureCheck{d, count};
 }
 
 void Server::Impl::finish_departure() {
@@ -56,7 +58,7 @@ void Server::Impl::finish_departure() {
     if (!outcome) return;
     const DepartureCheck check = std::move(*departure_check);
     departure_check.reset();
-    const double planned_ms = std::chrono::duration<double, std::milli>(Clock::now() - check.started).count();
+    const double planned_ms = std::chrono::duration<double, std::milli>(Clock::now() - check.departure.queued).count();
     if (outcome->departure) {
         ramp_out(check.departure, *outcome->departure, planned_ms);
     } else {

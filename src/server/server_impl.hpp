@@ -120,17 +120,18 @@ struct Server::Impl {
 
     // ---- departures (server_departures.cpp) ------------------------------------------------------
     // A closed session's objects wait, rendered as they were, until their departure is planned by scene_checker
-    // (one session at a time, in the order they left, ahead of every commit's check): the session's number
-    // and its label for the log.
+    // (one session at a time, in the order they left, ahead of every commit's check): the session's number, its
+    // label for the log, and when it was queued (the log's "planned in" counts from there: the wait for the worker
+    // and for earlier departures included).
     struct Departure {
         std::uint64_t session = 0;
         std::string label;
+        Clock::time_point queued;
     };
     std::deque<Departure> departures_waiting;
     struct DepartureCheck {
         Departure departure;
         std::size_t leaving = 0;
-        Clock::time_point started;
     };
     std::optional<DepartureCheck> departure_check;
     // Queues the session's departure: the number of its objects that leave (0: it had none, nothing queued).
