@@ -40,7 +40,7 @@
 // multiplicity two moves by ~sqrt(eps) ~ 1.5e-8 times its conditioning. A spectral radius below
 // 1 - kMatrixGainRadiusMargin (1e-6) is "stable" at once, in both paths (the commuting path takes the Schur-Cohn
 // verdict and the radius of the scalar loops' transition matrices). Nearer the circle a root is certified one by one
-// (near_circle_roots_inside): with C the companion matrix (n x n), lambda a computed root, x and y its right and left
+// (detail::companion_roots): with C the companion matrix (n x n), lambda a computed root, x and y its right and left
 // eigenvectors (inverse iteration from lambda) and s = |y^H x| / (|x| |y|) its reciprocal condition number, the
 // root of the exact matrix lies within e = n eps ||C||_F / s of lambda to first order (Wilkinson; LAPACK Users'
 // Guide, 3rd ed., section 4.8.1: the approximate error bound eps ||A|| / RCONDE of xGEEVX, here with the factor n of
@@ -48,8 +48,8 @@
 // distance to the nearest other root (the first-order term dominates: a cluster of roots, e.g. the free plant's
 // double root at 1 barely split, is not certified). So a stable loop whose slow root lies within 1e-6 of the circle
 // is reported stable when that root is well conditioned: a weak spring beside a damped or delayed one (a plane
-// ramping in over a slow ramp beside a wall, the hand's damping b_H on a nearly free direction: a root
-// 1 - k / b_H T away from 1, a time constant of hours), as the problem is stable. A root within its own error bound
+// ramping in over a slow ramp beside a wall, the hand's damping b_H on a nearly free direction: a root k T / b_H
+// from 1, a time constant of hours). Cost there: one complex LU of C per near-circle root. A root within its bound
 // of the circle, or in a cluster, is refused as not certifiably stable. The tests compare the spectral radius with the
 // eigenvalues of the loop's state-transition matrix built independently from the matrix exponential of the 3-axis
 // plant (tests/beyond/test_matrix_gain_stability.cpp), in long double near the circle.
