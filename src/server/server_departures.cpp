@@ -49,18 +49,18 @@ void Server::Impl::start_departure() {
                                                     std::move(leaving), std::move(staying), step))
         return;  // idle was checked above: never
     departures_waiting.pop_front();
-    if (count > 0) departure_check = DepartureCheck{d, count};
+    if (count > 0) departure_check = d;
 }
 
 void Server::Impl::finish_departure() {
     if (!departure_check) return;
     std::optional<server::SceneCheckWorker::Outcome> outcome = scene_checker.take();
     if (!outcome) return;
-    const DepartureCheck check = std::move(*departure_check);
+    const Departure d = std::move(*departure_check);
     departure_check.reset();
-    const double planned_ms = std::chrono::duration<double, std::milli>(Clock::now() - check.departure.queued).count();
+    const double planned_ms = std::chrono::duration<double, std::milli>(Clock::now() - d.queued).count();
     if (outcome->departure) {
-        ramp_out(check.departure, *outcome->departure, planned_ms);
+        ramp_out(d, *outcome->departure, planned_ms);
     } else {
         // No verdict (the check threw): step 4 of the rule, which needs none. Every client object is cut at once, the
         // loop jumping from the scene it renders (checked when committed) to the config walls (checked at start-up).
@@ -69,16 +69,15 @@ void Server::Impl::finish_departure() {
         cut.reason =
             std::string("the departure's check failed: ") + (outcome->failure ? outcome->failure : "no verdict");
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
-            if (slots[i].state == ServerSlot::State::Used && slots[i].owner == check.departure.session)
-                cut.out.push_back(i);
+            if (slots[i].state == ServerSlot::State::Used && slots[i].owner == d.session) cut.out.push_back(i);
         }
         for (std::size_t i = 0; i < kSceneObjectCapacity; ++i) {
-            if (slots[i].state == ServerSlot::State::Used && slots[i].owner != check.departure.session) {
+            if (slots[i].state == ServerSlot::State::Used && slots[i].owner != d.session) {
                 cut.out.push_back(i);
                 cut.further.push_back(i);
             }
         }
-        ramp_out(check.departure, cut, planned_ms);
+        ramp_out(d, cut, planned_ms);
     }
     start_departure();
 }

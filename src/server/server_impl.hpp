@@ -129,11 +129,7 @@ struct Server::Impl {
         Clock::time_point queued;
     };
     std::deque<Departure> departures_waiting;
-    struct DepartureCheck {
-        Departure departure;
-        std::size_t leaving = 0;
-    };
-    std::optional<DepartureCheck> departure_check;
+    std::optional<Departure> departure_check;  // the one whose plan scene_checker makes
     // Queues the session's departure: the number of its objects that leave (0: it had none, nothing queued).
     std::size_t queue_departure(const Session& s);
     // The next waiting departure's plan started, when the worker is free.
